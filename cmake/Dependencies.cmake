@@ -1,0 +1,34 @@
+# Every dependency is a Debian package; a missing one stops configuration with the package name.
+include(FindPkgConfig)
+
+macro(lockroll_require found debian_pkg what)
+  if(NOT ${found})
+    message(FATAL_ERROR "lockroll needs ${what}: install the Debian package '${debian_pkg}' "
+                        "(apt-get install ${debian_pkg}), or run scripts/install-deps.sh")
+  endif()
+endmacro()
+
+# xxHash: used header-only (XXH_INLINE_ALL) so the sim core cross-compiles with no library.
+find_path(XXHASH_INCLUDE_DIR xxhash.h)
+lockroll_require(XXHASH_INCLUDE_DIR libxxhash-dev "xxHash headers")
+
+if(NOT LOCKROLL_SIM_ONLY)
+  find_package(PkgConfig QUIET)
+  lockroll_require(PKG_CONFIG_FOUND pkg-config "pkg-config")
+  pkg_check_modules(ENET QUIET IMPORTED_TARGET libenet)
+  lockroll_require(ENET_FOUND libenet-dev "ENet")
+  find_package(spdlog QUIET)
+  lockroll_require(spdlog_FOUND libspdlog-dev "spdlog")
+  find_package(nlohmann_json 3.10 QUIET)
+  lockroll_require(nlohmann_json_FOUND nlohmann-json3-dev "nlohmann-json")
+  find_package(CLI11 QUIET)
+  lockroll_require(CLI11_FOUND libcli11-dev "CLI11")
+  if(LOCKROLL_BUILD_TESTS)
+    find_package(GTest QUIET)
+    lockroll_require(GTest_FOUND libgtest-dev "GoogleTest")
+  endif()
+  if(LOCKROLL_BUILD_BENCH)
+    find_package(benchmark QUIET)
+    lockroll_require(benchmark_FOUND libbenchmark-dev "Google Benchmark")
+  endif()
+endif()

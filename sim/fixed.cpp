@@ -1,0 +1,225 @@
+#include "sim/fixed.h"
+
+#include <algorithm>
+
+namespace lockroll::sim {
+
+namespace {
+// Per-thread so that worlds stepping on different threads never share a counter; a World
+// reads the difference around its own (single-threaded) step.
+thread_local std::uint64_t t_overflow_events = 0;
+
+int bit_length(u128 n) {
+    const auto hi = static_cast<std::uint64_t>(n >> 64);
+    if (hi) return 128 - __builtin_clzll(hi);
+    const auto lo = static_cast<std::uint64_t>(n);
+    return lo ? 64 - __builtin_clzll(lo) : 0;
+}
+
+// Correctly rounded n / d (ties to even) for d != 0, saturating to int64.
+Fixed divide_round(i128 n, i128 d) {
+    i128 q = n / d;  // truncates toward zero
+    i128 r = n % d;  // same sign as n
+    const u128 ar = static_cast<u128>(r < 0 ? -r : r);
+    const u128 ad = static_cast<u128>(d < 0 ? -d : d);
+    const bool negative = (n < 0) != (d < 0);
+    // Compare |r| with |d| / 2 without overflow: 2|r| vs |d|.
+    const u128 twice = ar << 1;
+    if (twice > ad || (twice == ad && (q & 1))) q += negative ? -1 : 1;
+    return saturate_i128(q);
+}
+}  // namespace
+
+std::uint64_t overflow_events() { return t_overflow_events; }
+void note_overflow() { ++t_overflow_events; }
+
+Fixed Fixed::from_int(std::int64_t v) {
+    if (v >= (std::int64_t{1} << 31)) { note_overflow(); return max(); }
+    if (v < -(std::int64_t{1} << 31)) { note_overflow(); return min(); }
+    return from_raw(v * kOne);
+}
+
+Fixed Fixed::ratio(std::int64_t num, std::int64_t den) {
+    if (den == 0) {
+        note_overflow();
+        return num > 0 ? max() : num < 0 ? min() : zero();
+    }
+    return divide_round(static_cast<i128>(num) * kOne, den);
+}
+
+Fixed operator/(Fixed a, Fixed b) {
+    if (b.raw == 0) {
+        note_overflow();
+        return a.raw > 0 ? Fixed::max() : a.raw < 0 ? Fixed::min() : Fixed::zero();
+    }
+    return divide_round(static_cast<i128>(a.raw) * Fixed::kOne, b.raw);
+}
+
+std::uint64_t isqrt_floor(u128 n) {
+    if (n == 0) return 0;
+    // Start at a power of two no smaller than sqrt(n); Newton's iteration from above then
+    // decreases monotonically and stops exactly at floor(sqrt(n)).
+    const int bits = bit_length(n);
+    u128 x = u128{1} << ((bits + 1) / 2);
+    for (;;) {
+        const u128 y = (x + n / x) >> 1;
+        if (y >= x) break;
+        x = y;
+    }
+    return static_cast<std::uint64_t>(x);
+}
+
+std::uint64_t isqrt_round(u128 n) {
+    const std::uint64_t r = isqrt_floor(n);
+    // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
+    const u128 r2 = static_cast<u128>(r) * r;
+    return (n - r2 > r) ? r + 1 : r;
+}
+
+Fixed sqrt(Fixed a) {
+    if (a.raw < 0) { note_overflow(); return Fixed::zero(); }
+    // sqrt(raw / 2^32) * 2^32 = sqrt(raw * 2^32); at most 2^47.5, always fits.
+    return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(static_cast<u128>(a.raw) << 32)));
+}
+
+Fixed reciprocal(Fixed a) { return Fixed::one() / a; }
+
+std::optional<Fixed> Fixed::parse(std::string_view s) {
+    std::size_t i = 0;
+    bool negative = false;
+    if (i < s.size() && (s[i] == '+' || s[i] == '-')) negative = s[i++] == '-';
+    // Collect the significant digits into an integer mantissa; `scale` counts decimal places.
+    u128 mantissa = 0;
+    int digits = 0, scale = 0;
+    bool any_digit = false, seen_point = false;
+    for (; i < s.size(); ++i) {
+        const char c = s[i];
+        if (c == '.') {
+            if (seen_point) return std::nullopt;
+            seen_point = true;
+            continue;
+        }
+        if (c < '0' || c > '9') break;
+        any_digit = true;
+        if (mantissa == 0 && c == '0') {  // leading zeros are not significant
+            if (seen_point) ++scale;
+            continue;
+        }
+        if (++digits > 36) return std::nullopt;
+        mantissa = mantissa * 10 + static_cast<unsigned>(c - '0');
+        if (seen_point) ++scale;
+    }
+    if (!any_digit) return std::nullopt;
+    int exponent = 0;
+    if (i < s.size() && (s[i] == 'e' || s[i] == 'E')) {
+        ++i;
+        bool eneg = false;
+        if (i < s.size() && (s[i] == '+' || s[i] == '-')) eneg = s[i++] == '-';
+        if (i >= s.size()) return std::nullopt;
+        for (; i < s.size(); ++i) {
+            if (s[i] < '0' || s[i] > '9') return std::nullopt;
+            exponent = exponent * 10 + (s[i] - '0');
+            if (exponent > 400) return std::nullopt;
+        }
+        if (eneg) exponent = -exponent;
+    }
+    if (i != s.size()) return std::nullopt;
+    if (mantissa == 0) return zero();
+
+    // value = mantissa * 10^(exponent - scale). Bring it to an exact integer ratio num/den and
+    // round num * 2^32 / den once. Magnitudes beyond the range are rejected early.
+    int e10 = exponent - scale;
+    if (e10 > 10) return std::nullopt;  // >= 1e11 > 2^31 for any non-zero mantissa
+    // Exact big-integer arithmetic in base 2^32 limbs keeps this simple and exact for up to
+    // 36 digits and exponents down to -400 (where the result rounds to zero).
+    // We compute num = mantissa * 10^max(e10,0) * 2^32 and den = 10^max(-e10,0) as limb vectors.
+    using Big = std::basic_string<std::uint32_t>;
+    auto from_u128 = [](u128 v) {
+        Big b;
+        while (v) { b.push_back(static_cast<std::uint32_t>(v)); v >>= 32; }
+        return b;
+    };
+    auto mul_small = [](Big& b, std::uint32_t m) {
+        std::uint64_t carry = 0;
+        for (auto& limb : b) {
+            const std::uint64_t t = std::uint64_t{limb} * m + carry;
+            limb = static_cast<std::uint32_t>(t);
+            carry = t >> 32;
+        }
+        if (carry) b.push_back(static_cast<std::uint32_t>(carry));
+    };
+    auto compare = [](const Big& a, const Big& b) {
+        if (a.size() != b.size()) return a.size() < b.size() ? -1 : 1;
+        for (std::size_t k = a.size(); k-- > 0;)
+            if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+        return 0;
+    };
+    auto sub = [](Big& a, const Big& b) {  // a -= b, requires a >= b
+        std::int64_t borrow = 0;
+        for (std::size_t k = 0; k < a.size(); ++k) {
+            std::int64_t t = std::int64_t{a[k]} - borrow - (k < b.size() ? std::int64_t{b[k]} : 0);
+            borrow = t < 0;
+            a[k] = static_cast<std::uint32_t>(t + (borrow << 32));
+        }
+        while (!a.empty() && a.back() == 0) a.pop_back();
+    };
+    auto shl1 = [](Big& b) {
+        std::uint32_t carry = 0;
+        for (auto& limb : b) {
+            const std::uint32_t next = limb >> 31;
+            limb = (limb << 1) | carry;
+            carry = next;
+        }
+        if (carry) b.push_back(carry);
+    };
+
+    Big num = from_u128(mantissa);
+    num.insert(num.begin(), 0u);  // * 2^32
+    for (int k = 0; k < e10; ++k) mul_small(num, 10);
+    Big den{1u};
+    for (int k = 0; k < -e10; ++k) mul_small(den, 10);
+
+    // Long division num / den, bit by bit: the quotient is below 2^64 for accepted values.
+    const int num_bits = static_cast<int>(num.size()) * 32;
+    Big rem;
+    u128 q = 0;
+    for (int bit = num_bits - 1; bit >= 0; --bit) {
+        shl1(rem);
+        if ((num[bit / 32] >> (bit % 32)) & 1u) {
+            if (rem.empty()) rem.push_back(1u); else rem[0] |= 1u;
+        }
+        q <<= 1;
+        if (compare(rem, den) >= 0) { sub(rem, den); q |= 1; }
+        if (q >> 70) return std::nullopt;  // far out of range
+    }
+    // Round to nearest, ties to even: compare 2*rem with den.
+    shl1(rem);
+    const int c = compare(rem, den);
+    if (c > 0 || (c == 0 && (q & 1))) ++q;
+    const u128 limit = negative ? (u128{1} << 63) : (u128{1} << 63) - 1;
+    if (q > limit) return std::nullopt;
+    const auto mag = static_cast<std::int64_t>(q == (u128{1} << 63) ? 0 : q);
+    if (negative) return from_raw(q == (u128{1} << 63) ? INT64_MIN : -mag);
+    return from_raw(mag);
+}
+
+std::string Fixed::to_string() const {
+    std::string out;
+    u128 mag = raw < 0 ? static_cast<u128>(-(static_cast<i128>(raw))) : static_cast<u128>(raw);
+    if (raw < 0) out.push_back('-');
+    const u128 int_part = mag >> 32;
+    out += std::to_string(static_cast<std::uint64_t>(int_part));
+    u128 frac = mag & 0xFFFFFFFFu;
+    if (frac) {
+        out.push_back('.');
+        // Each step multiplies the fraction by 10 and emits the integer digit: exact.
+        while (frac) {
+            frac *= 10;
+            out.push_back(static_cast<char>('0' + static_cast<int>(frac >> 32)));
+            frac &= 0xFFFFFFFFu;
+        }
+    }
+    return out;
+}
+
+}  // namespace lockroll::sim

@@ -1,0 +1,131 @@
+// Q32.32 fixed-point scalar: the only number type the simulation computes with.
+//
+// Contract
+//  - Value = raw / 2^32, raw an int64: range [-2^31, 2^31 - 2^-32], resolution 2^-32 (~2.3e-10).
+//  - Every operation is defined for every input. Results that do not fit saturate to
+//    Fixed::max() / Fixed::min() and bump the calling thread's overflow counter
+//    (overflow_events()); a World folds that counter into its own state once per step, so
+//    overflow is never undefined behaviour and never silent.
+//  - Rounding: multiply, divide, square root and decimal parsing are correctly rounded to the
+//    nearest representable value, ties to even. Add and subtract are exact when they fit.
+//  - Division by zero saturates toward the sign of the dividend (0/0 gives 0) and counts as an
+//    overflow; so does sqrt of a negative number (gives 0).
+//  - No float or double anywhere: results are bit-identical on every compiler and CPU that
+//    provides two's-complement int64 and GCC/Clang __int128.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+namespace lockroll::sim {
+
+using i128 = __int128;
+using u128 = unsigned __int128;
+
+// Overflow events on this thread since it started. Monotonic; callers diff it around a step.
+std::uint64_t overflow_events();
+void note_overflow();
+
+struct Fixed {
+    static constexpr int kFracBits = 32;
+    static constexpr std::int64_t kOne = std::int64_t{1} << kFracBits;
+
+    std::int64_t raw = 0;
+
+    static constexpr Fixed from_raw(std::int64_t r) { return Fixed{r}; }
+    static constexpr Fixed max() { return Fixed{INT64_MAX}; }
+    static constexpr Fixed min() { return Fixed{INT64_MIN}; }
+    static constexpr Fixed zero() { return Fixed{0}; }
+    static constexpr Fixed one() { return Fixed{kOne}; }
+
+    // Integer to fixed; saturates (and counts) outside [-2^31, 2^31).
+    static Fixed from_int(std::int64_t v);
+    // num/den correctly rounded (ties to even); den == 0 saturates and counts.
+    static Fixed ratio(std::int64_t num, std::int64_t den);
+    // Exact decimal text ("-12.5", "3", "1e-3", "2.5E+2") to the nearest Q32.32 value, ties to
+    // even. Returns nullopt for malformed text, more than 36 significant digits, or a value
+    // outside the range (parsing is input validation: it never saturates).
+    static std::optional<Fixed> parse(std::string_view text);
+
+    // Shortest-enough decimal rendering for messages and logs (exact: 32 fractional bits need at
+    // most 32 decimal digits; trailing zeros are trimmed).
+    std::string to_string() const;
+
+    friend constexpr bool operator==(Fixed a, Fixed b) { return a.raw == b.raw; }
+    friend constexpr auto operator<=>(Fixed a, Fixed b) { return a.raw <=> b.raw; }
+};
+
+// ---- arithmetic (inline: these are the simulation's inner loop) ----
+
+inline Fixed saturate_i128(i128 v) {
+    if (v > INT64_MAX) { note_overflow(); return Fixed::max(); }
+    if (v < INT64_MIN) { note_overflow(); return Fixed::min(); }
+    return Fixed::from_raw(static_cast<std::int64_t>(v));
+}
+
+// Rounds v / 2^shift to nearest, ties to even, without overflow for any i128 v.
+inline i128 round_shift(i128 v, int shift) {
+    const i128 q = v >> shift;  // floor (arithmetic shift)
+    const u128 mask = (u128{1} << shift) - 1;
+    const u128 rem = static_cast<u128>(v) & mask;
+    const u128 half = u128{1} << (shift - 1);
+    // Round up when rem > half, or rem == half and q is odd (ties to even).
+    return q + static_cast<i128>(rem + static_cast<u128>(q & 1) > half);
+}
+
+inline Fixed operator+(Fixed a, Fixed b) {
+    std::int64_t r;
+    if (__builtin_add_overflow(a.raw, b.raw, &r)) {
+        note_overflow();
+        return b.raw > 0 ? Fixed::max() : Fixed::min();
+    }
+    return Fixed::from_raw(r);
+}
+inline Fixed operator-(Fixed a, Fixed b) {
+    std::int64_t r;
+    if (__builtin_sub_overflow(a.raw, b.raw, &r)) {
+        note_overflow();
+        return b.raw < 0 ? Fixed::max() : Fixed::min();
+    }
+    return Fixed::from_raw(r);
+}
+inline Fixed operator-(Fixed a) {
+    if (a.raw == INT64_MIN) { note_overflow(); return Fixed::max(); }
+    return Fixed::from_raw(-a.raw);
+}
+inline Fixed operator*(Fixed a, Fixed b) {
+    return saturate_i128(round_shift(static_cast<i128>(a.raw) * b.raw, Fixed::kFracBits));
+}
+// Fixed times a plain integer (exact unless it overflows).
+inline Fixed operator*(Fixed a, std::int64_t k) {
+    std::int64_t r;
+    if (__builtin_mul_overflow(a.raw, k, &r)) {
+        note_overflow();
+        return ((a.raw < 0) != (k < 0)) ? Fixed::min() : Fixed::max();
+    }
+    return Fixed::from_raw(r);
+}
+Fixed operator/(Fixed a, Fixed b);
+
+inline Fixed& operator+=(Fixed& a, Fixed b) { return a = a + b; }
+inline Fixed& operator-=(Fixed& a, Fixed b) { return a = a - b; }
+inline Fixed& operator*=(Fixed& a, Fixed b) { return a = a * b; }
+
+inline Fixed abs(Fixed a) { return a.raw < 0 ? -a : a; }
+inline Fixed min(Fixed a, Fixed b) { return a.raw < b.raw ? a : b; }
+inline Fixed max(Fixed a, Fixed b) { return a.raw < b.raw ? b : a; }
+inline Fixed clamp(Fixed v, Fixed lo, Fixed hi) { return min(max(v, lo), hi); }
+
+// floor(sqrt(n)) for any unsigned 128-bit n (exact).
+std::uint64_t isqrt_floor(u128 n);
+// sqrt(n) rounded to nearest (no ties are possible for integers).
+std::uint64_t isqrt_round(u128 n);
+
+// Square root, correctly rounded. Negative input gives 0 and counts as an overflow.
+Fixed sqrt(Fixed a);
+// 1 / a, correctly rounded; a == 0 saturates and counts.
+Fixed reciprocal(Fixed a);
+
+}  // namespace lockroll::sim

@@ -1,0 +1,149 @@
+#include "sim/scene.h"
+
+#include <set>
+
+#include "sim/rng.h"
+
+namespace lockroll::sim {
+
+const char* shape_name(Shape s) {
+    switch (s) {
+        case Shape::Sphere: return "sphere";
+        case Shape::Box: return "box";
+        case Shape::Capsule: return "capsule";
+    }
+    return "?";
+}
+
+SceneDesc::SceneDesc() {
+    // The seed paper's custom engine: box-box 0 (inelastic), sphere-sphere 1 (elastic),
+    // box-sphere 0.8. Capsules (player bodies in the Quantum build) behave like boxes.
+    const Fixed e08 = Fixed::ratio(4, 5);
+    const auto S = static_cast<int>(Shape::Sphere), B = static_cast<int>(Shape::Box),
+               C = static_cast<int>(Shape::Capsule);
+    restitution[S][S] = Fixed::one();
+    restitution[B][B] = restitution[C][C] = restitution[B][C] = restitution[C][B] = Fixed::zero();
+    restitution[S][B] = restitution[B][S] = restitution[S][C] = restitution[C][S] = e08;
+}
+
+void add_room(SceneDesc& scene, const Vec3& lo, const Vec3& hi, Fixed t) {
+    const Fixed two = Fixed::from_int(2);
+    const Vec3 c{(lo.x + hi.x) / two, (lo.y + hi.y) / two, (lo.z + hi.z) / two};
+    const Vec3 h{(hi.x - lo.x) / two, (hi.y - lo.y) / two, (hi.z - lo.z) / two};
+    const Fixed ht = t / two;
+    auto wall = [&](Vec3 center, Vec3 half) {
+        BodyDesc b;
+        b.shape = Shape::Box;
+        b.position = center;
+        b.half_extents = half;
+        b.mass = Fixed::zero();
+        scene.bodies.push_back(b);
+    };
+    // Walls overlap at the edges (each spans the full outer extent) so no corner gap exists.
+    const Vec3 outer{h.x + t, h.y + t, h.z + t};
+    wall({c.x, lo.y - ht, c.z}, {outer.x, ht, outer.z});  // floor
+    wall({c.x, hi.y + ht, c.z}, {outer.x, ht, outer.z});  // ceiling
+    wall({lo.x - ht, c.y, c.z}, {ht, outer.y, outer.z});  // -x
+    wall({hi.x + ht, c.y, c.z}, {ht, outer.y, outer.z});  // +x
+    wall({c.x, c.y, lo.z - ht}, {outer.x, outer.y, ht});  // -z
+    wall({c.x, c.y, hi.z + ht}, {outer.x, outer.y, ht});  // +z
+}
+
+namespace {
+Fixed uniform(SplitMix64& rng, Fixed lo, Fixed hi) {
+    if (hi.raw <= lo.raw) return lo;
+    const auto span = static_cast<std::uint64_t>(hi.raw) - static_cast<std::uint64_t>(lo.raw);
+    return Fixed::from_raw(lo.raw + static_cast<std::int64_t>(rng.below(span + 1)));
+}
+
+Fixed bounding_radius(const SpawnerDesc& s) {
+    switch (s.shape) {
+        case Shape::Sphere: return s.radius;
+        case Shape::Capsule: return s.radius + s.half_height;
+        case Shape::Box: return max(max(s.half_extents.x, s.half_extents.y), s.half_extents.z);
+    }
+    return s.radius;
+}
+}  // namespace
+
+void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
+    SplitMix64 rng(s.seed);
+    const Fixed r = bounding_radius(s);
+    const std::size_t first = scene.bodies.size();
+    constexpr int kTries = 64;
+    for (int n = 0; n < s.count; ++n) {
+        BodyDesc b;
+        b.shape = s.shape;
+        b.radius = s.radius;
+        b.half_extents = s.half_extents;
+        b.half_height = s.half_height;
+        b.mass = s.mass;
+        b.gravity_scale = s.gravity_scale;
+        b.restitution = s.restitution;
+        for (int attempt = 0; attempt < kTries; ++attempt) {
+            b.position = {uniform(rng, s.region_min.x + r, s.region_max.x - r),
+                          uniform(rng, s.region_min.y + r, s.region_max.y - r),
+                          uniform(rng, s.region_min.z + r, s.region_max.z - r)};
+            bool clear = true;
+            // Quadratic, but only at load time and only against this spawner's own bodies.
+            for (std::size_t k = first; k < scene.bodies.size() && clear; ++k) {
+                const Vec3 d = scene.bodies[k].position - b.position;
+                const Fixed reach = r + r;
+                clear = length_sq_wide(d) >= static_cast<u128>(static_cast<i128>(reach.raw) * reach.raw);
+            }
+            if (clear) break;
+        }
+        b.velocity = {uniform(rng, -s.max_speed, s.max_speed), uniform(rng, -s.max_speed, s.max_speed),
+                      uniform(rng, -s.max_speed, s.max_speed)};
+        scene.bodies.push_back(b);
+    }
+}
+
+int player_count(const SceneDesc& scene) {
+    int n = 0;
+    for (const auto& b : scene.bodies) n = b.player + 1 > n ? b.player + 1 : n;
+    return n;
+}
+
+std::string validate(const SceneDesc& scene) {
+    if (scene.tick_rate < 1 || scene.tick_rate > 1000) return "tick_rate must be 1..1000";
+    if (scene.iterations < 1 || scene.iterations > 64) return "iterations must be 1..64";
+    if (scene.contact_margin.raw < 0) return "contact_margin must be >= 0";
+    for (int a = 0; a < kShapeCount; ++a)
+        for (int b = 0; b < kShapeCount; ++b)
+            if (scene.restitution[a][b].raw < 0 || scene.restitution[a][b] > Fixed::one())
+                return "restitution must be within [0, 1]";
+    std::set<int> slots;
+    for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+        const BodyDesc& b = scene.bodies[i];
+        const std::string at = "body " + std::to_string(i) + ": ";
+        if (b.mass.raw < 0) return at + "mass must be >= 0";
+        switch (b.shape) {
+            case Shape::Sphere:
+                if (b.radius.raw <= 0) return at + "radius must be > 0";
+                break;
+            case Shape::Capsule:
+                if (b.radius.raw <= 0) return at + "radius must be > 0";
+                if (b.half_height.raw < 0) return at + "half_height must be >= 0";
+                break;
+            case Shape::Box:
+                if (b.half_extents.x.raw <= 0 || b.half_extents.y.raw <= 0 || b.half_extents.z.raw <= 0)
+                    return at + "half_extents must all be > 0";
+                break;
+        }
+        if (b.restitution && (b.restitution->raw < 0 || *b.restitution > Fixed::one()))
+            return at + "restitution must be within [0, 1]";
+        if (b.player >= 0) {
+            if (b.mass.raw == 0) return at + "a player body must be dynamic (mass > 0)";
+            if (!slots.insert(b.player).second) return at + "player slot " + std::to_string(b.player) + " is used twice";
+        } else if (b.player < -1) {
+            return at + "player must be >= 0";
+        }
+    }
+    int expect = 0;
+    for (int s : slots)
+        if (s != expect++) return "player slots must be numbered 0..P-1 without gaps";
+    return {};
+}
+
+}  // namespace lockroll::sim

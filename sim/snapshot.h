@@ -1,0 +1,61 @@
+// Snapshots and checksums of a World's mutable state.
+//
+// Contract
+//  - What is stored: the frame number, the overflow counter, and position and velocity of every
+//    dynamic body in ascending id order. Nothing else changes during a step, so nothing else is
+//    stored: static bodies, shapes, masses, materials and the scene are the World's immutable
+//    part and must match between saver and loader (same scene => same dynamic count).
+//  - Layout (canonical, identical on every platform; docs/snapshot-format.md):
+//      u32 magic "LRS1" | u32 dynamic_count | u32 frame | u32 reserved (0) | u64 overflow_count
+//      then per dynamic body: i64 pos.x, pos.y, pos.z, vel.x, vel.y, vel.z
+//    all little-endian, no padding: 24 + 48 * dynamic_count bytes.
+//  - When: between steps, at any time; saving never changes the world.
+//  - Size: snapshot_size(world) bytes; the caller owns the buffer (a rollback ring buffer
+//    allocates once and reuses it).
+//  - Loading validates size, magic and body count before touching the world: on any failure
+//    the world is unchanged and the error says what was wrong. Any int64 is a valid Fixed, so
+//    there is nothing else to reject.
+//  - Guarantee: save at frame f, load, step N frames == step N frames without saving, bit for
+//    bit (the broadphase keeps only a sort-order cache whose result never depends on history).
+//  - checksum(): XXH3-64 of exactly the snapshot bytes. body_hash(): XXH3-64 of one body's 48
+//    bytes, seeded with its id, for narrowing a desync to one body.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+
+#include "sim/world.h"
+
+namespace lockroll::sim {
+
+inline constexpr std::uint32_t kSnapshotMagic = 0x3153524Cu;  // "LRS1" little-endian
+inline constexpr std::size_t kSnapshotHeaderBytes = 24;
+inline constexpr std::size_t kSnapshotBodyBytes = 48;
+
+// The six state words of a body, in snapshot order; names for desync reports.
+inline constexpr const char* kBodyFieldNames[6] = {"position.x", "position.y", "position.z",
+                                                   "velocity.x", "velocity.y", "velocity.z"};
+
+std::size_t snapshot_size(const World& world);
+
+// Writes exactly snapshot_size(world) bytes; `out` must be at least that large (checked: a
+// short buffer throws std::length_error and writes nothing).
+void save(const World& world, std::span<std::uint8_t> out);
+
+// Empty string on success; otherwise what was wrong, and the world is unchanged.
+std::string load(World& world, std::span<const std::uint8_t> in);
+
+std::uint64_t checksum(const World& world);
+std::uint64_t body_hash(const World& world, BodyId id);
+
+// Reads body `index` (position in dynamic-id order) field `field` (0..5) out of a snapshot
+// buffer; used to name the first differing field between two snapshots.
+std::int64_t snapshot_field(std::span<const std::uint8_t> snapshot, std::size_t index, int field);
+
+// Compares two snapshots of the same scene. Returns -1 when identical; otherwise the index (in
+// dynamic-id order) of the first differing body, with its first differing field in *field
+// (-1 when the difference is in the header).
+long first_difference(std::span<const std::uint8_t> a, std::span<const std::uint8_t> b, int* field);
+
+}  // namespace lockroll::sim

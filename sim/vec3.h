@@ -1,0 +1,58 @@
+// Three-component fixed-point vector. Dot products and lengths accumulate exact 128-bit
+// products and round once, so |v| and v.w are correctly rounded, not the sum of three roundings.
+#pragma once
+
+#include "sim/fixed.h"
+
+namespace lockroll::sim {
+
+struct Vec3 {
+    Fixed x, y, z;
+
+    friend constexpr bool operator==(const Vec3&, const Vec3&) = default;
+};
+
+inline Vec3 operator+(const Vec3& a, const Vec3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3 operator-(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3 operator-(const Vec3& a) { return {-a.x, -a.y, -a.z}; }
+inline Vec3 operator*(const Vec3& a, Fixed s) { return {a.x * s, a.y * s, a.z * s}; }
+inline Vec3 operator*(Fixed s, const Vec3& a) { return a * s; }
+inline Vec3& operator+=(Vec3& a, const Vec3& b) { return a = a + b; }
+inline Vec3& operator-=(Vec3& a, const Vec3& b) { return a = a - b; }
+
+// Sum of exact products in Q64.64, saturating only if the i128 sum itself would overflow.
+inline i128 dot_wide(const Vec3& a, const Vec3& b) {
+    i128 s = static_cast<i128>(a.x.raw) * b.x.raw;
+    i128 t;
+    if (__builtin_add_overflow(s, static_cast<i128>(a.y.raw) * b.y.raw, &t)) {
+        note_overflow();
+        return s > 0 ? (~u128{0} >> 1) : -static_cast<i128>(~u128{0} >> 1);
+    }
+    if (__builtin_add_overflow(t, static_cast<i128>(a.z.raw) * b.z.raw, &s)) {
+        note_overflow();
+        return t > 0 ? (~u128{0} >> 1) : -static_cast<i128>(~u128{0} >> 1);
+    }
+    return s;
+}
+
+inline Fixed dot(const Vec3& a, const Vec3& b) {
+    return saturate_i128(round_shift(dot_wide(a, b), Fixed::kFracBits));
+}
+
+// |v|^2 in Q64.64 (exact, never overflows: 3 * 2^126 < 2^128).
+inline u128 length_sq_wide(const Vec3& v) {
+    auto sq = [](Fixed f) {
+        const u128 m = static_cast<u128>(f.raw < 0 ? -static_cast<i128>(f.raw) : f.raw);
+        return m * m;
+    };
+    return sq(v.x) + sq(v.y) + sq(v.z);
+}
+
+// |v|, correctly rounded; saturates (and counts) only beyond Fixed::max().
+inline Fixed length(const Vec3& v) {
+    const std::uint64_t r = isqrt_round(length_sq_wide(v));
+    if (r > static_cast<std::uint64_t>(INT64_MAX)) { note_overflow(); return Fixed::max(); }
+    return Fixed::from_raw(static_cast<std::int64_t>(r));
+}
+
+}  // namespace lockroll::sim
