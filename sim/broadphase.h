@@ -19,30 +19,45 @@ struct BodyPair {
 
 class Broadphase {
 public:
-    // ids must be ascending. max_extent is the largest dynamic AABB half size on any axis.
+    // ids must be ascending; extent[id] is each body's AABB half size (fixed for its life).
     void configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids, std::vector<BodyId> static_ids,
-                   Fixed max_extent, Fixed margin);
+                   const std::vector<Vec3>& extent, Fixed margin);
 
     void find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out);
 
     BroadphaseKind kind() const { return kind_; }
 
 private:
-    void sweep_and_prune(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out);
-    void grid(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out);
-    void statics(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out);
+    // Fattened AABB of one body, saturated to int64 once per step so every overlap test after
+    // that is six plain comparisons.
+    struct Box {
+        std::int64_t lo[3], hi[3];
+    };
+    static Box make_box(const Vec3& pos, const Vec3& extent, std::int64_t margin);
+    static bool overlap(const Box& a, const Box& b) {
+        return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
+               a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
+    }
+
+    void sweep_and_prune(std::vector<BodyPair>& out);
+    void grid(std::vector<BodyPair>& out);
+    void oversize_and_statics(std::vector<BodyPair>& out);
 
     BroadphaseKind kind_ = BroadphaseKind::SweepAndPrune;
     std::vector<BodyId> dynamic_, static_;
+    // Grid only: dynamic bodies too large for the cell size; tested against every dynamic body.
+    std::vector<BodyId> gridded_, oversize_;
     Fixed margin_;
+    std::vector<Box> box_;         // by body id; statics filled once in configure()
+    bool statics_ready_ = false;
 
     // Sweep and prune: dynamic ids sorted by (min x, id). Kept between steps only to make the
     // insertion sort cheap; the sorted result does not depend on the previous order.
     std::vector<BodyId> order_;
-    std::vector<std::int64_t> min_x_;  // by body id
 
-    // Uniform grid: cell edge 2^cell_shift_ raw units, at least the largest fattened AABB, so
-    // overlapping bodies sit in the same or adjacent cells (by their min corner).
+    // Uniform grid: cell edge 2^cell_shift_ raw units, at least the fattened AABB of every
+    // gridded body, so overlapping bodies sit in the same or adjacent cells (by min corner).
+    // The edge follows the 95th-percentile body so one big body cannot coarsen the grid.
     int cell_shift_ = 0;
     std::vector<std::uint32_t> bucket_start_;  // counting-sort offsets, size table + 1
     std::vector<BodyId> bucket_items_;

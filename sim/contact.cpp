@@ -49,6 +49,18 @@ bool collide(const RoundCollider& a, const BoxCollider& b, Contact& out) {
         // Center outside the box: contact along the closest-point direction, box to sphere,
         // so the normal from A (sphere) to B (box) points from c to q.
         const Vec3 d = q - c;
+        // Face contacts (outside the box on one axis only) are the common case: floors and
+        // walls. Their normal is the axis and the distance exact, with no sqrt or division.
+        const int off_axes = (d.x.raw != 0) + (d.y.raw != 0) + (d.z.raw != 0);
+        if (off_axes == 1) {
+            const Fixed dist = abs(d.x) + abs(d.y) + abs(d.z);
+            if (dist >= a.radius) return false;
+            const Fixed o = Fixed::one(), z = Fixed::zero();
+            auto sign = [&](Fixed v) { return v.raw < 0 ? -o : v.raw > 0 ? o : z; };
+            out.normal = {sign(d.x), sign(d.y), sign(d.z)};
+            out.depth = a.radius - dist;
+            return true;
+        }
         const u128 dist_sq = length_sq_wide(d);
         const u128 r_sq = static_cast<u128>(static_cast<i128>(a.radius.raw) * a.radius.raw);
         if (dist_sq >= r_sq) return false;

@@ -3,6 +3,8 @@
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
+#include <bit>
+#include <cstring>
 #include <stdexcept>
 #include <vector>
 
@@ -25,7 +27,12 @@ void put_u32(std::uint8_t* p, std::uint32_t v) {
     for (int i = 0; i < 4; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
 }
 void put_u64(std::uint8_t* p, std::uint64_t v) {
-    for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+    // One int64 at a time, little-endian; on a little-endian host that is a plain store.
+    if constexpr (std::endian::native == std::endian::little) {
+        std::memcpy(p, &v, 8);
+    } else {
+        for (int i = 0; i < 8; ++i) p[i] = static_cast<std::uint8_t>(v >> (8 * i));
+    }
 }
 std::uint32_t get_u32(const std::uint8_t* p) {
     std::uint32_t v = 0;
@@ -33,6 +40,11 @@ std::uint32_t get_u32(const std::uint8_t* p) {
     return v;
 }
 std::uint64_t get_u64(const std::uint8_t* p) {
+    if constexpr (std::endian::native == std::endian::little) {
+        std::uint64_t v;
+        std::memcpy(&v, p, 8);
+        return v;
+    }
     std::uint64_t v = 0;
     for (int i = 0; i < 8; ++i) v |= std::uint64_t{p[i]} << (8 * i);
     return v;

@@ -21,7 +21,6 @@ World::World(const SceneDesc& scene) : scene_(scene) {
     gravity_dv_.resize(n);
     restitution_.resize(n);
     player_body_.resize(static_cast<std::size_t>(sim::player_count(scene)));
-    Fixed max_extent;
     for (std::size_t i = 0; i < n; ++i) {
         const BodyDesc& b = scene.bodies[i];
         const auto id = static_cast<BodyId>(i);
@@ -51,11 +50,10 @@ World::World(const SceneDesc& scene) : scene_(scene) {
         vel_[i] = b.velocity;
         inv_mass_[i] = reciprocal(b.mass);
         gravity_dv_[i] = scene.gravity * (b.gravity_scale * dt_);
-        max_extent = max(max_extent, max(max(extent_[i].x, extent_[i].y), extent_[i].z));
         if (b.player >= 0) player_body_[static_cast<std::size_t>(b.player)] = id;
     }
     controller_ = ControllerFactors::from(scene.controller, dt_);
-    broadphase_.configure(scene.broadphase, dynamic_, static_, max_extent, scene.contact_margin);
+    broadphase_.configure(scene.broadphase, dynamic_, static_, extent_, scene.contact_margin);
     // Whatever scene construction saturated is part of the initial state.
     overflow_count_ = 0;
 }
@@ -78,41 +76,77 @@ void World::apply_controller(std::span<const PlayerInput> inputs) {
     }
 }
 
-void World::solve_contacts() {
-    const auto table_e = [&](BodyId a, BodyId b) {
+void World::prepare_pairs() {
+    solver_pairs_.clear();
+    for (const BodyPair& pair : pairs_) {
+        BodyId a = pair.a, b = pair.b;
+        // Canonical roles: a round shape before a box (each routine sees (round, box)); within
+        // the same class, a static body second. Only a static round body against a dynamic box
+        // leaves the static body first, which the solver mirrors.
+        const bool a_round = shape_[a] != Shape::Box, b_round = shape_[b] != Shape::Box;
+        if (a_round != b_round ? !a_round : inv_mass_[a].raw == 0) std::swap(a, b);
+        SolverPair p;
+        p.a = a;
+        p.b = b;
+        p.kind = shape_[a] == Shape::Box ? PairKind::BoxBox
+                 : shape_[b] == Shape::Box ? PairKind::RoundBox
+                                           : PairKind::RoundRound;
         const Fixed ea = restitution_[a], eb = restitution_[b];
-        if (ea.raw >= 0 || eb.raw >= 0) return max(ea, eb);  // explicit materials combine by max
-        return scene_.restitution[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
-    };
+        const Fixed e = (ea.raw >= 0 || eb.raw >= 0)
+                            ? max(ea, eb)  // explicit materials combine by max
+                            : scene_.restitution[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
+        p.one_plus_e = Fixed::one() + e;
+        p.b_static = inv_mass_[b].raw == 0;
+        p.inv_sum_recip = p.b_static || inv_mass_[a].raw == 0 ? Fixed::zero() : reciprocal(inv_mass_[a] + inv_mass_[b]);
+        solver_pairs_.push_back(p);
+    }
+}
+
+void World::solve_contacts() {
+    prepare_pairs();
     for (int iteration = 0; iteration < scene_.iterations; ++iteration) {
-        for (const BodyPair& pair : pairs_) {
-            BodyId a = pair.a, b = pair.b;
-            // Order by shape so each routine sees (round, box) and never (box, round).
-            if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
+        for (const SolverPair& p : solver_pairs_) {
+            const BodyId a = p.a, b = p.b;
             Contact c;
             bool touching;
-            if (shape_[a] != Shape::Box && shape_[b] != Shape::Box)
-                touching = collide(RoundCollider{pos_[a], core_half_[a], radius_[a]},
-                                   RoundCollider{pos_[b], core_half_[b], radius_[b]}, c);
-            else if (shape_[a] != Shape::Box)
-                touching = collide(RoundCollider{pos_[a], core_half_[a], radius_[a]},
-                                   BoxCollider{pos_[b], half_extents_[b]}, c);
-            else
-                touching = collide(BoxCollider{pos_[a], half_extents_[a]}, BoxCollider{pos_[b], half_extents_[b]}, c);
+            switch (p.kind) {
+                case PairKind::RoundRound:
+                    touching = collide(RoundCollider{pos_[a], core_half_[a], radius_[a]},
+                                       RoundCollider{pos_[b], core_half_[b], radius_[b]}, c);
+                    break;
+                case PairKind::RoundBox:
+                    touching = collide(RoundCollider{pos_[a], core_half_[a], radius_[a]},
+                                       BoxCollider{pos_[b], half_extents_[b]}, c);
+                    break;
+                default:
+                    touching = collide(BoxCollider{pos_[a], half_extents_[a]}, BoxCollider{pos_[b], half_extents_[b]}, c);
+                    break;
+            }
             if (!touching) continue;
 
+            if (p.b_static) {
+                // All of the correction and impulse goes to a: J/m_a = -(1+e) v_n exactly.
+                pos_[a] -= c.normal * c.depth;
+                const Fixed vn = -dot(vel_[a], c.normal);
+                if (vn.raw < 0) vel_[a] += c.normal * (p.one_plus_e * vn);
+                continue;
+            }
             const Fixed ia = inv_mass_[a], ib = inv_mass_[b];
-            const Fixed inv_sum = ia + ib;
-            if (inv_sum.raw == 0) continue;
+            if (ia.raw == 0) {
+                // Static round body against a dynamic box: mirror of the case above.
+                pos_[b] += c.normal * c.depth;
+                const Fixed vn = dot(vel_[b], c.normal);
+                if (vn.raw < 0) vel_[b] -= c.normal * (p.one_plus_e * vn);
+                continue;
+            }
             // Positional correction: remove the whole overlap, split by inverse mass.
-            const Vec3 push = c.normal * (c.depth / inv_sum);
+            const Vec3 push = c.normal * (c.depth * p.inv_sum_recip);
             pos_[a] -= push * ia;
             pos_[b] += push * ib;
             // Impulse J = -(1+e)(v_rel . n) / (1/m_a + 1/m_b), only while approaching.
             const Fixed vn = dot(vel_[b] - vel_[a], c.normal);
             if (vn.raw >= 0) continue;
-            const Fixed j = -((Fixed::one() + table_e(a, b)) * vn) / inv_sum;
-            const Vec3 impulse = c.normal * j;
+            const Vec3 impulse = c.normal * (-(p.one_plus_e * vn) * p.inv_sum_recip);
             vel_[a] -= impulse * ia;
             vel_[b] += impulse * ib;
         }

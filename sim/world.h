@@ -78,8 +78,21 @@ private:
 
     ControllerFactors controller_;  // used only when the scene has players
 
+    // A candidate pair prepared once per step: ordered (round before box), its narrowphase
+    // routine, and the mass terms the solver would otherwise divide for in every iteration.
+    enum class PairKind : std::uint8_t { RoundRound, RoundBox, BoxBox };
+    struct SolverPair {
+        BodyId a, b;
+        PairKind kind;
+        bool b_static;       // then the whole correction and impulse go to a (no division)
+        Fixed one_plus_e;    // 1 + restitution
+        Fixed inv_sum_recip; // 1 / (1/m_a + 1/m_b), when both are dynamic
+    };
+    void prepare_pairs();
+
     Broadphase broadphase_;
     std::vector<BodyPair> pairs_;
+    std::vector<SolverPair> solver_pairs_;
 };
 
 }  // namespace lockroll::sim

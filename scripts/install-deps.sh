@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
+# root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user
+# and clang used by scripts/cross-check.sh.
+set -euo pipefail
+
+packages=(g++ cmake ninja-build pkg-config
+          libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
+          libbenchmark-dev python3 python3-matplotlib)
+if [[ "${1:-}" == "--cross" ]]; then
+  packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu qemu-user)
+fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[[ ${#missing[@]} -eq 0 ]] && exit 0
+
+echo "installing: ${missing[*]}" >&2
+sudo=""
+[[ $(id -u) -eq 0 ]] || sudo="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -1,0 +1,121 @@
+// Scene files: exact decimal parsing, and bad files rejected with a message naming the file,
+// the place and the problem, without a half-loaded scene.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "harness/scene_loader.h"
+#include "sim/world.h"
+
+namespace lockroll::harness {
+namespace {
+
+std::string error_of(const std::string& text) {
+    try {
+        parse_scene(text, "test.json");
+    } catch (const SceneError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(SceneLoader, ShippedScenesLoad) {
+    for (const char* name : {"paper", "bodies_1k", "bodies_10k"}) {
+        const sim::SceneDesc s = load_scene(name);
+        EXPECT_EQ(s.name, name);
+        EXPECT_EQ(sim::validate(s), "");
+    }
+    const sim::SceneDesc paper = load_scene("paper");
+    EXPECT_EQ(paper.bodies.size(), 6u + 2u + 50u);
+    EXPECT_EQ(sim::player_count(paper), 2);
+    EXPECT_EQ(load_scene("bodies_10k").bodies.size(), 6u + 10000u);
+}
+
+TEST(SceneLoader, DecimalsGoStraightToFixedPoint) {
+    const sim::SceneDesc s = parse_scene(R"({"gravity": [0.1, -9.81, 1e-3],
+        "bodies": [{"shape": "sphere", "position": [0, 1.5, 0], "radius": 0.25, "mass": 2}]})",
+                                         "t.json");
+    EXPECT_EQ(s.gravity.x, *sim::Fixed::parse("0.1"));
+    EXPECT_EQ(s.gravity.y, *sim::Fixed::parse("-9.81"));
+    EXPECT_EQ(s.gravity.z, *sim::Fixed::parse("0.001"));
+    EXPECT_EQ(s.bodies[0].radius.raw, sim::Fixed::kOne / 4);
+    // Digits beyond double precision still count: these differ in the 20th digit, which
+    // Q32.32 resolves (1e-10 > 2^-33) but a round trip through double would not.
+    const sim::SceneDesc a = parse_scene(R"({"gravity": [0, 1.00000000012, 0]})", "a");
+    const sim::SceneDesc b = parse_scene(R"({"gravity": [0, 1.00000000035, 0]})", "b");
+    EXPECT_NE(a.gravity.y, b.gravity.y);
+}
+
+TEST(SceneLoader, SyntaxErrorNamesFileLineAndColumn) {
+    const std::string e = error_of("{\n  \"tick_rate\": 60,\n  \"iterations\": ,\n}");
+    EXPECT_NE(e.find("test.json"), std::string::npos) << e;
+    EXPECT_NE(e.find("line 3"), std::string::npos) << e;
+}
+
+TEST(SceneLoader, SemanticErrorsNameThePlace) {
+    struct Case {
+        const char* text;
+        const char* place;
+        const char* problem;
+    } cases[] = {
+        {R"({"tick_rate": 0})", "/tick_rate", "[1, 1000]"},
+        {R"({"tickrate": 60})", "/", "unknown key \"tickrate\""},
+        {R"({"bodies": [{"shape": "cube", "position": [0,0,0]}]})", "/bodies/0/shape", "unknown shape"},
+        {R"({"bodies": [{"shape": "sphere", "position": [0,0,0], "radius": -1}]})", "/bodies/0/radius", "> 0"},
+        {R"({"bodies": [{"shape": "sphere", "position": [0,0], "radius": 1}]})", "/bodies/0/position", "3 numbers"},
+        {R"({"bodies": [{"shape": "sphere", "radius": 1}]})", "/bodies/0", "missing required key \"position\""},
+        {R"({"gravity": [0, 1e12, 0]})", "/gravity/1", "outside the Q32.32 range"},
+        {R"({"gravity": [0, 3000000000, 0]})", "/gravity/1", "outside the Q32.32 range"},
+        {R"({"restitution": {"sphere-sphere": 1.5}})", "/restitution/sphere-sphere", "[0, 1]"},
+        {R"({"restitution": {"sphere": 1}})", "/restitution/sphere", "SHAPE-SHAPE"},
+        {R"({"room": {"min": [1,1,1], "max": [0,2,2]}})", "/room", "below max"},
+        {R"({"spawners": [{"count": 5, "shape": "sphere", "radius": 0.1, "region": {"min": [0,0,0], "max": [1,1,1]}, "seed": -4}]})",
+         "/spawners/0/seed", "non-negative"},
+        {R"({"bodies": [{"shape": "sphere", "position": [0,0,0], "radius": 1, "mass": 1, "player": 1}]})", "/",
+         "player slots"},
+        {R"({"bodies": [{"shape": "sphere", "position": [0,0,0], "radius": 1, "material": "rubber"}]})",
+         "/bodies/0/material", "no material named"},
+    };
+    for (const Case& c : cases) {
+        const std::string e = error_of(c.text);
+        EXPECT_NE(e.find(std::string("test.json: ") + c.place), std::string::npos) << c.text << "\n -> " << e;
+        EXPECT_NE(e.find(c.problem), std::string::npos) << c.text << "\n -> " << e;
+    }
+}
+
+TEST(SceneLoader, MaterialsAndRestitutionTable) {
+    const sim::SceneDesc s = parse_scene(R"({
+        "restitution": {"capsule-sphere": 0.5},
+        "materials": {"rubber": {"restitution": 0.9}},
+        "bodies": [{"shape": "sphere", "position": [0,0,0], "radius": 1, "material": "rubber"}]})",
+                                         "m.json");
+    EXPECT_EQ(s.restitution[2][0], *sim::Fixed::parse("0.5"));
+    EXPECT_EQ(s.restitution[0][2], *sim::Fixed::parse("0.5"));
+    ASSERT_TRUE(s.bodies[0].restitution.has_value());
+    EXPECT_EQ(*s.bodies[0].restitution, *sim::Fixed::parse("0.9"));
+}
+
+TEST(SceneLoader, MissingFileAndUnknownName) {
+    EXPECT_THROW(load_scene_file("/nonexistent/scene.json"), SceneError);
+    try {
+        resolve_scene("no_such_scene");
+        FAIL();
+    } catch (const SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("no_such_scene"), std::string::npos);
+    }
+}
+
+TEST(SceneLoader, SpawnerIsDeterministic) {
+    const char* text = R"({"spawners": [{"count": 20, "shape": "sphere", "radius": 0.1, "mass": 1,
+        "region": {"min": [0,0,0], "max": [3,3,3]}, "max_speed": 2, "seed": 99}]})";
+    const sim::SceneDesc a = parse_scene(text, "a"), b = parse_scene(text, "b");
+    ASSERT_EQ(a.bodies.size(), 20u);
+    for (std::size_t i = 0; i < a.bodies.size(); ++i) {
+        EXPECT_EQ(a.bodies[i].position, b.bodies[i].position);
+        EXPECT_EQ(a.bodies[i].velocity, b.bodies[i].velocity);
+    }
+    EXPECT_NE(a.bodies[0].position, a.bodies[1].position);
+}
+
+}  // namespace
+}  // namespace lockroll::harness

@@ -1,0 +1,253 @@
+// Physics laws of the World: free fall against the integrator's analytic solution, momentum
+// through collisions, restitution, the controller rule, and that nothing leaves a closed room.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/snapshot.h"
+#include "sim/world.h"
+
+namespace lockroll::sim {
+namespace {
+
+double d(Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
+Fixed fx(const char* text) { return *Fixed::parse(text); }
+
+BodyDesc sphere(Vec3 pos, Vec3 vel, const char* radius, const char* mass) {
+    BodyDesc b;
+    b.shape = Shape::Sphere;
+    b.position = pos;
+    b.velocity = vel;
+    b.radius = fx(radius);
+    b.mass = fx(mass);
+    return b;
+}
+
+Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
+
+TEST(World, FreeFallMatchesSemiImplicitEulerClosedForm) {
+    SceneDesc s;
+    s.bodies.push_back(sphere(v3("0", "100", "0"), v3("1.5", "2", "0"), "0.5", "1"));
+    World w(s);
+    const double g = -9.81, dt = 1.0 / 60.0, y0 = 100, vy0 = 2, vx0 = 1.5;
+    for (int n = 1; n <= 120; ++n) {  // 2 s
+        w.step({});
+        // Semi-implicit Euler: v_n = v0 + n g dt; x_n = x0 + n v0 dt + g dt^2 n(n+1)/2.
+        const double vy = vy0 + n * g * dt;
+        const double y = y0 + n * vy0 * dt + g * dt * dt * n * (n + 1) / 2.0;
+        ASSERT_NEAR(d(w.velocity(0).y), vy, 1e-6) << "frame " << n;
+        ASSERT_NEAR(d(w.position(0).y), y, 1e-6) << "frame " << n;
+        ASSERT_NEAR(d(w.position(0).x), n * vx0 * dt, 1e-6) << "frame " << n;
+    }
+    // The continuous solution differs by the integrator's O(dt) error: g dt t / 2 ~ 0.16 m at 2 s.
+    const double t = 2.0, continuous = y0 + vy0 * t + g * t * t / 2;
+    EXPECT_NEAR(d(w.position(0).y), continuous, 0.2);
+    EXPECT_EQ(w.overflow_count(), 0u);
+}
+
+TEST(World, HeadOnElasticSpheresSwapVelocitiesAndConserveMomentum) {
+    SceneDesc s;
+    s.gravity = {};
+    s.bodies.push_back(sphere(v3("-1", "0", "0"), v3("5", "0", "0"), "0.5", "1"));
+    s.bodies.push_back(sphere(v3("1", "0", "0"), v3("-10", "0", "0"), "0.5", "1"));
+    World w(s);
+    const std::int64_t p0 = w.velocity(0).x.raw + w.velocity(1).x.raw;
+    for (int n = 0; n < 30; ++n) w.step({});
+    // Equal masses, e = 1 (sphere-sphere rule): they exchange velocities.
+    EXPECT_NEAR(d(w.velocity(0).x), -10.0, 1e-5);
+    EXPECT_NEAR(d(w.velocity(1).x), 5.0, 1e-5);
+    // Equal masses: the impulse is applied with identical rounding to both, so momentum is exact.
+    EXPECT_EQ(w.velocity(0).x.raw + w.velocity(1).x.raw, p0);
+    EXPECT_EQ(w.velocity(0).y.raw, 0);
+    EXPECT_EQ(w.velocity(1).z.raw, 0);
+}
+
+TEST(World, MomentumConservedWithUnequalMasses) {
+    SceneDesc s;
+    s.gravity = {};
+    s.bodies.push_back(sphere(v3("-1", "0.1", "0"), v3("3", "0", "0"), "0.5", "2"));
+    s.bodies.push_back(sphere(v3("1", "-0.1", "0.05"), v3("-1", "0", "0"), "0.5", "5"));
+    World w(s);
+    auto momentum = [&](auto axis) {
+        return axis(w.velocity(0)) * 2.0 + axis(w.velocity(1)) * 5.0;
+    };
+    auto mx = [](const Vec3& v) { return d(v.x); };
+    auto my = [](const Vec3& v) { return d(v.y); };
+    const double px = momentum(mx), py = momentum(my);
+    for (int n = 0; n < 60; ++n) w.step({});
+    ASSERT_NE(d(w.velocity(0).y), 0.0) << "the collision must have happened off-axis";
+    // Each impulse is rounded separately per body: a few ulps per contact.
+    EXPECT_NEAR(momentum(mx), px, 1e-7);
+    EXPECT_NEAR(momentum(my), py, 1e-7);
+}
+
+TEST(World, SphereOnStaticBoxBouncesWithRestitutionPointEight) {
+    SceneDesc s;
+    s.gravity = {};
+    BodyDesc floor;
+    floor.shape = Shape::Box;
+    floor.position = v3("0", "-1", "0");
+    floor.half_extents = v3("10", "1", "10");
+    floor.mass = Fixed::zero();
+    s.bodies.push_back(floor);
+    s.bodies.push_back(sphere(v3("0", "0.6", "0"), v3("0", "-6", "0"), "0.5", "1"));
+    World w(s);
+    for (int n = 0; n < 10; ++n) w.step({});
+    EXPECT_NEAR(d(w.velocity(1).y), 4.8, 1e-6);  // box-sphere rule e = 0.8
+    EXPECT_EQ(w.position(0), floor.position) << "static bodies never move";
+}
+
+TEST(World, PerBodyRestitutionOverridesTable) {
+    SceneDesc s;
+    s.gravity = {};
+    BodyDesc floor;
+    floor.shape = Shape::Box;
+    floor.position = v3("0", "-1", "0");
+    floor.half_extents = v3("10", "1", "10");
+    s.bodies.push_back(floor);
+    BodyDesc ball = sphere(v3("0", "0.6", "0"), v3("0", "-6", "0"), "0.5", "1");
+    ball.restitution = Fixed::zero();
+    s.bodies.push_back(ball);
+    World w(s);
+    for (int n = 0; n < 10; ++n) w.step({});
+    EXPECT_EQ(w.velocity(1).y.raw, 0);  // e = 0: the approach velocity is removed exactly
+}
+
+TEST(World, CapsuleStandsOnFloorAndSpheresBounceOffIt) {
+    SceneDesc s;
+    BodyDesc floor;
+    floor.shape = Shape::Box;
+    floor.position = v3("0", "-1", "0");
+    floor.half_extents = v3("10", "1", "10");
+    s.bodies.push_back(floor);
+    BodyDesc cap;
+    cap.shape = Shape::Capsule;
+    cap.position = v3("0", "1.2", "0");
+    cap.radius = fx("0.4");
+    cap.half_height = fx("0.5");
+    cap.mass = fx("5");
+    s.bodies.push_back(cap);
+    s.bodies.push_back(sphere(v3("-2", "1.2", "0"), v3("4", "0", "0"), "0.2", "1"));
+    s.gravity = {};
+    World w(s);
+    for (int n = 0; n < 60; ++n) w.step({});
+    EXPECT_LT(d(w.velocity(2).x), 0.0) << "the sphere bounced off the capsule's side";
+    EXPECT_GT(d(w.velocity(1).x), 0.0) << "and pushed it";
+}
+
+TEST(World, BoxesStackWithoutSinking) {
+    SceneDesc s;
+    BodyDesc floor;
+    floor.shape = Shape::Box;
+    floor.position = v3("0", "-1", "0");
+    floor.half_extents = v3("10", "1", "10");
+    s.bodies.push_back(floor);
+    for (int k = 0; k < 3; ++k) {
+        BodyDesc b;
+        b.shape = Shape::Box;
+        b.half_extents = v3("0.5", "0.5", "0.5");
+        b.position = {Fixed::zero(), Fixed::from_raw(Fixed::kOne / 2 + k * Fixed::kOne), Fixed::zero()};
+        b.mass = Fixed::one();
+        s.bodies.push_back(b);
+    }
+    World w(s);
+    for (int n = 0; n < 300; ++n) w.step({});
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(d(w.position(static_cast<BodyId>(1 + k)).y), 0.5 + k, 0.02);
+}
+
+TEST(World, ControllerReachesTargetSpeedAtTheDocumentedRate) {
+    SceneDesc s;
+    s.gravity = {};
+    BodyDesc p = sphere(v3("0", "0", "0"), v3("0", "0", "0"), "0.5", "1");
+    p.player = 0;
+    s.bodies.push_back(p);
+    World w(s);
+    const PlayerInput full{127, -127, 0};
+    const PlayerInput in[1] = {full};
+    w.step(in);
+    // acceleration 40 m/s^2 * dt per frame toward the 6 m/s target; dt is 1/60 rounded to Q32.32.
+    EXPECT_EQ(w.velocity(0).z, Fixed::from_int(40) * w.dt());
+    EXPECT_EQ(w.velocity(0).x, -(Fixed::from_int(40) * w.dt()));
+    EXPECT_NEAR(d(w.velocity(0).z), 40.0 / 60.0, 1e-8);
+    for (int n = 0; n < 20; ++n) w.step(in);
+    EXPECT_NEAR(d(w.velocity(0).z), 6.0, 1e-8);
+    EXPECT_NEAR(d(w.velocity(0).x), -6.0, 1e-8);
+    // -128 is clamped to -127: same result as -127.
+    World w2(s);
+    const PlayerInput m128[1] = {PlayerInput{-128, 0, 0}};
+    const PlayerInput m127[1] = {PlayerInput{-127, 0, 0}};
+    World w3(s);
+    w2.step(m128);
+    w3.step(m127);
+    EXPECT_EQ(w2.velocity(0), w3.velocity(0));
+}
+
+TEST(World, NothingLeavesAClosedRoom) {
+    SceneDesc s;
+    add_room(s, v3("-3", "0", "-3"), v3("3", "3", "3"), Fixed::one());
+    SpawnerDesc sp;
+    sp.count = 40;
+    sp.radius = fx("0.2");
+    sp.region_min = v3("-3", "0", "-3");
+    sp.region_max = v3("3", "3", "3");
+    sp.max_speed = fx("8");
+    sp.seed = 3;
+    expand_spawner(s, sp);
+    World w(s);
+    for (int n = 0; n < 600; ++n) {
+        w.step({});
+        for (BodyId id : w.dynamic_ids()) {
+            const Vec3& p = w.position(id);
+            ASSERT_TRUE(abs(p.x) <= fx("3") && abs(p.z) <= fx("3") && p.y.raw >= 0 && p.y <= fx("3"))
+                << "body " << id << " escaped at frame " << n;
+        }
+    }
+    EXPECT_EQ(w.overflow_count(), 0u);
+}
+
+TEST(World, SaturationIsCountedInState) {
+    SceneDesc s;
+    s.gravity = {};
+    s.bodies.push_back(sphere(v3("2147483000", "0", "0"), v3("2147483000", "0", "0"), "1", "1"));
+    World w(s);
+    const std::uint64_t before = checksum(w);
+    w.step({});
+    EXPECT_EQ(w.position(0).x, Fixed::max());
+    EXPECT_GT(w.overflow_count(), 0u);
+    EXPECT_NE(checksum(w), before);
+}
+
+TEST(World, RejectsInvalidScenes) {
+    SceneDesc s;
+    s.bodies.push_back(sphere(v3("0", "0", "0"), v3("0", "0", "0"), "0", "1"));
+    EXPECT_THROW(World{s}, std::invalid_argument);
+    s.bodies[0].radius = Fixed::one();
+    s.bodies[0].player = 1;  // slot 0 missing
+    EXPECT_THROW(World{s}, std::invalid_argument);
+}
+
+TEST(World, BroadphasesAgreeBitForBit) {
+    // Grid and sweep-and-prune emit pairs in different (each canonical) orders, so only scenes
+    // whose contacts are isolated pairs must come out bit-identical: 20 pairs, each closing on
+    // its own, never touching a neighbour.
+    SceneDesc s;
+    s.gravity = {};
+    for (int k = 0; k < 20; ++k) {
+        const Fixed x = Fixed::from_int(k * 4);
+        s.bodies.push_back(sphere({x, Fixed::zero(), Fixed::zero()}, v3("1", "0", "0"), "0.5", "1"));
+        s.bodies.push_back(sphere({x + Fixed::from_int(2), fx("0.3"), Fixed::zero()}, v3("-1", "0", "0"), "0.5", "1"));
+    }
+    SceneDesc a = s, b = s;
+    a.broadphase = BroadphaseKind::SweepAndPrune;
+    b.broadphase = BroadphaseKind::Grid;
+    World wa(a), wb(b);
+    for (int n = 0; n < 120; ++n) {
+        wa.step({});
+        wb.step({});
+    }
+    EXPECT_EQ(checksum(wa), checksum(wb));
+    EXPECT_NE(wa.velocity(0).y.raw, 0) << "pairs must actually have collided";
+}
+
+}  // namespace
+}  // namespace lockroll::sim
