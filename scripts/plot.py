@@ -1,0 +1,321 @@
+#!/usr/bin/python3
+"""Plots for lockroll's harness outputs (matplotlib, Agg backend: no display needed).
+
+  plot.py compare DIR   reads DIR/lockstep/frames.csv and DIR/rollback/frames.csv, writes
+                        DIR/error_vs_time.png, DIR/rollback_depth.png and DIR/tick_rate.png
+  plot.py sweep DIR     reads DIR/sweep.csv, writes DIR/sweep.png
+  plot.py selftest      plots synthetic CSVs in a temporary directory and checks the results
+                        and the error reporting (run by CTest)
+
+frames.csv columns: frame,time_s,mean_error,max_error,rollback_depth,ticks_per_second
+  (one row per frame; rollback_depth 0 when that frame caused no rollback)
+sweep.csv columns:  input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,
+                    cpu_us_per_tick (one row per grid point)
+
+Bad input (missing file or column, a value that is not a number) prints a message naming the
+file, line and column and exits with status 2. PNGs are written to a temporary file in the same
+directory and renamed into place, so a reader never sees half a file.
+"""
+
+import argparse
+import csv
+import math
+import os
+import sys
+import tempfile
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.lines  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402  (after use())
+from matplotlib.ticker import MaxNLocator  # noqa: E402
+
+FRAMES_COLUMNS = ["frame", "time_s", "mean_error", "max_error", "rollback_depth", "ticks_per_second"]
+SWEEP_COLUMNS = ["input_delay", "prediction", "latency_ms", "mean_error", "max_error",
+                 "input_latency_ms", "cpu_us_per_tick"]
+MODES = ("lockstep", "rollback")
+COLORS = {"lockstep": "#1f77b4", "rollback": "#d62728"}
+# Errors span 0 .. ~1 m with interesting detail near 1e-4: a symmetric log axis shows zeros and
+# both scales; below this threshold it is linear.
+ERROR_LINTHRESH = 1e-6
+
+
+class InputError(Exception):
+    """A problem with the input files, reported to the user (exit status 2)."""
+
+
+def read_csv(path, columns):
+    """Returns {column: [float, ...]} for the required columns (extra columns are ignored)."""
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: file not found")
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        if reader.fieldnames is None:
+            raise InputError(f"{path}: empty file (expected a header line: {','.join(columns)})")
+        header = [h.strip() for h in reader.fieldnames]
+        missing = [c for c in columns if c not in header]
+        if missing:
+            raise InputError(f"{path}: missing column(s) {', '.join(missing)} "
+                             f"(header has: {','.join(header)})")
+        data = {c: [] for c in columns}
+        for row in reader:
+            row = {k.strip(): v for k, v in row.items() if k is not None}
+            for c in columns:
+                text = (row.get(c) or "").strip()
+                try:
+                    value = float(text)
+                except ValueError:
+                    raise InputError(f"{path}:{reader.line_num}: column {c}: "
+                                     f"'{text}' is not a number") from None
+                data[c].append(value)
+    if not data[columns[0]]:
+        raise InputError(f"{path}: no data rows")
+    return data
+
+
+def save(fig, path):
+    """Writes the figure atomically: temporary file in the same directory, then rename."""
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".plot-", suffix=".png", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            fig.savefig(f, format="png", dpi=120)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    finally:
+        plt.close(fig)
+    print(path)
+
+
+def summary_line(d):
+    mean = sum(d["mean_error"]) / len(d["mean_error"])
+    worst = max(d["max_error"])
+    return f"mean {mean:.3g} m, max {worst:.3g} m"
+
+
+# ---- compare --------------------------------------------------------------------------------
+
+def plot_error_vs_time(runs, out):
+    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+    for ax, column, title in ((axes[0], "mean_error", "mean positional error between clients"),
+                              (axes[1], "max_error", "max positional error between clients")):
+        for mode, d in runs.items():
+            ax.plot(d["time_s"], d[column], color=COLORS[mode], linewidth=1.0,
+                    label=f"{mode} ({summary_line(d)})" if column == "mean_error" else mode)
+        ax.set_yscale("symlog", linthresh=ERROR_LINTHRESH)
+        ax.set_ylim(bottom=0)
+        ax.set_ylabel("error (m)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="major", alpha=0.3)
+    # Rollback events as a rug under the max-error panel: where corrections happened.
+    d = runs["rollback"]
+    times = [t for t, depth in zip(d["time_s"], d["rollback_depth"]) if depth > 0]
+    if times:
+        low = axes[1].get_ylim()[0]
+        axes[1].plot(times, [low] * len(times), "|", color=COLORS["rollback"], alpha=0.5,
+                     markersize=10, label=f"rollback events ({len(times)})")
+    axes[0].legend(loc="upper left", fontsize=8)
+    axes[1].legend(loc="upper left", fontsize=8)
+    axes[1].set_xlabel("run time (s)")
+    fig.suptitle("Error against run time: lockstep vs rollback")
+    fig.tight_layout()
+    save(fig, out)
+
+
+def plot_rollback_depth(runs, out):
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    depths = [int(x) for x in runs["rollback"]["rollback_depth"] if x > 0]
+    if depths:
+        top = max(depths)
+        counts = [depths.count(k) for k in range(1, top + 1)]
+        ax.bar(range(1, top + 1), counts, color=COLORS["rollback"], edgecolor="black", linewidth=0.5)
+        mean = sum(depths) / len(depths)
+        ax.set_title(f"Rollback depth: {len(depths)} rollbacks, mean {mean:.2f}, max {top} frames",
+                     fontsize=10)
+        ax.set_xlim(0.4, top + 0.6)
+    else:
+        ax.text(0.5, 0.5, "no rollbacks", ha="center", va="center", transform=ax.transAxes)
+        ax.set_title("Rollback depth", fontsize=10)
+    lock = sum(1 for x in runs["lockstep"]["rollback_depth"] if x > 0)
+    ax.text(0.99, 0.97, f"lockstep: {lock} rollbacks", ha="right", va="top",
+            transform=ax.transAxes, fontsize=8, color=COLORS["lockstep"])
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.set_xlabel("frames resimulated per rollback")
+    ax.set_ylabel("rollbacks")
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    save(fig, out)
+
+
+def plot_tick_rate(runs, out):
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    for mode, d in runs.items():
+        rates = d["ticks_per_second"]
+        ax.plot(d["time_s"], rates, color=COLORS[mode], linewidth=1.0,
+                label=f"{mode} (mean {sum(rates) / len(rates):.1f}, min {min(rates):.1f})")
+    ax.set_xlabel("run time (s)")
+    ax.set_ylabel("ticks per second")
+    highest = max(max(d["ticks_per_second"]) for d in runs.values())
+    ax.set_ylim(0, max(highest, 1.0) * 1.1)
+    ax.set_title("Effective tick rate over time", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    save(fig, out)
+
+
+def compare(directory):
+    runs = {mode: read_csv(os.path.join(directory, mode, "frames.csv"), FRAMES_COLUMNS)
+            for mode in MODES}
+    plot_error_vs_time(runs, os.path.join(directory, "error_vs_time.png"))
+    plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"))
+    plot_tick_rate(runs, os.path.join(directory, "tick_rate.png"))
+
+
+# ---- sweep ----------------------------------------------------------------------------------
+
+def pareto(points):
+    """Points (x, y, ...) not beaten on both x and y (lower is better), sorted by x."""
+    front, best = [], math.inf
+    for p in sorted(points, key=lambda p: (p[0], p[1])):
+        if p[1] < best:
+            front.append(p)
+            best = p[1]
+    return front
+
+
+def sweep(directory):
+    path = os.path.join(directory, "sweep.csv")
+    d = read_csv(path, SWEEP_COLUMNS)
+    rows = list(zip(*(d[c] for c in SWEEP_COLUMNS)))
+    latencies = sorted(set(d["latency_ms"]))
+    cols = min(3, len(latencies))
+    nrows = math.ceil(len(latencies) / cols)
+    fig, axes = plt.subplots(nrows, cols, figsize=(5.0 * cols + 1.5, 4.4 * nrows), squeeze=False,
+                             sharey=True, constrained_layout=True)
+    cpu = d["cpu_us_per_tick"]
+    norm = matplotlib.colors.Normalize(vmin=min(cpu), vmax=max(cpu) if max(cpu) > min(cpu) else min(cpu) + 1)
+    markers = "osD^v<>ph*"
+    predictions = sorted(set(d["prediction"]))
+    top = max(d["mean_error"])
+    for i, latency in enumerate(latencies):
+        ax = axes[i // cols][i % cols]
+        pts = [r for r in rows if r[2] == latency]
+        for k, w in enumerate(predictions):
+            sel = [r for r in pts if r[1] == w]
+            ax.scatter([r[5] for r in sel], [r[3] for r in sel], c=[r[6] for r in sel], cmap="viridis",
+                       norm=norm, marker=markers[k % len(markers)], s=46, edgecolors="black",
+                       linewidths=0.4)
+            for r in sel:
+                ax.annotate(f"D{int(r[0])}", (r[5], r[3]), textcoords="offset points", xytext=(4, 3),
+                            fontsize=6, alpha=0.7)
+        front = pareto([(r[5], r[3]) for r in pts])
+        ax.step([p[0] for p in front], [p[1] for p in front], where="post", color="gray",
+                linewidth=0.8, linestyle="--")
+        ax.set_yscale("symlog", linthresh=ERROR_LINTHRESH)
+        ax.set_ylim(0, top * 4 if top > 0 else 1e-5)
+        ax.set_title(f"one-way latency {latency:g} ms", fontsize=10)
+        ax.set_xlabel("input latency (ms)")
+        if i % cols == 0:
+            ax.set_ylabel("displayed mean error (m)")
+        ax.grid(True, alpha=0.3)
+    for j in range(len(latencies), nrows * cols):
+        axes[j // cols][j % cols].set_visible(False)
+    # One legend for the shapes (colour is CPU, so legend markers are neutral grey).
+    handles = [matplotlib.lines.Line2D([], [], linestyle="", marker=markers[k % len(markers)], color="0.6",
+                                       markeredgecolor="black", markersize=7,
+                                       label="lockstep (W=0)" if w == 0 else f"prediction W={int(w)}")
+               for k, w in enumerate(predictions)]
+    handles.append(matplotlib.lines.Line2D([], [], color="gray", linestyle="--", linewidth=0.8,
+                                           label="lowest error at that input latency"))
+    axes[0][0].legend(handles=handles, fontsize=7, loc="upper right")
+    bar = fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=axes, shrink=0.9)
+    bar.set_label("CPU per tick (µs)")
+    fig.suptitle("Input delay D × prediction window W: displayed error vs input latency (colour: CPU per tick)",
+                 fontsize=11)
+    save(fig, os.path.join(directory, "sweep.png"))
+
+
+# ---- selftest -------------------------------------------------------------------------------
+
+def write_synthetic(directory):
+    """Small, deterministic CSVs in the harness's formats."""
+    import random
+    rng = random.Random(1)
+    for mode in MODES:
+        os.makedirs(os.path.join(directory, mode), exist_ok=True)
+        with open(os.path.join(directory, mode, "frames.csv"), "w") as f:
+            f.write(",".join(FRAMES_COLUMNS) + "\n")
+            for frame in range(240):
+                depth = rng.choice([0, 0, 0, 1, 2, 5]) if mode == "rollback" else 0
+                worst = rng.expovariate(20) if depth else 0.0
+                f.write(f"{frame},{frame / 60:.6f},{worst / 50:.6g},{worst:.6g},{depth},"
+                        f"{60 - rng.random() * (0.5 if mode == 'rollback' else 0.1):.3f}\n")
+    with open(os.path.join(directory, "sweep.csv"), "w") as f:
+        f.write(",".join(SWEEP_COLUMNS) + "\n")
+        for latency in (28.5, 57.0, 150.0):
+            for delay in range(5):
+                for window in (0, 2, 8):
+                    short = max(0, math.ceil(latency / 16.7) - delay)
+                    error = 0.0 if window == 0 else 1e-5 * short * short
+                    f.write(f"{delay},{window},{latency},{error:.6g},{error * 100:.6g},"
+                            f"{(delay + (short if window == 0 else 0)) * 16.7:.2f},{20 + 5 * min(window, short)}\n")
+
+
+def selftest():
+    failures = []
+    with tempfile.TemporaryDirectory(prefix="lockroll-plot-") as directory:
+        write_synthetic(directory)
+        if main(["compare", directory]) != 0 or main(["sweep", directory]) != 0:
+            failures.append("plotting synthetic CSVs failed")
+        for name in ("error_vs_time.png", "rollback_depth.png", "tick_rate.png", "sweep.png"):
+            path = os.path.join(directory, name)
+            if not os.path.isfile(path):
+                failures.append(f"{name}: not written")
+                continue
+            with open(path, "rb") as f:
+                if f.read(8) != b"\x89PNG\r\n\x1a\n":
+                    failures.append(f"{name}: not a PNG")
+        leftovers = [n for n in os.listdir(directory) if n.startswith(".plot-")]
+        if leftovers:
+            failures.append(f"temporary files left behind: {leftovers}")
+        # Bad input: a clear message and status 2, never a traceback.
+        with open(os.path.join(directory, "rollback", "frames.csv"), "a") as f:
+            f.write("240,4.0,oops,0,0,60\n")
+        if main(["compare", directory]) != 2:
+            failures.append("a non-numeric value was not rejected with status 2")
+        os.remove(os.path.join(directory, "sweep.csv"))
+        if main(["sweep", directory]) != 2:
+            failures.append("a missing sweep.csv was not rejected with status 2")
+    for f in failures:
+        print(f"selftest: FAIL: {f}", file=sys.stderr)
+    print("selftest: " + ("FAILED" if failures else "ok"))
+    return 1 if failures else 0
+
+
+def main(argv):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("compare", help="lockstep vs rollback plots").add_argument("dir")
+    sub.add_parser("sweep", help="trade-off surface of a sweep").add_argument("dir")
+    sub.add_parser("selftest", help="check the plots on synthetic data")
+    args = parser.parse_args(argv)
+    if args.command == "selftest":
+        return selftest()
+    if not os.path.isdir(args.dir):
+        print(f"plot.py {args.command}: {args.dir}: not a directory", file=sys.stderr)
+        return 2
+    try:
+        compare(args.dir) if args.command == "compare" else sweep(args.dir)
+    except InputError as e:
+        print(f"plot.py {args.command}: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,67 @@
+// A datagram transport with time passed in: the one interface sessions use to move bytes, so
+// the same session code runs over the in-process simulated network (virtual time, reproducible)
+// and over real UDP (ENet).
+//
+// Contract
+//  - Unreliable datagrams: a send may be lost, duplicated or reordered; a datagram that arrives
+//    arrives whole. Reliability (resending inputs until acknowledged) is the session's job.
+//  - Time is a uint64 count of microseconds supplied by the caller. A Transport never reads the
+//    wall clock to decide anything; its only randomness is a private generator seeded explicitly.
+//  - Peers are named by value ids (PeerId), never by pointers or addresses.
+//  - Input from the network never asserts or throws: malformed or unexpected traffic is dropped
+//    and counted. Programming errors in configuration throw std::invalid_argument.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace lockroll::transport {
+
+using PeerId = std::uint32_t;
+using Micros = std::uint64_t;
+
+// Every transport accepts datagrams up to this size: one datagram then fits a 1280-byte IPv6
+// minimum MTU (and any Ethernet path) after IP, UDP and ENet headers, so nothing fragments.
+inline constexpr std::size_t kMaxDatagramBytes = 1200;
+
+struct Datagram {
+    PeerId from = 0;
+    // When the datagram became deliverable: the simulated network's scheduled arrival time, or
+    // for real transports the `now` of the receive call that first saw it.
+    Micros time_us = 0;
+    std::vector<std::uint8_t> bytes;
+};
+
+// Monotonic counters since the transport was created. "sent" counts datagrams the transport
+// accepted (a lost one still counts as sent: it left the sender).
+struct TransportCounters {
+    std::uint64_t datagrams_sent = 0;
+    std::uint64_t bytes_sent = 0;         // payload bytes only; see docs/network-model.md for headers
+    std::uint64_t datagrams_received = 0;
+    std::uint64_t bytes_received = 0;
+    std::uint64_t dropped = 0;            // accepted sends that never reached the wire or were lost
+    std::uint64_t duplicated = 0;         // extra copies the network made of this endpoint's sends
+    std::uint64_t rejected = 0;           // refused sends (unknown peer, too large) + bad traffic
+};
+
+class Transport {
+public:
+    virtual ~Transport() = default;
+
+    virtual PeerId local_id() const = 0;
+
+    // Queues one datagram for `to`. Returns false (and counts `rejected`) when the transport
+    // cannot even try: unknown or unconnected peer, the local id itself, or more than
+    // kMaxDatagramBytes. true does not mean it will arrive.
+    virtual bool send(PeerId to, std::span<const std::uint8_t> bytes, Micros now) = 0;
+
+    // Moves the next datagram deliverable by `now` into `out` (reusing out.bytes' capacity) and
+    // returns true; false when nothing is deliverable yet. Call until false each tick.
+    virtual bool receive(Datagram& out, Micros now) = 0;
+
+    virtual const TransportCounters& counters() const = 0;
+};
+
+}  // namespace lockroll::transport
