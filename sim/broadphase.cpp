@@ -14,13 +14,6 @@ std::int64_t sat(i128 v) {
     return v > INT64_MAX ? INT64_MAX : v < INT64_MIN ? INT64_MIN : static_cast<std::int64_t>(v);
 }
 
-std::uint32_t hash_cell(std::int64_t x, std::int64_t y, std::int64_t z) {
-    const auto h = static_cast<std::uint64_t>(x) * 0x9E3779B185EBCA87ull ^
-                   static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full ^
-                   static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ull;
-    return static_cast<std::uint32_t>(h >> 32);
-}
-
 std::int64_t largest_axis(const Vec3& e) { return std::max({e.x.raw, e.y.raw, e.z.raw}); }
 }  // namespace
 
@@ -36,7 +29,7 @@ Broadphase::Box Broadphase::make_box(const Vec3& p, const Vec3& e, std::int64_t 
 }
 
 void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids, std::vector<BodyId> static_ids,
-                           const std::vector<Vec3>& extent, Fixed margin) {
+                           const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, Fixed margin) {
     dynamic_ = std::move(dynamic_ids);
     static_ = std::move(static_ids);
     margin_ = margin;
@@ -59,6 +52,29 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
     cell_shift_ = 0;
     while ((std::uint64_t{1} << cell_shift_) < need && cell_shift_ < 62) ++cell_shift_;
     for (BodyId id : dynamic_) (largest_axis(extent[id]) > typical ? oversize_ : gridded_).push_back(id);
+
+    // Bounds: everything static plus every body's starting box.
+    Box bounds = make_box(pos[dynamic_[0]], extent[dynamic_[0]], margin.raw);
+    auto grow = [&](const Box& b) {
+        for (int k = 0; k < 3; ++k) {
+            bounds.lo[k] = std::min(bounds.lo[k], b.lo[k]);
+            bounds.hi[k] = std::max(bounds.hi[k], b.hi[k]);
+        }
+    };
+    for (BodyId id : dynamic_) grow(make_box(pos[id], extent[id], margin.raw));
+    for (BodyId id : static_) grow(make_box(pos[id], extent[id], 0));
+    // Coarsen until the grid has at most ~16 cells per body (memory and clearing cost).
+    const std::uint64_t max_cells = std::max<std::uint64_t>(4096, 64 * gridded_.size());
+    for (;;) {
+        std::uint64_t cells = 1;
+        for (int k = 0; k < 3; ++k) {
+            origin_[k] = bounds.lo[k] >> cell_shift_;
+            dims_[k] = (bounds.hi[k] >> cell_shift_) - origin_[k] + 1;
+            cells *= static_cast<std::uint64_t>(dims_[k]);
+        }
+        if (cells <= max_cells || cell_shift_ >= 62) break;
+        ++cell_shift_;
+    }
 }
 
 void Broadphase::find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out) {
@@ -101,27 +117,24 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
 }
 
 void Broadphase::grid(std::vector<BodyPair>& out) {
-    std::size_t table = 16;
-    while (table < 2 * gridded_.size()) table <<= 1;
-    const auto mask = static_cast<std::uint32_t>(table - 1);
-    if (cell_.size() < box_.size()) {
-        cell_.resize(box_.size());
-        bucket_.resize(box_.size());
-    }
-    bucket_start_.assign(table + 1, 0);
+    const std::int64_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
+    const auto cells = static_cast<std::size_t>(nx * ny * nz);
+    auto coord = [&](BodyId id, int k) {
+        return std::clamp((box_[id].lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1);
+    };
+    if (cell_of_.size() < box_.size()) cell_of_.resize(box_.size());
+    cell_start_.assign(cells + 1, 0);
     for (BodyId id : gridded_) {
-        const Cell c{box_[id].lo[0] >> cell_shift_, box_[id].lo[1] >> cell_shift_, box_[id].lo[2] >> cell_shift_};
-        cell_[id] = c;
-        bucket_[id] = hash_cell(c.x, c.y, c.z) & mask;
-        ++bucket_start_[bucket_[id] + 1];
+        cell_of_[id] = static_cast<std::uint32_t>((coord(id, 2) * ny + coord(id, 1)) * nx + coord(id, 0));
+        ++cell_start_[cell_of_[id] + 1];
     }
-    for (std::size_t b = 1; b <= table; ++b) bucket_start_[b] += bucket_start_[b - 1];
-    bucket_items_.resize(gridded_.size());
-    // Stable fill in ascending id order, so each bucket lists its bodies by id; the cursor pass
-    // shifts the offsets by one bucket, which the loop after it undoes.
-    for (BodyId id : gridded_) bucket_items_[bucket_start_[bucket_[id]]++] = id;
-    for (std::size_t b = table; b > 0; --b) bucket_start_[b] = bucket_start_[b - 1];
-    bucket_start_[0] = 0;
+    for (std::size_t c = 1; c <= cells; ++c) cell_start_[c] += cell_start_[c - 1];
+    cell_items_.resize(gridded_.size());
+    // Stable fill in ascending id order, so each cell lists its bodies by id; the fill advances
+    // each cell's start to the next cell's, which the shift afterwards undoes.
+    for (BodyId id : gridded_) cell_items_[cell_start_[cell_of_[id]]++] = id;
+    for (std::size_t c = cells; c > 0; --c) cell_start_[c] = cell_start_[c - 1];
+    cell_start_[0] = 0;
 
     // Each unordered pair of neighbouring cells is visited once: the own cell (ids above ours)
     // plus the 13 neighbours that are "forward" in (z, y, x) lexicographic order.
@@ -129,16 +142,18 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
                                             {0, -1, 1}, {1, -1, 1}, {-1, 0, 1}, {0, 0, 1},   {1, 0, 1},
                                             {-1, 1, 1}, {0, 1, 1},  {1, 1, 1}};
     for (BodyId a : gridded_) {
-        const Cell c = cell_[a];
         const Box& ba = box_[a];
-        for (int k = -1; k < 13; ++k) {
-            const Cell n = k < 0 ? c : Cell{c.x + kForward[k][0], c.y + kForward[k][1], c.z + kForward[k][2]};
-            const std::uint32_t bucket = k < 0 ? bucket_[a] : (hash_cell(n.x, n.y, n.z) & mask);
-            for (std::uint32_t s = bucket_start_[bucket]; s < bucket_start_[bucket + 1]; ++s) {
-                const BodyId b = bucket_items_[s];
-                if (k < 0 && b <= a) continue;
-                const Cell& cb = cell_[b];
-                if (cb.x != n.x || cb.y != n.y || cb.z != n.z) continue;  // another cell, same bucket
+        const std::int64_t cx = coord(a, 0), cy = coord(a, 1), cz = coord(a, 2);
+        for (std::uint32_t s = cell_start_[cell_of_[a]]; s < cell_start_[cell_of_[a] + 1]; ++s) {
+            const BodyId b = cell_items_[s];
+            if (b > a && overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
+        }
+        for (const auto& f : kForward) {
+            const std::int64_t x = cx + f[0], y = cy + f[1], z = cz + f[2];
+            if (x < 0 || x >= nx || y < 0 || y >= ny || z >= nz) continue;
+            const auto c = static_cast<std::size_t>((z * ny + y) * nx + x);
+            for (std::uint32_t s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
+                const BodyId b = cell_items_[s];
                 if (overlap(ba, box_[b])) out.push_back(a < b ? BodyPair{a, b} : BodyPair{b, a});
             }
         }

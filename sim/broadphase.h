@@ -20,8 +20,9 @@ struct BodyPair {
 class Broadphase {
 public:
     // ids must be ascending; extent[id] is each body's AABB half size (fixed for its life).
+    // pos gives the initial positions, from which the grid's bounds are taken.
     void configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids, std::vector<BodyId> static_ids,
-                   const std::vector<Vec3>& extent, Fixed margin);
+                   const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, Fixed margin);
 
     void find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out);
 
@@ -55,15 +56,18 @@ private:
     // insertion sort cheap; the sorted result does not depend on the previous order.
     std::vector<BodyId> order_;
 
-    // Uniform grid: cell edge 2^cell_shift_ raw units, at least the fattened AABB of every
-    // gridded body, so overlapping bodies sit in the same or adjacent cells (by min corner).
-    // The edge follows the 95th-percentile body so one big body cannot coarsen the grid.
+    // Uniform dense grid over the scene's bounds (static geometry and initial bodies): cell
+    // edge 2^cell_shift_ raw units, at least the fattened AABB of every gridded body, so
+    // overlapping bodies sit in the same or adjacent cells (by min corner). The edge follows
+    // the 95th-percentile body so one big body cannot coarsen the grid. Bodies outside the
+    // bounds are clamped into the border cells: clamping keeps neighbours neighbours, so it
+    // only costs extra tests, never a missed pair.
     int cell_shift_ = 0;
-    std::vector<std::uint32_t> bucket_start_;  // counting-sort offsets, size table + 1
-    std::vector<BodyId> bucket_items_;
-    struct Cell { std::int64_t x, y, z; };
-    std::vector<Cell> cell_;  // by body id
-    std::vector<std::uint32_t> bucket_;  // by body id
+    std::int64_t origin_[3] = {0, 0, 0};
+    std::int64_t dims_[3] = {1, 1, 1};
+    std::vector<std::uint32_t> cell_start_;  // counting-sort offsets per cell, size cells + 1
+    std::vector<BodyId> cell_items_;         // gridded bodies ordered by cell, then id
+    std::vector<std::uint32_t> cell_of_;     // linear cell index by body id
 };
 
 }  // namespace lockroll::sim

@@ -1,6 +1,7 @@
 #include "sim/scene.h"
 
 #include <set>
+#include <unordered_map>
 
 #include "sim/rng.h"
 
@@ -69,7 +70,18 @@ Fixed bounding_radius(const SpawnerDesc& s) {
 void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
     SplitMix64 rng(s.seed);
     const Fixed r = bounding_radius(s);
-    const std::size_t first = scene.bodies.size();
+    const Fixed reach = r + r;
+    const u128 reach_sq = static_cast<u128>(static_cast<i128>(reach.raw) * reach.raw);
+    // Accepted positions bucketed by cells of edge >= 2r, so the overlap test looks at 27
+    // cells instead of every earlier body. Whether a spot is clear is an AND over neighbours,
+    // independent of the map's iteration order, so the result stays deterministic.
+    int shift = 0;
+    while (shift < 62 && (std::int64_t{1} << shift) < reach.raw) ++shift;
+    auto cell_key = [&](std::int64_t cx, std::int64_t cy, std::int64_t cz) {
+        return (static_cast<std::uint64_t>(cx) * 0x9E3779B97F4A7C15ull) ^
+               (static_cast<std::uint64_t>(cy) * 0xC2B2AE3D27D4EB4Full) ^ (static_cast<std::uint64_t>(cz) * 0x165667B1ull);
+    };
+    std::unordered_map<std::uint64_t, std::vector<Vec3>> cells;
     constexpr int kTries = 64;
     for (int n = 0; n < s.count; ++n) {
         BodyDesc b;
@@ -84,14 +96,21 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
             b.position = {uniform(rng, s.region_min.x + r, s.region_max.x - r),
                           uniform(rng, s.region_min.y + r, s.region_max.y - r),
                           uniform(rng, s.region_min.z + r, s.region_max.z - r)};
+            const std::int64_t cx = b.position.x.raw >> shift, cy = b.position.y.raw >> shift,
+                               cz = b.position.z.raw >> shift;
             bool clear = true;
-            // Quadratic, but only at load time and only against this spawner's own bodies.
-            for (std::size_t k = first; k < scene.bodies.size() && clear; ++k) {
-                const Vec3 d = scene.bodies[k].position - b.position;
-                const Fixed reach = r + r;
-                clear = length_sq_wide(d) >= static_cast<u128>(static_cast<i128>(reach.raw) * reach.raw);
+            for (int dz = -1; dz <= 1 && clear; ++dz)
+                for (int dy = -1; dy <= 1 && clear; ++dy)
+                    for (int dx = -1; dx <= 1 && clear; ++dx) {
+                        auto it = cells.find(cell_key(cx + dx, cy + dy, cz + dz));
+                        if (it == cells.end()) continue;
+                        for (const Vec3& other : it->second)
+                            if (length_sq_wide(other - b.position) < reach_sq) { clear = false; break; }
+                    }
+            if (clear || attempt + 1 == kTries) {
+                cells[cell_key(cx, cy, cz)].push_back(b.position);
+                break;
             }
-            if (clear) break;
         }
         b.velocity = {uniform(rng, -s.max_speed, s.max_speed), uniform(rng, -s.max_speed, s.max_speed),
                       uniform(rng, -s.max_speed, s.max_speed)};

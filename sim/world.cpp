@@ -53,7 +53,7 @@ World::World(const SceneDesc& scene) : scene_(scene) {
         if (b.player >= 0) player_body_[static_cast<std::size_t>(b.player)] = id;
     }
     controller_ = ControllerFactors::from(scene.controller, dt_);
-    broadphase_.configure(scene.broadphase, dynamic_, static_, extent_, scene.contact_margin);
+    broadphase_.configure(scene.broadphase, dynamic_, static_, pos_, extent_, scene.contact_margin);
     // Whatever scene construction saturated is part of the initial state.
     overflow_count_ = 0;
 }
