@@ -1,6 +1,7 @@
 #include "sim/fixed.h"
 
 #include <algorithm>
+#include <vector>
 
 namespace lockroll::sim {
 
@@ -73,7 +74,8 @@ std::uint64_t isqrt_round(u128 n) {
     const std::uint64_t r = isqrt_floor(n);
     // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
     const u128 r2 = static_cast<u128>(r) * r;
-    return (n - r2 > r) ? r + 1 : r;
+    // r == 2^64 - 1 can only round up to 2^64, which does not fit: saturate instead of wrapping.
+    return (n - r2 > r && r != UINT64_MAX) ? r + 1 : r;
 }
 
 Fixed sqrt(Fixed a) {
@@ -84,12 +86,57 @@ Fixed sqrt(Fixed a) {
 
 Fixed reciprocal(Fixed a) { return Fixed::one() / a; }
 
+namespace {
+// Unsigned big integers in base-2^32 limbs, least significant first, no leading zero limbs:
+// just what exact decimal parsing needs.
+using Big = std::vector<std::uint32_t>;
+
+void mul_add_small(Big& b, std::uint32_t m, std::uint32_t add) {
+    std::uint64_t carry = add;
+    for (auto& limb : b) {
+        const std::uint64_t t = std::uint64_t{limb} * m + carry;
+        limb = static_cast<std::uint32_t>(t);
+        carry = t >> 32;
+    }
+    if (carry) b.push_back(static_cast<std::uint32_t>(carry));
+}
+
+int compare(const Big& a, const Big& b) {
+    if (a.size() != b.size()) return a.size() < b.size() ? -1 : 1;
+    for (std::size_t k = a.size(); k-- > 0;)
+        if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+    return 0;
+}
+
+void subtract(Big& a, const Big& b) {  // a -= b, requires a >= b
+    std::int64_t borrow = 0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        const std::int64_t t = std::int64_t{a[k]} - borrow - (k < b.size() ? std::int64_t{b[k]} : 0);
+        borrow = t < 0;
+        a[k] = static_cast<std::uint32_t>(t + (borrow << 32));
+    }
+    while (!a.empty() && a.back() == 0) a.pop_back();
+}
+
+void shift_left_1(Big& b) {
+    std::uint32_t carry = 0;
+    for (auto& limb : b) {
+        const std::uint32_t next = limb >> 31;
+        limb = (limb << 1) | carry;
+        carry = next;
+    }
+    if (carry) b.push_back(carry);
+}
+}  // namespace
+
 std::optional<Fixed> Fixed::parse(std::string_view s) {
     std::size_t i = 0;
     bool negative = false;
     if (i < s.size() && (s[i] == '+' || s[i] == '-')) negative = s[i++] == '-';
-    // Collect the significant digits into an integer mantissa; `scale` counts decimal places.
-    u128 mantissa = 0;
+    // Collect the significant digits into an exact integer mantissa; `scale` counts decimal
+    // places. The mantissa is a big integer because to_string() writes up to 42 digits
+    // (10 integer + 32 fraction) and those must parse back exactly.
+    Big mantissa;
     int digits = 0, scale = 0;
     bool any_digit = false, seen_point = false;
     for (; i < s.size(); ++i) {
@@ -101,13 +148,11 @@ std::optional<Fixed> Fixed::parse(std::string_view s) {
         }
         if (c < '0' || c > '9') break;
         any_digit = true;
-        if (mantissa == 0 && c == '0') {  // leading zeros are not significant
-            if (seen_point) ++scale;
-            continue;
-        }
-        if (++digits > 36) return std::nullopt;
-        mantissa = mantissa * 10 + static_cast<unsigned>(c - '0');
-        if (seen_point) ++scale;
+        // Only leading zeros can make scale large; capping it keeps the value (zero) and the int.
+        if (seen_point && scale < 100000) ++scale;
+        if (mantissa.empty() && c == '0') continue;  // leading zeros are not significant
+        if (++digits > kMaxSignificantDigits) return std::nullopt;
+        mul_add_small(mantissa, 10, static_cast<std::uint32_t>(c - '0'));
     }
     if (!any_digit) return std::nullopt;
     int exponent = 0;
@@ -119,88 +164,47 @@ std::optional<Fixed> Fixed::parse(std::string_view s) {
         for (; i < s.size(); ++i) {
             if (s[i] < '0' || s[i] > '9') return std::nullopt;
             exponent = exponent * 10 + (s[i] - '0');
-            if (exponent > 400) return std::nullopt;
+            if (exponent > kMaxExponent) return std::nullopt;
         }
         if (eneg) exponent = -exponent;
     }
     if (i != s.size()) return std::nullopt;
-    if (mantissa == 0) return zero();
+    if (mantissa.empty()) return zero();
 
     // value = mantissa * 10^(exponent - scale). Bring it to an exact integer ratio num/den and
-    // round num * 2^32 / den once. Magnitudes beyond the range are rejected early.
-    int e10 = exponent - scale;
+    // round num * 2^32 / den once. Magnitudes far outside the range are decided early.
+    const int e10 = exponent - scale;
     if (e10 > 10) return std::nullopt;  // >= 1e11 > 2^31 for any non-zero mantissa
-    // Exact big-integer arithmetic in base 2^32 limbs keeps this simple and exact for up to
-    // 36 digits and exponents down to -400 (where the result rounds to zero).
-    // We compute num = mantissa * 10^max(e10,0) * 2^32 and den = 10^max(-e10,0) as limb vectors.
-    using Big = std::basic_string<std::uint32_t>;
-    auto from_u128 = [](u128 v) {
-        Big b;
-        while (v) { b.push_back(static_cast<std::uint32_t>(v)); v >>= 32; }
-        return b;
-    };
-    auto mul_small = [](Big& b, std::uint32_t m) {
-        std::uint64_t carry = 0;
-        for (auto& limb : b) {
-            const std::uint64_t t = std::uint64_t{limb} * m + carry;
-            limb = static_cast<std::uint32_t>(t);
-            carry = t >> 32;
-        }
-        if (carry) b.push_back(static_cast<std::uint32_t>(carry));
-    };
-    auto compare = [](const Big& a, const Big& b) {
-        if (a.size() != b.size()) return a.size() < b.size() ? -1 : 1;
-        for (std::size_t k = a.size(); k-- > 0;)
-            if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-        return 0;
-    };
-    auto sub = [](Big& a, const Big& b) {  // a -= b, requires a >= b
-        std::int64_t borrow = 0;
-        for (std::size_t k = 0; k < a.size(); ++k) {
-            std::int64_t t = std::int64_t{a[k]} - borrow - (k < b.size() ? std::int64_t{b[k]} : 0);
-            borrow = t < 0;
-            a[k] = static_cast<std::uint32_t>(t + (borrow << 32));
-        }
-        while (!a.empty() && a.back() == 0) a.pop_back();
-    };
-    auto shl1 = [](Big& b) {
-        std::uint32_t carry = 0;
-        for (auto& limb : b) {
-            const std::uint32_t next = limb >> 31;
-            limb = (limb << 1) | carry;
-            carry = next;
-        }
-        if (carry) b.push_back(carry);
-    };
+    // mantissa < 10^64, so e10 <= -75 means value < 1e-11, under half an ulp (1.16e-10).
+    if (e10 <= -75) return zero();
 
-    Big num = from_u128(mantissa);
+    Big num = mantissa;
     num.insert(num.begin(), 0u);  // * 2^32
-    for (int k = 0; k < e10; ++k) mul_small(num, 10);
+    for (int k = 0; k < e10; ++k) mul_add_small(num, 10, 0);
     Big den{1u};
-    for (int k = 0; k < -e10; ++k) mul_small(den, 10);
+    for (int k = 0; k < -e10; ++k) mul_add_small(den, 10, 0);
 
     // Long division num / den, bit by bit: the quotient is below 2^64 for accepted values.
     const int num_bits = static_cast<int>(num.size()) * 32;
     Big rem;
     u128 q = 0;
     for (int bit = num_bits - 1; bit >= 0; --bit) {
-        shl1(rem);
-        if ((num[bit / 32] >> (bit % 32)) & 1u) {
+        shift_left_1(rem);
+        if ((num[static_cast<std::size_t>(bit / 32)] >> (bit % 32)) & 1u) {
             if (rem.empty()) rem.push_back(1u); else rem[0] |= 1u;
         }
         q <<= 1;
-        if (compare(rem, den) >= 0) { sub(rem, den); q |= 1; }
+        if (compare(rem, den) >= 0) { subtract(rem, den); q |= 1; }
         if (q >> 70) return std::nullopt;  // far out of range
     }
     // Round to nearest, ties to even: compare 2*rem with den.
-    shl1(rem);
+    shift_left_1(rem);
     const int c = compare(rem, den);
     if (c > 0 || (c == 0 && (q & 1))) ++q;
     const u128 limit = negative ? (u128{1} << 63) : (u128{1} << 63) - 1;
     if (q > limit) return std::nullopt;
-    const auto mag = static_cast<std::int64_t>(q == (u128{1} << 63) ? 0 : q);
-    if (negative) return from_raw(q == (u128{1} << 63) ? INT64_MIN : -mag);
-    return from_raw(mag);
+    if (negative) return from_raw(q == (u128{1} << 63) ? INT64_MIN : -static_cast<std::int64_t>(q));
+    return from_raw(static_cast<std::int64_t>(q));
 }
 
 std::string Fixed::to_string() const {

@@ -45,9 +45,14 @@ struct Fixed {
     // num/den correctly rounded (ties to even); den == 0 saturates and counts.
     static Fixed ratio(std::int64_t num, std::int64_t den);
     // Exact decimal text ("-12.5", "3", "1e-3", "2.5E+2") to the nearest Q32.32 value, ties to
-    // even. Returns nullopt for malformed text, more than 36 significant digits, or a value
-    // outside the range (parsing is input validation: it never saturates).
+    // even. Returns nullopt for malformed text (the whole text must be the number: no spaces,
+    // no hex, inf or nan), more than kMaxSignificantDigits significant digits (leading zeros do
+    // not count, trailing ones do), an exponent beyond +-kMaxExponent, or a value whose rounding
+    // lies outside the range (parsing is input validation: it never saturates). Every
+    // to_string() output parses back exactly.
     static std::optional<Fixed> parse(std::string_view text);
+    static constexpr int kMaxSignificantDigits = 64;  // any Q32.32 value needs at most 42
+    static constexpr int kMaxExponent = 400;
 
     // Shortest-enough decimal rendering for messages and logs (exact: 32 fractional bits need at
     // most 32 decimal digits; trailing zeros are trimmed).
@@ -120,7 +125,9 @@ inline Fixed clamp(Fixed v, Fixed lo, Fixed hi) { return min(max(v, lo), hi); }
 
 // floor(sqrt(n)) for any unsigned 128-bit n (exact).
 std::uint64_t isqrt_floor(u128 n);
-// sqrt(n) rounded to nearest (no ties are possible for integers).
+// sqrt(n) rounded to nearest (no ties are possible for integers). The only unrepresentable
+// result, 2^64 for n > (2^64 - 1)^2 + 2^64 - 1, saturates to 2^64 - 1 (not counted: callers
+// pass at most 3 * 2^126).
 std::uint64_t isqrt_round(u128 n);
 
 // Square root, correctly rounded. Negative input gives 0 and counts as an overflow.

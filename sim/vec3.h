@@ -20,23 +20,40 @@ inline Vec3 operator*(Fixed s, const Vec3& a) { return a * s; }
 inline Vec3& operator+=(Vec3& a, const Vec3& b) { return a = a + b; }
 inline Vec3& operator-=(Vec3& a, const Vec3& b) { return a = a - b; }
 
-// Sum of exact products in Q64.64, saturating only if the i128 sum itself would overflow.
-inline i128 dot_wide(const Vec3& a, const Vec3& b) {
+// Sum of exact products in Q64.64. Returns false, with *out saturated to +-(2^127 - 1), when a
+// partial sum leaves the i128 range. The total is then at least 2^126 in magnitude (a third
+// product is at most 2^126), so far beyond Fixed's range either way, with the partial's sign.
+inline bool dot_wide_checked(const Vec3& a, const Vec3& b, i128* out) {
+    constexpr i128 kWideMax = static_cast<i128>(~u128{0} >> 1);
     i128 s = static_cast<i128>(a.x.raw) * b.x.raw;
     i128 t;
     if (__builtin_add_overflow(s, static_cast<i128>(a.y.raw) * b.y.raw, &t)) {
-        note_overflow();
-        return s > 0 ? (~u128{0} >> 1) : -static_cast<i128>(~u128{0} >> 1);
+        *out = s > 0 ? kWideMax : -kWideMax;
+        return false;
     }
     if (__builtin_add_overflow(t, static_cast<i128>(a.z.raw) * b.z.raw, &s)) {
-        note_overflow();
-        return t > 0 ? (~u128{0} >> 1) : -static_cast<i128>(~u128{0} >> 1);
+        *out = t > 0 ? kWideMax : -kWideMax;
+        return false;
     }
+    *out = s;
+    return true;
+}
+
+// a.b in Q64.64, saturating (and counting) only if the i128 sum itself would overflow.
+inline i128 dot_wide(const Vec3& a, const Vec3& b) {
+    i128 s;
+    if (!dot_wide_checked(a, b, &s)) note_overflow();
     return s;
 }
 
+// a.b correctly rounded; a saturated result counts as exactly one overflow event.
 inline Fixed dot(const Vec3& a, const Vec3& b) {
-    return saturate_i128(round_shift(dot_wide(a, b), Fixed::kFracBits));
+    i128 s;
+    if (!dot_wide_checked(a, b, &s)) {
+        note_overflow();
+        return s > 0 ? Fixed::max() : Fixed::min();
+    }
+    return saturate_i128(round_shift(s, Fixed::kFracBits));
 }
 
 // |v|^2 in Q64.64 (exact, never overflows: 3 * 2^126 < 2^128).

@@ -1,0 +1,187 @@
+#!/usr/bin/env bash
+# Cross-compiler / cross-architecture determinism check.
+#
+# Builds the golden runner (tests/golden/golden_main.cpp + sim/*.cpp + harness/scene_loader.cpp)
+# with every compiler, optimisation level and CPU below and compares its output, line by line,
+# with tests/golden/checksums.txt. Any difference is a determinism bug: the simulation must give
+# the same bits everywhere.
+#
+#   target       compiler                          run
+#   gcc-O0       g++ -O0                           native
+#   gcc-O3       g++ -O3                           native
+#   clang14-O0   clang++-14 -O0                    native
+#   clang14-O3   clang++-14 -O3                    native
+#   aarch64      aarch64-linux-gnu-g++ -O2 -static qemu-aarch64 (64-bit ARM, little-endian)
+#   s390x        s390x-linux-gnu-g++ -O2 -static   qemu-s390x   (IBM Z, big-endian)
+#
+# Usage: scripts/cross-check.sh [--targets a,b,...] [--jobs N] [--keep] [--regenerate]
+#   --targets     run only these targets (default: all)
+#   --jobs N      compile up to N sources at once (default 2)
+#   --keep        keep the work directory (binaries, outputs) and print its path
+#   --regenerate  rewrite tests/golden/checksums.txt from the gcc-O3 build first, then check
+#                 the other targets against it (after an intended change to the simulation)
+#
+# Exit status: 0 all targets match; 1 a target differs (its name and first differing line are
+# printed); 2 bad usage; 3 a compiler, emulator or header is missing (CTest reports the test as
+# skipped); 4 a build or a run fails.
+# Needs (Debian 12): g++, clang-14, g++-aarch64-linux-gnu, g++-s390x-linux-gnu, qemu-user,
+# nlohmann-json3-dev, libxxhash-dev, libcli11-dev. Works from a fresh clone: no CMake build used.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+golden="$root/tests/golden/checksums.txt"
+all_targets=(gcc-O0 gcc-O3 clang14-O0 clang14-O3 aarch64 s390x)
+targets=("${all_targets[@]}")
+jobs=2
+keep=0
+regenerate=0
+
+usage() { sed -n '/^# Usage:/,/^# Exit status/p' "$0" | sed 's/^# \{0,1\}//' >&2; exit 2; }
+while [[ $# -gt 0 ]]; do
+    case "$1" in
+        --targets) [[ $# -ge 2 ]] || usage; IFS=, read -r -a targets <<<"$2"; shift 2 ;;
+        --jobs) [[ $# -ge 2 && "$2" =~ ^[1-9][0-9]*$ ]] || usage; jobs=$2; shift 2 ;;
+        --keep) keep=1; shift ;;
+        --regenerate) regenerate=1; shift ;;
+        -h|--help) usage ;;
+        *) echo "cross-check: unknown argument '$1'" >&2; usage ;;
+    esac
+done
+for t in "${targets[@]}"; do
+    [[ " ${all_targets[*]} " == *" $t "* ]] || { echo "cross-check: unknown target '$t' (known: ${all_targets[*]})" >&2; exit 2; }
+done
+if [[ $regenerate -eq 1 ]]; then  # gcc-O3 writes the golden file, so it goes first
+    rest=()
+    for t in "${targets[@]}"; do [[ $t == gcc-O3 ]] || rest+=("$t"); done
+    targets=(gcc-O3 "${rest[@]}")
+fi
+
+# target -> compiler, flags, runner
+compiler_of() {
+    case "$1" in
+        gcc-*) echo g++ ;;
+        clang14-*) echo clang++-14 ;;
+        aarch64) echo aarch64-linux-gnu-g++ ;;
+        s390x) echo s390x-linux-gnu-g++ ;;
+    esac
+}
+flags_of() {
+    case "$1" in
+        *-O0) echo "-O0" ;;
+        *-O3) echo "-O3" ;;
+        aarch64|s390x) echo "-O2" ;;
+    esac
+}
+link_flags_of() { case "$1" in aarch64|s390x) echo "-static" ;; esac; }
+runner_of() { case "$1" in aarch64) echo qemu-aarch64 ;; s390x) echo qemu-s390x ;; esac; }
+package_of() {
+    case "$1" in
+        g++) echo g++ ;; clang++-14) echo clang-14 ;;
+        aarch64-linux-gnu-g++) echo g++-aarch64-linux-gnu ;; s390x-linux-gnu-g++) echo g++-s390x-linux-gnu ;;
+        qemu-*) echo qemu-user ;;
+    esac
+}
+
+missing=0
+for t in "${targets[@]}"; do
+    for tool in "$(compiler_of "$t")" $(runner_of "$t"); do
+        if ! command -v "$tool" >/dev/null; then
+            echo "cross-check: $t needs '$tool' (Debian package $(package_of "$tool"))" >&2
+            missing=1
+        fi
+    done
+done
+# Header-only dependencies, handed to every compiler through one directory of symlinks so that
+# cross compilers never see the host's /usr/include.
+headers=(/usr/include/nlohmann /usr/include/xxhash.h /usr/include/CLI)
+for h in "${headers[@]}"; do
+    [[ -e "$h" ]] || { echo "cross-check: missing $h (install nlohmann-json3-dev, libxxhash-dev, libcli11-dev)" >&2; missing=1; }
+done
+[[ $missing -eq 0 ]] || exit 3
+[[ $regenerate -eq 1 || -f "$golden" ]] || { echo "cross-check: no golden file $golden (run with --regenerate)" >&2; exit 3; }
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/lockroll-cross.XXXXXX")
+if [[ $keep -eq 1 ]]; then echo "cross-check: work directory $work"; else trap 'rm -rf "$work"' EXIT; fi
+mkdir -p "$work/include"
+for h in "${headers[@]}"; do ln -s "$h" "$work/include/$(basename "$h")"; done
+
+sources=("$root"/sim/*.cpp "$root/harness/scene_loader.cpp" "$root/tests/golden/golden_main.cpp")
+common=(-std=c++20 -ffp-contract=off -fno-fast-math -w -I"$root" -I"$work/include")
+
+now() { date +%s.%N; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.1f", b - a }'; }
+
+# Builds target $1 into $work/$1/golden; compiles sources in parallel (up to $jobs at once).
+build() {
+    local t=$1 dir="$work/$1" cxx flags
+    cxx=$(compiler_of "$t"); flags=$(flags_of "$t")
+    mkdir -p "$dir"
+    local pids=() objs=() i=0 failed=0
+    for src in "${sources[@]}"; do
+        local obj="$dir/$i.o"; i=$((i + 1)); objs+=("$obj")
+        "$cxx" "${common[@]}" $flags -c "$src" -o "$obj" 2>"$obj.log" &
+        pids+=($!)
+        if [[ ${#pids[@]} -ge $jobs ]]; then wait "${pids[0]}" || failed=1; pids=("${pids[@]:1}"); fi
+    done
+    for p in "${pids[@]}"; do wait "$p" || failed=1; done
+    if [[ $failed -ne 0 ]]; then cat "$dir"/*.log >&2; return 1; fi
+    "$cxx" $flags "${objs[@]}" $(link_flags_of "$t") -o "$dir/golden" 2>"$dir/link.log" || { cat "$dir/link.log" >&2; return 1; }
+}
+
+# Prints the first differing data line between golden file $1 and output $2, if any.
+first_difference() {
+    awk 'FNR == 1 { f++ } /^#/ || /^$/ { next } f == 1 { w[++n] = $0; next } { g[++m] = $0 }
+         END {
+           k = (n > m) ? n : m
+           for (i = 1; i <= k; i++) {
+             a = (i <= n) ? w[i] : "(end of file)"; b = (i <= m) ? g[i] : "(no output)"
+             if (a != b) { printf "data line %d: expected \"%s\", got \"%s\"", i, a, b; exit }
+           }
+         }' "$1" "$2"
+}
+
+start=$(now)
+status=0
+declare -A result
+for t in "${targets[@]}"; do
+    t0=$(now)
+    if ! build "$t"; then
+        echo "cross-check: $t: build failed" >&2
+        exit 4
+    fi
+    t1=$(now)
+    out="$work/$t/output.txt"
+    # shellcheck disable=SC2046
+    if ! $(runner_of "$t") "$work/$t/golden" --scene-dir "$root/harness/scenes" >"$out" 2>"$work/$t/stderr.txt"; then
+        echo "cross-check: $t: golden runner failed:" >&2
+        cat "$work/$t/stderr.txt" >&2
+        exit 4
+    fi
+    t2=$(now)
+    if [[ $regenerate -eq 1 && $t == gcc-O3 ]]; then
+        {
+            echo "# Golden checksums: \`scene frame checksum\` from tests/golden/golden_main.cpp (scripted"
+            echo "# inputs, see docs/determinism.md). Every compiler and CPU must reproduce these lines;"
+            echo "# regenerate only after an intended simulation change: scripts/cross-check.sh --regenerate"
+            cat "$out"
+        } >"$golden.tmp.$$"
+        mv "$golden.tmp.$$" "$golden"
+        echo "cross-check: regenerated $golden from $t ($(grep -vc '^#' "$golden") lines)"
+    fi
+    diff=$(first_difference "$golden" "$out")
+    if [[ -z "$diff" ]]; then
+        result[$t]="match"
+        printf 'cross-check: %-11s match   (build %ss, run %ss)\n' "$t" "$(elapsed "$t0" "$t1")" "$(elapsed "$t1" "$t2")"
+    else
+        result[$t]="MISMATCH"
+        printf 'cross-check: %-11s MISMATCH at %s\n' "$t" "$diff" >&2
+        status=1
+    fi
+done
+total=$(elapsed "$start" "$(now)")
+if [[ $status -eq 0 ]]; then
+    echo "cross-check: all ${#targets[@]} targets reproduce $(grep -vc '^#' "$golden") golden checksums (${total}s)"
+else
+    echo "cross-check: FAILED: $(for t in "${targets[@]}"; do [[ ${result[$t]} == match ]] || printf '%s ' "$t"; done)differ from $golden (${total}s)" >&2
+fi
+exit $status

@@ -1,0 +1,125 @@
+// Golden checksum runner: runs every shipped scene with a scripted input pattern and prints
+// `scene frame checksum` lines. The same program, compiled by every compiler, optimisation
+// level and CPU in scripts/cross-check.sh, must print exactly tests/golden/checksums.txt;
+// the CTest test `golden_checksums` holds the normal build to the same file.
+//
+// It compiles from sim/*.cpp, harness/scene_loader.cpp and this file alone, with header-only
+// nlohmann-json, xxHash and CLI11, so cross compilers need no libraries.
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "harness/hex.h"
+#include "harness/scene_loader.h"
+#include "sim/snapshot.h"
+#include "sim/world.h"
+
+namespace {
+
+using lockroll::sim::PlayerInput;
+
+// The scripted input of player `slot` for the step from `frame` to frame + 1: a pure integer
+// function, so it is the same everywhere. Slots are phase-shifted by 40 frames so that players
+// differ; the stick sweeps -1/0/+1 every second (forward) and every 0.75 s (right), and "up"
+// is held for 10 frames every 3 s.
+PlayerInput scripted_input(std::uint32_t frame, int slot) {
+    const std::int64_t t = static_cast<std::int64_t>(frame) + 40 * static_cast<std::int64_t>(slot);
+    PlayerInput in;
+    in.forward = static_cast<std::int8_t>(127 * ((t / 60) % 3 - 1));
+    in.right = static_cast<std::int8_t>(100 * ((t / 45) % 3 - 1));
+    in.up = static_cast<std::int8_t>(t % 180 < 10 ? 127 : 0);
+    return in;
+}
+
+struct GoldenScene {
+    const char* name;
+    std::vector<std::uint32_t> frames;  // ascending; checksum printed after reaching each
+};
+
+// bodies_10k stops at frame 60 to keep the slowest target (-O0 under qemu) quick.
+const std::vector<GoldenScene> kScenes = {
+    {"paper", {0, 1, 60, 240, 720}},
+    {"bodies_1k", {0, 1, 60, 240, 720}},
+    {"bodies_10k", {0, 1, 60}},
+};
+
+void run(const GoldenScene& g, const std::string& scene_dir, std::ostream& out) {
+    const std::string where = scene_dir.empty() ? std::string(g.name) : scene_dir + "/" + g.name + ".json";
+    lockroll::sim::World world(lockroll::harness::load_scene(where));
+    std::vector<PlayerInput> inputs(static_cast<std::size_t>(world.player_count()));
+    for (std::uint32_t target : g.frames) {
+        while (world.frame() < target) {
+            for (int p = 0; p < world.player_count(); ++p)
+                inputs[static_cast<std::size_t>(p)] = scripted_input(world.frame(), p);
+            world.step(inputs);
+        }
+        out << g.name << ' ' << world.frame() << ' ' << lockroll::harness::hex16(lockroll::sim::checksum(world)) << '\n';
+    }
+}
+
+bool selected(const std::vector<std::string>& only, const std::string& scene) {
+    return only.empty() || std::find(only.begin(), only.end(), scene) != only.end();
+}
+
+// Non-comment lines, restricted to the selected scenes (the first word of a line).
+std::vector<std::string> data_lines(std::istream& in, const std::vector<std::string>& only) {
+    std::vector<std::string> lines;
+    for (std::string line; std::getline(in, line);)
+        if (!line.empty() && line[0] != '#' && selected(only, line.substr(0, line.find(' ')))) lines.push_back(line);
+    return lines;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"Prints `scene frame checksum` for the shipped scenes under a scripted input pattern"};
+    std::string scene_dir, check_path;
+    std::vector<std::string> only;
+    app.add_option("--scene-dir", scene_dir, "Directory holding <scene>.json (default: the usual scene search)");
+    app.add_option("--check", check_path, "Compare with this golden file instead of printing; exit 1 on a difference")
+        ->check(CLI::ExistingFile);
+    app.add_option("--only", only, "Run only these scenes")
+        ->check(CLI::IsMember([] {
+            std::vector<std::string> names;
+            for (const auto& g : kScenes) names.emplace_back(g.name);
+            return names;
+        }()));
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);  // prints help or the error
+        return code == 0 ? 0 : 2;
+    }
+
+    std::ostringstream out;
+    try {
+        for (const auto& g : kScenes)
+            if (selected(only, g.name)) run(g, scene_dir, out);
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "golden_main: %s\n", e.what());
+        return 2;
+    }
+    if (check_path.empty()) {
+        std::fputs(out.str().c_str(), stdout);
+        return 0;
+    }
+    std::ifstream golden_file(check_path);
+    std::istringstream got_stream(out.str());
+    const auto want = data_lines(golden_file, only), got = data_lines(got_stream, only);
+    for (std::size_t i = 0; i < std::max(want.size(), got.size()); ++i) {
+        const std::string w = i < want.size() ? want[i] : "(end of file)", g = i < got.size() ? got[i] : "(no output)";
+        if (w != g) {
+            std::fprintf(stderr, "golden checksum mismatch at data line %zu of %s:\n  expected: %s\n  got:      %s\n",
+                         i + 1, check_path.c_str(), w.c_str(), g.c_str());
+            return 1;
+        }
+    }
+    std::printf("%zu golden checksums match %s\n", got.size(), check_path.c_str());
+    return 0;
+}
