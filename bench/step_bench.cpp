@@ -94,8 +94,26 @@ void BM_ChecksumPaper(benchmark::State& state) {
     for (auto _ : state) benchmark::DoNotOptimize(sim::checksum(w));
 }
 
+// What a rollback of depth 8 costs the session: load the snapshot, then 8 steps each followed by
+// the save and checksum the ring buffer and desync detector need.
+void BM_Rollback8Paper(benchmark::State& state) {
+    sim::World w = warmed(harness::load_scene("paper"), 120);
+    const std::vector<sim::PlayerInput> in(2, sim::PlayerInput{60, -40, 0});
+    std::vector<std::vector<std::uint8_t>> ring(9, std::vector<std::uint8_t>(sim::snapshot_size(w)));
+    sim::save(w, ring[0]);
+    for (auto _ : state) {
+        benchmark::DoNotOptimize(sim::load(w, ring[0]));
+        for (int f = 1; f <= 8; ++f) {
+            w.step(in);
+            sim::save(w, ring[static_cast<std::size_t>(f)]);
+            benchmark::DoNotOptimize(sim::checksum(w));
+        }
+    }
+}
+
 }  // namespace
 
+BENCHMARK(BM_Rollback8Paper)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepPaper);
 BENCHMARK(BM_StepBallsOnly);
 BENCHMARK(BM_StepBallsPlusIdleFeatures);

@@ -1,0 +1,484 @@
+#include "harness/match.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+
+#include "harness/atomic_file.h"
+#include "harness/cli_error.h"
+#include "rollback/session.h"
+#include "rollback/world_simulation.h"
+#include "sim/rng.h"
+#include "transport/sim_network.h"
+
+namespace lockroll::harness {
+
+namespace {
+
+using rollback::PlayerId;
+
+// Thread CPU time: what "CPU per tick" means, unaffected by other processes on a shared box.
+std::uint64_t thread_cpu_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+transport::Micros to_us(double ms) { return static_cast<transport::Micros>(std::llround(ms * 1000.0)); }
+
+transport::LinkConditions link_for(const NetConditions& n) {
+    transport::LinkConditions l;
+    l.latency_us = to_us(n.latency_ms);
+    l.jitter_us = to_us(n.jitter_ms);
+    l.loss = n.loss;
+    l.duplicate = n.duplicate;
+    l.reorder = n.reorder;
+    if (n.burst_loss > 0) {
+        l.burst_enter = n.burst_loss;
+        l.burst_exit = 0.5;
+        l.burst_loss = 1.0;
+    }
+    return l;
+}
+
+std::vector<sim::Vec3> dynamic_positions(const sim::World& w) {
+    std::vector<sim::Vec3> out;
+    out.reserve(w.dynamic_count());
+    for (sim::BodyId id : w.dynamic_ids()) out.push_back(w.position(id));
+    return out;
+}
+
+// Inputs that changed, waiting to be seen: (player, frame) -> when made and what.
+struct PendingInput {
+    std::uint64_t made_us = 0;
+    std::array<std::uint8_t, rollback::kWorldInputSize> bytes{};
+    std::uint64_t remote_seen_mask = 0;  // clients that have shown it
+    bool local_seen = false;
+};
+
+struct Shared;
+
+class Client final : public rollback::SessionObserver {
+public:
+    Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
+           transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us);
+
+    void on_frame_simulated(const rollback::FrameSimulated& f) override;
+    void on_rollback_begin(const rollback::RollbackInfo& r) override;
+    void on_rollback_end(const rollback::RollbackInfo& r) override;
+    void on_frame_confirmed(const rollback::FrameConfirmed& f) override;
+    void on_desync_report(const rollback::DesyncReport& r) override;
+
+    std::uint64_t next_tick_us() const {
+        // Tick k at start + k / (tick_rate * (1 + drift)) seconds, computed exactly in integers.
+        const auto rate_ppm = static_cast<unsigned __int128>(1000000 + drift_ppm_);
+        return start_us_ + static_cast<std::uint64_t>(static_cast<unsigned __int128>(tick_) * 1000000u * 1000000u /
+                                                      (rate_ppm * static_cast<unsigned>(tick_rate_)));
+    }
+    void tick(std::uint64_t now);
+
+    Shared& shared_;
+    int index_;
+    int tick_rate_;
+    std::int64_t drift_ppm_;
+    std::uint64_t start_us_;
+    std::uint64_t tick_ = 0;
+    int wait_ticks_ = 0;
+    std::uint64_t now_ = 0;
+    rollback::WorldSimulation sim_;
+    Bot bot_;
+    transport::Transport& endpoint_;
+    std::unique_ptr<rollback::Session> session_;
+    sim::PlayerInput last_input_{};
+    bool have_last_input_ = false;
+    std::vector<sim::Vec3> before_rollback_;
+    std::uint64_t reached_target_us_ = 0;
+    std::uint64_t final_checksum_ = 0;
+    bool final_confirmed_ = false;
+    std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
+    std::vector<rollback::Datagram> out_;
+    transport::Datagram in_;
+};
+
+struct Shared {
+    const RunConfig& cfg;
+    int target;
+    int clients;
+    std::uint64_t start_us;
+    PositionErrorTracker positions;
+    RunResult& result;
+    std::map<std::pair<int, std::uint32_t>, PendingInput> inputs;  // (player, frame)
+    std::map<std::uint32_t, std::pair<std::uint64_t, int>> confirmed;  // frame -> (checksum, count)
+};
+
+Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
+               transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
+    : shared_(shared),
+      index_(index),
+      tick_rate_(cfg.tick_rate),
+      drift_ppm_(drift_ppm),
+      start_us_(start_us),
+      sim_(scene, cfg.players),
+      bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
+      endpoint_(endpoint) {
+    rollback::SessionConfig sc;
+    sc.players = cfg.players;
+    sc.local_player = static_cast<PlayerId>(index);
+    sc.input_size = rollback::kWorldInputSize;
+    sc.tick_rate = cfg.tick_rate;
+    sc.input_delay = input_delay;
+    sc.prediction_window = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
+    sc.checksum_interval = cfg.checksum_interval;
+    sc.cpu_clock = thread_cpu_ns;
+    session_ = std::make_unique<rollback::Session>(sc, sim_, this);
+    shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
+    shown_at_.push_back(start_us);
+}
+
+void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
+    Shared& s = shared_;
+    const sim::World& w = sim_.world();
+    if (f.frame > static_cast<std::uint32_t>(s.target)) return;
+    if (!f.resimulation) {
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, dynamic_positions(w));
+        shown_at_.push_back(now_);
+        if (index_ == 0) {
+            // Frames shown during the last second of virtual time.
+            const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
+            const auto shown = static_cast<double>(shown_at_.end() - first);
+            const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
+            s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
+        }
+    }
+    // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
+    const std::uint32_t input_frame = f.frame - 1;
+    for (int p = 0; p < s.clients; ++p) {
+        auto it = s.inputs.find({p, input_frame});
+        if (it == s.inputs.end()) continue;
+        PendingInput& pi = it->second;
+        const auto offset = static_cast<std::size_t>(p) * rollback::kWorldInputSize;
+        const bool same = std::equal(pi.bytes.begin(), pi.bytes.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(offset));
+        if (!same) continue;
+        const double ms = static_cast<double>(now_ - pi.made_us) / 1000.0;
+        if (p == index_) {
+            if (!pi.local_seen) s.result.input_latency_local.add(ms);
+            pi.local_seen = true;
+        } else if (!(pi.remote_seen_mask >> index_ & 1)) {
+            pi.remote_seen_mask |= std::uint64_t{1} << index_;
+            s.result.input_latency_remote.add(ms);
+        }
+        const std::uint64_t all_remote = ((std::uint64_t{1} << s.clients) - 1) & ~(std::uint64_t{1} << p);
+        if (pi.local_seen && pi.remote_seen_mask == all_remote) s.inputs.erase(it);
+    }
+}
+
+void Client::on_rollback_begin(const rollback::RollbackInfo&) { before_rollback_ = dynamic_positions(sim_.world()); }
+
+void Client::on_rollback_end(const rollback::RollbackInfo& r) {
+    if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
+    shared_.result.rollback_depth.add(r.depth);
+    shared_.positions.note_rollback(r.displayed_frame, r.depth);
+    if (!r.displayed_changed()) return;
+    const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
+    double jump = 0;
+    for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_rollback_[b], after[b]));
+    shared_.result.correction_jump.add(jump);
+}
+
+void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
+    if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
+    auto& entry = shared_.confirmed[f.frame];
+    if (entry.second == 0) {
+        entry.first = f.checksum;
+    } else {
+        ++shared_.result.confirmed_compared;
+        if (entry.first != f.checksum) ++shared_.result.confirmed_mismatches;
+    }
+    if (++entry.second == shared_.clients) shared_.confirmed.erase(f.frame);
+    if (index_ == 0 && shared_.cfg.record_inputs) shared_.result.confirmed_inputs.emplace_back(f.inputs.begin(), f.inputs.end());
+    if (f.frame == static_cast<std::uint32_t>(shared_.target)) {
+        final_checksum_ = f.checksum;
+        final_confirmed_ = true;
+    }
+}
+
+void Client::on_desync_report(const rollback::DesyncReport& r) {
+    DesyncRecord rec;
+    rec.client = index_;
+    rec.summary = r.summary;
+    rec.detected_frame = r.detected_frame;
+    rec.frame = r.frame;
+    rec.body = r.body_id;
+    rec.field = r.field_name;
+    if (!shared_.cfg.evidence_dir.empty() && !r.local_state.empty()) {
+        const auto path = std::filesystem::path(shared_.cfg.evidence_dir) /
+                          ("desync-client" + std::to_string(index_) + "-peer" + std::to_string(r.peer) + "-frame" +
+                           std::to_string(r.frame) + ".txt");
+        write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
+        rec.evidence_file = path.string();
+    }
+    shared_.result.desyncs.push_back(rec);
+}
+
+void Client::tick(std::uint64_t now) {
+    now_ = now;
+    while (endpoint_.receive(in_, now)) session_->receive(static_cast<PlayerId>(in_.from), in_.bytes, now);
+    RunResult& res = shared_.result;
+    // Clients keep advancing past the last frame until every client has confirmed it (the
+    // run loop stops then): the corrections that make it final happen inside advance(). Only
+    // frames up to the target are measured.
+    {
+        if (wait_ticks_ > 0) {
+            --wait_ticks_;
+        } else {
+            const std::uint32_t input_frame = session_->frame() + static_cast<std::uint32_t>(session_->input_delay());
+            const sim::PlayerInput in = bot_.input(input_frame, sim_.world());
+            const auto bytes = rollback::encode_input(in);
+            const std::uint64_t t0 = thread_cpu_ns();
+            const rollback::AdvanceResult r = session_->advance(bytes, now);
+            res.cpu_us_per_tick.add(static_cast<double>(thread_cpu_ns() - t0) / 1000.0);
+            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns) / 1000.0);
+            if (r.advanced && (!have_last_input_ || !(in == last_input_))) {
+                // An input change: measure how long until it shows, here and on every peer.
+                PendingInput& pi = shared_.inputs[{index_, input_frame}];
+                pi.made_us = now;
+                pi.bytes = bytes;
+            }
+            if (r.advanced) {
+                last_input_ = in;
+                have_last_input_ = true;
+            }
+            wait_ticks_ = r.wait_frames;
+            if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
+        }
+    }
+    out_.clear();
+    session_->poll(now, out_);
+    for (const auto& d : out_) endpoint_.send(d.peer, d.bytes, now);
+    ++tick_;
+}
+
+// Ping phase for --input-delay auto: every client pings every other every 50 ms for one second
+// of virtual time over the same links; returns the round-trip samples in ms.
+std::vector<double> measure_rtt(transport::SimNetwork& net, int clients) {
+    std::vector<double> rtts;
+    constexpr transport::Micros kInterval = 50000, kDuration = 1000000, kDrain = 2000000;
+    transport::Datagram d;
+    for (transport::Micros t = 0; t <= kDuration + kDrain; t += 1000) {
+        for (int c = 0; c < clients; ++c) {
+            transport::Transport& ep = net.endpoint(static_cast<transport::PeerId>(c));
+            while (ep.receive(d, t)) {
+                if (d.bytes.size() != 9) continue;
+                std::uint64_t sent = 0;
+                for (int i = 0; i < 8; ++i) sent |= std::uint64_t{d.bytes[static_cast<std::size_t>(1 + i)]} << (8 * i);
+                if (d.bytes[0] == 0) {  // ping: echo it back as a pong
+                    d.bytes[0] = 1;
+                    ep.send(d.from, d.bytes, t);
+                } else {
+                    rtts.push_back(static_cast<double>(t - sent) / 1000.0);
+                }
+            }
+            if (t <= kDuration && t % kInterval == 0)
+                for (int o = 0; o < clients; ++o) {
+                    if (o == c) continue;
+                    std::vector<std::uint8_t> ping(9, 0);
+                    for (int i = 0; i < 8; ++i) ping[static_cast<std::size_t>(1 + i)] = static_cast<std::uint8_t>(t >> (8 * i));
+                    ep.send(static_cast<transport::PeerId>(o), ping, t);
+                }
+        }
+        if (t > kDuration && net.in_flight() == 0) break;
+    }
+    return rtts;
+}
+
+double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    const auto k = static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(v.size())));
+    return v[std::min(v.size() - 1, k == 0 ? 0 : k - 1)];
+}
+
+}  // namespace
+
+const char* mode_name(Mode m) { return m == Mode::Lockstep ? "lockstep" : "rollback"; }
+
+void validate(const RunConfig& c) {
+    auto fail = [](const std::string& m) { throw UsageError(m); };
+    if (c.players < 2 || c.players > 16) fail("--players must be 2..16");
+    if (c.frames < 1) fail("--frames must be >= 1");
+    if (c.tick_rate < 1 || c.tick_rate > 1000) fail("--tick-rate must be 1..1000");
+    if (c.input_delay < -1 || c.input_delay > 60) fail("--input-delay must be 0..60 or auto");
+    if (c.prediction < 1 || c.prediction > 60) fail("--prediction must be 1..60 (lockstep mode uses 0 itself)");
+    if (c.checksum_interval < 1) fail("--checksum-interval must be >= 1");
+    const NetConditions& n = c.net;
+    if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
+    if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
+    for (auto [v, name] : {std::pair{n.loss, "--loss"}, {n.duplicate, "--duplicate"}, {n.reorder, "--reorder"},
+                           {n.burst_loss, "--burst-loss"}})
+        if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
+    if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
+    if (!(c.drift_ppm >= 0 && c.drift_ppm <= 10000)) fail("--drift-ppm must be 0..10000");
+    for (const auto& inj : c.injections)
+        if (inj.client < 0 || inj.client >= c.players) fail("--inject-desync: client must be 0..players-1");
+    if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
+}
+
+sim::SceneDesc with_players(const sim::SceneDesc& scene, int players) {
+    sim::SceneDesc s = scene;
+    int have = sim::player_count(s);
+    const sim::BodyDesc* last = nullptr;
+    for (const auto& b : s.bodies)
+        if (b.player == have - 1) last = &b;
+    sim::BodyDesc proto;
+    if (last) {
+        proto = *last;
+    } else {
+        proto.shape = sim::Shape::Box;
+        proto.half_extents = {*sim::Fixed::parse("0.4"), *sim::Fixed::parse("0.9"), *sim::Fixed::parse("0.4")};
+        proto.position = {sim::Fixed::zero(), *sim::Fixed::parse("0.9"), sim::Fixed::zero()};
+        proto.mass = sim::Fixed::from_int(5);
+    }
+    const sim::Fixed step = *sim::Fixed::parse("1.5");
+    for (int k = 1; have < players; ++have, ++k) {
+        sim::BodyDesc b = proto;
+        b.player = have;
+        b.velocity = {};
+        b.position.z = proto.position.z + step * static_cast<std::int64_t>(k % 2 ? (k + 1) / 2 : -(k / 2));
+        s.bodies.push_back(b);
+    }
+    return s;
+}
+
+int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate) {
+    (void)rtt_p50_ms;
+    const double frame_ms = 1000.0 / tick_rate;
+    const int lockstep = static_cast<int>(std::ceil(rtt_p95_ms / 2.0 / frame_ms)) + 1;
+    return mode == Mode::Lockstep ? lockstep : (lockstep + 1) / 2;
+}
+
+RunResult run_match(const RunConfig& cfg) {
+    validate(cfg);
+    sim::SceneDesc scene = with_players(cfg.scene, cfg.players);
+    scene.tick_rate = cfg.tick_rate;
+    if (const std::string e = sim::validate(scene); !e.empty()) throw UsageError("scene: " + e);
+
+    transport::SimNetwork net({.peers = cfg.players, .seed = cfg.seed, .link = link_for(cfg.net)});
+    RunResult res;
+    res.mode = mode_name(cfg.mode);
+    res.scene = scene.name;
+    res.bot = bot_kind_name(cfg.bot);
+    res.players = cfg.players;
+    res.frames = cfg.frames;
+    res.tick_rate = cfg.tick_rate;
+    res.prediction = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
+    res.seed = cfg.seed;
+    res.latency_ms = cfg.net.latency_ms;
+    res.jitter_ms = cfg.net.jitter_ms;
+    res.loss = cfg.net.loss;
+    res.duplicate = cfg.net.duplicate;
+    res.reorder = cfg.net.reorder;
+
+    const std::vector<double> rtts = measure_rtt(net, cfg.players);
+    res.rtt_p50_ms = percentile(rtts, 50);
+    res.rtt_p95_ms = percentile(rtts, 95);
+    res.input_delay = cfg.input_delay >= 0 ? cfg.input_delay
+                                           : auto_input_delay(cfg.mode, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate);
+    if (!cfg.evidence_dir.empty()) std::filesystem::create_directories(cfg.evidence_dir);
+
+    // The match starts after the ping phase; clients start within one tick of each other and
+    // drift by a seeded amount, so time sync has real work to do.
+    const std::uint64_t start = 4000000;
+    sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
+    const std::size_t bodies = sim::World(scene).dynamic_count();
+    Shared shared{cfg, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
+                  res, {}, {}};
+    std::vector<std::unique_ptr<Client>> clients;
+    const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
+    const auto drift_range = static_cast<std::uint64_t>(std::llround(cfg.drift_ppm));
+    for (int c = 0; c < cfg.players; ++c) {
+        const std::uint64_t offset = rng.below(tick_us);
+        const std::int64_t drift = drift_range ? static_cast<std::int64_t>(rng.below(2 * drift_range + 1)) -
+                                                     static_cast<std::int64_t>(drift_range)
+                                               : 0;
+        clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay,
+                                                   net.endpoint(static_cast<transport::PeerId>(c)), drift, start + offset));
+    }
+    for (const auto& inj : cfg.injections) {
+        const std::string e = clients[static_cast<std::size_t>(inj.client)]->session_->inject_fault(
+            inj.frame, inj.body, inj.field, inj.bit);
+        if (!e.empty()) throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) +
+                                         ":" + std::to_string(inj.body) + ": " + e);
+    }
+
+    // Stop when every client has confirmed the last frame, or at a generous time limit (a
+    // network that loses everything must end the run, reported as incomplete).
+    const std::uint64_t limit = start + static_cast<std::uint64_t>(cfg.frames) * tick_us * 10 + 30000000;
+    std::uint64_t now = start;
+    int last_progress = -1;
+    for (;;) {
+        bool all_done = true;
+        for (const auto& c : clients) all_done = all_done && c->final_confirmed_;
+        if (all_done) break;
+        Client* next = clients[0].get();
+        for (const auto& c : clients)
+            if (c->next_tick_us() < next->next_tick_us()) next = c.get();
+        now = next->next_tick_us();
+        if (now > limit) break;
+        next->tick(now);
+        if (cfg.progress && next->index_ == 0) {
+            const int shown = static_cast<int>(next->session_->frame());
+            if (shown / 60 != last_progress / 60) {
+                cfg.progress(shown, cfg.frames);
+                last_progress = shown;
+            }
+        }
+    }
+    res.completed = true;
+    res.virtual_seconds = 0;
+    // Stats count every tick, including the few after the last frame spent confirming it.
+    for (const auto& c : clients) {
+        const rollback::SessionStats& st = c->session_->stats();
+        ClientResult cr;
+        // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
+        const std::uint64_t end = c->reached_target_us_ ? c->reached_target_us_ : now;
+        const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
+        cr.frames = st.frames_advanced;
+        cr.ticks = st.ticks;
+        cr.stall_ticks = st.stall_ticks;
+        cr.time_sync_waits = st.time_sync_wait_frames;
+        // Effective tick rate: frames shown per second of the client's own running time.
+        cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
+        cr.stall_fraction = st.ticks ? static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks) : 0;
+        cr.rollbacks = st.rollbacks;
+        cr.resimulated_frames = st.resimulated_frames;
+        cr.max_rollback_depth = st.max_rollback_depth;
+        cr.bytes_sent = st.bytes_sent;
+        cr.bytes_received = st.bytes_received;
+        cr.packets_sent = st.packets_sent;
+        cr.packets_received = st.packets_received;
+        for (const auto& p : st.peers) cr.mispredictions += p.mispredictions;
+        cr.malformed_packets = st.malformed_packets;
+        cr.desyncs = st.desyncs;
+        cr.final_checksum = c->final_checksum_;
+        cr.final_confirmed = c->final_confirmed_;
+        res.completed = res.completed && c->final_confirmed_;
+        if (res.rollback_depth_histogram.size() < st.rollback_depth_histogram.size())
+            res.rollback_depth_histogram.resize(st.rollback_depth_histogram.size());
+        for (std::size_t d = 0; d < st.rollback_depth_histogram.size(); ++d)
+            res.rollback_depth_histogram[d] += st.rollback_depth_histogram[d];
+        res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
+        res.clients.push_back(cr);
+    }
+    res.position_error = shared.positions.error();
+    res.rows = shared.positions.rows();
+    res.positions_csv = shared.positions.positions_csv();
+    res.per_body_max_error = shared.positions.per_body_max();
+    return res;
+}
+
+}  // namespace lockroll::harness

@@ -1,0 +1,80 @@
+// A match: N clients, each with its own World and Session, playing one scene over the simulated
+// network, as a discrete-event simulation in virtual time. Same config and seed, same result,
+// bit for bit (CPU-time figures aside, which are measured, not simulated).
+//
+// Per client tick (client clocks run at tick_rate, each with its own drift):
+//   receive every datagram due by now -> bot input for frame()+delay -> Session::advance
+//   (skipped while time sync says wait) -> Session::poll -> send.
+// A client that has shown the last frame keeps receiving and polling until every client has
+// confirmed it, so the final checksums are of confirmed state.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "harness/bots.h"
+#include "harness/metrics.h"
+#include "sim/scene.h"
+
+namespace lockroll::harness {
+
+enum class Mode { Rollback, Lockstep };
+const char* mode_name(Mode m);
+
+struct NetConditions {
+    double latency_ms = 0;   // one-way
+    double jitter_ms = 0;    // uniform +-, per packet
+    double loss = 0;         // independent loss probability
+    double burst_loss = 0;   // probability per packet of entering a loss burst (mean length 2)
+    double duplicate = 0;
+    double reorder = 0;
+};
+
+// --inject-desync CLIENT:FRAME:BODY — flip one bit of one body on one client when it produces
+// that frame (bit 20 of position.x unless given as CLIENT:FRAME:BODY:FIELD:BIT).
+struct DesyncInjection {
+    int client = 0;
+    std::uint32_t frame = 0;
+    std::uint32_t body = 0;
+    int field = 0;
+    int bit = 20;
+};
+
+struct RunConfig {
+    sim::SceneDesc scene;
+    Mode mode = Mode::Rollback;
+    int players = 2;
+    int frames = 720;
+    int tick_rate = 60;
+    int input_delay = -1;         // frames; -1 = auto (from a measured ping phase)
+    int prediction = 8;           // window W in rollback mode (lockstep always uses 0)
+    int checksum_interval = 1;
+    NetConditions net;
+    std::uint64_t seed = 1;
+    BotKind bot = BotKind::Random;
+    double drift_ppm = 0;         // each client's clock drifts by a seeded value in [-d, +d]
+    std::vector<DesyncInjection> injections;
+    bool record_positions = false;
+    bool record_inputs = false;   // keep client 0's confirmed inputs in RunResult
+    std::string evidence_dir;     // where desync evidence files go ("" = none)
+    // Called now and then with (frames shown by client 0, target); for terminal progress.
+    std::function<void(int, int)> progress;
+};
+
+// Throws UsageError naming the option for values out of range.
+void validate(const RunConfig& config);
+
+// The scene, with player bodies added (copies of the last player body, spaced 1.5 m apart
+// along z) when the scene has fewer than `players`.
+sim::SceneDesc with_players(const sim::SceneDesc& scene, int players);
+
+// Input delay --input-delay auto picks from a measured round-trip distribution: lockstep needs
+// the 95th-percentile one-way time covered, plus one frame for tick phase; rollback takes half
+// of that (rounded up), trading a little latency for shallower rollbacks.
+int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate);
+
+RunResult run_match(const RunConfig& config);
+
+}  // namespace lockroll::harness

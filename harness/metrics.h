@@ -1,0 +1,138 @@
+// What a match measures. Doubles live here only: they are computed from fixed-point state for
+// reporting and never flow back into a simulation.
+//
+// Position error (the seed paper's metric): each client records every dynamic body's position
+// the first time it simulates a frame (forward simulation, never resimulation) — what it showed.
+// For every frame and body, the distance between client c and client 0, for c = 1..N-1, is one
+// sample. With two clients that is exactly the paper's definition.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "sim/vec3.h"
+
+namespace lockroll::harness {
+
+// Running mean / max / count of a non-negative figure, plus a p99 when samples are kept.
+struct Stat {
+    double sum = 0, max = 0;
+    std::uint64_t count = 0, nonzero = 0;
+    std::vector<double> samples;  // only when keep_samples
+    bool keep_samples = false;
+
+    void add(double v);
+    double mean() const { return count ? sum / static_cast<double>(count) : 0.0; }
+    double percentile(double p) const;  // needs keep_samples
+    static Stat keeping_samples() {
+        Stat s;
+        s.keep_samples = true;
+        return s;
+    }
+};
+
+double distance_m(const sim::Vec3& a, const sim::Vec3& b);
+
+// One row of frames.csv: error against run time.
+struct FrameRow {
+    std::uint32_t frame = 0;
+    double time_s = 0;            // virtual time client 0 first showed the frame
+    double mean_error = 0, max_error = 0;
+    std::uint32_t rollback_depth = 0;  // deepest rollback any client ended on this frame
+    double ticks_per_second = 0;  // client 0's frames shown in the last second
+};
+
+// Collects forward-simulated positions from all clients and reduces each frame as soon as
+// every client has shown it, so memory stays bounded on long runs.
+class PositionErrorTracker {
+public:
+    PositionErrorTracker(int clients, std::size_t bodies, bool keep_positions);
+    void record(int client, std::uint32_t frame, double time_s, const std::vector<sim::Vec3>& positions);
+    void note_rollback(std::uint32_t displayed_frame, std::uint32_t depth);
+    void set_tick_rate(std::uint32_t frame, double ticks_per_second);
+
+    const Stat& error() const { return error_; }
+    const std::vector<FrameRow>& rows() const { return rows_; }
+    // frame,client,body,x,y,z lines (only with keep_positions).
+    const std::string& positions_csv() const { return positions_csv_; }
+    std::vector<double> per_body_max() const { return body_max_; }
+
+private:
+    struct Pending {
+        std::vector<std::vector<sim::Vec3>> by_client;
+        std::uint32_t have = 0;
+        double time_s = 0;
+    };
+    void reduce(std::uint32_t frame, Pending& p);
+
+    int clients_;
+    std::size_t bodies_;
+    bool keep_positions_;
+    std::map<std::uint32_t, Pending> pending_;
+    std::map<std::uint32_t, std::uint32_t> rollback_depth_;
+    std::map<std::uint32_t, double> tick_rate_;
+    Stat error_;
+    std::vector<double> body_max_;
+    std::vector<FrameRow> rows_;
+    std::string positions_csv_;
+};
+
+struct ClientResult {
+    double ticks_per_second = 0;
+    double stall_fraction = 0;
+    std::uint64_t ticks = 0, frames = 0, stall_ticks = 0, time_sync_waits = 0;
+    std::uint64_t rollbacks = 0, resimulated_frames = 0;
+    std::uint32_t max_rollback_depth = 0;
+    std::uint64_t bytes_sent = 0, bytes_received = 0, packets_sent = 0, packets_received = 0;
+    std::uint64_t mispredictions = 0, malformed_packets = 0;
+    std::uint64_t desyncs = 0;
+    std::uint64_t final_checksum = 0;
+    bool final_confirmed = false;
+};
+
+struct DesyncRecord {
+    int client = 0;
+    std::string summary;
+    std::string evidence_file;
+    std::uint32_t detected_frame = 0, frame = 0, body = 0;
+    std::string field;
+};
+
+struct RunResult {
+    std::string mode, scene, bot;
+    int players = 0, frames = 0, tick_rate = 0, input_delay = 0, prediction = 0;
+    std::uint64_t seed = 0;
+    double latency_ms = 0, jitter_ms = 0, loss = 0, duplicate = 0, reorder = 0;
+    double rtt_p50_ms = 0, rtt_p95_ms = 0;  // measured in the ping phase
+    double virtual_seconds = 0;
+    bool completed = false;  // every client confirmed the last frame before the time limit
+
+    Stat position_error;
+    Stat correction_jump;      // how far a shown body moved when a rollback changed its frame
+    Stat input_latency_local;  // ms from an input change to the first frame showing it
+    Stat input_latency_remote;
+    Stat cpu_us_per_tick = Stat::keeping_samples();  // all ticks of all clients
+    Stat resim_us_per_tick;    // resimulation part, over all ticks
+    Stat rollback_depth;       // over rollbacks
+    std::vector<std::uint64_t> rollback_depth_histogram;
+    std::uint64_t confirmed_mismatches = 0, confirmed_compared = 0;
+    std::vector<DesyncRecord> desyncs;
+    std::vector<ClientResult> clients;
+    std::vector<FrameRow> rows;
+    std::string positions_csv;
+    std::vector<double> per_body_max_error;
+    // Client 0's confirmed inputs, frame by frame (players * 3 bytes each), when recorded.
+    std::vector<std::vector<std::uint8_t>> confirmed_inputs;
+
+    double ticks_per_second() const;   // mean over clients
+    double stall_fraction() const;     // mean over clients
+    double bytes_sent_per_s() const;   // mean payload per client
+    double bytes_received_per_s() const;
+    double packets_sent_per_s() const;
+    std::uint64_t rollbacks() const;
+    std::uint64_t desync_count() const;
+};
+
+}  // namespace lockroll::harness

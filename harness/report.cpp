@@ -1,0 +1,228 @@
+#include "harness/report.h"
+
+#include <cstdio>
+#include <sstream>
+
+#include "harness/atomic_file.h"
+#include "harness/hex.h"
+
+namespace lockroll::harness {
+
+namespace {
+using nlohmann::json;
+
+json stat_json(const Stat& s) { return {{"mean", s.mean()}, {"max", s.max}, {"samples", s.count}}; }
+
+std::string fmt(const char* f, double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+}  // namespace
+
+json summary_json(const RunResult& r) {
+    json finals = json::array();
+    for (const auto& c : r.clients) finals.push_back(c.final_confirmed ? json(hex16(c.final_checksum)) : json(nullptr));
+    json clients = json::array();
+    for (const auto& c : r.clients)
+        clients.push_back({{"ticks_per_second", c.ticks_per_second},
+                           {"stall_fraction", c.stall_fraction},
+                           {"frames", c.frames},
+                           {"ticks", c.ticks},
+                           {"stall_ticks", c.stall_ticks},
+                           {"time_sync_wait_frames", c.time_sync_waits},
+                           {"rollbacks", c.rollbacks},
+                           {"resimulated_frames", c.resimulated_frames},
+                           {"max_rollback_depth", c.max_rollback_depth},
+                           {"mispredictions", c.mispredictions},
+                           {"bytes_sent", c.bytes_sent},
+                           {"bytes_received", c.bytes_received},
+                           {"packets_sent", c.packets_sent},
+                           {"packets_received", c.packets_received},
+                           {"malformed_packets", c.malformed_packets},
+                           {"desyncs", c.desyncs}});
+    json desyncs = json::array();
+    for (const auto& d : r.desyncs)
+        desyncs.push_back({{"client", d.client},
+                           {"detected_frame", d.detected_frame},
+                           {"frame", d.frame},
+                           {"body", d.body},
+                           {"field", d.field},
+                           {"summary", d.summary},
+                           {"evidence_file", d.evidence_file}});
+    const double rps = r.virtual_seconds > 0 ? static_cast<double>(r.rollbacks()) / r.virtual_seconds /
+                                                   static_cast<double>(std::max<std::size_t>(1, r.clients.size()))
+                                             : 0;
+    const double pps = r.packets_sent_per_s();
+    return {
+        {"mode", r.mode},
+        {"scene", r.scene},
+        {"players", r.players},
+        {"frames", r.frames},
+        {"seed", r.seed},
+        {"bot", r.bot},
+        {"tick_rate", r.tick_rate},
+        {"network",
+         {{"latency_ms_one_way", r.latency_ms},
+          {"jitter_ms", r.jitter_ms},
+          {"loss", r.loss},
+          {"duplicate", r.duplicate},
+          {"reorder", r.reorder},
+          {"measured_rtt_ms", {{"p50", r.rtt_p50_ms}, {"p95", r.rtt_p95_ms}}}}},
+        {"completed", r.completed},
+        {"virtual_seconds", r.virtual_seconds},
+        {"ticks_per_second", r.ticks_per_second()},
+        {"stall_fraction", r.stall_fraction()},
+        {"input_delay_frames", r.input_delay},
+        {"prediction_window", r.prediction},
+        {"input_latency_ms",
+         {{"mean", r.input_latency_local.mean()},
+          {"max", r.input_latency_local.max},
+          {"samples", r.input_latency_local.count},
+          {"remote", stat_json(r.input_latency_remote)}}},
+        {"position_error",
+         {{"mean", r.position_error.mean()},
+          {"max", r.position_error.max},
+          {"nonzero", r.position_error.nonzero},
+          {"samples", r.position_error.count}}},
+        {"visual_corrections",
+         {{"count", r.correction_jump.count}, {"mean_jump_m", r.correction_jump.mean()}, {"max_jump_m", r.correction_jump.max}}},
+        {"confirmed_mismatches", r.confirmed_mismatches},
+        {"confirmed_compared", r.confirmed_compared},
+        {"desyncs", r.desync_count()},
+        {"desync_reports", desyncs},
+        {"rollbacks",
+         {{"count", r.rollbacks()},
+          {"per_second", rps},
+          {"mean_depth", r.rollback_depth.mean()},
+          {"max_depth", r.rollback_depth.max},
+          {"depth_histogram", r.rollback_depth_histogram}}},
+        {"cpu_us_per_tick",
+         {{"mean", r.cpu_us_per_tick.mean()},
+          {"p99", r.cpu_us_per_tick.percentile(99)},
+          {"resim_mean", r.resim_us_per_tick.mean()}}},
+        {"bandwidth_bytes_per_s",
+         {{"sent", r.bytes_sent_per_s()},
+          {"received", r.bytes_received_per_s()},
+          {"packets_sent_per_s", pps},
+          {"sent_with_udp_headers", r.bytes_sent_per_s() + pps * kUdpHeaderBytes},
+          {"sent_with_enet_headers", r.bytes_sent_per_s() + pps * kEnetHeaderBytes}}},
+        {"final_checksums", finals},
+        {"clients", clients},
+    };
+}
+
+std::string frames_csv(const RunResult& r) {
+    std::string out = "frame,time_s,mean_error,max_error,rollback_depth,ticks_per_second\n";
+    char line[160];
+    for (const auto& row : r.rows) {
+        std::snprintf(line, sizeof line, "%u,%.6f,%.9g,%.9g,%u,%.3f\n", row.frame, row.time_s, row.mean_error, row.max_error,
+                      row.rollback_depth, row.ticks_per_second);
+        out += line;
+    }
+    return out;
+}
+
+std::string console_summary(const RunResult& r) {
+    std::ostringstream o;
+    o << r.mode << " on " << r.scene << ", " << r.players << " players, " << r.frames << " frames, seed " << r.seed
+      << (r.completed ? "" : "  ** INCOMPLETE: not every client confirmed the last frame **") << "\n";
+    o << "  network      one-way " << r.latency_ms << " ms +-" << r.jitter_ms << " ms, loss " << r.loss << ", dup "
+      << r.duplicate << ", reorder " << r.reorder << "; measured RTT p50 " << fmt("%.1f", r.rtt_p50_ms) << " ms, p95 "
+      << fmt("%.1f", r.rtt_p95_ms) << " ms\n";
+    o << "  tick rate    " << fmt("%.2f", r.ticks_per_second()) << " ticks/s, stalls " << fmt("%.1f", 100 * r.stall_fraction())
+      << " % of ticks; input delay " << r.input_delay << " frames, window " << r.prediction << "\n";
+    o << "  input lag    local mean " << fmt("%.1f", r.input_latency_local.mean()) << " ms (max "
+      << fmt("%.1f", r.input_latency_local.max) << "), remote mean " << fmt("%.1f", r.input_latency_remote.mean()) << " ms\n";
+    o << "  error        mean " << fmt("%.3g", r.position_error.mean()) << " m, max " << fmt("%.3g", r.position_error.max)
+      << " m, non-zero " << r.position_error.nonzero << " of " << r.position_error.count << " samples\n";
+    o << "  rollbacks    " << r.rollbacks() << " (mean depth " << fmt("%.2f", r.rollback_depth.mean()) << ", max "
+      << fmt("%.0f", r.rollback_depth.max) << "), visual corrections " << r.correction_jump.count << " (max jump "
+      << fmt("%.3g", r.correction_jump.max) << " m)\n";
+    o << "  cpu          " << fmt("%.1f", r.cpu_us_per_tick.mean()) << " us/tick mean, p99 "
+      << fmt("%.1f", r.cpu_us_per_tick.percentile(99)) << " us (resimulation " << fmt("%.1f", r.resim_us_per_tick.mean())
+      << " us mean)\n";
+    o << "  bandwidth    " << fmt("%.0f", r.bytes_sent_per_s()) << " B/s payload sent per client ("
+      << fmt("%.0f", r.bytes_sent_per_s() + r.packets_sent_per_s() * kUdpHeaderBytes) << " with UDP headers)\n";
+    o << "  agreement    confirmed mismatches " << r.confirmed_mismatches << " of " << r.confirmed_compared << ", desyncs "
+      << r.desync_count() << "\n";
+    for (const auto& d : r.desyncs) o << "  DESYNC       client " << d.client << ": " << d.summary << "\n";
+    o << "  final        ";
+    for (const auto& c : r.clients) o << (c.final_confirmed ? hex16(c.final_checksum) : std::string("(none)")) << " ";
+    o << "\n";
+    return o.str();
+}
+
+void write_run(const std::filesystem::path& dir, const RunResult& r) {
+    std::filesystem::create_directories(dir);
+    write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
+    write_file_atomic(dir / "frames.csv", frames_csv(r));
+    if (!r.positions_csv.empty()) write_file_atomic(dir / "positions.csv", r.positions_csv);
+}
+
+json compare_json(const RunResult& ls, const RunResult& rb, double step_us) {
+    return {{"lockstep", summary_json(ls)},
+            {"rollback", summary_json(rb)},
+            {"physics_step_us", step_us},
+            {"paper",
+             {{"quantum_rollback",
+               {{"mean_error", PaperFigures::quantum_mean_error},
+                {"max_error", PaperFigures::quantum_max_error},
+                {"latency_ms", PaperFigures::quantum_latency_ms},
+                {"step_ms", PaperFigures::quantum_step_ms}}},
+              {"custom_lockstep", {{"mean_error", 0.0}, {"max_error", 0.0}, {"ticks_per_second", 7.0}}}}}};
+}
+
+std::string compare_markdown(const RunResult& ls, const RunResult& rb, double step_us, const std::string& plots_note) {
+    std::ostringstream o;
+    auto row = [&](const std::string& name, const std::string& a, const std::string& b, const std::string& pa,
+                   const std::string& pb) {
+        o << "| " << name << " | " << a << " | " << b << " | " << pa << " | " << pb << " |\n";
+    };
+    o << "# lockroll: lockstep vs rollback\n\n";
+    o << "Scene `" << rb.scene << "`, " << rb.players << " players, " << rb.frames << " frames at " << rb.tick_rate
+      << " Hz, seed " << rb.seed << ", bots `" << rb.bot << "`. Network: one-way latency " << rb.latency_ms << " ms ± "
+      << rb.jitter_ms << " ms jitter, loss " << rb.loss << ", duplication " << rb.duplicate << ", reordering " << rb.reorder
+      << " (measured RTT p50 " << fmt("%.1f", rb.rtt_p50_ms) << " ms, p95 " << fmt("%.1f", rb.rtt_p95_ms) << " ms).\n\n";
+    o << "| | lockroll lockstep | lockroll rollback | paper: custom lockstep | paper: Photon Quantum |\n";
+    o << "|---|---|---|---|---|\n";
+    row("ticks per second", fmt("%.2f", ls.ticks_per_second()), fmt("%.2f", rb.ticks_per_second()), "~7", "—");
+    row("stall fraction", fmt("%.3f", ls.stall_fraction()), fmt("%.3f", rb.stall_fraction()), "—", "—");
+    row("input delay (frames)", std::to_string(ls.input_delay), std::to_string(rb.input_delay), "—", "—");
+    row("input latency, local (ms)", fmt("%.1f", ls.input_latency_local.mean()), fmt("%.1f", rb.input_latency_local.mean()),
+        "—", "—");
+    row("input latency, remote (ms)", fmt("%.1f", ls.input_latency_remote.mean()),
+        fmt("%.1f", rb.input_latency_remote.mean()), "—", "—");
+    row("mean positional error (m)", fmt("%.3g", ls.position_error.mean()), fmt("%.3g", rb.position_error.mean()), "0",
+        "1.79e-4");
+    row("max positional error (m)", fmt("%.3g", ls.position_error.max), fmt("%.3g", rb.position_error.max), "0", "0.442");
+    row("non-zero error samples", std::to_string(ls.position_error.nonzero) + " / " + std::to_string(ls.position_error.count),
+        std::to_string(rb.position_error.nonzero) + " / " + std::to_string(rb.position_error.count), "0 / >30,000",
+        "160 / ~37,000");
+    row("confirmed-state mismatches", std::to_string(ls.confirmed_mismatches), std::to_string(rb.confirmed_mismatches), "—",
+        "—");
+    row("rollbacks (mean / max depth)",
+        std::to_string(ls.rollbacks()), std::to_string(rb.rollbacks()) + " (" + fmt("%.2f", rb.rollback_depth.mean()) + " / " +
+                                            fmt("%.0f", rb.rollback_depth.max) + ")",
+        "—", "—");
+    row("visual corrections (max jump m)", std::to_string(ls.correction_jump.count),
+        std::to_string(rb.correction_jump.count) + " (" + fmt("%.3g", rb.correction_jump.max) + ")", "—", "—");
+    row("CPU per tick, mean / p99 (µs)", fmt("%.1f", ls.cpu_us_per_tick.mean()) + " / " + fmt("%.1f", ls.cpu_us_per_tick.percentile(99)),
+        fmt("%.1f", rb.cpu_us_per_tick.mean()) + " / " + fmt("%.1f", rb.cpu_us_per_tick.percentile(99)), "—", "—");
+    row("physics step (µs)", fmt("%.2f", step_us), fmt("%.2f", step_us), "—", "189.8");
+    row("payload sent per client (B/s)", fmt("%.0f", ls.bytes_sent_per_s()), fmt("%.0f", rb.bytes_sent_per_s()), "—", "—");
+    row("with UDP/IPv4 headers (B/s)", fmt("%.0f", ls.bytes_sent_per_s() + ls.packets_sent_per_s() * kUdpHeaderBytes),
+        fmt("%.0f", rb.bytes_sent_per_s() + rb.packets_sent_per_s() * kUdpHeaderBytes), "—", "—");
+    row("desyncs", std::to_string(ls.desync_count()), std::to_string(rb.desync_count()), "—", "—");
+    o << "\nPositional error is the paper's metric: every dynamic body's position as each client first "
+         "showed it (forward simulation, not resimulation), compared between clients frame by frame. "
+         "Lockstep only ever shows confirmed state, so its error is zero by construction; rollback's error "
+         "comes from frames shown with predicted inputs before the real ones arrived. Confirmed-state "
+         "mismatches count frames whose final checksums differ between clients, which must be 0 in both "
+         "modes. CPU per tick is thread CPU time around the session's advance (steps, saves, checksums, "
+         "rollbacks). The physics step figure is the median of timed steps of this scene in this run.\n\n";
+    o << plots_note;
+    return o.str();
+}
+
+}  // namespace lockroll::harness

@@ -1,0 +1,38 @@
+// Turning a RunResult into what people and scripts read: summary.json, frames.csv, the
+// one-screen console summary, and the lockstep-vs-rollback comparison (compare.json, report.md).
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "harness/metrics.h"
+
+namespace lockroll::harness {
+
+// Per-packet header estimates for bandwidth on the wire (docs/network-model.md).
+inline constexpr double kUdpHeaderBytes = 28;   // IPv4 20 + UDP 8
+inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and unsequenced command
+
+nlohmann::json summary_json(const RunResult& r);
+std::string frames_csv(const RunResult& r);
+std::string console_summary(const RunResult& r);
+
+// Writes summary.json, frames.csv and (when recorded) positions.csv into dir, atomically.
+void write_run(const std::filesystem::path& dir, const RunResult& r);
+
+// The seed paper's figures, for the side-by-side table.
+struct PaperFigures {
+    static constexpr double quantum_mean_error = 0.000178853;
+    static constexpr double quantum_max_error = 0.4419556;
+    static constexpr double quantum_latency_ms = 57;
+    static constexpr double quantum_step_ms = 0.1898;
+    static constexpr double lockstep_ticks_per_second = 7;
+};
+
+nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, double step_us);
+std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, double step_us,
+                             const std::string& plots_note);
+
+}  // namespace lockroll::harness

@@ -1,0 +1,274 @@
+#include "harness/run_command.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include "harness/atomic_file.h"
+#include "harness/cli_error.h"
+#include "harness/match.h"
+#include "harness/report.h"
+#include "harness/scene_loader.h"
+#include "sim/world.h"
+
+namespace lockroll::harness {
+
+namespace {
+namespace fs = std::filesystem;
+
+struct RunOptions {
+    std::string scene = "paper";
+    std::string mode = "rollback";
+    int players = 2;
+    int frames = 720;
+    int tick_rate = 60;
+    std::string input_delay = "auto";
+    int prediction = 8;
+    int checksum_interval = 1;
+    double latency = 0, jitter = 0, loss = 0, duplicate = 0, reorder = 0, burst_loss = 0, drift_ppm = 0;
+    std::uint64_t seed = 1;
+    std::string bot = "random";
+    std::string out = "out/run";
+    bool positions = false;
+    std::vector<std::string> injections;
+};
+
+void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
+    cmd->add_option("--scene", o.scene, "Scene file or shipped scene name")->capture_default_str();
+    if (with_mode) cmd->add_option("--mode", o.mode, "rollback or lockstep")->check(CLI::IsMember({"rollback", "lockstep"}))->capture_default_str();
+    cmd->add_option("--players", o.players, "Clients (2..16); player bodies are added when the scene has fewer")
+        ->capture_default_str();
+    cmd->add_option("--frames", o.frames, "Frames every client simulates")->capture_default_str();
+    cmd->add_option("--tick-rate", o.tick_rate, "Ticks per second (also the physics rate)")->capture_default_str();
+    cmd->add_option("--input-delay", o.input_delay, "Input delay in frames, or auto (from measured RTT and jitter)")
+        ->capture_default_str();
+    cmd->add_option("--prediction", o.prediction, "Prediction window W in rollback mode")->capture_default_str();
+    cmd->add_option("--checksum-interval", o.checksum_interval, "Compare confirmed checksums every K frames")
+        ->capture_default_str();
+    cmd->add_option("--latency", o.latency, "One-way latency, ms")->capture_default_str();
+    cmd->add_option("--jitter", o.jitter, "Uniform jitter, +- ms per packet")->capture_default_str();
+    cmd->add_option("--loss", o.loss, "Packet loss probability 0..1")->capture_default_str();
+    cmd->add_option("--burst-loss", o.burst_loss, "Probability per packet of entering a loss burst 0..1")->capture_default_str();
+    cmd->add_option("--duplicate", o.duplicate, "Duplication probability 0..1")->capture_default_str();
+    cmd->add_option("--reorder", o.reorder, "Reordering probability 0..1")->capture_default_str();
+    cmd->add_option("--drift-ppm", o.drift_ppm, "Client clock drift, up to +- this many ppm each")->capture_default_str();
+    cmd->add_option("--seed", o.seed, "Seed for the network, clocks and bots")->capture_default_str();
+    cmd->add_option("--bot", o.bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
+    cmd->add_option("--out", o.out, "Output directory")->capture_default_str();
+    cmd->add_flag("--positions", o.positions, "Also write positions.csv (every body, frame and client)");
+    cmd->add_option("--inject-desync", o.injections,
+                    "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body on one client at a frame (repeatable)");
+}
+
+DesyncInjection parse_injection(const std::string& text) {
+    std::vector<long long> parts;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ':')) {
+        char* end = nullptr;
+        const long long v = std::strtoll(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0' || v < 0) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
+        parts.push_back(v);
+    }
+    if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
+    DesyncInjection d;
+    d.client = static_cast<int>(parts[0]);
+    d.frame = static_cast<std::uint32_t>(parts[1]);
+    d.body = static_cast<std::uint32_t>(parts[2]);
+    if (parts.size() == 5) {
+        if (parts[3] > 5 || parts[4] > 63) throw UsageError("--inject-desync " + text + ": FIELD is 0..5, BIT 0..63");
+        d.field = static_cast<int>(parts[3]);
+        d.bit = static_cast<int>(parts[4]);
+    }
+    return d;
+}
+
+RunConfig to_config(const RunOptions& o) {
+    RunConfig c;
+    try {
+        c.scene = load_scene(o.scene);
+    } catch (const SceneError& e) {
+        throw UsageError(e.what());
+    }
+    c.mode = o.mode == "lockstep" ? Mode::Lockstep : Mode::Rollback;
+    c.players = o.players;
+    c.frames = o.frames;
+    c.tick_rate = o.tick_rate;
+    if (o.input_delay == "auto") {
+        c.input_delay = -1;
+    } else {
+        char* end = nullptr;
+        const long v = std::strtol(o.input_delay.c_str(), &end, 10);
+        if (o.input_delay.empty() || *end != '\0' || v < 0) throw UsageError("--input-delay " + o.input_delay + ": expected a frame count or auto");
+        c.input_delay = static_cast<int>(v);
+    }
+    c.prediction = o.prediction;
+    c.checksum_interval = o.checksum_interval;
+    c.net = {o.latency, o.jitter, o.loss, o.burst_loss, o.duplicate, o.reorder};
+    c.seed = o.seed;
+    c.bot = *parse_bot_kind(o.bot);
+    c.drift_ppm = o.drift_ppm;
+    for (const auto& s : o.injections) c.injections.push_back(parse_injection(s));
+    c.record_positions = o.positions;
+    c.evidence_dir = (fs::path(o.out) / "desync").string();
+    if (::isatty(2))
+        c.progress = [tag = std::string(mode_name(c.mode))](int shown, int total) {
+            std::fprintf(stderr, "\r[%s] frame %d / %d ", tag.c_str(), shown, total);
+            if (shown >= total) std::fprintf(stderr, "\n");
+        };
+    validate(c);
+    return c;
+}
+
+// Median µs per physics step of the scene, timed here so the report compares like with like.
+double time_physics_step(const sim::SceneDesc& scene, int players) {
+    sim::World w(with_players(scene, players));
+    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(w.player_count()), sim::PlayerInput{40, -60, 0});
+    for (int f = 0; f < 60; ++f) w.step(in);
+    std::vector<double> batches;
+    for (int b = 0; b < 9; ++b) {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int f = 0; f < 100; ++f) w.step(in);
+        batches.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / 100);
+    }
+    std::nth_element(batches.begin(), batches.begin() + 4, batches.end());
+    return batches[4];
+}
+
+fs::path scripts_dir() {
+    if (const char* env = std::getenv("LOCKROLL_SCRIPTS_DIR")) return env;
+#ifdef LOCKROLL_SOURCE_SCRIPTS_DIR
+    if (fs::exists(fs::path(LOCKROLL_SOURCE_SCRIPTS_DIR) / "plot.py")) return LOCKROLL_SOURCE_SCRIPTS_DIR;
+#endif
+#ifdef LOCKROLL_INSTALL_SCRIPTS_DIR
+    return LOCKROLL_INSTALL_SCRIPTS_DIR;
+#else
+    return "scripts";
+#endif
+}
+
+// Runs scripts/plot.py; returns "" on success, else why the plots are missing.
+std::string plot(const std::string& what, const fs::path& dir) {
+    const fs::path script = scripts_dir() / "plot.py";
+    if (!fs::exists(script)) return "plot script not found at " + script.string();
+    const std::string cmd = "MPLBACKEND=Agg /usr/bin/python3 '" + script.string() + "' " + what + " '" + dir.string() + "'";
+    const int rc = std::system(cmd.c_str());
+    return rc == 0 ? "" : "plot.py exited with status " + std::to_string(rc);
+}
+
+void do_run(const RunOptions& o) {
+    const RunConfig cfg = to_config(o);
+    const RunResult r = run_match(cfg);
+    write_run(o.out, r);
+    std::printf("%s", console_summary(r).c_str());
+    std::printf("  written      %s/summary.json, frames.csv%s\n", o.out.c_str(), r.positions_csv.empty() ? "" : ", positions.csv");
+    std::fflush(stdout);
+    if (!r.completed) throw std::runtime_error("run did not complete: not every client confirmed the last frame");
+}
+
+void do_compare(const RunOptions& o) {
+    RunOptions lo = o, ro = o;
+    lo.mode = "lockstep";
+    ro.mode = "rollback";
+    lo.out = (fs::path(o.out) / "lockstep").string();
+    ro.out = (fs::path(o.out) / "rollback").string();
+    const RunConfig lcfg = to_config(lo), rcfg = to_config(ro);
+    const RunResult ls = run_match(lcfg);
+    const RunResult rb = run_match(rcfg);
+    write_run(lo.out, ls);
+    write_run(ro.out, rb);
+    const double step_us = time_physics_step(rcfg.scene, rcfg.players);
+    const std::string plot_error = plot("compare", o.out);
+    const std::string note = plot_error.empty()
+                                 ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
+                                   "![tick rate over time](tick_rate.png)\n"
+                                 : "Plots were not made: " + plot_error + "\n";
+    write_file_atomic(fs::path(o.out) / "compare.json", compare_json(ls, rb, step_us).dump(2) + "\n");
+    write_file_atomic(fs::path(o.out) / "report.md", compare_markdown(ls, rb, step_us, note));
+    std::printf("%s\n%s", console_summary(ls).c_str(), console_summary(rb).c_str());
+    std::printf("\nphysics step %.2f us (paper, Photon Quantum: 189.8 us)\n", step_us);
+    std::printf("written %s/compare.json, report.md%s\n", o.out.c_str(), plot_error.empty() ? ", *.png" : "");
+    if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
+    if (!ls.completed || !rb.completed) throw std::runtime_error("a run did not complete");
+}
+
+struct SweepOptions {
+    std::vector<int> delays{0, 1, 2, 3, 4, 6};
+    std::vector<int> windows{0, 2, 4, 8};
+    std::vector<double> latencies{15, 30, 60, 100};
+};
+
+void do_sweep(const RunOptions& base, const SweepOptions& s) {
+    std::string csv =
+        "input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,cpu_us_per_tick,ticks_per_second,"
+        "stall_fraction,rollbacks_per_second,confirmed_mismatches\n";
+    const std::size_t total = s.delays.size() * s.windows.size() * s.latencies.size();
+    std::size_t done = 0;
+    for (double lat : s.latencies)
+        for (int w : s.windows)
+            for (int d : s.delays) {
+                RunOptions o = base;
+                o.mode = w == 0 ? "lockstep" : "rollback";
+                o.prediction = w == 0 ? 8 : w;
+                o.input_delay = std::to_string(d);
+                o.latency = lat;
+                RunConfig cfg = to_config(o);
+                cfg.progress = nullptr;
+                cfg.evidence_dir.clear();
+                const RunResult r = run_match(cfg);
+                char line[320];
+                std::snprintf(line, sizeof line, "%d,%d,%g,%.9g,%.9g,%.3f,%.3f,%.3f,%.4f,%.3f,%llu\n", d, w, lat,
+                              r.position_error.mean(), r.position_error.max, r.input_latency_local.mean(),
+                              r.cpu_us_per_tick.mean(), r.ticks_per_second(), r.stall_fraction(),
+                              r.virtual_seconds > 0 ? static_cast<double>(r.rollbacks()) / r.virtual_seconds / r.players : 0.0,
+                              static_cast<unsigned long long>(r.confirmed_mismatches));
+                csv += line;
+                ++done;
+                if (::isatty(2)) std::fprintf(stderr, "\r[sweep] %zu / %zu runs ", done, total);
+            }
+    if (::isatty(2)) std::fprintf(stderr, "\n");
+    fs::create_directories(base.out);
+    write_file_atomic(fs::path(base.out) / "sweep.csv", csv);
+    const std::string plot_error = plot("sweep", base.out);
+    std::printf("written %s/sweep.csv%s\n", base.out.c_str(), plot_error.empty() ? ", sweep.png" : "");
+    if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
+}
+}  // namespace
+
+void add_run_command(CLI::App& app) {
+    auto o = std::make_shared<RunOptions>();
+    CLI::App* cmd = app.add_subcommand("run", "Run N clients in one mode over the simulated network; write DIR/summary.json");
+    add_common(cmd, *o, true);
+    cmd->callback([o] { do_run(*o); });
+}
+
+void add_compare_command(CLI::App& app) {
+    auto o = std::make_shared<RunOptions>();
+    o->out = "out/compare";
+    CLI::App* cmd = app.add_subcommand(
+        "compare", "Run lockstep and rollback on the same scene, network and seed; write DIR/report.md and plots");
+    add_common(cmd, *o, false);
+    cmd->callback([o] { do_compare(*o); });
+}
+
+void add_sweep_command(CLI::App& app) {
+    auto o = std::make_shared<RunOptions>();
+    auto s = std::make_shared<SweepOptions>();
+    o->out = "out/sweep";
+    o->frames = 600;
+    CLI::App* cmd = app.add_subcommand(
+        "sweep", "Input delay x prediction window x latency grid: error and input latency against CPU (DIR/sweep.csv)");
+    add_common(cmd, *o, false);
+    cmd->add_option("--delays", s->delays, "Input delays to try (frames)")->delimiter(',');
+    cmd->add_option("--windows", s->windows, "Prediction windows to try (0 = lockstep)")->delimiter(',');
+    cmd->add_option("--latencies", s->latencies, "One-way latencies to try (ms)")->delimiter(',');
+    cmd->callback([o, s] { do_sweep(*o, *s); });
+}
+
+}  // namespace lockroll::harness

@@ -1,0 +1,99 @@
+// What a session tells its owner while it runs: the hooks the harness measures with.
+//
+// Frame numbers are state numbers throughout rollback/: "frame n" is the state after n steps
+// (sim::World::frame() == n; frame 0 is the initial state), and "the input of frame n" is what
+// the step from frame n to n + 1 consumes. Callbacks run synchronously inside Session calls;
+// the Simulation is in the state the callback describes, so an observer may read it (positions)
+// but must not step, load or call back into the session.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rollback/player_id.h"
+
+namespace lockroll::rollback {
+
+struct FrameSimulated {
+    std::uint32_t frame = 0;       // the state the simulation now holds (>= 1)
+    bool resimulation = false;     // false: the first time this frame was simulated (forward)
+    std::uint64_t predicted_mask = 0;        // bit p: player p's input was predicted, not confirmed
+    std::span<const std::uint8_t> inputs;    // players * input_size bytes that produced `frame`
+};
+
+// A rollback re-runs frames [from_frame, displayed_frame) from the saved state from_frame.
+struct RollbackInfo {
+    std::uint32_t from_frame = 0;
+    std::uint32_t displayed_frame = 0;  // the frame on screen, before and after
+    std::uint32_t depth = 0;            // displayed_frame - from_frame
+    // Checksums of the displayed frame before and after the correction (equal when the
+    // misprediction happened not to matter); only meaningful in on_rollback_end.
+    std::uint64_t displayed_checksum_before = 0;
+    std::uint64_t displayed_checksum_after = 0;
+    bool displayed_changed() const { return displayed_checksum_before != displayed_checksum_after; }
+};
+
+// Every frame is confirmed exactly once, in order 1, 2, 3, ...: its inputs are final and its
+// state will never change again. This is what replays record and what peers compare.
+struct FrameConfirmed {
+    std::uint32_t frame = 0;
+    std::span<const std::uint8_t> inputs;  // the inputs of frame - 1, players * input_size bytes
+    std::uint64_t checksum = 0;            // Simulation::checksum of the saved state `frame`
+};
+
+// The checksums of a confirmed frame differ between this client and `peer`. Fired once per
+// peer (the first mismatch; every later one is counted in the stats), then narrowing starts.
+struct DesyncEvent {
+    PlayerId peer = 0;
+    std::uint32_t frame = 0;
+    std::uint64_t local_checksum = 0;
+    std::uint64_t remote_checksum = 0;
+};
+
+// Where narrowing ended. BodyNamed is the goal; the others say why it could not get there.
+enum class NarrowOutcome {
+    BodyNamed,        // body and field below are filled in
+    HeaderOnly,       // every body hash agrees: the difference is in the state's header
+    Unsupported,      // the simulation offers no per-body hashes
+    EvidenceMissing,  // this client or the peer no longer holds that frame's state
+    NoReply,          // the peer did not answer (gone, or in an error state)
+};
+const char* narrow_outcome_name(NarrowOutcome o);
+
+struct DesyncReport {
+    PlayerId peer = 0;
+    std::uint32_t detected_frame = 0;  // the confirmed frame whose checksums disagreed
+    std::uint32_t frame = 0;           // first frame found to differ (<= detected_frame)
+    std::uint64_t local_checksum = 0;  // at `frame`
+    std::uint64_t remote_checksum = 0;
+    NarrowOutcome outcome = NarrowOutcome::Unsupported;
+    std::uint32_t body_id = 0;         // BodyNamed: the first diverging body (lowest index)
+    int field = -1;                    // BodyNamed: its first differing field, -1 if none found
+    std::string field_name;
+    std::int64_t local_value = 0;
+    std::int64_t remote_value = 0;
+    // This client's saved state at `frame` (empty if missing), for the evidence file; render it
+    // with Simulation::describe_state. The peer writes its own side when it detects the same
+    // mismatch, so two clients' files can be diffed.
+    std::vector<std::uint8_t> local_state;
+    std::string summary;  // one line a person can read
+};
+
+class SessionObserver {
+public:
+    virtual ~SessionObserver() = default;
+    virtual void on_frame_simulated(const FrameSimulated&) {}
+    // Before a rollback loads anything: the simulation still holds the displayed frame.
+    virtual void on_rollback_begin(const RollbackInfo&) {}
+    // After resimulating back to the displayed frame: the simulation holds its corrected state.
+    virtual void on_rollback_end(const RollbackInfo&) {}
+    virtual void on_frame_confirmed(const FrameConfirmed&) {}
+    virtual void on_desync(const DesyncEvent&) {}
+    virtual void on_desync_report(const DesyncReport&) {}
+    // The peer sent too many malformed packets and is now ignored (sticky).
+    virtual void on_peer_error(PlayerId, const std::string& /*last_error*/) {}
+};
+
+}  // namespace lockroll::rollback

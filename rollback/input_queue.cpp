@@ -1,0 +1,52 @@
+#include "rollback/input_queue.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace lockroll::rollback {
+
+InputQueue::InputQueue(std::size_t input_size, std::uint32_t capacity)
+    : input_size_(input_size),
+      capacity_(capacity),
+      confirmed_(std::size_t{capacity} * input_size),
+      used_(std::size_t{capacity} * input_size),
+      used_tag_(capacity, 0) {
+    if (input_size == 0) throw std::invalid_argument("input_size must be at least 1");
+    if (capacity < 2 || (capacity & (capacity - 1)) != 0)
+        throw std::invalid_argument("input queue capacity must be a power of two >= 2");
+}
+
+void InputQueue::discard_before(std::uint32_t frame) { floor_ = std::max(floor_, frame); }
+
+InputQueue::Add InputQueue::add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input) {
+    if (input.size() != input_size_) return Add::Conflict;
+    if (frame < confirmed_count_) {
+        if (frame < floor_) return Add::TooOld;
+        const std::uint8_t* have = confirmed_.data() + slot(frame);
+        return std::equal(input.begin(), input.end(), have) ? Add::Duplicate : Add::Conflict;
+    }
+    if (frame > confirmed_count_) return Add::Gap;
+    if (std::uint64_t{frame} >= std::uint64_t{floor_} + capacity_) return Add::TooFarAhead;
+    std::copy(input.begin(), input.end(), confirmed_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
+    last_.assign(input.begin(), input.end());
+    ++confirmed_count_;
+    return Add::Stored;
+}
+
+std::span<const std::uint8_t> InputQueue::confirmed(std::uint32_t frame) const {
+    return {confirmed_.data() + slot(frame), input_size_};
+}
+
+std::span<const std::uint8_t> InputQueue::last_confirmed() const { return last_; }
+
+void InputQueue::set_used(std::uint32_t frame, std::span<const std::uint8_t> input) {
+    std::copy(input.begin(), input.end(), used_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
+    used_tag_[frame & (capacity_ - 1)] = frame + 1;
+}
+
+std::optional<std::span<const std::uint8_t>> InputQueue::used(std::uint32_t frame) const {
+    if (used_tag_[frame & (capacity_ - 1)] != frame + 1) return std::nullopt;
+    return std::span<const std::uint8_t>(used_.data() + slot(frame), input_size_);
+}
+
+}  // namespace lockroll::rollback

@@ -1,0 +1,63 @@
+// What rollback/ needs from a game: a deterministic state machine it can step, save, load and
+// checksum. rollback/ never names sim/ types; world_simulation.h adapts sim::World, and tests
+// plug in toy simulations through the same interface.
+//
+// Contract
+//  - Determinism: step() must be a pure function of (state, inputs). Everything rollback does
+//    (prediction, resimulation, lockstep, desync alerts, replays) relies on it.
+//  - Inputs are opaque fixed-size blobs: step() receives players * input_size bytes, player p's
+//    input at [p * input_size, (p + 1) * input_size). The session owns the sizes.
+//  - save/load: state_size() is constant for the simulation's life, so snapshot buffers are
+//    allocated once. save(); load() of those bytes; step() gives the same state as step()
+//    without the round trip, bit for bit. load() validates before touching anything.
+//  - checksum(state) hashes a *saved* state, so confirmed frames can be checksummed long after
+//    the live state moved on. Equal states must give equal checksums on every platform.
+//  - The optional part (bodies, fields, describe_state, flip_bit) exists for desync narrowing and
+//    fault injection; a simulation without it still gets checksum alerts, just not the body.
+//    Functions that take a state are only ever given buffers of state_size() bytes that came
+//    from save().
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+
+namespace lockroll::rollback {
+
+class Simulation {
+public:
+    virtual ~Simulation() = default;
+
+    virtual void step(std::span<const std::uint8_t> inputs) = 0;
+
+    virtual std::size_t state_size() const = 0;
+    // Writes exactly state_size() bytes into out (out.size() >= state_size()).
+    virtual void save(std::span<std::uint8_t> out) const = 0;
+    // Empty string on success; otherwise what was wrong, and the state is unchanged.
+    virtual std::string load(std::span<const std::uint8_t> in) = 0;
+
+    // Default: XXH3-64 of the saved bytes.
+    virtual std::uint64_t checksum(std::span<const std::uint8_t> state) const;
+
+    // ---- optional: desync narrowing ----
+    // Bodies are the units a desync report names; index is the position in a saved state
+    // (0..body_count()-1), body_id() the name people know them by (sim::BodyId for the World).
+    virtual std::uint32_t body_count() const { return 0; }
+    virtual std::uint32_t body_id(std::uint32_t index) const { return index; }
+    virtual std::uint64_t body_hash(std::span<const std::uint8_t> state, std::uint32_t index) const;
+    // Every body has field_count() integer fields (for the World: position.x .. velocity.z).
+    virtual int field_count() const { return 0; }
+    virtual const char* field_name(int field) const;
+    virtual std::int64_t field_value(std::span<const std::uint8_t> state, std::uint32_t index, int field) const;
+    // Text a person can diff between two peers' evidence files: one line per body. Default: a
+    // hex dump, 32 bytes per line.
+    virtual std::string describe_state(std::span<const std::uint8_t> state) const;
+
+    // ---- optional: fault injection ----
+    // Flips one bit of one field of one body in the live state. False when unsupported or when
+    // (body_id, field) does not name a stored field (then nothing changed).
+    virtual bool flip_bit(std::uint32_t body_id, int field, int bit);
+};
+
+}  // namespace lockroll::rollback

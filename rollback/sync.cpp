@@ -1,0 +1,210 @@
+#include "rollback/sync.h"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace lockroll::rollback {
+
+Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, SessionObserver* observer,
+           SessionStats& stats, CpuClock cpu_clock)
+    : config_(config),
+      sim_(sim),
+      predictor_(predictor),
+      observer_(observer),
+      stats_(stats),
+      cpu_clock_(std::move(cpu_clock)),
+      ring_(static_cast<std::size_t>(config.prediction_window) + 1 +
+                static_cast<std::size_t>(std::max(config.evidence_frames, 1)),
+            sim.state_size()),
+      frame_inputs_(static_cast<std::size_t>(config.players) * config.input_size),
+      confirm_inputs_(frame_inputs_.size()),
+      scratch_input_(config.input_size) {
+    if (config.players < 1 || config.players > kMaxPlayers)
+        throw std::invalid_argument("players must be 1.." + std::to_string(kMaxPlayers));
+    if (config.local_player >= static_cast<PlayerId>(config.players))
+        throw std::invalid_argument("local player slot out of range");
+    if (config.prediction_window < 0) throw std::invalid_argument("prediction window must be >= 0");
+    if (stats_.peers.size() < static_cast<std::size_t>(config.players))
+        stats_.peers.resize(static_cast<std::size_t>(config.players));
+    queues_.reserve(static_cast<std::size_t>(config.players));
+    for (int p = 0; p < config.players; ++p) queues_.emplace_back(config.input_size, config.input_capacity);
+    if (static_cast<std::uint32_t>(config.prediction_window) * 2 >= config.input_capacity)
+        throw std::invalid_argument("input capacity must exceed twice the prediction window");
+    auto slot = ring_.slot_for(0);
+    sim_.save(slot);
+    initial_checksum_ = sim_.checksum(slot);
+    stats_.rollback_depth_histogram.assign(static_cast<std::size_t>(config.prediction_window) + 1, 0);
+}
+
+std::uint32_t Sync::remote_confirmed_inputs() const {
+    std::uint32_t m = std::numeric_limits<std::uint32_t>::max();
+    for (std::size_t p = 0; p < queues_.size(); ++p)
+        if (p != config_.local_player) m = std::min(m, queues_[p].confirmed_count());
+    return m;
+}
+
+std::uint32_t Sync::all_confirmed_inputs() const {
+    return std::min(remote_confirmed_inputs(), queues_[config_.local_player].confirmed_count());
+}
+
+void Sync::set_local_resend_floor(std::uint32_t frame) {
+    local_resend_floor_ = std::max(local_resend_floor_, frame);
+    update_floors();
+}
+
+// Inputs older than the next frame to confirm are never read again (rollback targets are never
+// older than that either), except local ones a peer has not acknowledged yet.
+void Sync::update_floors() {
+    for (std::size_t p = 0; p < queues_.size(); ++p) {
+        std::uint32_t floor = confirmed_frame_;
+        if (p == config_.local_player) floor = std::min(floor, local_resend_floor_);
+        queues_[p].discard_before(floor);
+    }
+}
+
+bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay) {
+    if (input.size() != config_.input_size) throw std::invalid_argument("local input has the wrong size");
+    InputQueue& q = queues_[config_.local_player];
+    const std::uint32_t target = frame_ + static_cast<std::uint32_t>(std::max(delay, 0));
+    std::uint32_t next = q.confirmed_count();
+    if (target < next) return false;
+    const auto last = q.last_confirmed();
+    if (last.empty())
+        std::fill(scratch_input_.begin(), scratch_input_.end(), std::uint8_t{0});
+    else
+        std::copy(last.begin(), last.end(), scratch_input_.begin());
+    for (; next < target; ++next)
+        if (q.add_confirmed(next, scratch_input_) != InputQueue::Add::Stored)
+            throw std::logic_error("local input queue full (must_wait() was not checked)");
+    if (q.add_confirmed(target, input) != InputQueue::Add::Stored)
+        throw std::logic_error("local input queue full (must_wait() was not checked)");
+    return true;
+}
+
+InputQueue::Add Sync::add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input) {
+    InputQueue& q = queues_[player];
+    const InputQueue::Add result = q.add_confirmed(frame, input);
+    if (result != InputQueue::Add::Stored || frame >= frame_) return result;
+    // Already simulated: was it simulated with this input?
+    const auto used = q.used(frame);
+    if (!used || !std::equal(used->begin(), used->end(), input.begin())) {
+        ++stats_.peers[player].mispredictions;
+        pending_ = pending_ ? std::min(*pending_, frame) : frame;
+    }
+    return result;
+}
+
+bool Sync::must_wait(int delay) const {
+    const std::uint64_t window = static_cast<std::uint64_t>(config_.prediction_window);
+    if (std::uint64_t{frame_} >= std::uint64_t{remote_confirmed_inputs()} + window) return true;
+    return local_queue_full(delay);
+}
+
+bool Sync::local_queue_full(int delay) const {
+    const InputQueue& local = queues_[config_.local_player];
+    const std::uint64_t target = std::uint64_t{frame_} + static_cast<std::uint64_t>(std::max(delay, 0));
+    return target >= std::uint64_t{local.floor()} + local.capacity();
+}
+
+int Sync::blocking_player() const {
+    int who = -1;
+    std::uint32_t least = std::numeric_limits<std::uint32_t>::max();
+    for (std::size_t p = 0; p < queues_.size(); ++p)
+        if (p != config_.local_player && queues_[p].confirmed_count() < least) {
+            least = queues_[p].confirmed_count();
+            who = static_cast<int>(p);
+        }
+    return who;
+}
+
+void Sync::simulate_one(bool resimulation) {
+    const std::uint32_t f = frame_;
+    const std::size_t n = config_.input_size;
+    std::uint64_t predicted = 0;
+    for (std::size_t p = 0; p < queues_.size(); ++p) {
+        InputQueue& q = queues_[p];
+        std::span<std::uint8_t> out(frame_inputs_.data() + p * n, n);
+        if (f < q.confirmed_count()) {
+            const auto c = q.confirmed(f);
+            std::copy(c.begin(), c.end(), out.begin());
+        } else {
+            predictor_.predict(static_cast<PlayerId>(p), f, q.last_confirmed(), q.confirmed_count() - 1, out);
+            predicted |= std::uint64_t{1} << p;
+        }
+        q.set_used(f, out);
+    }
+    sim_.step(frame_inputs_);
+    frame_ = f + 1;
+    for (const Fault& fault : faults_)
+        if (fault.frame == frame_) sim_.flip_bit(fault.body_id, fault.field, fault.bit);
+    sim_.save(ring_.slot_for(frame_));
+    if (!resimulation) {
+        highest_simulated_ = frame_;
+        stats_.predicted_inputs += static_cast<std::uint64_t>(__builtin_popcountll(predicted));
+    }
+    if (observer_) observer_->on_frame_simulated({frame_, resimulation, predicted, frame_inputs_});
+}
+
+std::uint32_t Sync::rollback_if_needed() {
+    if (!pending_) return 0;
+    const std::uint32_t target = *pending_;
+    pending_.reset();
+    const std::uint32_t displayed = frame_;
+    const std::uint64_t t0 = cpu_clock_();
+    RollbackInfo info;
+    info.from_frame = target;
+    info.displayed_frame = displayed;
+    info.depth = displayed - target;
+    info.displayed_checksum_before = sim_.checksum(*ring_.find(displayed));
+    if (observer_) observer_->on_rollback_begin(info);
+    const auto saved = ring_.find(target);
+    if (!saved) throw std::logic_error("rollback target " + std::to_string(target) + " is no longer saved");
+    if (const std::string err = sim_.load(*saved); !err.empty())
+        throw std::logic_error("loading saved frame " + std::to_string(target) + ": " + err);
+    frame_ = target;
+    while (frame_ < displayed) simulate_one(true);
+    info.displayed_checksum_after = sim_.checksum(*ring_.find(displayed));
+    ++stats_.rollbacks;
+    stats_.resimulated_frames += info.depth;
+    stats_.max_rollback_depth = std::max(stats_.max_rollback_depth, info.depth);
+    auto& hist = stats_.rollback_depth_histogram;
+    if (info.depth >= hist.size()) hist.resize(info.depth + 1, 0);
+    ++hist[info.depth];
+    stats_.resim_ns += cpu_clock_() - t0;
+    if (observer_) observer_->on_rollback_end(info);
+    return info.depth;
+}
+
+void Sync::step_forward() {
+    if (pending_) throw std::logic_error("step_forward with a rollback pending");
+    const std::uint64_t t0 = cpu_clock_();
+    simulate_one(false);
+    ++stats_.frames_advanced;
+    stats_.forward_ns += cpu_clock_() - t0;
+}
+
+std::uint32_t Sync::confirmable_frame() const { return std::min(all_confirmed_inputs(), frame_); }
+
+FrameConfirmed Sync::confirm_next() {
+    if (pending_) throw std::logic_error("confirm_next with a rollback pending");
+    const std::uint32_t n = confirmed_frame_ + 1;
+    if (n > confirmable_frame()) throw std::logic_error("confirm_next beyond the confirmable frame");
+    const std::size_t size = config_.input_size;
+    for (std::size_t p = 0; p < queues_.size(); ++p) {
+        const auto c = queues_[p].confirmed(n - 1);
+        std::copy(c.begin(), c.end(), confirm_inputs_.begin() + static_cast<std::ptrdiff_t>(p * size));
+    }
+    const auto state = ring_.find(n);
+    if (!state) throw std::logic_error("confirmed frame " + std::to_string(n) + " is no longer saved");
+    confirmed_frame_ = n;
+    update_floors();
+    return {n, confirm_inputs_, sim_.checksum(*state)};
+}
+
+void Sync::add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
+    faults_.push_back({frame, body_id, field, bit});
+}
+
+}  // namespace lockroll::rollback

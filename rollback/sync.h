@@ -1,0 +1,137 @@
+// The rollback decision and the frame loop: which inputs a frame is simulated with, when the
+// window is full, and when and how far to roll back.
+//
+// Contract
+//  - Prediction: a frame whose input for some player is not confirmed yet is simulated with the
+//    predictor's guess, and the guess is remembered per (player, frame).
+//  - Rollback: when a confirmed input arrives for a frame already simulated and differs from
+//    what that frame used, the rollback target becomes min(target, that frame). The minimum over
+//    every player and every arrival is kept until rollback_if_needed() runs, so no needed
+//    rollback is ever dropped or postponed, whatever order several players' late inputs arrive
+//    in (the 3+ player bug of GGPO/GGRS). rollback_if_needed() loads the saved state of the
+//    target and resimulates to the displayed frame before anything else happens; the session
+//    calls it first thing in every tick, so a corrected frame is what gets shown next.
+//  - Window: with prediction window W, frame f is simulated only if every remote input for
+//    frames < f - W + 1 is confirmed, i.e. at most W simulated frames rest on guesses. W = 0 is
+//    lockstep: a frame runs only when all its inputs are confirmed, so there is never a guess
+//    and never a rollback. A full window stalls (the caller waits) instead of advancing.
+//  - Confirmation: frame n is confirmed when every input of frames < n is confirmed and it has
+//    been simulated with them; confirm_next() hands out frames strictly in order, each once.
+//  - Saved states: every simulated frame is saved in a ring of W + 1 + evidence_frames slots, so
+//    a rollback target (never older than the oldest unconfirmed input) is always there, and
+//    confirmed frames stay a while as desync evidence.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "rollback/events.h"
+#include "rollback/input_queue.h"
+#include "rollback/player_id.h"
+#include "rollback/predictor.h"
+#include "rollback/simulation.h"
+#include "rollback/snapshot_ring.h"
+#include "rollback/telemetry.h"
+
+namespace lockroll::rollback {
+
+// Nanoseconds from any monotonic origin; used for telemetry only.
+using CpuClock = std::function<std::uint64_t()>;
+
+struct SyncConfig {
+    int players = 2;
+    PlayerId local_player = 0;
+    std::size_t input_size = 1;
+    int prediction_window = 8;
+    int evidence_frames = 64;
+    std::uint32_t input_capacity = 1024;  // frames per input queue, a power of two
+};
+
+class Sync {
+public:
+    // The simulation must be at its initial state (it is saved as frame 0). observer may be null.
+    Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, SessionObserver* observer,
+         SessionStats& stats, CpuClock cpu_clock);
+
+    std::uint32_t frame() const { return frame_; }                    // displayed frame
+    std::uint32_t confirmed_frame() const { return confirmed_frame_; }  // newest handed out
+    const InputQueue& queue(PlayerId p) const { return queues_[p]; }
+    int players() const { return config_.players; }
+    std::size_t input_size() const { return config_.input_size; }
+    int prediction_window() const { return config_.prediction_window; }
+    bool rollback_pending() const { return pending_.has_value(); }
+
+    // Gives the local player's input to frame() + delay. When that frame already has an input
+    // (the delay just shrank, or the last tick stalled) it is not used: false; sent inputs never
+    // change. When the delay grew, the frames in between repeat the previous input.
+    // Precondition: !local_queue_full(delay).
+    bool add_local_input(std::span<const std::uint8_t> input, int delay);
+    // A remote player's confirmed input; counts and schedules a rollback on a misprediction.
+    InputQueue::Add add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input);
+
+    // Frames the local queue must keep for resending (the oldest frame some peer has not acked).
+    void set_local_resend_floor(std::uint32_t frame);
+
+    // True when frame() may not advance: the window is full (in lockstep: an input of frame()
+    // is missing), or the local queue cannot hold frame() + delay yet.
+    bool must_wait(int delay) const;
+    // The local queue cannot take frame() + delay before peers acknowledge older inputs.
+    bool local_queue_full(int delay) const;
+    // The remote player whose missing input holds the window (for diagnostics); -1 if none.
+    int blocking_player() const;
+
+    // Loads and resimulates if a rollback is pending; returns its depth (0 if none).
+    std::uint32_t rollback_if_needed();
+    // Simulates frame() forward once. Precondition: !must_wait(delay) and add_local_input done.
+    void step_forward();
+
+    // Newest frame that can be confirmed now (no pending rollback may exist).
+    std::uint32_t confirmable_frame() const;
+    // Confirms confirmed_frame() + 1 (precondition: < confirmable_frame()); the spans point into
+    // buffers valid until the next call.
+    FrameConfirmed confirm_next();
+
+    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const { return ring_.find(frame); }
+    const SnapshotRing& ring() const { return ring_; }
+    std::uint64_t initial_checksum() const { return initial_checksum_; }
+
+    // Every time frame `frame` is produced by a step (forward or resimulated), flip the bit.
+    void add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+
+private:
+    void simulate_one(bool resimulation);
+    std::uint32_t all_confirmed_inputs() const;
+    std::uint32_t remote_confirmed_inputs() const;
+    void update_floors();
+
+    struct Fault {
+        std::uint32_t frame;
+        std::uint32_t body_id;
+        int field;
+        int bit;
+    };
+
+    SyncConfig config_;
+    Simulation& sim_;
+    Predictor& predictor_;
+    SessionObserver* observer_;
+    SessionStats& stats_;
+    CpuClock cpu_clock_;
+    std::vector<InputQueue> queues_;
+    SnapshotRing ring_;
+    std::uint32_t frame_ = 0;
+    std::uint32_t highest_simulated_ = 0;
+    std::uint32_t confirmed_frame_ = 0;
+    std::uint32_t local_resend_floor_ = 0;
+    std::optional<std::uint32_t> pending_;
+    std::uint64_t initial_checksum_ = 0;
+    std::vector<std::uint8_t> frame_inputs_;    // players * input_size, reused every step
+    std::vector<std::uint8_t> confirm_inputs_;  // same, for confirm_next
+    std::vector<std::uint8_t> scratch_input_;
+    std::vector<Fault> faults_;
+};
+
+}  // namespace lockroll::rollback

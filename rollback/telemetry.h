@@ -1,0 +1,47 @@
+// Counters a session keeps about itself, for the harness's reports.
+//
+// Times: *_ns are CPU-side durations measured with the session's cpu clock (telemetry only:
+// nothing the session decides depends on them); *_us are virtual times from the now_us values
+// the caller passes in.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+namespace lockroll::rollback {
+
+struct PeerStats {
+    std::uint64_t packets_sent = 0, bytes_sent = 0;
+    std::uint64_t packets_received = 0, bytes_received = 0;
+    std::uint64_t malformed_packets = 0;  // failed to decode or broke the protocol
+    std::uint64_t ignored_packets = 0;    // well-formed but useless (after an error, stale)
+    bool error = false;                   // sticky: too many malformed packets
+    std::uint64_t mispredictions = 0;     // confirmed inputs that differed from the one simulated
+    std::uint64_t checksum_matches = 0;
+    std::uint64_t checksum_mismatches = 0;
+    std::uint64_t rtt_us = 0;             // smoothed; 0 until measured
+    std::int32_t frame_advantage_x100 = 0;  // mean over the time-sync window, frames * 100
+};
+
+struct SessionStats {
+    std::uint64_t ticks = 0;              // advance() calls
+    std::uint64_t frames_advanced = 0;    // forward steps
+    std::uint64_t stall_ticks = 0;        // advance() calls that could not step (window full)
+    std::uint64_t stall_time_us = 0;      // virtual time from the first stalled tick to the next step
+    std::uint64_t rollbacks = 0;
+    std::uint64_t resimulated_frames = 0;
+    std::uint32_t max_rollback_depth = 0;
+    std::vector<std::uint64_t> rollback_depth_histogram;  // [depth], size W + 1
+    std::uint64_t resim_ns = 0;           // loading and resimulating
+    std::uint64_t forward_ns = 0;         // forward steps with their saves
+    std::uint64_t predicted_inputs = 0;   // remote player-frames simulated with a guess
+    std::uint64_t dropped_local_inputs = 0;  // after a shorter input delay caught up
+    std::uint64_t time_sync_waits = 0, time_sync_wait_frames = 0;
+    std::uint64_t desyncs = 0;            // peers found desynced
+    std::uint64_t bytes_sent = 0, bytes_received = 0, packets_sent = 0, packets_received = 0;
+    std::uint64_t malformed_packets = 0;
+    std::uint64_t unknown_peer_packets = 0;
+    std::vector<PeerStats> peers;         // by player id; the local slot stays zero
+};
+
+}  // namespace lockroll::rollback

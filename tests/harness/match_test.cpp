@@ -1,0 +1,137 @@
+// Matches in virtual time: reproducibility, lockstep and rollback agreement, desync injection
+// named to body and field, many players over a bad network.
+#include <gtest/gtest.h>
+
+#include "harness/match.h"
+#include "harness/report.h"
+#include "harness/scene_loader.h"
+#include "sim/snapshot.h"
+
+namespace lockroll::harness {
+namespace {
+
+RunConfig base(Mode mode, int frames) {
+    RunConfig c;
+    c.scene = load_scene("paper");
+    c.mode = mode;
+    c.frames = frames;
+    c.net.latency_ms = 28.5;
+    c.net.jitter_ms = 10;
+    c.seed = 7;
+    return c;
+}
+
+// Everything but measured CPU time must be identical between two runs of the same config.
+nlohmann::json without_cpu(nlohmann::json j) {
+    j.erase("cpu_us_per_tick");
+    return j;
+}
+
+TEST(Match, SameSeedSameSummary) {
+    RunConfig c = base(Mode::Rollback, 240);
+    c.net.loss = 0.1;
+    c.net.duplicate = 0.05;
+    c.net.reorder = 0.1;
+    const RunResult a = run_match(c), b = run_match(c);
+    EXPECT_EQ(without_cpu(summary_json(a)).dump(), without_cpu(summary_json(b)).dump());
+    EXPECT_EQ(frames_csv(a), frames_csv(b));
+    c.seed = 8;
+    const RunResult other = run_match(c);
+    EXPECT_NE(without_cpu(summary_json(a)).dump(), without_cpu(summary_json(other)).dump());
+}
+
+TEST(Match, LockstepNeverDivergesAndHoldsTheTickRate) {
+    const RunResult r = run_match(base(Mode::Lockstep, 600));
+    ASSERT_TRUE(r.completed);
+    EXPECT_EQ(r.position_error.max, 0.0);
+    EXPECT_EQ(r.position_error.count, 600u * 52u);
+    EXPECT_EQ(r.rollbacks(), 0u);
+    EXPECT_EQ(r.confirmed_mismatches, 0u);
+    EXPECT_GE(r.ticks_per_second(), 59.0) << "auto input delay must cover latency + jitter";
+    EXPECT_EQ(r.clients[0].final_checksum, r.clients[1].final_checksum);
+}
+
+TEST(Match, LockstepWithTooLittleDelayStalls) {
+    RunConfig c = base(Mode::Lockstep, 300);
+    c.input_delay = 0;
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    EXPECT_GT(r.stall_fraction(), 0.5);
+    EXPECT_LT(r.ticks_per_second(), 30.0);
+    EXPECT_EQ(r.position_error.max, 0.0);
+}
+
+TEST(Match, RollbackAgreesOnConfirmedStateAndMatchesAnOfflineReplay) {
+    RunConfig c = base(Mode::Rollback, 600);
+    c.record_inputs = true;
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    EXPECT_GT(r.rollbacks(), 0u) << "bots change direction: some predictions must fail";
+    EXPECT_EQ(r.confirmed_mismatches, 0u);
+    EXPECT_EQ(r.confirmed_compared, 600u);
+    EXPECT_EQ(r.clients[0].final_checksum, r.clients[1].final_checksum);
+    EXPECT_GT(r.position_error.max, 0.0) << "frames shown with wrong predictions differ";
+    EXPECT_LT(r.position_error.mean(), 1.79e-4) << "paper Quantum's mean at these conditions";
+
+    // Reference: an offline World fed the confirmed inputs ends in the same state.
+    sim::SceneDesc scene = with_players(c.scene, c.players);
+    sim::World offline(scene);
+    ASSERT_EQ(r.confirmed_inputs.size(), 600u);
+    for (const auto& bytes : r.confirmed_inputs) {
+        ASSERT_EQ(bytes.size(), 6u);
+        const sim::PlayerInput in[2] = {
+            {static_cast<std::int8_t>(bytes[0]), static_cast<std::int8_t>(bytes[1]), static_cast<std::int8_t>(bytes[2])},
+            {static_cast<std::int8_t>(bytes[3]), static_cast<std::int8_t>(bytes[4]), static_cast<std::int8_t>(bytes[5])}};
+        offline.step(in);
+    }
+    EXPECT_EQ(sim::checksum(offline), r.clients[0].final_checksum);
+}
+
+TEST(Match, AutoInputDelayCoversTheRoundTrip) {
+    EXPECT_EQ(auto_input_delay(Mode::Lockstep, 57, 71, 60), 4);  // 35.5 ms one-way = 2.13 frames -> 3, +1
+    EXPECT_EQ(auto_input_delay(Mode::Rollback, 57, 71, 60), 2);
+    EXPECT_EQ(auto_input_delay(Mode::Lockstep, 0, 0, 60), 1);
+}
+
+TEST(Match, InjectedDesyncIsNamedToBodyAndField) {
+    RunConfig c = base(Mode::Rollback, 300);
+    c.checksum_interval = 4;
+    // Body 20 of the paper scene is a ball; flip bit 20 of velocity.y (field 4) on client 1.
+    c.injections.push_back({1, 100, 20, 4, 20});
+    const RunResult r = run_match(c);
+    ASSERT_FALSE(r.desyncs.empty());
+    EXPECT_GE(r.desync_count(), 1u);
+    for (const DesyncRecord& d : r.desyncs) {
+        EXPECT_EQ(d.frame, 100u) << d.summary;
+        EXPECT_EQ(d.body, 20u) << d.summary;
+        EXPECT_EQ(d.field, "velocity.y") << d.summary;
+        EXPECT_LE(d.detected_frame, 100u + 4u) << "within one checksum interval";
+    }
+    EXPECT_GT(r.confirmed_mismatches, 0u);
+}
+
+TEST(Match, FourPlayersOverALossyReorderingNetwork) {
+    RunConfig c = base(Mode::Rollback, 360);
+    c.players = 4;
+    c.net.latency_ms = 60;
+    c.net.jitter_ms = 20;
+    c.net.loss = 0.2;
+    c.net.duplicate = 0.05;
+    c.net.reorder = 0.1;
+    c.drift_ppm = 200;
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    EXPECT_EQ(r.confirmed_mismatches, 0u);
+    EXPECT_EQ(r.desync_count(), 0u);
+    for (const auto& cl : r.clients) EXPECT_EQ(cl.final_checksum, r.clients[0].final_checksum);
+    EXPECT_EQ(r.position_error.count, 360u * 54u * 3u) << "4 players: 2 player bodies added; 3 pairs";
+}
+
+TEST(Match, AddsPlayerBodiesWhenTheSceneHasTooFew) {
+    const sim::SceneDesc s = with_players(load_scene("paper"), 5);
+    EXPECT_EQ(sim::player_count(s), 5);
+    EXPECT_EQ(sim::validate(s), "");
+}
+
+}  // namespace
+}  // namespace lockroll::harness

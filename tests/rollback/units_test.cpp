@@ -1,0 +1,94 @@
+// Small parts on their own: input queue, snapshot ring, time sync, predictor.
+#include <gtest/gtest.h>
+
+#include "rollback/input_queue.h"
+#include "rollback/predictor.h"
+#include "rollback/snapshot_ring.h"
+#include "rollback/time_sync.h"
+
+namespace lockroll::rollback {
+namespace {
+
+std::vector<std::uint8_t> in(std::uint8_t v) { return {v, static_cast<std::uint8_t>(v + 1)}; }
+
+TEST(InputQueue, AcceptsOnlyTheNextFrameAndNeverRewrites) {
+    InputQueue q(2, 8);
+    EXPECT_EQ(q.add_confirmed(1, in(1)), InputQueue::Add::Gap);
+    EXPECT_EQ(q.add_confirmed(0, in(0)), InputQueue::Add::Stored);
+    EXPECT_EQ(q.add_confirmed(1, in(1)), InputQueue::Add::Stored);
+    EXPECT_EQ(q.confirmed_count(), 2u);
+    EXPECT_EQ(q.add_confirmed(1, in(1)), InputQueue::Add::Duplicate);
+    EXPECT_EQ(q.add_confirmed(1, in(7)), InputQueue::Add::Conflict);
+    EXPECT_EQ(q.add_confirmed(2, std::vector<std::uint8_t>{1}), InputQueue::Add::Conflict);  // wrong size
+    EXPECT_EQ(std::vector<std::uint8_t>(q.last_confirmed().begin(), q.last_confirmed().end()), in(1));
+    // Capacity: with the floor at 0, frames 0..7 fit, frame 8 must wait.
+    for (std::uint32_t f = 2; f < 8; ++f) EXPECT_EQ(q.add_confirmed(f, in(static_cast<std::uint8_t>(f))), InputQueue::Add::Stored);
+    EXPECT_EQ(q.add_confirmed(8, in(8)), InputQueue::Add::TooFarAhead);
+    q.discard_before(3);
+    EXPECT_EQ(q.add_confirmed(8, in(8)), InputQueue::Add::Stored);
+    EXPECT_EQ(q.add_confirmed(1, in(1)), InputQueue::Add::TooOld);
+    EXPECT_EQ(std::vector<std::uint8_t>(q.confirmed(7).begin(), q.confirmed(7).end()), in(7));
+    q.discard_before(2);  // never moves back
+    EXPECT_EQ(q.floor(), 3u);
+}
+
+TEST(InputQueue, RemembersWhatEachFrameUsed) {
+    InputQueue q(2, 4);
+    EXPECT_FALSE(q.used(0).has_value());
+    q.set_used(2, in(5));
+    ASSERT_TRUE(q.used(2).has_value());
+    EXPECT_EQ((*q.used(2))[0], 5);
+    EXPECT_FALSE(q.used(6).has_value());  // same slot, other frame
+    q.set_used(6, in(9));
+    EXPECT_FALSE(q.used(2).has_value());
+}
+
+TEST(SnapshotRing, ForgetsOverwrittenFrames) {
+    SnapshotRing ring(3, 4);
+    for (std::uint32_t f = 0; f < 5; ++f) {
+        auto s = ring.slot_for(f);
+        std::fill(s.begin(), s.end(), static_cast<std::uint8_t>(f));
+    }
+    EXPECT_FALSE(ring.find(1).has_value());
+    ASSERT_TRUE(ring.find(2).has_value());
+    EXPECT_EQ((*ring.find(4))[3], 4);
+    EXPECT_EQ((*ring.find(2))[0], 2);
+    EXPECT_FALSE(ring.find(5).has_value());
+    EXPECT_THROW(SnapshotRing(0, 4), std::invalid_argument);
+}
+
+TEST(TimeSync, RecommendsHalfTheGapOnceTheWindowIsFull) {
+    TimeSync t(10);
+    // We are 6 frames ahead: the peer seems 6 behind to us, we seem 6 ahead to it.
+    for (int i = 0; i < 9; ++i) t.add_sample(-6, 6);
+    EXPECT_EQ(t.recommended_wait(2), 0);  // not a full window yet
+    t.add_sample(-6, 6);
+    EXPECT_EQ(t.frames_ahead_x100(), 600);
+    EXPECT_EQ(t.recommended_wait(2), 6);
+    // Latency estimate errors cancel: both sides misjudge by +2.
+    TimeSync u(4);
+    for (int i = 0; i < 4; ++i) u.add_sample(-6 + 2, 6 + 2);
+    EXPECT_EQ(u.recommended_wait(2), 6);
+    // Behind or barely ahead: no wait.
+    TimeSync b(4);
+    for (int i = 0; i < 4; ++i) b.add_sample(3, -3);
+    EXPECT_EQ(b.recommended_wait(1), 0);
+    TimeSync c(4);
+    for (int i = 0; i < 4; ++i) c.add_sample(-1, 1);
+    EXPECT_EQ(c.recommended_wait(2), 0);
+    c.clear();
+    EXPECT_EQ(c.samples(), 0);
+}
+
+TEST(Predictor, RepeatsLastConfirmedOrNeutral) {
+    RepeatLastPredictor p;
+    std::vector<std::uint8_t> out(2, 7);
+    p.predict(1, 5, {}, 0, out);
+    EXPECT_EQ(out, (std::vector<std::uint8_t>{0, 0}));
+    const auto last = in(3);
+    p.predict(1, 5, last, 4, out);
+    EXPECT_EQ(out, last);
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
