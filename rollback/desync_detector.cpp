@@ -71,7 +71,8 @@ void DesyncDetector::add_remote(PlayerId peer, std::uint32_t frame, std::uint64_
 void DesyncDetector::compare(PlayerId peer, std::uint32_t frame, std::uint64_t local, std::uint64_t remote) {
     PeerState& ps = peers_[peer];
     ps.last_compared_plus1 = std::max(ps.last_compared_plus1, frame + 1);
-    if (local == remote) {
+    // Input messages carry the low 32 bits of each checksum (rollback/protocol.h).
+    if (static_cast<std::uint32_t>(local) == static_cast<std::uint32_t>(remote)) {
         ++stats_.peers[peer].checksum_matches;
         if (!ps.desynced) ps.last_agreed = std::max(ps.last_agreed.value_or(0), frame);
         return;

@@ -76,7 +76,7 @@ void encode(const InputMessage& m, std::size_t input_size, std::vector<std::uint
     }
     for (int i = 0; i < m.checksum_count; ++i) {
         w.u16(m.checksum_frames[i]);
-        w.u64(m.checksums[i]);
+        w.u32(static_cast<std::uint32_t>(m.checksums[i]));  // low 32 bits: see protocol.h
     }
 }
 
@@ -149,7 +149,7 @@ const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, Inpu
     }
     for (int i = 0; i < m.checksum_count; ++i) {
         m.checksum_frames[i] = r.u16();
-        m.checksums[i] = r.u64();
+        m.checksums[i] = r.u32();
     }
     if (!r.ok()) return "input message: truncated trailer";
     if (!r.at_end()) return "input message: trailing bytes";
