@@ -200,7 +200,10 @@ void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
         if (entry.first != f.checksum) ++shared_.result.confirmed_mismatches;
     }
     if (++entry.second == shared_.clients) shared_.confirmed.erase(f.frame);
-    if (index_ == 0 && shared_.cfg.record_inputs) shared_.result.confirmed_inputs.emplace_back(f.inputs.begin(), f.inputs.end());
+    if (index_ == 0 && shared_.cfg.record_inputs) {
+        shared_.result.confirmed_inputs.emplace_back(f.inputs.begin(), f.inputs.end());
+        shared_.result.confirmed_checksums.push_back(f.checksum);
+    }
     if (f.frame == static_cast<std::uint32_t>(shared_.target)) {
         final_checksum_ = f.checksum;
         final_confirmed_ = true;
@@ -407,6 +410,11 @@ RunResult run_match(const RunConfig& cfg) {
                                                : 0;
         clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay,
                                                    net.endpoint(static_cast<transport::PeerId>(c)), drift, start + offset));
+    }
+    if (cfg.record_inputs) {
+        std::vector<std::uint8_t> state(clients[0]->sim_.state_size());
+        clients[0]->sim_.save(state);
+        res.initial_checksum = clients[0]->sim_.checksum(state);
     }
     for (const auto& inj : cfg.injections) {
         const std::string e = clients[static_cast<std::size_t>(inj.client)]->session_->inject_fault(

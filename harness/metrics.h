@@ -123,8 +123,11 @@ struct RunResult {
     std::vector<FrameRow> rows;
     std::string positions_csv;
     std::vector<double> per_body_max_error;
-    // Client 0's confirmed inputs, frame by frame (players * 3 bytes each), when recorded.
+    // Client 0's confirmed inputs, frame by frame (players * 3 bytes each), and the confirmed
+    // checksums of frames 0..frames, when recorded.
     std::vector<std::vector<std::uint8_t>> confirmed_inputs;
+    std::vector<std::uint64_t> confirmed_checksums;
+    std::uint64_t initial_checksum = 0;
 
     double ticks_per_second() const;   // mean over clients
     double stall_fraction() const;     // mean over clients

@@ -10,6 +10,7 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/hex.h"
+#include "harness/match.h"
 #include "harness/scene_loader.h"
 #include "rollback/world_simulation.h"
 
@@ -56,6 +57,10 @@ void run_replay(const std::filesystem::path& path, bool quiet) {
     } catch (const SceneError& e) {
         throw UsageError(e.what());
     }
+    // A match adds player bodies when the scene has fewer than its players, and runs the scene
+    // at the match's tick rate; rebuild the same world.
+    if (replay.players >= 2 && replay.players <= 16) scene = with_players(scene, static_cast<int>(replay.players));
+    if (replay.tick_rate >= 1 && replay.tick_rate <= 1000) scene.tick_rate = static_cast<int>(replay.tick_rate);
     rollback::WorldSimulation sim(scene, static_cast<int>(replay.players));
     const auto mismatch = rollback::verify_replay(replay, sim);
     if (mismatch) {

@@ -13,8 +13,10 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/match.h"
+#include "harness/replay_command.h"
 #include "harness/report.h"
 #include "harness/scene_loader.h"
+#include "rollback/world_simulation.h"
 #include "sim/world.h"
 
 namespace lockroll::harness {
@@ -36,6 +38,7 @@ struct RunOptions {
     std::string bot = "random";
     std::string out = "out/run";
     bool positions = false;
+    std::string record;
     std::vector<std::string> injections;
 };
 
@@ -62,6 +65,9 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
     cmd->add_option("--bot", o.bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
     cmd->add_option("--out", o.out, "Output directory")->capture_default_str();
     cmd->add_flag("--positions", o.positions, "Also write positions.csv (every body, frame and client)");
+    if (with_mode)
+        cmd->add_option("--record", o.record,
+                        "Write a replay (confirmed inputs and checksums) to this file; check it with lockroll replay");
     cmd->add_option("--inject-desync", o.injections,
                     "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body on one client at a frame (repeatable)");
 }
@@ -116,6 +122,7 @@ RunConfig to_config(const RunOptions& o) {
     c.drift_ppm = o.drift_ppm;
     for (const auto& s : o.injections) c.injections.push_back(parse_injection(s));
     c.record_positions = o.positions;
+    c.record_inputs = !o.record.empty();
     c.evidence_dir = (fs::path(o.out) / "desync").string();
     if (::isatty(2))
         c.progress = [tag = std::string(mode_name(c.mode))](int shown, int total) {
@@ -166,6 +173,18 @@ void do_run(const RunOptions& o) {
     const RunConfig cfg = to_config(o);
     const RunResult r = run_match(cfg);
     write_run(o.out, r);
+    if (!o.record.empty() && r.completed) {
+        rollback::Replay replay;
+        replay.players = static_cast<std::uint32_t>(r.players);
+        replay.input_size = rollback::kWorldInputSize;
+        replay.tick_rate = static_cast<std::uint32_t>(r.tick_rate);
+        replay.initial_checksum = r.initial_checksum;
+        replay.scene_name = o.scene;
+        replay.scene_text = scene_text_for_replay(o.scene);
+        for (const auto& in : r.confirmed_inputs) replay.inputs.insert(replay.inputs.end(), in.begin(), in.end());
+        replay.checksums = r.confirmed_checksums;
+        write_replay_file(o.record, replay);
+    }
     std::printf("%s", console_summary(r).c_str());
     std::printf("  written      %s/summary.json, frames.csv%s\n", o.out.c_str(), r.positions_csv.empty() ? "" : ", positions.csv");
     std::fflush(stdout);

@@ -71,5 +71,13 @@ assert len(d["final_checksums"]) == 2 and len(set(d["final_checksums"])) == 1
 PY
 then echo "FAIL: summary.json keys"; failures=$((failures + 1)); fi
 
+# run --record: a replay of a 3-player match (one player body added) verifies; a damaged copy
+# is rejected with exit 2.
+expect 0 "" -- "$lockroll" run --players 3 --frames 180 --latency 40 --jitter 10 --loss 0.1 --record "$tmp/r.lrr" --out "$tmp/rr"
+expect 0 "every checksum matches" -- "$lockroll" replay "$tmp/r.lrr"
+cp "$tmp/r.lrr" "$tmp/bad.lrr"
+printf '\x01' | dd of="$tmp/bad.lrr" bs=1 seek=300 conv=notrunc 2>/dev/null
+expect 2 "bad.lrr: byte [0-9]+: .*corrupted" -- "$lockroll" replay "$tmp/bad.lrr"
+
 echo "$failures failures"
 [[ $failures -eq 0 ]]
