@@ -96,6 +96,7 @@ public:
     std::unique_ptr<rollback::Session> session_;
     sim::PlayerInput last_input_{};
     bool have_last_input_ = false;
+    std::uint32_t last_input_frame_ = 0;
     std::vector<sim::Vec3> before_rollback_;
     std::uint64_t reached_target_us_ = 0;
     std::uint64_t final_checksum_ = 0;
@@ -246,14 +247,18 @@ void Client::tick(std::uint64_t now) {
             const rollback::AdvanceResult r = session_->advance(bytes, now);
             res.cpu_us_per_tick.add(static_cast<double>(thread_cpu_ns() - t0) / 1000.0);
             res.resim_us_per_tick.add(static_cast<double>(r.resim_ns) / 1000.0);
-            if (r.advanced && (!have_last_input_ || !(in == last_input_))) {
+            // The session takes the first input offered for each frame, stalled tick or not,
+            // and ignores later offers for the same frame.
+            const bool taken = !have_last_input_ || input_frame > last_input_frame_;
+            if (taken && (!have_last_input_ || !(in == last_input_))) {
                 // An input change: measure how long until it shows, here and on every peer.
                 PendingInput& pi = shared_.inputs[{index_, input_frame}];
                 pi.made_us = now;
                 pi.bytes = bytes;
             }
-            if (r.advanced) {
+            if (taken) {
                 last_input_ = in;
+                last_input_frame_ = input_frame;
                 have_last_input_ = true;
             }
             wait_ticks_ = r.wait_frames;
