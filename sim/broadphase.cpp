@@ -19,11 +19,18 @@ std::int64_t largest_axis(const Vec3& e) { return std::max({e.x.raw, e.y.raw, e.
 
 Broadphase::Box Broadphase::make_box(const Vec3& p, const Vec3& e, std::int64_t m) {
     Box b;
-    const Fixed c[3] = {p.x, p.y, p.z}, h[3] = {e.x, e.y, e.z};
+    const std::int64_t c[3] = {p.x.raw, p.y.raw, p.z.raw}, h[3] = {e.x.raw, e.y.raw, e.z.raw};
     for (int k = 0; k < 3; ++k) {
-        const i128 reach = static_cast<i128>(h[k].raw) + m;
-        b.lo[k] = sat(static_cast<i128>(c[k].raw) - reach);
-        b.hi[k] = sat(static_cast<i128>(c[k].raw) + reach);
+        // Plain int64 unless something overflows (only near the Q32.32 limits); then saturate.
+        std::int64_t reach, lo, hi;
+        if (__builtin_add_overflow(h[k], m, &reach) || __builtin_sub_overflow(c[k], reach, &lo) ||
+            __builtin_add_overflow(c[k], reach, &hi)) {
+            const i128 wide = static_cast<i128>(h[k]) + m;
+            lo = sat(static_cast<i128>(c[k]) - wide);
+            hi = sat(static_cast<i128>(c[k]) + wide);
+        }
+        b.lo[k] = lo;
+        b.hi[k] = hi;
     }
     return b;
 }
