@@ -1,14 +1,18 @@
 #include "harness/commands.h"
 
+#include "harness/precision_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
 #include "harness/synctest_command.h"
+#include "harness/stability_command.h"
 
 namespace lockroll::harness {
 
 void add_all_commands(CLI::App& app) {
     add_sim_command(app);
+    add_stability_command(app);
+    add_precision_command(app);
     add_run_command(app);
     add_compare_command(app);
     add_sweep_command(app);

@@ -62,7 +62,7 @@ public:
             const auto& b = v_.get_binary();
             const std::string text(b.begin(), b.end());
             if (auto f = sim::Fixed::parse(text)) return *f;
-            fail("number " + text + " is outside the Q32.32 range (|x| < 2147483648) or has over 36 digits");
+            fail("number " + text + " is outside the Q32.32 range (|x| < 2147483648) or has over 64 significant digits");
         }
         if (v_.is_number_integer()) {
             const auto i = v_.get<std::int64_t>();
@@ -161,9 +161,39 @@ constexpr auto kBodyKeys = {"shape", "position", "velocity", "radius", "half_ext
 constexpr auto kSpawnerKeys = {"count", "shape", "radius", "half_extents", "half_height", "mass",
                                "gravity_scale", "restitution", "material", "region", "max_speed", "seed"};
 
+// Opt-in solver features (docs/stability.md); every key defaults to the seed paper's solver.
+void read_solver(const Reader& r, sim::SolverDesc& sv) {
+    r.expect_object({"substeps", "integrator", "correction", "slop", "max_push_speed", "restitution_threshold",
+                     "restitution_after", "position_based", "shock_propagation", "continuous", "continuous_min_speed"});
+    auto flag = [&](const char* key) {
+        const Reader f = r.at(key);
+        if (!f.raw().is_boolean()) f.fail("expected true or false");
+        return f.raw().get<bool>();
+    };
+    if (r.has("substeps")) sv.substeps = static_cast<int>(r.at("substeps").integer(1, 64));
+    if (r.has("integrator")) {
+        const std::string i = r.at("integrator").string();
+        if (i == "euler") sv.integrator = sim::Integrator::Euler;
+        else if (i == "ballistic") sv.integrator = sim::Integrator::Ballistic;
+        else r.at("integrator").fail("expected \"euler\" or \"ballistic\"");
+    }
+    if (r.has("correction")) {
+        sv.correction = r.at("correction").fixed_in("0", "1");
+        if (sv.correction.raw == 0) r.at("correction").fail("must be > 0");
+    }
+    if (r.has("slop")) sv.slop = r.at("slop").fixed_in("0", "1");
+    if (r.has("max_push_speed")) sv.max_push_speed = r.at("max_push_speed").fixed_in("0", "100000");
+    if (r.has("restitution_threshold")) sv.restitution_threshold = r.at("restitution_threshold").fixed_in("0", "1000");
+    if (r.has("restitution_after")) sv.restitution_after = flag("restitution_after");
+    if (r.has("position_based")) sv.position_based = flag("position_based");
+    if (r.has("shock_propagation")) sv.shock_propagation = flag("shock_propagation");
+    if (r.has("continuous")) sv.continuous = flag("continuous");
+    if (r.has("continuous_min_speed")) sv.continuous_min_speed = r.at("continuous_min_speed").fixed_in("0", "1000");
+}
+
 sim::SceneDesc read_scene(const Reader& r) {
     r.expect_object({"name", "description", "tick_rate", "iterations", "gravity", "contact_margin",
-                     "broadphase", "restitution", "materials", "controller", "room", "bodies", "spawners"});
+                     "broadphase", "restitution", "materials", "controller", "solver", "room", "bodies", "spawners"});
     sim::SceneDesc scene;
     if (r.has("name")) scene.name = r.at("name").string();
     if (r.has("tick_rate")) scene.tick_rate = static_cast<int>(r.at("tick_rate").integer(1, 1000));
@@ -218,6 +248,7 @@ sim::SceneDesc read_scene(const Reader& r) {
         if (c.has("vertical_acceleration"))
             scene.controller.vertical_acceleration = c.at("vertical_acceleration").fixed_in("0", "100000");
     }
+    if (r.has("solver")) read_solver(r.at("solver"), scene.solver);
     if (r.has("room")) {
         const Reader room = r.at("room");
         room.expect_object({"min", "max", "wall"});

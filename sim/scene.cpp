@@ -16,6 +16,15 @@ const char* shape_name(Shape s) {
     return "?";
 }
 
+bool SolverDesc::is_default() const {
+    const SolverDesc d;
+    return substeps == d.substeps && integrator == d.integrator && correction == d.correction && slop == d.slop &&
+           max_push_speed == d.max_push_speed && restitution_threshold == d.restitution_threshold &&
+           restitution_after == d.restitution_after && position_based == d.position_based &&
+           shock_propagation == d.shock_propagation &&
+           continuous == d.continuous;
+}
+
 SceneDesc::SceneDesc() {
     // The seed paper's custom engine: box-box 0 (inelastic), sphere-sphere 1 (elastic),
     // box-sphere 0.8. Capsules (player bodies in the Quantum build) behave like boxes.
@@ -128,6 +137,17 @@ std::string validate(const SceneDesc& scene) {
     if (scene.tick_rate < 1 || scene.tick_rate > 1000) return "tick_rate must be 1..1000";
     if (scene.iterations < 1 || scene.iterations > 64) return "iterations must be 1..64";
     if (scene.contact_margin.raw < 0) return "contact_margin must be >= 0";
+    const SolverDesc& sv = scene.solver;
+    if (sv.substeps < 1 || sv.substeps > 64) return "solver.substeps must be 1..64";
+    if (static_cast<std::int64_t>(scene.tick_rate) * sv.substeps > 100000)
+        return "tick_rate * solver.substeps must be at most 100000";
+    if (sv.correction.raw <= 0 || sv.correction > Fixed::one()) return "solver.correction must be within (0, 1]";
+    if (sv.slop.raw < 0) return "solver.slop must be >= 0";
+    if (sv.max_push_speed.raw < 0) return "solver.max_push_speed must be >= 0";
+    if (sv.shock_propagation && sv.slop.raw <= 0)
+        return "solver.shock_propagation needs solver.slop > 0 (resting contacts must stay touching to be ordered)";
+    if (sv.restitution_threshold.raw < 0) return "solver.restitution_threshold must be >= 0";
+    if (sv.continuous_min_speed.raw < 0) return "solver.continuous_min_speed must be >= 0";
     for (int a = 0; a < kShapeCount; ++a)
         for (int b = 0; b < kShapeCount; ++b)
             if (scene.restitution[a][b].raw < 0 || scene.restitution[a][b] > Fixed::one())

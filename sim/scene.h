@@ -53,6 +53,55 @@ struct ControllerDesc {
     Fixed vertical_acceleration = Fixed::from_raw(20 * Fixed::kOne);  // m/s^2 at full "up"
 };
 
+// How positions follow velocities within a step. Euler (semi-implicit: gravity into velocity,
+// then velocity into position) is the seed paper's integrator and the default. Ballistic moves
+// by v*dt + g*dt^2/2, which is exact for constant acceleration: free flight and bounce heights
+// then carry no integrator error, only rounding.
+enum class Integrator : std::uint8_t { Euler, Ballistic };
+
+// Opt-in solver features (docs/stability.md). The defaults are the seed paper's solver exactly,
+// and a scene that keeps them runs the original code path, bit for bit and at the same cost;
+// any other value switches the world to the extended path.
+struct SolverDesc {
+    // Physics steps per frame: inputs still arrive once per frame, the solver runs with dt/substeps.
+    int substeps = 1;
+    Integrator integrator = Integrator::Euler;
+    // Fraction of the overlap beyond `slop` removed per iteration (1: all of it, the default).
+    Fixed correction = Fixed::one();
+    // Overlap left uncorrected, so resting contacts stop fighting over the last micrometres (m).
+    Fixed slop = Fixed::zero();
+    // Largest speed at which the solver may push a body out of overlaps (m/s): its positional
+    // correction in one physics step is capped at max_push_speed * dt. 0 means no cap. Deeply
+    // overlapping bodies (a bad spawn) then separate gently instead of being flung apart.
+    Fixed max_push_speed = Fixed::zero();
+    // Approach speeds below this are treated as inelastic (m/s), so resting bodies do not
+    // micro-bounce on e > 0 materials (Box2D's restitution threshold).
+    Fixed restitution_threshold = Fixed::zero();
+    // Iterations resolve contacts inelastically; restitution is applied once afterwards from the
+    // approach speed measured before the iterations (Box2D v3's soft step does the same), so
+    // the solver's repeated passes cannot compound it.
+    bool restitution_after = false;
+    // Position-based velocities (as in XPBD): the iterations only move bodies apart, and each
+    // body's velocity then changes by its positional correction / dt, so a correction can never
+    // leave a body with velocity that drives it back in (stacks, piles, mass ratios).
+    // Restitution is applied afterwards as with restitution_after.
+    bool position_based = false;
+    // After the iterations, one more pass over the touching contacts from the ground up in which
+    // each contact moves only its upper body (shock propagation): stacks and heavy-on-light
+    // piles then hold their positions with few iterations, whatever the mass ratio.
+    bool shock_propagation = false;
+    // Swept motion against static bodies: a dynamic body stops at the exact time it reaches a
+    // static one, bounces, and travels on for the rest of the step, so nothing tunnels through
+    // walls and bounces conserve energy. Impacts slower than continuous_min_speed (m/s) are left
+    // to the contact solver: resting and sliding contacts must not become a stream of tiny
+    // bounces, so keep it above gravity * dt (0.16 m/s at 60 Hz). 1 m/s, as Box2D's restitution
+    // threshold, by default.
+    bool continuous = false;
+    Fixed continuous_min_speed = Fixed::one();
+
+    bool is_default() const;
+};
+
 // Auto picks sweep-and-prune for small scenes and a uniform grid for large ones.
 enum class BroadphaseKind : std::uint8_t { Auto, SweepAndPrune, Grid };
 
@@ -70,6 +119,7 @@ struct SceneDesc {
     Fixed contact_margin = Fixed::from_raw(Fixed::kOne / 20);
     BroadphaseKind broadphase = BroadphaseKind::Auto;
     ControllerDesc controller;
+    SolverDesc solver;
     std::vector<BodyDesc> bodies;
 
     SceneDesc();

@@ -1,6 +1,6 @@
 // The deterministic physics world: fixed-point bodies in a structure of arrays, stepped at a
 // fixed dt. Bit-exact: the same scene and the same inputs give the same bytes on every
-// compiler and CPU (see tests/sim/golden_test.cpp and scripts/cross-check.sh).
+// compiler and CPU (see tests/golden/ and scripts/cross-check.sh).
 //
 // Body ids are indices into SceneDesc::bodies, stable for the world's life; they are what
 // desync reports, snapshots and the harness name. Static bodies (mass 0) never move and are
@@ -15,6 +15,7 @@
 #include "sim/controller.h"
 #include "sim/input.h"
 #include "sim/scene.h"
+#include "sim/step_kernel.h"
 
 namespace lockroll::sim {
 
@@ -33,16 +34,18 @@ public:
     std::uint64_t overflow_count() const { return overflow_count_; }
 
     std::size_t body_count() const { return pos_.size(); }
-    std::size_t dynamic_count() const { return dynamic_.size(); }
+    std::size_t dynamic_count() const { return kernel_.dynamic_ids().size(); }
     int player_count() const { return static_cast<int>(player_body_.size()); }
     BodyId player_body(int slot) const { return player_body_[static_cast<std::size_t>(slot)]; }
-    bool is_static(BodyId id) const { return inv_mass_[id].raw == 0; }
-    Shape shape(BodyId id) const { return shape_[id]; }
+    bool is_static(BodyId id) const { return kernel_.inv_mass(id).raw == 0; }
+    Shape shape(BodyId id) const { return kernel_.shape(id); }
     const Vec3& position(BodyId id) const { return pos_[id]; }
     const Vec3& velocity(BodyId id) const { return vel_[id]; }
-    Fixed inv_mass(BodyId id) const { return inv_mass_[id]; }
-    Fixed dt() const { return dt_; }
-    const std::vector<BodyId>& dynamic_ids() const { return dynamic_; }
+    Fixed inv_mass(BodyId id) const { return kernel_.inv_mass(id); }
+    Fixed dt() const { return kernel_.dt(); }
+    const std::vector<BodyId>& dynamic_ids() const { return kernel_.dynamic_ids(); }
+    // The step algorithm and the per-body constants it uses (sizes, masses, materials).
+    const StepKernel<Fixed>& kernel() const { return kernel_; }
     const SceneDesc& scene() const { return scene_; }
 
     // Fault injection for desync tests: flips one bit of one state word of a dynamic body.
@@ -53,46 +56,18 @@ private:
     friend class SnapshotAccess;
 
     void apply_controller(std::span<const PlayerInput> inputs);
-    void solve_contacts();
 
     SceneDesc scene_;
-    Fixed dt_;
+    StepKernel<Fixed> kernel_;
 
     // Mutable state (exactly what a snapshot stores).
     std::uint32_t frame_ = 0;
     std::uint64_t overflow_count_ = 0;
     std::vector<Vec3> pos_, vel_;
 
-    // Immutable per-body data (never snapshotted).
-    std::vector<Shape> shape_;
-    std::vector<Vec3> extent_;       // AABB half size of the body (core + radius)
-    std::vector<Fixed> radius_;      // sweep radius (0 for boxes)
-    std::vector<Fixed> core_half_;   // capsule core half-height (0 otherwise)
-    std::vector<Vec3> half_extents_; // boxes
-    std::vector<Fixed> inv_mass_;
-    std::vector<Vec3> gravity_dv_;   // gravity * gravity_scale * dt, precomputed
-    std::vector<Fixed> restitution_; // per-body override, or -1 for "use the table"
-    std::vector<BodyId> dynamic_;    // ids of dynamic bodies, ascending
-    std::vector<BodyId> static_;     // ids of static bodies, ascending
     std::vector<BodyId> player_body_;  // by player slot
-
-    ControllerFactors controller_;  // used only when the scene has players
-
-    // A candidate pair prepared once per step: ordered (round before box), its narrowphase
-    // routine, and the mass terms the solver would otherwise divide for in every iteration.
-    enum class PairKind : std::uint8_t { RoundRound, RoundBox, BoxBox };
-    struct SolverPair {
-        BodyId a, b;
-        PairKind kind;
-        bool b_static;       // then the whole correction and impulse go to a (no division)
-        Fixed one_plus_e;    // 1 + restitution
-        Fixed inv_sum_recip; // 1 / (1/m_a + 1/m_b), when both are dynamic
-    };
-    void prepare_pairs();
-
+    ControllerFactors controller_;     // used only when the scene has players
     Broadphase broadphase_;
-    std::vector<BodyPair> pairs_;
-    std::vector<SolverPair> solver_pairs_;
 };
 
 }  // namespace lockroll::sim
