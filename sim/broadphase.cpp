@@ -8,7 +8,7 @@ namespace lockroll::sim {
 namespace {
 // Sweep and prune beats the grid until the x-sweep's candidate count grows; measured in
 // bench/step_bench.cpp (docs/performance.md).
-constexpr std::size_t kAutoGridThreshold = 2048;
+constexpr std::size_t kAutoGridThreshold = 512;
 
 std::int64_t sat(i128 v) {
     return v > INT64_MAX ? INT64_MAX : v < INT64_MIN ? INT64_MIN : static_cast<std::int64_t>(v);

@@ -47,6 +47,12 @@ const std::vector<GoldenScene> kScenes = {
     {"paper", {0, 1, 60, 240, 720}},
     {"bodies_1k", {0, 1, 60, 240, 720}},
     {"bodies_10k", {0, 1, 60}},
+    // Opt-in solver paths (scene "solver" settings), so every CPU checks them too.
+    {"stability/bounce_e1", {60, 240}},       // ballistic integrator + swept contacts
+    {"stability/stack_24", {60, 240}},        // position-based + shock propagation + slop
+    {"stability/resting_pile", {60, 240}},    // substeps
+    {"stability/overlap_spawn", {60, 240}},   // push-out speed cap
+    {"stability/tunneling", {60, 240}},       // swept tests against static bodies
 };
 
 void run(const GoldenScene& g, const std::string& scene_dir, std::ostream& out) {
