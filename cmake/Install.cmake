@@ -18,3 +18,8 @@ if(NOT LOCKROLL_SIM_ONLY)
   install(TARGETS lockroll RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/harness/scenes/ DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scenes)
 endif()
+if(NOT LOCKROLL_SIM_ONLY)
+  # The plotting scripts lockroll compare/sweep/precision call (found beside the scenes).
+  install(PROGRAMS ${PROJECT_SOURCE_DIR}/scripts/plot.py ${PROJECT_SOURCE_DIR}/scripts/plot_precision.py
+          DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scripts)
+endif()

@@ -13,6 +13,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/plot_script.h"
 #include "harness/reference_world.h"
 #include "harness/scene_loader.h"
 #include "sim/world.h"
@@ -170,18 +171,6 @@ struct Row {
     double us_per_step, error, double_error, rounding, diverge_s;
 };
 
-fs::path scripts_dir() {
-    if (const char* env = std::getenv("LOCKROLL_SCRIPTS_DIR")) return env;
-#ifdef LOCKROLL_SOURCE_SCRIPTS_DIR
-    if (fs::exists(fs::path(LOCKROLL_SOURCE_SCRIPTS_DIR) / "plot_precision.py")) return LOCKROLL_SOURCE_SCRIPTS_DIR;
-#endif
-#ifdef LOCKROLL_INSTALL_SCRIPTS_DIR
-    return LOCKROLL_INSTALL_SCRIPTS_DIR;
-#else
-    return "scripts";
-#endif
-}
-
 struct PrecisionOptions {
     std::string out = "precision";
     bool quick = false;
@@ -272,13 +261,9 @@ void run_precision(const PrecisionOptions& o) {
     }
 
     if (!o.no_plot) {
-        const fs::path script = scripts_dir() / "plot_precision.py";
         const fs::path png = fs::path(o.out) / "precision.png";
-        if (!fs::exists(script)) throw std::runtime_error("plot script not found at " + script.string());
-        const std::string cmd = "MPLBACKEND=Agg /usr/bin/python3 '" + script.string() + "' '" + csv_path.string() + "' '" +
-                                png.string() + "'";
-        if (const int rc = std::system(cmd.c_str()); rc != 0)
-            throw std::runtime_error("plot_precision.py exited with status " + std::to_string(rc));
+        if (const std::string err = run_plot_script("plot_precision.py", {csv_path.string(), png.string()}); !err.empty())
+            throw std::runtime_error(err);
         std::printf("written %s\n", png.string().c_str());
     }
 }

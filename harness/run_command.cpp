@@ -13,6 +13,7 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/match.h"
+#include "harness/plot_script.h"
 #include "harness/replay_command.h"
 #include "harness/report.h"
 #include "harness/scene_loader.h"
@@ -148,27 +149,6 @@ double time_physics_step(const sim::SceneDesc& scene, int players) {
     return batches[4];
 }
 
-fs::path scripts_dir() {
-    if (const char* env = std::getenv("LOCKROLL_SCRIPTS_DIR")) return env;
-#ifdef LOCKROLL_SOURCE_SCRIPTS_DIR
-    if (fs::exists(fs::path(LOCKROLL_SOURCE_SCRIPTS_DIR) / "plot.py")) return LOCKROLL_SOURCE_SCRIPTS_DIR;
-#endif
-#ifdef LOCKROLL_INSTALL_SCRIPTS_DIR
-    return LOCKROLL_INSTALL_SCRIPTS_DIR;
-#else
-    return "scripts";
-#endif
-}
-
-// Runs scripts/plot.py; returns "" on success, else why the plots are missing.
-std::string plot(const std::string& what, const fs::path& dir) {
-    const fs::path script = scripts_dir() / "plot.py";
-    if (!fs::exists(script)) return "plot script not found at " + script.string();
-    const std::string cmd = "MPLBACKEND=Agg /usr/bin/python3 '" + script.string() + "' " + what + " '" + dir.string() + "'";
-    const int rc = std::system(cmd.c_str());
-    return rc == 0 ? "" : "plot.py exited with status " + std::to_string(rc);
-}
-
 void do_run(const RunOptions& o) {
     const RunConfig cfg = to_config(o);
     const RunResult r = run_match(cfg);
@@ -203,7 +183,7 @@ void do_compare(const RunOptions& o) {
     write_run(lo.out, ls);
     write_run(ro.out, rb);
     const double step_us = time_physics_step(rcfg.scene, rcfg.players);
-    const std::string plot_error = plot("compare", o.out);
+    const std::string plot_error = run_plot_script("plot.py", {"compare", o.out});
     const std::string note = plot_error.empty()
                                  ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
                                    "![tick rate over time](tick_rate.png)\n"
@@ -254,7 +234,7 @@ void do_sweep(const RunOptions& base, const SweepOptions& s) {
     if (::isatty(2)) std::fprintf(stderr, "\n");
     fs::create_directories(base.out);
     write_file_atomic(fs::path(base.out) / "sweep.csv", csv);
-    const std::string plot_error = plot("sweep", base.out);
+    const std::string plot_error = run_plot_script("plot.py", {"sweep", base.out});
     std::printf("written %s/sweep.csv%s\n", base.out.c_str(), plot_error.empty() ? ", sweep.png" : "");
     if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
 }
