@@ -98,13 +98,18 @@ bool collide(const BasicRoundCollider<N>& a, const BasicRoundCollider<N>& b, Bas
     return contact_detail::spheres(pa, a.radius, pb, b.radius, out);
 }
 
+// collide(round, box) for a box given by its bounds lo = center - half, hi = center + half:
+// static boxes never move, so the solver computes their bounds once.
 template <class N>
-bool collide(const BasicRoundCollider<N>& a, const BasicBoxCollider<N>& b, BasicContact<N>& out) {
+bool collide_with_bounds(const BasicRoundCollider<N>& a, const typename NumberTraits<N>::Vec& lo,
+                         const typename NumberTraits<N>::Vec& hi, BasicContact<N>& out) {
     using T = NumberTraits<N>;
     using V = typename T::Vec;
-    const V lo = b.center - b.half, hi = b.center + b.half;
-    const V c{a.center.x, contact_detail::closest_y(a.center.y - a.core_half, a.center.y + a.core_half, lo.y, hi.y),
-              a.center.z};
+    // A sphere's core is its centre (closest_y of a zero-length segment is its y, exactly).
+    const N cy = a.core_half == T::zero()
+                     ? a.center.y
+                     : contact_detail::closest_y(a.center.y - a.core_half, a.center.y + a.core_half, lo.y, hi.y);
+    const V c{a.center.x, cy, a.center.z};
     const V q{T::clamp(c.x, lo.x, hi.x), T::clamp(c.y, lo.y, hi.y), T::clamp(c.z, lo.z, hi.z)};
     const N z = T::zero(), o = T::one();
     if (!(q.x == c.x && q.y == c.y && q.z == c.z)) {
@@ -148,6 +153,11 @@ bool collide(const BasicRoundCollider<N>& a, const BasicBoxCollider<N>& b, Basic
     out.normal = n;
     out.depth = best + a.radius;
     return true;
+}
+
+template <class N>
+bool collide(const BasicRoundCollider<N>& a, const BasicBoxCollider<N>& b, BasicContact<N>& out) {
+    return collide_with_bounds(a, b.center - b.half, b.center + b.half, out);
 }
 
 template <class N>

@@ -149,6 +149,9 @@ private:
                 return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
                                BasicRoundCollider<N>{pos[b], core_half_[b], radius_[b]}, c);
             case PairKind::RoundBox:
+                if (p.b_static)  // static boxes never move: bounds computed once
+                    return collide_with_bounds(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
+                                               static_lo_[b], static_hi_[b], c);
                 return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
                                BasicBoxCollider<N>{pos[b], half_extents_[b]}, c);
             default:
@@ -157,39 +160,91 @@ private:
         }
     }
 
+    // A contact normal with two zero components is exactly +-1 on the third: face contacts of
+    // balls on floors and walls, and every box-box contact. For those the solver works on that
+    // one component. The bits are the same as the general path's: x*0 and x*1 are exact, the
+    // zero components never change (v - 0 cannot overflow), negation saturates exactly as the
+    // multiply by -1 does, and the sign is applied where the multiply by the normal was, before
+    // any later multiply. These multiplies were a quarter of the paper scene's instructions.
+    static int normal_axis(const Vec& n) {
+        const bool zx = n.x == T::zero(), zy = n.y == T::zero(), zz = n.z == T::zero();
+        if (zx + zy + zz != 2) return -1;
+        return !zx ? 0 : !zy ? 1 : 2;
+    }
+    static N& component(Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+    static const N& component(const Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+
     void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) const {
         for (int iteration = 0; iteration < iterations_; ++iteration) {
             for (const SolverPair& p : solver_pairs_) {
-                const BodyId a = p.a, b = p.b;
                 BasicContact<N> c;
                 if (!narrow(p, pos, c)) continue;
-                if (p.b_static) {
-                    // All of the correction and impulse goes to a: J/m_a = -(1+e) v_n exactly.
-                    pos[a] -= c.normal * c.depth;
-                    const N vn = -T::dot(vel[a], c.normal);
-                    if (vn < T::zero()) vel[a] += c.normal * (p.one_plus_e * vn);
-                    continue;
-                }
-                const N ia = inv_mass_[a], ib = inv_mass_[b];
-                if (ia == T::zero()) {
-                    // Static round body against a dynamic box: mirror of the case above.
-                    pos[b] += c.normal * c.depth;
-                    const N vn = T::dot(vel[b], c.normal);
-                    if (vn < T::zero()) vel[b] -= c.normal * (p.one_plus_e * vn);
-                    continue;
-                }
-                // Positional correction: remove the whole overlap, split by inverse mass.
-                const Vec push = c.normal * (c.depth * p.inv_sum_recip);
-                pos[a] -= push * ia;
-                pos[b] += push * ib;
-                // Impulse J = -(1+e)(v_rel . n) / (1/m_a + 1/m_b), only while approaching.
-                const N vn = T::dot(vel[b] - vel[a], c.normal);
-                if (vn >= T::zero()) continue;
-                const Vec impulse = c.normal * (-(p.one_plus_e * vn) * p.inv_sum_recip);
-                vel[a] -= impulse * ia;
-                vel[b] += impulse * ib;
+                const int axis = normal_axis(c.normal);
+                if (axis >= 0)
+                    resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
+                else
+                    resolve(p, pos, vel, c);
             }
         }
+    }
+
+    // The seed paper's resolution: full positional correction split by inverse mass, then the
+    // impulse J = -(1+e)(v_rel . n) / (1/m_a + 1/m_b), only while approaching.
+    void resolve(const SolverPair& p, std::vector<Vec>& pos, std::vector<Vec>& vel, const BasicContact<N>& c) const {
+        const BodyId a = p.a, b = p.b;
+        if (p.b_static) {
+            // All of the correction and impulse goes to a: J/m_a = -(1+e) v_n exactly.
+            pos[a] -= c.normal * c.depth;
+            const N vn = -T::dot(vel[a], c.normal);
+            if (vn < T::zero()) vel[a] += c.normal * (p.one_plus_e * vn);
+            return;
+        }
+        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        if (ia == T::zero()) {
+            // Static round body against a dynamic box: mirror of the case above.
+            pos[b] += c.normal * c.depth;
+            const N vn = T::dot(vel[b], c.normal);
+            if (vn < T::zero()) vel[b] -= c.normal * (p.one_plus_e * vn);
+            return;
+        }
+        const Vec push = c.normal * (c.depth * p.inv_sum_recip);
+        pos[a] -= push * ia;
+        pos[b] += push * ib;
+        const N vn = T::dot(vel[b] - vel[a], c.normal);
+        if (vn >= T::zero()) return;
+        const Vec impulse = c.normal * (-(p.one_plus_e * vn) * p.inv_sum_recip);
+        vel[a] -= impulse * ia;
+        vel[b] += impulse * ib;
+    }
+
+    // resolve() for a normal of +-1 on `axis` (see normal_axis), step for step.
+    void resolve_on_axis(const SolverPair& p, std::vector<Vec>& pos, std::vector<Vec>& vel, const BasicContact<N>& c,
+                         int axis, bool negative) const {
+        const auto along = [negative](N s) { return negative ? -s : s; };  // the axis component of n * s
+        const BodyId a = p.a, b = p.b;
+        if (p.b_static) {
+            component(pos[a], axis) -= along(c.depth);
+            const N vn = -along(component(vel[a], axis));
+            if (vn < T::zero()) component(vel[a], axis) += along(p.one_plus_e * vn);
+            return;
+        }
+        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        if (ia == T::zero()) {
+            component(pos[b], axis) += along(c.depth);
+            const N vn = along(component(vel[b], axis));
+            if (vn < T::zero()) component(vel[b], axis) -= along(p.one_plus_e * vn);
+            return;
+        }
+        const N push = along(c.depth * p.inv_sum_recip);
+        component(pos[a], axis) -= push * ia;
+        component(pos[b], axis) += push * ib;
+        // The general path subtracts all three components (each may saturate and count).
+        const Vec rel = vel[b] - vel[a];
+        const N vn = along(component(rel, axis));
+        if (vn >= T::zero()) return;
+        const N impulse = along(-(p.one_plus_e * vn) * p.inv_sum_recip);
+        component(vel[a], axis) -= impulse * ia;
+        component(vel[b], axis) += impulse * ib;
     }
 
     // Relative normal velocity of a pair, negative while approaching.
@@ -464,6 +519,7 @@ private:
     std::vector<N> radius_;          // sweep radius (0 for boxes)
     std::vector<N> core_half_;       // capsule core half-height (0 otherwise)
     std::vector<Vec> half_extents_;  // boxes
+    std::vector<Vec> static_lo_, static_hi_;  // static boxes: center -+ half, fixed for life
     std::vector<N> inv_mass_;
     std::vector<Vec> gravity_dv_;    // gravity * gravity_scale * dt, precomputed
     std::vector<N> restitution_;     // per-body override, or negative for "use the table"
@@ -500,6 +556,8 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
     radius_.resize(n);
     core_half_.resize(n);
     half_extents_.resize(n);
+    static_lo_.resize(n);
+    static_hi_.resize(n);
     inv_mass_.resize(n);
     gravity_dv_.resize(n);
     restitution_.resize(n);
@@ -523,6 +581,10 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
             }
             case Shape::Box:
                 half_extents_[i] = vec(b.half_extents);
+                if (b.mass == Fixed::zero()) {
+                    static_lo_[i] = vec(b.position) - half_extents_[i];
+                    static_hi_[i] = vec(b.position) + half_extents_[i];
+                }
                 extent_[i] = half_extents_[i];
                 break;
         }
