@@ -15,6 +15,11 @@ std::int64_t sat(i128 v) {
 }
 
 std::int64_t largest_axis(const Vec3& e) { return std::max({e.x.raw, e.y.raw, e.z.raw}); }
+
+// Each unordered pair of neighbouring cells is visited once: the own cell (ids above ours) plus
+// the 13 neighbours that are "forward" in (z, y, x) lexicographic order.
+constexpr int kForward[13][3] = {{1, 0, 0},  {-1, 1, 0}, {0, 1, 0},  {1, 1, 0},  {-1, -1, 1}, {0, -1, 1}, {1, -1, 1},
+                                 {-1, 0, 1}, {0, 0, 1},  {1, 0, 1},  {-1, 1, 1}, {0, 1, 1},   {1, 1, 1}};
 }  // namespace
 
 Broadphase::Box Broadphase::make_box(const Vec3& p, const Vec3& e, std::int64_t m) {
@@ -82,6 +87,14 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
         if (cells <= max_cells || cell_shift_ >= 62) break;
         ++cell_shift_;
     }
+    const std::int64_t px = dims_[0] + 2, py = dims_[1] + 2, pz = dims_[2] + 2;  // with the border
+    stride_y_ = px;
+    stride_z_ = px * py;
+    for (int k = 0; k < 13; ++k)
+        forward_offset_[k] = kForward[k][0] + kForward[k][1] * stride_y_ + kForward[k][2] * stride_z_;
+    cell_count_.assign(static_cast<std::size_t>(px * py * pz), 0);
+    cell_start_.assign(cell_count_.size(), 0);
+    occupied_.clear();
 }
 
 void Broadphase::find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3>& extent, std::vector<BodyPair>& out) {
@@ -124,42 +137,41 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
 }
 
 void Broadphase::grid(std::vector<BodyPair>& out) {
-    const std::int64_t nx = dims_[0], ny = dims_[1], nz = dims_[2];
-    const auto cells = static_cast<std::size_t>(nx * ny * nz);
+    // Interior coordinates 1..dims (0 and dims + 1 are the empty border).
     auto coord = [&](BodyId id, int k) {
-        return std::clamp((box_[id].lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1);
+        return std::clamp((box_[id].lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
     };
+    for (std::uint32_t c : occupied_) cell_count_[c] = 0;
+    occupied_.clear();
     if (cell_of_.size() < box_.size()) cell_of_.resize(box_.size());
-    cell_start_.assign(cells + 1, 0);
     for (BodyId id : gridded_) {
-        cell_of_[id] = static_cast<std::uint32_t>((coord(id, 2) * ny + coord(id, 1)) * nx + coord(id, 0));
-        ++cell_start_[cell_of_[id] + 1];
+        const auto c = static_cast<std::uint32_t>(coord(id, 2) * stride_z_ + coord(id, 1) * stride_y_ + coord(id, 0));
+        cell_of_[id] = c;
+        if (cell_count_[c]++ == 0) occupied_.push_back(c);
     }
-    for (std::size_t c = 1; c <= cells; ++c) cell_start_[c] += cell_start_[c - 1];
+    // Slots per occupied cell, in order of first appearance; then a stable fill by id, so each
+    // cell lists its bodies in ascending id order.
+    std::uint32_t next = 0;
+    for (std::uint32_t c : occupied_) {
+        cell_start_[c] = next;
+        next += cell_count_[c];
+    }
     cell_items_.resize(gridded_.size());
-    // Stable fill in ascending id order, so each cell lists its bodies by id; the fill advances
-    // each cell's start to the next cell's, which the shift afterwards undoes.
     for (BodyId id : gridded_) cell_items_[cell_start_[cell_of_[id]]++] = id;
-    for (std::size_t c = cells; c > 0; --c) cell_start_[c] = cell_start_[c - 1];
-    cell_start_[0] = 0;
+    for (std::uint32_t c : occupied_) cell_start_[c] -= cell_count_[c];
 
-    // Each unordered pair of neighbouring cells is visited once: the own cell (ids above ours)
-    // plus the 13 neighbours that are "forward" in (z, y, x) lexicographic order.
-    static constexpr int kForward[13][3] = {{1, 0, 0},  {-1, 1, 0}, {0, 1, 0},  {1, 1, 0},   {-1, -1, 1},
-                                            {0, -1, 1}, {1, -1, 1}, {-1, 0, 1}, {0, 0, 1},   {1, 0, 1},
-                                            {-1, 1, 1}, {0, 1, 1},  {1, 1, 1}};
     for (BodyId a : gridded_) {
         const Box& ba = box_[a];
-        const std::int64_t cx = coord(a, 0), cy = coord(a, 1), cz = coord(a, 2);
-        for (std::uint32_t s = cell_start_[cell_of_[a]]; s < cell_start_[cell_of_[a] + 1]; ++s) {
+        const std::uint32_t own = cell_of_[a];
+        for (std::uint32_t s = cell_start_[own], e = s + cell_count_[own]; s < e; ++s) {
             const BodyId b = cell_items_[s];
             if (b > a && overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
         }
-        for (const auto& f : kForward) {
-            const std::int64_t x = cx + f[0], y = cy + f[1], z = cz + f[2];
-            if (x < 0 || x >= nx || y < 0 || y >= ny || z >= nz) continue;
-            const auto c = static_cast<std::size_t>((z * ny + y) * nx + x);
-            for (std::uint32_t s = cell_start_[c]; s < cell_start_[c + 1]; ++s) {
+        for (const std::int64_t off : forward_offset_) {
+            const auto c = static_cast<std::size_t>(static_cast<std::int64_t>(own) + off);
+            const std::uint32_t n = cell_count_[c];
+            if (n == 0) continue;
+            for (std::uint32_t s = cell_start_[c], e = s + n; s < e; ++s) {
                 const BodyId b = cell_items_[s];
                 if (overlap(ba, box_[b])) out.push_back(a < b ? BodyPair{a, b} : BodyPair{b, a});
             }

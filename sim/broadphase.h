@@ -62,11 +62,18 @@ private:
     // the 95th-percentile body so one big body cannot coarsen the grid. Bodies outside the
     // bounds are clamped into the border cells: clamping keeps neighbours neighbours, so it
     // only costs extra tests, never a missed pair.
+    // The grid has a one-cell empty border on every side, so a neighbour is always
+    // cell + offset, with no bounds test. Only occupied cells are counted and cleared, so a
+    // step costs O(bodies), however many cells the bounds span.
     int cell_shift_ = 0;
     std::int64_t origin_[3] = {0, 0, 0};
-    std::int64_t dims_[3] = {1, 1, 1};
-    std::vector<std::uint32_t> cell_start_;  // counting-sort offsets per cell, size cells + 1
-    std::vector<BodyId> cell_items_;         // gridded bodies ordered by cell, then id
+    std::int64_t dims_[3] = {1, 1, 1};    // interior cells per axis (the border comes on top)
+    std::int64_t stride_y_ = 0, stride_z_ = 0;
+    std::int64_t forward_offset_[13] = {};  // linear offsets of the 13 forward neighbours
+    std::vector<std::uint32_t> cell_count_;  // bodies per cell; zero outside occupied_
+    std::vector<std::uint32_t> cell_start_;  // first slot in cell_items_, valid when count > 0
+    std::vector<std::uint32_t> occupied_;    // cells with bodies this step, by first body id
+    std::vector<BodyId> cell_items_;         // gridded bodies grouped by cell, ascending id within
     std::vector<std::uint32_t> cell_of_;     // linear cell index by body id
 };
 
