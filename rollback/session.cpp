@@ -289,6 +289,15 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
     }
     if (!kind) return malformed(from, "unknown message kind");
     PeerLink& link = links_[from];
+    // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
+    if (link.welcomed && (!is_slot(from) || slot_running(from))) {
+        if (link.interrupted) {
+            link.interrupted = false;
+            emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
+        }
+        link.heard = true;
+        link.last_heard_us = now_us;
+    }
     switch (*kind) {
         case MessageKind::Hello: return;
         case MessageKind::Welcome:
@@ -308,7 +317,9 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
             return handle_snapshot_chunk(from, snap_chunk_msg_, now_us);
         default: break;
     }
-    // Input, query, reply: game traffic.
+    // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
+    // snapshot is loaded; a player still synchronizing already does (frame 0).
+    if (phase_ != SessionPhase::Running && config_.role != Role::Player) return void(++ps.ignored_packets);
     if (!link.welcomed || (is_slot(from) && slots_[from].state != SlotState::Running)) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
@@ -326,12 +337,6 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
         }
         return;
     }
-    if (link.interrupted) {
-        link.interrupted = false;
-        emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
-    }
-    link.heard = true;
-    link.last_heard_us = now_us;
     switch (*kind) {
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
