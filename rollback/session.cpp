@@ -329,6 +329,7 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
             w.scene_checksum = scene_checksum_;
+            w.slot_epoch = slots_[from].epoch;
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
@@ -368,6 +369,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.scene_checksum = scene_checksum_;
     w.echo_us = m.stamp_us;
     w.running = phase_ == SessionPhase::Running;
+    if (is_slot(from)) w.slot_epoch = slots_[from].epoch;
     std::string why;
     if (m.version != kProtocolVersion) {
         w.refusal = Refusal::Version;
@@ -387,11 +389,12 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
         w.refusal = Refusal::Disconnected;
         why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
     } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
-               (!link.welcomed || link.welcomed_epoch == slots_[from].epoch) && !slots_[from].handed_off_by_me) {
-        // The slot's process restarted: the old one is gone. Drop it now; welcome once dropped.
-        // (A slot running in a newer epoch than we welcomed it in is the joiner itself, handed
-        // over by the owner: welcome it.)
-        if (link.welcomed) drop_slot(from, now_us, "rejoining");
+               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == slots_[from].epoch &&
+               !slots_[from].handed_off_by_me) {
+        // Another process for a slot whose process we know: the old one restarted and is gone.
+        // Drop it now; welcome the new one once the drop is agreed. (A slot running in a newer
+        // epoch than we welcomed it in is the joiner itself, handed over by the owner.)
+        drop_slot(from, now_us, "rejoining");
         w.refusal = Refusal::Retry;
     }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
@@ -411,6 +414,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
         }
         link.welcomed = true;
         if (is_slot(from)) link.welcomed_epoch = slots_[from].epoch;
+        link.incarnation = m.incarnation;
         link.role = m.role;
         if (!link.heard) {
             link.heard = true;
@@ -431,7 +435,9 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     PeerLink& link = links_[from];
     if (m.refusal == Refusal::Retry) return;
     if (m.refusal == Refusal::Disconnected) {
-        if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
+        const bool newer = config_.role == Role::Spectator ||
+                           !newer_epoch(slots_[config_.local_player].epoch, m.slot_epoch);
+        if ((config_.role == Role::Player || phase_ == SessionPhase::Running) && newer) {
             emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
                  "peer " + std::to_string(from) + " says this slot was dropped");
             fail("dropped from the match by the other peers", now_us);
@@ -922,6 +928,7 @@ std::uint32_t Session::checkpoint() const {
 }
 
 void Session::poll_handshake(std::uint64_t now_us) {
+    if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
@@ -938,6 +945,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
         l.hello_sent = true;
         l.last_hello_us = now_us;
         HelloMessage h;
+        h.incarnation = incarnation_;
         h.match_id = config_.match_id;
         h.scene_checksum = scene_checksum_;
         h.role = config_.role;
