@@ -598,6 +598,7 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
             link.has_count[s] = true;
         }
         if (is_slot(from) && s == from) continue;  // a player's own entry says nothing new
+        if (!is_slot(from)) continue;              // spectators report counts, never decide states
         SlotView& v = slots_[s];
         if (newer_epoch(e.epoch, v.epoch)) adopt_slot(e.slot, e, now_us);
         if (phase_ == SessionPhase::Failed) return;
@@ -1035,9 +1036,11 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     }
     if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
     // The same peer asking again while its offer is young: send the same offer.
+    // (A recovery wants a fresh frame, so its offer is reused only against duplicates; either way
+    // a peer cannot make us pack more than a few blobs a second.)
+    const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
     for (const OutgoingTransfer& t : outgoing_)
-        if (t.peer == from && t.offer.reason == m.reason && m.reason != TransferReason::Recover &&
-            now_us < t.created_us + 2'000'000) {
+        if (t.peer == from && t.offer.reason == m.reason && now_us < t.created_us + reuse_us) {
             std::vector<std::uint8_t> b;
             encode(t.offer, b);
             send_control(from, std::move(b));
