@@ -5,14 +5,13 @@
 # The headers include each other as "sim/fixed.h", so both <prefix>/include and
 # <prefix>/include/lockroll are include dirs of every target.
 #
-# Adding a library: append its name to LOCKROLL_PUBLIC_LIBRARIES, after the libraries it links
-# (static linking wants dependents first; lockroll.pc lists them in reverse). Its target must give
+# Adding a library: append its name to LOCKROLL_PUBLIC_LIBRARIES (top-level CMakeLists.txt), after
+# the libraries it links (static linking wants dependents first; lockroll.pc lists them in
+# reverse). Its target must give
 # its source include dir as $<BUILD_INTERFACE:...> (CMake refuses to export a raw source path),
 # and every imported target it links must be one this file knows how to find again (below).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
-
-set(LOCKROLL_PUBLIC_LIBRARIES sim rollback transport)
 
 set(lockroll_config_dependencies "")  # lockrollConfig.cmake: finding what the static libraries link
 set(lockroll_pc_requires "")          # lockroll.pc: pkg-config modules they link
