@@ -1,12 +1,14 @@
 # Driver of the install_find_package test (cmake -P). Inputs: BUILD_DIR, TEST_SOURCE_DIR
 # (tests/install), LIBDIR, WORK_DIR, GENERATOR, CXX_COMPILER, INTREE_CONSUMER, VERSION,
-# PKG_CONFIG.
-foreach(var BUILD_DIR TEST_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER VERSION PKG_CONFIG)
+# PKG_CONFIG, LIBRARIES (the public libraries, comma-separated: sim,rollback,transport).
+foreach(var BUILD_DIR TEST_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER VERSION PKG_CONFIG LIBRARIES)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "run_install_test.cmake: ${var} not set")
   endif()
 endforeach()
 
+string(REPLACE "," ";" LIBRARIES "${LIBRARIES}")
+list(TRANSFORM LIBRARIES PREPEND lockroll:: OUTPUT_VARIABLE expected_targets)
 set(prefix ${WORK_DIR}/prefix)
 set(consumer_source ${TEST_SOURCE_DIR}/consumer)
 set(consumer_build ${WORK_DIR}/consumer-build)
@@ -31,7 +33,7 @@ foreach(f ${LIBDIR}/cmake/lockroll/lockrollConfig.cmake ${LIBDIR}/cmake/lockroll
     message(FATAL_ERROR "install test: ${f} was not installed")
   endif()
 endforeach()
-foreach(lib sim rollback transport)
+foreach(lib IN LISTS LIBRARIES)
   if(NOT EXISTS ${prefix}/${LIBDIR}/liblockroll_${lib}.a OR NOT IS_DIRECTORY ${prefix}/include/lockroll/${lib})
     message(FATAL_ERROR "install test: lockroll::${lib} (library or headers) was not installed")
   endif()
@@ -121,7 +123,7 @@ foreach(want_expect ${major_minor}=found ${major}.0=found ${next_major}.0=not ${
   step("find_package(lockroll ${want})"
        ${CMAKE_COMMAND} -S ${TEST_SOURCE_DIR}/version_check -B ${WORK_DIR}/version-${want} -G ${GENERATOR} ${isolated}
        -DWANT=${want})
-  if(expect STREQUAL "found" AND NOT step_output MATCHES "lockroll ${want}: found ${VERSION}\n")
+  if(expect STREQUAL "found" AND NOT step_output MATCHES "lockroll ${want}: found ${VERSION} targets ${expected_targets}\n")
     message(FATAL_ERROR "install test: find_package(lockroll ${want}) should find ${VERSION}:\n${step_output}")
   elseif(expect STREQUAL "not" AND NOT step_output MATCHES "lockroll ${want}: not found\n")
     message(FATAL_ERROR "install test: find_package(lockroll ${want}) should fail against ${VERSION}:\n${step_output}")
