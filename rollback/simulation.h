@@ -17,7 +17,7 @@
 //  - A game that names fields (field_count() > 0, field_value()) gets a body_hash() of them for
 //    free, so narrowing finds the body and field without more code. A game overriding
 //    body_hash() must make it cover every field, or a differing field hides behind equal hashes
-//    ("all bodies agree; the state header differs").
+//    and narrowing can only say that every body hash agrees.
 //    Functions that take a state are only ever given buffers of state_size() bytes that came
 //    from save().
 #pragma once

@@ -1,7 +1,8 @@
 // A game with its own state (not sim::World) that only names its fields still gets desyncs
 // narrowed to the body and field: Simulation's default body_hash() hashes the named fields.
 // The control case (a body_hash that ignores the fields, as the default once did) shows the same
-// run ends "all bodies agree; the state header differs" -- the lie this default prevents.
+// run cannot get past "all body hashes agree" -- which the report once worded as "the state
+// header differs", a lie this default prevents.
 #include <gtest/gtest.h>
 
 #define XXH_INLINE_ALL
@@ -190,6 +191,7 @@ TEST(CustomGameDesync, ABodyHashBlindToTheFieldsBlamesTheHeader) {
     for (int c = 0; c < 2; ++c) {
         ASSERT_EQ(reports[c].size(), 1u) << "client " << c;
         EXPECT_EQ(reports[c][0].outcome, NarrowOutcome::HeaderOnly) << reports[c][0].summary;
+        EXPECT_NE(reports[c][0].summary.find("all body hashes agree"), std::string::npos) << reports[c][0].summary;
     }
 }
 
