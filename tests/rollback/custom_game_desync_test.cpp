@@ -32,6 +32,7 @@ public:
         v_ = {{{0, kHeight / 2, 0, 0}, {kWidth, kHeight / 2, 0, 0}, {kWidth / 2, kHeight / 2, 37, 23}}};
     }
 
+    using Simulation::step;  // the status overload forwards here
     void step(std::span<const std::uint8_t> inputs) override {
         for (int p = 0; p < 2; ++p) {
             auto& pad = v_[static_cast<std::size_t>(p)];

@@ -68,6 +68,7 @@ std::string world_line() {
 // The consumer's own game: one signed counter per player, moved by a one-byte input.
 class Counters : public lockroll::rollback::Simulation {
 public:
+    using Simulation::step;  // the status overload forwards here
     void step(std::span<const std::uint8_t> inputs) override {
         for (std::size_t p = 0; p < 2; ++p) value_[p] += static_cast<std::int8_t>(inputs[p]);
     }
