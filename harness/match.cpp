@@ -138,7 +138,9 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.cpu_clock = thread_cpu_ns;
     session_ = std::make_unique<rollback::Session>(sc, sim_, this);
     shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
-    shown_at_.push_back(start_us);
+    // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
+    // tick rate counts it: N frames take N periods.
+    shown_at_.push_back(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
 }
 
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
@@ -146,15 +148,16 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     const sim::World& w = sim_.world();
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
     if (!f.resimulation) {
-        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, dynamic_positions(w));
         shown_at_.push_back(now_);
         if (index_ == 0) {
-            // Frames shown during the last second of virtual time.
+            // Frames shown during the last second of virtual time. Set before record(): when
+            // client 0 is the last to show the frame, record() reduces the row at once.
             const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
             const auto shown = static_cast<double>(shown_at_.end() - first);
             const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
             s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
         }
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, dynamic_positions(w));
     }
     // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
     const std::uint32_t input_frame = f.frame - 1;

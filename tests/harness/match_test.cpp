@@ -127,6 +127,25 @@ TEST(Match, FourPlayersOverALossyReorderingNetwork) {
     EXPECT_EQ(r.position_error.count, 360u * 54u * 3u) << "4 players: 2 player bodies added; 3 pairs";
 }
 
+// Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set
+// after the row had been reduced), so tick_rate.png said "min 0" on frames that ran at 60.
+TEST(Match, EveryFrameRowCarriesTheTickRate) {
+    RunConfig c = base(Mode::Rollback, 240);
+    c.players = 8;
+    c.net.latency_ms = 150;
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    ASSERT_EQ(r.rows.size(), 240u);
+    std::size_t zero = 0;
+    double sum = 0;
+    for (const FrameRow& row : r.rows) {
+        if (row.ticks_per_second == 0.0) ++zero, ADD_FAILURE() << "frame " << row.frame << " reads 0 ticks/s";
+        sum += row.ticks_per_second;
+    }
+    EXPECT_EQ(zero, 0u) << "rows reading 0 ticks/s";
+    EXPECT_NEAR(sum / 240.0, r.ticks_per_second(), 0.1 * r.ticks_per_second());
+}
+
 TEST(Match, AddsPlayerBodiesWhenTheSceneHasTooFew) {
     const sim::SceneDesc s = with_players(load_scene("paper"), 5);
     EXPECT_EQ(sim::player_count(s), 5);
