@@ -185,7 +185,10 @@ void Client::on_rollback_begin(const rollback::RollbackInfo&) { before_rollback_
 
 void Client::on_rollback_end(const rollback::RollbackInfo& r) {
     if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
-    shared_.result.rollback_depth.add(r.depth);
+    RunResult& res = shared_.result;
+    res.rollback_depth.add(r.depth);
+    if (res.rollback_depth_histogram.size() <= r.depth) res.rollback_depth_histogram.resize(r.depth + 1, 0);
+    ++res.rollback_depth_histogram[r.depth];
     shared_.positions.note_rollback(r.displayed_frame, r.depth);
     if (!r.displayed_changed()) return;
     const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
@@ -483,10 +486,6 @@ RunResult run_match(const RunConfig& cfg) {
         cr.final_checksum = c->final_checksum_;
         cr.final_confirmed = c->final_confirmed_;
         res.completed = res.completed && c->final_confirmed_;
-        if (res.rollback_depth_histogram.size() < st.rollback_depth_histogram.size())
-            res.rollback_depth_histogram.resize(st.rollback_depth_histogram.size());
-        for (std::size_t d = 0; d < st.rollback_depth_histogram.size(); ++d)
-            res.rollback_depth_histogram[d] += st.rollback_depth_histogram[d];
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);
     }

@@ -54,8 +54,9 @@ void PositionErrorTracker::record(int client, std::uint32_t frame, double time_s
 }
 
 void PositionErrorTracker::note_rollback(std::uint32_t displayed_frame, std::uint32_t depth) {
-    auto& d = rollback_depth_[displayed_frame];
-    d = std::max(d, depth);
+    auto& d = rollbacks_[displayed_frame];
+    ++d.first;
+    d.second = std::max(d.second, depth);
 }
 
 void PositionErrorTracker::set_tick_rate(std::uint32_t frame, double tps) { tick_rate_[frame] = tps; }
@@ -79,9 +80,10 @@ void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
         }
     }
     row.mean_error = n ? sum / static_cast<double>(n) : 0.0;
-    if (auto it = rollback_depth_.find(frame); it != rollback_depth_.end()) {
-        row.rollback_depth = it->second;
-        rollback_depth_.erase(it);
+    if (auto it = rollbacks_.find(frame); it != rollbacks_.end()) {
+        row.rollbacks = it->second.first;
+        row.max_rollback_depth = it->second.second;
+        rollbacks_.erase(it);
     }
     if (auto it = tick_rate_.find(frame); it != tick_rate_.end()) {
         row.ticks_per_second = it->second;
@@ -125,11 +127,7 @@ double RunResult::packets_sent_per_s() const {
     for (const auto& c : clients) s += static_cast<double>(c.packets_sent);
     return clients.empty() || virtual_seconds <= 0 ? 0 : s / static_cast<double>(clients.size()) / virtual_seconds;
 }
-std::uint64_t RunResult::rollbacks() const {
-    std::uint64_t s = 0;
-    for (const auto& c : clients) s += c.rollbacks;
-    return s;
-}
+std::uint64_t RunResult::rollbacks() const { return rollback_depth.count; }
 std::uint64_t RunResult::desync_count() const {
     std::uint64_t s = 0;
     for (const auto& c : clients) s += c.desyncs;

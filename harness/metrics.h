@@ -40,7 +40,8 @@ struct FrameRow {
     std::uint32_t frame = 0;
     double time_s = 0;            // virtual time client 0 first showed the frame
     double mean_error = 0, max_error = 0;
-    std::uint32_t rollback_depth = 0;  // deepest rollback any client ended on this frame
+    std::uint32_t rollbacks = 0;           // rollbacks (all clients) that ended on this displayed frame
+    std::uint32_t max_rollback_depth = 0;  // the deepest of them
     double ticks_per_second = 0;  // client 0's frames shown in the last second
 };
 
@@ -71,7 +72,7 @@ private:
     std::size_t bodies_;
     bool keep_positions_;
     std::map<std::uint32_t, Pending> pending_;
-    std::map<std::uint32_t, std::uint32_t> rollback_depth_;
+    std::map<std::uint32_t, std::pair<std::uint32_t, std::uint32_t>> rollbacks_;  // frame -> (count, max depth)
     std::map<std::uint32_t, double> tick_rate_;
     Stat error_;
     std::vector<double> body_max_;
@@ -115,8 +116,10 @@ struct RunResult {
     Stat input_latency_remote;
     Stat cpu_us_per_tick = Stat::keeping_samples();  // all ticks of all clients
     Stat resim_us_per_tick;    // resimulation part, over all ticks
-    Stat rollback_depth;       // over rollbacks
-    std::vector<std::uint64_t> rollback_depth_histogram;
+    // Every rollback of every client that ended on a measured frame (<= frames): the depth
+    // statistics, the histogram and rollbacks() all count this same set.
+    Stat rollback_depth;
+    std::vector<std::uint64_t> rollback_depth_histogram;  // [depth] -> rollbacks
     std::uint64_t confirmed_mismatches = 0, confirmed_compared = 0;
     std::vector<DesyncRecord> desyncs;
     std::vector<ClientResult> clients;

@@ -113,11 +113,11 @@ json summary_json(const RunResult& r) {
 }
 
 std::string frames_csv(const RunResult& r) {
-    std::string out = "frame,time_s,mean_error,max_error,rollback_depth,ticks_per_second\n";
+    std::string out = "frame,time_s,mean_error,max_error,rollbacks,max_rollback_depth,ticks_per_second\n";
     char line[160];
     for (const auto& row : r.rows) {
-        std::snprintf(line, sizeof line, "%u,%.6f,%.9g,%.9g,%u,%.3f\n", row.frame, row.time_s, row.mean_error, row.max_error,
-                      row.rollback_depth, row.ticks_per_second);
+        std::snprintf(line, sizeof line, "%u,%.6f,%.9g,%.9g,%u,%u,%.3f\n", row.frame, row.time_s, row.mean_error,
+                      row.max_error, row.rollbacks, row.max_rollback_depth, row.ticks_per_second);
         out += line;
     }
     return out;

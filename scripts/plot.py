@@ -7,8 +7,10 @@
   plot.py selftest      plots synthetic CSVs in a temporary directory and checks the results
                         and the error reporting (run by CTest)
 
-frames.csv columns: frame,time_s,mean_error,max_error,rollback_depth,ticks_per_second
-  (one row per frame; rollback_depth 0 when that frame caused no rollback)
+frames.csv columns: frame,time_s,mean_error,max_error,rollbacks,max_rollback_depth,ticks_per_second
+  (one row per frame; rollbacks: how many clients' rollbacks ended on that displayed frame,
+  max_rollback_depth the deepest of them). The depth histogram comes from DIR/MODE/summary.json
+  (rollbacks.depth_histogram), which counts every rollback.
 sweep.csv columns:  input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,
                     cpu_us_per_tick (one row per grid point)
 
@@ -19,6 +21,7 @@ directory and renamed into place, so a reader never sees half a file.
 
 import argparse
 import csv
+import json
 import math
 import os
 import sys
@@ -31,7 +34,8 @@ import matplotlib.lines  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402  (after use())
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
-FRAMES_COLUMNS = ["frame", "time_s", "mean_error", "max_error", "rollback_depth", "ticks_per_second"]
+FRAMES_COLUMNS = ["frame", "time_s", "mean_error", "max_error", "rollbacks", "max_rollback_depth",
+                  "ticks_per_second"]
 SWEEP_COLUMNS = ["input_delay", "prediction", "latency_ms", "mean_error", "max_error",
                  "input_latency_ms", "cpu_us_per_tick"]
 MODES = ("lockstep", "rollback")
@@ -113,11 +117,11 @@ def plot_error_vs_time(runs, out):
         ax.grid(True, which="major", alpha=0.3)
     # Rollback events as a rug under the max-error panel: where corrections happened.
     d = runs["rollback"]
-    times = [t for t, depth in zip(d["time_s"], d["rollback_depth"]) if depth > 0]
+    times = [t for t, n in zip(d["time_s"], d["rollbacks"]) if n > 0]
     if times:
         low = axes[1].get_ylim()[0]
         axes[1].plot(times, [low] * len(times), "|", color=COLORS["rollback"], alpha=0.5,
-                     markersize=10, label=f"rollback events ({len(times)})")
+                     markersize=10, label=f"frames with rollbacks ({len(times)})")
     axes[0].legend(loc="upper left", fontsize=8)
     axes[1].legend(loc="upper left", fontsize=8)
     axes[1].set_xlabel("run time (s)")
@@ -126,29 +130,47 @@ def plot_error_vs_time(runs, out):
     save(fig, out)
 
 
-def plot_rollback_depth(runs, out):
+def depth_histogram(directory, mode):
+    """summary.json's rollbacks.depth_histogram: [count of rollbacks of depth d, ...]."""
+    path = os.path.join(directory, mode, "summary.json")
+    if not os.path.isfile(path):
+        raise InputError(f"{path}: file not found")
+    try:
+        with open(path) as f:
+            hist = json.load(f)["rollbacks"]["depth_histogram"]
+    except (ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{path}: no rollbacks.depth_histogram ({e})") from None
+    if not all(isinstance(x, int) and x >= 0 for x in hist):
+        raise InputError(f"{path}: rollbacks.depth_histogram must hold non-negative integers")
+    return hist
+
+
+def plot_rollback_depth(runs, out, directory):
+    """Histogram of every rollback's depth, from summary.json (frames.csv only holds the deepest
+    rollback per frame, which undercounts). Returns the title, for the selftest."""
     fig, ax = plt.subplots(figsize=(8, 4.5))
-    depths = [int(x) for x in runs["rollback"]["rollback_depth"] if x > 0]
-    if depths:
-        top = max(depths)
-        counts = [depths.count(k) for k in range(1, top + 1)]
-        ax.bar(range(1, top + 1), counts, color=COLORS["rollback"], edgecolor="black", linewidth=0.5)
-        mean = sum(depths) / len(depths)
-        ax.set_title(f"Rollback depth: {len(depths)} rollbacks, mean {mean:.2f}, max {top} frames",
-                     fontsize=10)
+    hist = depth_histogram(directory, "rollback")
+    total = sum(hist[1:])
+    if total:
+        top = max(d for d, n in enumerate(hist) if n and d > 0)
+        ax.bar(range(1, top + 1), hist[1:top + 1], color=COLORS["rollback"], edgecolor="black", linewidth=0.5)
+        mean = sum(d * n for d, n in enumerate(hist)) / total
+        title = f"Rollback depth: {total} rollbacks, mean depth {mean:.2f}, max {top} frames"
         ax.set_xlim(0.4, top + 0.6)
     else:
         ax.text(0.5, 0.5, "no rollbacks", ha="center", va="center", transform=ax.transAxes)
-        ax.set_title("Rollback depth", fontsize=10)
-    lock = sum(1 for x in runs["lockstep"]["rollback_depth"] if x > 0)
+        title = "Rollback depth: no rollbacks"
+    ax.set_title(title, fontsize=10)
+    lock = sum(depth_histogram(directory, "lockstep")[1:])
     ax.text(0.99, 0.97, f"lockstep: {lock} rollbacks", ha="right", va="top",
             transform=ax.transAxes, fontsize=8, color=COLORS["lockstep"])
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("frames resimulated per rollback")
-    ax.set_ylabel("rollbacks")
+    ax.set_ylabel("rollbacks (all clients)")
     ax.grid(True, axis="y", alpha=0.3)
     fig.tight_layout()
     save(fig, out)
+    return title
 
 
 def plot_tick_rate(runs, out):
@@ -172,7 +194,7 @@ def compare(directory):
     runs = {mode: read_csv(os.path.join(directory, mode, "frames.csv"), FRAMES_COLUMNS)
             for mode in MODES}
     plot_error_vs_time(runs, os.path.join(directory, "error_vs_time.png"))
-    plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"))
+    plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"), directory)
     plot_tick_rate(runs, os.path.join(directory, "tick_rate.png"))
 
 
@@ -253,8 +275,13 @@ def write_synthetic(directory):
             for frame in range(240):
                 depth = rng.choice([0, 0, 0, 1, 2, 5]) if mode == "rollback" else 0
                 worst = rng.expovariate(20) if depth else 0.0
-                f.write(f"{frame},{frame / 60:.6f},{worst / 50:.6g},{worst:.6g},{depth},"
+                f.write(f"{frame},{frame / 60:.6f},{worst / 50:.6g},{worst:.6g},{1 if depth else 0},{depth},"
                         f"{60 - rng.random() * (0.5 if mode == 'rollback' else 0.1):.3f}\n")
+    # The depth histogram of every rollback (what summary.json counts), deliberately unlike
+    # the per-frame maxima in frames.csv: 17 rollbacks, mean depth 28 / 17 = 1.65.
+    for mode, hist in (("lockstep", [0]), ("rollback", [0, 10, 5, 0, 2])):
+        with open(os.path.join(directory, mode, "summary.json"), "w") as f:
+            json.dump({"rollbacks": {"depth_histogram": hist}}, f)
     with open(os.path.join(directory, "sweep.csv"), "w") as f:
         f.write(",".join(SWEEP_COLUMNS) + "\n")
         for latency in (28.5, 57.0, 150.0):
@@ -280,12 +307,16 @@ def selftest():
             with open(path, "rb") as f:
                 if f.read(8) != b"\x89PNG\r\n\x1a\n":
                     failures.append(f"{name}: not a PNG")
+        runs = {mode: read_csv(os.path.join(directory, mode, "frames.csv"), FRAMES_COLUMNS) for mode in MODES}
+        title = plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"), directory)
+        if "17 rollbacks, mean depth 1.65, max 4" not in (title or ""):
+            failures.append(f"rollback_depth.png counts something else than summary.json: {title!r}")
         leftovers = [n for n in os.listdir(directory) if n.startswith(".plot-")]
         if leftovers:
             failures.append(f"temporary files left behind: {leftovers}")
         # Bad input: a clear message and status 2, never a traceback.
         with open(os.path.join(directory, "rollback", "frames.csv"), "a") as f:
-            f.write("240,4.0,oops,0,0,60\n")
+            f.write("240,4.0,oops,0,0,0,60\n")
         if main(["compare", directory]) != 2:
             failures.append("a non-numeric value was not rejected with status 2")
         os.remove(os.path.join(directory, "sweep.csv"))
