@@ -82,7 +82,28 @@ public:
     }
     void tick(std::uint64_t now);
 
+    // Times the harness's own work inside an observer callback, so that CPU per tick and
+    // resimulation CPU can leave it out: they describe the session, not the measuring.
+    struct ObserverScope {
+        Client& c;
+        std::uint64_t t0;
+        explicit ObserverScope(Client& client) : c(client), t0(client.cpu_clock_()) {
+            if (c.on_observer_) c.on_observer_();
+        }
+        ~ObserverScope() {
+            const std::uint64_t d = c.cpu_clock_() - t0;
+            c.observer_ns_ += d;
+            if (c.in_rollback_) c.rollback_observer_ns_ += d;
+        }
+        ObserverScope(const ObserverScope&) = delete;
+        ObserverScope& operator=(const ObserverScope&) = delete;
+    };
+    std::uint64_t observer_ns_ = 0, rollback_observer_ns_ = 0;
+    bool in_rollback_ = false;
+
     Shared& shared_;
+    std::function<std::uint64_t()> cpu_clock_;
+    std::function<void()> on_observer_;
     int index_;
     int tick_rate_;
     std::int64_t drift_ppm_;
@@ -120,6 +141,8 @@ struct Shared {
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
                transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
     : shared_(shared),
+      cpu_clock_(cfg.cpu_clock ? cfg.cpu_clock : std::function<std::uint64_t()>(thread_cpu_ns)),
+      on_observer_(cfg.on_observer),
       index_(index),
       tick_rate_(cfg.tick_rate),
       drift_ppm_(drift_ppm),
@@ -135,7 +158,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.input_delay = input_delay;
     sc.prediction_window = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
     sc.checksum_interval = cfg.checksum_interval;
-    sc.cpu_clock = thread_cpu_ns;
+    sc.cpu_clock = cpu_clock_;
     session_ = std::make_unique<rollback::Session>(sc, sim_, this);
     shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
     // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
@@ -144,6 +167,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
 }
 
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
+    const ObserverScope scope(*this);
     Shared& s = shared_;
     const sim::World& w = sim_.world();
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
@@ -181,9 +205,15 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     }
 }
 
-void Client::on_rollback_begin(const rollback::RollbackInfo&) { before_rollback_ = dynamic_positions(sim_.world()); }
+void Client::on_rollback_begin(const rollback::RollbackInfo&) {
+    in_rollback_ = true;  // inside the session's resimulation timing until on_rollback_end
+    const ObserverScope scope(*this);
+    before_rollback_ = dynamic_positions(sim_.world());
+}
 
 void Client::on_rollback_end(const rollback::RollbackInfo& r) {
+    in_rollback_ = false;
+    const ObserverScope scope(*this);
     if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
     RunResult& res = shared_.result;
     res.rollback_depth.add(r.depth);
@@ -198,6 +228,7 @@ void Client::on_rollback_end(const rollback::RollbackInfo& r) {
 }
 
 void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
+    const ObserverScope scope(*this);
     if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
     auto& entry = shared_.confirmed[f.frame];
     if (entry.second == 0) {
@@ -218,6 +249,7 @@ void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
 }
 
 void Client::on_desync_report(const rollback::DesyncReport& r) {
+    const ObserverScope scope(*this);
     DesyncRecord rec;
     rec.client = index_;
     rec.summary = r.summary;
@@ -249,10 +281,13 @@ void Client::tick(std::uint64_t now) {
             const std::uint32_t input_frame = session_->frame() + static_cast<std::uint32_t>(session_->input_delay());
             const sim::PlayerInput in = bot_.input(input_frame, sim_.world());
             const auto bytes = rollback::encode_input(in);
-            const std::uint64_t t0 = thread_cpu_ns();
+            const std::uint64_t obs0 = observer_ns_, robs0 = rollback_observer_ns_;
+            const std::uint64_t t0 = cpu_clock_();
             const rollback::AdvanceResult r = session_->advance(bytes, now);
-            res.cpu_us_per_tick.add(static_cast<double>(thread_cpu_ns() - t0) / 1000.0);
-            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns) / 1000.0);
+            const std::uint64_t spent = cpu_clock_() - t0, observed = observer_ns_ - obs0;
+            const std::uint64_t resim_observed = rollback_observer_ns_ - robs0;
+            res.cpu_us_per_tick.add(static_cast<double>(spent - std::min(spent, observed)) / 1000.0);
+            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
             // The session takes the first input offered for each frame, stalled tick or not,
             // and ignores later offers for the same frame.
             const bool taken = !have_last_input_ || input_frame > last_input_frame_;

@@ -61,6 +61,12 @@ struct RunConfig {
     std::string evidence_dir;     // where desync evidence files go ("" = none)
     // Called now and then with (frames shown by client 0, target); for terminal progress.
     std::function<void(int, int)> progress;
+    // The CPU clock every figure in CPU time is read from (ns). Empty: this thread's CPU time.
+    // Tests pass a counting clock to check what is inside and outside a measurement.
+    std::function<std::uint64_t()> cpu_clock;
+    // Called at the start of each of the harness's own observer callbacks (tests use it to make
+    // the harness's work visible on a fake cpu_clock).
+    std::function<void()> on_observer;
 };
 
 // Throws UsageError naming the option for values out of range.

@@ -146,6 +146,29 @@ TEST(Match, EveryFrameRowCarriesTheTickRate) {
     EXPECT_NEAR(sum / 240.0, r.ticks_per_second(), 0.1 * r.ticks_per_second());
 }
 
+// A CPU clock that only moves when told to: the harness's observer "costs" 1 ms per callback,
+// the session 1 us per clock reading.
+struct FakeCpu {
+    std::uint64_t ns = 0;
+    std::function<std::uint64_t()> clock() {
+        return [this] { return ns += 1000; };
+    }
+};
+
+// Issue 10: CPU per tick timed advance() including the harness's own observer (5.7 us, 32.6 us
+// with --positions), so the figure grew with what the harness recorded.
+TEST(Match, CpuPerTickExcludesTheHarnessObserver) {
+    FakeCpu fake;
+    RunConfig c = base(Mode::Rollback, 120);
+    c.cpu_clock = fake.clock();
+    c.on_observer = [&fake] { fake.ns += 1000000; };
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    EXPECT_LT(r.cpu_us_per_tick.max, 1000.0) << "a tick's CPU includes 1 ms of observer work";
+    EXPECT_GT(r.cpu_us_per_tick.mean(), 0.0);
+    EXPECT_LT(r.resim_us_per_tick.max, 1000.0) << "resimulation CPU includes observer work";
+}
+
 TEST(Match, AddsPlayerBodiesWhenTheSceneHasTooFew) {
     const sim::SceneDesc s = with_players(load_scene("paper"), 5);
     EXPECT_EQ(sim::player_count(s), 5);
