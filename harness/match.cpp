@@ -11,6 +11,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"
@@ -112,6 +113,7 @@ public:
     int wait_ticks_ = 0;
     std::uint64_t now_ = 0;
     rollback::WorldSimulation sim_;
+    TimedSimulation timed_;  // what the session steps: sim_, each step timed
     Bot bot_;
     transport::Transport& endpoint_;
     std::unique_ptr<rollback::Session> session_;
@@ -148,6 +150,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
       drift_ppm_(drift_ppm),
       start_us_(start_us),
       sim_(scene, cfg.players),
+      timed_(sim_, cpu_clock_, shared.result.physics_step_us),
       bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
       endpoint_(endpoint) {
     rollback::SessionConfig sc;
@@ -159,7 +162,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.prediction_window = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
     sc.checksum_interval = cfg.checksum_interval;
     sc.cpu_clock = cpu_clock_;
-    session_ = std::make_unique<rollback::Session>(sc, sim_, this);
+    session_ = std::make_unique<rollback::Session>(sc, timed_, this);
     shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
     // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
     // tick rate counts it: N frames take N periods.

@@ -116,6 +116,8 @@ struct RunResult {
     Stat input_latency_remote;
     Stat cpu_us_per_tick = Stat::keeping_samples();  // all ticks of all clients
     Stat resim_us_per_tick;    // resimulation part, over all ticks
+    // CPU time of every physics step (forward and resimulated) of this scene in this run.
+    Stat physics_step_us = Stat::keeping_samples();
     // Every rollback of every client that ended on a measured frame (<= frames): the depth
     // statistics, the histogram and rollbacks() all count this same set.
     Stat rollback_depth;

@@ -31,8 +31,9 @@ struct PaperFigures {
     static constexpr double lockstep_ticks_per_second = 7;
 };
 
-nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, double step_us);
-std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, double step_us,
+// rollback_delay0 is the like-for-like run: rollback at input delay 0 (what the paper measured).
+nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0);
+std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0,
                              const std::string& plots_note);
 
 }  // namespace lockroll::harness
