@@ -12,7 +12,8 @@ frames.csv columns: frame,time_s,mean_error,max_error,rollbacks,max_rollback_dep
   max_rollback_depth the deepest of them). The depth histogram comes from DIR/MODE/summary.json
   (rollbacks.depth_histogram), which counts every rollback.
 sweep.csv columns:  input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,
-                    cpu_us_per_tick (one row per grid point)
+                    cpu_us_per_tick,ticks_per_second,stall_fraction (one row per grid point;
+                    the lowest-error frontier only runs through rows stalling <= 5 % of ticks)
 
 Bad input (missing file or column, a value that is not a number) prints a message naming the
 file, line and column and exits with status 2. PNGs are written to a temporary file in the same
@@ -37,7 +38,10 @@ from matplotlib.ticker import MaxNLocator  # noqa: E402
 FRAMES_COLUMNS = ["frame", "time_s", "mean_error", "max_error", "rollbacks", "max_rollback_depth",
                   "ticks_per_second"]
 SWEEP_COLUMNS = ["input_delay", "prediction", "latency_ms", "mean_error", "max_error",
-                 "input_latency_ms", "cpu_us_per_tick"]
+                 "input_latency_ms", "cpu_us_per_tick", "ticks_per_second", "stall_fraction"]
+# A configuration that stalls on more than this share of its ticks does not hold the tick rate;
+# it can never be the "lowest error" choice, however little error it shows.
+STALL_LIMIT = 0.05
 MODES = ("lockstep", "rollback")
 COLORS = {"lockstep": "#1f77b4", "rollback": "#d62728"}
 # Errors span 0 .. ~1 m with interesting detail near 1e-4: a symmetric log axis shows zeros and
@@ -210,6 +214,16 @@ def pareto(points):
     return front
 
 
+def holds_tick_rate(row):
+    return row["stall_fraction"] <= STALL_LIMIT
+
+
+def frontier(rows):
+    """The lowest-error-at-each-input-latency front over sweep rows (dicts) that hold the tick
+    rate: (input_latency_ms, mean_error, row) sorted by latency."""
+    return pareto([(r["input_latency_ms"], r["mean_error"], r) for r in rows if holds_tick_rate(r)])
+
+
 def sweep(directory):
     path = os.path.join(directory, "sweep.csv")
     d = read_csv(path, SWEEP_COLUMNS)
@@ -235,7 +249,11 @@ def sweep(directory):
             for r in sel:
                 ax.annotate(f"D{int(r[0])}", (r[5], r[3]), textcoords="offset points", xytext=(4, 3),
                             fontsize=6, alpha=0.7)
-        front = pareto([(r[5], r[3]) for r in pts])
+        stalled = [r for r in pts if r[8] > STALL_LIMIT]
+        if stalled:
+            ax.scatter([r[5] for r in stalled], [r[3] for r in stalled], s=140, facecolors="none",
+                       edgecolors="red", linewidths=0.9)
+        front = frontier([dict(zip(SWEEP_COLUMNS, r)) for r in pts])
         ax.step([p[0] for p in front], [p[1] for p in front], where="post", color="gray",
                 linewidth=0.8, linestyle="--")
         ax.set_yscale("symlog", linthresh=ERROR_LINTHRESH)
@@ -253,7 +271,10 @@ def sweep(directory):
                                        label="lockstep (W=0)" if w == 0 else f"prediction W={int(w)}")
                for k, w in enumerate(predictions)]
     handles.append(matplotlib.lines.Line2D([], [], color="gray", linestyle="--", linewidth=0.8,
-                                           label="lowest error at that input latency"))
+                                           label=f"lowest error at that input latency (stalls <= {STALL_LIMIT:.0%})"))
+    handles.append(matplotlib.lines.Line2D([], [], linestyle="", marker="o", markerfacecolor="none",
+                                           markeredgecolor="red", markersize=9,
+                                           label=f"stalls on > {STALL_LIMIT:.0%} of ticks"))
     axes[0][0].legend(handles=handles, fontsize=7, loc="upper right")
     bar = fig.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap="viridis"), ax=axes, shrink=0.9)
     bar.set_label("CPU per tick (µs)")
@@ -289,8 +310,10 @@ def write_synthetic(directory):
                 for window in (0, 2, 8):
                     short = max(0, math.ceil(latency / 16.7) - delay)
                     error = 0.0 if window == 0 else 1e-5 * short * short
+                    stall = min(0.9, 0.2 * short) if window == 0 else 0.0
                     f.write(f"{delay},{window},{latency},{error:.6g},{error * 100:.6g},"
-                            f"{(delay + (short if window == 0 else 0)) * 16.7:.2f},{20 + 5 * min(window, short)}\n")
+                            f"{(delay + (short if window == 0 else 0)) * 16.7:.2f},{20 + 5 * min(window, short)},"
+                            f"{60 * (1 - stall):.3f},{stall:.4f}\n")
 
 
 def selftest():
@@ -311,6 +334,16 @@ def selftest():
         title = plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"), directory)
         if "17 rollbacks, mean depth 1.65, max 4" not in (title or ""):
             failures.append(f"rollback_depth.png counts something else than summary.json: {title!r}")
+        # The frontier never runs through a configuration that stalls: lockstep at delay 0 shows
+        # no error and little input latency, but at 100 ms it stalls most ticks.
+        stalled = {"input_delay": 0, "prediction": 0, "latency_ms": 100, "mean_error": 0.0, "max_error": 0.0,
+                   "input_latency_ms": 5.0, "cpu_us_per_tick": 10, "ticks_per_second": 19.7,
+                   "stall_fraction": 0.67}
+        held = dict(stalled, prediction=8, input_delay=2, mean_error=1e-4, input_latency_ms=40.0,
+                    ticks_per_second=60, stall_fraction=0.0)
+        front = [p[2] for p in frontier([stalled, held])]
+        if front != [held]:
+            failures.append(f"the lowest-error frontier includes a stalling configuration: {front}")
         leftovers = [n for n in os.listdir(directory) if n.startswith(".plot-")]
         if leftovers:
             failures.append(f"temporary files left behind: {leftovers}")
