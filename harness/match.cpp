@@ -434,6 +434,7 @@ RunResult run_match(const RunConfig& cfg) {
     res.loss = cfg.net.loss;
     res.duplicate = cfg.net.duplicate;
     res.reorder = cfg.net.reorder;
+    res.burst_loss = cfg.net.burst_loss;
 
     const std::vector<double> rtts = measure_rtt(net, cfg.players);
     res.rtt_p50_ms = percentile(rtts, 50);

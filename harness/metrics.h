@@ -105,7 +105,7 @@ struct RunResult {
     std::string mode, scene, bot;
     int players = 0, frames = 0, tick_rate = 0, input_delay = 0, prediction = 0;
     std::uint64_t seed = 0;
-    double latency_ms = 0, jitter_ms = 0, loss = 0, duplicate = 0, reorder = 0;
+    double latency_ms = 0, jitter_ms = 0, loss = 0, duplicate = 0, reorder = 0, burst_loss = 0;
     double rtt_p50_ms = 0, rtt_p95_ms = 0;  // measured in the ping phase
     double virtual_seconds = 0;
     bool completed = false;  // every client confirmed the last frame before the time limit

@@ -31,6 +31,11 @@ struct PaperFigures {
     static constexpr double lockstep_ticks_per_second = 7;
 };
 
+// The paper's conditions: 2 players on its scene at 60 Hz, 57 ms read either as round trip
+// (28.5 ms one way) or one way, ±10 ms jitter, no loss, duplication or reordering. Its figures
+// are shown beside ours only then.
+bool at_paper_conditions(const RunResult& r);
+
 // rollback_delay0 is the like-for-like run: rollback at input delay 0 (what the paper measured).
 nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0);
 std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0,

@@ -187,6 +187,53 @@ TEST(Match, PhysicsStepIsTimedOnTheRunsOwnSteps) {
     EXPECT_NE(md.find("| physics step, median CPU (µs) | 1.00 | 1.00 |"), std::string::npos) << md;
 }
 
+RunResult conditions(const char* mode, int players, double latency, double jitter, double loss, int delay) {
+    RunResult r;
+    r.mode = mode;
+    r.scene = "paper";
+    r.players = players;
+    r.frames = 720;
+    r.tick_rate = 60;
+    r.latency_ms = latency;
+    r.jitter_ms = jitter;
+    r.loss = loss;
+    r.input_delay = delay;
+    r.prediction = std::string(mode) == "lockstep" ? 0 : 8;
+    return r;
+}
+
+// Issue 10: the paper's columns appeared beside any conditions (even 8 players at 250 ms), and
+// the win over Quantum's 1.79e-4 rested on 2 frames of input delay. The paper's figures belong
+// only beside runs at its conditions, and a rollback run at input delay 0 always stands beside
+// the auto-delay one.
+TEST(Report, PaperColumnsOnlyAtThePapersConditionsAndALikeForLikeDelay0Run) {
+    for (double latency : {28.5, 57.0}) {
+        const RunResult ls = conditions("lockstep", 2, latency, 10, 0, 4), rb = conditions("rollback", 2, latency, 10, 0, 2),
+                        rb0 = conditions("rollback", 2, latency, 10, 0, 0);
+        const std::string md = compare_markdown(ls, rb, rb0, "");
+        EXPECT_NE(md.find("Photon Quantum"), std::string::npos) << latency;
+        EXPECT_NE(md.find("rollback, input delay 0"), std::string::npos);
+        EXPECT_TRUE(compare_json(ls, rb, rb0).contains("paper"));
+        EXPECT_TRUE(compare_json(ls, rb, rb0).contains("rollback_delay0"));
+    }
+    const RunResult ls = conditions("lockstep", 8, 250, 10, 0, 17), rb = conditions("rollback", 8, 250, 10, 0, 9),
+                    rb0 = conditions("rollback", 8, 250, 10, 0, 0);
+    const std::string md = compare_markdown(ls, rb, rb0, "");
+    EXPECT_EQ(md.find("Photon Quantum"), std::string::npos) << md;
+    EXPECT_EQ(md.find("1.79e-4"), std::string::npos) << md;
+    EXPECT_NE(md.find("rollback, input delay 0"), std::string::npos) << md;
+    EXPECT_FALSE(compare_json(ls, rb, rb0).contains("paper"));
+    // Loss or a third player leaves the paper's conditions too.
+    EXPECT_EQ(compare_markdown(conditions("lockstep", 2, 28.5, 10, 0.05, 4), conditions("rollback", 2, 28.5, 10, 0.05, 2),
+                               conditions("rollback", 2, 28.5, 10, 0.05, 0), "")
+                  .find("Photon Quantum"),
+              std::string::npos);
+    EXPECT_EQ(compare_markdown(conditions("lockstep", 3, 28.5, 10, 0, 4), conditions("rollback", 3, 28.5, 10, 0, 2),
+                               conditions("rollback", 3, 28.5, 10, 0, 0), "")
+                  .find("Photon Quantum"),
+              std::string::npos);
+}
+
 TEST(Match, AddsPlayerBodiesWhenTheSceneHasTooFew) {
     const sim::SceneDesc s = with_players(load_scene("paper"), 5);
     EXPECT_EQ(sim::player_count(s), 5);
