@@ -66,7 +66,7 @@ struct Shared;
 
 class Client final : public rollback::SessionObserver {
 public:
-    Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
+    Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay, int prediction,
            transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us);
 
     void on_frame_simulated(const rollback::FrameSimulated& f) override;
@@ -141,7 +141,7 @@ struct Shared {
 };
 
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
-               transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
+               int prediction, transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
     : shared_(shared),
       cpu_clock_(cfg.cpu_clock ? cfg.cpu_clock : std::function<std::uint64_t()>(thread_cpu_ns)),
       on_observer_(cfg.on_observer),
@@ -159,7 +159,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.input_size = rollback::kWorldInputSize;
     sc.tick_rate = cfg.tick_rate;
     sc.input_delay = input_delay;
-    sc.prediction_window = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
+    sc.prediction_window = prediction;
     sc.checksum_interval = cfg.checksum_interval;
     sc.cpu_clock = cpu_clock_;
     session_ = std::make_unique<rollback::Session>(sc, timed_, this);
@@ -413,6 +413,10 @@ int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_r
     return mode == Mode::Lockstep ? lockstep : (lockstep + 1) / 2;
 }
 
+int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay) {
+    return std::min(60, std::max(configured, lockstep_delay - rollback_delay + 1));
+}
+
 RunResult run_match(const RunConfig& cfg) {
     validate(cfg);
     sim::SceneDesc scene = with_players(cfg.scene, cfg.players);
@@ -441,6 +445,9 @@ RunResult run_match(const RunConfig& cfg) {
     res.rtt_p95_ms = percentile(rtts, 95);
     res.input_delay = cfg.input_delay >= 0 ? cfg.input_delay
                                            : auto_input_delay(cfg.mode, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate);
+    if (cfg.input_delay < 0 && cfg.mode == Mode::Rollback)
+        res.prediction = auto_prediction_window(
+            cfg.prediction, auto_input_delay(Mode::Lockstep, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate), res.input_delay);
     if (!cfg.evidence_dir.empty()) std::filesystem::create_directories(cfg.evidence_dir);
 
     // The match starts after the ping phase; clients start within one tick of each other and
@@ -458,7 +465,7 @@ RunResult run_match(const RunConfig& cfg) {
         const std::int64_t drift = drift_range ? static_cast<std::int64_t>(rng.below(2 * drift_range + 1)) -
                                                      static_cast<std::int64_t>(drift_range)
                                                : 0;
-        clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay,
+        clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay, res.prediction,
                                                    net.endpoint(static_cast<transport::PeerId>(c)), drift, start + offset));
     }
     if (cfg.record_inputs) {

@@ -78,8 +78,14 @@ sim::SceneDesc with_players(const sim::SceneDesc& scene, int players);
 
 // Input delay --input-delay auto picks from a measured round-trip distribution: lockstep needs
 // the 95th-percentile one-way time covered, plus one frame for tick phase; rollback takes half
-// of that (rounded up), trading a little latency for shallower rollbacks.
+// of that (rounded up), trading a little latency for shallower rollbacks, and widens its
+// window to match (auto_prediction_window).
 int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate);
+
+// The prediction window auto-tuned rollback uses: at least the configured one, and wide enough
+// that delay + window exceeds lockstep's delay, so that rollback never stalls more than lockstep
+// at the same conditions (it stalls when an input is older than delay + window frames).
+int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay);
 
 RunResult run_match(const RunConfig& config);
 

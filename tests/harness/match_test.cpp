@@ -94,6 +94,28 @@ TEST(Match, AutoInputDelayCoversTheRoundTrip) {
     EXPECT_EQ(auto_input_delay(Mode::Lockstep, 0, 0, 60), 1);
 }
 
+// Issue 10: at 250 ms with 30 % loss auto-tuning halved the delay but kept the window at 8, so
+// rollback's horizon (delay + window) fell short of lockstep's delay and it stalled more than
+// lockstep. Auto-tuned rollback must never stall more than auto-tuned lockstep.
+TEST(Match, AutoTunedRollbackNeverStallsMoreThanLockstep) {
+    for (double jitter : {0.0, 20.0}) {
+        RunConfig c = base(Mode::Lockstep, 720);
+        c.seed = 1;
+        c.net.latency_ms = 250;
+        c.net.jitter_ms = jitter;
+        c.net.loss = 0.3;
+        const RunResult ls = run_match(c);
+        c.mode = Mode::Rollback;
+        const RunResult rb = run_match(c);
+        ASSERT_TRUE(ls.completed && rb.completed);
+        EXPECT_GT(rb.input_delay + rb.prediction, ls.input_delay) << "jitter " << jitter;
+        EXPECT_LE(rb.stall_fraction(), ls.stall_fraction()) << "jitter " << jitter;
+        EXPECT_GE(rb.ticks_per_second(), ls.ticks_per_second()) << "jitter " << jitter;
+    }
+    EXPECT_EQ(auto_prediction_window(8, 4, 2), 8) << "the paper's conditions keep the configured window";
+    EXPECT_EQ(auto_prediction_window(8, 18, 9), 10);
+}
+
 TEST(Match, InjectedDesyncIsNamedToBodyAndField) {
     RunConfig c = base(Mode::Rollback, 300);
     c.checksum_interval = 4;
