@@ -74,6 +74,7 @@ public:
     void on_rollback_end(const rollback::RollbackInfo& r) override;
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override;
     void on_desync_report(const rollback::DesyncReport& r) override;
+    void on_desync(const rollback::DesyncEvent& e) override;
 
     std::uint64_t next_tick_us() const {
         // Tick k at start + k / (tick_rate * (1 + drift)) seconds, computed exactly in integers.
@@ -127,10 +128,20 @@ public:
     std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
+    transport::SimNetwork* net_ = nullptr;          // for loss events
+    std::map<std::uint32_t, std::vector<sim::Vec3>> displayed_;  // shown, awaiting confirmation
+    std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
+    std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
+    void event(const char* kind, double value) {
+        shared_result().events.push_back({seconds(now_), index_, kind, value});
+    }
+    RunResult& shared_result();
+    double seconds(std::uint64_t t) const;
 };
 
 struct Shared {
     const RunConfig& cfg;
+    std::vector<Client*> all;  // every client, by index
     int target;
     int clients;
     std::uint64_t start_us;
@@ -169,6 +180,9 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     shown_at_.push_back(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
 }
 
+RunResult& Client::shared_result() { return shared_.result; }
+double Client::seconds(std::uint64_t t) const { return static_cast<double>(t - shared_.start_us) / 1e6; }
+
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     const ObserverScope scope(*this);
     Shared& s = shared_;
@@ -184,7 +198,9 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
             const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
             s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
         }
-        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, dynamic_positions(w));
+        std::vector<sim::Vec3> shown = dynamic_positions(w);
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, shown);
+        displayed_.emplace(f.frame, std::move(shown));
     }
     // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
     const std::uint32_t input_frame = f.frame - 1;
@@ -223,16 +239,32 @@ void Client::on_rollback_end(const rollback::RollbackInfo& r) {
     if (res.rollback_depth_histogram.size() <= r.depth) res.rollback_depth_histogram.resize(r.depth + 1, 0);
     ++res.rollback_depth_histogram[r.depth];
     shared_.positions.note_rollback(r.displayed_frame, r.depth);
+    event("rollback", r.depth);
     if (!r.displayed_changed()) return;
     const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
     double jump = 0;
     for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_rollback_[b], after[b]));
     shared_.result.correction_jump.add(jump);
+    event("correction", jump);
 }
 
 void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
     const ObserverScope scope(*this);
     if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
+    // What this client showed for the frame against the state it now knows to be final.
+    if (auto shown = displayed_.find(f.frame); shown != displayed_.end()) {
+        if (const auto state = session_->saved_state(f.frame)) {
+            Stat& st = shared_.result.displayed_vs_confirmed[static_cast<std::size_t>(index_)];
+            for (std::uint32_t b = 0; b < shown->second.size(); ++b) {
+                sim::Vec3 confirmed;
+                confirmed.x = sim::Fixed::from_raw(sim_.field_value(*state, b, 0));
+                confirmed.y = sim::Fixed::from_raw(sim_.field_value(*state, b, 1));
+                confirmed.z = sim::Fixed::from_raw(sim_.field_value(*state, b, 2));
+                st.add(distance_m(shown->second[b], confirmed));
+            }
+        }
+        displayed_.erase(displayed_.begin(), std::next(shown));
+    }
     auto& entry = shared_.confirmed[f.frame];
     if (entry.second == 0) {
         entry.first = f.checksum;
@@ -260,6 +292,13 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
     rec.frame = r.frame;
     rec.body = r.body_id;
     rec.field = r.field_name;
+    // The diverging frame was first shown by whichever client showed it first.
+    std::uint64_t first_shown = now_;
+    for (const Client* c : shared_.all)
+        if (r.frame < c->shown_at_.size()) first_shown = std::min(first_shown, c->shown_at_[r.frame]);
+    const auto alert = alert_us_.find(static_cast<int>(r.peer));
+    rec.alert_ms = static_cast<double>((alert != alert_us_.end() ? alert->second : now_) - first_shown) / 1000.0;
+    rec.report_ms = static_cast<double>(now_ - first_shown) / 1000.0;
     if (!shared_.cfg.evidence_dir.empty() && !r.local_state.empty()) {
         const auto path = std::filesystem::path(shared_.cfg.evidence_dir) /
                           ("desync-client" + std::to_string(index_) + "-peer" + std::to_string(r.peer) + "-frame" +
@@ -268,6 +307,11 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
         rec.evidence_file = path.string();
     }
     shared_.result.desyncs.push_back(rec);
+}
+
+void Client::on_desync(const rollback::DesyncEvent& e) {
+    const ObserverScope scope(*this);
+    alert_us_.emplace(static_cast<int>(e.peer), now_);
 }
 
 void Client::tick(std::uint64_t now) {
@@ -306,12 +350,27 @@ void Client::tick(std::uint64_t now) {
                 have_last_input_ = true;
             }
             wait_ticks_ = r.wait_frames;
+            if (!r.advanced) event("stall", r.blocking_player);
+            if (r.wait_frames > 0) event("time_sync_wait", r.wait_frames);
+            if (session_->frame() <= static_cast<std::uint32_t>(shared_.target)) {
+                res.time_sync.push_back({seconds(now), index_, session_->frame(),
+                                         session_->frames_ahead_x100() / 100.0, r.wait_frames});
+                const rollback::SessionStats& st = session_->stats();
+                for (std::size_t p = 0; p < st.peers.size(); ++p)
+                    if (static_cast<int>(p) != index_ && st.peers[p].rtt_us > 0)
+                        res.rtt[rtt_slot_[p]].rtt_ms.add(static_cast<double>(st.peers[p].rtt_us) / 1000.0);
+            }
             if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
         }
     }
     out_.clear();
     session_->poll(now, out_);
-    for (const auto& d : out_) endpoint_.send(d.peer, d.bytes, now);
+    for (const auto& d : out_) {
+        const transport::LinkStats& ls = net_->link_stats(static_cast<transport::PeerId>(index_), d.peer);
+        const std::uint64_t lost = ls.lost_random + ls.lost_burst + ls.lost_queue;
+        endpoint_.send(d.peer, d.bytes, now);
+        if (ls.lost_random + ls.lost_burst + ls.lost_queue != lost) event("loss", d.peer);
+    }
     ++tick_;
 }
 
@@ -455,7 +514,7 @@ RunResult run_match(const RunConfig& cfg) {
     const std::uint64_t start = 4000000;
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
-    Shared shared{cfg, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
+    Shared shared{cfg, {}, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
                   res, {}, {}};
     std::vector<std::unique_ptr<Client>> clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
@@ -472,6 +531,25 @@ RunResult run_match(const RunConfig& cfg) {
         std::vector<std::uint8_t> state(clients[0]->sim_.state_size());
         clients[0]->sim_.save(state);
         res.initial_checksum = clients[0]->sim_.checksum(state);
+    }
+    for (const auto& c : clients) {
+        shared.all.push_back(c.get());
+        c->net_ = &net;
+        c->rtt_slot_.assign(static_cast<std::size_t>(cfg.players), 0);
+        for (int p = 0; p < cfg.players; ++p) {
+            if (p == c->index_) continue;
+            c->rtt_slot_[static_cast<std::size_t>(p)] = res.rtt.size();
+            res.rtt.push_back(PeerRtt{c->index_, p, Stat::keeping_samples()});
+        }
+    }
+    res.displayed_vs_confirmed.resize(static_cast<std::size_t>(cfg.players));
+    {
+        const sim::World w(scene);
+        res.body_ids.assign(w.dynamic_ids().begin(), w.dynamic_ids().end());
+        res.body_player.assign(res.body_ids.size(), -1);
+        for (int p = 0; p < w.player_count(); ++p)
+            for (std::size_t b = 0; b < res.body_ids.size(); ++b)
+                if (res.body_ids[b] == w.player_body(p)) res.body_player[b] = p;
     }
     for (const auto& inj : cfg.injections) {
         const std::string e = clients[static_cast<std::size_t>(inj.client)]->session_->inject_fault(
@@ -539,6 +617,8 @@ RunResult run_match(const RunConfig& cfg) {
     res.rows = shared.positions.rows();
     res.positions_csv = shared.positions.positions_csv();
     res.per_body_max_error = shared.positions.per_body_max();
+    res.pair_error = shared.positions.pair_errors();
+    res.body_error = shared.positions.body_errors();
     return res;
 }
 

@@ -3,8 +3,8 @@
 //
 // Position error (the seed paper's metric): each client records every dynamic body's position
 // the first time it simulates a frame (forward simulation, never resimulation) — what it showed.
-// For every frame and body, the distance between client c and client 0, for c = 1..N-1, is one
-// sample. With two clients that is exactly the paper's definition.
+// For every frame and body, the distance between every pair of clients (a < b) is one sample.
+// With two clients that is exactly the paper's definition.
 #pragma once
 
 #include <cstdint>
@@ -55,6 +55,10 @@ public:
     void set_tick_rate(std::uint32_t frame, double ticks_per_second);
 
     const Stat& error() const { return error_; }
+    // Per pair (a, b), a < b, in order (0,1), (0,2), ..., (1,2), ...
+    const std::vector<Stat>& pair_errors() const { return pair_error_; }
+    // Per dynamic body index, over all pairs and frames.
+    const std::vector<Stat>& body_errors() const { return body_error_; }
     const std::vector<FrameRow>& rows() const { return rows_; }
     // frame,client,body,x,y,z lines (only with keep_positions).
     const std::string& positions_csv() const { return positions_csv_; }
@@ -75,6 +79,7 @@ private:
     std::map<std::uint32_t, std::pair<std::uint32_t, std::uint32_t>> rollbacks_;  // frame -> (count, max depth)
     std::map<std::uint32_t, double> tick_rate_;
     Stat error_;
+    std::vector<Stat> pair_error_, body_error_;
     std::vector<double> body_max_;
     std::vector<FrameRow> rows_;
     std::string positions_csv_;
@@ -95,10 +100,38 @@ struct ClientResult {
 
 struct DesyncRecord {
     int client = 0;
+    // From the diverging frame first being shown (by any client) to this client's checksum
+    // alert, and to its narrowed report; virtual ms.
+    double alert_ms = 0, report_ms = 0;
     std::string summary;
     std::string evidence_file;
     std::uint32_t detected_frame = 0, frame = 0, body = 0;
     std::string field;
+};
+
+// Something that happened at a moment of the run, for error_vs_time.png and events.csv:
+// "loss" (a datagram client sent was lost), "stall", "rollback" (value: depth),
+// "correction" (value: jump in m), "time_sync_wait" (value: frames).
+struct RunEvent {
+    double time_s = 0;
+    int client = 0;
+    const char* kind = "";
+    double value = 0;
+};
+
+// One client's time sync on one tick, for time_sync.png and timesync.csv.
+struct TimeSyncSample {
+    double time_s = 0;
+    int client = 0;
+    std::uint32_t frame = 0;
+    double frames_ahead = 0;  // of the slowest peer, averaged over the time-sync window
+    int wait_frames = 0;      // the adjustment recommended on this tick (0: none)
+};
+
+// Round-trip time one client measured to one peer, sampled every tick once measured.
+struct PeerRtt {
+    int client = 0, peer = 0;
+    Stat rtt_ms = Stat::keeping_samples();
 };
 
 struct RunResult {
@@ -112,8 +145,8 @@ struct RunResult {
 
     Stat position_error;
     Stat correction_jump;      // how far a shown body moved when a rollback changed its frame
-    Stat input_latency_local;  // ms from an input change to the first frame showing it
-    Stat input_latency_remote;
+    Stat input_latency_local = Stat::keeping_samples();  // ms from an input change to the first frame showing it
+    Stat input_latency_remote = Stat::keeping_samples();
     Stat cpu_us_per_tick = Stat::keeping_samples();  // all ticks of all clients
     Stat resim_us_per_tick;    // resimulation part, over all ticks
     // CPU time of every physics step (forward and resimulated) of this scene in this run.
@@ -126,6 +159,14 @@ struct RunResult {
     std::vector<DesyncRecord> desyncs;
     std::vector<ClientResult> clients;
     std::vector<FrameRow> rows;
+    std::vector<Stat> pair_error;            // position error per client pair (a < b)
+    std::vector<Stat> body_error;            // position error per dynamic body index
+    std::vector<std::uint32_t> body_ids;     // dynamic body index -> scene body id
+    std::vector<int> body_player;            // dynamic body index -> player slot, -1 if none
+    std::vector<Stat> displayed_vs_confirmed;  // per client: shown position vs confirmed state
+    std::vector<PeerRtt> rtt;
+    std::vector<TimeSyncSample> time_sync;
+    std::vector<RunEvent> events;
     std::string positions_csv;
     std::vector<double> per_body_max_error;
     // Client 0's confirmed inputs, frame by frame (players * 3 bytes each), and the confirmed
@@ -140,6 +181,12 @@ struct RunResult {
     double bytes_received_per_s() const;
     double packets_sent_per_s() const;
     std::uint64_t rollbacks() const;
+    double tick_budget_us() const { return tick_rate ? 1e6 / tick_rate : 0; }
+    std::uint64_t resimulated_frames() const;
+    double resim_frames_per_s() const;      // per client
+    // A rollback across the whole window: window x CPU per resimulated frame (measured, or the
+    // physics step when nothing was resimulated).
+    double full_window_rollback_us() const;
     std::uint64_t desync_count() const;
 };
 

@@ -1,5 +1,6 @@
 #include "harness/report.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <functional>
 #include <sstream>
@@ -12,7 +13,43 @@ namespace lockroll::harness {
 namespace {
 using nlohmann::json;
 
-json stat_json(const Stat& s) { return {{"mean", s.mean()}, {"max", s.max}, {"samples", s.count}}; }
+
+// mean, percentiles and max of a Stat that keeps its samples.
+json spread_json(const Stat& s) {
+    return {{"mean", s.mean()},      {"p50", s.percentile(50)}, {"p95", s.percentile(95)},
+            {"p99", s.percentile(99)}, {"max", s.max},           {"samples", s.count}};
+}
+
+json error_json(const Stat& s) {
+    return {{"mean", s.mean()}, {"max", s.max}, {"nonzero", s.nonzero}, {"samples", s.count}};
+}
+
+// Which bodies carry the error: players against the rest, and the bodies with the most
+// non-zero samples (at most 20, so a 10k-body scene stays readable).
+json error_by_body_json(const RunResult& r) {
+    Stat players, others;
+    std::vector<std::size_t> order;
+    for (std::size_t b = 0; b < r.body_error.size(); ++b) {
+        const Stat& e = r.body_error[b];
+        Stat& into = b < r.body_player.size() && r.body_player[b] >= 0 ? players : others;
+        into.sum += e.sum;
+        into.max = std::max(into.max, e.max);
+        into.count += e.count;
+        into.nonzero += e.nonzero;
+        if (e.nonzero) order.push_back(b);
+    }
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return r.body_error[a].nonzero > r.body_error[b].nonzero; });
+    if (order.size() > 20) order.resize(20);
+    json top = json::array();
+    for (std::size_t b : order)
+        top.push_back({{"body", b < r.body_ids.size() ? r.body_ids[b] : b},
+                       {"player", b < r.body_player.size() ? r.body_player[b] : -1},
+                       {"nonzero", r.body_error[b].nonzero},
+                       {"mean", r.body_error[b].mean()},
+                       {"max", r.body_error[b].max}});
+    return {{"players", error_json(players)}, {"other_bodies", error_json(others)}, {"top_bodies", top}};
+}
 
 std::string fmt(const char* f, double v) {
     char b[64];
@@ -45,6 +82,8 @@ json summary_json(const RunResult& r) {
     json desyncs = json::array();
     for (const auto& d : r.desyncs)
         desyncs.push_back({{"client", d.client},
+                           {"alert_ms", d.alert_ms},
+                           {"report_ms", d.report_ms},
                            {"detected_frame", d.detected_frame},
                            {"frame", d.frame},
                            {"body", d.body},
@@ -55,6 +94,35 @@ json summary_json(const RunResult& r) {
                                                    static_cast<double>(std::max<std::size_t>(1, r.clients.size()))
                                              : 0;
     const double pps = r.packets_sent_per_s();
+    Stat alert, report;
+    for (const auto& d : r.desyncs) {
+        alert.add(d.alert_ms);
+        report.add(d.report_ms);
+    }
+    json pairs = json::array();
+    {
+        std::size_t k = 0;
+        for (int a = 0; a < r.players; ++a)
+            for (int b = a + 1; b < r.players && k < r.pair_error.size(); ++b, ++k) {
+                json e = error_json(r.pair_error[k]);
+                e["clients"] = {a, b};
+                pairs.push_back(e);
+            }
+    }
+    json shown_vs_confirmed = json::array();
+    for (std::size_t c = 0; c < r.displayed_vs_confirmed.size(); ++c) {
+        json e = error_json(r.displayed_vs_confirmed[c]);
+        e["client"] = c;
+        shown_vs_confirmed.push_back(e);
+    }
+    json rtt = json::array();
+    for (const auto& p : r.rtt)
+        rtt.push_back({{"client", p.client},
+                       {"peer", p.peer},
+                       {"p50", p.rtt_ms.percentile(50)},
+                       {"p99", p.rtt_ms.percentile(99)},
+                       {"samples", p.rtt_ms.count}});
+    json local = spread_json(r.input_latency_local);
     return {
         {"mode", r.mode},
         {"scene", r.scene},
@@ -76,16 +144,32 @@ json summary_json(const RunResult& r) {
         {"stall_fraction", r.stall_fraction()},
         {"input_delay_frames", r.input_delay},
         {"prediction_window", r.prediction},
+        // Top level: local (kept for scripts reading mean/max); "local" and "remote" in full.
         {"input_latency_ms",
-         {{"mean", r.input_latency_local.mean()},
-          {"max", r.input_latency_local.max},
-          {"samples", r.input_latency_local.count},
-          {"remote", stat_json(r.input_latency_remote)}}},
-        {"position_error",
-         {{"mean", r.position_error.mean()},
-          {"max", r.position_error.max},
-          {"nonzero", r.position_error.nonzero},
-          {"samples", r.position_error.count}}},
+         {{"mean", local["mean"]},
+          {"p50", local["p50"]},
+          {"p95", local["p95"]},
+          {"p99", local["p99"]},
+          {"max", local["max"]},
+          {"samples", local["samples"]},
+          {"local", local},
+          {"remote", spread_json(r.input_latency_remote)}}},
+        {"rtt_ms", rtt},
+        {"position_error", error_json(r.position_error)},
+        {"position_error_by_pair", pairs},
+        {"displayed_vs_confirmed", shown_vs_confirmed},
+        {"error_by_body", error_by_body_json(r)},
+        {"desync_detection_ms",
+         {{"reports", alert.count},
+          {"alert_mean", alert.mean()},
+          {"alert_max", alert.max},
+          {"report_mean", report.mean()},
+          {"report_max", report.max}}},
+        {"tick_budget_us", r.tick_budget_us()},
+        {"worst_tick_us", r.cpu_us_per_tick.max},
+        {"p99_tick_us", r.cpu_us_per_tick.percentile(99)},
+        {"resim_frames_per_s", r.resim_frames_per_s()},
+        {"full_window_rollback_us", r.full_window_rollback_us()},
         {"visual_corrections",
          {{"count", r.correction_jump.count}, {"mean_jump_m", r.correction_jump.mean()}, {"max_jump_m", r.correction_jump.max}}},
         {"confirmed_mismatches", r.confirmed_mismatches},
@@ -158,10 +242,32 @@ std::string console_summary(const RunResult& r) {
     return o.str();
 }
 
+std::string events_csv(const RunResult& r) {
+    std::string out = "time_s,client,kind,value\n";
+    char line[128];
+    for (const auto& e : r.events) {
+        std::snprintf(line, sizeof line, "%.6f,%d,%s,%.9g\n", e.time_s, e.client, e.kind, e.value);
+        out += line;
+    }
+    return out;
+}
+
+std::string timesync_csv(const RunResult& r) {
+    std::string out = "time_s,client,frame,frames_ahead,wait_frames\n";
+    char line[128];
+    for (const auto& t : r.time_sync) {
+        std::snprintf(line, sizeof line, "%.6f,%d,%u,%.2f,%d\n", t.time_s, t.client, t.frame, t.frames_ahead, t.wait_frames);
+        out += line;
+    }
+    return out;
+}
+
 void write_run(const std::filesystem::path& dir, const RunResult& r) {
     std::filesystem::create_directories(dir);
     write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
     write_file_atomic(dir / "frames.csv", frames_csv(r));
+    write_file_atomic(dir / "events.csv", events_csv(r));
+    write_file_atomic(dir / "timesync.csv", timesync_csv(r));
     if (!r.positions_csv.empty()) write_file_atomic(dir / "positions.csv", r.positions_csv);
 }
 

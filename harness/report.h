@@ -17,9 +17,14 @@ inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and un
 
 nlohmann::json summary_json(const RunResult& r);
 std::string frames_csv(const RunResult& r);
+// time_s,client,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
+std::string events_csv(const RunResult& r);
+// time_s,client,frame,frames_ahead,wait_frames: every client's time sync, tick by tick.
+std::string timesync_csv(const RunResult& r);
 std::string console_summary(const RunResult& r);
 
-// Writes summary.json, frames.csv and (when recorded) positions.csv into dir, atomically.
+// Writes summary.json, frames.csv, events.csv, timesync.csv and (when recorded) positions.csv
+// into dir, atomically.
 void write_run(const std::filesystem::path& dir, const RunResult& r);
 
 // The seed paper's figures, for the side-by-side table.

@@ -25,6 +25,7 @@ RunConfig base(Mode mode, int frames) {
 nlohmann::json without_cpu(nlohmann::json j) {
     j.erase("cpu_us_per_tick");
     j.erase("physics_step_us");
+    for (const char* k : {"worst_tick_us", "p99_tick_us", "full_window_rollback_us"}) j.erase(k);
     return j;
 }
 
@@ -147,7 +148,8 @@ TEST(Match, FourPlayersOverALossyReorderingNetwork) {
     EXPECT_EQ(r.confirmed_mismatches, 0u);
     EXPECT_EQ(r.desync_count(), 0u);
     for (const auto& cl : r.clients) EXPECT_EQ(cl.final_checksum, r.clients[0].final_checksum);
-    EXPECT_EQ(r.position_error.count, 360u * 54u * 3u) << "4 players: 2 player bodies added; 3 pairs";
+    EXPECT_EQ(r.position_error.count, 360u * 54u * 6u) << "4 players: 2 player bodies added; every pair of 4 clients";
+    ASSERT_EQ(r.pair_error.size(), 6u);
 }
 
 // Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set
@@ -254,6 +256,50 @@ TEST(Report, PaperColumnsOnlyAtThePapersConditionsAndALikeForLikeDelay0Run) {
                                conditions("rollback", 3, 28.5, 10, 0, 0), "")
                   .find("Photon Quantum"),
               std::string::npos);
+}
+
+// The figures a netcode engineer reads, with their relations: every pair of clients, shown
+// against confirmed state, latency and RTT spreads, the tick budget, desync detection times.
+TEST(Report, NetcodeEngineerKeys) {
+    RunConfig c = base(Mode::Rollback, 240);
+    c.players = 3;
+    c.injections.push_back({1, 150, 20, 0, 20});
+    const RunResult r = run_match(c);
+    const nlohmann::json j = summary_json(r);
+    ASSERT_EQ(j["position_error_by_pair"].size(), 3u);
+    EXPECT_EQ(j["position_error_by_pair"][2]["clients"], nlohmann::json({1, 2}));
+    ASSERT_EQ(j["displayed_vs_confirmed"].size(), 3u);
+    EXPECT_GT(j["displayed_vs_confirmed"][0]["samples"].get<std::uint64_t>(), 0u);
+    ASSERT_EQ(j["rtt_ms"].size(), 6u);
+    for (const auto& p : j["rtt_ms"]) {
+        EXPECT_GE(p["p50"].get<double>(), 57.0 - 20.0);
+        EXPECT_LE(p["p50"].get<double>(), p["p99"].get<double>());
+    }
+    for (const char* side : {"local", "remote"}) {
+        const auto& l = j["input_latency_ms"][side];
+        EXPECT_LE(l["p50"].get<double>(), l["p95"].get<double>());
+        EXPECT_LE(l["p95"].get<double>(), l["p99"].get<double>());
+        EXPECT_LE(l["p99"].get<double>(), l["max"].get<double>());
+    }
+    EXPECT_NEAR(j["tick_budget_us"].get<double>(), 16666.67, 0.01);
+    EXPECT_GE(j["worst_tick_us"].get<double>(), j["p99_tick_us"].get<double>());
+    EXPECT_GT(j["full_window_rollback_us"].get<double>(), 0.0);
+    EXPECT_GE(j["resim_frames_per_s"].get<double>(), 0.0);
+    const auto& by_body = j["error_by_body"];
+    EXPECT_EQ(by_body["players"]["samples"].get<std::uint64_t>() + by_body["other_bodies"]["samples"].get<std::uint64_t>(),
+              r.position_error.count);
+    const auto& det = j["desync_detection_ms"];
+    ASSERT_GE(det["reports"].get<int>(), 1);
+    EXPECT_GT(det["alert_max"].get<double>(), 0.0);
+    EXPECT_GE(det["report_max"].get<double>(), det["alert_max"].get<double>());
+    for (const auto& d : j["desync_reports"]) EXPECT_LE(d["alert_ms"].get<double>(), d["report_ms"].get<double>());
+
+    // Lockstep shows only confirmed state.
+    const RunResult ls = run_match(base(Mode::Lockstep, 120));
+    for (const Stat& s : ls.displayed_vs_confirmed) {
+        EXPECT_GT(s.count, 0u);
+        EXPECT_EQ(s.max, 0.0);
+    }
 }
 
 TEST(Match, AddsPlayerBodiesWhenTheSceneHasTooFew) {
