@@ -318,13 +318,42 @@ std::string compare_markdown(const RunResult& ls, const RunResult& rb, const Run
     row("ticks per second", [](const RunResult& r) { return fmt("%.2f", r.ticks_per_second()); }, "~7");
     row("stall fraction", [](const RunResult& r) { return fmt("%.3f", r.stall_fraction()); });
     row("input delay (frames)", [](const RunResult& r) { return std::to_string(r.input_delay); });
+    auto spread = [](const Stat& s) {
+        return fmt("%.1f", s.percentile(50)) + " / " + fmt("%.1f", s.percentile(95)) + " / " + fmt("%.1f", s.percentile(99)) +
+               " / " + fmt("%.1f", s.max);
+    };
     row("input latency, local (ms)", [](const RunResult& r) { return fmt("%.1f", r.input_latency_local.mean()); });
     row("input latency, remote (ms)", [](const RunResult& r) { return fmt("%.1f", r.input_latency_remote.mean()); });
+    row("local p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_local); });
+    row("remote p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_remote); });
+    row("RTT p50 / p99, worst peer (ms)", [](const RunResult& r) {
+        double p50 = 0, p99 = 0;
+        for (const auto& p : r.rtt) {
+            p50 = std::max(p50, p.rtt_ms.percentile(50));
+            p99 = std::max(p99, p.rtt_ms.percentile(99));
+        }
+        return fmt("%.1f", p50) + " / " + fmt("%.1f", p99);
+    });
     row("mean positional error (m)", [](const RunResult& r) { return fmt("%.3g", r.position_error.mean()); }, "0", "1.79e-4");
     row("max positional error (m)", [](const RunResult& r) { return fmt("%.3g", r.position_error.max); }, "0", "0.442");
     row("non-zero error samples",
         [&](const RunResult& r) { return count(r.position_error.nonzero) + " / " + count(r.position_error.count); },
         "0 / >30,000", "160 / ~37,000");
+    row("shown vs confirmed state, mean / max (m)", [](const RunResult& r) {
+        Stat all;
+        for (const Stat& s : r.displayed_vs_confirmed) {
+            all.sum += s.sum;
+            all.count += s.count;
+            all.max = std::max(all.max, s.max);
+        }
+        return fmt("%.3g", all.mean()) + " / " + fmt("%.3g", all.max);
+    });
+    row("non-zero samples on player bodies", [&](const RunResult& r) {
+        std::uint64_t players = 0;
+        for (std::size_t b = 0; b < r.body_error.size(); ++b)
+            if (b < r.body_player.size() && r.body_player[b] >= 0) players += r.body_error[b].nonzero;
+        return count(players) + " of " + count(r.position_error.nonzero);
+    }, "—", "107 of 160");
     row("confirmed-state mismatches", [&](const RunResult& r) { return count(r.confirmed_mismatches); });
     row("rollbacks (mean / max depth)", [&](const RunResult& r) {
         return r.rollbacks() ? count(r.rollbacks()) + " (" + fmt("%.2f", r.rollback_depth.mean()) + " / " +
@@ -338,6 +367,15 @@ std::string compare_markdown(const RunResult& ls, const RunResult& rb, const Run
     row("CPU per tick, mean / p99 (µs)", [](const RunResult& r) {
         return fmt("%.1f", r.cpu_us_per_tick.mean()) + " / " + fmt("%.1f", r.cpu_us_per_tick.percentile(99));
     });
+    row("worst / p99 tick vs budget (µs)", [](const RunResult& r) {
+        return fmt("%.0f", r.cpu_us_per_tick.max) + " / " + fmt("%.0f", r.cpu_us_per_tick.percentile(99)) + " of " +
+               fmt("%.0f", r.tick_budget_us());
+    });
+    row("resimulated frames per second", [](const RunResult& r) { return fmt("%.1f", r.resim_frames_per_s()); });
+    row("full-window rollback, projected (µs)", [](const RunResult& r) {
+        return r.prediction ? fmt("%.0f", r.full_window_rollback_us()) + " (W=" + std::to_string(r.prediction) + ")"
+                            : std::string("—");
+    });
     row("physics step, median CPU (µs)", [](const RunResult& r) { return fmt("%.2f", r.physics_step_us.percentile(50)); },
         "—", "189.8");
     row("payload sent per client (B/s)", [](const RunResult& r) { return fmt("%.0f", r.bytes_sent_per_s()); });
@@ -345,6 +383,16 @@ std::string compare_markdown(const RunResult& ls, const RunResult& rb, const Run
         return fmt("%.0f", r.bytes_sent_per_s() + r.packets_sent_per_s() * kUdpHeaderBytes);
     });
     row("desyncs", [&](const RunResult& r) { return count(r.desync_count()); });
+    if (!rb.desyncs.empty()) {
+        row("desync: shown -> alert / -> report (ms)", [](const RunResult& r) {
+            double alert = 0, report = 0;
+            for (const auto& d : r.desyncs) {
+                alert = std::max(alert, d.alert_ms);
+                report = std::max(report, d.report_ms);
+            }
+            return r.desyncs.empty() ? std::string("—") : fmt("%.1f", alert) + " / " + fmt("%.1f", report);
+        });
+    }
     o << "\n";
     if (!paper)
         o << "The paper's figures are not shown: they were measured at 2 players, 57 ms ± 10 ms and no loss, "

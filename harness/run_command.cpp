@@ -175,7 +175,7 @@ void do_compare(const RunOptions& o) {
     const std::string plot_error = run_plot_script("plot.py", {"compare", o.out});
     const std::string note = plot_error.empty()
                                  ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
-                                   "![tick rate over time](tick_rate.png)\n"
+                                   "![tick rate over time](tick_rate.png)\n\n![time sync](time_sync.png)\n"
                                  : "Plots were not made: " + plot_error + "\n";
     write_file_atomic(fs::path(o.out) / "compare.json", compare_json(ls, rb, rb0).dump(2) + "\n");
     write_file_atomic(fs::path(o.out) / "report.md", compare_markdown(ls, rb, rb0, note));

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """Plots for lockroll's harness outputs (matplotlib, Agg backend: no display needed).
 
-  plot.py compare DIR   reads DIR/lockstep/frames.csv and DIR/rollback/frames.csv, writes
-                        DIR/error_vs_time.png, DIR/rollback_depth.png and DIR/tick_rate.png
+  plot.py compare DIR   reads DIR/lockstep/ and DIR/rollback/ (frames.csv, summary.json,
+                        events.csv, timesync.csv), writes DIR/error_vs_time.png,
+                        DIR/rollback_depth.png, DIR/tick_rate.png and DIR/time_sync.png
   plot.py sweep DIR     reads DIR/sweep.csv, writes DIR/sweep.png
   plot.py selftest      plots synthetic CSVs in a temporary directory and checks the results
                         and the error reporting (run by CTest)
@@ -107,8 +108,31 @@ def summary_line(d):
 
 # ---- compare --------------------------------------------------------------------------------
 
-def plot_error_vs_time(runs, out):
-    fig, axes = plt.subplots(2, 1, figsize=(10, 6.5), sharex=True)
+EVENT_KINDS = (("loss", "datagram lost", "#7f7f7f"), ("stall", "stalled tick", "#ff7f0e"),
+               ("rollback", "rollback", "#d62728"), ("correction", "visual correction", "#9467bd"),
+               ("time_sync_wait", "time-sync wait", "#2ca02c"))
+
+
+def read_events(path):
+    """events.csv as {kind: [time_s, ...]}; {} when the file is missing (older runs)."""
+    events = {k: [] for k, _, _ in EVENT_KINDS}
+    if not os.path.isfile(path):
+        return events
+    with open(path, newline="") as f:
+        for line, row in enumerate(csv.DictReader(f), start=2):
+            try:
+                t = float(row["time_s"])
+            except (KeyError, TypeError, ValueError):
+                raise InputError(f"{path}:{line}: column time_s: not a number") from None
+            events.setdefault(row.get("kind", ""), []).append(t)
+    return events
+
+
+def plot_error_vs_time(runs, out, events=None):
+    """Mean and max error against run time, and below them on the same time axis what causes
+    the spikes: losses, stalls, rollbacks, corrections and time-sync waits of the rollback run."""
+    events = events or {}
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), sharex=True, gridspec_kw={"height_ratios": [3, 3, 2]})
     for ax, column, title in ((axes[0], "mean_error", "mean positional error between clients"),
                               (axes[1], "max_error", "max positional error between clients")):
         for mode, d in runs.items():
@@ -119,16 +143,19 @@ def plot_error_vs_time(runs, out):
         ax.set_ylabel("error (m)")
         ax.set_title(title, fontsize=10)
         ax.grid(True, which="major", alpha=0.3)
-    # Rollback events as a rug under the max-error panel: where corrections happened.
-    d = runs["rollback"]
-    times = [t for t, n in zip(d["time_s"], d["rollbacks"]) if n > 0]
-    if times:
-        low = axes[1].get_ylim()[0]
-        axes[1].plot(times, [low] * len(times), "|", color=COLORS["rollback"], alpha=0.5,
-                     markersize=10, label=f"frames with rollbacks ({len(times)})")
+    # Causes, one lane each, on the same time axis.
+    ax = axes[2]
+    for lane, (kind, label, color) in enumerate(EVENT_KINDS):
+        times = events.get(kind, [])
+        ax.plot(times, [lane] * len(times), "|", color=color, markersize=9, alpha=0.6)
+    ax.set_yticks(range(len(EVENT_KINDS)))
+    ax.set_yticklabels([f"{label} ({len(events.get(kind, []))})" for kind, label, _ in EVENT_KINDS], fontsize=7)
+    ax.set_ylim(-0.6, len(EVENT_KINDS) - 0.4)
+    ax.set_title("rollback run: what happened (all clients)", fontsize=10)
+    ax.grid(True, axis="x", alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=8)
     axes[1].legend(loc="upper left", fontsize=8)
-    axes[1].set_xlabel("run time (s)")
+    axes[2].set_xlabel("run time (s)")
     fig.suptitle("Error against run time: lockstep vs rollback")
     fig.tight_layout()
     save(fig, out)
@@ -177,6 +204,32 @@ def plot_rollback_depth(runs, out, directory):
     return title
 
 
+TIMESYNC_COLUMNS = ["time_s", "client", "frame", "frames_ahead", "wait_frames"]
+
+
+def plot_time_sync(d, out):
+    """Each client's frame advantage over the slowest peer, and the waits time sync ordered."""
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    clients = sorted(set(int(c) for c in d["client"]))
+    cmap = plt.get_cmap("tab10")
+    for c in clients:
+        idx = [i for i, x in enumerate(d["client"]) if int(x) == c]
+        ax.plot([d["time_s"][i] for i in idx], [d["frames_ahead"][i] for i in idx], linewidth=0.9,
+                color=cmap(c % 10), label=f"client {c}")
+        waits = [i for i in idx if d["wait_frames"][i] > 0]
+        if waits:
+            ax.plot([d["time_s"][i] for i in waits], [d["frames_ahead"][i] for i in waits], "v",
+                    color=cmap(c % 10), markersize=7, markeredgecolor="black")
+    ax.plot([], [], "v", color="0.6", markeredgecolor="black", label="wait ordered (adjustment)")
+    ax.set_xlabel("run time (s)")
+    ax.set_ylabel("frames ahead of slowest peer")
+    ax.set_title("Time sync: frame advantage and adjustments (rollback run)", fontsize=10)
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="upper right", fontsize=7, ncol=2)
+    fig.tight_layout()
+    save(fig, out)
+
+
 def plot_tick_rate(runs, out):
     fig, ax = plt.subplots(figsize=(10, 4.5))
     for mode, d in runs.items():
@@ -197,7 +250,11 @@ def plot_tick_rate(runs, out):
 def compare(directory):
     runs = {mode: read_csv(os.path.join(directory, mode, "frames.csv"), FRAMES_COLUMNS)
             for mode in MODES}
-    plot_error_vs_time(runs, os.path.join(directory, "error_vs_time.png"))
+    plot_error_vs_time(runs, os.path.join(directory, "error_vs_time.png"),
+                       read_events(os.path.join(directory, "rollback", "events.csv")))
+    sync_path = os.path.join(directory, "rollback", "timesync.csv")
+    if os.path.isfile(sync_path):
+        plot_time_sync(read_csv(sync_path, TIMESYNC_COLUMNS), os.path.join(directory, "time_sync.png"))
     plot_rollback_depth(runs, os.path.join(directory, "rollback_depth.png"), directory)
     plot_tick_rate(runs, os.path.join(directory, "tick_rate.png"))
 
@@ -298,6 +355,16 @@ def write_synthetic(directory):
                 worst = rng.expovariate(20) if depth else 0.0
                 f.write(f"{frame},{frame / 60:.6f},{worst / 50:.6g},{worst:.6g},{1 if depth else 0},{depth},"
                         f"{60 - rng.random() * (0.5 if mode == 'rollback' else 0.1):.3f}\n")
+    with open(os.path.join(directory, "rollback", "events.csv"), "w") as f:
+        f.write("time_s,client,kind,value\n")
+        for frame in range(0, 240, 7):
+            f.write(f"{frame / 60:.6f},{frame % 2},{EVENT_KINDS[frame % 5][0]},1\n")
+    with open(os.path.join(directory, "rollback", "timesync.csv"), "w") as f:
+        f.write(",".join(TIMESYNC_COLUMNS) + "\n")
+        for frame in range(240):
+            for c in range(2):
+                f.write(f"{frame / 60:.6f},{c},{frame},{(frame % 60) / 30 * (1 if c else -1):.2f},"
+                        f"{2 if frame % 60 == 59 else 0}\n")
     # The depth histogram of every rollback (what summary.json counts), deliberately unlike
     # the per-frame maxima in frames.csv: 17 rollbacks, mean depth 28 / 17 = 1.65.
     for mode, hist in (("lockstep", [0]), ("rollback", [0, 10, 5, 0, 2])):
@@ -322,7 +389,7 @@ def selftest():
         write_synthetic(directory)
         if main(["compare", directory]) != 0 or main(["sweep", directory]) != 0:
             failures.append("plotting synthetic CSVs failed")
-        for name in ("error_vs_time.png", "rollback_depth.png", "tick_rate.png", "sweep.png"):
+        for name in ("error_vs_time.png", "rollback_depth.png", "tick_rate.png", "time_sync.png", "sweep.png"):
             path = os.path.join(directory, name)
             if not os.path.isfile(path):
                 failures.append(f"{name}: not written")
