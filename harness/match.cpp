@@ -133,7 +133,7 @@ public:
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
     std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
     void event(const char* kind, double value) {
-        shared_result().events.push_back({seconds(now_), index_, kind, value});
+        shared_result().events.push_back({seconds(now_), index_, session_->frame(), kind, value});
     }
     RunResult& shared_result();
     double seconds(std::uint64_t t) const;
@@ -407,6 +407,24 @@ std::vector<double> measure_rtt(transport::SimNetwork& net, int clients) {
     return rtts;
 }
 
+double to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
+
+std::string bodies_csv(const sim::World& w) {
+    std::string out = "index,id,player,dynamic,shape,x,z,radius,hx,hz\n";
+    char line[256];
+    std::vector<long> index(w.body_count(), -1);
+    for (std::size_t i = 0; i < w.dynamic_ids().size(); ++i) index[w.dynamic_ids()[i]] = static_cast<long>(i);
+    for (std::size_t id = 0; id < w.body_count(); ++id) {
+        const sim::BodyDesc& b = w.scene().bodies[id];
+        const char* shape = b.shape == sim::Shape::Box ? "box" : b.shape == sim::Shape::Sphere ? "sphere" : "capsule";
+        std::snprintf(line, sizeof line, "%ld,%zu,%d,%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f\n", index[id], id, b.player,
+                      index[id] >= 0 ? 1 : 0, shape, to_m(b.position.x), to_m(b.position.z), to_m(b.radius),
+                      to_m(b.half_extents.x), to_m(b.half_extents.z));
+        out += line;
+    }
+    return out;
+}
+
 double percentile(std::vector<double> v, double p) {
     if (v.empty()) return 0;
     std::sort(v.begin(), v.end());
@@ -545,6 +563,7 @@ RunResult run_match(const RunConfig& cfg) {
     res.displayed_vs_confirmed.resize(static_cast<std::size_t>(cfg.players));
     {
         const sim::World w(scene);
+        if (cfg.record_positions) res.bodies_csv = bodies_csv(w);
         res.body_ids.assign(w.dynamic_ids().begin(), w.dynamic_ids().end());
         res.body_player.assign(res.body_ids.size(), -1);
         for (int p = 0; p < w.player_count(); ++p)

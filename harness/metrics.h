@@ -115,6 +115,7 @@ struct DesyncRecord {
 struct RunEvent {
     double time_s = 0;
     int client = 0;
+    std::uint32_t frame = 0;  // the frame the client was showing
     const char* kind = "";
     double value = 0;
 };
@@ -168,6 +169,9 @@ struct RunResult {
     std::vector<TimeSyncSample> time_sync;
     std::vector<RunEvent> events;
     std::string positions_csv;
+    // With positions: index,id,player,dynamic,shape,x,z,radius,hx,hz for every body (dynamic
+    // bodies by their index in positions.csv; static ones with their fixed place), for the viewer.
+    std::string bodies_csv;
     std::vector<double> per_body_max_error;
     // Client 0's confirmed inputs, frame by frame (players * 3 bytes each), and the confirmed
     // checksums of frames 0..frames, when recorded.

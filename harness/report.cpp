@@ -243,10 +243,10 @@ std::string console_summary(const RunResult& r) {
 }
 
 std::string events_csv(const RunResult& r) {
-    std::string out = "time_s,client,kind,value\n";
+    std::string out = "time_s,client,frame,kind,value\n";
     char line[128];
     for (const auto& e : r.events) {
-        std::snprintf(line, sizeof line, "%.6f,%d,%s,%.9g\n", e.time_s, e.client, e.kind, e.value);
+        std::snprintf(line, sizeof line, "%.6f,%d,%u,%s,%.9g\n", e.time_s, e.client, e.frame, e.kind, e.value);
         out += line;
     }
     return out;
@@ -269,6 +269,7 @@ void write_run(const std::filesystem::path& dir, const RunResult& r) {
     write_file_atomic(dir / "events.csv", events_csv(r));
     write_file_atomic(dir / "timesync.csv", timesync_csv(r));
     if (!r.positions_csv.empty()) write_file_atomic(dir / "positions.csv", r.positions_csv);
+    if (!r.bodies_csv.empty()) write_file_atomic(dir / "bodies.csv", r.bodies_csv);
 }
 
 bool at_paper_conditions(const RunResult& r) {

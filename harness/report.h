@@ -17,7 +17,7 @@ inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and un
 
 nlohmann::json summary_json(const RunResult& r);
 std::string frames_csv(const RunResult& r);
-// time_s,client,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
+// time_s,client,frame,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
 std::string events_csv(const RunResult& r);
 // time_s,client,frame,frames_ahead,wait_frames: every client's time sync, tick by tick.
 std::string timesync_csv(const RunResult& r);

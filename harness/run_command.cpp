@@ -17,6 +17,7 @@
 #include "harness/replay_command.h"
 #include "harness/report.h"
 #include "harness/scene_loader.h"
+#include "harness/view_command.h"
 #include "rollback/world_simulation.h"
 #include "sim/world.h"
 
@@ -39,6 +40,7 @@ struct RunOptions {
     std::string bot = "random";
     std::string out = "out/run";
     bool positions = false;
+    bool view = false;
     std::string record;
     std::vector<std::string> injections;
 };
@@ -66,6 +68,7 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
     cmd->add_option("--bot", o.bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
     cmd->add_option("--out", o.out, "Output directory")->capture_default_str();
     cmd->add_flag("--positions", o.positions, "Also write positions.csv (every body, frame and client)");
+    cmd->add_flag("--view", o.view, "Also write view.html (implies --positions; see lockroll view)");
     if (with_mode)
         cmd->add_option("--record", o.record,
                         "Write a replay (confirmed inputs and checksums) to this file; check it with lockroll replay");
@@ -122,7 +125,7 @@ RunConfig to_config(const RunOptions& o) {
     c.bot = *parse_bot_kind(o.bot);
     c.drift_ppm = o.drift_ppm;
     for (const auto& s : o.injections) c.injections.push_back(parse_injection(s));
-    c.record_positions = o.positions;
+    c.record_positions = o.positions || o.view;
     c.record_inputs = !o.record.empty();
     c.evidence_dir = (fs::path(o.out) / "desync").string();
     if (::isatty(2))
@@ -138,6 +141,7 @@ void do_run(const RunOptions& o) {
     const RunConfig cfg = to_config(o);
     const RunResult r = run_match(cfg);
     write_run(o.out, r);
+    if (o.view) write_view(o.out);
     if (!o.record.empty() && r.completed) {
         rollback::Replay replay;
         replay.players = static_cast<std::uint32_t>(r.players);
@@ -179,6 +183,7 @@ void do_compare(const RunOptions& o) {
                                  : "Plots were not made: " + plot_error + "\n";
     write_file_atomic(fs::path(o.out) / "compare.json", compare_json(ls, rb, rb0).dump(2) + "\n");
     write_file_atomic(fs::path(o.out) / "report.md", compare_markdown(ls, rb, rb0, note));
+    if (o.view) write_view(o.out);
     std::printf("%s\n%s\n%s", console_summary(ls).c_str(), console_summary(rb).c_str(), console_summary(rb0).c_str());
     std::printf("\nphysics step, median CPU: lockstep %.2f us, rollback %.2f us (paper, Photon Quantum: 189.8 us)\n",
                 ls.physics_step_us.percentile(50), rb.physics_step_us.percentile(50));

@@ -356,9 +356,9 @@ def write_synthetic(directory):
                 f.write(f"{frame},{frame / 60:.6f},{worst / 50:.6g},{worst:.6g},{1 if depth else 0},{depth},"
                         f"{60 - rng.random() * (0.5 if mode == 'rollback' else 0.1):.3f}\n")
     with open(os.path.join(directory, "rollback", "events.csv"), "w") as f:
-        f.write("time_s,client,kind,value\n")
+        f.write("time_s,client,frame,kind,value\n")
         for frame in range(0, 240, 7):
-            f.write(f"{frame / 60:.6f},{frame % 2},{EVENT_KINDS[frame % 5][0]},1\n")
+            f.write(f"{frame / 60:.6f},{frame % 2},{frame},{EVENT_KINDS[frame % 5][0]},1\n")
     with open(os.path.join(directory, "rollback", "timesync.csv"), "w") as f:
         f.write(",".join(TIMESYNC_COLUMNS) + "\n")
         for frame in range(240):
