@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <string_view>
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
@@ -132,6 +133,9 @@ public:
     std::map<std::uint32_t, std::vector<sim::Vec3>> displayed_;  // shown, awaiting confirmation
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
     std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
+    std::vector<double> recent_rtt_ms_;             // adaptive delay: last two seconds, ring
+    std::size_t recent_next_ = 0;
+    void adapt_delay();
     void event(const char* kind, double value) {
         shared_result().events.push_back({seconds(now_), index_, session_->frame(), kind, value});
     }
@@ -314,6 +318,32 @@ void Client::on_desync(const rollback::DesyncEvent& e) {
     alert_us_.emplace(static_cast<int>(e.peer), now_);
 }
 
+void Client::adapt_delay() {
+    const rollback::SessionStats& st = session_->stats();
+    std::uint64_t worst = 0;
+    for (std::size_t p = 0; p < st.peers.size(); ++p)
+        if (static_cast<int>(p) != index_) worst = std::max(worst, st.peers[p].rtt_us);
+    if (worst == 0) return;
+    const std::size_t keep = 2 * static_cast<std::size_t>(tick_rate_);
+    if (recent_rtt_ms_.size() < keep)
+        recent_rtt_ms_.push_back(static_cast<double>(worst) / 1000.0);
+    else
+        recent_rtt_ms_[recent_next_++ % keep] = static_cast<double>(worst) / 1000.0;
+    if (recent_rtt_ms_.size() < keep || tick_ % static_cast<std::uint64_t>(tick_rate_) != 0) return;
+    std::vector<double> v = recent_rtt_ms_;
+    std::sort(v.begin(), v.end());
+    const double p50 = v[v.size() / 2], p95 = v[std::min(v.size() - 1, v.size() * 95 / 100)];
+    double deviation = 0;
+    for (double x : v) deviation += std::abs(x - p50);
+    deviation /= static_cast<double>(v.size());
+    const int target = adaptive_input_delay(shared_.cfg.mode, p50, p95 + 2 * deviation, tick_rate_,
+                                            session_->config().prediction_window);
+    if (target == session_->input_delay()) return;
+    session_->set_input_delay(target);
+    ++shared_.result.input_delay_changes;
+    event("delay_change", target);
+}
+
 void Client::tick(std::uint64_t now) {
     now_ = now;
     while (endpoint_.receive(in_, now)) session_->receive(static_cast<PlayerId>(in_.from), in_.bytes, now);
@@ -351,6 +381,8 @@ void Client::tick(std::uint64_t now) {
             }
             wait_ticks_ = r.wait_frames;
             if (!r.advanced) event("stall", r.blocking_player);
+            res.input_delay_used.add(session_->input_delay());
+            if (shared_.cfg.adaptive_delay) adapt_delay();
             if (r.wait_frames > 0) event("time_sync_wait", r.wait_frames);
             if (session_->frame() <= static_cast<std::uint32_t>(shared_.target)) {
                 res.time_sync.push_back({seconds(now), index_, session_->frame(),
@@ -490,6 +522,12 @@ int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_r
     return mode == Mode::Lockstep ? lockstep : (lockstep + 1) / 2;
 }
 
+int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window) {
+    const int lockstep = auto_input_delay(Mode::Lockstep, rtt_p50_ms, rtt_p95_ms, tick_rate);
+    if (mode == Mode::Lockstep) return std::min(60, lockstep);
+    return std::min(60, std::max(auto_input_delay(Mode::Rollback, rtt_p50_ms, rtt_p95_ms, tick_rate), lockstep - window + 1));
+}
+
 int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay) {
     return std::min(60, std::max(configured, lockstep_delay - rollback_delay + 1));
 }
@@ -516,6 +554,7 @@ RunResult run_match(const RunConfig& cfg) {
     res.duplicate = cfg.net.duplicate;
     res.reorder = cfg.net.reorder;
     res.burst_loss = cfg.net.burst_loss;
+    res.adaptive_delay = cfg.adaptive_delay;
 
     const std::vector<double> rtts = measure_rtt(net, cfg.players);
     res.rtt_p50_ms = percentile(rtts, 50);
@@ -632,6 +671,13 @@ RunResult run_match(const RunConfig& cfg) {
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);
     }
+    res.input_delay_min = static_cast<int>(res.input_delay);
+    res.input_delay_max = res.input_delay_min;
+    for (const auto& e : res.events)
+        if (std::string_view(e.kind) == "delay_change") {
+            res.input_delay_min = std::min(res.input_delay_min, static_cast<int>(e.value));
+            res.input_delay_max = std::max(res.input_delay_max, static_cast<int>(e.value));
+        }
     res.position_error = shared.positions.error();
     res.rows = shared.positions.rows();
     res.positions_csv = shared.positions.positions_csv();

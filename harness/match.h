@@ -49,6 +49,9 @@ struct RunConfig {
     int frames = 720;
     int tick_rate = 60;
     int input_delay = -1;         // frames; -1 = auto (from a measured ping phase)
+    // Adaptive input delay: every second each client re-picks its delay from the RTT it has
+    // measured in the last two seconds (adaptive_input_delay); input_delay is the start.
+    bool adaptive_delay = false;
     int prediction = 8;           // window W in rollback mode (lockstep always uses 0)
     int checksum_interval = 1;
     NetConditions net;
@@ -86,6 +89,12 @@ int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_r
 // that delay + window exceeds lockstep's delay, so that rollback never stalls more than lockstep
 // at the same conditions (it stalls when an input is older than delay + window frames).
 int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay);
+
+// The delay adaptive mode moves to during the match, from a client's recent RTT (p50, and p95
+// widened by twice the mean deviation, as jitter the smoothed RTT hides). Lockstep: as
+// auto_input_delay. Rollback: half of that, but never so little that delay + window falls to
+// lockstep's delay or below: the window is fixed mid-match, so rollback would stall more.
+int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window);
 
 RunResult run_match(const RunConfig& config);
 

@@ -138,6 +138,10 @@ struct PeerRtt {
 struct RunResult {
     std::string mode, scene, bot;
     int players = 0, frames = 0, tick_rate = 0, input_delay = 0, prediction = 0;
+    bool adaptive_delay = false;
+    int input_delay_min = 0, input_delay_max = 0;  // over the match, all clients
+    std::uint64_t input_delay_changes = 0;          // adaptive changes, all clients
+    Stat input_delay_used;                          // each client's delay on each tick
     std::uint64_t seed = 0;
     double latency_ms = 0, jitter_ms = 0, loss = 0, duplicate = 0, reorder = 0, burst_loss = 0;
     double rtt_p50_ms = 0, rtt_p95_ms = 0;  // measured in the ping phase

@@ -143,6 +143,13 @@ json summary_json(const RunResult& r) {
         {"ticks_per_second", r.ticks_per_second()},
         {"stall_fraction", r.stall_fraction()},
         {"input_delay_frames", r.input_delay},
+        {"input_delay",
+         {{"adaptive", r.adaptive_delay},
+          {"start", r.input_delay},
+          {"min", r.input_delay_min},
+          {"max", r.input_delay_max},
+          {"mean", r.input_delay_used.mean()},
+          {"changes", r.input_delay_changes}}},
         {"prediction_window", r.prediction},
         // Top level: local (kept for scripts reading mean/max); "local" and "remote" in full.
         {"input_latency_ms",

@@ -52,7 +52,9 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
         ->capture_default_str();
     cmd->add_option("--frames", o.frames, "Frames every client simulates")->capture_default_str();
     cmd->add_option("--tick-rate", o.tick_rate, "Ticks per second (also the physics rate)")->capture_default_str();
-    cmd->add_option("--input-delay", o.input_delay, "Input delay in frames, or auto (from measured RTT and jitter)")
+    cmd->add_option("--input-delay", o.input_delay,
+                    "Input delay in frames, auto (from RTT and jitter measured before the match) or adaptive "
+                    "(auto, then re-picked every second from the RTT measured during it)")
         ->capture_default_str();
     cmd->add_option("--prediction", o.prediction, "Prediction window W in rollback mode")->capture_default_str();
     cmd->add_option("--checksum-interval", o.checksum_interval, "Compare confirmed checksums every K frames")
@@ -110,12 +112,13 @@ RunConfig to_config(const RunOptions& o) {
     c.players = o.players;
     c.frames = o.frames;
     c.tick_rate = o.tick_rate;
-    if (o.input_delay == "auto") {
+    if (o.input_delay == "auto" || o.input_delay == "adaptive") {
         c.input_delay = -1;
+        c.adaptive_delay = o.input_delay == "adaptive";
     } else {
         char* end = nullptr;
         const long v = std::strtol(o.input_delay.c_str(), &end, 10);
-        if (o.input_delay.empty() || *end != '\0' || v < 0) throw UsageError("--input-delay " + o.input_delay + ": expected a frame count or auto");
+        if (o.input_delay.empty() || *end != '\0' || v < 0) throw UsageError("--input-delay " + o.input_delay + ": expected a frame count, auto or adaptive");
         c.input_delay = static_cast<int>(v);
     }
     c.prediction = o.prediction;
@@ -196,32 +199,38 @@ struct SweepOptions {
     std::vector<int> delays{0, 1, 2, 3, 4, 6};
     std::vector<int> windows{0, 2, 4, 8};
     std::vector<double> latencies{15, 30, 60, 100};
+    bool adaptive = true;  // also one adaptive-delay run per window and latency
 };
 
 void do_sweep(const RunOptions& base, const SweepOptions& s) {
     std::string csv =
         "input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,cpu_us_per_tick,ticks_per_second,"
-        "stall_fraction,rollbacks_per_second,confirmed_mismatches\n";
-    const std::size_t total = s.delays.size() * s.windows.size() * s.latencies.size();
+        "stall_fraction,rollbacks_per_second,confirmed_mismatches,adaptive\n";
+    std::vector<std::string> delays;
+    for (int d : s.delays) delays.push_back(std::to_string(d));
+    if (s.adaptive) delays.emplace_back("adaptive");
+    const std::size_t total = delays.size() * s.windows.size() * s.latencies.size();
     std::size_t done = 0;
     for (double lat : s.latencies)
         for (int w : s.windows)
-            for (int d : s.delays) {
+            for (const std::string& d : delays) {
                 RunOptions o = base;
                 o.mode = w == 0 ? "lockstep" : "rollback";
                 o.prediction = w == 0 ? 8 : w;
-                o.input_delay = std::to_string(d);
+                o.input_delay = d;
                 o.latency = lat;
                 RunConfig cfg = to_config(o);
                 cfg.progress = nullptr;
                 cfg.evidence_dir.clear();
                 const RunResult r = run_match(cfg);
                 char line[320];
-                std::snprintf(line, sizeof line, "%d,%d,%g,%.9g,%.9g,%.3f,%.3f,%.3f,%.4f,%.3f,%llu\n", d, w, lat,
+                // The adaptive row's delay is the mean each client used over the match.
+                std::snprintf(line, sizeof line, "%.3g,%d,%g,%.9g,%.9g,%.3f,%.3f,%.3f,%.4f,%.3f,%llu,%d\n",
+                              r.input_delay_used.mean(), w, lat,
                               r.position_error.mean(), r.position_error.max, r.input_latency_local.mean(),
                               r.cpu_us_per_tick.mean(), r.ticks_per_second(), r.stall_fraction(),
                               r.virtual_seconds > 0 ? static_cast<double>(r.rollbacks()) / r.virtual_seconds / r.players : 0.0,
-                              static_cast<unsigned long long>(r.confirmed_mismatches));
+                              static_cast<unsigned long long>(r.confirmed_mismatches), r.adaptive_delay ? 1 : 0);
                 csv += line;
                 ++done;
                 if (::isatty(2)) std::fprintf(stderr, "\r[sweep] %zu / %zu runs ", done, total);
@@ -262,6 +271,7 @@ void add_sweep_command(CLI::App& app) {
     cmd->add_option("--delays", s->delays, "Input delays to try (frames)")->delimiter(',');
     cmd->add_option("--windows", s->windows, "Prediction windows to try (0 = lockstep)")->delimiter(',');
     cmd->add_option("--latencies", s->latencies, "One-way latencies to try (ms)")->delimiter(',');
+    cmd->add_flag("!--no-adaptive", s->adaptive, "Leave out the adaptive-delay run of each window and latency");
     cmd->callback([o, s] { do_sweep(*o, *s); });
 }
 

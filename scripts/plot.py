@@ -110,7 +110,7 @@ def summary_line(d):
 
 EVENT_KINDS = (("loss", "datagram lost", "#7f7f7f"), ("stall", "stalled tick", "#ff7f0e"),
                ("rollback", "rollback", "#d62728"), ("correction", "visual correction", "#9467bd"),
-               ("time_sync_wait", "time-sync wait", "#2ca02c"))
+               ("time_sync_wait", "time-sync wait", "#2ca02c"), ("delay_change", "input delay changed", "#17becf"))
 
 
 def read_events(path):
@@ -281,10 +281,18 @@ def frontier(rows):
     return pareto([(r["input_latency_ms"], r["mean_error"], r) for r in rows if holds_tick_rate(r)])
 
 
+def read_optional_column(path, column, count):
+    """A 0/1 column that older files lack (then all 0)."""
+    with open(path, newline="") as f:
+        values = [row.get(column) for row in csv.DictReader(f)]
+    return [v is not None and v.strip() == "1" for v in values][:count] + [False] * max(0, count - len(values))
+
+
 def sweep(directory):
     path = os.path.join(directory, "sweep.csv")
     d = read_csv(path, SWEEP_COLUMNS)
     rows = list(zip(*(d[c] for c in SWEEP_COLUMNS)))
+    adaptive = read_optional_column(path, "adaptive", len(rows))
     latencies = sorted(set(d["latency_ms"]))
     cols = min(3, len(latencies))
     nrows = math.ceil(len(latencies) / cols)
@@ -303,9 +311,9 @@ def sweep(directory):
             ax.scatter([r[5] for r in sel], [r[3] for r in sel], c=[r[6] for r in sel], cmap="viridis",
                        norm=norm, marker=markers[k % len(markers)], s=46, edgecolors="black",
                        linewidths=0.4)
-            for r in sel:
-                ax.annotate(f"D{int(r[0])}", (r[5], r[3]), textcoords="offset points", xytext=(4, 3),
-                            fontsize=6, alpha=0.7)
+            for r, a in zip(sel, [adaptive[rows.index(r)] for r in sel]):
+                ax.annotate("adaptive" if a else f"D{int(r[0])}", (r[5], r[3]), textcoords="offset points",
+                            xytext=(4, 3), fontsize=6, alpha=0.9 if a else 0.7, color="C1" if a else "black")
         stalled = [r for r in pts if r[8] > STALL_LIMIT]
         if stalled:
             ax.scatter([r[5] for r in stalled], [r[3] for r in stalled], s=140, facecolors="none",
@@ -371,7 +379,7 @@ def write_synthetic(directory):
         with open(os.path.join(directory, mode, "summary.json"), "w") as f:
             json.dump({"rollbacks": {"depth_histogram": hist}}, f)
     with open(os.path.join(directory, "sweep.csv"), "w") as f:
-        f.write(",".join(SWEEP_COLUMNS) + "\n")
+        f.write(",".join(SWEEP_COLUMNS) + ",adaptive\n")
         for latency in (28.5, 57.0, 150.0):
             for delay in range(5):
                 for window in (0, 2, 8):
@@ -380,7 +388,7 @@ def write_synthetic(directory):
                     stall = min(0.9, 0.2 * short) if window == 0 else 0.0
                     f.write(f"{delay},{window},{latency},{error:.6g},{error * 100:.6g},"
                             f"{(delay + (short if window == 0 else 0)) * 16.7:.2f},{20 + 5 * min(window, short)},"
-                            f"{60 * (1 - stall):.3f},{stall:.4f}\n")
+                            f"{60 * (1 - stall):.3f},{stall:.4f},{1 if delay == 4 else 0}\n")
 
 
 def selftest():

@@ -117,6 +117,35 @@ TEST(Match, AutoTunedRollbackNeverStallsMoreThanLockstep) {
     EXPECT_EQ(auto_prediction_window(8, 18, 9), 10);
 }
 
+// Adaptive input delay: a lockstep match started with far too little delay for 100 ms stalls
+// most ticks; adapting from the RTT measured during the match brings it back to the tick rate.
+TEST(Match, AdaptiveInputDelayRecoversFromABadStart) {
+    RunConfig c = base(Mode::Lockstep, 600);
+    c.net.latency_ms = 100;
+    c.input_delay = 0;
+    const RunResult fixed = run_match(c);
+    c.adaptive_delay = true;
+    const RunResult adaptive = run_match(c);
+    ASSERT_TRUE(fixed.completed && adaptive.completed);
+    EXPECT_GT(fixed.stall_fraction(), 0.5);
+    EXPECT_LT(adaptive.stall_fraction(), 0.25);
+    EXPECT_GT(adaptive.input_delay_changes, 0u);
+    EXPECT_GE(adaptive.input_delay_max, auto_input_delay(Mode::Lockstep, 200, 210, 60));
+    EXPECT_EQ(adaptive.confirmed_mismatches, 0u);
+    EXPECT_EQ(adaptive.clients[0].final_checksum, adaptive.clients[1].final_checksum);
+}
+
+// The bound: adaptive rollback keeps delay + window above lockstep's delay.
+TEST(Match, AdaptiveRollbackDelayNeverStallsMoreThanLockstep) {
+    for (double rtt : {30.0, 120.0, 300.0, 600.0})
+        for (int window : {2, 4, 8}) {
+            const int lockstep = adaptive_input_delay(Mode::Lockstep, rtt, rtt + 10, 60, 0);
+            const int rollback = adaptive_input_delay(Mode::Rollback, rtt, rtt + 10, 60, window);
+            EXPECT_GT(rollback + window, lockstep) << rtt << " " << window;
+            EXPECT_LE(rollback, lockstep);
+        }
+}
+
 TEST(Match, InjectedDesyncIsNamedToBodyAndField) {
     RunConfig c = base(Mode::Rollback, 300);
     c.checksum_interval = 4;
