@@ -51,6 +51,18 @@ json error_by_body_json(const RunResult& r) {
     return {{"players", error_json(players)}, {"other_bodies", error_json(others)}, {"top_bodies", top}};
 }
 
+// A header, then one line per item written by `line_of` into a buffer.
+template <class T, class F>
+std::string csv_of(const char* header, const std::vector<T>& items, F line_of) {
+    std::string out = header;
+    char line[192];
+    for (const T& item : items) {
+        line_of(item, line, sizeof line);
+        out += line;
+    }
+    return out;
+}
+
 std::string fmt(const char* f, double v) {
     char b[64];
     std::snprintf(b, sizeof b, f, v);
@@ -209,14 +221,11 @@ json summary_json(const RunResult& r) {
 }
 
 std::string frames_csv(const RunResult& r) {
-    std::string out = "frame,time_s,mean_error,max_error,rollbacks,max_rollback_depth,ticks_per_second\n";
-    char line[160];
-    for (const auto& row : r.rows) {
-        std::snprintf(line, sizeof line, "%u,%.6f,%.9g,%.9g,%u,%u,%.3f\n", row.frame, row.time_s, row.mean_error,
-                      row.max_error, row.rollbacks, row.max_rollback_depth, row.ticks_per_second);
-        out += line;
-    }
-    return out;
+    return csv_of("frame,time_s,mean_error,max_error,rollbacks,max_rollback_depth,ticks_per_second\n", r.rows,
+                  [](const FrameRow& row, char* line, std::size_t n) {
+                      std::snprintf(line, n, "%u,%.6f,%.9g,%.9g,%u,%u,%.3f\n", row.frame, row.time_s, row.mean_error,
+                                    row.max_error, row.rollbacks, row.max_rollback_depth, row.ticks_per_second);
+                  });
 }
 
 std::string console_summary(const RunResult& r) {
@@ -250,23 +259,17 @@ std::string console_summary(const RunResult& r) {
 }
 
 std::string events_csv(const RunResult& r) {
-    std::string out = "time_s,client,frame,kind,value\n";
-    char line[128];
-    for (const auto& e : r.events) {
-        std::snprintf(line, sizeof line, "%.6f,%d,%u,%s,%.9g\n", e.time_s, e.client, e.frame, e.kind, e.value);
-        out += line;
-    }
-    return out;
+    return csv_of("time_s,client,frame,kind,value\n", r.events, [](const RunEvent& e, char* line, std::size_t n) {
+        std::snprintf(line, n, "%.6f,%d,%u,%s,%.9g\n", e.time_s, e.client, e.frame, e.kind, e.value);
+    });
 }
 
 std::string timesync_csv(const RunResult& r) {
-    std::string out = "time_s,client,frame,frames_ahead,wait_frames\n";
-    char line[128];
-    for (const auto& t : r.time_sync) {
-        std::snprintf(line, sizeof line, "%.6f,%d,%u,%.2f,%d\n", t.time_s, t.client, t.frame, t.frames_ahead, t.wait_frames);
-        out += line;
-    }
-    return out;
+    return csv_of("time_s,client,frame,frames_ahead,wait_frames\n", r.time_sync,
+                  [](const TimeSyncSample& t, char* line, std::size_t n) {
+                      std::snprintf(line, n, "%.6f,%d,%u,%.2f,%d\n", t.time_s, t.client, t.frame, t.frames_ahead,
+                                    t.wait_frames);
+                  });
 }
 
 void write_run(const std::filesystem::path& dir, const RunResult& r) {
