@@ -74,19 +74,21 @@ function start(D) {
 
   // World bounds from the static bodies and every shown position.
   let x0 = Infinity, x1 = -Infinity, z0 = Infinity, z1 = -Infinity;
-  const grow = (x, z, r) => { x0 = Math.min(x0, x - r); x1 = Math.max(x1, x + r); z0 = Math.min(z0, z - r); z1 = Math.max(z1, z + r); };
-  for (const s of D.statics) grow(s[1], s[2], Math.max(s[3], s[4], s[5]));
-  for (const p of D.pos) for (let i = 0; i < p.length; i += 2) grow(p[i] / D.scale, p[i + 1] / D.scale, 0);
+  const grow = (x, z, rx, rz) => { x0 = Math.min(x0, x - rx); x1 = Math.max(x1, x + rx); z0 = Math.min(z0, z - rz); z1 = Math.max(z1, z + rz); };
+  for (const s of D.statics) s[0] === "box" ? grow(s[1], s[2], s[4], s[5]) : grow(s[1], s[2], s[3], s[3]);
+  for (const p of D.pos) for (let i = 0; i < p.length; i += 2) grow(p[i] / D.scale, p[i + 1] / D.scale, 0, 0);
   const span = Math.max(x1 - x0, z1 - z0) || 1;
 
   function drawView(canvas, client, other) {
     const g = canvas.getContext("2d"), W = canvas.width, k = (W - 20) / span;
     const X = (x) => 10 + (x - x0) * k, Z = (z) => 10 + (z - z0) * k;
     g.clearRect(0, 0, W, canvas.height);
-    g.fillStyle = "#ccc";
+    g.fillStyle = "rgba(120,120,120,0.25)"; g.strokeStyle = "#777"; g.lineWidth = 1;
     for (const s of D.statics) {
-      if (s[0] === "box") g.fillRect(X(s[1] - s[4]), Z(s[2] - s[5]), 2 * s[4] * k, 2 * s[5] * k);
-      else { g.beginPath(); g.arc(X(s[1]), Z(s[2]), s[3] * k, 0, 7); g.fill(); }
+      g.beginPath();
+      if (s[0] === "box") g.rect(X(s[1] - s[4]), Z(s[2] - s[5]), 2 * s[4] * k, 2 * s[5] * k);
+      else g.arc(X(s[1]), Z(s[2]), s[3] * k, 0, 7);
+      g.fill(); g.stroke();
     }
     const P = D.pos[client], Q = D.pos[other], base = idx * nb * 2;
     let wrong = 0;
