@@ -17,6 +17,7 @@ public:
     TimedSimulation(rollback::Simulation& inner, std::function<std::uint64_t()> cpu_clock, Stat& out)
         : inner_(inner), clock_(std::move(cpu_clock)), out_(out) {}
 
+    using rollback::Simulation::step;  // any other overload reaches the timed one below
     void step(std::span<const std::uint8_t> inputs) override {
         const std::uint64_t t0 = clock_();
         inner_.step(inputs);
