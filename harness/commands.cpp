@@ -5,6 +5,7 @@
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
 #include "harness/synctest_command.h"
+#include "harness/view_command.h"
 #include "harness/stability_command.h"
 
 namespace lockroll::harness {
@@ -18,6 +19,7 @@ void add_all_commands(CLI::App& app) {
     add_sweep_command(app);
     add_replay_command(app);
     add_synctest_command(app);
+    add_view_command(app);
 }
 
 }  // namespace lockroll::harness

@@ -6,7 +6,8 @@ set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
-          libbenchmark-dev python3 python3-matplotlib)
+          libbenchmark-dev python3 python3-matplotlib zlib1g-dev
+          chromium)  # chromium: the headless browser test of lockroll view
 if [[ "${1:-}" == "--cross" ]]; then
   packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu qemu-user)
 fi
