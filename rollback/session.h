@@ -178,6 +178,17 @@ struct AdvanceResult {
     int tick_stretch_ppm = 0;
 };
 
+// One peer's link as a game's network overlay shows it (GGPO's GGPONetworkStats).
+struct NetworkStats {
+    std::uint64_t ping_us = 0;       // smoothed round trip
+    std::uint64_t jitter_us = 0;     // mean deviation of round-trip samples
+    double kbps_sent = 0;            // payload kilobits per second to / from it since the start
+    double kbps_received = 0;
+    std::int32_t frames_behind = 0;  // how far its displayed frame is estimated behind ours
+    std::uint32_t send_queue = 0;    // our inputs it has not acknowledged yet (frames)
+    bool interrupted = false;
+};
+
 enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
 const char* phase_name(SessionPhase p);
 
@@ -247,6 +258,8 @@ public:
     bool peer_error(PlayerId p) const { return links_[p].error(); }
     // Smoothed round trip to a peer (µs; 0 until measured).
     std::uint64_t rtt_us(PlayerId p) const { return links_[p].rtt_us(); }
+    // Ping, jitter, bandwidth, frames behind and send queue of one peer, for an overlay.
+    NetworkStats network_stats(PlayerId p, std::uint64_t now_us) const;
     bool desynced(PlayerId p) const { return detector_->desynced(p); }
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;
