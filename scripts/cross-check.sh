@@ -6,13 +6,21 @@
 # with tests/golden/checksums.txt. Any difference is a determinism bug: the simulation must give
 # the same bits everywhere.
 #
-#   target       compiler                          run
-#   gcc-O0       g++ -O0                           native
-#   gcc-O3       g++ -O3                           native
-#   clang14-O0   clang++-14 -O0                    native
-#   clang14-O3   clang++-14 -O3                    native
-#   aarch64      aarch64-linux-gnu-g++ -O2 -static qemu-aarch64 (64-bit ARM, little-endian)
-#   s390x        s390x-linux-gnu-g++ -O2 -static   qemu-s390x   (IBM Z, big-endian)
+#   target         compiler                              128-bit math  run
+#   gcc-O0         g++ -O0                               __int128      native
+#   gcc-O3         g++ -O3                               __int128      native
+#   clang14-O0     clang++-14 -O0                        __int128      native
+#   clang14-O3     clang++-14 -O3                        __int128      native
+#   aarch64        aarch64-linux-gnu-g++ -O2 -static     __int128      qemu-aarch64 (64-bit ARM)
+#   s390x          s390x-linux-gnu-g++ -O2 -static       __int128      qemu-s390x (IBM Z, big-endian)
+#   gcc-portable   g++ -O2 -DLOCKROLL_PORTABLE_MATH=1    portable      native
+#   clang14-portable clang++-14 -O2 -DLOCKROLL_PORTABLE_MATH=1 portable native
+#   i386           i686-linux-gnu-g++ -O2 -static        portable      native on x86-64, else qemu-i386
+#   armhf          arm-linux-gnueabihf-g++ -O2 -static   portable      qemu-arm (32-bit ARM, hard float)
+#   wasm32         clang++-14 --target=wasm32-wasi -O2   __int128      node (WASI), scripts/wasm/wasi_run.mjs
+#
+# A target whose compiler, emulator or library is missing is skipped with a message naming the
+# Debian package; the others still run.
 #
 # Usage: scripts/cross-check.sh [--targets a,b,...] [--jobs N] [--keep] [--regenerate]
 #   --targets     run only these targets (default: all)
@@ -21,16 +29,19 @@
 #   --regenerate  rewrite tests/golden/checksums.txt from the gcc-O3 build first, then check
 #                 the other targets against it (after an intended change to the simulation)
 #
-# Exit status: 0 all targets match; 1 a target differs (its name and first differing line are
-# printed); 2 bad usage; 3 a compiler, emulator or header is missing (CTest reports the test as
-# skipped); 4 a build or a run fails.
-# Needs (Debian 12): g++, clang-14, g++-aarch64-linux-gnu, g++-s390x-linux-gnu, qemu-user,
-# nlohmann-json3-dev, libxxhash-dev, libcli11-dev. Works from a fresh clone: no CMake build used.
+# Exit status: 0 every target that ran matches (some may have been skipped); 1 a target differs
+# (its name and first differing line are printed); 2 bad usage; 3 nothing could run (headers or
+# every toolchain missing; CTest reports the test as skipped); 4 a build or a run fails.
+# Needs (Debian 12): g++, clang-14, g++-aarch64-linux-gnu, g++-s390x-linux-gnu,
+# g++-i686-linux-gnu, g++-arm-linux-gnueabihf, qemu-user, lld-14, wasi-libc,
+# libc++-14-dev-wasm32, libclang-rt-14-dev-wasm32, nodejs (>= 18), nlohmann-json3-dev,
+# libxxhash-dev, libcli11-dev (scripts/install-deps.sh --cross). Works from a fresh clone: no
+# CMake build used.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 golden="$root/tests/golden/checksums.txt"
-all_targets=(gcc-O0 gcc-O3 clang14-O0 clang14-O3 aarch64 s390x)
+all_targets=(gcc-O0 gcc-O3 clang14-O0 clang14-O3 aarch64 s390x gcc-portable clang14-portable i386 armhf wasm32)
 targets=("${all_targets[@]}")
 jobs=2
 keep=0
@@ -60,37 +71,89 @@ fi
 compiler_of() {
     case "$1" in
         gcc-*) echo g++ ;;
-        clang14-*) echo clang++-14 ;;
+        clang14-*|wasm32) echo clang++-14 ;;
         aarch64) echo aarch64-linux-gnu-g++ ;;
         s390x) echo s390x-linux-gnu-g++ ;;
+        i386) echo i686-linux-gnu-g++ ;;
+        armhf) echo arm-linux-gnueabihf-g++ ;;
     esac
 }
+wasm_flags=(--target=wasm32-wasi --sysroot=/usr)
 flags_of() {
     case "$1" in
         *-O0) echo "-O0" ;;
         *-O3) echo "-O3" ;;
-        aarch64|s390x) echo "-O2" ;;
+        *-portable) echo "-O2 -DLOCKROLL_PORTABLE_MATH=1" ;;
+        aarch64|s390x|i386|armhf) echo "-O2" ;;
+        wasm32) echo "-O2 ${wasm_flags[*]}" ;;
     esac
 }
-link_flags_of() { case "$1" in aarch64|s390x) echo "-static" ;; esac; }
-runner_of() { case "$1" in aarch64) echo qemu-aarch64 ;; s390x) echo qemu-s390x ;; esac; }
+link_flags_of() {
+    case "$1" in
+        aarch64|s390x|i386|armhf) echo "-static" ;;
+        wasm32) echo "${wasm_flags[*]}" ;;
+    esac
+}
+# The golden runner's extra sources (wasm32: a throw aborts, see scripts/wasm/throw_aborts.cpp).
+extra_sources_of() { case "$1" in wasm32) echo "$root/scripts/wasm/throw_aborts.cpp" ;; esac; }
+runner_of() {
+    case "$1" in
+        aarch64) echo qemu-aarch64 ;;
+        s390x) echo qemu-s390x ;;
+        armhf) echo qemu-arm ;;
+        i386) [[ $(uname -m) == x86_64 ]] || echo qemu-i386 ;;
+        wasm32) echo "node --no-warnings $root/scripts/wasm/wasi_run.mjs" ;;
+    esac
+}
 package_of() {
     case "$1" in
         g++) echo g++ ;; clang++-14) echo clang-14 ;;
         aarch64-linux-gnu-g++) echo g++-aarch64-linux-gnu ;; s390x-linux-gnu-g++) echo g++-s390x-linux-gnu ;;
-        qemu-*) echo qemu-user ;;
+        i686-linux-gnu-g++) echo g++-i686-linux-gnu ;; arm-linux-gnueabihf-g++) echo g++-arm-linux-gnueabihf ;;
+        qemu-*) echo qemu-user ;; node) echo nodejs ;; wasm-ld-14) echo lld-14 ;;
+        /usr/lib/wasm32-wasi/libc.a) echo wasi-libc ;;
+        /usr/lib/wasm32-wasi/libc++.a) echo libc++-14-dev-wasm32 ;;
+        */libclang_rt.builtins-wasm32.a) echo libclang-rt-14-dev-wasm32 ;;
     esac
 }
-
-missing=0
-for t in "${targets[@]}"; do
-    for tool in "$(compiler_of "$t")" $(runner_of "$t"); do
-        if ! command -v "$tool" >/dev/null; then
-            echo "cross-check: $t needs '$tool' (Debian package $(package_of "$tool"))" >&2
-            missing=1
-        fi
+# Prints what target $1 lacks, one "tool (package)" per line; nothing when it can run.
+missing_of() {
+    local t=$1 tool
+    for tool in "$(compiler_of "$t")" $(runner_of "$t" | awk '{ print $1 }'); do
+        command -v "$tool" >/dev/null || echo "'$tool' (Debian package $(package_of "$tool"))"
     done
+    if [[ $t == wasm32 ]]; then
+        command -v wasm-ld-14 >/dev/null || echo "'wasm-ld-14' (Debian package lld-14)"
+        local f
+        for f in /usr/lib/wasm32-wasi/libc.a /usr/lib/wasm32-wasi/libc++.a \
+                 "$(ls /usr/lib/llvm-14/lib/clang/*/lib/wasi/libclang_rt.builtins-wasm32.a 2>/dev/null | head -n 1)"; do
+            [[ -n "$f" && -e "$f" ]] || { f=${f:-/usr/lib/llvm-14/lib/clang/14/lib/wasi/libclang_rt.builtins-wasm32.a}; echo "$f (Debian package $(package_of "$f"))"; }
+        done
+        if command -v node >/dev/null && [[ $(node -p 'process.versions.node.split(".")[0]') -lt 18 ]]; then
+            echo "node >= 18 for node:wasi (Debian package nodejs; this one is $(node --version))"
+        fi
+    fi
+}
+
+# Targets whose toolchain is missing are skipped (named with the package to install).
+runnable=()
+skipped=()
+for t in "${targets[@]}"; do
+    lacks=$(missing_of "$t")
+    if [[ -n "$lacks" ]]; then
+        echo "cross-check: $t skipped: needs $(echo "$lacks" | paste -sd, - | sed 's/,/, /g')" >&2
+        skipped+=("$t")
+    else
+        runnable+=("$t")
+    fi
 done
+if [[ $regenerate -eq 1 && " ${skipped[*]} " == *" gcc-O3 "* ]]; then
+    echo "cross-check: --regenerate needs the gcc-O3 target" >&2
+    exit 3
+fi
+targets=("${runnable[@]}")
+missing=0
+[[ ${#targets[@]} -gt 0 ]] || { echo "cross-check: no target can run" >&2; missing=1; }
 # Header-only dependencies, handed to every compiler through one directory of symlinks so that
 # cross compilers never see the host's /usr/include.
 headers=(/usr/include/nlohmann /usr/include/xxhash.h /usr/include/CLI)
@@ -117,7 +180,8 @@ build() {
     cxx=$(compiler_of "$t"); flags=$(flags_of "$t")
     mkdir -p "$dir"
     local pids=() objs=() i=0 failed=0
-    for src in "${sources[@]}"; do
+    # shellcheck disable=SC2046
+    for src in "${sources[@]}" $(extra_sources_of "$t"); do
         local obj="$dir/$i.o"; i=$((i + 1)); objs+=("$obj")
         "$cxx" "${common[@]}" $flags -c "$src" -o "$obj" 2>"$obj.log" &
         pids+=($!)
@@ -171,16 +235,17 @@ for t in "${targets[@]}"; do
     diff=$(first_difference "$golden" "$out")
     if [[ -z "$diff" ]]; then
         result[$t]="match"
-        printf 'cross-check: %-11s match   (build %ss, run %ss)\n' "$t" "$(elapsed "$t0" "$t1")" "$(elapsed "$t1" "$t2")"
+        printf 'cross-check: %-16s match   (build %ss, run %ss)\n' "$t" "$(elapsed "$t0" "$t1")" "$(elapsed "$t1" "$t2")"
     else
         result[$t]="MISMATCH"
-        printf 'cross-check: %-11s MISMATCH at %s\n' "$t" "$diff" >&2
+        printf 'cross-check: %-16s MISMATCH at %s\n' "$t" "$diff" >&2
         status=1
     fi
 done
 total=$(elapsed "$start" "$(now)")
 if [[ $status -eq 0 ]]; then
-    echo "cross-check: all ${#targets[@]} targets reproduce $(grep -vc '^#' "$golden") golden checksums (${total}s)"
+    echo "cross-check: all ${#targets[@]} targets that ran reproduce $(grep -vc '^#' "$golden") golden checksums (${total}s)" \
+         "$([[ ${#skipped[@]} -eq 0 ]] && echo "none skipped" || echo "skipped: ${skipped[*]}")"
 else
     echo "cross-check: FAILED: $(for t in "${targets[@]}"; do [[ ${result[$t]} == match ]] || printf '%s ' "$t"; done)differ from $golden (${total}s)" >&2
 fi
