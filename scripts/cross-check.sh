@@ -17,7 +17,7 @@
 #   clang14-portable clang++-14 -O2 -DLOCKROLL_PORTABLE_MATH=1 portable native
 #   i386           i686-linux-gnu-g++ -O2 -static        portable      native on x86-64, else qemu-i386
 #   armhf          arm-linux-gnueabihf-g++ -O2 -static   portable      qemu-arm (32-bit ARM, hard float)
-#   wasm32         clang++-14 --target=wasm32-wasi -O2   __int128      node (WASI), scripts/wasm/wasi_run.mjs
+#   wasm32         em++ (emscripten) -O2 -fexceptions     __int128      node (NODERAWFS: reads the host's files)
 #
 # A target whose compiler, emulator or library is missing is skipped with a message naming the
 # Debian package; the others still run.
@@ -33,8 +33,7 @@
 # (its name and first differing line are printed); 2 bad usage; 3 nothing could run (headers or
 # every toolchain missing; CTest reports the test as skipped); 4 a build or a run fails.
 # Needs (Debian 12): g++, clang-14, g++-aarch64-linux-gnu, g++-s390x-linux-gnu,
-# g++-i686-linux-gnu, g++-arm-linux-gnueabihf, qemu-user, lld-14, wasi-libc,
-# libc++-14-dev-wasm32, libclang-rt-14-dev-wasm32, nodejs (>= 18), nlohmann-json3-dev,
+# g++-i686-linux-gnu, g++-arm-linux-gnueabihf, qemu-user, emscripten, nodejs, nlohmann-json3-dev,
 # libxxhash-dev, libcli11-dev (scripts/install-deps.sh --cross). Works from a fresh clone: no
 # CMake build used.
 set -euo pipefail
@@ -71,38 +70,44 @@ fi
 compiler_of() {
     case "$1" in
         gcc-*) echo g++ ;;
-        clang14-*|wasm32) echo clang++-14 ;;
+        clang14-*) echo clang++-14 ;;
+        wasm32) echo em++ ;;
         aarch64) echo aarch64-linux-gnu-g++ ;;
         s390x) echo s390x-linux-gnu-g++ ;;
         i386) echo i686-linux-gnu-g++ ;;
         armhf) echo arm-linux-gnueabihf-g++ ;;
     esac
 }
-wasm_flags=(--target=wasm32-wasi --sysroot=/usr)
+# emscripten, not clang's wasm32-wasi: wasi's libc++ 14 has neither std::filesystem (the scene
+# loader) nor exceptions. NODERAWFS lets the program read harness/scenes from the host; the
+# synchronous instantiation avoids emscripten 3.1.6's fetch() of a file path on node >= 18.
+wasm_link=(-fexceptions -sNODERAWFS=1 -sENVIRONMENT=node -sWASM_ASYNC_COMPILATION=0 -sALLOW_MEMORY_GROWTH=1)
+# Debian's emscripten finds its node modules (acorn) there; Debian's node looks there anyway.
+export NODE_PATH=/usr/share/nodejs${NODE_PATH:+:$NODE_PATH}
 flags_of() {
     case "$1" in
         *-O0) echo "-O0" ;;
         *-O3) echo "-O3" ;;
         *-portable) echo "-O2 -DLOCKROLL_PORTABLE_MATH=1" ;;
         aarch64|s390x|i386|armhf) echo "-O2" ;;
-        wasm32) echo "-O2 ${wasm_flags[*]}" ;;
+        wasm32) echo "-O2 -fexceptions" ;;
     esac
 }
 link_flags_of() {
     case "$1" in
         aarch64|s390x|i386|armhf) echo "-static" ;;
-        wasm32) echo "${wasm_flags[*]}" ;;
+        wasm32) echo "${wasm_link[*]}" ;;
     esac
 }
-# The golden runner's extra sources (wasm32: a throw aborts, see scripts/wasm/throw_aborts.cpp).
-extra_sources_of() { case "$1" in wasm32) echo "$root/scripts/wasm/throw_aborts.cpp" ;; esac; }
+# The golden runner's file name (emscripten writes JavaScript plus golden.wasm beside it).
+exe_of() { case "$1" in wasm32) echo golden.js ;; *) echo golden ;; esac; }
 runner_of() {
     case "$1" in
         aarch64) echo qemu-aarch64 ;;
         s390x) echo qemu-s390x ;;
         armhf) echo qemu-arm ;;
         i386) [[ $(uname -m) == x86_64 ]] || echo qemu-i386 ;;
-        wasm32) echo "node --no-warnings $root/scripts/wasm/wasi_run.mjs" ;;
+        wasm32) echo node ;;
     esac
 }
 package_of() {
@@ -110,29 +115,15 @@ package_of() {
         g++) echo g++ ;; clang++-14) echo clang-14 ;;
         aarch64-linux-gnu-g++) echo g++-aarch64-linux-gnu ;; s390x-linux-gnu-g++) echo g++-s390x-linux-gnu ;;
         i686-linux-gnu-g++) echo g++-i686-linux-gnu ;; arm-linux-gnueabihf-g++) echo g++-arm-linux-gnueabihf ;;
-        qemu-*) echo qemu-user ;; node) echo nodejs ;; wasm-ld-14) echo lld-14 ;;
-        /usr/lib/wasm32-wasi/libc.a) echo wasi-libc ;;
-        /usr/lib/wasm32-wasi/libc++.a) echo libc++-14-dev-wasm32 ;;
-        */libclang_rt.builtins-wasm32.a) echo libclang-rt-14-dev-wasm32 ;;
+        qemu-*) echo qemu-user ;; node) echo nodejs ;; em++) echo emscripten ;;
     esac
 }
 # Prints what target $1 lacks, one "tool (package)" per line; nothing when it can run.
 missing_of() {
     local t=$1 tool
-    for tool in "$(compiler_of "$t")" $(runner_of "$t" | awk '{ print $1 }'); do
+    for tool in "$(compiler_of "$t")" $(runner_of "$t"); do
         command -v "$tool" >/dev/null || echo "'$tool' (Debian package $(package_of "$tool"))"
     done
-    if [[ $t == wasm32 ]]; then
-        command -v wasm-ld-14 >/dev/null || echo "'wasm-ld-14' (Debian package lld-14)"
-        local f
-        for f in /usr/lib/wasm32-wasi/libc.a /usr/lib/wasm32-wasi/libc++.a \
-                 "$(ls /usr/lib/llvm-14/lib/clang/*/lib/wasi/libclang_rt.builtins-wasm32.a 2>/dev/null | head -n 1)"; do
-            [[ -n "$f" && -e "$f" ]] || { f=${f:-/usr/lib/llvm-14/lib/clang/14/lib/wasi/libclang_rt.builtins-wasm32.a}; echo "$f (Debian package $(package_of "$f"))"; }
-        done
-        if command -v node >/dev/null && [[ $(node -p 'process.versions.node.split(".")[0]') -lt 18 ]]; then
-            echo "node >= 18 for node:wasi (Debian package nodejs; this one is $(node --version))"
-        fi
-    fi
 }
 
 # Targets whose toolchain is missing are skipped (named with the package to install).
@@ -180,8 +171,7 @@ build() {
     cxx=$(compiler_of "$t"); flags=$(flags_of "$t")
     mkdir -p "$dir"
     local pids=() objs=() i=0 failed=0
-    # shellcheck disable=SC2046
-    for src in "${sources[@]}" $(extra_sources_of "$t"); do
+    for src in "${sources[@]}"; do
         local obj="$dir/$i.o"; i=$((i + 1)); objs+=("$obj")
         "$cxx" "${common[@]}" $flags -c "$src" -o "$obj" 2>"$obj.log" &
         pids+=($!)
@@ -189,7 +179,7 @@ build() {
     done
     for p in "${pids[@]}"; do wait "$p" || failed=1; done
     if [[ $failed -ne 0 ]]; then cat "$dir"/*.log >&2; return 1; fi
-    "$cxx" $flags "${objs[@]}" $(link_flags_of "$t") -o "$dir/golden" 2>"$dir/link.log" || { cat "$dir/link.log" >&2; return 1; }
+    "$cxx" $flags "${objs[@]}" $(link_flags_of "$t") -o "$dir/$(exe_of "$t")" 2>"$dir/link.log" || { cat "$dir/link.log" >&2; return 1; }
 }
 
 # Prints the first differing data line between golden file $1 and output $2, if any.
@@ -216,7 +206,7 @@ for t in "${targets[@]}"; do
     t1=$(now)
     out="$work/$t/output.txt"
     # shellcheck disable=SC2046
-    if ! $(runner_of "$t") "$work/$t/golden" --scene-dir "$root/harness/scenes" >"$out" 2>"$work/$t/stderr.txt"; then
+    if ! $(runner_of "$t") "$work/$t/$(exe_of "$t")" --scene-dir "$root/harness/scenes" >"$out" 2>"$work/$t/stderr.txt"; then
         echo "cross-check: $t: golden runner failed:" >&2
         cat "$work/$t/stderr.txt" >&2
         exit 4

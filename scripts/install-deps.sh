@@ -1,8 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
 # root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user,
-# clang, the wasm32-wasi toolchain (lld, wasi-libc, libc++, compiler-rt) and node used by
-# scripts/cross-check.sh.
+# clang, emscripten and node used by scripts/cross-check.sh.
 set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
@@ -10,7 +9,7 @@ packages=(g++ cmake ninja-build pkg-config
           libbenchmark-dev python3 python3-matplotlib)
 if [[ "${1:-}" == "--cross" ]]; then
   packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu g++-arm-linux-gnueabihf qemu-user
-             lld-14 wasi-libc libc++-14-dev-wasm32 libclang-rt-14-dev-wasm32 nodejs)
+             emscripten nodejs)
 fi
 
 missing=()
