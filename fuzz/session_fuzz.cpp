@@ -1,7 +1,15 @@
-// libFuzzer target: arbitrary bytes into the decoders and into a live session as datagrams from
-// its peers. Must never crash, hang or trip a sanitizer. Built only with clang
-// (cmake -DCMAKE_CXX_COMPILER=clang++ ..., then `cmake --build DIR --target rollback_protocol_fuzz`
-// and run ./rollback_protocol_fuzz -max_total_time=60).
+// libFuzzer target: a live session fed datagrams from fuzzed peers (rollback/session.h).
+// Session 0 of a 3-player game is the target; sessions 1 and 2 are real peers. The input is a
+// script of operations, so the fuzzer reaches deep states (rollbacks, confirmations, desync
+// narrowing) and then corrupts the traffic that drives them:
+//   op % 4 == 0  [from][len][len bytes]  a raw datagram to session 0 (from 3 is out of range)
+//   op % 4 == 1                          one tick of everyone, traffic delivered intact
+//   op % 4 == 2  [at][xor]               one tick; every datagram to session 0 has byte
+//                                        `at % size` xored with `xor`
+//   op % 4 == 3                          one tick; peer 1's datagrams to session 0 are lost
+// When the first byte is odd, peer 1 flips a bit of a ball at frame 5, so the sessions desync
+// and narrow it with queries and replies, which the fuzzer then corrupts.
+// Property: no crash, hang or sanitizer report; session 0 keeps a bounded amount of state.
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -17,36 +25,53 @@ using namespace lockroll::rollback;
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     static const lockroll::sim::SceneDesc scene = testing::make_scene(3, 6);
-    std::span<const std::uint8_t> in(data, size);
-    InputMessage im;
-    QueryMessage qm;
-    ReplyMessage rm;
-    (void)decode(in, 3, im);
-    (void)decode(in, qm);
-    (void)decode(in, rm);
+    constexpr int kPlayers = 3;
+    std::vector<std::unique_ptr<WorldSimulation>> sims;
+    std::vector<std::unique_ptr<Session>> sessions;
+    for (int p = 0; p < kPlayers; ++p) {
+        SessionConfig cfg;
+        cfg.players = kPlayers;
+        cfg.local_player = static_cast<PlayerId>(p);
+        cfg.max_bad_packets = p == 0 ? 1 << 30 : 8;  // the target never stops listening
+        sims.push_back(std::make_unique<WorldSimulation>(scene, kPlayers));
+        sessions.push_back(std::make_unique<Session>(cfg, *sims.back()));
+    }
+    if (size > 0 && (data[0] & 1)) (void)sessions[1]->inject_fault(5, 9, 0, 40);
 
-    // The input as a sequence of datagrams: [u8 sender][u8 length][bytes]..., with a tick of the
-    // session after each, so state built by earlier datagrams is exercised by later ones.
-    WorldSimulation sim(scene, 3);
-    SessionConfig cfg;
-    cfg.players = 3;
-    cfg.max_bad_packets = 1 << 30;
-    Session session(cfg, sim);
-    std::vector<Datagram> out;
     std::uint64_t now = 0;
-    std::size_t at = 0;
-    const std::uint8_t local[3] = {1, 2, 3};
-    while (at + 2 <= size) {
-        const PlayerId from = data[at] % 4;
-        const std::size_t len = data[at + 1];
-        at += 2;
-        const std::size_t n = len < size - at ? len : size - at;
-        session.receive(from, in.subspan(at, n), now);
-        at += n;
+    std::vector<Datagram> out;
+    std::size_t at = size > 0 ? 1 : 0;
+    auto next = [&]() -> std::uint8_t { return at < size ? data[at++] : 0; };
+    int ticks = 0;
+    while (at < size && ticks < 600) {
+        const std::uint8_t op = next();
+        if (op % 4 == 0) {
+            const PlayerId from = next() % (kPlayers + 1);
+            const std::size_t len = next();
+            const std::size_t n = len < size - at ? len : size - at;
+            sessions[0]->receive(from, std::span<const std::uint8_t>(data + at, n), now);
+            at += n;
+            continue;
+        }
+        const std::uint8_t flip_at = op % 4 == 2 ? next() : 0, flip = op % 4 == 2 ? next() : 0;
+        ++ticks;
         now += 16667;
-        session.advance(local, now);
-        out.clear();
-        session.poll(now, out);
+        for (int p = 0; p < kPlayers; ++p) {
+            const std::uint8_t input[3] = {static_cast<std::uint8_t>(ticks * (p + 1)), static_cast<std::uint8_t>(p), 0};
+            (void)sessions[p]->advance(input, now);
+        }
+        for (int p = 0; p < kPlayers; ++p) {
+            out.clear();
+            sessions[p]->poll(now, out);
+            for (Datagram& d : out) {
+                if (d.peer >= kPlayers) continue;
+                if (d.peer == 0) {
+                    if (op % 4 == 3 && p == 1) continue;
+                    if (op % 4 == 2 && !d.bytes.empty()) d.bytes[flip_at % d.bytes.size()] ^= flip;
+                }
+                sessions[d.peer]->receive(static_cast<PlayerId>(p), d.bytes, now);
+            }
+        }
     }
     return 0;
 }

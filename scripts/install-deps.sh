@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
 # root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user
-# and clang used by scripts/cross-check.sh.
+# and clang used by scripts/cross-check.sh, and the clang runtimes (ASan, UBSan, libFuzzer)
+# used by scripts/sanitize.sh and scripts/fuzz.sh.
 set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
           libbenchmark-dev python3 python3-matplotlib)
 if [[ "${1:-}" == "--cross" ]]; then
-  packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu qemu-user)
+  packages+=(clang libclang-rt-14-dev g++-aarch64-linux-gnu g++-s390x-linux-gnu qemu-user)
 fi
 
 missing=()
