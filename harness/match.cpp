@@ -307,6 +307,7 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
         const auto path = std::filesystem::path(shared_.cfg.evidence_dir) /
                           ("desync-client" + std::to_string(index_) + "-peer" + std::to_string(r.peer) + "-frame" +
                            std::to_string(r.frame) + ".txt");
+        std::filesystem::create_directories(path.parent_path());  // only now: no empty dir after a clean run
         write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
         rec.evidence_file = path.string();
     }
@@ -475,7 +476,7 @@ void validate(const RunConfig& c) {
     if (c.tick_rate < 1 || c.tick_rate > 1000) fail("--tick-rate must be 1..1000");
     if (c.input_delay < -1 || c.input_delay > 60) fail("--input-delay must be 0..60 or auto");
     if (c.prediction < 1 || c.prediction > 60) fail("--prediction must be 1..60 (lockstep mode uses 0 itself)");
-    if (c.checksum_interval < 1) fail("--checksum-interval must be >= 1");
+    if (c.checksum_interval < 1 || c.checksum_interval > 65535) fail("--checksum-interval must be 1..65535");
     const NetConditions& n = c.net;
     if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
     if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
@@ -564,7 +565,6 @@ RunResult run_match(const RunConfig& cfg) {
     if (cfg.input_delay < 0 && cfg.mode == Mode::Rollback)
         res.prediction = auto_prediction_window(
             cfg.prediction, auto_input_delay(Mode::Lockstep, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate), res.input_delay);
-    if (!cfg.evidence_dir.empty()) std::filesystem::create_directories(cfg.evidence_dir);
 
     // The match starts after the ping phase; clients start within one tick of each other and
     // drift by a seeded amount, so time sync has real work to do.

@@ -13,6 +13,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/output_path.h"
 #include "harness/plot_script.h"
 #include "harness/reference_world.h"
 #include "harness/scene_loader.h"
@@ -179,6 +180,7 @@ struct PrecisionOptions {
 };
 
 void run_precision(const PrecisionOptions& o) {
+    check_output_dir("--out", o.out);
     const std::vector<PrecisionCase> cases = {
         {"ball", "stability/precision_ball", Metric::Trajectory, 3.0},
         {"stack", "stability/precision_stack", Metric::Trajectory, 3.0},

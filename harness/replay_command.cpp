@@ -17,10 +17,29 @@
 namespace lockroll::harness {
 
 namespace {
-std::vector<std::uint8_t> read_all(const std::filesystem::path& path) {
+// The whole file, refusing before reading anything that is not a regular file (a directory,
+// /dev/zero, a pipe) or is larger than max_bytes; the read itself also stops at max_bytes, in
+// case the file grows or lies about its size (/proc).
+std::vector<std::uint8_t> read_all(const std::filesystem::path& path, std::uint64_t max_bytes) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    if (!fs::exists(st)) throw UsageError("replay " + path.string() + ": no such file");
+    if (fs::is_directory(st)) throw UsageError("replay " + path.string() + ": is a directory, expected a replay file");
+    if (!fs::is_regular_file(st)) throw UsageError("replay " + path.string() + ": not a regular file");
+    const std::string too_big = "replay " + path.string() + ": larger than " + std::to_string(max_bytes) +
+                                " bytes (raise --max-mib to read it)";
+    if (const auto size = fs::file_size(path, ec); !ec && size > max_bytes) throw UsageError(too_big);
     std::ifstream in(path, std::ios::binary);
     if (!in) throw UsageError("replay " + path.string() + ": cannot open the file");
-    std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::vector<std::uint8_t> bytes;
+    std::vector<char> chunk(1 << 16);
+    while (in) {
+        in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+        const auto got = static_cast<std::size_t>(in.gcount());
+        if (bytes.size() + got > max_bytes) throw UsageError(too_big);
+        bytes.insert(bytes.end(), chunk.begin(), chunk.begin() + static_cast<std::ptrdiff_t>(got));
+    }
     if (in.bad()) throw UsageError("replay " + path.string() + ": read error");
     return bytes;
 }
@@ -43,8 +62,8 @@ void write_replay_file(const std::filesystem::path& path, const rollback::Replay
     write_file_atomic(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
-void run_replay(const std::filesystem::path& path, bool quiet) {
-    const std::vector<std::uint8_t> bytes = read_all(path);
+void run_replay(const std::filesystem::path& path, bool quiet, std::uint64_t max_bytes) {
+    const std::vector<std::uint8_t> bytes = read_all(path, max_bytes);
     rollback::Replay replay;
     if (const auto err = rollback::decode_replay(bytes, replay))
         throw UsageError("replay " + path.string() + ": byte " + std::to_string(err->offset) + ": " + err->what);
@@ -84,12 +103,16 @@ void add_replay_command(CLI::App& app) {
     struct Options {
         std::string file;
         bool quiet = false;
+        std::uint64_t max_mib = kDefaultReplayMaxMiB;
     };
     auto opts = std::make_shared<Options>();
     CLI::App* cmd = app.add_subcommand("replay", "Re-run a replay file and verify the checksum of every frame");
     cmd->add_option("file", opts->file, "Replay file (docs/replay-format.md)")->required();
     cmd->add_flag("--quiet", opts->quiet, "Print nothing on success");
-    cmd->callback([opts] { run_replay(opts->file, opts->quiet); });
+    cmd->add_option("--max-mib", opts->max_mib, "Refuse replay files larger than this many MiB")
+        ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1} << 20))
+        ->capture_default_str();
+    cmd->callback([opts] { run_replay(opts->file, opts->quiet, opts->max_mib << 20); });
 }
 
 }  // namespace lockroll::harness

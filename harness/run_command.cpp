@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -12,7 +13,9 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/cli_validators.h"
 #include "harness/match.h"
+#include "harness/output_path.h"
 #include "harness/plot_script.h"
 #include "harness/replay_command.h"
 #include "harness/report.h"
@@ -66,7 +69,9 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
     cmd->add_option("--duplicate", o.duplicate, "Duplication probability 0..1")->capture_default_str();
     cmd->add_option("--reorder", o.reorder, "Reordering probability 0..1")->capture_default_str();
     cmd->add_option("--drift-ppm", o.drift_ppm, "Client clock drift, up to +- this many ppm each")->capture_default_str();
-    cmd->add_option("--seed", o.seed, "Seed for the network, clocks and bots")->capture_default_str();
+    cmd->add_option("--seed", o.seed, "Seed for the network, clocks and bots")
+        ->check(kNonNegativeInteger)
+        ->capture_default_str();
     cmd->add_option("--bot", o.bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
     cmd->add_option("--out", o.out, "Output directory")->capture_default_str();
     cmd->add_flag("--positions", o.positions, "Also write positions.csv (every body, frame and client)");
@@ -79,13 +84,21 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
 }
 
 DesyncInjection parse_injection(const std::string& text) {
+    // Each part is range-checked before it is narrowed: 4294967298 must not become frame 2.
+    constexpr long long kMax[5] = {15, 0xFFFFFFFFll, 0xFFFFFFFFll, 5, 63};
+    constexpr const char* kName[5] = {"CLIENT", "FRAME", "BODY", "FIELD", "BIT"};
     std::vector<long long> parts;
     std::stringstream ss(text);
     std::string item;
     while (std::getline(ss, item, ':')) {
         char* end = nullptr;
+        errno = 0;
         const long long v = std::strtoll(item.c_str(), &end, 10);
-        if (item.empty() || *end != '\0' || v < 0) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
+        if (item.empty() || *end != '\0' || v < 0 || errno == ERANGE)
+            throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
+        if (parts.size() < 5 && v > kMax[parts.size()])
+            throw UsageError("--inject-desync " + text + ": " + kName[parts.size()] + " " + item + " is above " +
+                             std::to_string(kMax[parts.size()]));
         parts.push_back(v);
     }
     if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
@@ -94,7 +107,6 @@ DesyncInjection parse_injection(const std::string& text) {
     d.frame = static_cast<std::uint32_t>(parts[1]);
     d.body = static_cast<std::uint32_t>(parts[2]);
     if (parts.size() == 5) {
-        if (parts[3] > 5 || parts[4] > 63) throw UsageError("--inject-desync " + text + ": FIELD is 0..5, BIT 0..63");
         d.field = static_cast<int>(parts[3]);
         d.bit = static_cast<int>(parts[4]);
     }
@@ -102,6 +114,8 @@ DesyncInjection parse_injection(const std::string& text) {
 }
 
 RunConfig to_config(const RunOptions& o) {
+    check_output_dir("--out", o.out);
+    if (!o.record.empty()) check_output_file("--record", o.record);
     RunConfig c;
     try {
         c.scene = load_scene(o.scene);

@@ -23,7 +23,36 @@ public:
         json::binary_t b(std::vector<std::uint8_t>(text.begin(), text.end()));
         return binary(b);
     }
+    // Syntax errors, and numbers nlohmann cannot hold (1e400 overflows a double before
+    // number_float sees it): kept with their byte offset instead of thrown, so the message can
+    // name the line and column.
+    template <class Exception>
+    bool parse_error(std::size_t position, const std::string& token, const Exception& ex) {
+        error_position = position;
+        error_token = token;
+        error_what = ex.what();
+        error_is_number = ex.id == 406;
+        return false;
+    }
+    std::size_t error_position = 0;
+    std::string error_token, error_what;
+    bool error_is_number = false;
 };
+
+// "line L, column C" of a byte offset (1-based, as editors count).
+std::string line_column(const std::string& text, std::size_t offset) {
+    offset = std::min(offset, text.size());
+    std::size_t line = 1, column = 1;
+    for (std::size_t i = 0; i < offset; ++i) {
+        if (text[i] == '\n') {
+            ++line;
+            column = 1;
+        } else {
+            ++column;
+        }
+    }
+    return "line " + std::to_string(line) + ", column " + std::to_string(column);
+}
 
 // Reading context: the origin and the JSON pointer of the value being read.
 class Reader {
@@ -261,8 +290,16 @@ sim::SceneDesc read_scene(const Reader& r) {
         }
         sim::add_room(scene, lo, hi, wall);
     }
+    // Counted before anything is expanded: a few bytes of spawner must not cost unbounded memory.
+    const std::size_t limit = max_scene_bodies();
+    auto check_total = [&](const Reader& where, std::size_t adding) {
+        if (adding > limit || scene.bodies.size() > limit - adding)
+            where.fail("the scene would have " + std::to_string(scene.bodies.size() + adding) +
+                       " bodies, more than the limit of " + std::to_string(limit) + " (lockroll --max-bodies N)");
+    };
     if (r.has("bodies")) {
         const Reader bodies = r.at("bodies");
+        check_total(bodies, bodies.array_size());
         for (std::size_t i = 0; i < bodies.array_size(); ++i) {
             const Reader b = bodies.at(i);
             b.expect_object(kBodyKeys);
@@ -285,6 +322,7 @@ sim::SceneDesc read_scene(const Reader& r) {
             sim::SpawnerDesc d;
             read_common(s, materials, d);
             d.count = static_cast<int>(s.at("count").integer(0, 1000000));
+            check_total(s.at("count"), static_cast<std::size_t>(d.count));
             const Reader region = s.at("region");
             region.expect_object({"min", "max"});
             d.region_min = region.at("min").vec3();
@@ -310,6 +348,13 @@ std::string read_file(const std::filesystem::path& path) {
 }
 }  // namespace
 
+namespace {
+std::size_t g_max_scene_bodies = kDefaultMaxSceneBodies;
+}  // namespace
+
+void set_max_scene_bodies(std::size_t n) { g_max_scene_bodies = n; }
+std::size_t max_scene_bodies() { return g_max_scene_bodies; }
+
 sim::SceneDesc parse_scene(const std::string& text, const std::string& origin) {
     json root;
     DecimalSax sax(root, /*allow_exceptions=*/false);
@@ -320,13 +365,11 @@ sim::SceneDesc parse_scene(const std::string& text, const std::string& origin) {
         throw SceneError(origin + ": " + e.what());
     }
     if (!ok || sax.is_errored()) {
-        // Re-run the plain parser to get nlohmann's message with line and column.
-        try {
-            const json discarded = json::parse(text);
-            (void)discarded;
-        } catch (const json::parse_error& e) {
-            throw SceneError(origin + ": " + e.what());
-        }
+        if (sax.error_is_number)  // the offset is just past the number
+            throw SceneError(origin + ": " + line_column(text, sax.error_position - sax.error_token.size()) +
+                             ": number " + sax.error_token +
+                             " is outside the Q32.32 range (|x| < 2147483648)");
+        if (!sax.error_what.empty()) throw SceneError(origin + ": " + sax.error_what);
         throw SceneError(origin + ": malformed JSON");
     }
     try {

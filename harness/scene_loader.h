@@ -18,6 +18,13 @@ struct SceneError : std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// Most bodies a scene may describe (room walls, bodies and spawned bodies together), checked
+// before anything is expanded, so a few bytes of scene cannot ask for unbounded memory and
+// time. The lockroll program sets it from --max-bodies; it holds for the whole process.
+inline constexpr std::size_t kDefaultMaxSceneBodies = 1000000;
+void set_max_scene_bodies(std::size_t n);
+std::size_t max_scene_bodies();
+
 // `origin` names the text in messages (usually the file path).
 sim::SceneDesc parse_scene(const std::string& json_text, const std::string& origin);
 sim::SceneDesc load_scene_file(const std::filesystem::path& path);

@@ -9,6 +9,7 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/hex.h"
+#include "harness/output_path.h"
 #include "harness/scene_loader.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
@@ -24,6 +25,7 @@ struct SimOptions {
 };
 
 void run_sim(const SimOptions& o) {
+    if (!o.json_path.empty()) check_output_file("--json", o.json_path);
     sim::SceneDesc scene;
     try {
         scene = load_scene(o.scene);

@@ -13,6 +13,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/output_path.h"
 #include "harness/scene_loader.h"
 #include "sim/contact.h"
 #include "sim/world.h"
@@ -938,6 +939,7 @@ int run_stability(const StabilityOptions& opt) {
     }
     if (chosen.empty())
         for (const Case& c : cases) chosen.push_back(&c);
+    if (!opt.json_path.empty()) check_output_file("--json", opt.json_path);
 
     json out = json::array();
     int failed = 0;

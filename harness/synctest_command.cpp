@@ -9,7 +9,9 @@
 
 #include "harness/bots.h"
 #include "harness/cli_error.h"
+#include "harness/cli_validators.h"
 #include "harness/hex.h"
+#include "harness/output_path.h"
 #include "harness/replay_command.h"
 #include "harness/scene_loader.h"
 #include "rollback/replay.h"
@@ -30,6 +32,7 @@ struct Options {
 };
 
 void run_synctest(const Options& o) {
+    if (!o.record.empty()) check_output_file("--record", o.record);
     sim::SceneDesc scene;
     try {
         scene = load_scene(o.scene);
@@ -91,7 +94,7 @@ void add_synctest_command(CLI::App& app) {
     cmd->add_option("--frames", opts->frames, "Frames to simulate")->check(CLI::Range(0, 10000000));
     cmd->add_option("--distance", opts->distance, "Frames rolled back every frame (1..8; up to 64 allowed)")
         ->check(CLI::Range(1, 64));
-    cmd->add_option("--seed", opts->seed, "Bot seed");
+    cmd->add_option("--seed", opts->seed, "Bot seed")->check(kNonNegativeInteger);
     cmd->add_option("--bot", opts->bot, "Input bot: random or chase");
     cmd->add_option("--record", opts->record, "Also write the run as a replay file");
     cmd->add_flag("--quiet", opts->quiet, "Print nothing on success");

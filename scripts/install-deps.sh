@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
 # root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user,
-# clang, emscripten and node used by scripts/cross-check.sh.
+# clang, emscripten and node used by scripts/cross-check.sh, and the clang runtimes (ASan, UBSan,
+# libFuzzer) used by scripts/sanitize.sh and scripts/fuzz.sh.
 set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
@@ -9,8 +10,8 @@ packages=(g++ cmake ninja-build pkg-config
           libbenchmark-dev python3 python3-matplotlib zlib1g-dev
           chromium)  # chromium: the headless browser test of lockroll view
 if [[ "${1:-}" == "--cross" ]]; then
-  packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu g++-arm-linux-gnueabihf qemu-user
-             emscripten nodejs)
+  packages+=(clang libclang-rt-14-dev g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu
+             g++-arm-linux-gnueabihf qemu-user emscripten nodejs)
 fi
 
 missing=()

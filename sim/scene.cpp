@@ -91,7 +91,9 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
                (static_cast<std::uint64_t>(cy) * 0xC2B2AE3D27D4EB4Full) ^ (static_cast<std::uint64_t>(cz) * 0x165667B1ull);
     };
     std::unordered_map<std::uint64_t, std::vector<Vec3>> cells;
-    constexpr int kTries = 64;
+    if (s.count > 0) cells.reserve(static_cast<std::size_t>(s.count));
+    std::int64_t crowded = 0;  // bodies so far for which every try overlapped
+    scene.bodies.reserve(scene.bodies.size() + static_cast<std::size_t>(s.count > 0 ? s.count : 0));
     for (int n = 0; n < s.count; ++n) {
         BodyDesc b;
         b.shape = s.shape;
@@ -101,10 +103,13 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
         b.mass = s.mass;
         b.gravity_scale = s.gravity_scale;
         b.restitution = s.restitution;
-        for (int attempt = 0; attempt < kTries; ++attempt) {
+        // A full region: stop searching for free spots (see kSpawnCrowdedLimit).
+        const int tries = crowded >= kSpawnCrowdedLimit ? 1 : kSpawnTries;
+        for (int attempt = 0; attempt < tries; ++attempt) {
             b.position = {uniform(rng, s.region_min.x + r, s.region_max.x - r),
                           uniform(rng, s.region_min.y + r, s.region_max.y - r),
                           uniform(rng, s.region_min.z + r, s.region_max.z - r)};
+            if (tries == 1) break;
             const std::int64_t cx = b.position.x.raw >> shift, cy = b.position.y.raw >> shift,
                                cz = b.position.z.raw >> shift;
             bool clear = true;
@@ -116,8 +121,10 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
                         for (const Vec3& other : it->second)
                             if (length_sq_wide(other - b.position) < reach_sq) { clear = false; break; }
                     }
-            if (clear || attempt + 1 == kTries) {
-                cells[cell_key(cx, cy, cz)].push_back(b.position);
+            if (clear || attempt + 1 == kSpawnTries) {
+                if (!clear) ++crowded;
+                auto& cell = cells[cell_key(cx, cy, cz)];
+                if (cell.size() < kSpawnCellLimit) cell.push_back(b.position);
                 break;
             }
         }

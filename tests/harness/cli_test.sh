@@ -2,7 +2,7 @@
 # The lockroll program's contract with people and scripts: exit 0 on success, 2 with a message
 # naming what and where on bad input, outputs written whole or not at all.
 set -u
-lockroll=$1
+lockroll=$(readlink -f "$1")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 failures=0
@@ -50,11 +50,56 @@ assert [c["frame"] for c in d["checksums"]] == [0, 60, 120]
 PY
 then echo "FAIL: sim --json content"; failures=$((failures + 1)); fi
 # A file that cannot be written leaves nothing behind and fails.
-expect 1 "cannot create" -- "$lockroll" sim --scene paper --frames 10 --json "$tmp/missing/dir/x.json"
+expect 2 "--json .*missing/dir/x.json: directory .* does not exist" -- "$lockroll" sim --scene paper --frames 10 --json "$tmp/missing/dir/x.json"
 [[ -z $(ls "$tmp/missing" 2>/dev/null) ]] || { echo "FAIL: partial output left"; failures=$((failures + 1)); }
+
+# Bad input found by hardening (issue 11): exit 2, a message naming the flag or the path and
+# place, checked before any work starts, nothing left behind.
+absent() {  # absent PATH...: none of them exists
+    for p in "$@"; do
+        if [[ -e $p ]]; then echo "FAIL: $p was left behind"; failures=$((failures + 1)); fi
+    done
+}
+printf '{"bodies": [{"shape": "sphere",\n  "position": [0, 1e400, 0], "radius": 1}]}\n' >"$tmp/huge_number.json"
+expect 2 "huge_number.json: line 2, column 19: number 1e400 is outside the Q32.32 range" -- "$lockroll" sim --scene "$tmp/huge_number.json"
+printf '{"room": {"min": [-5, 0, -5], "max": [5, 5, 5]}, "spawners": [{"count": 1000000, "shape": "sphere",
+  "radius": 0.2, "region": {"min": [-5, 0, -5], "max": [5, 5, 5]}}]}\n' >"$tmp/too_many.json"
+expect 2 "too_many.json: /spawners/0/count: the scene would have 1000006 bodies, more than the limit of 1000000" -- \
+    "$lockroll" sim --scene "$tmp/too_many.json" --frames 0
+expect 2 "paper.*more than the limit of 10 " -- "$lockroll" --max-bodies 10 sim --scene paper --frames 0
+# 300,000 balls in a room that holds ~30,000: placement gives up searching once the room is
+# full (linear time); quadratic placement took minutes here. The timeout is 100x the need.
+printf '{"room": {"min": [-5, 0, -5], "max": [5, 5, 5]}, "spawners": [{"count": 300000, "shape": "sphere",
+  "radius": 0.2, "region": {"min": [-5, 0, -5], "max": [5, 5, 5]}}]}\n' >"$tmp/crowded.json"
+expect 0 "^[0-9a-f]{16}$" -- timeout 60 "$lockroll" sim --scene "$tmp/crowded.json" --frames 0
+expect 2 "unknown subcommand 'nosuch'" -- "$lockroll" nosuch
+expect 2 "--checksum-interval must be 1..65535" -- "$lockroll" run --checksum-interval 70000 --out "$tmp/ci"
+expect 2 "--seed: .*non-negative" -- "$lockroll" run --seed -1 --out "$tmp/seed"
+expect 2 "--seed: .*non-negative" -- "$lockroll" synctest --scene paper --seed -1
+expect 2 "--inject-desync 1:4294967298:10: FRAME 4294967298 is above 4294967295" -- \
+    "$lockroll" run --inject-desync 1:4294967298:10 --out "$tmp/inj"
+expect 2 "--inject-desync 99:1:1: CLIENT" -- "$lockroll" run --inject-desync 99:1:1 --out "$tmp/inj"
+absent "$tmp/ci" "$tmp/seed" "$tmp/inj"
+touch "$tmp/a_file"
+expect 2 "--out .*a_file: exists and is not a directory" -- "$lockroll" run --out "$tmp/a_file"
+expect 2 "--out /proc/lockroll-out: cannot create files in /proc" -- "$lockroll" run --out /proc/lockroll-out
+mkdir "$tmp/cwd"
+expect 2 '--out "": empty path' -- env -C "$tmp/cwd" "$lockroll" run --out ""
+[[ -z $(ls -A "$tmp/cwd") ]] || { echo "FAIL: run --out '' left $(ls -A "$tmp/cwd")"; failures=$((failures + 1)); }
+expect 2 "--record /proc/x.lrr: cannot create files in /proc" -- "$lockroll" run --record /proc/x.lrr --out "$tmp/rec"
+expect 2 "--record /proc/x.lrr: cannot create files in /proc" -- "$lockroll" synctest --scene paper --record /proc/x.lrr
+expect 2 "--record .*: is a directory" -- "$lockroll" synctest --scene paper --record "$tmp"
+expect 2 "--json /proc/x.json: cannot create files in /proc" -- "$lockroll" sim --scene paper --json /proc/x.json
+expect 2 "--json /proc/x.json: cannot create files in /proc" -- "$lockroll" stability --case free_fall --json /proc/x.json
+absent "$tmp/rec"
+expect 2 "replay \.: is a directory" -- "$lockroll" replay .
+expect 2 "replay /dev/zero: not a regular file" -- "$lockroll" replay /dev/zero
+head -c $((2 << 20)) /dev/zero >"$tmp/big.lrr"
+expect 2 "replay .*big.lrr: larger than 1048576 bytes" -- "$lockroll" replay --max-mib 1 "$tmp/big.lrr"
 
 # run: summary.json with every required key.
 expect 0 "confirmed mismatches 0" -- "$lockroll" run --scene paper --frames 120 --latency 30 --jitter 5 --out "$tmp/run"
+absent "$tmp/run/desync"  # evidence directory only when there is evidence
 if ! /usr/bin/python3 - "$tmp/run/summary.json" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))

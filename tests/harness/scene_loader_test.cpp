@@ -52,6 +52,32 @@ TEST(SceneLoader, SyntaxErrorNamesFileLineAndColumn) {
     EXPECT_NE(e.find("line 3"), std::string::npos) << e;
 }
 
+// nlohmann refuses 1e400 before our decimal reader sees it; that must still be a SceneError
+// with the place, not an escaping json::out_of_range (issue 11).
+TEST(SceneLoader, NumbersBeyondADoubleAreLocated) {
+    for (const char* n : {"1e400", "-1e400"}) {
+        const std::string e = error_of(std::string("{\"gravity\": [0,\n  ") + n + ", 0]}");
+        EXPECT_NE(e.find("test.json: line 2, column 3: number " + std::string(n) + " is outside the Q32.32 range"),
+                  std::string::npos)
+            << e;
+    }
+}
+
+TEST(SceneLoader, BodyLimitIsCheckedBeforeSpawning) {
+    set_max_scene_bodies(20);
+    const std::string room = R"("room": {"min": [-5, 0, -5], "max": [5, 5, 5]})";
+    const std::string ball = R"({"shape": "sphere", "position": [0, 1, 0], "radius": 0.2})";
+    const std::string spawner =
+        R"({"count": 14, "shape": "sphere", "radius": 0.2, "region": {"min": [-5, 0, -5], "max": [5, 5, 5]}})";
+    EXPECT_EQ(parse_scene("{" + room + R"(, "spawners": [)" + spawner + "]}", "t").bodies.size(), 20u);
+    const std::string over = error_of("{" + room + R"(, "bodies": [)" + ball + R"(], "spawners": [)" + spawner + "]}");
+    EXPECT_NE(over.find("/spawners/0/count: the scene would have 21 bodies, more than the limit of 20"), std::string::npos)
+        << over;
+    const std::string many = error_of(R"({"spawners": [)" + spawner + "," + spawner + "]}");
+    EXPECT_NE(many.find("/spawners/1/count: the scene would have 28 bodies"), std::string::npos) << many;
+    set_max_scene_bodies(kDefaultMaxSceneBodies);
+}
+
 TEST(SceneLoader, SemanticErrorsNameThePlace) {
     struct Case {
         const char* text;

@@ -1,0 +1,122 @@
+// Writes seed corpora for the fuzz targets from the real encoders, so every target starts from
+// valid inputs and mutates its way outward: fuzz_seeds DIR writes DIR/{protocol,session,replay,
+// snapshot}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "rollback/protocol.h"
+#include "rollback/replay.h"
+#include "rollback/world_simulation.h"
+#include "tests/rollback/test_support.h"
+
+using namespace lockroll::rollback;
+namespace fs = std::filesystem;
+
+namespace {
+void put(const fs::path& dir, const std::string& name, const std::vector<std::uint8_t>& bytes) {
+    fs::create_directories(dir);
+    std::ofstream(dir / name, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                      static_cast<std::streamsize>(bytes.size()));
+}
+
+std::vector<std::uint8_t> input_message(int frames, bool time_sync, int checksums) {
+    InputMessage m;
+    m.ack = 70;
+    m.first_frame = 65530;
+    m.frame_count = static_cast<std::uint8_t>(frames);
+    for (int f = 0; f < frames; ++f) m.inputs.insert(m.inputs.end(), {static_cast<std::uint8_t>(f / 3), 0x81, 0});
+    m.has_time_sync = time_sync;
+    m.sender_frame = 77;
+    m.advantage = -3;
+    m.checksum_count = static_cast<std::uint8_t>(checksums);
+    for (int i = 0; i < checksums; ++i) {
+        m.checksum_frames[i] = static_cast<std::uint16_t>(60 + i);
+        m.checksums[i] = 0x9E3779B9u * static_cast<std::uint32_t>(i + 1);
+    }
+    std::vector<std::uint8_t> out;
+    encode(m, 3, out);
+    return out;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 2) {
+        std::fprintf(stderr, "usage: fuzz_seeds DIR\n");
+        return 2;
+    }
+    const fs::path root = argv[1];
+
+    // protocol: [input_size - 1] then one datagram.
+    auto with_size = [](std::vector<std::uint8_t> d) {
+        d.insert(d.begin(), 2);
+        return d;
+    };
+    put(root / "protocol", "input_ack", with_size(input_message(0, false, 0)));
+    put(root / "protocol", "input_runs", with_size(input_message(12, true, 3)));
+    put(root / "protocol", "input_one", with_size(input_message(1, false, 1)));
+    for (QueryWhat what : {QueryWhat::FrameChecksums, QueryWhat::BodyHashes, QueryWhat::BodyFields}) {
+        const std::uint16_t count = what == QueryWhat::BodyFields ? 1 : 4;
+        const std::uint32_t start = what == QueryWhat::FrameChecksums ? 0 : 9;
+        std::vector<std::uint8_t> q;
+        encode(QueryMessage{what, 60, start, count}, q);
+        put(root / "protocol", "query" + std::to_string(static_cast<int>(what)), with_size(q));
+        ReplyMessage r{what, true, 60, start, count, {}, {}};
+        if (what == QueryWhat::BodyFields) r.fields = {1, -2, 3, -4, 5, -6};
+        else r.values = {1, 2, 3, 4};
+        std::vector<std::uint8_t> rb;
+        encode(r, rb);
+        put(root / "protocol", "reply" + std::to_string(static_cast<int>(what)), with_size(rb));
+        r.available = false;
+        rb.clear();
+        encode(r, rb);
+        put(root / "protocol", "reply_unavailable" + std::to_string(static_cast<int>(what)), with_size(rb));
+    }
+
+    // session: scripts of ticks, corrupted ticks, losses and raw datagrams (session_fuzz.cpp).
+    std::vector<std::uint8_t> ticks(1, 0), desync(1, 1), mixed(1, 0);
+    for (int i = 0; i < 120; ++i) ticks.push_back(1);
+    for (int i = 0; i < 150; ++i) desync.push_back(1);
+    for (int i = 0; i < 60; ++i) {
+        mixed.push_back(static_cast<std::uint8_t>(1 + i % 3));
+        if (i % 3 == 1) mixed.insert(mixed.end(), {static_cast<std::uint8_t>(i), 0x40});
+        if (i % 10 == 0) {
+            const auto d = input_message(3, true, 1);
+            mixed.insert(mixed.end(), {0, 1, static_cast<std::uint8_t>(d.size())});
+            mixed.insert(mixed.end(), d.begin(), d.end());
+        }
+    }
+    put(root / "session", "ticks", ticks);
+    put(root / "session", "desync", desync);
+    put(root / "session", "mixed", mixed);
+
+    // replay: a small synthetic one and a two-block one with a real scene's text.
+    for (std::uint32_t frames : {3u, 300u}) {
+        Replay r;
+        r.players = 2;
+        r.input_size = 3;
+        r.tick_rate = 60;
+        r.initial_checksum = 0x1234;
+        r.scene_name = "seed";
+        r.scene_text = frames == 3 ? "{}" : R"({"room": {"min": [-1, 0, -1], "max": [1, 2, 1]}})";
+        for (std::uint32_t f = 0; f < frames; ++f) {
+            r.inputs.insert(r.inputs.end(), {static_cast<std::uint8_t>(f), 1, 2, 3, 4, static_cast<std::uint8_t>(f >> 3)});
+            r.checksums.push_back(0xABCDEF00u + f);
+        }
+        put(root / "replay", "frames" + std::to_string(frames), encode_replay(r));
+    }
+
+    // snapshot: the snapshot_fuzz world at frame 0 and after 40 steps.
+    WorldSimulation sim(testing::make_scene(2, 6), 2);
+    std::vector<std::uint8_t> state(sim.state_size());
+    sim.save(state);
+    put(root / "snapshot", "frame0", state);
+    const std::uint8_t in[6] = {100, 20, 0, 156, 0, 127};
+    for (int f = 0; f < 40; ++f) sim.step(in);
+    sim.save(state);
+    put(root / "snapshot", "frame40", state);
+    return 0;
+}

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# The test suite under AddressSanitizer + UndefinedBehaviorSanitizer (clang-14), in its own
+# build directory (build-asan: Debug at -O1, benchmarks off, coverage for the fuzz targets
+# that scripts/fuzz.sh builds in the same directory). Any sanitizer report fails the test that
+# triggered it. Left out: soaks, the cross check (a gcc/clang/qemu matrix of its own) and the
+# install test (it builds a consumer with the default compiler, which cannot link ASan
+# objects). scripts/test.sh runs this when clang++ is installed; docs/reliability.md.
+#
+#   bash scripts/sanitize.sh                  configure, build, run the tests
+#   bash scripts/sanitize.sh --configure-only configure build-asan (used by scripts/fuzz.sh)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=${ASAN_BUILD_DIR:-build-asan}
+if ! command -v clang++ >/dev/null; then
+  echo "sanitize: clang++ not installed (bash scripts/install-deps.sh --cross)" >&2
+  exit 3
+fi
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++ \
+  -DCMAKE_CXX_FLAGS_DEBUG="-O1 -gline-tables-only" -DLOCKROLL_SANITIZE=ON -DLOCKROLL_FUZZ=ON \
+  -DLOCKROLL_BUILD_BENCH=OFF -DLOCKROLL_WERROR=ON >/dev/null
+[[ "${1:-}" == "--configure-only" ]] && exit 0
+cmake --build "$build" -j"$(nproc)"
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -LE 'soak|cross|install'
