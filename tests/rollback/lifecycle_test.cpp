@@ -280,6 +280,41 @@ TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
     expect_equal_at(cluster, 600);
 }
 
+// One clock 1 % fast, one 5 % slow: time sync holds the fast ones back (they wait, the slow one
+// never stalls for long), nobody drifts apart by more than delay + window, and all end equal.
+TEST(Lifecycle, ClocksOnePercentFastAndFivePercentSlow) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {30000, 5000}, 17);
+    cluster.clients[1]->drift_ppm = 10000;
+    cluster.clients[2]->drift_ppm = -50000;
+    std::int64_t widest = 0;
+    cluster.before_tick = [&](PlayerId, Client&) {
+        std::int64_t lo = INT64_MAX, hi = 0;
+        for (const auto& c : cluster.clients) {
+            lo = std::min<std::int64_t>(lo, c->session->frame());
+            hi = std::max<std::int64_t>(hi, c->session->frame());
+        }
+        if (lo > 60) widest = std::max(widest, hi - lo);
+    };
+    cluster.run_frames(1800, 120'000'000);
+    cluster.settle(1800);
+    expect_equal_at(cluster, 1800);
+    EXPECT_LE(widest, cfg.input_delay + cfg.prediction_window);
+    // The 5 % slow client sets the pace: the others wait for it, it does not wait for them.
+    EXPECT_GT(cluster.clients[0]->session->stats().time_sync_waits, 0u);
+    EXPECT_GT(cluster.clients[1]->session->stats().time_sync_waits, 0u);
+    for (const auto& c : cluster.clients) {
+        const auto& st = c->session->stats();
+        const double stalls = static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks);
+        std::printf("client %u: drift %lld ppm, %.2f %% of ticks stalled, %llu time-sync waits\n",
+                    c->session->config().local_player, static_cast<long long>(c->drift_ppm), 100 * stalls,
+                    static_cast<unsigned long long>(st.time_sync_waits));
+        // Waiting a tick now and then instead of running into the window.
+        EXPECT_LT(stalls, 0.01);
+    }
+}
+
 TEST(Lifecycle, ForgedTimeSyncClaimIsBounded) {
     const auto scene = make_scene(2, 4);
     SessionConfig cfg = real_config(2, 8);

@@ -182,6 +182,7 @@ struct Client : SessionObserver {
     std::size_t history_limit = 0;  // frames kept in `confirmed` (0: all)
     bool frozen = false;       // tests can stop a client from ticking
     bool catches_up = false;   // a joiner or spectator: steps extra frames while behind
+    std::int64_t drift_ppm = 0;  // this client's clock runs this much fast (negative: slow)
     std::vector<SessionEvent> events;  // drained after every tick
     int skip_ticks = 0;        // time-sync waits being served
     std::uint64_t start_offset_us = 0;
@@ -283,7 +284,9 @@ public:
 
 private:
     std::uint64_t tick_time(const Client& c) const {
-        return c.start_offset_us + c.ticks * 1000000ull / static_cast<std::uint64_t>(tick_rate_);
+        // A clock running drift_ppm fast ticks that much more often.
+        return c.start_offset_us + c.ticks * 1'000'000'000'000ull /
+                                       (static_cast<std::uint64_t>(tick_rate_) * static_cast<std::uint64_t>(1'000'000 + c.drift_ppm));
     }
     void tick(PlayerId id) {
         Client& c = *clients[id];
