@@ -1,5 +1,7 @@
 #include "harness/commands.h"
 
+#include "harness/live_command.h"
+#include "harness/peer_command.h"
 #include "harness/precision_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
@@ -18,6 +20,8 @@ void add_all_commands(CLI::App& app) {
     add_sweep_command(app);
     add_replay_command(app);
     add_synctest_command(app);
+    add_peer_command(app);
+    add_live_command(app);
 }
 
 }  // namespace lockroll::harness

@@ -137,6 +137,9 @@ public:
     // advance().
     const SessionStats& stats() const { return stats_; }
     bool peer_error(PlayerId p) const { return links_[p].error(); }
+    // The first of our input frames peer p has not acknowledged: p holds our inputs of every
+    // frame before it (so once it is > n and p has everyone else's, p can confirm frame n + 1).
+    std::uint32_t peer_ack(PlayerId p) const { return links_[p].remote_ack; }
     bool desynced(PlayerId p) const { return detector_->desynced(p); }
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;

@@ -1,0 +1,136 @@
+// PeerRunner: one sans-IO rollback::Session bound to a real transport (ENet over UDP) and to the
+// monotonic clock, run at the tick rate. This is the real-time twin of harness/match (which runs
+// N sessions in one process in virtual time); it knows nothing of sim/ or harness/: the game is
+// whatever Simulation the caller built the Session on, and local input comes from a callback.
+//
+// Contract
+//  - Connect phase: connects to every remote slot with a higher id (transport convention: the
+//    lower id connects), retrying until connect_timeout_us; waits until every remote slot is
+//    connected, then starts frame 0 ("synchronized"). Processes started within a second of each
+//    other begin within about one round trip; the session's time sync removes the rest.
+//  - Each tick: drain the transport -> Session::receive(from, bytes, arrival time) -> local
+//    input for frame() + input_delay() -> Session::advance -> Session::poll -> transport send.
+//  - Time sync without hitches: a wait_frames recommendation from advance() is not paid by
+//    skipping whole ticks (a visible freeze) but by lengthening the following ticks by at most
+//    max_stretch (a few percent, as GGRS recommends) until that many frames of time are repaid.
+//    A newer recommendation replaces the unpaid rest (it already measures what is left).
+//  - Never busy-spins: between ticks it sleeps, waking every service_interval_us to let the
+//    transport answer pings and stamp arrivals. A tick that is late runs at once; more than
+//    max_catch_up ticks behind, the schedule restarts from now (a frozen process does not then
+//    fast-forward in a burst).
+//  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
+//    resends and corrections still flow) until it has confirmed target_frame and every peer has
+//    acknowledged its inputs up to target_frame (so every peer can confirm it too) or has
+//    disconnected, then lingers linger_us more so its last acknowledgements reach the others.
+//    Bounded by finish_timeout_us after showing the target, and by run_timeout_us overall.
+//  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rollback/session.h"
+#include "transport/enet_transport.h"
+
+namespace lockroll::net {
+
+struct PeerAddress {
+    rollback::PlayerId slot = 0;
+    std::string host;
+    std::uint16_t port = 0;
+};
+
+struct RunnerConfig {
+    int tick_rate = 60;
+    std::uint32_t target_frame = 600;
+    std::vector<PeerAddress> peers;              // every remote slot (addresses of lower ones unused)
+    std::uint64_t connect_timeout_us = 30000000;
+    std::uint64_t finish_timeout_us = 15000000;  // after showing target_frame
+    std::uint64_t run_timeout_us = 0;            // whole run after synchronizing; 0 = no bound
+    std::uint64_t linger_us = 300000;
+    std::uint64_t service_interval_us = 1000;
+    double max_stretch = 0.05;                   // longest tick = (1 + max_stretch) periods
+    int max_catch_up = 8;
+};
+
+enum class RunOutcome {
+    Completed,       // every peer confirmed target_frame (as far as this process can know)
+    ConnectTimeout,  // not every peer connected in time
+    FinishTimeout,   // target shown, but not confirmed everywhere within finish_timeout_us
+    RunTimeout,      // target never shown within run_timeout_us
+    Stopped,         // request_stop()
+};
+const char* outcome_name(RunOutcome o);
+
+struct TickReport {
+    std::uint64_t tick = 0;           // ticks since frame 0 started
+    std::uint64_t now_us = 0;         // when this tick ran
+    std::uint64_t scheduled_us = 0;   // when it was due
+    std::uint64_t length_us = 0;      // period until the next tick (stretched or not)
+    rollback::AdvanceResult advance;
+};
+
+class RunnerObserver {
+public:
+    virtual ~RunnerObserver() = default;
+    virtual void on_connected(rollback::PlayerId, std::uint64_t /*now_us*/) {}
+    virtual void on_disconnected(rollback::PlayerId, std::uint64_t /*now_us*/) {}
+    virtual void on_synchronized(std::uint64_t /*now_us*/) {}
+    // After advance() and poll() of each tick.
+    virtual void on_tick(const TickReport&) {}
+    // Every peer has confirmed the target (before lingering).
+    virtual void on_all_confirmed(std::uint64_t /*now_us*/) {}
+};
+
+// Writes input_size bytes: the local input for `frame`.
+using InputSource = std::function<void(std::uint32_t frame, std::span<std::uint8_t> out)>;
+
+class PeerRunner {
+public:
+    // Session, transport and observer must outlive the runner. Throws std::invalid_argument for
+    // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one).
+    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+               InputSource input, RunnerObserver* observer = nullptr);
+
+    RunOutcome run();
+    void request_stop() { stop_.store(true, std::memory_order_relaxed); }
+
+    // Ticks that were lengthened for time sync, and the total extra time (µs).
+    std::uint64_t stretched_ticks() const { return stretched_ticks_; }
+    std::uint64_t stretch_total_us() const { return stretch_total_us_; }
+    // Times the schedule restarted because the process fell too far behind.
+    std::uint64_t schedule_resets() const { return schedule_resets_; }
+    std::uint64_t started_us() const { return started_us_; }
+
+private:
+    bool connect_phase();
+    void service_until(std::uint64_t deadline_us);
+    void track_connections(std::uint64_t now);
+    void tick(std::uint64_t now, std::uint64_t scheduled);
+    bool everyone_confirmed() const;
+
+    RunnerConfig config_;
+    rollback::Session& session_;
+    transport::EnetTransport& transport_;
+    InputSource input_;
+    RunnerObserver* observer_;
+    std::atomic<bool> stop_{false};
+    std::vector<bool> connected_;      // by slot
+    std::vector<bool> ever_connected_;
+    std::vector<std::uint8_t> input_bytes_;
+    std::vector<rollback::Datagram> out_;
+    transport::Datagram in_;
+    std::uint64_t period_us_ = 0;
+    std::uint64_t started_us_ = 0;
+    std::uint64_t ticks_ = 0;
+    std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
+    std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0;
+    std::uint64_t last_extra_us_ = 0;     // stretch of the tick just run
+    std::uint64_t last_reconnect_us_ = 0;
+};
+
+}  // namespace lockroll::net
