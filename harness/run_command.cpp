@@ -134,21 +134,6 @@ RunConfig to_config(const RunOptions& o) {
     return c;
 }
 
-// Median µs per physics step of the scene, timed here so the report compares like with like.
-double time_physics_step(const sim::SceneDesc& scene, int players) {
-    sim::World w(with_players(scene, players));
-    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(w.player_count()), sim::PlayerInput{40, -60, 0});
-    for (int f = 0; f < 60; ++f) w.step(in);
-    std::vector<double> batches;
-    for (int b = 0; b < 9; ++b) {
-        const auto t0 = std::chrono::steady_clock::now();
-        for (int f = 0; f < 100; ++f) w.step(in);
-        batches.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / 100);
-    }
-    std::nth_element(batches.begin(), batches.begin() + 4, batches.end());
-    return batches[4];
-}
-
 void do_run(const RunOptions& o) {
     const RunConfig cfg = to_config(o);
     const RunResult r = run_match(cfg);
@@ -239,6 +224,21 @@ void do_sweep(const RunOptions& base, const SweepOptions& s) {
     if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
 }
 }  // namespace
+
+// Median µs per physics step of the scene, timed here so the report compares like with like.
+double time_physics_step(const sim::SceneDesc& scene, int players) {
+    sim::World w(with_players(scene, players));
+    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(w.player_count()), sim::PlayerInput{40, -60, 0});
+    for (int f = 0; f < 60; ++f) w.step(in);
+    std::vector<double> batches;
+    for (int b = 0; b < 9; ++b) {
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int f = 0; f < 100; ++f) w.step(in);
+        batches.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count() / 100);
+    }
+    std::nth_element(batches.begin(), batches.begin() + 4, batches.end());
+    return batches[4];
+}
 
 void add_run_command(CLI::App& app) {
     auto o = std::make_shared<RunOptions>();

@@ -4,9 +4,14 @@
 
 #include <CLI/CLI.hpp>
 
+#include "sim/scene.h"
+
 namespace lockroll::harness {
 
 void add_run_command(CLI::App& app);
+// Median µs per physics step of the scene (with `players` player bodies), timed here so a
+// report compares like with like (compare and live put it beside the paper's figure).
+double time_physics_step(const sim::SceneDesc& scene, int players);
 void add_compare_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 

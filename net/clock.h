@@ -1,8 +1,9 @@
-// The one clock lockroll reads: a monotonic microsecond count for the real-time layer.
+// The real-time layer's clock: microseconds from a monotonic clock. This is the ONLY place in
+// lockroll that reads a clock to make decisions; everything below net/ (rollback/, transport/)
+// takes time as an argument, so the same code runs in virtual time in tests and in `lockroll run`.
 //
-// Everything below net/ (rollback/, transport/) takes time as an argument and never reads a
-// clock; this is where real time enters. steady_clock never jumps backwards (NTP adjustments
-// and manual clock changes do not affect it), which is what tick scheduling and RTT need.
+// Contract: monotonic (never goes back, unaffected by wall-clock changes), microsecond units,
+// arbitrary epoch (only differences mean anything).
 #pragma once
 
 #include <chrono>
@@ -10,8 +11,6 @@
 
 namespace lockroll::net {
 
-// Microseconds since an unspecified fixed point (the machine's boot, on Linux); only
-// differences mean anything.
 inline std::uint64_t now_us() {
     return static_cast<std::uint64_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
