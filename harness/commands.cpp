@@ -1,6 +1,7 @@
 #include "harness/commands.h"
 
 #include "harness/precision_command.h"
+#include "harness/proxy_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
@@ -18,6 +19,7 @@ void add_all_commands(CLI::App& app) {
     add_sweep_command(app);
     add_replay_command(app);
     add_synctest_command(app);
+    add_proxy_command(app);
 }
 
 }  // namespace lockroll::harness
