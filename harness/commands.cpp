@@ -3,6 +3,7 @@
 #include "harness/live_command.h"
 #include "harness/peer_command.h"
 #include "harness/precision_command.h"
+#include "harness/proxy_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
@@ -22,6 +23,7 @@ void add_all_commands(CLI::App& app) {
     add_synctest_command(app);
     add_peer_command(app);
     add_live_command(app);
+    add_proxy_command(app);
 }
 
 }  // namespace lockroll::harness

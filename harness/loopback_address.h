@@ -1,7 +1,8 @@
 // HOST:PORT flags of the real-process commands (peer, live), restricted to loopback: lockroll's
 // networked runs are experiments on one machine and must never send traffic anywhere else.
 //
-// Accepted: a numeric IPv4 address in 127.0.0.0/8, or ::1 written [::1]:PORT; PORT 0..65535
+// Parsing is net/udp_address.h (numeric addresses or "localhost", never DNS); accepted are
+// 127.0.0.0/8 and ::1 written [::1]:PORT; PORT 0..65535
 // (0 only where the caller allows an ephemeral port). Anything else is a UsageError naming the
 // flag and the text.
 #pragma once

@@ -29,23 +29,6 @@ std::uint64_t thread_cpu_ns() {
     return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
-transport::Micros to_us(double ms) { return static_cast<transport::Micros>(std::llround(ms * 1000.0)); }
-
-transport::LinkConditions link_for(const NetConditions& n) {
-    transport::LinkConditions l;
-    l.latency_us = to_us(n.latency_ms);
-    l.jitter_us = to_us(n.jitter_ms);
-    l.loss = n.loss;
-    l.duplicate = n.duplicate;
-    l.reorder = n.reorder;
-    if (n.burst_loss > 0) {
-        l.burst_enter = n.burst_loss;
-        l.burst_exit = 0.5;
-        l.burst_loss = 1.0;
-    }
-    return l;
-}
-
 std::vector<sim::Vec3> dynamic_positions(const sim::World& w) {
     std::vector<sim::Vec3> out;
     out.reserve(w.dynamic_count());
@@ -313,6 +296,33 @@ double percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+transport::LinkConditions link_for(const NetConditions& n) {
+    const auto to_us = [](double ms) { return static_cast<transport::Micros>(std::llround(ms * 1000.0)); };
+    transport::LinkConditions l;
+    l.latency_us = to_us(n.latency_ms);
+    l.jitter_us = to_us(n.jitter_ms);
+    l.loss = n.loss;
+    l.duplicate = n.duplicate;
+    l.reorder = n.reorder;
+    if (n.burst_loss > 0) {
+        l.burst_enter = n.burst_loss;
+        l.burst_exit = 0.5;
+        l.burst_loss = 1.0;
+    }
+    return l;
+}
+
+void validate(const NetConditions& n) {
+    auto fail = [](const std::string& m) { throw UsageError(m); };
+    if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
+    if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
+    for (auto [v, name] : {std::pair{n.loss, "--loss"}, {n.duplicate, "--duplicate"}, {n.reorder, "--reorder"},
+                           {n.burst_loss, "--burst-loss"}})
+        if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
+    if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
+    if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
+}
+
 const char* mode_name(Mode m) { return m == Mode::Lockstep ? "lockstep" : "rollback"; }
 
 void validate(const RunConfig& c) {
@@ -323,17 +333,10 @@ void validate(const RunConfig& c) {
     if (c.input_delay < -1 || c.input_delay > 60) fail("--input-delay must be 0..60 or auto");
     if (c.prediction < 1 || c.prediction > 60) fail("--prediction must be 1..60 (lockstep mode uses 0 itself)");
     if (c.checksum_interval < 1) fail("--checksum-interval must be >= 1");
-    const NetConditions& n = c.net;
-    if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
-    if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
-    for (auto [v, name] : {std::pair{n.loss, "--loss"}, {n.duplicate, "--duplicate"}, {n.reorder, "--reorder"},
-                           {n.burst_loss, "--burst-loss"}})
-        if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
-    if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
+    validate(c.net);
     if (!(c.drift_ppm >= 0 && c.drift_ppm <= 10000)) fail("--drift-ppm must be 0..10000");
     for (const auto& inj : c.injections)
         if (inj.client < 0 || inj.client >= c.players) fail("--inject-desync: client must be 0..players-1");
-    if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
 }
 
 sim::SceneDesc with_players(const sim::SceneDesc& scene, int players) {

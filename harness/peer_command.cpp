@@ -393,7 +393,7 @@ private:
 };
 
 std::atomic<net::PeerRunner*> g_runner{nullptr};
-extern "C" void on_stop_signal(int) {
+void on_peer_stop_signal(int) {
     if (net::PeerRunner* r = g_runner.load()) r->request_stop();
 }
 
@@ -455,8 +455,8 @@ int do_peer(const PeerOptions& options) {
         },
         &rec);
     g_runner.store(&runner);
-    std::signal(SIGTERM, on_stop_signal);
-    std::signal(SIGINT, on_stop_signal);
+    std::signal(SIGTERM, on_peer_stop_signal);
+    std::signal(SIGINT, on_peer_stop_signal);
     const net::RunOutcome outcome = runner.run();
     g_runner.store(nullptr);
     const std::uint64_t end_us = net::now_us();
