@@ -40,6 +40,28 @@ std::optional<std::uint64_t> DesyncDetector::local_checksum(std::uint32_t frame)
     return history_[i];
 }
 
+void DesyncDetector::reset_peer(PlayerId peer) {
+    if (peer < peers_.size()) peers_[peer] = PeerState{};
+}
+
+void DesyncDetector::restart_at(std::uint32_t frame, std::uint64_t checksum) {
+    for (PeerState& ps : peers_) {
+        ps = PeerState{};
+        ps.last_compared_plus1 = frame + 1;
+    }
+    pinned_.clear();
+    std::fill(history_tag_.begin(), history_tag_.end(), 0);
+    add_local(frame, checksum);
+}
+
+std::optional<std::uint64_t> DesyncDetector::remote_checksum(PlayerId peer, std::uint32_t frame) const {
+    if (peer >= peers_.size()) return std::nullopt;
+    const PeerState& ps = peers_[peer];
+    if (auto it = ps.recent.find(frame); it != ps.recent.end()) return it->second;
+    if (auto it = ps.pending.find(frame); it != ps.pending.end()) return it->second;
+    return std::nullopt;
+}
+
 void DesyncDetector::add_local(std::uint32_t frame, std::uint64_t checksum) {
     const std::size_t i = frame & (config_.history - 1);
     history_[i] = checksum;
@@ -71,6 +93,8 @@ void DesyncDetector::add_remote(PlayerId peer, std::uint32_t frame, std::uint64_
 void DesyncDetector::compare(PlayerId peer, std::uint32_t frame, std::uint64_t local, std::uint64_t remote) {
     PeerState& ps = peers_[peer];
     ps.last_compared_plus1 = std::max(ps.last_compared_plus1, frame + 1);
+    ps.recent[frame] = remote;
+    while (ps.recent.size() > 64) ps.recent.erase(ps.recent.begin());
     // Input messages carry the low 32 bits of each checksum (rollback/protocol.h).
     if (static_cast<std::uint32_t>(local) == static_cast<std::uint32_t>(remote)) {
         ++stats_.peers[peer].checksum_matches;

@@ -67,6 +67,13 @@ public:
     void collect_queries(std::uint64_t now_us, std::vector<std::pair<PlayerId, QueryMessage>>& out);
     // The peer can no longer answer: an investigation with it ends as NoReply.
     void peer_failed(PlayerId peer);
+    // The peer's process was replaced (a rejoin): forget its verdicts and pending reports.
+    void reset_peer(PlayerId peer);
+    // This client loaded a snapshot of confirmed `frame` (join or desync recovery): everything
+    // known about earlier frames and every verdict is forgotten; comparison resumes from here.
+    void restart_at(std::uint32_t frame, std::uint64_t checksum);
+    // The checksum a peer reported for `frame`, while it waits or was the last compared.
+    std::optional<std::uint64_t> remote_checksum(PlayerId peer, std::uint32_t frame) const;
 
     bool investigating(PlayerId peer) const;
     bool desynced(PlayerId peer) const { return peers_[peer].desynced; }
@@ -88,6 +95,7 @@ private:
         std::optional<std::uint32_t> last_agreed;
         std::uint32_t last_compared_plus1 = 0;
         std::map<std::uint32_t, std::uint64_t> pending;  // frame -> remote checksum
+        std::map<std::uint32_t, std::uint64_t> recent;   // frame -> remote checksum, last few compared
         // investigation
         Stage stage = Stage::None;
         DesyncReport report;

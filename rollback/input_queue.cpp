@@ -10,7 +10,9 @@ InputQueue::InputQueue(std::size_t input_size, std::uint32_t capacity)
       capacity_(capacity),
       confirmed_(std::size_t{capacity} * input_size),
       used_(std::size_t{capacity} * input_size),
-      used_tag_(capacity, 0) {
+      used_tag_(capacity, 0),
+      absent_(capacity, 0),
+      used_absent_(capacity, 0) {
     if (input_size == 0) throw std::invalid_argument("input_size must be at least 1");
     if (capacity < 2 || (capacity & (capacity - 1)) != 0)
         throw std::invalid_argument("input queue capacity must be a power of two >= 2");
@@ -18,19 +20,30 @@ InputQueue::InputQueue(std::size_t input_size, std::uint32_t capacity)
 
 void InputQueue::discard_before(std::uint32_t frame) { floor_ = std::max(floor_, frame); }
 
-InputQueue::Add InputQueue::add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input) {
+InputQueue::Add InputQueue::add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) {
     if (input.size() != input_size_) return Add::Conflict;
     if (frame < confirmed_count_) {
         if (frame < floor_) return Add::TooOld;
         const std::uint8_t* have = confirmed_.data() + slot(frame);
-        return std::equal(input.begin(), input.end(), have) ? Add::Duplicate : Add::Conflict;
+        return std::equal(input.begin(), input.end(), have) && confirmed_absent(frame) == absent ? Add::Duplicate
+                                                                                                 : Add::Conflict;
     }
     if (frame > confirmed_count_) return Add::Gap;
     if (std::uint64_t{frame} >= std::uint64_t{floor_} + capacity_) return Add::TooFarAhead;
     std::copy(input.begin(), input.end(), confirmed_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
+    absent_[frame & (capacity_ - 1)] = absent ? 1 : 0;
     last_.assign(input.begin(), input.end());
+    last_absent_ = absent;
     ++confirmed_count_;
     return Add::Stored;
+}
+
+void InputQueue::restart_at(std::uint32_t frame) {
+    confirmed_count_ = frame;
+    floor_ = frame;
+    std::fill(used_tag_.begin(), used_tag_.end(), 0u);
+    last_.clear();
+    last_absent_ = false;
 }
 
 std::span<const std::uint8_t> InputQueue::confirmed(std::uint32_t frame) const {
@@ -39,9 +52,10 @@ std::span<const std::uint8_t> InputQueue::confirmed(std::uint32_t frame) const {
 
 std::span<const std::uint8_t> InputQueue::last_confirmed() const { return last_; }
 
-void InputQueue::set_used(std::uint32_t frame, std::span<const std::uint8_t> input) {
+void InputQueue::set_used(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) {
     std::copy(input.begin(), input.end(), used_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
     used_tag_[frame & (capacity_ - 1)] = frame + 1;
+    used_absent_[frame & (capacity_ - 1)] = absent ? 1 : 0;
 }
 
 std::optional<std::span<const std::uint8_t>> InputQueue::used(std::uint32_t frame) const {

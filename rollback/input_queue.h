@@ -9,6 +9,9 @@
 //    a single number, which is what acks, stalls and checksums are built on.
 //  - A confirmed input never changes. A second copy with different bytes is a Conflict (the
 //    remote rewrote its past: a protocol violation the session counts as a bad packet).
+//  - Each confirmed input carries an "absent" flag: the slot had no player for that frame (not
+//    joined yet, or disconnected), and the input is the neutral one written by the slot's
+//    owner. The flag is part of the input: a copy with another flag is a Conflict too.
 //  - Storage is a ring of `capacity` frames allocated once. The owner says how far back it will
 //    ever read again (discard_before); a frame at or beyond floor() + capacity cannot be stored
 //    yet (TooFarAhead, dropped, resent later) rather than overwrite something still needed.
@@ -36,17 +39,26 @@ public:
     // Frames before `frame` will never be read again. Never moves the floor back.
     void discard_before(std::uint32_t frame);
 
-    Add add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input);
+    Add add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent = false);
 
     // floor() <= frame < confirmed_count().
     std::span<const std::uint8_t> confirmed(std::uint32_t frame) const;
+    bool confirmed_absent(std::uint32_t frame) const { return absent_[frame & (capacity_ - 1)] != 0; }
+    // Whether the newest confirmed input was flagged absent.
+    bool last_absent() const { return last_absent_; }
+
+    // Starts the stream over at `frame` (a snapshot of that frame was loaded): nothing is
+    // confirmed before it, nothing after it is known, and nothing was simulated yet.
+    void restart_at(std::uint32_t frame);
     // The newest confirmed input (kept even after its slot is discarded); empty before the first.
     std::span<const std::uint8_t> last_confirmed() const;
 
     // Records what the latest simulation of `frame` used; floor() <= frame < floor() + capacity().
-    void set_used(std::uint32_t frame, std::span<const std::uint8_t> input);
+    void set_used(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent = false);
     // What the latest simulation of `frame` used, if it was simulated and is still held.
     std::optional<std::span<const std::uint8_t>> used(std::uint32_t frame) const;
+    // Whether that simulation treated the slot as absent (meaningful when used() has a value).
+    bool used_absent(std::uint32_t frame) const { return used_absent_[frame & (capacity_ - 1)] != 0; }
 
 private:
     std::size_t slot(std::uint32_t frame) const { return (frame & (capacity_ - 1)) * input_size_; }
@@ -58,7 +70,10 @@ private:
     std::vector<std::uint8_t> confirmed_;
     std::vector<std::uint8_t> used_;
     std::vector<std::uint32_t> used_tag_;  // frame + 1 whose used input the slot holds, 0 = none
+    std::vector<std::uint8_t> absent_;       // per slot: the confirmed input is flagged absent
+    std::vector<std::uint8_t> used_absent_;  // per slot: the simulation treated it as absent
     std::vector<std::uint8_t> last_;
+    bool last_absent_ = false;
 };
 
 }  // namespace lockroll::rollback

@@ -8,8 +8,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "rollback/control_messages.h"
+#include "rollback/protocol.h"
 #include "rollback/time_sync.h"
 
 namespace lockroll::rollback {
@@ -30,6 +34,11 @@ public:
         return false;
     }
     bool error() const { return error_; }
+    // A new process took the peer's place (rejoin): its predecessor's garbage is forgotten.
+    void clear_error() {
+        error_ = false;
+        malformed_ = 0;
+    }
     std::uint64_t malformed() const { return malformed_; }
     const std::string& last_error() const { return last_error_; }
 
@@ -61,6 +70,47 @@ public:
     bool any_checksum_sent = false;
 
     std::uint64_t messages_sent = 0;
+
+    // ---- lifecycle (docs/sessions.md) ----
+    bool welcomed = false;            // handshake done: its traffic is listened to
+    std::uint8_t welcomed_epoch = 0;  // its slot's epoch when it was welcomed
+    Role role = Role::Player;
+    int roundtrips = 0;               // welcomes received (sync phase)
+    std::uint64_t max_sync_rtt_us = 0;
+    bool heard = false;
+    std::uint64_t last_heard_us = 0;
+    bool interrupted = false;
+    std::uint64_t last_hello_us = 0;  // when we last said hello to it
+    bool hello_sent = false;
+    std::uint64_t last_refusal_us = 0;
+    bool refusal_sent = false;
+    // Its slot table as last reported, and how many inputs of each stream it holds (unwrapped);
+    // has_count[s] false until it reported stream s.
+    std::vector<SlotEntry> table;
+    std::vector<bool> table_seen;
+    std::vector<std::uint32_t> counts;
+    std::vector<bool> has_count;
+    // While a snapshot it pulls is being served: our queues keep inputs from this frame on.
+    std::optional<std::uint32_t> pin_from;
+    std::uint64_t pin_until_us = 0;
+    // Round trip by echoed stamps (protocol.h): its last stamp, and when it arrived.
+    bool has_stamp = false;
+    std::uint16_t stamp = 0;
+    std::uint64_t stamp_at_us = 0;
+
+    void reset_lifecycle(std::size_t slots) {
+        table.assign(slots, SlotEntry{});
+        table_seen.assign(slots, false);
+        counts.assign(slots, 0);
+        has_count.assign(slots, false);
+        pin_from.reset();
+        has_stamp = false;
+        interrupted = false;
+        remote_ack = 0;
+        has_remote_frame = false;
+        any_checksum_sent = false;
+        checksum_sends = 0;
+    }
 
 private:
     int max_bad_packets_;

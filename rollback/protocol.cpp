@@ -10,10 +10,39 @@ namespace lockroll::rollback {
 namespace {
 // Kind byte, ack, first frame, frame count; time sync; checksum.
 constexpr std::size_t kInputHeaderBytes = 1 + 2 + 2 + 1;
-constexpr std::size_t kTimeSyncBytes = 2 + 1;
+constexpr std::size_t kTimeSyncBytes = 2 + 1 + 2 + 2 + 2;
 constexpr std::size_t kChecksumBytes = (2 + 8) * kMaxChecksumsPerMessage;
 
 bool valid_what(std::uint8_t w) { return w >= 1 && w <= 3; }
+
+// Runs of identical inputs: u8 length (1..255), then the input bytes.
+void write_runs(ByteWriter& w, std::span<const std::uint8_t> inputs, std::size_t count, std::size_t input_size) {
+    const auto at = [&](std::size_t k) { return inputs.subspan(k * input_size, input_size); };
+    std::size_t i = 0;
+    while (i < count) {
+        std::size_t j = i + 1;
+        while (j < count && j - i < 255 && std::ranges::equal(at(j), at(i))) ++j;
+        w.u8(static_cast<std::uint8_t>(j - i));
+        w.bytes(at(i));
+        i = j;
+    }
+}
+
+const char* read_runs(ByteReader& r, std::vector<std::uint8_t>& inputs, std::size_t count, std::size_t input_size) {
+    inputs.resize(count * input_size);
+    std::size_t covered = 0;
+    while (covered < count) {
+        const std::uint8_t run = r.u8();
+        const auto bytes = r.bytes(input_size);
+        if (!r.ok()) return "input message: truncated input run";
+        if (run == 0) return "input message: empty input run";
+        if (covered + run > count) return "input message: runs exceed frame count";
+        for (std::size_t k = 0; k < run; ++k)
+            std::copy(bytes.begin(), bytes.end(), inputs.begin() + static_cast<std::ptrdiff_t>((covered + k) * input_size));
+        covered += run;
+    }
+    return nullptr;
+}
 
 // Limits shared by queries and replies.
 const char* check_query_shape(QueryWhat what, std::uint32_t start, std::uint16_t count) {
@@ -38,10 +67,22 @@ std::uint8_t max_frames_per_message(std::size_t input_size) {
     return static_cast<std::uint8_t>(std::min<std::size_t>(255, budget / (1 + input_size)));
 }
 
+std::size_t max_base_input_message_bytes(std::size_t input_size) {
+    return kInputHeaderBytes + std::size_t{max_frames_per_message(input_size)} * (1 + input_size) + kTimeSyncBytes +
+           kChecksumBytes;
+}
+
+std::size_t encoded_block_bytes(const StreamBlock& b, std::size_t input_size) {
+    std::vector<std::uint8_t> tmp;
+    ByteWriter w(tmp);
+    write_runs(w, b.inputs, b.frame_count, input_size);
+    return 1 + 1 + 2 + 1 + tmp.size();
+}
+
 std::optional<MessageKind> peek_kind(std::span<const std::uint8_t> d) {
     if (d.empty()) return std::nullopt;
     const std::uint8_t k = d[0] & kKindMask;
-    if (k < 1 || k > 3) return std::nullopt;
+    if (k < 1 || k > kLastMessageKind) return std::nullopt;
     return static_cast<MessageKind>(k);
 }
 
@@ -52,31 +93,49 @@ void encode(const InputMessage& m, std::size_t input_size, std::vector<std::uint
     if (m.frame_count > max_frames_per_message(input_size))
         throw std::invalid_argument("input message: too many frames for one datagram");
     if (m.checksum_count > kMaxChecksumsPerMessage) throw std::invalid_argument("input message: too many checksums");
+    if (m.has_extension) {
+        if (m.slots.size() > static_cast<std::size_t>(kMaxSlotEntries) || m.blocks.size() > static_cast<std::size_t>(kMaxStreamBlocks))
+            throw std::invalid_argument("input message: too many slot entries or blocks");
+        for (const StreamBlock& b : m.blocks)
+            if (b.frame_count == 0 || b.inputs.size() != std::size_t{b.frame_count} * input_size)
+                throw std::invalid_argument("input message: bad stream block");
+    }
     ByteWriter w(out);
     std::uint8_t kind = static_cast<std::uint8_t>(MessageKind::Input);
     if (m.has_time_sync) kind |= kFlagTimeSync;
+    if (m.has_extension) kind |= kFlagExtension;
     kind |= static_cast<std::uint8_t>(m.checksum_count << kChecksumCountShift);
     w.u8(kind);
     w.u16(m.ack);
     w.u16(m.first_frame);
     w.u8(m.frame_count);
-    // Runs of identical inputs: u8 length (1..255), then the input bytes.
-    std::size_t i = 0;
-    while (i < m.frame_count) {
-        const auto at = [&](std::size_t k) { return std::span(m.inputs).subspan(k * input_size, input_size); };
-        std::size_t j = i + 1;
-        while (j < m.frame_count && j - i < 255 && std::ranges::equal(at(j), at(i))) ++j;
-        w.u8(static_cast<std::uint8_t>(j - i));
-        w.bytes(at(i));
-        i = j;
-    }
+    write_runs(w, m.inputs, m.frame_count, input_size);
     if (m.has_time_sync) {
         w.u16(m.sender_frame);
         w.i8(m.advantage);
+        w.u16(m.stamp);
+        w.u16(m.echo);
+        w.u16(m.hold);
     }
     for (int i = 0; i < m.checksum_count; ++i) {
         w.u16(m.checksum_frames[i]);
         w.u32(static_cast<std::uint32_t>(m.checksums[i]));  // low 32 bits: see protocol.h
+    }
+    if (!m.has_extension) return;
+    w.u8(static_cast<std::uint8_t>(m.slots.size()));
+    for (const SlotEntry& e : m.slots) {
+        w.u8(e.slot);
+        w.u8(static_cast<std::uint8_t>(e.state));
+        w.u8(e.epoch);
+        w.u16(e.count);
+    }
+    w.u8(static_cast<std::uint8_t>(m.blocks.size()));
+    for (const StreamBlock& b : m.blocks) {
+        w.u8(b.slot);
+        w.u8(b.absent ? 1 : 0);
+        w.u16(b.first_frame);
+        w.u8(b.frame_count);
+        write_runs(w, b.inputs, b.frame_count, input_size);
     }
 }
 
@@ -122,36 +181,60 @@ const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, Inpu
     const std::uint8_t kind = r.u8();
     if (!r.ok()) return "empty datagram";
     if ((kind & kKindMask) != static_cast<std::uint8_t>(MessageKind::Input)) return "not an input message";
-    if (kind & ~(kKindMask | kFlagTimeSync | kChecksumCountMask)) return "input message: unknown flag bits";
     m.has_time_sync = (kind & kFlagTimeSync) != 0;
+    m.has_extension = (kind & kFlagExtension) != 0;
     m.checksum_count = static_cast<std::uint8_t>((kind & kChecksumCountMask) >> kChecksumCountShift);
     m.ack = r.u16();
     m.first_frame = r.u16();
     m.frame_count = r.u8();
     if (!r.ok()) return "input message: truncated header";
     if (m.frame_count > max_frames_per_message(input_size)) return "input message: too many frames";
-    m.inputs.resize(std::size_t{m.frame_count} * input_size);
-    std::size_t covered = 0;
-    while (covered < m.frame_count) {
-        const std::uint8_t run = r.u8();
-        const auto bytes = r.bytes(input_size);
-        if (!r.ok()) return "input message: truncated input run";
-        if (run == 0) return "input message: empty input run";
-        if (covered + run > m.frame_count) return "input message: runs exceed frame count";
-        for (std::size_t k = 0; k < run; ++k)
-            std::copy(bytes.begin(), bytes.end(),
-                      m.inputs.begin() + static_cast<std::ptrdiff_t>((covered + k) * input_size));
-        covered += run;
-    }
+    if (const char* e = read_runs(r, m.inputs, m.frame_count, input_size)) return e;
     if (m.has_time_sync) {
         m.sender_frame = r.u16();
         m.advantage = r.i8();
+        m.stamp = r.u16();
+        m.echo = r.u16();
+        m.hold = r.u16();
     }
     for (int i = 0; i < m.checksum_count; ++i) {
         m.checksum_frames[i] = r.u16();
         m.checksums[i] = r.u32();
     }
     if (!r.ok()) return "input message: truncated trailer";
+    m.slots.clear();
+    m.blocks.clear();
+    if (m.has_extension) {
+        const std::uint8_t entries = r.u8();
+        if (!r.ok()) return "input message: truncated extension";
+        if (entries > kMaxSlotEntries) return "input message: too many slot entries";
+        if (r.remaining() < std::size_t{entries} * 5) return "input message: truncated slot table";
+        for (int i = 0; i < entries; ++i) {
+            SlotEntry e;
+            e.slot = r.u8();
+            const std::uint8_t state = r.u8();
+            if (state > kLastSlotState) return "input message: unknown slot state";
+            e.state = static_cast<SlotState>(state);
+            e.epoch = r.u8();
+            e.count = r.u16();
+            m.slots.push_back(e);
+        }
+        const std::uint8_t blocks = r.u8();
+        if (!r.ok()) return "input message: truncated block count";
+        if (blocks > kMaxStreamBlocks) return "input message: too many stream blocks";
+        m.blocks.resize(blocks);
+        for (StreamBlock& b : m.blocks) {
+            b.slot = r.u8();
+            const std::uint8_t flags = r.u8();
+            b.first_frame = r.u16();
+            b.frame_count = r.u8();
+            if (!r.ok()) return "input message: truncated stream block";
+            if (flags > 1) return "input message: unknown stream block flags";
+            b.absent = flags == 1;
+            if (b.frame_count == 0) return "input message: empty stream block";
+            if (const char* e = read_runs(r, b.inputs, b.frame_count, input_size)) return e;
+        }
+    }
     if (!r.at_end()) return "input message: trailing bytes";
     return nullptr;
 }

@@ -26,15 +26,61 @@ inline constexpr std::size_t kMaxInputSize = 64;
 inline constexpr std::uint16_t kMaxQueryItems = 128;
 inline constexpr int kMaxFields = 16;
 
-enum class MessageKind : std::uint8_t { Input = 1, Query = 2, Reply = 3 };
+// Bumped whenever a message's bytes change meaning; hellos carry it and a mismatch is refused.
+inline constexpr std::uint16_t kProtocolVersion = 2;
+
+// Input, Query and Reply are this header's; the rest are control_messages.h's.
+enum class MessageKind : std::uint8_t {
+    Input = 1,
+    Query = 2,
+    Reply = 3,
+    Hello = 4,
+    Welcome = 5,
+    SnapshotRequest = 6,
+    SnapshotOffer = 7,
+    SnapshotChunk = 8,
+};
+inline constexpr std::uint8_t kLastMessageKind = 8;
 
 // Kind byte of an input message: low 4 bits the kind, bit 4 "time sync present", bits 5-6 the
-// number of checksums carried (0..3), bit 7 reserved (0).
+// number of checksums carried (0..3), bit 7 "extension present" (slot table and relayed streams,
+// only while some slot is not simply running: a steady match pays nothing for it).
 inline constexpr std::uint8_t kKindMask = 0x0F;
 inline constexpr std::uint8_t kFlagTimeSync = 0x10;
 inline constexpr int kChecksumCountShift = 5;
 inline constexpr std::uint8_t kChecksumCountMask = 0x60;
+inline constexpr std::uint8_t kFlagExtension = 0x80;
 inline constexpr int kMaxChecksumsPerMessage = 3;
+inline constexpr int kMaxSlotEntries = 64;
+inline constexpr int kMaxStreamBlocks = 16;
+
+// A player slot's lifecycle state as peers gossip it (docs/sessions.md). Each change bumps the
+// slot's epoch; the higher epoch wins, so every peer converges on one table.
+enum class SlotState : std::uint8_t {
+    Absent = 0,        // nobody plays it yet: its input is the flagged neutral input
+    Running = 1,       // its owner process sends its inputs
+    Disconnected = 2,  // it was dropped (timeout or kick): flagged neutral input from an agreed frame
+};
+inline constexpr std::uint8_t kLastSlotState = 2;
+
+// One slot as the sender sees it, and how many of that slot's inputs the sender holds
+// (its confirmed count, low 16 bits): what relays and the disconnect agreement are built on.
+struct SlotEntry {
+    std::uint8_t slot = 0;
+    SlotState state = SlotState::Running;
+    std::uint8_t epoch = 0;
+    std::uint16_t count = 0;
+};
+
+// Consecutive inputs of one slot's stream, forwarded by a peer that is not that slot's player
+// (the owner writing an absent slot's neutral inputs, or anyone filling a gap another peer has).
+struct StreamBlock {
+    std::uint8_t slot = 0;
+    bool absent = false;            // every input in the block is the flagged neutral input
+    std::uint16_t first_frame = 0;
+    std::uint8_t frame_count = 0;
+    std::vector<std::uint8_t> inputs;  // frame_count * input_size bytes
+};
 
 struct InputMessage {
     std::uint16_t ack = 0;           // next frame of the receiver's inputs the sender needs
@@ -51,6 +97,16 @@ struct InputMessage {
     std::uint8_t checksum_count = 0;
     std::uint16_t checksum_frames[kMaxChecksumsPerMessage] = {};
     std::uint64_t checksums[kMaxChecksumsPerMessage] = {};
+    // Round-trip measurement, with the time-sync fields: the sender's clock (units of 100 µs,
+    // wrapping), the last stamp it received from the receiver, and how long it held that stamp
+    // before this send (100 µs units). RTT = now - echo - hold, free of any tick-rate ack delay.
+    std::uint16_t stamp = 0;
+    std::uint16_t echo = 0;
+    std::uint16_t hold = 0;
+    // Extension (kFlagExtension): the sender's slot table with its counts, and relayed streams.
+    bool has_extension = false;
+    std::vector<SlotEntry> slots;
+    std::vector<StreamBlock> blocks;
 };
 
 enum class QueryWhat : std::uint8_t {
@@ -78,6 +134,11 @@ struct ReplyMessage {
 
 // Most inputs an input message may carry so that even incompressible inputs fit a datagram.
 std::uint8_t max_frames_per_message(std::size_t input_size);
+// Bytes an input message without extension may take at most; extension bytes must fit in what
+// is left of kMaxDatagramBytes (the session shrinks blocks to fit).
+std::size_t max_base_input_message_bytes(std::size_t input_size);
+// Encoded size of a stream block with these inputs (run-length coded).
+std::size_t encoded_block_bytes(const StreamBlock& b, std::size_t input_size);
 
 // The kind of a datagram, or nullopt when the first byte names none (or the datagram is empty).
 std::optional<MessageKind> peek_kind(std::span<const std::uint8_t> datagram);

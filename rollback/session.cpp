@@ -25,11 +25,100 @@ std::uint32_t next_pow2(std::uint64_t v) {
 }
 
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
+
+// Epochs wrap at 256: a is newer than b when it is less than half the circle ahead.
+bool newer_epoch(std::uint8_t a, std::uint8_t b) {
+    const auto d = static_cast<std::int8_t>(static_cast<std::uint8_t>(a - b));
+    return d > 0;
+}
+
+constexpr std::size_t kMaxEvents = 4096;
+constexpr int kMaxChunksPerPoll = 64;
+constexpr std::size_t kMaxOutgoingTransfers = 4;
+constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
+constexpr std::uint16_t kNoEcho = 0xFFFF;
 }  // namespace
+
+const char* event_name(SessionEvent::Kind k) {
+    using K = SessionEvent::Kind;
+    switch (k) {
+        case K::Synchronizing: return "synchronizing";
+        case K::Synchronized: return "synchronized";
+        case K::Refused: return "refused";
+        case K::Interrupted: return "interrupted";
+        case K::Resumed: return "resumed";
+        case K::Disconnected: return "disconnected";
+        case K::NeutralFrom: return "neutral_from";
+        case K::Joined: return "joined";
+        case K::SpectatorJoined: return "spectator_joined";
+        case K::SnapshotLoaded: return "snapshot_loaded";
+        case K::SnapshotRejected: return "snapshot_rejected";
+        case K::DesyncDetected: return "desync";
+        case K::DesyncRecovered: return "desync_recovered";
+        case K::Kicked: return "kicked";
+        case K::Failed: return "failed";
+    }
+    return "unknown";
+}
+
+const char* phase_name(SessionPhase p) {
+    switch (p) {
+        case SessionPhase::Synchronizing: return "synchronizing";
+        case SessionPhase::Transferring: return "transferring";
+        case SessionPhase::Running: return "running";
+        case SessionPhase::Failed: return "failed";
+    }
+    return "unknown";
+}
+
+// Forwards every callback to the owner's observer, and lets the session react to desyncs.
+class Session::Tap final : public SessionObserver {
+public:
+    Tap(Session& s, SessionObserver* next) : s_(s), next_(next) {}
+    void on_frame_simulated(const FrameSimulated& f) override {
+        if (next_) next_->on_frame_simulated(f);
+    }
+    void on_rollback_begin(const RollbackInfo& r) override {
+        if (next_) next_->on_rollback_begin(r);
+    }
+    void on_rollback_end(const RollbackInfo& r) override {
+        if (next_) next_->on_rollback_end(r);
+    }
+    void on_frame_confirmed(const FrameConfirmed& f) override {
+        if (next_) next_->on_frame_confirmed(f);
+    }
+    void on_desync(const DesyncEvent& e) override {
+        s_.emit(SessionEvent::Kind::DesyncDetected, e.peer, e.frame, s_.last_now_us_,
+                "confirmed checksums differ");
+        if (!s_.mismatch_frame_ || e.frame < *s_.mismatch_frame_) s_.mismatch_frame_ = e.frame;
+        s_.mismatch_since_us_ = s_.last_now_us_;
+        if (next_) next_->on_desync(e);
+    }
+    void on_desync_report(const DesyncReport& r) override {
+        if (next_) next_->on_desync_report(r);
+    }
+    void on_peer_error(PlayerId p, const std::string& e) override {
+        if (next_) next_->on_peer_error(p, e);
+    }
+
+private:
+    Session& s_;
+    SessionObserver* next_;
+};
 
 void validate(const SessionConfig& c) {
     require(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
-    require(c.local_player < static_cast<PlayerId>(c.players), "local_player must be a player slot");
+    require(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
+            "max_spectators must be 0.." + std::to_string(255 - c.players));
+    if (c.role == Role::Spectator)
+        require(c.local_player >= static_cast<PlayerId>(c.players) &&
+                    c.local_player < static_cast<PlayerId>(c.players + c.max_spectators),
+                "a spectator's local id must be players .. players + max_spectators - 1");
+    else
+        require(c.local_player < static_cast<PlayerId>(c.players), "local_player must be a player slot");
+    require((c.absent_slots >> c.local_player & 1) == 0 || c.role != Role::Player,
+            "the local slot cannot be absent at frame 0");
+    require(c.role == Role::Player || c.handshake, "joiners and spectators need the handshake");
     require(c.input_size >= 1 && c.input_size <= kMaxInputSize,
             "input_size must be 1.." + std::to_string(kMaxInputSize));
     require(c.tick_rate >= 1 && c.tick_rate <= 10000, "tick_rate must be 1..10000");
@@ -48,6 +137,11 @@ void validate(const SessionConfig& c) {
     require(c.time_sync_min_frames >= 1, "time_sync_min_frames must be >= 1");
     require(c.time_sync_every >= 1, "time_sync_every must be >= 1");
     require(c.max_replies_per_poll >= 1, "max_replies_per_poll must be >= 1");
+    require(c.sync_roundtrips >= 1 && c.sync_roundtrips <= 100, "sync_roundtrips must be 1..100");
+    require(c.disconnect_us == 0 || c.interrupt_us < c.disconnect_us, "interrupt_us must be below disconnect_us");
+    require(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
+    require(c.max_recoveries >= 0, "max_recoveries must be >= 0");
+    require(c.relay_lag >= 0, "relay_lag must be >= 0");
 }
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
@@ -59,34 +153,102 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
         default_predictor_ = std::make_unique<RepeatLastPredictor>();
         predictor = default_predictor_.get();
     }
-    const auto players = static_cast<std::size_t>(config_.players);
-    stats_.peers.resize(players);
+    if (config_.relay_lag == 0) config_.relay_lag = config_.prediction_window + config_.input_delay + 8;
+    tap_ = std::make_unique<Tap>(*this, observer_);
+    const auto peers = static_cast<std::size_t>(peers_total());
+    stats_.peers.resize(peers);
+    // A spectator has no slot of its own; its Sync is built as slot 0's, which it never feeds.
     SyncConfig sc;
     sc.players = config_.players;
-    sc.local_player = config_.local_player;
+    sc.local_player = config_.role == Role::Spectator ? 0 : config_.local_player;
     sc.input_size = config_.input_size;
     sc.prediction_window = config_.prediction_window;
     sc.evidence_frames = config_.evidence_frames;
     sc.input_capacity = config_.input_capacity;
-    sync_ = std::make_unique<Sync>(sc, sim_, *predictor, observer_, stats_, config_.cpu_clock);
+    // A quarter of the ring stays behind confirmation: a peer reloading a snapshot of a slightly
+    // older frame (a desync recovery) still finds its own and everyone's inputs since then.
+    sc.retain_frames = config_.input_capacity / 4;
+    sync_ = std::make_unique<Sync>(sc, sim_, *predictor, tap_.get(), stats_, config_.cpu_clock);
     DesyncConfig dc;
     dc.history = next_pow2(std::max<std::uint64_t>(
         1024, 2 * static_cast<std::uint64_t>(config_.checksum_interval) +
                   static_cast<std::uint64_t>(config_.evidence_frames + config_.prediction_window)));
     dc.max_pinned_frames = std::clamp(2 * config_.checksum_interval + 8, 10, 64);
     dc.resend_us = config_.query_resend_us;
-    detector_ = std::make_unique<DesyncDetector>(dc, config_.players, config_.local_player, sim_, sync_->ring(),
-                                                 observer_, stats_);
+    detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
+                                                 tap_.get(), stats_);
     detector_->add_local(0, sync_->initial_checksum());
-    links_.reserve(players);
-    for (std::size_t p = 0; p < players; ++p) links_.emplace_back(config_.max_bad_packets, config_.time_sync_window);
-    local_advantage_.assign(players, 0);
-    replies_this_poll_.assign(players, 0);
-    first_sent_us_.assign(config_.input_capacity, 0);
-    first_sent_tag_.assign(config_.input_capacity, 0);
+    scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
+    links_.reserve(peers);
+    for (std::size_t p = 0; p < peers; ++p) {
+        links_.emplace_back(config_.max_bad_packets, config_.time_sync_window);
+        links_.back().reset_lifecycle(static_cast<std::size_t>(config_.players));
+    }
+    local_advantage_.assign(peers, 0);
+    replies_this_poll_.assign(peers, 0);
+    slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
+    for (int s = 0; s < config_.players; ++s)
+        if (config_.absent_slots >> s & 1) slots_[static_cast<std::size_t>(s)].state = SlotState::Absent;
+    if (config_.role != Role::Player) {
+        // Everything but what the snapshot will tell: the newcomer knows nothing yet.
+        phase_ = SessionPhase::Synchronizing;
+    } else if (config_.handshake) {
+        phase_ = SessionPhase::Synchronizing;
+    } else {
+        for (std::size_t p = 0; p < static_cast<std::size_t>(config_.players); ++p) links_[p].welcomed = true;
+    }
+    refresh_resend_floor();
 }
 
 Session::~Session() = default;
+
+void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+                   std::string detail) {
+    if (events_.size() >= kMaxEvents) {
+        events_.pop_front();
+        ++dropped_events_;
+    }
+    events_.push_back({kind, peer, frame, now_us, std::move(detail)});
+}
+
+bool Session::next_event(SessionEvent& out) {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
+void Session::fail(const std::string& why, std::uint64_t now_us) {
+    if (phase_ == SessionPhase::Failed) return;
+    phase_ = SessionPhase::Failed;
+    failure_ = why;
+    emit(SessionEvent::Kind::Failed, config_.local_player, frame(), now_us, why);
+}
+
+void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
+    Datagram d{to, std::move(bytes), true};
+    pending_out_.push_back(std::move(d));
+}
+
+bool Session::live_peer(PlayerId p) const {
+    if (p == config_.local_player || p >= links_.size()) return false;
+    const PeerLink& l = links_[p];
+    if (!l.welcomed || l.error()) return false;
+    if (is_slot(p)) return slot_running(p);
+    return l.role == Role::Spectator;
+}
+
+std::optional<PlayerId> Session::owner() const {
+    for (int s = 0; s < config_.players; ++s)
+        if (slots_[static_cast<std::size_t>(s)].state == SlotState::Running) return static_cast<PlayerId>(s);
+    return std::nullopt;
+}
+
+bool Session::any_slot_not_running() const {
+    for (const SlotView& v : slots_)
+        if (v.state != SlotState::Running) return true;
+    return false;
+}
 
 void Session::malformed(PlayerId from, const char* why) {
     ++stats_.malformed_packets;
@@ -100,21 +262,76 @@ void Session::malformed(PlayerId from, const char* why) {
 }
 
 void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
+    last_now_us_ = std::max(last_now_us_, now_us);
     ++stats_.packets_received;
     stats_.bytes_received += datagram.size();
-    if (from >= static_cast<PlayerId>(config_.players) || from == config_.local_player) {
+    if (from >= static_cast<PlayerId>(peers_total()) || from == config_.local_player) {
         ++stats_.unknown_peer_packets;
         return;
     }
     PeerStats& ps = stats_.peers[from];
     ++ps.packets_received;
     ps.bytes_received += datagram.size();
-    if (links_[from].error()) {
+    if (phase_ == SessionPhase::Failed) {
         ++ps.ignored_packets;
         return;
     }
     const auto kind = peek_kind(datagram);
+    // A hello is always heard (a rejoining process replaces a failed one); the rest only from a
+    // peer that is listened to.
+    if (kind == MessageKind::Hello) {
+        if (const char* e = decode(datagram, hello_msg_)) return malformed(from, e);
+        return handle_hello(from, hello_msg_, now_us);
+    }
+    if (links_[from].error()) {
+        ++ps.ignored_packets;
+        return;
+    }
     if (!kind) return malformed(from, "unknown message kind");
+    PeerLink& link = links_[from];
+    switch (*kind) {
+        case MessageKind::Hello: return;
+        case MessageKind::Welcome:
+            if (const char* e = decode(datagram, welcome_msg_)) return malformed(from, e);
+            return handle_welcome(from, welcome_msg_, now_us);
+        case MessageKind::SnapshotRequest:
+            if (const char* e = decode(datagram, snap_req_msg_)) return malformed(from, e);
+            if (!link.welcomed) return void(++ps.ignored_packets);
+            return handle_snapshot_request(from, snap_req_msg_, now_us);
+        case MessageKind::SnapshotOffer:
+            if (const char* e = decode(datagram, snap_offer_msg_)) return malformed(from, e);
+            if (!link.welcomed) return void(++ps.ignored_packets);
+            return handle_snapshot_offer(from, snap_offer_msg_, now_us);
+        case MessageKind::SnapshotChunk:
+            if (const char* e = decode(datagram, snap_chunk_msg_)) return malformed(from, e);
+            if (!link.welcomed) return void(++ps.ignored_packets);
+            return handle_snapshot_chunk(from, snap_chunk_msg_, now_us);
+        default: break;
+    }
+    // Input, query, reply: game traffic.
+    if (!link.welcomed || (is_slot(from) && slots_[from].state != SlotState::Running)) {
+        ++ps.ignored_packets;
+        // A dropped slot's process still talking: tell it, now and then.
+        if (is_slot(from) && slots_[from].state == SlotState::Disconnected &&
+            (!link.refusal_sent || now_us >= link.last_refusal_us + 500000)) {
+            WelcomeMessage w;
+            w.refusal = Refusal::Disconnected;
+            w.match_id = config_.match_id;
+            w.scene_checksum = scene_checksum_;
+            std::vector<std::uint8_t> b;
+            encode(w, b);
+            send_control(from, std::move(b));
+            link.refusal_sent = true;
+            link.last_refusal_us = now_us;
+        }
+        return;
+    }
+    if (link.interrupted) {
+        link.interrupted = false;
+        emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
+    }
+    link.heard = true;
+    link.last_heard_us = now_us;
     switch (*kind) {
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
@@ -126,7 +343,7 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
                 return;
             }
             ++replies_this_poll_[from];
-            Datagram d{from, {}};
+            Datagram d{from, {}, false};
             encode(detector_->answer(query_msg_), d.bytes);
             pending_out_.push_back(std::move(d));
             return;
@@ -135,21 +352,169 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
             if (const char* e = decode(datagram, reply_msg_)) return malformed(from, e);
             detector_->on_reply(from, reply_msg_);
             return;
+        default: return;
     }
+}
+
+void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us) {
+    PeerLink& link = links_[from];
+    WelcomeMessage w;
+    w.match_id = config_.match_id;
+    w.scene_checksum = scene_checksum_;
+    w.echo_us = m.stamp_us;
+    w.running = phase_ == SessionPhase::Running;
+    std::string why;
+    if (m.version != kProtocolVersion) {
+        w.refusal = Refusal::Version;
+        why = "protocol version " + std::to_string(m.version) + ", ours " + std::to_string(kProtocolVersion);
+    } else if (m.match_id != config_.match_id) {
+        w.refusal = Refusal::MatchId;
+        why = "match id " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id);
+    } else if (m.scene_checksum != scene_checksum_) {
+        w.refusal = Refusal::Scene;
+        why = "scene checksum " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum_);
+    } else if ((m.role == Role::Spectator) == is_slot(from)) {
+        w.refusal = Refusal::BadRole;
+        why = "role does not fit peer id " + std::to_string(from);
+    } else if (phase_ != SessionPhase::Running && m.role != Role::Player) {
+        w.refusal = Refusal::Retry;  // we cannot serve a snapshot before we run ourselves
+    } else if (m.role == Role::Player && phase_ == SessionPhase::Running && link.welcomed && !slot_running(from)) {
+        w.refusal = Refusal::Disconnected;
+        why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
+    } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
+               (!link.welcomed || link.welcomed_epoch == slots_[from].epoch) && !slots_[from].handed_off_by_me) {
+        // The slot's process restarted: the old one is gone. Drop it now; welcome once dropped.
+        // (A slot running in a newer epoch than we welcomed it in is the joiner itself, handed
+        // over by the owner: welcome it.)
+        if (link.welcomed) drop_slot(from, now_us, "rejoining");
+        w.refusal = Refusal::Retry;
+    }
+    if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
+        ++foreign_packets_;
+        if (!link.refusal_sent || now_us >= link.last_refusal_us + 1000000)
+            emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + why);
+    }
+    if (w.refusal == Refusal::None) {
+        const bool fresh = !link.welcomed || link.role != m.role ||
+                           (is_slot(from) && m.role == Role::Joiner && !slot_running(from) &&
+                            link.welcomed_epoch != slots_[from].epoch);
+        if (fresh && m.role != Role::Player) {
+            // A new process for this id: forget everything about the previous one.
+            link.reset_lifecycle(static_cast<std::size_t>(config_.players));
+            link.clear_error();
+            detector_->reset_peer(from);
+        }
+        link.welcomed = true;
+        if (is_slot(from)) link.welcomed_epoch = slots_[from].epoch;
+        link.role = m.role;
+        if (!link.heard) {
+            link.heard = true;
+            link.last_heard_us = now_us;
+        }
+    }
+    if (w.refusal != Refusal::None) {
+        if (link.refusal_sent && now_us < link.last_refusal_us + 100000 && w.refusal != Refusal::Retry) return;
+        link.refusal_sent = true;
+        link.last_refusal_us = now_us;
+    }
+    std::vector<std::uint8_t> b;
+    encode(w, b);
+    send_control(from, std::move(b));
+}
+
+void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
+    PeerLink& link = links_[from];
+    if (m.refusal == Refusal::Retry) return;
+    if (m.refusal == Refusal::Disconnected) {
+        if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
+            emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
+                 "peer " + std::to_string(from) + " says this slot was dropped");
+            fail("dropped from the match by the other peers", now_us);
+        }
+        return;
+    }
+    if (m.refusal != Refusal::None) {
+        std::string why = std::string("peer ") + std::to_string(from) + " refused: " + refusal_name(m.refusal);
+        if (m.refusal == Refusal::MatchId)
+            why += " (theirs " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id) + ")";
+        if (m.refusal == Refusal::Scene)
+            why += " (theirs " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum_) + ")";
+        emit(SessionEvent::Kind::Refused, from, frame(), now_us, why);
+        if (phase_ != SessionPhase::Running) fail(why, now_us);
+        return;
+    }
+    if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
+    if (m.echo_us <= now_us) {
+        const std::uint64_t rtt = now_us - m.echo_us;
+        link.add_rtt_sample(rtt);
+        link.max_sync_rtt_us = std::max(link.max_sync_rtt_us, rtt);
+        stats_.peers[from].rtt_us = link.rtt_us();
+    }
+    if (!link.welcomed) {
+        link.welcomed = true;
+        if (first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
+    }
+    link.heard = true;
+    link.last_heard_us = now_us;
+    if (link.roundtrips < 1000) ++link.roundtrips;
+    link.has_remote_frame = link.has_remote_frame || m.running;
+    if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
+    emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
+    maybe_start(now_us);
+}
+
+// A player starts frame 0 once every slot present at start has answered enough hellos.
+void Session::maybe_start(std::uint64_t now_us) {
+    if (config_.role != Role::Player || phase_ != SessionPhase::Synchronizing) return;
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (pid == config_.local_player || !slot_running(pid)) continue;
+        if (links_[pid].roundtrips < config_.sync_roundtrips) return;
+    }
+    start_running(now_us);
+}
+
+void Session::start_running(std::uint64_t now_us) {
+    phase_ = SessionPhase::Running;
+    started_us_ = now_us;
+    std::uint64_t worst = 0;
+    for (int p = 0; p < config_.players; ++p)
+        if (static_cast<PlayerId>(p) != config_.local_player) {
+            worst = std::max(worst, links_[static_cast<std::size_t>(p)].max_sync_rtt_us);
+            PeerLink& l = links_[static_cast<std::size_t>(p)];
+            l.heard = true;
+            l.last_heard_us = now_us;
+        }
+    if (config_.auto_input_delay && config_.role == Role::Player) {
+        // Lockstep needs the worst one-way time covered, plus a frame for tick phase; rollback
+        // takes half of that (shallower rollbacks for a little latency), as harness auto does.
+        const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
+        const auto lockstep = static_cast<int>((worst / 2 + tick_us - 1) / tick_us) + 1;
+        const int d = config_.prediction_window == 0 ? lockstep : (lockstep + 1) / 2;
+        input_delay_ = std::clamp(d, 0, static_cast<int>(config_.input_capacity / 4));
+    }
+    emit(SessionEvent::Kind::Synchronized, config_.local_player, frame(), now_us,
+         "input delay " + std::to_string(input_delay_) + ", worst sync rtt " + std::to_string(worst / 1000) + " ms");
 }
 
 void Session::handle_input(PlayerId from, std::uint64_t now_us) {
     const InputMessage& m = in_msg_;
     PeerLink& link = links_[from];
-    const InputQueue& local = sync_->queue(config_.local_player);
-    const InputQueue& remote = sync_->queue(from);
+    const bool from_player = is_slot(from);
+    const bool i_play = config_.role != Role::Spectator;
+    const PlayerId me = config_.local_player;
     // Unwrap every frame before applying anything, so a bad packet changes nothing.
-    const auto ack = unwrap_frame(m.ack, local.confirmed_count());
-    if (!ack) return malformed(from, "input message: ack frame out of range");
-    if (*ack > local.confirmed_count()) return malformed(from, "input message: acknowledges inputs never sent");
+    std::optional<std::uint32_t> ack;
+    if (from_player && i_play) {
+        const InputQueue& local = sync_->queue(me);
+        ack = unwrap_frame(m.ack, local.confirmed_count());
+        if (!ack) return malformed(from, "input message: ack frame out of range");
+        if (*ack > local.confirmed_count()) return malformed(from, "input message: acknowledges inputs never sent");
+    }
     std::optional<std::uint32_t> first;
     if (m.frame_count > 0) {
-        first = unwrap_frame(m.first_frame, remote.confirmed_count());
+        if (!from_player) return malformed(from, "input message: a spectator sent inputs");
+        first = unwrap_frame(m.first_frame, sync_->queue(from).confirmed_count());
         if (!first) return malformed(from, "input message: first frame out of range");
     }
     std::optional<std::uint32_t> sender_frame;
@@ -163,12 +528,12 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         if (!f) return malformed(from, "input message: checksum frame out of range");
         checksum_frames[i] = *f;
     }
+    for (const SlotEntry& e : m.slots)
+        if (e.slot >= config_.players) return malformed(from, "input message: slot entry out of range");
+    for (const StreamBlock& b : m.blocks)
+        if (b.slot >= config_.players) return malformed(from, "input message: stream block slot out of range");
 
-    if (*ack > link.remote_ack) {
-        const std::uint32_t newest = *ack - 1;
-        const std::size_t i = newest & (config_.input_capacity - 1);
-        if (first_sent_tag_[i] == newest + 1 && now_us >= first_sent_us_[i])
-            link.add_rtt_sample(now_us - first_sent_us_[i]);
+    if (ack && *ack > link.remote_ack) {
         link.remote_ack = *ack;
         refresh_resend_floor();
     }
@@ -181,21 +546,150 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
             if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;  // resent later
         }
     }
+    if (m.has_extension) {
+        apply_slot_table(from, now_us);
+        if (phase_ == SessionPhase::Failed) return;
+        apply_blocks(from);
+    }
     if (sender_frame) {
+        // An honest peer is never farther from us than input delay plus prediction window (plus
+        // the time sync's own slack); a claim beyond that is clipped, so one forged message
+        // cannot make us wait thousands of frames.
+        const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
         link.has_remote_frame = true;
         link.remote_frame = *sender_frame;
         link.remote_frame_time_us = now_us;
-        link.remote_advantage = m.advantage;
+        link.remote_advantage = clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound));
+        // Round trip from echoed stamps (units of 100 µs, wrapping at 2^16).
+        if (m.echo != kNoEcho && m.hold != kNoEcho) {
+            const auto now_units = static_cast<std::uint16_t>(now_us / 100);
+            const auto elapsed = static_cast<std::uint16_t>(now_units - m.echo);
+            if (elapsed >= m.hold && elapsed - m.hold < 30000)
+                link.add_rtt_sample(static_cast<std::uint64_t>(elapsed - m.hold) * 100);
+        }
+        link.has_stamp = true;
+        link.stamp = m.stamp;
+        link.stamp_at_us = now_us;
     }
     for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
 }
 
+// The sender's view of every slot: adopt newer epochs, remember its counts (relays, agreement).
+void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
+    PeerLink& link = links_[from];
+    for (const SlotEntry& e : in_msg_.slots) {
+        const std::size_t s = e.slot;
+        const auto count = unwrap_frame(e.count, count_of(e.slot));
+        link.table[s] = e;
+        link.table_seen[s] = true;
+        if (count) {
+            link.counts[s] = *count;
+            link.has_count[s] = true;
+        }
+        if (is_slot(from) && s == from) continue;  // a player's own entry says nothing new
+        SlotView& v = slots_[s];
+        if (newer_epoch(e.epoch, v.epoch)) adopt_slot(e.slot, e, now_us);
+        if (phase_ == SessionPhase::Failed) return;
+    }
+    if (config_.role == Role::Spectator) return;
+    // What the sender holds of our stream (a spectator or joiner reports it here).
+    const PlayerId me = config_.local_player;
+    if (link.has_count[me] && link.counts[me] > link.remote_ack && link.counts[me] <= count_of(me)) {
+        link.remote_ack = link.counts[me];
+        refresh_resend_floor();
+    }
+}
+
+void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
+    SlotView& v = slots_[slot];
+    const SlotState before = v.state;
+    v.epoch = e.epoch;
+    v.state = e.state;
+    v.authoring = false;
+    v.neutral_reported = false;
+    v.handed_off_by_me = false;
+    if (slot == config_.local_player && config_.role != Role::Spectator && e.state != SlotState::Running) {
+        emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
+        fail("dropped from the match by the other peers", now_us);
+        return;
+    }
+    PeerLink& link = links_[slot];
+    if (e.state == SlotState::Running && before != SlotState::Running) {
+        // Someone handed the slot to a (re)joining process: listen to it from now on, and forget
+        // what its predecessor told us.
+        link.reset_lifecycle(static_cast<std::size_t>(config_.players));
+        link.clear_error();
+        detector_->reset_peer(slot);
+        link.heard = true;
+        link.last_heard_us = now_us;
+        link.interrupted = false;
+        emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
+    } else if (e.state != SlotState::Running && before == SlotState::Running) {
+        emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, "learned from a peer");
+        detector_->peer_failed(slot);
+        link.interrupted = false;
+    }
+    refresh_resend_floor();
+}
+
+// Inputs of other slots' streams, forwarded by the sender. Accepted only for streams whose
+// player is not the sender's connection itself (that is the base message's job) and, for a
+// running slot, never from anyone while the slot's own process sends them: only gaps are filled,
+// and a forwarded input that contradicts a confirmed one is a protocol violation like any other.
+void Session::apply_blocks(PlayerId from) {
+    const std::size_t n = config_.input_size;
+    for (const StreamBlock& b : in_msg_.blocks) {
+        if (is_slot(from) && b.slot == from) continue;
+        if (config_.role != Role::Spectator && b.slot == config_.local_player) continue;
+        const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
+        if (!first) continue;
+        for (std::uint32_t k = 0; k < b.frame_count; ++k) {
+            const auto r = sync_->add_remote_input(b.slot, *first + k, std::span(b.inputs).subspan(k * n, n), b.absent);
+            if (r == InputQueue::Add::Conflict) return malformed(from, "input message: relayed input contradicts a confirmed one");
+            if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
+        }
+        SlotView& v = slots_[b.slot];
+        if (b.absent && !v.neutral_reported && v.state != SlotState::Running) {
+            v.neutral_reported = true;
+            // The first absent input of this epoch tells the agreed frame.
+            std::uint32_t f = count_of(b.slot);
+            const InputQueue& q = sync_->queue(b.slot);
+            while (f > q.floor() && q.confirmed_absent(f - 1)) --f;
+            emit(SessionEvent::Kind::NeutralFrom, b.slot, f, last_now_us_);
+        }
+    }
+}
+
 void Session::refresh_resend_floor() {
+    if (config_.role == Role::Spectator) return;
     std::uint32_t floor = std::numeric_limits<std::uint32_t>::max();
     for (std::size_t p = 0; p < links_.size(); ++p)
-        if (p != config_.local_player && !links_[p].error()) floor = std::min(floor, links_[p].remote_ack);
-    if (floor == std::numeric_limits<std::uint32_t>::max()) floor = sync_->queue(config_.local_player).confirmed_count();
-    sync_->set_local_resend_floor(floor);
+        if (live_peer(static_cast<PlayerId>(p))) floor = std::min(floor, links_[p].remote_ack);
+    const InputQueue& local = sync_->queue(config_.local_player);
+    if (floor == std::numeric_limits<std::uint32_t>::max()) floor = local.confirmed_count();
+    sync_->set_keep_from(config_.local_player, floor);
+}
+
+// Other streams are kept back to what a peer we may relay to still lacks, and while we serve a
+// snapshot, from its frame. Never more than half the ring, so a peer that stops acknowledging
+// cannot stall us: it is then beyond relaying and must fetch a snapshot.
+void Session::refresh_keep_floors(std::uint64_t now_us) {
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        if (config_.role != Role::Spectator && slot == config_.local_player) continue;
+        std::uint32_t keep = std::numeric_limits<std::uint32_t>::max();
+        for (std::size_t p = 0; p < links_.size(); ++p) {
+            const auto pid = static_cast<PlayerId>(p);
+            PeerLink& l = links_[p];
+            if (!live_peer(pid)) continue;
+            if (l.pin_from && now_us > l.pin_until_us) l.pin_from.reset();
+            if (l.pin_from) keep = std::min(keep, *l.pin_from);
+            if (pid != slot && l.has_count[slot]) keep = std::min(keep, l.counts[slot]);
+        }
+        const std::uint32_t confirmed = sync_->confirmed_frame();
+        const std::uint32_t lowest = confirmed > config_.input_capacity / 2 ? confirmed - config_.input_capacity / 2 : 0;
+        sync_->set_keep_from(slot, std::max(keep, lowest));
+    }
 }
 
 void Session::confirm_frames() {
@@ -206,18 +700,23 @@ void Session::confirm_frames() {
     }
 }
 
-// Local advantage against each peer: (its frame now, estimated) - our frame. Its frame now is
-// what it last reported plus the time since then and half a round trip, in frames.
+// A peer's frame now: what it last reported plus the time since then and half a round trip.
+std::int64_t Session::estimated_frame(const PeerLink& link, std::uint64_t now_us) const {
+    const std::uint64_t elapsed =
+        (now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0) + link.rtt_us() / 2;
+    return std::int64_t{link.remote_frame} +
+           static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
+}
+
+// Local advantage against each peer: (its frame now, estimated) - our frame.
 void Session::sample_time_sync(std::uint64_t now_us) {
+    const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
     for (std::size_t p = 0; p < links_.size(); ++p) {
         PeerLink& link = links_[p];
-        if (p == config_.local_player || link.error() || !link.has_remote_frame) continue;
-        const std::uint64_t elapsed = (now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0) +
-                                      link.rtt_us() / 2;
-        const std::int64_t estimate =
-            std::int64_t{link.remote_frame} + static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
-        const std::int64_t adv = estimate - std::int64_t{sync_->frame()};
-        local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -100000, 100000));
+        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame)
+            continue;
+        const std::int64_t adv = estimated_frame(link, now_us) - std::int64_t{sync_->frame()};
+        local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -bound, bound));
         link.time_sync().add_sample(local_advantage_[p], link.remote_advantage);
         stats_.peers[p].frame_advantage_x100 = link.time_sync().local_advantage_x100();
         stats_.peers[p].rtt_us = link.rtt_us();
@@ -227,27 +726,137 @@ void Session::sample_time_sync(std::uint64_t now_us) {
 std::int32_t Session::frames_ahead_x100() const {
     std::int32_t ahead = 0;
     for (std::size_t p = 0; p < links_.size(); ++p)
-        if (p != config_.local_player && !links_[p].error())
+        if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
             ahead = std::max(ahead, links_[p].time_sync().frames_ahead_x100());
     return ahead;
+}
+
+std::int32_t Session::behind(std::uint64_t now_us) const {
+    std::int64_t most = 0;
+    for (std::size_t p = 0; p < links_.size(); ++p) {
+        const PeerLink& link = links_[p];
+        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame) continue;
+        most = std::max(most, estimated_frame(link, now_us) - std::int64_t{sync_->frame()});
+    }
+    return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
+}
+
+std::uint32_t Session::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
+
+void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
+    SlotView& v = slots_[slot];
+    if (v.state != SlotState::Running) return;
+    v.state = SlotState::Disconnected;
+    v.epoch = static_cast<std::uint8_t>(v.epoch + 1);
+    v.authoring = false;
+    v.neutral_reported = false;
+    v.handed_off_by_me = false;
+    links_[slot].interrupted = false;
+    detector_->peer_failed(slot);
+    emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
+    refresh_resend_floor();
+}
+
+void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
+    if (!is_slot(slot) || slot == config_.local_player) throw std::invalid_argument("disconnect_player: not a remote slot");
+    drop_slot(slot, now_us, "kicked");
+}
+
+void Session::check_silence(std::uint64_t now_us) {
+    for (std::size_t p = 0; p < links_.size(); ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (!live_peer(pid)) continue;
+        PeerLink& l = links_[p];
+        if (!l.heard) continue;
+        const std::uint64_t silent = now_us > l.last_heard_us ? now_us - l.last_heard_us : 0;
+        if (!l.interrupted && silent >= config_.interrupt_us) {
+            l.interrupted = true;
+            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silent / 1000) + " ms silent");
+        }
+        if (config_.disconnect_us != 0 && silent >= config_.disconnect_us) {
+            if (is_slot(pid)) {
+                drop_slot(pid, now_us, "timed out");
+            } else {
+                l.welcomed = false;  // a spectator that went away: stop serving it
+                emit(SessionEvent::Kind::Disconnected, pid, frame(), now_us, "spectator timed out");
+            }
+        }
+    }
+}
+
+// The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot
+// just dropped it first waits until every running peer has reported the drop with what it holds
+// of the slot's stream, and holds at least as much itself (peers relay what it lacks): then the
+// neutral inputs start right after the last real input anyone received, and nobody has confirmed
+// anything else.
+void Session::author_absent_streams(std::uint64_t now_us) {
+    const auto own = owner();
+    if (!own || *own != config_.local_player || config_.role == Role::Spectator) return;
+    const std::uint32_t target = local_target();
+    static const std::vector<std::uint8_t> neutral_storage(kMaxInputSize, 0);
+    const std::span<const std::uint8_t> neutral(neutral_storage.data(), config_.input_size);
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        SlotView& v = slots_[static_cast<std::size_t>(s)];
+        if (v.state == SlotState::Running) continue;
+        if (!v.authoring) {
+            bool ready = true;
+            for (std::size_t p = 0; p < links_.size() && ready; ++p) {
+                const auto pid = static_cast<PlayerId>(p);
+                if (!live_peer(pid) || !is_slot(pid)) continue;
+                const PeerLink& l = links_[p];
+                ready = l.table_seen[slot] && l.table[slot].epoch == v.epoch && l.table[slot].state == v.state &&
+                        l.has_count[slot] && l.counts[slot] <= count_of(slot);
+            }
+            if (!ready) continue;
+            v.authoring = true;
+            if (!v.neutral_reported) {
+                v.neutral_reported = true;
+                emit(SessionEvent::Kind::NeutralFrom, slot, count_of(slot), now_us, "this peer writes the neutral input");
+            }
+        }
+        while (count_of(slot) <= target) {
+            if (sync_->add_remote_input(slot, count_of(slot), neutral, true) != InputQueue::Add::Stored) break;
+        }
+    }
 }
 
 AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     if (local_input.size() != config_.input_size)
         throw std::invalid_argument("advance: local input must be input_size bytes");
+    last_now_us_ = std::max(last_now_us_, now_us);
     AdvanceResult result;
+    result.frame = sync_->frame();
+    if (phase_ != SessionPhase::Running) return result;
     ++stats_.ticks;
+    check_silence(now_us);
+    if (phase_ != SessionPhase::Running) return result;
+    consider_recovery(now_us);
+    author_absent_streams(now_us);
     const std::uint64_t resim_before = stats_.resim_ns;
     result.rollback_depth = sync_->rollback_if_needed();
     result.resim_ns = stats_.resim_ns - resim_before;
     confirm_frames();
     sample_time_sync(now_us);
+    refresh_keep_floors(now_us);
+    const bool spectator = config_.role == Role::Spectator;
     // The local input goes to frame() + delay whether or not this tick can step: in lockstep
     // both sides wait for each other's input of the same frame, so it must be sent while
-    // waiting. While stalled that frame already has its input and later ones are not used.
+    // waiting. While stalled that frame already has its input and later ones are not used. A
+    // joiner still catching up sends one input per tick for the frames the match is at.
     bool input_taken = false;
-    if (!sync_->local_queue_full(input_delay_)) input_taken = sync_->add_local_input(local_input, input_delay_);
-    if (sync_->must_wait(input_delay_)) {
+    if (!spectator) {
+        const std::uint32_t count = count_of(config_.local_player);
+        if (joining_ && count <= local_target()) joining_ = false;
+        const std::uint32_t min_frame = joining_ ? count : 0;
+        const std::uint32_t target = std::max(local_target(), min_frame);
+        const InputQueue& local = sync_->queue(config_.local_player);
+        if (std::uint64_t{target} < std::uint64_t{local.floor()} + local.capacity())
+            input_taken = sync_->add_local_input(local_input, input_delay_, min_frame);
+    }
+    const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
+                                : sync_->must_wait(input_delay_);
+    if (wait) {
         ++stats_.stall_ticks;
         if (!stalled_since_) stalled_since_ = now_us;
         result.blocking_player = sync_->blocking_player();
@@ -255,7 +864,7 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
         if (stalled_since_) {
             stats_.stall_time_us += now_us >= *stalled_since_ ? now_us - *stalled_since_ : 0;
             stalled_since_.reset();
-        } else if (!input_taken) {
+        } else if (!input_taken && !spectator && !joining_) {
             ++stats_.dropped_local_inputs;  // the delay just shrank
         }
         const std::uint64_t forward_before = stats_.forward_ns;
@@ -267,19 +876,39 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
     result.frame = sync_->frame();
     // Time sync: at most one recommendation per window, from fresh samples only.
     if (result.frame >= next_time_sync_frame_) {
-        int wait = 0;
+        int wait_frames = 0;
         for (std::size_t p = 0; p < links_.size(); ++p)
-            if (p != config_.local_player && !links_[p].error())
-                wait = std::max(wait, links_[p].time_sync().recommended_wait(config_.time_sync_min_frames));
-        if (wait > 0) {
-            result.wait_frames = wait;
+            if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
+                wait_frames = std::max(wait_frames, links_[p].time_sync().recommended_wait(config_.time_sync_min_frames));
+        wait_frames = std::min(wait_frames, input_delay_ + config_.prediction_window + 2);
+        if (wait_frames > 0) {
+            result.wait_frames = wait_frames;
             ++stats_.time_sync_waits;
-            stats_.time_sync_wait_frames += static_cast<std::uint64_t>(wait);
+            stats_.time_sync_wait_frames += static_cast<std::uint64_t>(wait_frames);
             for (auto& link : links_) link.time_sync().clear();
             next_time_sync_frame_ = result.frame + static_cast<std::uint32_t>(config_.time_sync_window);
         }
     }
+    // The same advice as a gentle slowdown: 2 % per frame ahead, at most 5 %.
+    const std::int32_t ahead = frames_ahead_x100();
+    if (ahead > 50) result.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(std::int64_t{ahead} * 200, 50000));
     return result;
+}
+
+int Session::catch_up(std::uint64_t now_us, int max_frames) {
+    if (phase_ != SessionPhase::Running) return 0;
+    int stepped = 0;
+    const bool spectator = config_.role == Role::Spectator;
+    while (stepped < max_frames && behind(now_us) > 1) {
+        sync_->rollback_if_needed();
+        confirm_frames();
+        if (spectator ? sync_->frame() >= sync_->inputs_complete() : sync_->must_wait(input_delay_)) break;
+        if (!spectator && sync_->frame() >= count_of(config_.local_player)) break;  // our own input is due first
+        sync_->step_forward();
+        confirm_frames();
+        ++stepped;
+    }
+    return stepped;
 }
 
 std::uint32_t Session::checkpoint() const {
@@ -287,82 +916,557 @@ std::uint32_t Session::checkpoint() const {
     return newest - newest % static_cast<std::uint32_t>(config_.checksum_interval);
 }
 
+void Session::poll_handshake(std::uint64_t now_us) {
+    maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
+    const bool newcomer = config_.role != Role::Player;
+    const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
+    // Hellos: a player until frame 0; a newcomer until every running slot has welcomed it.
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (pid == config_.local_player || !slot_running(pid)) continue;
+        PeerLink& l = links_[pid];
+        const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
+                                   : phase_ == SessionPhase::Synchronizing;
+        if (!want) continue;
+        if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
+        if (l.hello_sent && now_us < l.last_hello_us + config_.hello_resend_us) continue;
+        l.hello_sent = true;
+        l.last_hello_us = now_us;
+        HelloMessage h;
+        h.match_id = config_.match_id;
+        h.scene_checksum = scene_checksum_;
+        h.role = config_.role;
+        h.stamp_us = now_us;
+        std::vector<std::uint8_t> b;
+        encode(h, b);
+        send_control(pid, std::move(b));
+    }
+    // Asking for a snapshot: a newcomer once some running peer has welcomed it enough times (and
+    // the others had a moment to answer), a desynced peer from the majority peer it picked.
+    const bool recovering = phase_ == SessionPhase::Running && recover_from_.has_value();
+    if (!(newcomer && syncing) && !recovering) return;
+    if (incoming_) return;
+    if (offer_requested_ && now_us < last_offer_request_us_ + 2 * config_.transfer_resend_us) return;
+    std::vector<PlayerId> ask;
+    if (recovering) {
+        ask.push_back(*recover_from_);
+    } else {
+        bool ready = false;
+        for (int p = 0; p < config_.players; ++p) {
+            const PeerLink& l = links_[static_cast<std::size_t>(p)];
+            if (l.welcomed && l.has_remote_frame && l.roundtrips >= config_.sync_roundtrips) ready = true;
+        }
+        if (!ready || now_us < first_welcome_us_ + 3 * config_.hello_resend_us) return;
+        for (int p = 0; p < config_.players; ++p) {
+            const auto pid = static_cast<PlayerId>(p);
+            const PeerLink& l = links_[pid];
+            if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
+            ask.push_back(pid);
+            if (config_.role == Role::Spectator) break;  // one host is enough
+        }
+    }
+    offer_requested_ = true;
+    last_offer_request_us_ = now_us;
+    for (PlayerId pid : ask) {
+        SnapshotRequestMessage r;
+        r.reason = recovering ? TransferReason::Recover
+                              : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join);
+        std::vector<std::uint8_t> b;
+        encode(r, b);
+        send_control(pid, std::move(b));
+    }
+}
+
+void Session::poll_transfer(std::uint64_t now_us) {
+    if (!incoming_) return;
+    std::vector<std::uint32_t> due;
+    incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
+    for (std::uint32_t c : due) {
+        SnapshotRequestMessage r;
+        r.reason = incoming_->offer().reason;
+        r.transfer_id = incoming_->offer().transfer_id;
+        r.chunk = c;
+        std::vector<std::uint8_t> b;
+        encode(r, b);
+        send_control(incoming_from_, std::move(b));
+    }
+    // A provider that went silent: start over with whoever answers.
+    if (now_us > incoming_->started_us + 20'000'000) {
+        emit(SessionEvent::Kind::SnapshotRejected, incoming_from_, incoming_->offer().frame, now_us,
+             "transfer timed out; asking again");
+        incoming_.reset();
+        offer_requested_ = false;
+    }
+}
+
+void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
+    if (m.transfer_id != 0) {
+        for (const OutgoingTransfer& t : outgoing_) {
+            if (t.id != m.transfer_id || t.peer != from) continue;
+            const std::size_t begin = std::size_t{m.chunk} * kSnapshotChunkBytes;
+            if (begin >= t.blob.size()) return malformed(from, "snapshot request: chunk out of range");
+            if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
+            ++replies_this_poll_[from];
+            SnapshotChunkMessage c;
+            c.transfer_id = t.id;
+            c.chunk = m.chunk;
+            const std::size_t end = std::min(t.blob.size(), begin + kSnapshotChunkBytes);
+            c.bytes.assign(t.blob.begin() + static_cast<std::ptrdiff_t>(begin), t.blob.begin() + static_cast<std::ptrdiff_t>(end));
+            std::vector<std::uint8_t> b;
+            encode(c, b);
+            send_control(from, std::move(b));
+            return;
+        }
+        ++stats_.peers[from].ignored_packets;  // an old transfer, or not ours
+        return;
+    }
+    if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
+    // The same peer asking again while its offer is young: send the same offer.
+    for (const OutgoingTransfer& t : outgoing_)
+        if (t.peer == from && t.offer.reason == m.reason && m.reason != TransferReason::Recover &&
+            now_us < t.created_us + 2'000'000) {
+            std::vector<std::uint8_t> b;
+            encode(t.offer, b);
+            send_control(from, std::move(b));
+            return;
+        }
+    const std::uint32_t c = sync_->confirmed_frame();
+    std::uint32_t handoff = 0;
+    switch (m.reason) {
+        case TransferReason::Join: {
+            // Only the owner hands a slot over, and only once it writes the slot's neutral input
+            // (the drop is agreed): it picks the handoff frame, far enough ahead that the
+            // joiner's first input reaches everyone before they need it.
+            if (!is_slot(from) || slot_running(from) || !slots_[from].authoring) return;
+            const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
+            std::uint64_t rtt = links_[from].rtt_us();
+            for (std::size_t p = 0; p < links_.size(); ++p)
+                if (live_peer(static_cast<PlayerId>(p))) rtt = std::max(rtt, links_[p].rtt_us());
+            if (rtt == 0) rtt = 100000;
+            handoff = std::max(count_of(from),
+                               local_target() + static_cast<std::uint32_t>(rtt / tick_us) + 2);
+            static const std::vector<std::uint8_t> zeros(kMaxInputSize, 0);
+            while (count_of(from) < handoff)
+                if (sync_->add_remote_input(from, count_of(from), std::span(zeros.data(), config_.input_size), true) !=
+                    InputQueue::Add::Stored)
+                    return;  // queue full: not now
+            SlotView& v = slots_[from];
+            v.state = SlotState::Running;
+            v.epoch = static_cast<std::uint8_t>(v.epoch + 1);
+            v.authoring = false;
+            v.neutral_reported = false;
+            v.handoff = handoff;
+            v.handed_off_by_me = true;
+            PeerLink& l = links_[from];
+            l.reset_lifecycle(static_cast<std::size_t>(config_.players));
+            l.welcomed = true;
+            l.welcomed_epoch = v.epoch;
+            l.heard = true;
+            l.last_heard_us = now_us;
+            detector_->reset_peer(from);
+            emit(SessionEvent::Kind::Joined, from, handoff, now_us, "snapshot of frame " + std::to_string(c));
+            break;
+        }
+        case TransferReason::Spectate:
+            if (is_slot(from)) return;
+            links_[from].reset_lifecycle(static_cast<std::size_t>(config_.players));
+            links_[from].heard = true;
+            links_[from].last_heard_us = now_us;
+            emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
+            break;
+        case TransferReason::Recover:
+            if (!is_slot(from) || !slot_running(from)) return;
+            break;
+    }
+    TransferContents t;
+    t.frame = c;
+    const auto state = sync_->saved_state(c);
+    if (!state) return;
+    t.state.assign(state->begin(), state->end());
+    t.streams.resize(static_cast<std::size_t>(config_.players));
+    const std::size_t n = config_.input_size;
+    for (int s = 0; s < config_.players; ++s) {
+        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
+        StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
+        const std::uint32_t from_frame = std::max(c, q.floor());
+        if (from_frame != c) return;  // cannot happen: queues hold everything from the confirmed frame on
+        st.count = q.confirmed_count() > c ? q.confirmed_count() - c : 0;
+        st.inputs.resize(std::size_t{st.count} * n);
+        st.absent.resize(st.count);
+        for (std::uint32_t i = 0; i < st.count; ++i) {
+            const auto in = q.confirmed(c + i);
+            std::copy(in.begin(), in.end(), st.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{i} * n));
+            st.absent[i] = q.confirmed_absent(c + i) ? 1 : 0;
+        }
+    }
+    OutgoingTransfer out;
+    out.id = next_transfer_id_++;
+    if (next_transfer_id_ == 0) next_transfer_id_ = 1;
+    out.peer = from;
+    out.blob = pack_transfer(t, n);
+    out.created_us = now_us;
+    out.offer.reason = m.reason;
+    out.offer.transfer_id = out.id;
+    out.offer.frame = c;
+    out.offer.size = static_cast<std::uint32_t>(out.blob.size());
+    out.offer.hash = transfer_hash(out.blob);
+    out.offer.handoff_frame = handoff;
+    for (int s = 0; s < config_.players; ++s)
+        out.offer.slots.push_back({static_cast<std::uint8_t>(s), slots_[static_cast<std::size_t>(s)].state,
+                                   slots_[static_cast<std::size_t>(s)].epoch, 0});
+    // Keep what the newcomer will ask us for next: every stream from the snapshot on.
+    PeerLink& l = links_[from];
+    l.pin_from = c;
+    l.pin_until_us = now_us + 30'000'000;
+    if (config_.role != Role::Spectator && m.reason != TransferReason::Recover)
+        l.remote_ack = count_of(config_.local_player);
+    std::vector<std::uint8_t> b;
+    encode(out.offer, b);
+    send_control(from, std::move(b));
+    // Old transfers go: bounded memory whatever newcomers ask.
+    std::erase_if(outgoing_, [&](const OutgoingTransfer& o) { return o.peer == from || now_us > o.created_us + kTransferLifetimeUs; });
+    if (outgoing_.size() >= kMaxOutgoingTransfers) outgoing_.erase(outgoing_.begin());
+    outgoing_.push_back(std::move(out));
+    refresh_resend_floor();
+}
+
+void Session::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
+    const bool newcomer_waiting = config_.role != Role::Player &&
+                                  (phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring);
+    const bool recovering = phase_ == SessionPhase::Running && recover_from_ == from && m.reason == TransferReason::Recover;
+    if (!newcomer_waiting && !recovering) return void(++stats_.peers[from].ignored_packets);
+    if (incoming_) return;  // one transfer at a time; a repeat of the current offer changes nothing
+    if (m.size > config_.max_snapshot_bytes) {
+        fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
+                 std::to_string(config_.max_snapshot_bytes),
+             now_us);
+        return;
+    }
+    if (m.slots.size() != static_cast<std::size_t>(config_.players)) return malformed(from, "snapshot offer: slot table size");
+    incoming_ = std::make_unique<TransferReceiver>(m);
+    incoming_->started_us = now_us;
+    incoming_from_ = from;
+    if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
+}
+
+void Session::handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us) {
+    if (!incoming_ || from != incoming_from_ || !incoming_->add(m)) return void(++stats_.peers[from].ignored_packets);
+    if (incoming_->complete()) finish_transfer(now_us);
+}
+
+void Session::finish_transfer(std::uint64_t now_us) {
+    const SnapshotOfferMessage offer = incoming_->offer();
+    const PlayerId from = incoming_from_;
+    const auto reject = [&](const std::string& why) {
+        emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
+        incoming_.reset();
+        offer_requested_ = false;
+    };
+    const auto blob = incoming_->verified();
+    if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
+    TransferContents t;
+    if (std::string e = unpack_transfer(*blob, sim_.state_size(), config_.players, config_.input_size,
+                                        config_.input_capacity / 2, t);
+        !e.empty())
+        return reject(e);
+    if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
+    // Inputs we hold beyond what the snapshot brings stay valid (they are confirmed): keep them.
+    struct Held {
+        std::uint32_t first = 0;
+        std::vector<std::uint8_t> inputs, absent;
+    };
+    const std::size_t n = config_.input_size;
+    std::vector<Held> held(static_cast<std::size_t>(config_.players));
+    for (int s = 0; s < config_.players; ++s) {
+        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
+        Held& h = held[static_cast<std::size_t>(s)];
+        h.first = std::max(q.floor(), t.frame);
+        for (std::uint32_t f = h.first; f < q.confirmed_count(); ++f) {
+            const auto in = q.confirmed(f);
+            h.inputs.insert(h.inputs.end(), in.begin(), in.end());
+            h.absent.push_back(q.confirmed_absent(f) ? 1 : 0);
+        }
+    }
+    if (std::string e = sync_->restart_at(t.frame, t.state); !e.empty()) return reject("snapshot transfer: " + e);
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        const StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
+        for (std::uint32_t i = 0; i < st.count; ++i)
+            if (sync_->add_remote_input(slot, t.frame + i, std::span(st.inputs).subspan(std::size_t{i} * n, n),
+                                        st.absent[i] != 0) != InputQueue::Add::Stored)
+                break;
+        const Held& h = held[static_cast<std::size_t>(s)];
+        for (std::size_t i = 0; i < h.absent.size(); ++i) {
+            const std::uint32_t f = h.first + static_cast<std::uint32_t>(i);
+            if (f < count_of(slot)) continue;
+            if (sync_->add_remote_input(slot, f, std::span(h.inputs).subspan(i * n, n), h.absent[i] != 0) !=
+                InputQueue::Add::Stored)
+                break;
+        }
+    }
+    detector_->restart_at(t.frame, sim_.checksum(t.state));
+    incoming_.reset();
+    offer_requested_ = false;
+    next_time_sync_frame_ = t.frame;
+    for (auto& link : links_) link.time_sync().clear();
+    if (offer.reason == TransferReason::Recover) {
+        ++recoveries_;
+        recover_from_.reset();
+        mismatch_frame_.reset();
+        emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us,
+             "reloaded peer " + std::to_string(from) + "'s confirmed frame " + std::to_string(t.frame));
+        refresh_resend_floor();
+        return;
+    }
+    for (const SlotEntry& e : offer.slots) {
+        SlotView& v = slots_[e.slot];
+        v.state = e.state;
+        v.epoch = e.epoch;
+        v.authoring = false;
+        v.neutral_reported = e.state != SlotState::Running;
+    }
+    for (auto& link : links_) {
+        link.heard = link.welcomed;
+        link.last_heard_us = now_us;
+        link.interrupted = false;
+    }
+    if (config_.role == Role::Joiner) {
+        joining_ = true;
+        links_[from].remote_ack = 0;
+    }
+    phase_ = SessionPhase::Running;
+    started_us_ = now_us;
+    emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
+         config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating");
+    emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
+    refresh_resend_floor();
+}
+
+// After narrowing (or a few seconds), decide who is odd: the peers whose checksum of the first
+// mismatching frame is in the minority reload the majority's state; a tie between two groups
+// (always so with two players) keeps the group of the lowest (or highest) slot.
+void Session::consider_recovery(std::uint64_t now_us) {
+    if (config_.max_recoveries == 0 || !mismatch_frame_ || recover_from_ || config_.role == Role::Spectator) return;
+    for (std::size_t p = 0; p < links_.size(); ++p)
+        if (detector_->investigating(static_cast<PlayerId>(p)) && now_us < mismatch_since_us_ + 3'000'000) return;
+    const std::uint32_t f = *mismatch_frame_;
+    const auto mine = detector_->local_checksum(f);
+    if (!mine) {
+        mismatch_frame_.reset();
+        return;
+    }
+    // value (low 32 bits) -> slots holding it
+    std::map<std::uint32_t, std::vector<PlayerId>> groups;
+    groups[static_cast<std::uint32_t>(*mine)].push_back(config_.local_player);
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (!live_peer(pid)) continue;
+        const auto theirs = detector_->remote_checksum(pid, f);
+        if (!theirs) {
+            if (now_us < mismatch_since_us_ + 5'000'000) return;  // wait for everyone's word
+            continue;
+        }
+        groups[static_cast<std::uint32_t>(*theirs)].push_back(pid);
+    }
+    const std::vector<PlayerId>* best = nullptr;
+    for (auto& [value, slots] : groups) {
+        std::sort(slots.begin(), slots.end());
+        if (!best || slots.size() > best->size()) {
+            best = &slots;
+        } else if (slots.size() == best->size()) {
+            const bool lower = slots.front() < best->front();
+            if (lower == (config_.two_player_keep == DesyncKeep::LowestSlot)) best = &slots;
+        }
+    }
+    if (std::find(best->begin(), best->end(), config_.local_player) != best->end()) {
+        mismatch_frame_.reset();  // we are in the majority: the odd ones reload
+        return;
+    }
+    if (recoveries_ >= config_.max_recoveries) {
+        fail("desync at frame " + std::to_string(f) + " and the recovery limit (" + std::to_string(config_.max_recoveries) +
+                 ") is reached",
+             now_us);
+        return;
+    }
+    recover_from_ = best->front();
+    offer_requested_ = false;
+    emit(SessionEvent::Kind::DesyncDetected, *recover_from_, f, now_us,
+         "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
+}
+
+bool Session::extension_needed(PlayerId to) const {
+    if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
+    if (any_slot_not_running()) return true;
+    for (const SlotView& v : slots_)
+        if (v.handed_off_by_me) return true;
+    // Three or more players: counts now and then, so a peer stuck on a gap gets relays.
+    return config_.players >= 3 && links_[to].messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
+}
+
+// The slot table with our counts, and blocks of streams the receiver lacks and will not get
+// from anyone else soon: non-running slots (the owner's neutral inputs, or a dropped player's
+// last inputs some peers missed), a joiner's stream up to its handoff, everything for a
+// spectator, and any stream on which it lags by more than relay_lag.
+void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
+    m.has_extension = true;
+    m.slots.clear();
+    m.blocks.clear();
+    for (int s = 0; s < config_.players; ++s) {
+        const SlotView& v = slots_[static_cast<std::size_t>(s)];
+        m.slots.push_back({static_cast<std::uint8_t>(s), v.state, v.epoch,
+                           static_cast<std::uint16_t>(count_of(static_cast<PlayerId>(s)))});
+    }
+    const std::size_t table_bytes = 2 + m.slots.size() * 5;
+    if (budget <= table_bytes) return;
+    budget -= table_bytes;
+    if (config_.role == Role::Spectator) return;  // spectators relay nothing
+    const PeerLink& link = links_[to];
+    const std::size_t n = config_.input_size;
+    const std::uint8_t max_frames = max_frames_per_message(n);
+    for (int s = 0; s < config_.players && m.blocks.size() < static_cast<std::size_t>(kMaxStreamBlocks); ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        if (slot == config_.local_player || (is_slot(to) && slot == to) || !link.has_count[slot]) continue;
+        const InputQueue& q = sync_->queue(slot);
+        const std::uint32_t theirs = link.counts[slot];
+        const std::uint32_t mine = q.confirmed_count();
+        if (mine <= theirs) continue;
+        const SlotView& v = slots_[slot];
+        const bool relay = !is_slot(to) || v.state != SlotState::Running ||
+                           (v.handed_off_by_me && theirs < v.handoff) ||
+                           mine > theirs + static_cast<std::uint32_t>(config_.relay_lag);
+        if (!relay) continue;
+        const std::uint32_t from = std::max(theirs, q.floor());
+        if (from >= mine) continue;
+        StreamBlock b;
+        b.slot = static_cast<std::uint8_t>(slot);
+        b.absent = q.confirmed_absent(from);
+        b.first_frame = static_cast<std::uint16_t>(from);
+        std::uint32_t count = 0;
+        while (from + count < mine && count < max_frames && q.confirmed_absent(from + count) == b.absent) ++count;
+        // Shrink until it fits what is left of the datagram.
+        for (;;) {
+            b.frame_count = static_cast<std::uint8_t>(count);
+            b.inputs.resize(std::size_t{count} * n);
+            for (std::uint32_t k = 0; k < count; ++k) {
+                const auto in = q.confirmed(from + k);
+                std::copy(in.begin(), in.end(), b.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{k} * n));
+            }
+            const std::size_t bytes = encoded_block_bytes(b, n);
+            if (bytes <= budget) {
+                budget -= bytes;
+                m.blocks.push_back(std::move(b));
+                break;
+            }
+            if (count <= 1) return;
+            count /= 2;
+        }
+    }
+}
+
 void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+    last_now_us_ = std::max(last_now_us_, now_us);
     const auto account = [&](const Datagram& d) {
         ++stats_.packets_sent;
         stats_.bytes_sent += d.bytes.size();
         ++stats_.peers[d.peer].packets_sent;
         stats_.peers[d.peer].bytes_sent += d.bytes.size();
     };
+    if (phase_ != SessionPhase::Failed) {
+        poll_handshake(now_us);
+        poll_transfer(now_us);
+    }
     for (Datagram& d : pending_out_) {
         account(d);
         out.push_back(std::move(d));
     }
     pending_out_.clear();
     std::fill(replies_this_poll_.begin(), replies_this_poll_.end(), 0);
+    if (phase_ != SessionPhase::Running) return;
 
     queries_.clear();
     detector_->collect_queries(now_us, queries_);
     for (const auto& [peer, q] : queries_) {
-        if (links_[peer].error()) continue;
-        Datagram d{peer, {}};
+        if (!live_peer(peer)) continue;
+        Datagram d{peer, {}, false};
         encode(q, d.bytes);
         account(d);
         out.push_back(std::move(d));
     }
 
-    const InputQueue& local = sync_->queue(config_.local_player);
+    const bool spectator = config_.role == Role::Spectator;
     const std::size_t n = config_.input_size;
     const std::uint32_t cp = checkpoint();
     for (std::size_t p = 0; p < links_.size(); ++p) {
+        const auto pid = static_cast<PlayerId>(p);
         PeerLink& link = links_[p];
-        if (p == config_.local_player || link.error()) continue;
+        if (!live_peer(pid)) continue;
+        if (spectator && !link.welcomed) continue;
         InputMessage& m = out_msg_;
-        m.ack = static_cast<std::uint16_t>(sync_->queue(static_cast<PlayerId>(p)).confirmed_count());
-        const std::uint32_t from = std::max(link.remote_ack, local.floor());
-        const std::uint32_t to = local.confirmed_count();
-        const std::uint32_t count = std::min<std::uint32_t>(to > from ? to - from : 0, max_frames_per_message(n));
-        m.first_frame = static_cast<std::uint16_t>(from);
-        m.frame_count = static_cast<std::uint8_t>(count);
-        m.inputs.resize(std::size_t{count} * n);
-        for (std::uint32_t k = 0; k < count; ++k) {
-            const std::uint32_t f = from + k;
-            const auto in = local.confirmed(f);
-            std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(k * n));
-            const std::size_t i = f & (config_.input_capacity - 1);
-            if (first_sent_tag_[i] != f + 1) {
-                first_sent_tag_[i] = f + 1;
-                first_sent_us_[i] = now_us;
+        m.has_extension = false;
+        m.slots.clear();
+        m.blocks.clear();
+        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(count_of(pid)) : 0;
+        std::uint32_t count = 0;
+        if (!spectator) {
+            const InputQueue& local = sync_->queue(config_.local_player);
+            const std::uint32_t from = std::max(link.remote_ack, local.floor());
+            const std::uint32_t to = local.confirmed_count();
+            count = std::min<std::uint32_t>(to > from ? to - from : 0, max_frames_per_message(n));
+            m.first_frame = static_cast<std::uint16_t>(from);
+            m.inputs.resize(std::size_t{count} * n);
+            for (std::uint32_t k = 0; k < count; ++k) {
+                const auto in = local.confirmed(from + k);
+                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(k * n));
             }
         }
+        m.frame_count = static_cast<std::uint8_t>(count);
         m.has_time_sync = link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
         m.sender_frame = static_cast<std::uint16_t>(sync_->frame());
         m.advantage = clamp_i8(local_advantage_[p]);
+        m.stamp = static_cast<std::uint16_t>(now_us / 100);
+        if (m.stamp == kNoEcho) m.stamp = 0;
+        if (link.has_stamp) {
+            m.echo = link.stamp;
+            m.hold = static_cast<std::uint16_t>(std::min<std::uint64_t>((now_us - link.stamp_at_us) / 100, kNoEcho - 1));
+        } else {
+            m.echo = kNoEcho;
+            m.hold = kNoEcho;
+        }
         // Every checkpoint confirmed since the last message (newest three at most), else the
-        // newest again until it has ridden checksum_repeats messages.
+        // newest again until it has ridden checksum_repeats messages. Players only.
         m.checksum_count = 0;
-        if (!link.any_checksum_sent || cp > link.checksum_frame_sent) {
+        if (spectator || !is_slot(pid)) {
+            // no checksums to or from spectators: they compare nothing with anyone
+        } else if (!link.any_checksum_sent || cp > link.checksum_frame_sent) {
             const std::uint32_t k = static_cast<std::uint32_t>(config_.checksum_interval);
             std::uint32_t oldest = cp;
             while (oldest >= k && cp - (oldest - k) < k * kMaxChecksumsPerMessage &&
                    (!link.any_checksum_sent || oldest - k > link.checksum_frame_sent))
                 oldest -= k;
             for (std::uint32_t f = oldest; f <= cp; f += k) {
-                m.checksum_frames[m.checksum_count] = static_cast<std::uint16_t>(f);
-                m.checksums[m.checksum_count] = *detector_->local_checksum(f);
-                ++m.checksum_count;
+                if (const auto c = detector_->local_checksum(f)) {
+                    m.checksum_frames[m.checksum_count] = static_cast<std::uint16_t>(f);
+                    m.checksums[m.checksum_count] = *c;
+                    ++m.checksum_count;
+                }
             }
             link.any_checksum_sent = true;
             link.checksum_frame_sent = cp;
             link.checksum_sends = 1;
         } else if (link.checksum_sends < config_.checksum_repeats) {
-            ++link.checksum_sends;
-            m.checksum_frames[0] = static_cast<std::uint16_t>(cp);
-            m.checksums[0] = *detector_->local_checksum(cp);
-            m.checksum_count = 1;
+            if (const auto c = detector_->local_checksum(cp)) {
+                ++link.checksum_sends;
+                m.checksum_frames[0] = static_cast<std::uint16_t>(cp);
+                m.checksums[0] = *c;
+                m.checksum_count = 1;
+            }
+        }
+        if (extension_needed(pid)) {
+            const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
+            fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0);
         }
         ++link.messages_sent;
-        Datagram d{static_cast<PlayerId>(p), {}};
+        Datagram d{pid, {}, false};
         encode(m, n, d.bytes);
         account(d);
         out.push_back(std::move(d));

@@ -31,15 +31,41 @@
 //  - Confirmed-frame checksums ride along every checksum_interval frames; a mismatch fires
 //    SessionObserver::on_desync and then a DesyncReport naming the first differing body/field.
 //  - Malformed datagrams are counted; after max_bad_packets the peer is ignored for good.
+//
+// Lifecycle (docs/sessions.md has the whole story):
+//  - Slots. N player slots are fixed at start; each is Absent, Running or Disconnected in a
+//    table every peer gossips (higher epoch wins), plus Interrupted as a local observation of
+//    silence. Every slot has one input stream; an absent or disconnected slot's stream is the
+//    flagged neutral input written by the slot's owner (the lowest running slot), so every frame
+//    still has exactly one confirmed input per slot and confirmation, checksums and replays need
+//    no special case.
+//  - Handshake (config.handshake): hellos carry protocol version, match id and scene checksum; a
+//    mismatch is refused with a reason on both sides. A few hello/welcome round trips measure the
+//    RTT before frame 0 (and set the input delay when config.auto_input_delay).
+//  - Disconnect: interrupt_us of silence raises Interrupted, disconnect_us drops the slot (as does
+//    disconnect_player). Peers that hold more of its inputs relay them to the others; the owner
+//    starts its neutral inputs once every running peer has reported the drop, at the highest
+//    count any of them held, so all agree on the frame without a vote.
+//  - Join / rejoin / spectate: the newcomer pulls a snapshot of a confirmed frame plus the inputs
+//    after it from a running peer (the owner, for a player slot: it also picks the handoff frame
+//    from which the newcomer sends its own inputs), loads it, catches up faster than real time
+//    (catch_up()), and plays. Nobody pauses.
+//  - Desync recovery (max_recoveries > 0): after narrowing, the peer whose confirmed checksum is
+//    in the minority (two players: config.two_player_keep decides) reloads the majority's
+//    snapshot the same way.
+//  - Events for every transition come out of next_event() (requests, not callbacks).
 #pragma once
 
 #include <cstdint>
+#include <deque>
+#include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
 #include "rollback/peer_link.h"
@@ -47,10 +73,14 @@
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
 #include "rollback/simulation.h"
+#include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
 #include "rollback/telemetry.h"
 
 namespace lockroll::rollback {
+
+// Two peers disagree and neither is a majority: whose state survives.
+enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
 
 struct SessionConfig {
     int players = 2;                   // 1..kMaxPlayers
@@ -70,7 +100,55 @@ struct SessionConfig {
     std::uint64_t query_resend_us = 100000;  // desync narrowing: re-ask after this long
     int max_replies_per_poll = 16;     // per peer: answers beyond this are dropped (re-asked)
     CpuClock cpu_clock;                // telemetry only; default std::chrono::steady_clock
+
+    // ---- lifecycle (docs/sessions.md) ----
+    // false: every slot not in absent_slots is running from frame 0 with no handshake (the
+    // in-process harness); true: hello/welcome and an RTT sync phase come first (real networks).
+    bool handshake = false;
+    Role role = Role::Player;          // Joiner / Spectator: start from a peer's snapshot
+    std::uint64_t match_id = 0;
+    std::uint64_t scene_checksum = 0;  // 0: the simulation's initial-state checksum
+    std::uint64_t absent_slots = 0;    // bit s: nobody plays slot s at frame 0
+    int max_spectators = 0;            // peer ids players .. players + max_spectators - 1
+    int sync_roundtrips = 5;           // hello/welcome round trips before frame 0
+    bool auto_input_delay = false;     // input delay from the sync phase's RTT
+    std::uint64_t hello_resend_us = 50000;
+    std::uint64_t interrupt_us = 750000;     // silence before a peer is reported interrupted
+    std::uint64_t disconnect_us = 5000000;   // silence before it is dropped (0: never)
+    std::uint64_t transfer_resend_us = 250000;  // snapshot offers and chunks re-asked after this
+    int transfer_window = 32;          // chunks in flight per transfer
+    std::uint32_t max_snapshot_bytes = 64u << 20;
+    int max_recoveries = 0;            // desync recoveries before giving up (0: never recover)
+    DesyncKeep two_player_keep = DesyncKeep::LowestSlot;
+    int relay_lag = 0;                 // relay a stream to a peer this far behind (0: auto)
 };
+
+// What the session tells its owner (drained with next_event()).
+struct SessionEvent {
+    enum class Kind : std::uint8_t {
+        Synchronizing,   // peer answered a hello (frame: round trips so far)
+        Synchronized,    // this session starts frame 0 (or its snapshot frame)
+        Refused,         // a handshake failed; detail says why
+        Interrupted,     // peer silent for interrupt_us
+        Resumed,         // heard again
+        Disconnected,    // slot dropped (frame: its inputs held here when dropped)
+        NeutralFrom,     // agreed: slot's input is the flagged neutral one from `frame`
+        Joined,          // slot (re)joined; frame: the first frame of its own inputs
+        SpectatorJoined,
+        SnapshotLoaded,  // this session loaded a snapshot of `frame`
+        SnapshotRejected,  // a transfer failed verification; asked again
+        DesyncDetected,  // frame: first mismatching confirmed frame with `peer`
+        DesyncRecovered, // this session reloaded the majority's state at `frame`
+        Kicked,          // the others dropped this session's slot
+        Failed,          // the session cannot go on; detail says why
+    };
+    Kind kind = Kind::Synchronizing;
+    PlayerId peer = 0;        // the slot or peer id concerned
+    std::uint32_t frame = 0;
+    std::uint64_t at_us = 0;
+    std::string detail;
+};
+const char* event_name(SessionEvent::Kind k);
 
 // Throws std::invalid_argument naming the field when a config is unusable.
 void validate(const SessionConfig& config);
@@ -78,6 +156,9 @@ void validate(const SessionConfig& config);
 struct Datagram {
     PlayerId peer = 0;
     std::vector<std::uint8_t> bytes;
+    // Control and snapshot messages: a transport with a reliable channel should use it (the
+    // session re-asks what is lost anyway, so an unreliable one works too).
+    bool reliable = false;
 };
 
 struct AdvanceResult {
@@ -88,7 +169,14 @@ struct AdvanceResult {
     int blocking_player = -1;          // when stalled: the remote player whose input is missing
     std::uint64_t resim_ns = 0;        // cpu time of the rollback, if any
     std::uint64_t forward_ns = 0;      // cpu time of the forward step, if any
+    // Time sync for real-time loops: lengthen the next tick by this many parts per million
+    // (0..50,000) so peers behind catch up without a visible skip. wait_frames is the same advice
+    // as whole ticks, for virtual-time loops.
+    int tick_stretch_ppm = 0;
 };
+
+enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
+const char* phase_name(SessionPhase p);
 
 class Session {
 public:
@@ -115,12 +203,29 @@ public:
     // Takes effect for the next local input. Growing repeats the last input into the gap;
     // shrinking drops inputs until the delay has caught up (sent inputs never change).
     void set_input_delay(int frames);
+    // Drops a slot on purpose (a kick): as if it had been silent for disconnect_us.
+    void disconnect_player(PlayerId slot, std::uint64_t now_us);
+    // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
+    // input (call after advance() while behind() > 0). Returns the frames stepped.
+    int catch_up(std::uint64_t now_us, int max_frames);
+    // Frames the most advanced running peer is estimated to be ahead of this session.
+    std::int32_t behind(std::uint64_t now_us) const;
+    // Lifecycle events in order; false when none is left.
+    bool next_event(SessionEvent& out);
     // Fault injection: every time frame `frame` is produced by a step on this client, flip
     // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
     // already simulated, or the simulation has no such body/field).
     std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
 
     const SessionConfig& config() const { return config_; }
+    SessionPhase phase() const { return phase_; }
+    bool running() const { return phase_ == SessionPhase::Running; }
+    const std::string& failure() const { return failure_; }
+    SlotState slot_state(PlayerId slot) const { return slots_[slot].state; }
+    // Silent longer than interrupt_us (and not dropped yet).
+    bool interrupted(PlayerId peer) const { return links_[peer].interrupted; }
+    int recoveries() const { return recoveries_; }
+    std::uint64_t foreign_packets() const { return foreign_packets_; }  // other match or version
     std::uint32_t frame() const { return sync_->frame(); }
     std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
     int input_delay() const { return input_delay_; }
@@ -137,6 +242,8 @@ public:
     // advance().
     const SessionStats& stats() const { return stats_; }
     bool peer_error(PlayerId p) const { return links_[p].error(); }
+    // Smoothed round trip to a peer (µs; 0 until measured).
+    std::uint64_t rtt_us(PlayerId p) const { return links_[p].rtt_us(); }
     // The first of our input frames peer p has not acknowledged: p holds our inputs of every
     // frame before it (so once it is > n and p has everyone else's, p can confirm frame n + 1).
     std::uint32_t peer_ack(PlayerId p) const { return links_[p].remote_ack; }
@@ -145,12 +252,62 @@ public:
     std::int32_t frames_ahead_x100() const;
 
 private:
+    class Tap;  // sees the detector's and sync's callbacks first, then forwards them
+    struct SlotView {
+        SlotState state = SlotState::Running;
+        std::uint8_t epoch = 0;
+        bool authoring = false;           // owner: writing its neutral inputs
+        bool neutral_reported = false;    // NeutralFrom event fired for this epoch
+        std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
+        bool handed_off_by_me = false;
+    };
+    struct OutgoingTransfer {
+        std::uint32_t id = 0;
+        PlayerId peer = 0;
+        std::vector<std::uint8_t> blob;
+        SnapshotOfferMessage offer;
+        std::uint64_t created_us = 0;
+    };
+
     void handle_input(PlayerId from, std::uint64_t now_us);
+    void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
+    void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
+    void handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us);
+    void handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us);
+    void handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us);
+    void apply_slot_table(PlayerId from, std::uint64_t now_us);
+    void apply_blocks(PlayerId from);
     void malformed(PlayerId from, const char* why);
     void confirm_frames();
     void sample_time_sync(std::uint64_t now_us);
+    std::int64_t estimated_frame(const PeerLink& link, std::uint64_t now_us) const;
     void refresh_resend_floor();
+    void refresh_keep_floors(std::uint64_t now_us);
     std::uint32_t checkpoint() const;
+    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
+    void fail(const std::string& why, std::uint64_t now_us);
+    void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
+    void poll_handshake(std::uint64_t now_us);
+    void poll_transfer(std::uint64_t now_us);
+    void check_silence(std::uint64_t now_us);
+    void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
+    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
+    void author_absent_streams(std::uint64_t now_us);
+    void start_running(std::uint64_t now_us);
+    void maybe_start(std::uint64_t now_us);
+    void finish_transfer(std::uint64_t now_us);
+    void consider_recovery(std::uint64_t now_us);
+    bool extension_needed(PlayerId to) const;
+    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget);
+    bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
+    bool slot_running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
+    // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
+    bool live_peer(PlayerId p) const;
+    std::optional<PlayerId> owner() const;
+    bool any_slot_not_running() const;
+    std::uint32_t count_of(PlayerId slot) const { return sync_->queue(slot).confirmed_count(); }
+    int peers_total() const { return config_.players + config_.max_spectators; }
+    std::uint32_t local_target() const;
 
     SessionConfig config_;
     Simulation& sim_;
@@ -166,14 +323,46 @@ private:
     int input_delay_;
     std::optional<std::uint64_t> stalled_since_;
     std::uint32_t next_time_sync_frame_ = 0;
-    std::vector<std::uint64_t> first_sent_us_;   // by local input frame & (capacity - 1)
-    std::vector<std::uint32_t> first_sent_tag_;  // frame + 1
     // decode scratch, reused
     InputMessage in_msg_;
     QueryMessage query_msg_;
     ReplyMessage reply_msg_;
     InputMessage out_msg_;
     std::vector<std::pair<PlayerId, QueryMessage>> queries_;
+
+    // lifecycle
+    std::unique_ptr<Tap> tap_;
+    SessionPhase phase_ = SessionPhase::Running;
+    std::string failure_;
+    std::vector<SlotView> slots_;
+    std::deque<SessionEvent> events_;
+    std::uint64_t dropped_events_ = 0;
+    std::uint64_t foreign_packets_ = 0;
+    std::uint64_t scene_checksum_ = 0;
+    std::uint64_t started_us_ = 0;
+    bool any_tick_ = false;
+    std::uint64_t last_now_us_ = 0;
+    // the newcomer's side of a transfer
+    std::unique_ptr<TransferReceiver> incoming_;
+    PlayerId incoming_from_ = 0;
+    std::uint64_t last_offer_request_us_ = 0;
+    bool offer_requested_ = false;
+    TransferReason want_reason_ = TransferReason::Join;
+    std::optional<PlayerId> recover_from_;
+    std::uint64_t first_welcome_us_ = 0;
+    bool joining_ = false;          // local stream starts ahead of the shown frame
+    // the provider's side
+    std::vector<OutgoingTransfer> outgoing_;
+    std::uint32_t next_transfer_id_ = 1;
+    // desync recovery
+    std::optional<std::uint32_t> mismatch_frame_;
+    std::uint64_t mismatch_since_us_ = 0;
+    int recoveries_ = 0;
+    HelloMessage hello_msg_;
+    WelcomeMessage welcome_msg_;
+    SnapshotRequestMessage snap_req_msg_;
+    SnapshotOfferMessage snap_offer_msg_;
+    SnapshotChunkMessage snap_chunk_msg_;
 };
 
 }  // namespace lockroll::rollback

@@ -7,6 +7,12 @@
 //    (prediction, resimulation, lockstep, desync alerts, replays) relies on it.
 //  - Inputs are opaque fixed-size blobs: step() receives players * input_size bytes, player p's
 //    input at [p * input_size, (p + 1) * input_size). The session owns the sizes.
+//  - Each frame's inputs come with a per-slot InputStatus. Absent slots (nobody playing: not
+//    joined yet, or disconnected) get the neutral input (all zero bytes), flagged Absent, on
+//    every peer from the same agreed frame, so a game may act on it (despawn, freeze, AI). A
+//    state may depend on Absent vs present, never on Predicted vs Confirmed: that difference is
+//    for presentation only (a prediction that turned out right is not resimulated). The
+//    two-argument step() forwards to the one-argument one unless a game overrides it.
 //  - save/load: state_size() is constant for the simulation's life, so snapshot buffers are
 //    allocated once. save(); load() of those bytes; step() gives the same state as step()
 //    without the round trip, bit for bit. load() validates before touching anything.
@@ -25,11 +31,23 @@
 
 namespace lockroll::rollback {
 
+// How a slot's input for one frame came about.
+enum class InputStatus : std::uint8_t {
+    Confirmed = 0,  // the player's own input, final
+    Predicted = 1,  // a guess; the frame is resimulated if the real input differs
+    Absent = 2,     // nobody plays the slot: the neutral input, final
+};
+
 class Simulation {
 public:
     virtual ~Simulation() = default;
 
     virtual void step(std::span<const std::uint8_t> inputs) = 0;
+    // status: one entry per slot. Default: ignore it (absent slots' neutral input is all zeros).
+    virtual void step(std::span<const std::uint8_t> inputs, std::span<const InputStatus> status) {
+        (void)status;
+        step(inputs);
+    }
 
     virtual std::size_t state_size() const = 0;
     // Writes exactly state_size() bytes into out (out.size() >= state_size()).

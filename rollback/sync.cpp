@@ -18,7 +18,9 @@ Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, Sess
       ring_(static_cast<std::size_t>(config.prediction_window) + 1 +
                 static_cast<std::size_t>(std::max(config.evidence_frames, 1)),
             sim.state_size()),
+      keep_from_(static_cast<std::size_t>(config.players), std::numeric_limits<std::uint32_t>::max()),
       frame_inputs_(static_cast<std::size_t>(config.players) * config.input_size),
+      frame_status_(static_cast<std::size_t>(config.players), InputStatus::Confirmed),
       confirm_inputs_(frame_inputs_.size()),
       scratch_input_(config.input_size) {
     if (config.players < 1 || config.players > kMaxPlayers)
@@ -30,11 +32,14 @@ Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, Sess
         stats_.peers.resize(static_cast<std::size_t>(config.players));
     queues_.reserve(static_cast<std::size_t>(config.players));
     for (int p = 0; p < config.players; ++p) queues_.emplace_back(config.input_size, config.input_capacity);
+    if (config.retain_frames >= config.input_capacity / 2)
+        throw std::invalid_argument("retained frames must be below half the input capacity");
     if (static_cast<std::uint32_t>(config.prediction_window) * 2 >= config.input_capacity)
         throw std::invalid_argument("input capacity must exceed twice the prediction window");
     auto slot = ring_.slot_for(0);
     sim_.save(slot);
     initial_checksum_ = sim_.checksum(slot);
+    keep_from_[config_.local_player] = 0;  // nothing of ours is acknowledged yet
     stats_.rollback_depth_histogram.assign(static_cast<std::size_t>(config.prediction_window) + 1, 0);
 }
 
@@ -49,25 +54,35 @@ std::uint32_t Sync::all_confirmed_inputs() const {
     return std::min(remote_confirmed_inputs(), queues_[config_.local_player].confirmed_count());
 }
 
-void Sync::set_local_resend_floor(std::uint32_t frame) {
-    local_resend_floor_ = std::max(local_resend_floor_, frame);
+void Sync::set_keep_from(PlayerId player, std::uint32_t frame) {
+    keep_from_[player] = frame;
     update_floors();
 }
 
 // Inputs older than the next frame to confirm are never read again (rollback targets are never
-// older than that either), except local ones a peer has not acknowledged yet.
+// older than that either), except ones a peer still needs from us (resends and relays).
 void Sync::update_floors() {
-    for (std::size_t p = 0; p < queues_.size(); ++p) {
-        std::uint32_t floor = confirmed_frame_;
-        if (p == config_.local_player) floor = std::min(floor, local_resend_floor_);
-        queues_[p].discard_before(floor);
-    }
+    const std::uint32_t retained = confirmed_frame_ > config_.retain_frames ? confirmed_frame_ - config_.retain_frames : 0;
+    for (std::size_t p = 0; p < queues_.size(); ++p) queues_[p].discard_before(std::min(retained, keep_from_[p]));
 }
 
-bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay) {
+std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> state) {
+    if (pending_) pending_.reset();
+    if (std::string err = sim_.load(state); !err.empty()) return err;
+    for (InputQueue& q : queues_) q.restart_at(frame);
+    std::fill(keep_from_.begin(), keep_from_.end(), std::numeric_limits<std::uint32_t>::max());
+    keep_from_[config_.local_player] = frame;
+    frame_ = frame;
+    highest_simulated_ = frame;
+    confirmed_frame_ = frame;
+    sim_.save(ring_.slot_for(frame));
+    return {};
+}
+
+bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay, std::uint32_t min_frame) {
     if (input.size() != config_.input_size) throw std::invalid_argument("local input has the wrong size");
     InputQueue& q = queues_[config_.local_player];
-    const std::uint32_t target = frame_ + static_cast<std::uint32_t>(std::max(delay, 0));
+    const std::uint32_t target = std::max(frame_ + static_cast<std::uint32_t>(std::max(delay, 0)), min_frame);
     std::uint32_t next = q.confirmed_count();
     if (target < next) return false;
     const auto last = q.last_confirmed();
@@ -83,13 +98,14 @@ bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay) {
     return true;
 }
 
-InputQueue::Add Sync::add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input) {
+InputQueue::Add Sync::add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input,
+                                       bool absent) {
     InputQueue& q = queues_[player];
-    const InputQueue::Add result = q.add_confirmed(frame, input);
+    const InputQueue::Add result = q.add_confirmed(frame, input, absent);
     if (result != InputQueue::Add::Stored || frame >= frame_) return result;
     // Already simulated: was it simulated with this input?
     const auto used = q.used(frame);
-    if (!used || !std::equal(used->begin(), used->end(), input.begin())) {
+    if (!used || !std::equal(used->begin(), used->end(), input.begin()) || q.used_absent(frame) != absent) {
         ++stats_.peers[player].mispredictions;
         pending_ = pending_ ? std::min(*pending_, frame) : frame;
     }
@@ -126,16 +142,26 @@ void Sync::simulate_one(bool resimulation) {
     for (std::size_t p = 0; p < queues_.size(); ++p) {
         InputQueue& q = queues_[p];
         std::span<std::uint8_t> out(frame_inputs_.data() + p * n, n);
+        bool absent = false;
         if (f < q.confirmed_count()) {
             const auto c = q.confirmed(f);
             std::copy(c.begin(), c.end(), out.begin());
+            absent = q.confirmed_absent(f);
+            frame_status_[p] = absent ? InputStatus::Absent : InputStatus::Confirmed;
+        } else if (q.last_absent()) {
+            // An absent slot is guessed to stay absent: the neutral input.
+            std::fill(out.begin(), out.end(), std::uint8_t{0});
+            absent = true;
+            frame_status_[p] = InputStatus::Absent;
+            predicted |= std::uint64_t{1} << p;
         } else {
             predictor_.predict(static_cast<PlayerId>(p), f, q.last_confirmed(), q.confirmed_count() - 1, out);
             predicted |= std::uint64_t{1} << p;
+            frame_status_[p] = InputStatus::Predicted;
         }
-        q.set_used(f, out);
+        q.set_used(f, out, absent);
     }
-    sim_.step(frame_inputs_);
+    sim_.step(frame_inputs_, frame_status_);
     frame_ = f + 1;
     for (const Fault& fault : faults_)
         if (fault.frame == frame_) sim_.flip_bit(fault.body_id, fault.field, fault.bit);

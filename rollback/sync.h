@@ -48,6 +48,7 @@ struct SyncConfig {
     int prediction_window = 8;
     int evidence_frames = 64;
     std::uint32_t input_capacity = 1024;  // frames per input queue, a power of two
+    std::uint32_t retain_frames = 0;      // inputs kept this far behind the confirmed frame
 };
 
 class Sync {
@@ -64,16 +65,29 @@ public:
     int prediction_window() const { return config_.prediction_window; }
     bool rollback_pending() const { return pending_.has_value(); }
 
-    // Gives the local player's input to frame() + delay. When that frame already has an input
-    // (the delay just shrank, or the last tick stalled) it is not used: false; sent inputs never
-    // change. When the delay grew, the frames in between repeat the previous input.
-    // Precondition: !local_queue_full(delay).
-    bool add_local_input(std::span<const std::uint8_t> input, int delay);
-    // A remote player's confirmed input; counts and schedules a rollback on a misprediction.
-    InputQueue::Add add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input);
+    // Gives the local player's input to max(frame() + delay, min_frame). When that frame already
+    // has an input (the delay just shrank, or the last tick stalled) it is not used: false; sent
+    // inputs never change. When the delay grew, the frames in between repeat the previous input.
+    // min_frame lets a joiner that is still catching up send inputs for the frames the match is
+    // at, not the ones it shows. Precondition: !local_queue_full(delay).
+    bool add_local_input(std::span<const std::uint8_t> input, int delay, std::uint32_t min_frame = 0);
+    // A confirmed input of another slot (its player's, or relayed); counts and schedules a
+    // rollback on a misprediction (input bytes or absent flag).
+    InputQueue::Add add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input,
+                                     bool absent = false);
 
-    // Frames the local queue must keep for resending (the oldest frame some peer has not acked).
-    void set_local_resend_floor(std::uint32_t frame);
+    // Frames the queue of `player` must keep beyond confirmation: for the local queue the
+    // oldest input a peer has not acknowledged (resends), for any queue the oldest a peer being
+    // relayed to still lacks. Inputs before min(confirmed_frame(), keep) are discarded.
+    void set_keep_from(PlayerId player, std::uint32_t frame);
+    // Backwards-compatible name for the local queue's keep_from.
+    void set_local_resend_floor(std::uint32_t frame) { set_keep_from(config_.local_player, frame); }
+
+    // Replaces everything with a snapshot of `frame` (a joiner's or a recovering peer's start):
+    // the simulation loads `state`, every queue restarts at `frame`, `frame` becomes displayed
+    // and confirmed. Empty string on success; otherwise why (and nothing changed).
+    std::string restart_at(std::uint32_t frame, std::span<const std::uint8_t> state);
+    InputQueue& mutable_queue(PlayerId p) { return queues_[p]; }
 
     // True when frame() may not advance: the window is full (in lockstep: an input of frame()
     // is missing), or the local queue cannot hold frame() + delay yet.
@@ -88,6 +102,8 @@ public:
     // Simulates frame() forward once. Precondition: !must_wait(delay) and add_local_input done.
     void step_forward();
 
+    // Frames [0, inputs_complete()) have every slot's input confirmed.
+    std::uint32_t inputs_complete() const { return all_confirmed_inputs(); }
     // Newest frame that can be confirmed now (no pending rollback may exist).
     std::uint32_t confirmable_frame() const;
     // Confirms confirmed_frame() + 1 (precondition: < confirmable_frame()); the spans point into
@@ -125,10 +141,11 @@ private:
     std::uint32_t frame_ = 0;
     std::uint32_t highest_simulated_ = 0;
     std::uint32_t confirmed_frame_ = 0;
-    std::uint32_t local_resend_floor_ = 0;
+    std::vector<std::uint32_t> keep_from_;  // per queue, see set_keep_from
     std::optional<std::uint32_t> pending_;
     std::uint64_t initial_checksum_ = 0;
     std::vector<std::uint8_t> frame_inputs_;    // players * input_size, reused every step
+    std::vector<InputStatus> frame_status_;     // players, reused every step
     std::vector<std::uint8_t> confirm_inputs_;  // same, for confirm_next
     std::vector<std::uint8_t> scratch_input_;
     std::vector<Fault> faults_;

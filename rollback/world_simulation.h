@@ -32,6 +32,7 @@ public:
 
     const sim::World& world() const { return world_; }
 
+    using Simulation::step;
     void step(std::span<const std::uint8_t> inputs) override;
     std::size_t state_size() const override;
     void save(std::span<std::uint8_t> out) const override;

@@ -30,8 +30,8 @@ TEST(Protocol, InputRoundTripAndRunLength) {
     const InputMessage m = sample_input();
     std::vector<std::uint8_t> bytes;
     encode(m, 3, bytes);
-    // kind+flags, ack, first, count, 3 runs of (1 + 3), time sync 3, two checksums of 10.
-    EXPECT_EQ(bytes.size(), 1u + 2 + 2 + 1 + 3 * 4 + 3 + 2 * 6);
+    // kind+flags, ack, first, count, 3 runs of (1 + 3), time sync 3 + stamps 6, two checksums of 6.
+    EXPECT_EQ(bytes.size(), 1u + 2 + 2 + 1 + 3 * 4 + 3 + 6 + 2 * 6);
     EXPECT_EQ(bytes[0], 0x51);  // input, time sync, two checksums
     EXPECT_EQ(bytes[1], 0xFA);  // ack 65530 little-endian
     EXPECT_EQ(bytes[2], 0xFF);
@@ -116,9 +116,9 @@ TEST(Protocol, DecodeRejectsMalformed) {
     long_run[6] = 200;
     EXPECT_STREQ(decode(long_run, 3, m), "input message: runs exceed frame count");
     auto flags = good;
-    flags[0] |= 0x80;
-    EXPECT_STREQ(decode(flags, 3, m), "input message: unknown flag bits");
-    EXPECT_FALSE(peek_kind(std::vector<std::uint8_t>{0x07}).has_value());
+    flags[0] |= 0x80;  // extension announced, none present
+    EXPECT_STREQ(decode(flags, 3, m), "input message: truncated extension");
+    EXPECT_FALSE(peek_kind(std::vector<std::uint8_t>{0x09}).has_value());
     EXPECT_FALSE(peek_kind(std::vector<std::uint8_t>{}).has_value());
 
     QueryMessage q;

@@ -52,6 +52,7 @@ INSTANTIATE_TEST_SUITE_P(Scenes, ShippedScene,
 class LeakySimulation final : public Simulation {
 public:
     explicit LeakySimulation(const sim::SceneDesc& scene) : inner_(scene, 2) {}
+    using Simulation::step;
     void step(std::span<const std::uint8_t> inputs) override {
         ++steps_;
         if (steps_ == 40) inner_.flip_bit(10, 3, 20);  // the 40th call, forward or not

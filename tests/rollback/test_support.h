@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <queue>
 #include <vector>
@@ -149,7 +150,13 @@ struct Client : SessionObserver {
         rollback_depths.push_back(r.depth);
         if (r.displayed_changed()) ++corrections;
     }
-    void on_frame_confirmed(const FrameConfirmed& f) override { recorder.add(f); }
+    void on_frame_confirmed(const FrameConfirmed& f) override {
+        // A joiner starts confirming at its snapshot's frame, a recovering peer confirms again:
+        // the replay takes the in-order prefix, `confirmed` every frame's latest checksum.
+        if (f.frame == recorder.replay().frames() + 1) recorder.add(f);
+        confirmed[f.frame] = f.checksum;
+        confirmed_inputs[f.frame].assign(f.inputs.begin(), f.inputs.end());
+    }
     void on_desync(const DesyncEvent& e) override { desyncs.push_back(e); }
     void on_desync_report(const DesyncReport& r) override { reports.push_back(r); }
     void on_peer_error(PlayerId p, const std::string&) override { peer_errors.push_back(p); }
@@ -164,7 +171,11 @@ struct Client : SessionObserver {
     std::vector<DesyncEvent> desyncs;
     std::vector<DesyncReport> reports;
     std::vector<PlayerId> peer_errors;
+    std::map<std::uint32_t, std::uint64_t> confirmed;  // frame -> checksum, every confirmation
+    std::map<std::uint32_t, std::vector<std::uint8_t>> confirmed_inputs;  // frame -> inputs of frame - 1
     bool frozen = false;       // tests can stop a client from ticking
+    bool catches_up = false;   // a joiner or spectator: steps extra frames while behind
+    std::vector<SessionEvent> events;  // drained after every tick
     int skip_ticks = 0;        // time-sync waits being served
     std::uint64_t start_offset_us = 0;
     std::uint64_t ticks = 0;
@@ -179,6 +190,7 @@ public:
         for (int p = 0; p < base.players; ++p) {
             SessionConfig c = base;
             c.local_player = static_cast<PlayerId>(p);
+            if (c.absent_slots >> p & 1) c.role = Role::Joiner;  // its own slot absent: a joiner-to-be
             clients.push_back(std::make_unique<Client>(scene, c, seed * 1000 + static_cast<std::uint64_t>(p)));
         }
     }
@@ -192,6 +204,28 @@ public:
     std::uint64_t now() const { return now_; }
     TestNet& net() { return net_; }
 
+    // The process of `id` dies: it stops ticking and nothing reaches it or leaves it any more.
+    void kill(PlayerId id) {
+        clients[id]->frozen = true;
+        if (dead_.size() <= id) dead_.resize(id + 1, false);
+        dead_[id] = true;
+    }
+    // A new process takes id `id` (a rejoin, a late join or a spectator), ticking from now on.
+    Client& start(PlayerId id, const sim::SceneDesc& scene, const SessionConfig& cfg, std::uint64_t bot_seed) {
+        if (clients.size() <= id) clients.resize(id + 1);
+        clients[id] = std::make_unique<Client>(scene, cfg, bot_seed);
+        clients[id]->start_offset_us = now_ + 1;
+        clients[id]->catches_up = true;
+        if (dead_.size() > id) dead_[id] = false;
+        return *clients[id];
+    }
+    bool dead(PlayerId id) const { return id < dead_.size() && dead_[id]; }
+    // Whether client i takes part in run_frames / settle (alive, running or about to).
+    bool counts(std::size_t i) const {
+        return clients[i] && !dead(static_cast<PlayerId>(i)) && !clients[i]->frozen &&
+               clients[i]->session->phase() != SessionPhase::Failed;
+    }
+
     // Runs the event loop until `until(*this)` or for at most `limit_us` more virtual µs.
     void run(const std::function<bool(const Cluster&)>& until, std::uint64_t limit_us) {
         const std::uint64_t end = now_ + limit_us;
@@ -199,8 +233,8 @@ public:
     }
     void run_frames(std::uint32_t frames, std::uint64_t limit_us = 600'000'000) {
         run([frames](const Cluster& c) {
-                for (const auto& cl : c.clients)
-                    if (cl->session->frame() < frames) return false;
+                for (std::size_t i = 0; i < c.clients.size(); ++i)
+                    if (c.counts(i) && c.clients[i]->session->frame() < frames) return false;
                 return true;
             },
             limit_us);
@@ -208,8 +242,8 @@ public:
     // Keeps going until every client has confirmed `frame`.
     void settle(std::uint32_t frame, std::uint64_t limit_us = 60'000'000) {
         run([frame](const Cluster& c) {
-                for (const auto& cl : c.clients)
-                    if (cl->session->confirmed_frame() < frame) return false;
+                for (std::size_t i = 0; i < c.clients.size(); ++i)
+                    if (c.counts(i) && c.clients[i]->session->confirmed_frame() < frame) return false;
                 return true;
             },
             limit_us);
@@ -219,6 +253,7 @@ public:
         std::uint64_t next_tick = UINT64_MAX;
         std::size_t who = 0;
         for (std::size_t i = 0; i < clients.size(); ++i) {
+            if (!clients[i] || dead(static_cast<PlayerId>(i))) continue;
             const std::uint64_t t = tick_time(*clients[i]);
             if (t < next_tick) {
                 next_tick = t;
@@ -229,7 +264,7 @@ public:
         if (arrival && *arrival <= next_tick) {
             now_ = *arrival;
             net_.deliver(now_, [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b, std::uint64_t at) {
-                clients[to]->session->receive(from, b, at);
+                if (to < clients.size() && clients[to] && !dead(to)) clients[to]->session->receive(from, b, at);
             });
             return;
         }
@@ -254,7 +289,9 @@ private:
             const auto in = c.bot.next();
             const AdvanceResult r = c.session->advance(in, now_);
             if (obey_time_sync) c.skip_ticks = r.wait_frames;
+            if (c.catches_up) c.session->catch_up(now_, 16);
         }
+        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);
         out_.clear();
         c.session->poll(now_, out_);
         for (auto& d : out_) {
@@ -264,6 +301,7 @@ private:
     }
 
     TestNet net_;
+    std::vector<bool> dead_;
     int tick_rate_;
     std::uint64_t now_ = 0;
     std::vector<Datagram> out_;

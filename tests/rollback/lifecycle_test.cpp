@@ -1,0 +1,243 @@
+// The session lifecycle in virtual time (docs/sessions.md): handshake, drops, rejoins, late
+// joins, spectators and desync recovery, over the in-test lossy network. The same code runs
+// between real processes in tests/net.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "rollback/session.h"
+#include "tests/rollback/test_support.h"
+
+namespace lockroll::rollback {
+namespace {
+
+using testing::Client;
+using testing::Cluster;
+using testing::make_scene;
+using testing::NetParams;
+using Kind = SessionEvent::Kind;
+
+SessionConfig real_config(int players, int window) {
+    SessionConfig c;
+    c.players = players;
+    c.prediction_window = window;
+    c.input_delay = window == 0 ? 4 : 2;
+    c.handshake = true;
+    c.match_id = 0xC0FFEE;
+    c.interrupt_us = 750000;
+    c.disconnect_us = 5000000;
+    return c;
+}
+
+std::vector<const SessionEvent*> events_of(const Client& c, Kind k) {
+    std::vector<const SessionEvent*> out;
+    for (const SessionEvent& e : c.events)
+        if (e.kind == k) out.push_back(&e);
+    return out;
+}
+
+// Every client that takes part confirmed `frame` with the same checksum.
+void expect_equal_at(const Cluster& cluster, std::uint32_t frame) {
+    std::optional<std::uint64_t> first;
+    int compared = 0;
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        if (!cluster.counts(i)) continue;
+        const auto& c = *cluster.clients[i];
+        const auto it = c.confirmed.find(frame);
+        ASSERT_NE(it, c.confirmed.end()) << "client " << i << " never confirmed frame " << frame;
+        if (!first) first = it->second;
+        EXPECT_EQ(it->second, *first) << "client " << i << " differs at confirmed frame " << frame;
+        ++compared;
+    }
+    EXPECT_GE(compared, 2);
+}
+
+TEST(Lifecycle, HandshakeMeasuresRttThenEveryoneStarts) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.auto_input_delay = true;
+    Cluster cluster(scene, cfg, {40000, 5000}, 11);
+    cluster.run_frames(300);
+    cluster.settle(300);
+    for (const auto& c : cluster.clients) {
+        EXPECT_EQ(c->session->phase(), SessionPhase::Running);
+        ASSERT_EQ(events_of(*c, Kind::Synchronized).size(), 1u);
+        // 80-90 ms round trips: rollback's auto delay covers half the one-way time in frames.
+        EXPECT_GE(c->session->input_delay(), 2);
+        EXPECT_LE(c->session->input_delay(), 4);
+        EXPECT_GT(c->session->rtt_us(c == cluster.clients[0] ? 1 : 0), 70000u);
+        EXPECT_LT(c->session->rtt_us(c == cluster.clients[0] ? 1 : 0), 110000u);
+    }
+    expect_equal_at(cluster, 300);
+}
+
+TEST(Lifecycle, MismatchedMatchIdIsRefusedOnBothSides) {
+    const auto scene = make_scene(2, 4);
+    Cluster cluster(scene, real_config(2, 8), {10000}, 3);
+    // Client 1 belongs to another match.
+    SessionConfig other = real_config(2, 8);
+    other.match_id = 42;
+    other.local_player = 1;
+    cluster.start(1, scene, other, 77).catches_up = false;
+    cluster.run([](const Cluster&) { return false; }, 2'000'000);
+    for (const auto& c : cluster.clients) {
+        EXPECT_EQ(c->session->phase(), SessionPhase::Failed);
+        EXPECT_NE(c->session->failure().find("match id"), std::string::npos) << c->session->failure();
+        EXPECT_FALSE(events_of(*c, Kind::Refused).empty());
+        EXPECT_GT(c->session->foreign_packets(), 0u);
+        EXPECT_EQ(c->session->frame(), 0u);
+    }
+}
+
+// Kill one of three at frame 200: the others report it interrupted, then disconnected, agree on
+// the frame its neutral input starts, stall no longer than the timeout, and end equal. Then a
+// new process rejoins its slot by snapshot and ends equal too.
+void kill_and_rejoin(int window) {
+    const auto scene = make_scene(3, 20);
+    const SessionConfig cfg = real_config(3, window);
+    Cluster cluster(scene, cfg, {30000, 8000, 50000}, 5);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    const std::uint64_t killed_at = cluster.now();
+    cluster.run_frames(600, 60'000'000);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(events_of(c, Kind::Interrupted).size(), 1u) << "client " << p;
+        ASSERT_EQ(events_of(c, Kind::Disconnected).size(), 1u) << "client " << p;
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Disconnected);
+        const auto neutral = events_of(c, Kind::NeutralFrom);
+        ASSERT_EQ(neutral.size(), 1u);
+        // Stall bounded by the disconnect timeout (plus the agreement's round trips).
+        EXPECT_LT(c.session->stats().stall_time_us, cfg.disconnect_us + 1'000'000);
+        EXPECT_LT(events_of(c, Kind::Disconnected)[0]->at_us - killed_at, cfg.disconnect_us + 200'000);
+    }
+    EXPECT_EQ(events_of(*cluster.clients[0], Kind::NeutralFrom)[0]->frame,
+              events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame);
+    cluster.settle(600);
+    expect_equal_at(cluster, 600);
+
+    // A new process for slot 2.
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    Client& joiner = cluster.start(2, scene, again, 999);
+    cluster.run_frames(1000, 60'000'000);
+    cluster.settle(1000);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Running);
+    EXPECT_EQ(cluster.clients[1]->session->slot_state(2), SlotState::Running);
+    expect_equal_at(cluster, 1000);
+    // The joiner's own inputs count after the handoff: its player moved.
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
+TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
+
+TEST(Lifecycle, LateJoinIntoAbsentSlotAndSpectator) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 2;
+    cfg.max_spectators = 1;
+    Cluster cluster(scene, cfg, {25000, 5000}, 8);
+    cluster.kill(2);  // nobody runs slot 2 yet
+    cluster.run_frames(150);
+    SessionConfig spec = cfg;
+    spec.role = Role::Spectator;
+    spec.local_player = 3;
+    Client& spectator = cluster.start(3, scene, spec, 1);
+    cluster.run_frames(300, 30'000'000);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 2;
+    Client& joiner = cluster.start(2, scene, join, 2);
+    cluster.run_frames(700, 60'000'000);
+    cluster.settle(700);
+    EXPECT_EQ(spectator.session->phase(), SessionPhase::Running);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    EXPECT_FALSE(events_of(*cluster.clients[0], Kind::SpectatorJoined).empty());
+    expect_equal_at(cluster, 700);
+    // Before the join, slot 2 was absent from frame 0 on every peer.
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame, 0u);
+}
+
+TEST(Lifecycle, CorruptedSnapshotChunkIsRejectedAndAskedAgain) {
+    const auto scene = make_scene(2, 30);
+    SessionConfig cfg = real_config(2, 8);
+    cfg.absent_slots = 1u << 1;
+    Cluster cluster(scene, cfg, {10000}, 4);
+    cluster.kill(1);
+    cluster.run_frames(100);
+    int corrupted = 0;
+    cluster.filter = [&](PlayerId from, PlayerId, const std::vector<std::uint8_t>& b) {
+        if (from == 0 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk) && corrupted == 0) {
+            ++corrupted;
+            auto& bytes = const_cast<std::vector<std::uint8_t>&>(b);
+            bytes.back() ^= 0x5A;
+        }
+        return true;
+    };
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 1;
+    Client& joiner = cluster.start(1, scene, join, 3);
+    cluster.run_frames(400, 30'000'000);
+    cluster.settle(400);
+    EXPECT_EQ(corrupted, 1);
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotRejected).size(), 1u);
+    EXPECT_NE(events_of(joiner, Kind::SnapshotRejected)[0]->detail.find("hash mismatch"), std::string::npos);
+    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    expect_equal_at(cluster, 400);
+}
+
+TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.max_recoveries = 1;
+    Cluster cluster(scene, cfg, {20000, 4000}, 6);
+    cluster.run_frames(100);
+    const std::uint32_t body = cluster.clients[2]->sim.body_id(5);
+    ASSERT_EQ(cluster.clients[2]->session->inject_fault(150, body, 0, 20), "");
+    cluster.run_frames(600, 60'000'000);
+    cluster.settle(600);
+    const Client& odd = *cluster.clients[2];
+    ASSERT_FALSE(odd.reports.empty());
+    EXPECT_EQ(odd.reports[0].frame, 150u);
+    EXPECT_EQ(odd.reports[0].body_id, body);
+    EXPECT_EQ(odd.session->recoveries(), 1);
+    EXPECT_EQ(events_of(odd, Kind::DesyncRecovered).size(), 1u);
+    EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
+    EXPECT_EQ(cluster.clients[1]->session->recoveries(), 0);
+    expect_equal_at(cluster, 600);
+}
+
+TEST(Lifecycle, ForgedTimeSyncClaimIsBounded) {
+    const auto scene = make_scene(2, 4);
+    SessionConfig cfg = real_config(2, 8);
+    Cluster cluster(scene, cfg, {10000}, 9);
+    cluster.run_frames(120);
+    // Peer 1 claims to be 30,000 frames ahead on every message.
+    cluster.filter = [&](PlayerId from, PlayerId, const std::vector<std::uint8_t>& b) {
+        if (from == 1 && !b.empty() && (b[0] & 0x0F) == 1 && (b[0] & 0x10)) {
+            InputMessage m;
+            if (decode(b, 3, m) == nullptr) {
+                m.sender_frame = static_cast<std::uint16_t>(m.sender_frame + 30000);
+                m.advantage = -127;
+                auto& bytes = const_cast<std::vector<std::uint8_t>&>(b);
+                bytes.clear();
+                encode(m, 3, bytes);
+            }
+        }
+        return true;
+    };
+    int longest_wait = 0;
+    cluster.before_tick = [&](PlayerId id, Client& c) {
+        if (id == 0) longest_wait = std::max(longest_wait, c.skip_ticks);
+    };
+    cluster.run_frames(600, 60'000'000);
+    EXPECT_LE(longest_wait, cfg.input_delay + cfg.prediction_window + 2);
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
