@@ -123,7 +123,7 @@ PeerPlan plan(const PeerOptions& o) {
             e = parse_loopback_endpoint(text.substr(eq + 1), "--peer", false);
         } catch (const UsageError& err) {
             const std::string why = err.what();
-            throw UsageError("--peer " + text + why.substr(why.find(':')));
+            throw UsageError("--peer " + text + why.substr(why.find(": ")));
         }
         p.peers.push_back({static_cast<PlayerId>(slot), e.host, e.port});
     }
