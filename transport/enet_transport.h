@@ -62,7 +62,7 @@ struct EnetConfig {
     // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable
     // command (ping, handshake) goes unacknowledged past timeout_max_ms, or past timeout_min_ms
     // after timeout_limit retries. ENet's defaults are 32 / 5000 / 30000.
-    std::uint32_t timeout_limit = 8;
+    std::uint32_t timeout_limit = 4;
     std::uint32_t timeout_min_ms = 2'000;
     std::uint32_t timeout_max_ms = 5'000;
     // Largest packet ENet accepts or reassembles (ENetHost::maximumPacketSize; default 32 MB).
