@@ -304,8 +304,9 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
             by_id_.erase(id);
             by_peer_.erase(it);
             ++enet_counters_.disconnects;
-            // A crossed connect the peer resolved: its own connection is on its way.
-            if (event.data == kCrossed) return;
+            // kCrossed: usually the peer's own connection is on its way (a Connected follows);
+            // but if we are a restarted process whose old connection the peer still thinks
+            // alive, nothing follows, and the runner should connect() again in a second.
             push_event(TransportEvent::Type::Disconnected, id,
                        (was_established ? "" : "could not connect: ") + close_reason(event.data));
             return;
