@@ -246,6 +246,34 @@ TEST(EnetTransport, EventsAndARestartedPeerGetsItsIdBack) {
     EXPECT_GE(a.enet_counters().disconnects, 1u);
 }
 
+TEST(EnetTransport, APeerRestartedWithinASecondGetsInOnItsRetry) {
+    // 0 connected to 1; 1's process dies and restarts at once, before 0's connection to it has
+    // been silent for a second. 0 takes the new connection for the losing half of a crossed
+    // connect; the restarted 1 sees Disconnected and retries, and the retry replaces the then
+    // silent connection.
+    EnetTransport a({.local_id = 0});
+    auto old = std::make_unique<EnetTransport>(EnetConfig{.local_id = 1});
+    ASSERT_TRUE(a.connect(1, "127.0.0.1", old->port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({&a, old.get()}, [&] { return a.is_connected(1) && old->is_connected(0); }, now));
+
+    EnetTransport restarted({.local_id = 1});
+    ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return has_event(events_of(restarted), TransportEvent::Type::Disconnected, 0); }, now));
+    EXPECT_FALSE(restarted.is_connected(0));
+    for (int i = 0; i < 1200; ++i) {  // a second of a's time passes; the old process stays silent
+        a.poll(now);
+        now += 1'000;
+    }
+    ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replaced >= 1; }, now));
+    ASSERT_TRUE(restarted.send(0, bytes_of(4, 12), now));
+    Datagram d;
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return a.receive(d, now); }, now));
+    EXPECT_EQ(d.from, 1u);
+    EXPECT_EQ(d.bytes, bytes_of(4, 12));
+}
+
 TEST(EnetTransport, CrossedConnectsKeepOneConnectionBothWays) {
     for (int round = 0; round < 3; ++round) {
         EnetTransport a({.local_id = 3});
