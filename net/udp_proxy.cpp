@@ -52,20 +52,20 @@ UdpProxy::~UdpProxy() {
     ::close(listen_fd_);
 }
 
-UdpProxy::Client* UdpProxy::find_or_add_client(const UdpAddress& from, std::uint64_t now) {
+std::optional<std::uint32_t> UdpProxy::find_or_add_client(const UdpAddress& from, std::uint64_t now) {
     const std::string key = from.key();
-    if (const auto it = client_ids_.find(key); it != client_ids_.end()) return &clients_.at(it->second);
-    if (clients_.size() >= config_.max_clients) return nullptr;
+    if (const auto it = client_ids_.find(key); it != client_ids_.end()) return it->second;
+    if (clients_.size() >= config_.max_clients) return std::nullopt;
     const int fd = udp_socket(config_.upstream.family());
     if (fd < 0) {
         ++counters_.socket_errors;
-        return nullptr;
+        return std::nullopt;
     }
     // connect(): the kernel then delivers only the server's datagrams to this socket.
     if (::connect(fd, config_.upstream.sockaddr_ptr(), config_.upstream.length) != 0) {
         ::close(fd);
         ++counters_.socket_errors;
-        return nullptr;
+        return std::nullopt;
     }
     const std::uint32_t id = next_client_++;
     Client c;
@@ -76,7 +76,8 @@ UdpProxy::Client* UdpProxy::find_or_add_client(const UdpAddress& from, std::uint
     c.last_active_us = now;
     client_ids_[key] = id;
     ++counters_.clients;
-    return &clients_.emplace(id, std::move(c)).first->second;
+    clients_.emplace(id, std::move(c));
+    return id;
 }
 
 void UdpProxy::impair(std::uint32_t id, bool to_server, const std::uint8_t* data, std::size_t size,
@@ -114,12 +115,12 @@ void UdpProxy::read_clients(std::uint64_t now) {
             return;
         }
         ++counters_.received;
-        Client* c = find_or_add_client(udp_address_from(from, len), now);
-        if (c == nullptr) {
+        const auto id = find_or_add_client(udp_address_from(from, len), now);
+        if (!id) {
             ++counters_.refused_clients;
             continue;
         }
-        impair(client_ids_.at(c->address.key()), true, buffer_.data(), static_cast<std::size_t>(n), now);
+        impair(*id, true, buffer_.data(), static_cast<std::size_t>(n), now);
     }
 }
 

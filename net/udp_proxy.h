@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <queue>
 #include <string>
 #include <vector>
@@ -98,7 +99,8 @@ private:
     void impair(std::uint32_t id, bool to_server, const std::uint8_t* data, std::size_t size, std::uint64_t now);
     void deliver_due(std::uint64_t now);
     void forget_idle(std::uint64_t now);
-    Client* find_or_add_client(const UdpAddress& from, std::uint64_t now);
+    // The client id for a source address, adding it if there is room; nullopt when full.
+    std::optional<std::uint32_t> find_or_add_client(const UdpAddress& from, std::uint64_t now);
 
     UdpProxyConfig config_;
     int listen_fd_ = -1;

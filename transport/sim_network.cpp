@@ -139,6 +139,7 @@ bool SimNetwork::pop_due(PeerId to, Datagram& out, Micros now) {
     out.from = top.from;
     out.time_us = top.deliver_at;
     out.bytes.assign(top.bytes.begin(), top.bytes.end());
+    out.reliable = false;
     q.pop();
     --in_flight_;
     return true;
