@@ -56,6 +56,9 @@ struct PeerOptions {
     std::uint64_t seed = 1;
     bool join = false;
     bool spectate = false;
+    int spectators = 0;
+    std::vector<int> absent;
+    double disconnect_timeout = 5;
     std::string log_level = "info";
     std::string match_id;
     std::vector<std::string> injections;
@@ -88,7 +91,14 @@ PeerPlan plan(const PeerOptions& o) {
     PeerPlan p;
     p.o = o;
     if (o.players < 2 || o.players > 16) throw UsageError("--players must be 2..16");
-    if (o.slot < 0 || o.slot >= o.players) throw UsageError("--slot must be 0..players-1");
+    if (o.spectators < 0 || o.spectators > 16) throw UsageError("--spectators must be 0..16");
+    if (o.spectate && (o.slot < o.players || o.slot >= o.players + o.spectators))
+        throw UsageError("--slot must be players..players+spectators-1 with --spectate (a spectator's id)");
+    if (!o.spectate && (o.slot < 0 || o.slot >= o.players)) throw UsageError("--slot must be 0..players-1");
+    if (o.join && o.spectate) throw UsageError("--join and --spectate exclude each other");
+    for (int a : o.absent)
+        if (a < 0 || a >= o.players) throw UsageError("--absent must name slots 0..players-1");
+    if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
     if (o.frames < 1) throw UsageError("--frames must be >= 1");
     if (o.tick_rate < 1 || o.tick_rate > 1000) throw UsageError("--tick-rate must be 1..1000");
     if (o.input_delay < 0 || o.input_delay > 60) throw UsageError("--input-delay must be 0..60");
@@ -97,9 +107,6 @@ PeerPlan plan(const PeerOptions& o) {
     if (!(o.connect_timeout > 0 && o.connect_timeout <= 3600)) throw UsageError("--connect-timeout must be 0..3600 s");
     if (!(o.finish_timeout > 0 && o.finish_timeout <= 3600)) throw UsageError("--finish-timeout must be 0..3600 s");
     if (o.out.empty()) throw UsageError("--out is required");
-    // Lifecycle features of issue 7 that the session does not offer yet: refuse clearly.
-    if (o.join) throw UsageError("--join: late join needs the session lifecycle (snapshot transfer), not in this build");
-    if (o.spectate) throw UsageError("--spectate: spectators need the session lifecycle, not in this build");
     p.mode = o.mode == "lockstep" ? Mode::Lockstep : Mode::Rollback;
     p.bot = *parse_bot_kind(o.bot);
     const auto level = spdlog::level::from_str(o.log_level);
@@ -127,8 +134,9 @@ PeerPlan plan(const PeerOptions& o) {
         }
         p.peers.push_back({static_cast<PlayerId>(slot), e.host, e.port});
     }
-    if (static_cast<int>(seen.size()) != o.players - 1)
-        throw UsageError("--peer: need an address for every other slot (" + std::to_string(o.players - 1) + "), got " +
+    const int others = o.spectate ? o.players : o.players - 1;
+    if (static_cast<int>(seen.size()) != others)
+        throw UsageError("--peer: need an address for every other slot (" + std::to_string(others) + "), got " +
                          std::to_string(seen.size()));
     for (const auto& text : o.injections) {
         // FRAME:BODY[:FIELD:BIT] for this process (live's CLIENT: prefix is stripped there).
@@ -211,6 +219,10 @@ public:
     // Session side.
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
         const std::uint64_t now = now_;
+        if (!synced_us) {  // the first frame shown: the match (or this joiner's part) starts
+            synced_us = now;
+            shown_us_.push_back(now);
+        }
         if (f.frame <= static_cast<std::uint32_t>(p_.o.frames) && !f.resimulation) {
             const sim::World& w = sim_.world();
             char line[200];
@@ -265,10 +277,9 @@ public:
         }
     }
     void on_desync(const rollback::DesyncEvent& d) override {
+        // The session's DesyncDetected event goes to events.jsonl; the checksums to the log.
         log_->error("desync with slot {} at confirmed frame {}: local {} remote {}", d.peer, d.frame,
                     hex16(d.local_checksum), hex16(d.remote_checksum));
-        event("desync", net::now_us(),
-              {{"peer", d.peer}, {"confirmed_frame", d.frame}, {"local", hex16(d.local_checksum)}, {"remote", hex16(d.remote_checksum)}});
     }
     void on_desync_report(const rollback::DesyncReport& r) override {
         log_->error("desync report: {}", r.summary);
@@ -296,20 +307,28 @@ public:
     }
 
     // Runner side.
-    void on_connected(PlayerId peer, std::uint64_t now) override {
-        log_->info("connected to slot {}", peer);
-        event("connected", now, {{"peer", peer}});
+    void on_transport_event(const transport::TransportEvent& e, std::uint64_t now) override {
+        using T = transport::TransportEvent::Type;
+        const char* name = e.type == T::Connected ? "connected" : e.type == T::Disconnected ? "connection_lost" : "connection_refused";
+        if (e.type == T::Connected) log_->info("connected to peer {}", e.peer);
+        else log_->warn("peer {}: {} {}", e.peer, name, e.reason);
+        event(name, now, {{"peer", e.peer}, {"reason", e.reason}});
     }
-    void on_disconnected(PlayerId peer, std::uint64_t now) override {
-        log_->warn("slot {} disconnected", peer);
-        event("disconnected", now, {{"peer", peer}});
+    void on_session_event(const rollback::SessionEvent& e) override {
+        using K = rollback::SessionEvent::Kind;
+        const bool bad = e.kind == K::Refused || e.kind == K::Disconnected || e.kind == K::Interrupted || e.kind == K::Kicked ||
+                         e.kind == K::Failed || e.kind == K::DesyncDetected || e.kind == K::SnapshotRejected;
+        log_->log(bad ? spdlog::level::warn : spdlog::level::info, "{} peer {} frame {}{}{}", rollback::event_name(e.kind),
+                  e.peer, e.frame, e.detail.empty() ? "" : ": ", e.detail);
+        json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
+        if (!e.detail.empty()) extra["detail"] = e.detail;
+        if (e.kind == K::Synchronized) extra["input_delay"] = session->input_delay();
+        event(rollback::event_name(e.kind), e.at_us ? e.at_us : net::now_us(), extra);
     }
     void on_synchronized(std::uint64_t now) override {
-        synced_us = now;
+        if (!synced_us) synced_us = now;
         last_advance_us = now;
-        shown_us_.push_back(now);
-        log_->info("every peer connected: frame 0 starts (input delay {}, {} mode)", session->input_delay(), mode_name(p_.mode));
-        event("synchronized", now, {{"input_delay", session->input_delay()}, {"mode", mode_name(p_.mode)}});
+        log_->info("running from frame {} (input delay {}, {} mode)", session->frame(), session->input_delay(), mode_name(p_.mode));
     }
     void on_all_confirmed(std::uint64_t now) override {
         log_->info("every peer has confirmed frame {}", p_.o.frames);
@@ -392,6 +411,13 @@ private:
     bool have_last_ = false;
 };
 
+// --match-id as the session's 64-bit match id (FNV-1a): peers of other matches are refused.
+std::uint64_t match_hash(const std::string& id) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : id) h = (h ^ c) * 0x100000001b3ull;
+    return h;
+}
+
 std::atomic<net::PeerRunner*> g_runner{nullptr};
 void on_peer_stop_signal(int) {
     if (net::PeerRunner* r = g_runner.load()) r->request_stop();
@@ -423,6 +449,14 @@ int do_peer(const PeerOptions& options) {
     sc.prediction_window = p.mode == Mode::Lockstep ? 0 : p.o.prediction;
     sc.checksum_interval = p.o.checksum_interval;
     sc.cpu_clock = thread_cpu_ns;
+    // Real networks: hello/welcome with match id and scene checksum, an RTT phase before frame 0,
+    // agreed disconnects, joins and spectators by snapshot (docs/sessions.md).
+    sc.handshake = true;
+    sc.match_id = match_hash(p.o.match_id);
+    sc.max_spectators = p.o.spectators;
+    for (int a : p.o.absent) sc.absent_slots |= std::uint64_t{1} << a;
+    sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
+    sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
     rollback::Session session(sc, sim, &rec);
     rec.session = &session;
     for (const auto& inj : p.injections)
@@ -563,10 +597,14 @@ void add_peer_command(CLI::App& app) {
     cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
     cmd->add_option("--checksum-interval", o->checksum_interval, "Compare confirmed checksums every K frames")->capture_default_str();
     cmd->add_option("--seed", o->seed, "Seed for the bots")->capture_default_str();
-    cmd->add_flag("--join", o->join, "Join a running match (needs the session lifecycle)");
-    cmd->add_flag("--spectate", o->spectate, "Watch without playing (needs the session lifecycle)");
+    cmd->add_flag("--join", o->join, "Join (or rejoin) a running match in --slot by snapshot");
+    cmd->add_flag("--spectate", o->spectate, "Watch without playing; --slot is then the spectator id (players..)");
+    cmd->add_option("--spectators", o->spectators, "Spectator ids the match admits (the same on every process)")->capture_default_str();
+    cmd->add_option("--absent", o->absent, "Slot nobody plays at frame 0 (joins later; the same on every process)");
+    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
+        ->capture_default_str();
     cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")->capture_default_str();
-    cmd->add_option("--match-id", o->match_id, "Name of the match (logged)");
+    cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
     cmd->add_option("--inject-desync", o->injections, "FRAME:BODY[:FIELD:BIT] flip one bit of one body here at a frame");
     cmd->add_option("--connect-timeout", o->connect_timeout, "Seconds to wait for every peer to connect")->capture_default_str();
     cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")

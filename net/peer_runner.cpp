@@ -20,6 +20,7 @@ const char* outcome_name(RunOutcome o) {
         case RunOutcome::ConnectTimeout: return "connect_timeout";
         case RunOutcome::FinishTimeout: return "finish_timeout";
         case RunOutcome::RunTimeout: return "run_timeout";
+        case RunOutcome::Failed: return "failed";
         case RunOutcome::Stopped: return "stopped";
     }
     return "?";
@@ -33,30 +34,25 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5))
         throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
     if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
+    if (config_.catch_up_frames < 0) throw std::invalid_argument("RunnerConfig: catch_up_frames must be >= 0");
     if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    const auto ids = static_cast<std::size_t>(sc.players + sc.max_spectators);
     for (const auto& p : config_.peers)
-        if (p.slot >= static_cast<rollback::PlayerId>(sc.players) || p.slot == sc.local_player)
-            throw std::invalid_argument("RunnerConfig: peer slot " + std::to_string(p.slot) + " is out of range or local");
-    const auto players = static_cast<std::size_t>(sc.players);
-    connected_.assign(players, false);
-    ever_connected_.assign(players, false);
+        if (p.slot >= ids || p.slot == sc.local_player)
+            throw std::invalid_argument("RunnerConfig: peer id " + std::to_string(p.slot) + " is out of range or local");
+    connected_.assign(ids, false);
     input_bytes_.assign(sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
 }
 
 void PeerRunner::track_connections(std::uint64_t now) {
-    const auto local = session_.config().local_player;
-    for (std::size_t p = 0; p < connected_.size(); ++p) {
-        if (p == local) continue;
-        const bool c = transport_.is_connected(static_cast<transport::PeerId>(p));
-        if (c == connected_[p]) continue;
-        connected_[p] = c;
-        if (c) ever_connected_[p] = true;
-        if (observer_) {
-            if (c) observer_->on_connected(static_cast<rollback::PlayerId>(p), now);
-            else observer_->on_disconnected(static_cast<rollback::PlayerId>(p), now);
+    for (transport::TransportEvent e; transport_.next_event(e);) {
+        if (e.peer < connected_.size()) {
+            if (e.type == transport::TransportEvent::Type::Connected) connected_[e.peer] = true;
+            if (e.type == transport::TransportEvent::Type::Disconnected) connected_[e.peer] = transport_.is_connected(e.peer);
         }
+        if (observer_) observer_->on_transport_event(e, now);
     }
 }
 
@@ -67,10 +63,9 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
         track_connections(now);
         if (now - last_reconnect_us_ >= kReconnectEveryUs) {
             last_reconnect_us_ = now;
-            // Lower slot connects; connect() refuses harmlessly while one is already pending.
+            // connect() refuses harmlessly while a connection exists or is pending.
             for (const auto& p : config_.peers)
-                if (p.slot > session_.config().local_player && !connected_[p.slot])
-                    transport_.connect(p.slot, p.host, p.port);
+                if (!transport_.is_connected(p.slot)) transport_.connect(p.slot, p.host, p.port);
         }
         if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
         std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
@@ -78,13 +73,15 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
 }
 
 bool PeerRunner::connect_phase() {
+    // A handshaking session waits for its peers itself (hellos are resent until answered).
+    if (session_.config().handshake) return true;
     const std::uint64_t begin = now_us();
-    const auto local = session_.config().local_player;
+    const auto& sc = session_.config();
     for (;;) {
         service_until(now_us() + 5 * config_.service_interval_us);
         bool all = true;
-        for (std::size_t p = 0; p < connected_.size(); ++p)
-            if (p != local && !connected_[p]) all = false;
+        for (int p = 0; p < sc.players; ++p)
+            if (static_cast<rollback::PlayerId>(p) != sc.local_player && !connected_[static_cast<std::size_t>(p)]) all = false;
         if (all) return true;
         if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
     }
@@ -93,13 +90,22 @@ bool PeerRunner::connect_phase() {
 bool PeerRunner::everyone_confirmed() const {
     const std::uint32_t target = config_.target_frame;
     if (session_.confirmed_frame() < target) return false;
-    const auto local = session_.config().local_player;
+    const auto& sc = session_.config();
     for (std::size_t p = 0; p < connected_.size(); ++p) {
-        if (p == local) continue;
-        const bool gone = ever_connected_[p] && !connected_[p];
-        if (!gone && session_.peer_ack(static_cast<rollback::PlayerId>(p)) < target) return false;
+        const auto id = static_cast<rollback::PlayerId>(p);
+        if (id == sc.local_player) continue;
+        // Dropped or absent slots and peers without a connection are not waited for.
+        const bool slot = p < static_cast<std::size_t>(sc.players);
+        if (slot && session_.slot_state(id) != rollback::SlotState::Running) continue;
+        if (!connected_[p]) continue;
+        if (session_.peer_ack(id) < target) return false;
     }
     return true;
+}
+
+void PeerRunner::drain_session_events() {
+    for (rollback::SessionEvent e; session_.next_event(e);)
+        if (observer_) observer_->on_session_event(e);
 }
 
 void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
@@ -114,11 +120,22 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.now_us = now;
     report.scheduled_us = scheduled;
     report.advance = session_.advance(input_bytes_, now);
-    // A recommendation measures the whole gap as it stands, so it replaces the unpaid rest.
-    if (report.advance.wait_frames > 0) debt_us_ = static_cast<std::uint64_t>(report.advance.wait_frames) * period_us_;
+    if (config_.catch_up_frames > 0 && session_.running() && session_.behind(now) > 0)
+        session_.catch_up(now, config_.catch_up_frames);
+    drain_session_events();
+    // Time sync by a slightly longer tick. The session's per-tick stretch is the advice; a
+    // wait_frames recommendation alone (sessions without it) becomes a debt repaid the same way,
+    // a newer one replacing the unpaid rest (it measures the whole gap as it stands).
     const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
-    const std::uint64_t extra = std::min(debt_us_, max_extra);
-    debt_us_ -= extra;
+    std::uint64_t extra = 0;
+    if (report.advance.tick_stretch_ppm > 0) {
+        debt_us_ = 0;
+        extra = std::min(max_extra, period_us_ * static_cast<std::uint64_t>(report.advance.tick_stretch_ppm) / 1000000u);
+    } else {
+        if (report.advance.wait_frames > 0) debt_us_ = static_cast<std::uint64_t>(report.advance.wait_frames) * period_us_;
+        extra = std::min(debt_us_, max_extra);
+        debt_us_ -= extra;
+    }
     if (extra > 0) {
         ++stretched_ticks_;
         stretch_total_us_ += extra;
@@ -126,21 +143,24 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     last_extra_us_ = extra;
     out_.clear();
     session_.poll(now, out_);
-    for (const auto& d : out_) transport_.send(d.peer, d.bytes, now);
+    for (const auto& d : out_) {
+        if (d.reliable) transport_.send_reliable(d.peer, d.bytes, now);
+        else transport_.send(d.peer, d.bytes, now);
+    }
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);
     ++ticks_;
 }
 
 RunOutcome PeerRunner::run() {
+    const std::uint64_t begin = now_us();
     if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    started_us_ = now_us();
-    if (observer_) observer_->on_synchronized(started_us_);
     // Tick k is due at start + k / tick_rate seconds (exact integers) + all stretches so far.
+    const std::uint64_t start = now_us();
     std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0;
     const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
     for (;;) {
-        std::uint64_t due = started_us_ + k * 1000000u / rate + offset;
+        std::uint64_t due = start + k * 1000000u / rate + offset;
         service_until(due);
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
         const std::uint64_t now = now_us();
@@ -152,6 +172,16 @@ RunOutcome PeerRunner::run() {
         tick(now, due);
         offset += last_extra_us_;
         ++k;
+        if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
+        if (!started_us_) {
+            if (session_.running()) {
+                started_us_ = now;
+                if (observer_) observer_->on_synchronized(now);
+            } else if (now - begin > config_.connect_timeout_us) {
+                return RunOutcome::ConnectTimeout;
+            }
+            continue;
+        }
         if (!reached && session_.frame() >= config_.target_frame) reached = now;
         if (reached && !all_confirmed && everyone_confirmed()) {
             all_confirmed = now;

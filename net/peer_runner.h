@@ -4,25 +4,32 @@
 // whatever Simulation the caller built the Session on, and local input comes from a callback.
 //
 // Contract
-//  - Connect phase: connects to every remote slot with a higher id (transport convention: the
-//    lower id connects), retrying until connect_timeout_us; waits until every remote slot is
-//    connected, then starts frame 0 ("synchronized"). Processes started within a second of each
-//    other begin within about one round trip; the session's time sync removes the rest.
+//  - Connections: connects to every peer address it was given that is not connected, retrying
+//    every half second (the transport resolves crossed connects and lets a restarted process
+//    take its id back), for the whole run, so a killed and restarted peer is reconnected.
+//  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
+//    phase is the start barrier and the runner ticks from the beginning; without one, the runner
+//    waits until every remote slot is connected and then starts frame 0. Either way the session
+//    must be running within connect_timeout_us ("synchronized" is when it first runs).
 //  - Each tick: drain the transport -> Session::receive(from, bytes, arrival time) -> local
-//    input for frame() + input_delay() -> Session::advance -> Session::poll -> transport send.
-//  - Time sync without hitches: a wait_frames recommendation from advance() is not paid by
-//    skipping whole ticks (a visible freeze) but by lengthening the following ticks by at most
-//    max_stretch (a few percent, as GGRS recommends) until that many frames of time are repaid.
-//    A newer recommendation replaces the unpaid rest (it already measures what is left).
+//    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
+//    joiner after its snapshot) -> drain Session::next_event() -> Session::poll -> transport
+//    send (send_reliable for datagrams the session marks reliable).
+//  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
+//    max_stretch); a session that only says wait_frames has that many frames of time repaid by
+//    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a
+//    visible freeze). A newer wait recommendation replaces the unpaid rest.
 //  - Never busy-spins: between ticks it sleeps, waking every service_interval_us to let the
 //    transport answer pings and stamp arrivals. A tick that is late runs at once; more than
 //    max_catch_up ticks behind, the schedule restarts from now (a frozen process does not then
 //    fast-forward in a burst).
 //  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
-//    resends and corrections still flow) until it has confirmed target_frame and every peer has
-//    acknowledged its inputs up to target_frame (so every peer can confirm it too) or has
-//    disconnected, then lingers linger_us more so its last acknowledgements reach the others.
-//    Bounded by finish_timeout_us after showing the target, and by run_timeout_us overall.
+//    resends and corrections still flow) until it has confirmed target_frame and every running
+//    slot and connected spectator has acknowledged its inputs up to target_frame (so it can
+//    confirm it too); dropped slots and disconnected peers are not waited for. Then it lingers
+//    linger_us more so its last acknowledgements reach the others. Bounded by
+//    finish_timeout_us after showing the target, and by run_timeout_us overall.
+//  - A session that fails (refused handshake, kicked) ends run() with Failed.
 //  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
 #pragma once
 
@@ -47,7 +54,7 @@ struct PeerAddress {
 struct RunnerConfig {
     int tick_rate = 60;
     std::uint32_t target_frame = 600;
-    std::vector<PeerAddress> peers;              // every remote slot (addresses of lower ones unused)
+    std::vector<PeerAddress> peers;              // every remote slot this process may connect to
     std::uint64_t connect_timeout_us = 30000000;
     std::uint64_t finish_timeout_us = 15000000;  // after showing target_frame
     std::uint64_t run_timeout_us = 0;            // whole run after synchronizing; 0 = no bound
@@ -55,6 +62,7 @@ struct RunnerConfig {
     std::uint64_t service_interval_us = 1000;
     double max_stretch = 0.05;                   // longest tick = (1 + max_stretch) periods
     int max_catch_up = 8;
+    int catch_up_frames = 8;                     // joiner: extra frames per tick while behind
 };
 
 enum class RunOutcome {
@@ -62,6 +70,7 @@ enum class RunOutcome {
     ConnectTimeout,  // not every peer connected in time
     FinishTimeout,   // target shown, but not confirmed everywhere within finish_timeout_us
     RunTimeout,      // target never shown within run_timeout_us
+    Failed,          // the session failed (refused, kicked): Session::failure() says why
     Stopped,         // request_stop()
 };
 const char* outcome_name(RunOutcome o);
@@ -77,8 +86,11 @@ struct TickReport {
 class RunnerObserver {
 public:
     virtual ~RunnerObserver() = default;
-    virtual void on_connected(rollback::PlayerId, std::uint64_t /*now_us*/) {}
-    virtual void on_disconnected(rollback::PlayerId, std::uint64_t /*now_us*/) {}
+    // Transport connection changes (Connected, Disconnected, Refused with a reason).
+    virtual void on_transport_event(const transport::TransportEvent&, std::uint64_t /*now_us*/) {}
+    // Session lifecycle events, as drained from Session::next_event().
+    virtual void on_session_event(const rollback::SessionEvent&) {}
+    // The session runs frame 0 (or its snapshot frame) from now on.
     virtual void on_synchronized(std::uint64_t /*now_us*/) {}
     // After advance() and poll() of each tick.
     virtual void on_tick(const TickReport&) {}
@@ -108,6 +120,7 @@ public:
 
 private:
     bool connect_phase();
+    void drain_session_events();
     void service_until(std::uint64_t deadline_us);
     void track_connections(std::uint64_t now);
     void tick(std::uint64_t now, std::uint64_t scheduled);
@@ -119,8 +132,7 @@ private:
     InputSource input_;
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};
-    std::vector<bool> connected_;      // by slot
-    std::vector<bool> ever_connected_;
+    std::vector<bool> connected_;      // by peer id (slots, then spectators)
     std::vector<std::uint8_t> input_bytes_;
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;

@@ -50,8 +50,12 @@ for x in s:
 cps = [{c["frame"]: c["checksum"] for c in x["confirmed_checksums"]} for x in s]
 assert all(c == cps[0] for c in cps), "checkpoint checksums differ"
 for k in range(n):
-    ev = [json.loads(l)["event"] for l in open(os.path.join(d, f"p{k}", "events.jsonl"))]
-    assert ev.count("connected") == n - 1 and "synchronized" in ev and ev[-1] == "finished", ev
+    evs = [json.loads(l) for l in open(os.path.join(d, f"p{k}", "events.jsonl"))]
+    ev = [e["event"] for e in evs]
+    connected = {e["peer"] for e in evs if e["event"] == "connected"}
+    assert connected == set(range(n)) - {k}, ev
+    assert "synchronized" in ev and ev[-1] == "finished", ev
+    assert "disconnected" not in ev and "desync" not in ev, ev
     rows = open(os.path.join(d, f"p{k}", "positions.csv")).read().count("\n")
     assert rows > frames, rows
 print("ok:", d, finals[0])
