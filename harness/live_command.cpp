@@ -52,6 +52,7 @@ struct LiveOptions {
     std::string out = "out/live";
     std::string log_level = "info";
     bool no_virtual = false;
+    double disconnect_timeout = 5;
 };
 
 struct Kill {
@@ -64,7 +65,7 @@ struct LivePlan {
     std::vector<Mode> modes;
     RunConfig base;                        // the same match for the virtual-time run
     std::map<Mode, int> input_delay;
-    std::vector<Kill> kills;
+    std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
     std::map<int, std::vector<std::string>> injections;  // slot -> FRAME:BODY[:FIELD:BIT]
     bool proxied = false;
 };
@@ -85,9 +86,8 @@ LivePlan plan(const LiveOptions& o) {
     LivePlan p;
     p.o = o;
     if (o.topology != "p2p") throw UsageError("--topology " + o.topology + ": only p2p is supported");
-    if (!o.rejoins.empty()) throw UsageError("--rejoin: needs the session lifecycle (rejoin by snapshot), not in this build");
-    if (!o.joins.empty()) throw UsageError("--join: needs the session lifecycle (late join), not in this build");
-    if (o.spectators != 0) throw UsageError("--spectators: needs the session lifecycle (spectators), not in this build");
+    if (o.spectators < 0 || o.spectators > 8) throw UsageError("--spectators must be 0..8");
+    if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
     p.modes = o.mode == "both"       ? std::vector<Mode>{Mode::Lockstep, Mode::Rollback}
               : o.mode == "lockstep" ? std::vector<Mode>{Mode::Lockstep}
                                      : std::vector<Mode>{Mode::Rollback};
@@ -119,11 +119,28 @@ LivePlan plan(const LiveOptions& o) {
             p.input_delay[m] = static_cast<int>(v);
         }
     }
-    for (const auto& k : o.kills) {
-        const auto [slot, frame] = parse_at(k, "--kill");
-        if (slot >= o.players || frame > o.frames) throw UsageError("--kill " + k + ": SLOT must be 0..players-1, FRAME 1..frames");
-        p.kills.push_back({slot, frame});
+    const auto at_list = [&](const std::vector<std::string>& texts, const std::string& flag, std::vector<Kill>& out) {
+        for (const auto& k : texts) {
+            const auto [slot, frame] = parse_at(k, flag);
+            if (slot >= o.players || frame > o.frames) throw UsageError(flag + " " + k + ": SLOT must be 0..players-1, FRAME 1..frames");
+            for (const auto& other : out)
+                if (other.slot == slot) throw UsageError(flag + " " + k + ": slot given twice");
+            out.push_back({slot, frame});
+        }
+    };
+    at_list(o.kills, "--kill", p.kills);
+    at_list(o.rejoins, "--rejoin", p.rejoins);
+    at_list(o.joins, "--join", p.joins);
+    for (const auto& r : p.rejoins) {
+        const auto k = std::find_if(p.kills.begin(), p.kills.end(), [&](const Kill& x) { return x.slot == r.slot; });
+        if (k == p.kills.end() || k->frame >= r.frame)
+            throw UsageError("--rejoin " + std::to_string(r.slot) + "@" + std::to_string(r.frame) +
+                             ": needs an earlier --kill of the same slot");
     }
+    if (static_cast<int>(p.joins.size()) >= o.players) throw UsageError("--join: at least one slot must play from frame 0");
+    for (const auto& j : p.joins)
+        for (const auto& k : p.kills)
+            if (k.slot == j.slot) throw UsageError("--join and --kill of the same slot are not supported together");
     for (const auto& text : o.injections) {
         const auto colon = text.find(':');
         char* end = nullptr;
@@ -200,24 +217,32 @@ std::vector<std::vector<std::string>> read_csv_rows(const fs::path& p) {
 }
 
 struct ProcessRecord {
-    int slot = 0;
+    int slot = 0;                // player slot, or spectator id (>= players)
+    bool spectator = false;
+    bool joiner = false;         // started with --join (late join or rejoin)
+    std::string name;            // output directory under the mode's directory
     int exit_status = -1;
+    bool started = false;
     bool killed = false;
     int killed_at_frame = -1;
     std::uint64_t killed_mono_us = 0;
     int last_progress = 0;
+    // Start condition: when player `after_slot` has shown `after_frame` (and, for a rejoin,
+    // once `after_kill_of` has been killed). -1: at once.
+    int after_slot = -1, after_frame = 0, after_kill_of = -1;
     json summary;  // null when the process left none (killed)
     std::vector<json> events;
 };
 
-// Runs one mode's processes; returns what each did.
+// Runs one mode's processes; returns what each did (players first, by slot; then rejoined
+// players and spectators).
 std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir) {
     const LiveOptions& o = p.o;
     const std::string exe = self_exe();
-    const int n = o.players;
-    const auto ports = free_ports(2 * n);  // [0, n): peers, [n, 2n): their proxies
+    const int n = o.players, ids = n + o.spectators;
+    const auto ports = free_ports(n + ids);  // [0, ids): peers and spectators, [ids, ids + n): proxies
     const auto port = [&](int k) { return ports[static_cast<std::size_t>(k)]; };
-    const auto front = [&](int k) { return p.proxied ? port(n + k) : port(k); };
+    const auto front = [&](int k) { return p.proxied ? port(ids + k) : port(k); };
     fs::create_directories(dir);
 
     std::vector<std::unique_ptr<ChildProcess>> proxies;
@@ -247,63 +272,133 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         }
     }
 
-    std::vector<std::unique_ptr<ChildProcess>> peers;
-    std::vector<ProcessRecord> recs(static_cast<std::size_t>(n));
+    // What to start, and when.
+    std::vector<ProcessRecord> recs;
     for (int k = 0; k < n; ++k) {
-        std::vector<std::string> args{exe, "peer", "--slot", std::to_string(k), "--players", std::to_string(n), "--listen",
-                                      "127.0.0.1:" + std::to_string(port(k))};
+        ProcessRecord r;
+        r.slot = k;
+        r.name = "p" + std::to_string(k);
+        for (const auto& j : p.joins)
+            if (j.slot == k) {
+                r.joiner = true;
+                r.after_frame = j.frame;
+            }
+        recs.push_back(r);
+    }
+    const int reference = [&] {  // the lowest slot that plays from frame 0: its progress is the clock
+        for (int k = 0; k < n; ++k)
+            if (!recs[static_cast<std::size_t>(k)].joiner) return k;
+        return 0;
+    }();
+    for (auto& r : recs)
+        if (r.joiner) r.after_slot = reference;
+    for (const auto& rj : p.rejoins) {
+        ProcessRecord r;
+        r.slot = rj.slot;
+        r.joiner = true;
+        r.name = "p" + std::to_string(rj.slot) + "-rejoin";
+        r.after_slot = rj.slot == reference ? (reference + 1) % n : reference;
+        r.after_frame = rj.frame;
+        r.after_kill_of = rj.slot;
+        recs.push_back(r);
+    }
+    for (int s = 0; s < o.spectators; ++s) {
+        ProcessRecord r;
+        r.slot = n + s;
+        r.spectator = true;
+        r.name = "s" + std::to_string(s);
+        recs.push_back(r);
+    }
+    const auto launch = [&](ProcessRecord& r) {
+        std::vector<std::string> args{exe, "peer", "--slot", std::to_string(r.slot), "--players", std::to_string(n), "--listen",
+                                      "127.0.0.1:" + std::to_string(port(r.slot))};
         for (int j = 0; j < n; ++j)
-            if (j != k) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
+            if (j != r.slot) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
         args.insert(args.end(),
                     {"--scene", o.scene, "--bot", o.bot, "--frames", std::to_string(o.frames), "--tick-rate",
                      std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(p.input_delay.at(mode)),
                      "--prediction", std::to_string(o.prediction), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
-                     "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress", "--out",
-                     (dir / ("p" + std::to_string(k))).string()});
-        if (const auto it = p.injections.find(k); it != p.injections.end())
+                     "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress",
+                     "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--out",
+                     (dir / r.name).string()});
+        for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
+        if (r.joiner) args.emplace_back("--join");
+        if (r.spectator) args.emplace_back("--spectate");
+        if (const auto it = p.injections.find(r.slot); it != p.injections.end() && !r.spectator)
             for (const auto& inj : it->second) args.insert(args.end(), {"--inject-desync", inj});
-        peers.push_back(std::make_unique<ChildProcess>(args, (dir / ("p" + std::to_string(k) + ".stderr.log")).string(), true));
-        recs[static_cast<std::size_t>(k)].slot = k;
-    }
+        r.started = true;
+        return std::make_unique<ChildProcess>(args, (dir / (r.name + ".stderr.log")).string(), true);
+    };
+    std::vector<std::unique_ptr<ChildProcess>> procs(recs.size());
+    const auto progress_of = [&](int slot) {  // the newest process of that slot
+        int f = 0;
+        for (const auto& r : recs)
+            if (r.slot == slot && r.started) f = r.last_progress;
+        return f;
+    };
+    const auto killed = [&](int slot) {
+        for (const auto& r : recs)
+            if (r.slot == slot && r.killed) return true;
+        return false;
+    };
 
     const std::uint64_t limit_us = static_cast<std::uint64_t>(10.0 * o.frames / o.tick_rate * 1e6) + 60000000;
     const std::uint64_t start = net::now_us();
     for (;;) {
+        for (std::size_t i = 0; i < recs.size(); ++i) {
+            ProcessRecord& r = recs[i];
+            if (r.started) continue;
+            const bool due = r.after_slot < 0 || (progress_of(r.after_slot) >= r.after_frame &&
+                                                   (r.after_kill_of < 0 || killed(r.after_kill_of)));
+            if (!due) continue;
+            procs[i] = launch(r);
+            if (r.joiner) std::fprintf(stderr, "[live %s] started %s (joins slot %d)\n", mode_name(mode), r.name.c_str(), r.slot);
+        }
         std::vector<pollfd> fds;
-        for (const auto& c : peers)
-            if (c->stdout_fd() >= 0) fds.push_back({c->stdout_fd(), POLLIN, 0});
+        for (const auto& c : procs)
+            if (c && c->stdout_fd() >= 0) fds.push_back({c->stdout_fd(), POLLIN, 0});
         if (!fds.empty()) ::poll(fds.data(), fds.size(), 20);
         else ::usleep(20000);
-        bool any_running = false;
-        for (int k = 0; k < n; ++k) {
-            ChildProcess& c = *peers[static_cast<std::size_t>(k)];
-            ProcessRecord& r = recs[static_cast<std::size_t>(k)];
+        bool any_running = false, any_waiting = false;
+        for (std::size_t i = 0; i < recs.size(); ++i) {
+            ProcessRecord& r = recs[i];
+            if (!procs[i]) {
+                any_waiting = true;
+                continue;
+            }
+            ChildProcess& c = *procs[i];
             for (const auto& line : c.read_lines()) {
                 unsigned f = 0;
                 if (std::sscanf(line.c_str(), "progress %u", &f) == 1) r.last_progress = static_cast<int>(f);
             }
             for (const Kill& kill : p.kills)
-                if (kill.slot == k && !r.killed && r.last_progress >= kill.frame && c.running()) {
+                if (kill.slot == r.slot && !r.joiner && !r.spectator && !r.killed && r.last_progress >= kill.frame && c.running()) {
                     c.signal(SIGKILL);
                     r.killed = true;
                     r.killed_at_frame = r.last_progress;
                     r.killed_mono_us = net::now_us();
-                    std::fprintf(stderr, "[live %s] killed slot %d at frame %d\n", mode_name(mode), k, r.last_progress);
+                    std::fprintf(stderr, "[live %s] killed slot %d at frame %d\n", mode_name(mode), r.slot, r.last_progress);
                 }
             if (c.running()) any_running = true;
         }
-        if (!any_running) break;
+        if (!any_running && !any_waiting) break;
+        if (!any_running && any_waiting) {
+            std::fprintf(stderr, "[live %s] every process ended before the late ones could start\n", mode_name(mode));
+            break;
+        }
         if (net::now_us() - start > limit_us) {
             std::fprintf(stderr, "[live %s] time limit: stopping the remaining processes\n", mode_name(mode));
-            for (auto& c : peers) c->stop(2000);
+            for (auto& c : procs)
+                if (c) c->stop(2000);
             break;
         }
     }
     for (auto& c : proxies) c->stop(2000);
-    for (int k = 0; k < n; ++k) {
-        ProcessRecord& r = recs[static_cast<std::size_t>(k)];
-        r.exit_status = *peers[static_cast<std::size_t>(k)]->poll_exit();
-        const fs::path pd = dir / ("p" + std::to_string(k));
+    for (std::size_t i = 0; i < recs.size(); ++i) {
+        ProcessRecord& r = recs[i];
+        if (!procs[i]) continue;
+        r.exit_status = *procs[i]->poll_exit();
+        const fs::path pd = dir / r.name;
         if (fs::exists(pd / "summary.json")) r.summary = json::parse(read_text(pd / "summary.json"), nullptr, false);
         std::ifstream ev(pd / "events.jsonl");
         for (std::string line; std::getline(ev, line);) {
@@ -314,6 +409,14 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
     return recs;
 }
 
+// For the metrics: per slot, the process that finished it (a rejoined one over the killed one).
+std::vector<const ProcessRecord*> players_of(const std::vector<ProcessRecord>& recs, int players) {
+    std::vector<const ProcessRecord*> out(static_cast<std::size_t>(players), nullptr);
+    for (const auto& r : recs)
+        if (!r.spectator && r.started) out[static_cast<std::size_t>(r.slot)] = &r;
+    return out;
+}
+
 // Merges a Stat from (mean, max, count) as summaries print it.
 void merge(Stat& s, double mean, double max, std::uint64_t count) {
     s.sum += mean * static_cast<double>(count);
@@ -321,7 +424,8 @@ void merge(Stat& s, double mean, double max, std::uint64_t count) {
     s.max = std::max(s.max, max);
 }
 
-RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& recs) {
+RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all) {
+    const auto players = players_of(all, p.o.players);
     const LiveOptions& o = p.o;
     RunResult r;
     r.mode = mode_name(mode);
@@ -343,10 +447,12 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     const std::size_t bodies = sim::World(with_players(p.base.scene, o.players)).dynamic_count();
     PositionErrorTracker tracker(o.players, bodies, false);
     // Positions of every process: frame -> body positions (exact raw Q32.32 columns).
-    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(recs.size());
+    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(players.size());
     std::map<std::uint32_t, double> time_s;
-    for (const auto& rec : recs) {
-        const fs::path pd = dir / ("p" + std::to_string(rec.slot));
+    for (const ProcessRecord* recp : players) {
+        if (!recp) continue;
+        const ProcessRecord& rec = *recp;
+        const fs::path pd = dir / rec.name;
         const json& s = rec.summary;
         ClientResult c;
         if (s.is_object()) {
@@ -429,8 +535,9 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     // Confirmed-state agreement: every checkpoint (every 60 frames) and the final checksum of
     // each process against process 0's.
     std::map<std::uint32_t, std::string> ref;
-    for (std::size_t k = 0; k < recs.size(); ++k) {
-        const json& s = recs[k].summary;
+    for (const ProcessRecord* rec : players) {
+        if (!rec) continue;
+        const json& s = rec->summary;
         if (!s.is_object()) continue;
         std::map<std::uint32_t, std::string> cps;
         for (const auto& c : s["confirmed_checksums"]) cps[c["frame"].get<std::uint32_t>()] = c["checksum"].get<std::string>();
@@ -455,15 +562,16 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
 // Longest time a surviving process showed no new frame after a kill: gaps between shown frames
 // after the kill, and from its last shown frame to its exit when it never finished.
 double longest_stall_after(const ProcessRecord& rec, const fs::path& dir, std::uint64_t kill_us) {
+    // Wall times in frames.csv count from the first frame shown (the recorder's start).
     double sync_ms = -1, finish_ms = -1;
     for (const auto& e : rec.events) {
-        if (e.value("event", "") == "synchronized") sync_ms = e.value("mono_ms", 0.0);
+        if (e.value("event", "") == "synchronized" && sync_ms < 0) sync_ms = e.value("mono_ms", 0.0);
         if (e.value("event", "") == "finished") finish_ms = e.value("mono_ms", 0.0);
     }
     if (sync_ms < 0) return 0;
     const double kill_ms = static_cast<double>(kill_us) / 1000.0;
     double last = kill_ms, longest = 0;
-    for (const auto& row : read_csv_rows(dir / ("p" + std::to_string(rec.slot)) / "frames.csv")) {
+    for (const auto& row : read_csv_rows(dir / rec.name / "frames.csv")) {
         const double t = sync_ms + std::stod(row[1]);
         if (t < kill_ms) continue;
         longest = std::max(longest, t - last);
@@ -480,15 +588,19 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
     json procs = json::array();
     std::vector<std::string> finals;
     for (const auto& r : recs) {
-        json disconnects = json::array(), rejoins = json::array();
+        if (!r.started) continue;
+        // The session's agreed slot changes: dropped (frame: inputs held then) and (re)joined
+        // (frame: the first frame of the slot's own inputs).
+        json disconnects = json::array(), joins = json::array();
         for (const auto& e : r.events) {
             const std::string ev = e.value("event", "");
-            if (ev == "disconnected") disconnects.push_back({{"peer", e.value("peer", -1)}, {"frame", e.value("frame", 0)}});
-            if (ev == "connected" && e.value("frame", 0) > 0)
-                rejoins.push_back({{"peer", e.value("peer", -1)}, {"frame", e.value("frame", 0)}});
+            if (ev == "disconnected") disconnects.push_back({{"slot", e.value("peer", -1)}, {"frame", e.value("event_frame", 0)}});
+            if (ev == "joined") joins.push_back({{"slot", e.value("peer", -1)}, {"frame", e.value("event_frame", 0)}});
         }
         const json& s = r.summary;
         json p = {{"slot", r.slot},
+                  {"name", r.name},
+                  {"role", r.spectator ? "spectator" : r.joiner ? "joiner" : "player"},
                   {"exit_status", r.exit_status},
                   {"outcome", s.is_object() ? s.value("outcome", "") : (r.killed ? "killed" : "no summary")},
                   {"final_checksum", s.is_object() ? s["final_checksum"] : json(nullptr)},
@@ -497,7 +609,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"ticks_per_second", s.is_object() ? s["ticks_per_second"] : json(0)},
                   {"killed_at_frame", r.killed ? json(r.killed_at_frame) : json(nullptr)},
                   {"disconnects", disconnects},
-                  {"reconnects", rejoins},
+                  {"joins", joins},
                   {"longest_stall_after_kill_ms",
                    first_kill && !r.killed ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
         if (!r.killed && s.is_object() && s["final_checksum"].is_string()) finals.push_back(s["final_checksum"]);
@@ -505,7 +617,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
     }
     bool survivors_ok = true;
     for (const auto& r : recs)
-        if (!r.killed && r.exit_status != 0) survivors_ok = false;
+        if (!r.killed && (!r.started || r.exit_status != 0)) survivors_ok = false;
     const bool equal = !finals.empty() && std::all_of(finals.begin(), finals.end(), [&](const auto& f) { return f == finals[0]; });
     return {{"processes", procs},
             {"final_checksums_equal", equal},
@@ -611,9 +723,11 @@ void add_live_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
     cmd->add_option("--kill", o->kills, "SLOT@FRAME: SIGKILL that process once it shows FRAME (repeatable)");
-    cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a killed process (needs the session lifecycle)");
-    cmd->add_option("--join", o->joins, "SLOT@FRAME: start that process late (needs the session lifecycle)");
-    cmd->add_option("--spectators", o->spectators, "Spectator processes (needs the session lifecycle)");
+    cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a --kill'ed slot with --join once slot 0 shows FRAME");
+    cmd->add_option("--join", o->joins, "SLOT@FRAME: the slot is absent from frame 0 and its process joins at FRAME");
+    cmd->add_option("--spectators", o->spectators, "Spectator processes following the match")->capture_default_str();
+    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a slot is dropped")
+        ->capture_default_str();
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
     cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();
     cmd->add_flag("--no-virtual", o->no_virtual, "Skip the in-process virtual-time run beside it");

@@ -327,7 +327,6 @@ public:
     }
     void on_synchronized(std::uint64_t now) override {
         if (!synced_us) synced_us = now;
-        last_advance_us = now;
         log_->info("running from frame {} (input delay {}, {} mode)", session->frame(), session->input_delay(), mode_name(p_.mode));
     }
     void on_all_confirmed(std::uint64_t now) override {
@@ -339,6 +338,7 @@ public:
         const double cpu = static_cast<double>(r.resim_ns + r.forward_ns) / 1000.0;
         cpu_us.add(cpu);
         resim_us.add(static_cast<double>(r.resim_ns) / 1000.0);
+        if (r.advanced && last_advance_us == 0) last_advance_us = t.now_us;  // the first frame
         if (r.advanced) {
             if (!rows_.empty() && rows_.back().frame == r.frame) rows_.back().cpu_us = cpu;
             const double gap = static_cast<double>(t.now_us - last_advance_us) / 1000.0;

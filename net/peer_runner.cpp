@@ -63,9 +63,14 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
         track_connections(now);
         if (now - last_reconnect_us_ >= kReconnectEveryUs) {
             last_reconnect_us_ = now;
-            // connect() refuses harmlessly while a connection exists or is pending.
+            // The lower id connects (one connection per pair, no crossed connects at the start);
+            // a joiner or spectator arrives late and connects to everyone itself. connect()
+            // refuses harmlessly while a connection exists or is pending.
+            const auto& sc = session_.config();
+            const bool late = sc.role != rollback::Role::Player;
             for (const auto& p : config_.peers)
-                if (!transport_.is_connected(p.slot)) transport_.connect(p.slot, p.host, p.port);
+                if ((late || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
+                    transport_.connect(p.slot, p.host, p.port);
         }
         if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
         std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
@@ -120,7 +125,10 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.now_us = now;
     report.scheduled_us = scheduled;
     report.advance = session_.advance(input_bytes_, now);
-    if (config_.catch_up_frames > 0 && session_.running() && session_.behind(now) > 0)
+    // Only a joiner catches up by stepping faster (it starts behind, from a snapshot); players
+    // that drift apart are evened out by time sync.
+    if (config_.catch_up_frames > 0 && session_.config().role == rollback::Role::Joiner && session_.running() &&
+        session_.behind(now) > 0)
         session_.catch_up(now, config_.catch_up_frames);
     drain_session_events();
     // Time sync by a slightly longer tick. The session's per-tick stretch is the advice; a

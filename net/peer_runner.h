@@ -4,16 +4,17 @@
 // whatever Simulation the caller built the Session on, and local input comes from a callback.
 //
 // Contract
-//  - Connections: connects to every peer address it was given that is not connected, retrying
-//    every half second (the transport resolves crossed connects and lets a restarted process
-//    take its id back), for the whole run, so a killed and restarted peer is reconnected.
+//  - Connections: a player connects to every higher peer id it has an address for, a joiner or
+//    spectator to every peer (it arrives late), retrying every half second for the whole run
+//    while not connected (the transport resolves crossed connects and lets a restarted process
+//    take its id back), so a killed and restarted peer is reconnected.
 //  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
 //    phase is the start barrier and the runner ticks from the beginning; without one, the runner
 //    waits until every remote slot is connected and then starts frame 0. Either way the session
 //    must be running within connect_timeout_us ("synchronized" is when it first runs).
 //  - Each tick: drain the transport -> Session::receive(from, bytes, arrival time) -> local
 //    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
-//    joiner after its snapshot) -> drain Session::next_event() -> Session::poll -> transport
+//    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
 //    send (send_reliable for datagrams the session marks reliable).
 //  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
 //    max_stretch); a session that only says wait_frames has that many frames of time repaid by
