@@ -611,7 +611,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"disconnects", disconnects},
                   {"joins", joins},
                   {"longest_stall_after_kill_ms",
-                   first_kill && !r.killed ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
+                   first_kill && !r.killed && !r.joiner ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
         if (!r.killed && s.is_object() && s["final_checksum"].is_string()) finals.push_back(s["final_checksum"]);
         procs.push_back(p);
     }

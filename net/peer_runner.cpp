@@ -96,13 +96,15 @@ bool PeerRunner::everyone_confirmed() const {
     const std::uint32_t target = config_.target_frame;
     if (session_.confirmed_frame() < target) return false;
     const auto& sc = session_.config();
-    for (std::size_t p = 0; p < connected_.size(); ++p) {
+    // A spectator sends no inputs: nobody needs anything from it.
+    if (sc.role == rollback::Role::Spectator) return true;
+    // Players wait for players only: spectators get the last inputs from the resends while the
+    // players linger, and are bounded by their own finish timeout.
+    for (int p = 0; p < sc.players; ++p) {
         const auto id = static_cast<rollback::PlayerId>(p);
         if (id == sc.local_player) continue;
         // Dropped or absent slots and peers without a connection are not waited for.
-        const bool slot = p < static_cast<std::size_t>(sc.players);
-        if (slot && session_.slot_state(id) != rollback::SlotState::Running) continue;
-        if (!connected_[p]) continue;
+        if (session_.slot_state(id) != rollback::SlotState::Running || !connected_[static_cast<std::size_t>(p)]) continue;
         if (session_.peer_ack(id) < target) return false;
     }
     return true;

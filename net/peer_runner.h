@@ -25,9 +25,10 @@
 //    max_catch_up ticks behind, the schedule restarts from now (a frozen process does not then
 //    fast-forward in a burst).
 //  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
-//    resends and corrections still flow) until it has confirmed target_frame and every running
-//    slot and connected spectator has acknowledged its inputs up to target_frame (so it can
-//    confirm it too); dropped slots and disconnected peers are not waited for. Then it lingers
+//    resends and corrections still flow) until it has confirmed target_frame and every running,
+//    connected player slot has acknowledged its inputs up to target_frame (so it can confirm it
+//    too); dropped slots, disconnected peers and spectators are not waited for (spectators send
+//    no inputs and get the last ones from the resends while the players linger). Then it lingers
 //    linger_us more so its last acknowledgements reach the others. Bounded by
 //    finish_timeout_us after showing the target, and by run_timeout_us overall.
 //  - A session that fails (refused handshake, kicked) ends run() with Failed.
