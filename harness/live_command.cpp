@@ -66,7 +66,7 @@ struct LivePlan {
     RunConfig base;                        // the same match for the virtual-time run
     std::map<Mode, int> input_delay;
     std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
-    std::map<int, std::vector<std::string>> injections;  // slot -> FRAME:BODY[:FIELD:BIT]
+    std::vector<std::string> injections;  // CLIENT:FRAME:BODY[:FIELD:BIT], for every peer
     bool proxied = false;
 };
 
@@ -142,13 +142,9 @@ LivePlan plan(const LiveOptions& o) {
         for (const auto& k : p.kills)
             if (k.slot == j.slot) throw UsageError("--join and --kill of the same slot are not supported together");
     for (const auto& text : o.injections) {
-        const auto colon = text.find(':');
-        char* end = nullptr;
-        const std::string client = text.substr(0, colon == std::string::npos ? 0 : colon);
-        const long slot = std::strtol(client.c_str(), &end, 10);
-        if (colon == std::string::npos || client.empty() || *end || slot < 0 || slot >= o.players)
-            throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT], CLIENT 0..players-1");
-        p.injections[static_cast<int>(slot)].push_back(text.substr(colon + 1));
+        const DesyncInjection d = parse_injection(text);  // passed verbatim to every peer
+        if (d.client >= o.players) throw UsageError("--inject-desync " + text + ": CLIENT must be 0..players-1");
+        p.injections.push_back(text);
     }
     p.proxied = o.latency > 0 || o.jitter > 0 || o.loss > 0 || o.burst > 0 || o.duplicate > 0 || o.reorder > 0;
     return p;
@@ -324,8 +320,8 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
         if (r.joiner) args.emplace_back("--join");
         if (r.spectator) args.emplace_back("--spectate");
-        if (const auto it = p.injections.find(r.slot); it != p.injections.end() && !r.spectator)
-            for (const auto& inj : it->second) args.insert(args.end(), {"--inject-desync", inj});
+        if (!r.spectator && !r.joiner)
+            for (const auto& inj : p.injections) args.insert(args.end(), {"--inject-desync", inj});
         r.started = true;
         return std::make_unique<ChildProcess>(args, (dir / (r.name + ".stderr.log")).string(), true);
     };

@@ -11,6 +11,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/client_result.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"
@@ -459,27 +460,12 @@ RunResult run_match(const RunConfig& cfg) {
     // Stats count every tick, including the few after the last frame spent confirming it.
     for (const auto& c : clients) {
         const rollback::SessionStats& st = c->session_->stats();
-        ClientResult cr;
+        ClientResult cr = client_result(st);
         // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
         const std::uint64_t end = c->reached_target_us_ ? c->reached_target_us_ : now;
         const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
-        cr.frames = st.frames_advanced;
-        cr.ticks = st.ticks;
-        cr.stall_ticks = st.stall_ticks;
-        cr.time_sync_waits = st.time_sync_wait_frames;
         // Effective tick rate: frames shown per second of the client's own running time.
         cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
-        cr.stall_fraction = st.ticks ? static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks) : 0;
-        cr.rollbacks = st.rollbacks;
-        cr.resimulated_frames = st.resimulated_frames;
-        cr.max_rollback_depth = st.max_rollback_depth;
-        cr.bytes_sent = st.bytes_sent;
-        cr.bytes_received = st.bytes_received;
-        cr.packets_sent = st.packets_sent;
-        cr.packets_received = st.packets_received;
-        for (const auto& p : st.peers) cr.mispredictions += p.mispredictions;
-        cr.malformed_packets = st.malformed_packets;
-        cr.desyncs = st.desyncs;
         cr.final_checksum = c->final_checksum_;
         cr.final_confirmed = c->final_confirmed_;
         res.completed = res.completed && c->final_confirmed_;

@@ -22,10 +22,12 @@
 #include "harness/atomic_file.h"
 #include "harness/bots.h"
 #include "harness/cli_error.h"
+#include "harness/client_result.h"
 #include "harness/hex.h"
 #include "harness/loopback_address.h"
 #include "harness/match.h"
 #include "harness/report.h"
+#include "harness/run_command.h"
 #include "harness/scene_loader.h"
 #include "net/clock.h"
 #include "net/peer_runner.h"
@@ -138,33 +140,9 @@ PeerPlan plan(const PeerOptions& o) {
     if (static_cast<int>(seen.size()) != others)
         throw UsageError("--peer: need an address for every other slot (" + std::to_string(others) + "), got " +
                          std::to_string(seen.size()));
-    for (const auto& text : o.injections) {
-        // FRAME:BODY[:FIELD:BIT] for this process (live's CLIENT: prefix is stripped there).
-        std::vector<long long> parts;
-        std::size_t start = 0;
-        for (;;) {
-            const auto colon = text.find(':', start);
-            const std::string item = text.substr(start, colon == std::string::npos ? std::string::npos : colon - start);
-            char* e = nullptr;
-            const long long v = std::strtoll(item.c_str(), &e, 10);
-            if (item.empty() || *e != '\0' || v < 0)
-                throw UsageError("--inject-desync " + text + ": expected FRAME:BODY[:FIELD:BIT] of non-negative integers");
-            parts.push_back(v);
-            if (colon == std::string::npos) break;
-            start = colon + 1;
-        }
-        if (parts.size() != 2 && parts.size() != 4) throw UsageError("--inject-desync " + text + ": expected FRAME:BODY[:FIELD:BIT]");
-        DesyncInjection d;
-        d.client = o.slot;
-        d.frame = static_cast<std::uint32_t>(parts[0]);
-        d.body = static_cast<std::uint32_t>(parts[1]);
-        if (parts.size() == 4) {
-            if (parts[2] > 5 || parts[3] > 63) throw UsageError("--inject-desync " + text + ": FIELD is 0..5, BIT 0..63");
-            d.field = static_cast<int>(parts[2]);
-            d.bit = static_cast<int>(parts[3]);
-        }
-        p.injections.push_back(d);
-    }
+    // Same syntax as run's; only this process's CLIENT applies (live passes every one to all).
+    for (const auto& text : o.injections)
+        if (const DesyncInjection d = parse_injection(text); d.client == o.slot) p.injections.push_back(d);
     try {
         p.scene = with_players(load_scene(o.scene), o.players);
     } catch (const SceneError& e) {
@@ -464,7 +442,8 @@ int do_peer(const PeerOptions& options) {
     rec.session = &session;
     for (const auto& inj : p.injections)
         if (const std::string e = session.inject_fault(inj.frame, inj.body, inj.field, inj.bit); !e.empty())
-            throw UsageError("--inject-desync " + std::to_string(inj.frame) + ":" + std::to_string(inj.body) + ": " + e);
+            throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) + ":" +
+                             std::to_string(inj.body) + ": " + e);
 
     transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
                                    .bind_host = p.listen.host,
@@ -524,24 +503,9 @@ int do_peer(const PeerOptions& options) {
     r.input_latency_local = rec.input_latency_local;
     r.rollback_depth_histogram = st.rollback_depth_histogram;
     r.desyncs = rec.desyncs;
-    ClientResult cr;
+    ClientResult cr = client_result(st);
     const double seconds = rec.reached_us ? static_cast<double>(rec.reached_us - rec.synced_us) / 1e6 + 1.0 / p.o.tick_rate : 0;
     cr.ticks_per_second = seconds > 0 ? p.o.frames / seconds : 0;
-    cr.frames = st.frames_advanced;
-    cr.ticks = st.ticks;
-    cr.stall_ticks = st.stall_ticks;
-    cr.time_sync_waits = st.time_sync_wait_frames;
-    cr.stall_fraction = st.ticks ? static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks) : 0;
-    cr.rollbacks = st.rollbacks;
-    cr.resimulated_frames = st.resimulated_frames;
-    cr.max_rollback_depth = st.max_rollback_depth;
-    cr.bytes_sent = st.bytes_sent;
-    cr.bytes_received = st.bytes_received;
-    cr.packets_sent = st.packets_sent;
-    cr.packets_received = st.packets_received;
-    for (const auto& peer : st.peers) cr.mispredictions += peer.mispredictions;
-    cr.malformed_packets = st.malformed_packets;
-    cr.desyncs = st.desyncs;
     cr.final_checksum = rec.final_checksum;
     cr.final_confirmed = rec.final_confirmed;
     r.clients.push_back(cr);
@@ -608,7 +572,7 @@ void add_peer_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")->capture_default_str();
     cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
-    cmd->add_option("--inject-desync", o->injections, "FRAME:BODY[:FIELD:BIT] flip one bit of one body here at a frame");
+    cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body at a frame, when CLIENT is --slot");
     cmd->add_option("--connect-timeout", o->connect_timeout, "Seconds to wait for every peer to connect")->capture_default_str();
     cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")
         ->capture_default_str();

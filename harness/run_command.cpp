@@ -73,29 +73,6 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
                     "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body on one client at a frame (repeatable)");
 }
 
-DesyncInjection parse_injection(const std::string& text) {
-    std::vector<long long> parts;
-    std::stringstream ss(text);
-    std::string item;
-    while (std::getline(ss, item, ':')) {
-        char* end = nullptr;
-        const long long v = std::strtoll(item.c_str(), &end, 10);
-        if (item.empty() || *end != '\0' || v < 0) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
-        parts.push_back(v);
-    }
-    if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
-    DesyncInjection d;
-    d.client = static_cast<int>(parts[0]);
-    d.frame = static_cast<std::uint32_t>(parts[1]);
-    d.body = static_cast<std::uint32_t>(parts[2]);
-    if (parts.size() == 5) {
-        if (parts[3] > 5 || parts[4] > 63) throw UsageError("--inject-desync " + text + ": FIELD is 0..5, BIT 0..63");
-        d.field = static_cast<int>(parts[3]);
-        d.bit = static_cast<int>(parts[4]);
-    }
-    return d;
-}
-
 RunConfig to_config(const RunOptions& o) {
     RunConfig c;
     try {
@@ -224,6 +201,29 @@ void do_sweep(const RunOptions& base, const SweepOptions& s) {
     if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
 }
 }  // namespace
+
+DesyncInjection parse_injection(const std::string& text) {
+    std::vector<long long> parts;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ':')) {
+        char* end = nullptr;
+        const long long v = std::strtoll(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0' || v < 0) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
+        parts.push_back(v);
+    }
+    if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
+    DesyncInjection d;
+    d.client = static_cast<int>(parts[0]);
+    d.frame = static_cast<std::uint32_t>(parts[1]);
+    d.body = static_cast<std::uint32_t>(parts[2]);
+    if (parts.size() == 5) {
+        if (parts[3] > 5 || parts[4] > 63) throw UsageError("--inject-desync " + text + ": FIELD is 0..5, BIT 0..63");
+        d.field = static_cast<int>(parts[3]);
+        d.bit = static_cast<int>(parts[4]);
+    }
+    return d;
+}
 
 // Median µs per physics step of the scene, timed here so the report compares like with like.
 double time_physics_step(const sim::SceneDesc& scene, int players) {

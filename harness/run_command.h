@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "harness/match.h"
 #include "sim/scene.h"
 
 namespace lockroll::harness {
@@ -12,6 +13,9 @@ void add_run_command(CLI::App& app);
 // Median µs per physics step of the scene (with `players` player bodies), timed here so a
 // report compares like with like (compare and live put it beside the paper's figure).
 double time_physics_step(const sim::SceneDesc& scene, int players);
+// --inject-desync CLIENT:FRAME:BODY[:FIELD:BIT] (run, compare, live, peer); UsageError naming
+// the text when malformed.
+DesyncInjection parse_injection(const std::string& text);
 void add_compare_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 
