@@ -53,6 +53,7 @@ struct LiveOptions {
     std::string log_level = "info";
     bool no_virtual = false;
     double disconnect_timeout = 5;
+    int recoveries = 0;
 };
 
 struct Kill {
@@ -88,6 +89,7 @@ LivePlan plan(const LiveOptions& o) {
     if (o.topology != "p2p") throw UsageError("--topology " + o.topology + ": only p2p is supported");
     if (o.spectators < 0 || o.spectators > 8) throw UsageError("--spectators must be 0..8");
     if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
+    if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
     p.modes = o.mode == "both"       ? std::vector<Mode>{Mode::Lockstep, Mode::Rollback}
               : o.mode == "lockstep" ? std::vector<Mode>{Mode::Lockstep}
                                      : std::vector<Mode>{Mode::Rollback};
@@ -315,7 +317,8 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
                      std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(p.input_delay.at(mode)),
                      "--prediction", std::to_string(o.prediction), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
                      "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress",
-                     "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--out",
+                     "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--recoveries",
+                     std::to_string(o.recoveries), "--out",
                      (dir / r.name).string()});
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
         if (r.joiner) args.emplace_back("--join");
@@ -722,6 +725,8 @@ void add_live_command(CLI::App& app) {
     cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a --kill'ed slot with --join once slot 0 shows FRAME");
     cmd->add_option("--join", o->joins, "SLOT@FRAME: the slot is absent from frame 0 and its process joins at FRAME");
     cmd->add_option("--spectators", o->spectators, "Spectator processes following the match")->capture_default_str();
+    cmd->add_option("--recoveries", o->recoveries, "Desync recoveries per process (the minority reloads the majority's state)")
+        ->capture_default_str();
     cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a slot is dropped")
         ->capture_default_str();
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");

@@ -61,6 +61,7 @@ struct PeerOptions {
     int spectators = 0;
     std::vector<int> absent;
     double disconnect_timeout = 5;
+    int recoveries = 0;
     std::string log_level = "info";
     std::string match_id;
     std::vector<std::string> injections;
@@ -100,6 +101,7 @@ PeerPlan plan(const PeerOptions& o) {
     if (o.join && o.spectate) throw UsageError("--join and --spectate exclude each other");
     for (int a : o.absent)
         if (a < 0 || a >= o.players) throw UsageError("--absent must name slots 0..players-1");
+    if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
     if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
     if (o.frames < 1) throw UsageError("--frames must be >= 1");
     if (o.tick_rate < 1 || o.tick_rate > 1000) throw UsageError("--tick-rate must be 1..1000");
@@ -438,6 +440,7 @@ int do_peer(const PeerOptions& options) {
     for (int a : p.o.absent) sc.absent_slots |= std::uint64_t{1} << a;
     sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
     sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
+    sc.max_recoveries = p.o.recoveries;
     rollback::Session session(sc, sim, &rec);
     rec.session = &session;
     for (const auto& inj : p.injections)
@@ -568,6 +571,8 @@ void add_peer_command(CLI::App& app) {
     cmd->add_flag("--spectate", o->spectate, "Watch without playing; --slot is then the spectator id (players..)");
     cmd->add_option("--spectators", o->spectators, "Spectator ids the match admits (the same on every process)")->capture_default_str();
     cmd->add_option("--absent", o->absent, "Slot nobody plays at frame 0 (joins later; the same on every process)");
+    cmd->add_option("--recoveries", o->recoveries, "Desync recoveries (reload the majority's state) before giving up")
+        ->capture_default_str();
     cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
         ->capture_default_str();
     cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")->capture_default_str();
