@@ -1,24 +1,96 @@
-# `cmake --install` exports lockroll::sim so another project can find_package(lockroll).
+# The public libraries as another project sees them. Each lockroll_<name> built from <name>/
+# becomes lockroll::<name>, with its headers <name>/*.h reachable as <lockroll/<name>/...>:
+#  - in this build tree (a parent project using add_subdirectory gets the same spelling),
+#  - after `cmake --install`: find_package(lockroll) (versioned, SameMajorVersion) and lockroll.pc.
+# The headers include each other as "sim/fixed.h", so both <prefix>/include and
+# <prefix>/include/lockroll are include dirs of every target.
+#
+# Adding a library: append its name to LOCKROLL_PUBLIC_LIBRARIES (top-level CMakeLists.txt), after
+# the libraries it links (static linking wants dependents first; lockroll.pc lists them in
+# reverse). Its target must give
+# its source include dir as $<BUILD_INTERFACE:...> (CMake refuses to export a raw source path),
+# and every imported target it links must be one this file knows how to find again (below).
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-install(TARGETS lockroll_sim EXPORT lockrollTargets
-        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(DIRECTORY ${PROJECT_SOURCE_DIR}/sim/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll/sim
-        FILES_MATCHING PATTERN "*.h")
-install(EXPORT lockrollTargets NAMESPACE lockroll::
-        DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll)
+set(lockroll_config_dependencies "")  # lockrollConfig.cmake: finding what the static libraries link
+set(lockroll_pc_requires "")          # lockroll.pc: pkg-config modules they link
+set(lockroll_pc_libs "")              # lockroll.pc: -l flags, dependents first
+set(lockroll_installed "")
+foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
+  set(target lockroll_${name})
+  if(NOT TARGET ${target})
+    continue()  # LOCKROLL_SIM_ONLY builds only sim
+  endif()
+  list(APPEND lockroll_installed ${name})
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} POSITION_INDEPENDENT_CODE ON)
+  file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/include/lockroll)
+  file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${name} ${PROJECT_BINARY_DIR}/include/lockroll/${name} SYMBOLIC)
+  target_include_directories(${target} INTERFACE
+    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/lockroll>)
+  install(TARGETS ${target} EXPORT lockrollTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${name}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll/${name}
+          FILES_MATCHING PATTERN "*.h")
+  list(PREPEND lockroll_pc_libs -l${target})
+
+  # Static libraries pass their link dependencies on, private or not: the package must find each.
+  get_target_property(links ${target} LINK_LIBRARIES)
+  foreach(link IN LISTS links)
+    if(link MATCHES "^(lockroll::|lockroll_)" OR NOT TARGET ${link})
+      continue()
+    elseif(link STREQUAL "PkgConfig::ENET")
+      if(NOT "libenet" IN_LIST lockroll_pc_requires)
+        list(APPEND lockroll_pc_requires libenet)
+        string(APPEND lockroll_config_dependencies [=[
+if(NOT TARGET PkgConfig::ENET)
+  find_dependency(PkgConfig)
+  pkg_check_modules(ENET QUIET IMPORTED_TARGET libenet)
+  if(NOT ENET_FOUND)
+    set(lockroll_FOUND FALSE)
+    set(lockroll_NOT_FOUND_MESSAGE "lockroll needs ENet (Debian package libenet-dev, pkg-config module libenet)")
+    return()
+  endif()
+endif()
+]=])
+      endif()
+    elseif(link STREQUAL "Threads::Threads")
+      if(NOT lockroll_config_dependencies MATCHES "Threads")
+        string(APPEND lockroll_config_dependencies "find_dependency(Threads)\n")
+        list(APPEND lockroll_pc_threads -pthread)
+      endif()
+    else()
+      message(FATAL_ERROR "cmake/Install.cmake: ${target} links ${link}, which the installed lockroll "
+                          "package does not know how to find; teach cmake/Install.cmake to find it")
+    endif()
+  endforeach()
+endforeach()
+
+install(EXPORT lockrollTargets NAMESPACE lockroll:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll)
+list(TRANSFORM lockroll_installed PREPEND lockroll:: OUTPUT_VARIABLE LOCKROLL_INSTALLED_TARGETS)
+string(REPLACE ";" " " LOCKROLL_INSTALLED_TARGETS "${LOCKROLL_INSTALLED_TARGETS}")
+set(LOCKROLL_CONFIG_DEPENDENCIES "${lockroll_config_dependencies}")
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/lockrollConfig.cmake.in
   ${PROJECT_BINARY_DIR}/lockrollConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll)
+# 0.x: every 0.y release is compatible with the 0.1 API until 1.0.
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/lockrollConfigVersion.cmake
-  COMPATIBILITY SameMinorVersion)
+  COMPATIBILITY SameMajorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/lockrollConfig.cmake ${PROJECT_BINARY_DIR}/lockrollConfigVersion.cmake
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll)
+
+# pkg-config: relocatable (the prefix is found from the .pc file's own place, so
+# `cmake --install --prefix` anywhere works).
+file(RELATIVE_PATH LOCKROLL_PC_PREFIX /${CMAKE_INSTALL_LIBDIR}/pkgconfig /)
+string(REGEX REPLACE "/$" "" LOCKROLL_PC_PREFIX "${LOCKROLL_PC_PREFIX}")
+string(REPLACE ";" " " LOCKROLL_PC_REQUIRES "${lockroll_pc_requires}")
+string(REPLACE ";" " " LOCKROLL_PC_LIBS "${lockroll_pc_libs};${lockroll_pc_threads}")
+configure_file(${PROJECT_SOURCE_DIR}/cmake/lockroll.pc.in ${PROJECT_BINARY_DIR}/lockroll.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/lockroll.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+
 if(NOT LOCKROLL_SIM_ONLY)
   install(TARGETS lockroll RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/harness/scenes/ DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scenes)
-endif()
-if(NOT LOCKROLL_SIM_ONLY)
   # The plotting scripts lockroll compare/sweep/precision call (found beside the scenes).
   install(PROGRAMS ${PROJECT_SOURCE_DIR}/scripts/plot.py ${PROJECT_SOURCE_DIR}/scripts/plot_precision.py
           DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scripts)

@@ -46,6 +46,7 @@ void encode(const HelloMessage& m, std::vector<std::uint8_t>& out) {
     w.u64(m.scene_checksum);
     w.u8(static_cast<std::uint8_t>(m.role));
     w.u64(m.stamp_us);
+    w.u64(m.incarnation);
 }
 
 const char* decode(std::span<const std::uint8_t> d, HelloMessage& m) {
@@ -56,6 +57,7 @@ const char* decode(std::span<const std::uint8_t> d, HelloMessage& m) {
     m.scene_checksum = r.u64();
     const std::uint8_t role = r.u8();
     m.stamp_us = r.u64();
+    m.incarnation = r.u64();
     if (!r.ok()) return "hello: truncated";
     if (role > kLastRole) return "hello: unknown role";
     m.role = static_cast<Role>(role);
@@ -71,6 +73,7 @@ void encode(const WelcomeMessage& m, std::vector<std::uint8_t>& out) {
     w.u64(m.scene_checksum);
     w.u64(m.echo_us);
     w.u8(m.running ? 1 : 0);
+    w.u8(m.slot_epoch);
 }
 
 const char* decode(std::span<const std::uint8_t> d, WelcomeMessage& m) {
@@ -82,6 +85,7 @@ const char* decode(std::span<const std::uint8_t> d, WelcomeMessage& m) {
     m.scene_checksum = r.u64();
     m.echo_us = r.u64();
     const std::uint8_t running = r.u8();
+    m.slot_epoch = r.u8();
     if (!r.ok()) return "welcome: truncated";
     if (refusal > kLastRefusal) return "welcome: unknown refusal";
     if (running > 1) return "welcome: bad running flag";

@@ -45,6 +45,9 @@ struct HelloMessage {
     std::uint64_t scene_checksum = 0;
     Role role = Role::Player;
     std::uint64_t stamp_us = 0;  // the sender's clock; echoed in the welcome (round trip)
+    // Which process this is: the same for all its hellos, different for a restarted one, so a
+    // repeated hello is never mistaken for a restart (and a restart is noticed at once).
+    std::uint64_t incarnation = 0;
 };
 
 struct WelcomeMessage {
@@ -55,6 +58,10 @@ struct WelcomeMessage {
     std::uint64_t scene_checksum = 0;
     std::uint64_t echo_us = 0;  // the hello's stamp
     bool running = false;       // the answering side has started frame 0
+    // The answering side's epoch of the hello sender's slot: a "disconnected" refusal counts
+    // only when it is newer than the sender's own view (a rejoined process may hear from a peer
+    // that has not learned of its rejoin yet).
+    std::uint8_t slot_epoch = 0;
 };
 
 // Why a snapshot is wanted; the provider decides what to hand over with it.

@@ -254,7 +254,10 @@ void DesyncDetector::finish(PlayerId peer, NarrowOutcome outcome) {
                 std::snprintf(buf, sizeof buf, "body %u (hash differs, fields equal)", r.body_id);
             s += buf;
             break;
-        case NarrowOutcome::HeaderOnly: s += "all bodies agree; the state header differs"; break;
+        // Only as true as body_hash() is complete: say what was compared, not more.
+        case NarrowOutcome::HeaderOnly:
+            s += "all body hashes agree; the difference is in the state header or in state body_hash() does not cover";
+            break;
         case NarrowOutcome::Unsupported: s += "the simulation has no per-body hashes"; break;
         case NarrowOutcome::EvidenceMissing: s += "the state of that frame is no longer held"; break;
         case NarrowOutcome::NoReply: s += "the peer did not answer"; break;

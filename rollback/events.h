@@ -55,7 +55,8 @@ struct DesyncEvent {
 // Where narrowing ended. BodyNamed is the goal; the others say why it could not get there.
 enum class NarrowOutcome {
     BodyNamed,        // body and field below are filled in
-    HeaderOnly,       // every body hash agrees: the difference is in the state's header
+    HeaderOnly,       // every body hash agrees: the difference is in the state header (or in
+                      // state the simulation's body_hash() leaves out)
     Unsupported,      // the simulation offers no per-body hashes
     EvidenceMissing,  // this client or the peer no longer holds that frame's state
     NoReply,          // the peer did not answer (gone, or in an error state)

@@ -74,6 +74,7 @@ public:
     // ---- lifecycle (docs/sessions.md) ----
     bool welcomed = false;            // handshake done: its traffic is listened to
     std::uint8_t welcomed_epoch = 0;  // its slot's epoch when it was welcomed
+    std::uint64_t incarnation = 0;    // the process welcomed (its hellos' incarnation)
     Role role = Role::Player;
     int roundtrips = 0;               // welcomes received (sync phase)
     std::uint64_t max_sync_rtt_us = 0;

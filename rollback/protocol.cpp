@@ -177,6 +177,7 @@ void encode(const ReplyMessage& m, std::vector<std::uint8_t>& out) {
 
 const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, InputMessage& m) {
     if (input_size == 0 || input_size > kMaxInputSize) return "input size out of range";
+    if (d.size() > kMaxDatagramBytes) return "input message: larger than a datagram";
     ByteReader r(d);
     const std::uint8_t kind = r.u8();
     if (!r.ok()) return "empty datagram";

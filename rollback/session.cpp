@@ -289,6 +289,15 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
     }
     if (!kind) return malformed(from, "unknown message kind");
     PeerLink& link = links_[from];
+    // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
+    if (link.welcomed && (!is_slot(from) || slot_running(from))) {
+        if (link.interrupted) {
+            link.interrupted = false;
+            emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
+        }
+        link.heard = true;
+        link.last_heard_us = now_us;
+    }
     switch (*kind) {
         case MessageKind::Hello: return;
         case MessageKind::Welcome:
@@ -308,7 +317,9 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
             return handle_snapshot_chunk(from, snap_chunk_msg_, now_us);
         default: break;
     }
-    // Input, query, reply: game traffic.
+    // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
+    // snapshot is loaded; a player still synchronizing already does (frame 0).
+    if (phase_ != SessionPhase::Running && config_.role != Role::Player) return void(++ps.ignored_packets);
     if (!link.welcomed || (is_slot(from) && slots_[from].state != SlotState::Running)) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
@@ -318,6 +329,7 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
             w.scene_checksum = scene_checksum_;
+            w.slot_epoch = slots_[from].epoch;
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
@@ -326,12 +338,6 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
         }
         return;
     }
-    if (link.interrupted) {
-        link.interrupted = false;
-        emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
-    }
-    link.heard = true;
-    link.last_heard_us = now_us;
     switch (*kind) {
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
@@ -363,6 +369,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.scene_checksum = scene_checksum_;
     w.echo_us = m.stamp_us;
     w.running = phase_ == SessionPhase::Running;
+    if (is_slot(from)) w.slot_epoch = slots_[from].epoch;
     std::string why;
     if (m.version != kProtocolVersion) {
         w.refusal = Refusal::Version;
@@ -382,11 +389,12 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
         w.refusal = Refusal::Disconnected;
         why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
     } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
-               (!link.welcomed || link.welcomed_epoch == slots_[from].epoch) && !slots_[from].handed_off_by_me) {
-        // The slot's process restarted: the old one is gone. Drop it now; welcome once dropped.
-        // (A slot running in a newer epoch than we welcomed it in is the joiner itself, handed
-        // over by the owner: welcome it.)
-        if (link.welcomed) drop_slot(from, now_us, "rejoining");
+               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == slots_[from].epoch &&
+               !slots_[from].handed_off_by_me) {
+        // Another process for a slot whose process we know: the old one restarted and is gone.
+        // Drop it now; welcome the new one once the drop is agreed. (A slot running in a newer
+        // epoch than we welcomed it in is the joiner itself, handed over by the owner.)
+        drop_slot(from, now_us, "rejoining");
         w.refusal = Refusal::Retry;
     }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
@@ -406,6 +414,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
         }
         link.welcomed = true;
         if (is_slot(from)) link.welcomed_epoch = slots_[from].epoch;
+        link.incarnation = m.incarnation;
         link.role = m.role;
         if (!link.heard) {
             link.heard = true;
@@ -426,7 +435,9 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     PeerLink& link = links_[from];
     if (m.refusal == Refusal::Retry) return;
     if (m.refusal == Refusal::Disconnected) {
-        if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
+        const bool newer = config_.role == Role::Spectator ||
+                           !newer_epoch(slots_[config_.local_player].epoch, m.slot_epoch);
+        if ((config_.role == Role::Player || phase_ == SessionPhase::Running) && newer) {
             emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
                  "peer " + std::to_string(from) + " says this slot was dropped");
             fail("dropped from the match by the other peers", now_us);
@@ -587,6 +598,7 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
             link.has_count[s] = true;
         }
         if (is_slot(from) && s == from) continue;  // a player's own entry says nothing new
+        if (!is_slot(from)) continue;              // spectators report counts, never decide states
         SlotView& v = slots_[s];
         if (newer_epoch(e.epoch, v.epoch)) adopt_slot(e.slot, e, now_us);
         if (phase_ == SessionPhase::Failed) return;
@@ -917,6 +929,7 @@ std::uint32_t Session::checkpoint() const {
 }
 
 void Session::poll_handshake(std::uint64_t now_us) {
+    if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
@@ -933,6 +946,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
         l.hello_sent = true;
         l.last_hello_us = now_us;
         HelloMessage h;
+        h.incarnation = incarnation_;
         h.match_id = config_.match_id;
         h.scene_checksum = scene_checksum_;
         h.role = config_.role;
@@ -1022,9 +1036,11 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     }
     if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
     // The same peer asking again while its offer is young: send the same offer.
+    // (A recovery wants a fresh frame, so its offer is reused only against duplicates; either way
+    // a peer cannot make us pack more than a few blobs a second.)
+    const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
     for (const OutgoingTransfer& t : outgoing_)
-        if (t.peer == from && t.offer.reason == m.reason && m.reason != TransferReason::Recover &&
-            now_us < t.created_us + 2'000'000) {
+        if (t.peer == from && t.offer.reason == m.reason && now_us < t.created_us + reuse_us) {
             std::vector<std::uint8_t> b;
             encode(t.offer, b);
             send_control(from, std::move(b));

@@ -121,6 +121,9 @@ struct SessionConfig {
     int max_recoveries = 0;            // desync recoveries before giving up (0: never recover)
     DesyncKeep two_player_keep = DesyncKeep::LowestSlot;
     int relay_lag = 0;                 // relay a stream to a peer this far behind (0: auto)
+    // Names this process in its hellos (0: taken from the first now_us this session sees, which
+    // differs between a process and its restarted successor).
+    std::uint64_t incarnation = 0;
 };
 
 // What the session tells its owner (drained with next_event()).
@@ -358,6 +361,7 @@ private:
     std::optional<std::uint32_t> mismatch_frame_;
     std::uint64_t mismatch_since_us_ = 0;
     int recoveries_ = 0;
+    std::uint64_t incarnation_ = 0;
     HelloMessage hello_msg_;
     WelcomeMessage welcome_msg_;
     SnapshotRequestMessage snap_req_msg_;

@@ -20,6 +20,10 @@
 //    the live state moved on. Equal states must give equal checksums on every platform.
 //  - The optional part (bodies, fields, describe_state, flip_bit) exists for desync narrowing and
 //    fault injection; a simulation without it still gets checksum alerts, just not the body.
+//  - A game that names fields (field_count() > 0, field_value()) gets a body_hash() of them for
+//    free, so narrowing finds the body and field without more code. A game overriding
+//    body_hash() must make it cover every field, or a differing field hides behind equal hashes
+//    and narrowing can only say that every body hash agrees.
 //    Functions that take a state are only ever given buffers of state_size() bytes that came
 //    from save().
 #pragma once
@@ -63,6 +67,8 @@ public:
     // (0..body_count()-1), body_id() the name people know them by (sim::BodyId for the World).
     virtual std::uint32_t body_count() const { return 0; }
     virtual std::uint32_t body_id(std::uint32_t index) const { return index; }
+    // Default: 0 when the simulation names no fields, else XXH3-64, seeded with body_id(index),
+    // of field_value(state, index, 0 .. field_count()-1), each as 8 bytes little-endian.
     virtual std::uint64_t body_hash(std::span<const std::uint8_t> state, std::uint32_t index) const;
     // Every body has field_count() integer fields (for the World: position.x .. velocity.z).
     virtual int field_count() const { return 0; }

@@ -1,13 +1,18 @@
-# Driver of the install_find_package test (cmake -P). Inputs: BUILD_DIR, CONSUMER_SOURCE_DIR,
-# LIBDIR, WORK_DIR, GENERATOR, CXX_COMPILER, INTREE_CONSUMER.
-foreach(var BUILD_DIR CONSUMER_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER)
+# Driver of the install_find_package test (cmake -P). Inputs: BUILD_DIR, TEST_SOURCE_DIR
+# (tests/install), LIBDIR, WORK_DIR, GENERATOR, CXX_COMPILER, INTREE_CONSUMER, VERSION,
+# PKG_CONFIG, LIBRARIES (the public libraries, comma-separated: sim,rollback,transport).
+foreach(var BUILD_DIR TEST_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER VERSION PKG_CONFIG LIBRARIES)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "run_install_test.cmake: ${var} not set")
   endif()
 endforeach()
 
+string(REPLACE "," ";" LIBRARIES "${LIBRARIES}")
+list(TRANSFORM LIBRARIES PREPEND lockroll:: OUTPUT_VARIABLE expected_targets)
 set(prefix ${WORK_DIR}/prefix)
+set(consumer_source ${TEST_SOURCE_DIR}/consumer)
 set(consumer_build ${WORK_DIR}/consumer-build)
+get_filename_component(source_root ${TEST_SOURCE_DIR}/../.. ABSOLUTE)
 file(REMOVE_RECURSE ${WORK_DIR})
 file(MAKE_DIRECTORY ${WORK_DIR})
 
@@ -21,23 +26,58 @@ endfunction()
 
 step("cmake --install" ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${prefix})
 
-# The package must be usable from the prefix alone: point find_package at exactly that config
-# and keep CMake from consulting the user package registry or the system.
+# Every target and the pkg-config file are there.
+foreach(f ${LIBDIR}/cmake/lockroll/lockrollConfig.cmake ${LIBDIR}/cmake/lockroll/lockrollConfigVersion.cmake
+          ${LIBDIR}/pkgconfig/lockroll.pc)
+  if(NOT EXISTS ${prefix}/${f})
+    message(FATAL_ERROR "install test: ${f} was not installed")
+  endif()
+endforeach()
+foreach(lib IN LISTS LIBRARIES)
+  if(NOT EXISTS ${prefix}/${LIBDIR}/liblockroll_${lib}.a OR NOT IS_DIRECTORY ${prefix}/include/lockroll/${lib})
+    message(FATAL_ERROR "install test: lockroll::${lib} (library or headers) was not installed")
+  endif()
+endforeach()
+
+# Installed headers include only installed headers (quoted, resolved under include/lockroll) and
+# standard C++ headers (<name>, no extension, no directory): never xxhash.h, ENet or the source tree.
+file(GLOB_RECURSE headers RELATIVE ${prefix}/include/lockroll ${prefix}/include/lockroll/*.h)
+foreach(h IN LISTS headers)
+  file(STRINGS ${prefix}/include/lockroll/${h} includes REGEX "^[ \t]*#[ \t]*include")
+  foreach(line IN LISTS includes)
+    if(line MATCHES "\"([^\"]+)\"")
+      if(NOT EXISTS ${prefix}/include/lockroll/${CMAKE_MATCH_1})
+        message(FATAL_ERROR "install test: installed ${h} includes \"${CMAKE_MATCH_1}\", which is not installed")
+      endif()
+    elseif(line MATCHES "<([^>]+)>")
+      set(included ${CMAKE_MATCH_1})
+      if(included MATCHES "[./]")
+        message(FATAL_ERROR "install test: installed ${h} includes <${included}>, not a standard C++ "
+                            "header; a private dependency must stay in the .cpp files")
+      endif()
+    endif()
+  endforeach()
+endforeach()
+
+# Nothing of the source or build tree may leak into the installed package's usage requirements.
+foreach(f ${LIBDIR}/cmake/lockroll/lockrollTargets.cmake ${LIBDIR}/cmake/lockroll/lockrollConfig.cmake
+          ${LIBDIR}/pkgconfig/lockroll.pc)
+  file(READ ${prefix}/${f} text)
+  foreach(tree ${source_root} ${BUILD_DIR})
+    string(FIND "${text}" "${tree}" leak)
+    if(NOT leak EQUAL -1)
+      message(FATAL_ERROR "install test: installed ${f} refers to ${tree}")
+    endif()
+  endforeach()
+endforeach()
+
+# CMake: the package must be usable from the prefix alone: point find_package at exactly that
+# config and keep CMake from consulting the user package registry or the system.
+set(isolated -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -Dlockroll_DIR=${prefix}/${LIBDIR}/cmake/lockroll
+             -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF)
 step("configuring the consumer"
-     ${CMAKE_COMMAND} -S ${CONSUMER_SOURCE_DIR} -B ${consumer_build} -G ${GENERATOR}
-     -DCMAKE_CXX_COMPILER=${CXX_COMPILER} -DCMAKE_BUILD_TYPE=Release
-     -Dlockroll_DIR=${prefix}/${LIBDIR}/cmake/lockroll
-     -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF -DCMAKE_FIND_USE_SYSTEM_PACKAGE_REGISTRY=OFF)
-step("building the consumer" ${CMAKE_COMMAND} --build ${consumer_build})
-
-# Nothing of the source tree may leak into the installed package's usage requirements.
-file(READ ${prefix}/${LIBDIR}/cmake/lockroll/lockrollTargets.cmake targets_file)
-get_filename_component(source_root ${CONSUMER_SOURCE_DIR}/../../.. ABSOLUTE)
-string(FIND "${targets_file}" "${source_root}" leak)
-if(NOT leak EQUAL -1)
-  message(FATAL_ERROR "install test: lockrollTargets.cmake refers to the source tree ${source_root}")
-endif()
-
+     ${CMAKE_COMMAND} -S ${consumer_source} -B ${consumer_build} -G ${GENERATOR} -DCMAKE_BUILD_TYPE=Release ${isolated})
+step("building the consumer (and every installed header)" ${CMAKE_COMMAND} --build ${consumer_build})
 step("running the installed consumer" ${consumer_build}/consumer)
 set(installed "${step_output}")
 step("running the in-tree consumer" ${INTREE_CONSUMER})
@@ -47,6 +87,45 @@ if(NOT installed STREQUAL intree)
   message(FATAL_ERROR "install test: the consumer built against the installed package printed\n  ${installed}"
                       "but built in-tree it printed\n  ${intree}")
 endif()
-if(NOT installed MATCHES "^lockroll consumer: .* checksum [0-9a-f]+\n$")
+if(NOT installed MATCHES "^lockroll consumer: world .* checksum [0-9a-f]+; session confirmed [0-9]+ agree, checksum [0-9a-f]+; enet bound\n$")
   message(FATAL_ERROR "install test: unexpected consumer output: ${installed}")
 endif()
+
+# pkg-config: a plain compiler command line, as a Makefile would write it.
+step("pkg-config --cflags --libs lockroll"
+     ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${prefix}/${LIBDIR}/pkgconfig ${PKG_CONFIG} --cflags --libs lockroll)
+string(STRIP "${step_output}" pc_flags)
+message(STATUS "pkg-config: ${pc_flags}")
+separate_arguments(pc_flags UNIX_COMMAND "${pc_flags}")
+step("compiling the consumer with pkg-config's flags"
+     ${CXX_COMPILER} -std=c++20 -O2 ${consumer_source}/main.cpp ${pc_flags} -o ${WORK_DIR}/consumer-pkgconfig)
+step("running the pkg-config consumer" ${WORK_DIR}/consumer-pkgconfig)
+if(NOT step_output STREQUAL intree)
+  message(FATAL_ERROR "install test: the consumer built with pkg-config printed\n  ${step_output}"
+                      "but built in-tree it printed\n  ${intree}")
+endif()
+step("pkg-config --modversion lockroll"
+     ${CMAKE_COMMAND} -E env PKG_CONFIG_PATH=${prefix}/${LIBDIR}/pkgconfig ${PKG_CONFIG} --modversion lockroll)
+if(NOT step_output STREQUAL "${VERSION}\n")
+  message(FATAL_ERROR "install test: lockroll.pc says version ${step_output}, the project is ${VERSION}")
+endif()
+
+# Versioning is SameMajorVersion: 0.1 and 0.0 are satisfied by 0.1.x; 1.0 and a newer 0.x are not.
+string(REGEX MATCH "^[0-9]+\\.[0-9]+" major_minor "${VERSION}")
+string(REGEX MATCH "^[0-9]+" major "${VERSION}")
+string(REGEX MATCH "\\.([0-9]+)" minor "${VERSION}")
+math(EXPR next_minor "${CMAKE_MATCH_1} + 1")
+math(EXPR next_major "${major} + 1")
+foreach(want_expect ${major_minor}=found ${major}.0=found ${next_major}.0=not ${major}.${next_minor}=not)
+  string(REPLACE "=" ";" want_expect ${want_expect})
+  list(GET want_expect 0 want)
+  list(GET want_expect 1 expect)
+  step("find_package(lockroll ${want})"
+       ${CMAKE_COMMAND} -S ${TEST_SOURCE_DIR}/version_check -B ${WORK_DIR}/version-${want} -G ${GENERATOR} ${isolated}
+       -DWANT=${want})
+  if(expect STREQUAL "found" AND NOT step_output MATCHES "lockroll ${want}: found ${VERSION} targets ${expected_targets}\n")
+    message(FATAL_ERROR "install test: find_package(lockroll ${want}) should find ${VERSION}:\n${step_output}")
+  elseif(expect STREQUAL "not" AND NOT step_output MATCHES "lockroll ${want}: not found\n")
+    message(FATAL_ERROR "install test: find_package(lockroll ${want}) should fail against ${VERSION}:\n${step_output}")
+  endif()
+endforeach()

@@ -133,7 +133,63 @@ void kill_and_rejoin(int window) {
 }
 
 TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
+
+// A process restarted within a second of dying says hello with a new incarnation: its peers drop
+// the old one at once instead of waiting out disconnect_us, and the game barely stalls.
+TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
+    const auto scene = make_scene(2, 10);
+    const SessionConfig cfg = real_config(2, 8);
+    Cluster cluster(scene, cfg, {15000}, 12);
+    cluster.run_frames(200);
+    cluster.kill(1);
+    cluster.run([](const Cluster&) { return false; }, 1'000'000);
+    SessionConfig again = cfg;
+    again.local_player = 1;
+    again.role = Role::Joiner;
+    const std::uint64_t restarted_at = cluster.now();
+    Client& joiner = cluster.start(1, scene, again, 31);
+    cluster.run_frames(600, 20'000'000);
+    cluster.settle(600);
+    const Client& survivor = *cluster.clients[0];
+    ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u);
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, "rejoining");
+    EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000);
+    EXPECT_LT(survivor.session->stats().stall_time_us, 3'000'000u);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    expect_equal_at(cluster, 600);
+}
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
+
+// The owner itself (slot 0, which writes absent slots' inputs) dies while slot 3 is absent: the
+// next lowest running slot takes both streams over from where the peers agree, and a joiner
+// into slot 0 is served by the new owner.
+TEST(Lifecycle, OwnerDiesAndTheNextSlotTakesOver) {
+    const auto scene = make_scene(4, 10);
+    SessionConfig cfg = real_config(4, 8);
+    cfg.absent_slots = 1u << 3;
+    Cluster cluster(scene, cfg, {20000, 10000, 100000}, 21);
+    cluster.kill(3);
+    cluster.run_frames(240);
+    cluster.kill(0);
+    cluster.run_frames(900, 60'000'000);
+    for (PlayerId p : {1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        EXPECT_EQ(c.session->slot_state(0), SlotState::Disconnected);
+        EXPECT_EQ(c.session->slot_state(3), SlotState::Absent);
+    }
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom).back()->frame,
+              events_of(*cluster.clients[2], Kind::NeutralFrom).back()->frame);
+    cluster.settle(900);
+    expect_equal_at(cluster, 900);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 0;
+    Client& joiner = cluster.start(0, scene, join, 5);
+    cluster.run_frames(1300, 60'000'000);
+    cluster.settle(1300);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    expect_equal_at(cluster, 1300);
+}
 
 TEST(Lifecycle, LateJoinIntoAbsentSlotAndSpectator) {
     const auto scene = make_scene(3, 20);

@@ -4,6 +4,8 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
+#include <string>
 
 #include "tests/rollback/test_support.h"
 
@@ -79,6 +81,112 @@ TEST(Soak, PaperConditionsBandwidth) {
             cluster.settle(3500);
             expect_all_agree(cluster, 3500);
         }
+    }
+}
+
+std::uint64_t rss_kib() {
+    std::ifstream in("/proc/self/status");
+    for (std::string line; std::getline(in, line);)
+        if (line.rfind("VmRSS:", 0) == 0) return std::stoull(line.substr(6));
+    return 0;
+}
+
+// The harsh network with churn: every `kill_every_s` of virtual time one player's
+// process dies, and a new process rejoins its slot 20 s later by snapshot. Every 10 s every
+// running process must have confirmed the same checksum and the same inputs of a recent frame
+// (so no confirmed input was lost or changed by a drop or a join), nobody may desync, and the
+// process's memory must not grow between the 10-minute mark and the end. SOAK_MINUTES sets the
+// length (60 by hand; the CI's short form in lifecycle_test runs 2 minutes).
+TEST(Soak, EightPlayersWithKillsAndRejoins) {
+    const int minutes = std::getenv("SOAK_MINUTES") ? std::atoi(std::getenv("SOAK_MINUTES")) : 60;
+    const auto scene = make_scene(8, 50);
+    SessionConfig cfg;
+    cfg.players = 8;
+    cfg.input_delay = 3;
+    cfg.handshake = true;
+    cfg.match_id = 77;
+    NetParams net;
+    net.latency_us = 100000;
+    net.jitter_us = 100000;
+    net.loss_ppm = 200000;
+    net.duplicate_ppm = 50000;
+    net.reorder_ppm = 100000;
+    Cluster cluster(scene, cfg, net, 4242);
+    for (auto& c : cluster.clients) {
+        c->record_replay = false;
+        c->history_limit = 2048;
+    }
+    const std::uint64_t kill_every_us = 120'000'000;
+    const std::uint64_t end_us = static_cast<std::uint64_t>(minutes) * 60'000'000;
+    std::uint64_t next_kill = kill_every_us, next_check = 10'000'000, rss_at_10 = 0;
+    std::optional<std::pair<PlayerId, std::uint64_t>> pending_rejoin;
+    int kills = 0, rejoins = 0, checks = 0;
+    std::uint64_t seed = 1;
+    while (cluster.now() < end_us) {
+        cluster.run([&](const Cluster& c) { return c.now() >= std::min({next_kill, next_check, end_us}) ||
+                                                    (pending_rejoin && c.now() >= pending_rejoin->second); },
+                    end_us);
+        if (pending_rejoin && cluster.now() >= pending_rejoin->second) {
+            SessionConfig again = cfg;
+            again.local_player = pending_rejoin->first;
+            again.role = Role::Joiner;
+            auto& c = cluster.start(pending_rejoin->first, scene, again, 100 + seed++);
+            c.record_replay = false;
+            c.history_limit = 2048;
+            pending_rejoin.reset();
+            ++rejoins;
+        }
+        if (cluster.now() >= next_kill) {
+            next_kill += kill_every_us;
+            if (!pending_rejoin) {
+                const auto victim = static_cast<PlayerId>(1 + kills % 7);  // slot 0 too would test owner change
+                cluster.kill(victim);
+                pending_rejoin = std::make_pair(victim, cluster.now() + 20'000'000);
+                ++kills;
+            }
+        }
+        if (cluster.now() >= next_check) {
+            next_check += 10'000'000;
+            std::uint32_t common = UINT32_MAX;
+            for (std::size_t i = 0; i < cluster.clients.size(); ++i)
+                if (cluster.counts(i) && cluster.clients[i]->session->running())
+                    common = std::min(common, cluster.clients[i]->session->confirmed_frame());
+            if (common == UINT32_MAX || common < 200) continue;
+            const std::uint32_t f = common - 100;
+            const testing::Client* ref = nullptr;
+            for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+                if (!cluster.counts(i) || !cluster.clients[i]->session->running()) continue;
+                const auto& c = *cluster.clients[i];
+                if (!c.confirmed.count(f)) continue;  // a joiner that started after f
+                if (!ref) {
+                    ref = &c;
+                    continue;
+                }
+                ASSERT_EQ(c.confirmed.at(f), ref->confirmed.at(f)) << "client " << i << " frame " << f;
+                ASSERT_EQ(c.confirmed_inputs.at(f), ref->confirmed_inputs.at(f)) << "client " << i << " frame " << f;
+            }
+            ++checks;
+            if (cluster.now() >= 600'000'000 && rss_at_10 == 0) rss_at_10 = rss_kib();
+        }
+    }
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        if (!cluster.counts(i)) continue;
+        EXPECT_TRUE(cluster.clients[i]->desyncs.empty()) << "client " << i;
+        EXPECT_EQ(cluster.clients[i]->session->phase(), SessionPhase::Running) << "client " << i;
+        if (std::getenv("SOAK_EVENTS"))
+            for (const auto& e : cluster.clients[i]->events)
+                if (e.kind != SessionEvent::Kind::Synchronizing && (i < 2))
+                    std::printf("%zu %s peer %u frame %u t %.2f %s\n", i, event_name(e.kind), e.peer, e.frame, e.at_us / 1e6, e.detail.c_str());
+    }
+    const std::uint64_t rss_end = rss_kib();
+    std::printf("churn soak: %d min virtual, %d kills, %d rejoins, %d agreement checks, RSS %llu KiB at 10 min, "
+                "%llu KiB at the end\n",
+                minutes, kills, rejoins, checks, static_cast<unsigned long long>(rss_at_10),
+                static_cast<unsigned long long>(rss_end));
+    EXPECT_GT(kills, 0);
+    EXPECT_GT(checks, 0);
+    if (rss_at_10 != 0) {
+        EXPECT_LE(rss_end, rss_at_10 + rss_at_10 / 10 + 8192);
     }
 }
 

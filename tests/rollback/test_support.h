@@ -153,9 +153,14 @@ struct Client : SessionObserver {
     void on_frame_confirmed(const FrameConfirmed& f) override {
         // A joiner starts confirming at its snapshot's frame, a recovering peer confirms again:
         // the replay takes the in-order prefix, `confirmed` every frame's latest checksum.
-        if (f.frame == recorder.replay().frames() + 1) recorder.add(f);
+        if (record_replay && f.frame == recorder.replay().frames() + 1) recorder.add(f);
         confirmed[f.frame] = f.checksum;
         confirmed_inputs[f.frame].assign(f.inputs.begin(), f.inputs.end());
+        // Long runs keep a window, so the test's own memory stays flat.
+        while (history_limit != 0 && confirmed.size() > history_limit) {
+            confirmed_inputs.erase(confirmed.begin()->first);
+            confirmed.erase(confirmed.begin());
+        }
     }
     void on_desync(const DesyncEvent& e) override { desyncs.push_back(e); }
     void on_desync_report(const DesyncReport& r) override { reports.push_back(r); }
@@ -173,6 +178,8 @@ struct Client : SessionObserver {
     std::vector<PlayerId> peer_errors;
     std::map<std::uint32_t, std::uint64_t> confirmed;  // frame -> checksum, every confirmation
     std::map<std::uint32_t, std::vector<std::uint8_t>> confirmed_inputs;  // frame -> inputs of frame - 1
+    bool record_replay = true;
+    std::size_t history_limit = 0;  // frames kept in `confirmed` (0: all)
     bool frozen = false;       // tests can stop a client from ticking
     bool catches_up = false;   // a joiner or spectator: steps extra frames while behind
     std::vector<SessionEvent> events;  // drained after every tick
