@@ -63,13 +63,15 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
         track_connections(now);
         if (now - last_reconnect_us_ >= kReconnectEveryUs) {
             last_reconnect_us_ = now;
-            // The lower id connects (one connection per pair, no crossed connects at the start);
-            // a joiner or spectator arrives late and connects to everyone itself. connect()
-            // refuses harmlessly while a connection exists or is pending.
+            // The lower id connects, one connection per pair: no crossed connects, also when a
+            // killed slot comes back (the lower survivors keep retrying it, it retries the higher
+            // ones). Spectators have the highest ids but nobody knows their addresses: they
+            // connect to everyone. connect() refuses harmlessly while a connection exists or is
+            // pending.
             const auto& sc = session_.config();
-            const bool late = sc.role != rollback::Role::Player;
+            const bool spectator = sc.role == rollback::Role::Spectator;
             for (const auto& p : config_.peers)
-                if ((late || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
+                if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
                     transport_.connect(p.slot, p.host, p.port);
         }
         if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;

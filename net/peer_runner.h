@@ -4,10 +4,10 @@
 // whatever Simulation the caller built the Session on, and local input comes from a callback.
 //
 // Contract
-//  - Connections: a player connects to every higher peer id it has an address for, a joiner or
-//    spectator to every peer (it arrives late), retrying every half second for the whole run
-//    while not connected (the transport resolves crossed connects and lets a restarted process
-//    take its id back), so a killed and restarted peer is reconnected.
+//  - Connections: a player (joiners too) connects to every higher peer id it has an address
+//    for, a spectator (highest ids, address known to nobody) to every peer, retrying every half
+//    second for the whole run while not connected (the transport lets a restarted process take
+//    its id back), so a killed and restarted peer is reconnected by the lower survivors.
 //  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
 //    phase is the start barrier and the runner ticks from the beginning; without one, the runner
 //    waits until every remote slot is connected and then starts frame 0. Either way the session
