@@ -12,6 +12,8 @@ namespace lockroll::net {
 namespace {
 // How often a lower slot re-tries connecting to a higher slot it is not connected to.
 constexpr std::uint64_t kReconnectEveryUs = 500000;
+// Reliable datagrams kept per unconnected peer (the newest; the session re-asks what is lost).
+constexpr std::size_t kMaxHeldPerPeer = 64;
 }  // namespace
 
 const char* outcome_name(RunOutcome o) {
@@ -42,6 +44,7 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
         if (p.slot >= ids || p.slot == sc.local_player)
             throw std::invalid_argument("RunnerConfig: peer id " + std::to_string(p.slot) + " is out of range or local");
     connected_.assign(ids, false);
+    held_.assign(ids, {});
     input_bytes_.assign(sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
 }
@@ -49,7 +52,13 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
 void PeerRunner::track_connections(std::uint64_t now) {
     for (transport::TransportEvent e; transport_.next_event(e);) {
         if (e.peer < connected_.size()) {
-            if (e.type == transport::TransportEvent::Type::Connected) connected_[e.peer] = true;
+            if (e.type == transport::TransportEvent::Type::Connected) {
+                connected_[e.peer] = true;
+                // Control messages the session sent before the connection existed (a joiner's
+                // hello to a peer it reaches after its snapshot): deliver them now, in order.
+                for (const auto& bytes : held_[e.peer]) transport_.send_reliable(e.peer, bytes, now);
+                held_[e.peer].clear();
+            }
             if (e.type == transport::TransportEvent::Type::Disconnected) connected_[e.peer] = transport_.is_connected(e.peer);
         }
         if (observer_) observer_->on_transport_event(e, now);
@@ -156,8 +165,13 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     out_.clear();
     session_.poll(now, out_);
     for (const auto& d : out_) {
-        if (d.reliable) transport_.send_reliable(d.peer, d.bytes, now);
-        else transport_.send(d.peer, d.bytes, now);
+        if (!d.reliable) {
+            transport_.send(d.peer, d.bytes, now);
+        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size()) {
+            auto& held = held_[d.peer];
+            if (held.size() >= kMaxHeldPerPeer) held.pop_front();
+            held.push_back(d.bytes);
+        }
     }
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);

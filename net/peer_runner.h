@@ -15,7 +15,9 @@
 //  - Each tick: drain the transport -> Session::receive(from, bytes, arrival time) -> local
 //    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
 //    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
-//    send (send_reliable for datagrams the session marks reliable).
+//    send (send_reliable for datagrams the session marks reliable; those for a peer not yet
+//    connected -- a joiner's hello to a peer it reaches after its snapshot -- are held, the
+//    newest 64 per peer, and sent in order once it connects).
 //  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
 //    max_stretch); a session that only says wait_frames has that many frames of time repaid by
 //    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a
@@ -36,6 +38,7 @@
 #pragma once
 
 #include <atomic>
+#include <deque>
 #include <cstdint>
 #include <functional>
 #include <span>
@@ -135,6 +138,7 @@ private:
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};
     std::vector<bool> connected_;      // by peer id (slots, then spectators)
+    std::vector<std::deque<std::vector<std::uint8_t>>> held_;  // reliable sends before connecting
     std::vector<std::uint8_t> input_bytes_;
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
