@@ -35,9 +35,10 @@ assert os.path.exists(os.path.join(sys.argv[1], "report.md"))
 assert os.path.getsize(os.path.join(sys.argv[1], "rollback", "proxy0.log")) > 0
 '
 
-# 2. Kill slot 2 at frame 100, rejoin it at frame 250: the others drop it, go on, take it back.
+# 2. Kill slot 2 at frame 100, rejoin it at frame 250: the others drop it, go on, take it back;
+#    a spectator follows throughout.
 "$lockroll" live --players 3 --frames 420 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@100 \
-    --rejoin 2@250 --disconnect-timeout 3 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
+    --rejoin 2@250 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
 check kill "$tmp/kill" rollback '
 assert d["ok"] and d["final_checksums_equal"], d
 assert procs["p2"]["killed_at_frame"] >= 100 and procs["p2"]["outcome"] == "killed"
@@ -48,6 +49,7 @@ for k in ("p0", "p1"):
     assert p["longest_stall_after_kill_ms"] > 0
 ev = [e["event"] for e in events("p2-rejoin")]
 assert "snapshot_loaded" in ev and "synchronized" in ev, ev
+assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == procs["p0"]["final_checksum"]
 '
 
 # 3. Slot 1 joins at frame 60 (absent before), one spectator follows: same checksums everywhere.
