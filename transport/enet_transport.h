@@ -52,11 +52,12 @@ struct EnetConfig {
     PeerId local_id = 0;
     std::string bind_host = "127.0.0.1";  // address to listen on ("0.0.0.0" for every interface)
     std::uint16_t port = 0;               // 0: an ephemeral port chosen by the OS (see port())
-    std::size_t max_peers = 32;           // ENet connection slots, incoming and outgoing
-    // Connections (half-open included) one IP address may hold. All peers of a match on one
-    // machine share 127.0.0.1, plus a dying connection per restarted peer: raise it for more
-    // than 7 peers on one address.
-    std::size_t max_connections_per_address = 8;
+    std::size_t max_peers = 64;           // ENet connection slots, incoming and outgoing
+    // Connections (half-open included) one IP address may hold; a flood from one address leaves
+    // the other max_peers minus this slots free. All peers of a match on one machine share
+    // 127.0.0.1 (and a restarted peer's dead connection counts until replaced or timed out):
+    // 16 covers 16 players on one machine. Keep max_peers well above it.
+    std::size_t max_connections_per_address = 16;
     // A connection silent this long (caller's time) may be replaced by a new claim to its id.
     Micros silent_after_us = 1'000'000;
     // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable
