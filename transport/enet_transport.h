@@ -9,7 +9,8 @@
 // Peer ids travel in ENet's connect data. Either side may connect. For each remote id at most one
 // connection is kept:
 //  - crossed connects (both sides connect at once) keep the connection initiated by the lower id,
-//    on both sides, whatever order the handshakes finish in;
+//    on both sides, whatever order the handshakes finish in (the higher id sees its own closed
+//    as Disconnected; a restarted higher id whose old connection still looks alive retries);
 //  - a connection claiming an id whose current connection is silent (no datagram, ping or
 //    acknowledgement for EnetConfig::silent_after_us of the caller's time) replaces it: a killed
 //    and restarted process gets its id back at once, without waiting for ENet's timeout;
@@ -20,8 +21,8 @@
 //  - at most max_connections_per_address connections (half-open included) from one IP address,
 //    so a flood of connection requests from one address leaves slots for real peers; half-open
 //    and dead connections time out in seconds (timeout_*_ms on every slot, not ENet's 30 s);
-//  - ENet's maximumPacketSize / maximumWaitingData are a few KB / max_waiting_bytes, so no
-//    client can make us reassemble or buffer megabytes;
+//  - ENet's maximumPacketSize / maximumWaitingData are set to max_packet_bytes (4 KB) and
+//    max_waiting_bytes (256 KB per connection), so no client can make us reassemble megabytes;
 //  - poll() drains every event ENet has, keeps going past receive errors (a UDP datagram over
 //    ENet's 4 KB buffer makes enet_host_service return an error with the rest unread) and is
 //    bounded per call; the inbox of undelivered datagrams is bounded too.
