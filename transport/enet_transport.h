@@ -9,7 +9,8 @@
 // Peer ids travel in ENet's connect data. Either side may connect. For each remote id at most one
 // connection is kept:
 //  - crossed connects (both sides connect at once) keep the connection initiated by the lower id,
-//    on both sides, whatever order the handshakes finish in;
+//    on both sides, whatever order the handshakes finish in (the higher id sees its own closed
+//    as Disconnected; a restarted higher id whose old connection still looks alive retries);
 //  - a connection claiming an id whose current connection is silent (no datagram, ping or
 //    acknowledgement for EnetConfig::silent_after_us of the caller's time) replaces it: a killed
 //    and restarted process gets its id back at once, without waiting for ENet's timeout;
@@ -20,8 +21,8 @@
 //  - at most max_connections_per_address connections (half-open included) from one IP address,
 //    so a flood of connection requests from one address leaves slots for real peers; half-open
 //    and dead connections time out in seconds (timeout_*_ms on every slot, not ENet's 30 s);
-//  - ENet's maximumPacketSize / maximumWaitingData are a few KB / max_waiting_bytes, so no
-//    client can make us reassemble or buffer megabytes;
+//  - ENet's maximumPacketSize / maximumWaitingData are set to max_packet_bytes (4 KB) and
+//    max_waiting_bytes (256 KB per connection), so no client can make us reassemble megabytes;
 //  - poll() drains every event ENet has, keeps going past receive errors (a UDP datagram over
 //    ENet's 4 KB buffer makes enet_host_service return an error with the rest unread) and is
 //    bounded per call; the inbox of undelivered datagrams is bounded too.
@@ -52,11 +53,12 @@ struct EnetConfig {
     PeerId local_id = 0;
     std::string bind_host = "127.0.0.1";  // address to listen on ("0.0.0.0" for every interface)
     std::uint16_t port = 0;               // 0: an ephemeral port chosen by the OS (see port())
-    std::size_t max_peers = 32;           // ENet connection slots, incoming and outgoing
-    // Connections (half-open included) one IP address may hold. All peers of a match on one
-    // machine share 127.0.0.1, plus a dying connection per restarted peer: raise it for more
-    // than 7 peers on one address.
-    std::size_t max_connections_per_address = 8;
+    std::size_t max_peers = 64;           // ENet connection slots, incoming and outgoing
+    // Connections (half-open included) one IP address may hold; a flood from one address leaves
+    // the other max_peers minus this slots free. All peers of a match on one machine share
+    // 127.0.0.1 (and a restarted peer's dead connection counts until replaced or timed out):
+    // 16 covers 16 players on one machine. Keep max_peers well above it.
+    std::size_t max_connections_per_address = 16;
     // A connection silent this long (caller's time) may be replaced by a new claim to its id.
     Micros silent_after_us = 1'000'000;
     // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable

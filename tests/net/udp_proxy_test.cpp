@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -23,6 +24,7 @@
 #include <vector>
 
 #include "net/clock.h"
+#include "net/udp_proxy.h"
 #include "transport/enet_transport.h"
 
 namespace lockroll::net {
@@ -229,6 +231,57 @@ TEST(UdpProxy, EnetPairConnectsAndExchangesDatagramsThroughIt) {
     EXPECT_GE(got_by_client, 70);
     EXPECT_LE(got_by_server, kCount);
     EXPECT_LE(got_by_client, kCount);
+}
+
+// In process: one upstream source per client, the client limit, and duplication both ways.
+TEST(UdpProxy, EachClientIsItsOwnSourceAndTheClientLimitHolds) {
+    std::uint16_t server_port = 0;
+    const int server = loopback_socket(&server_port);
+    std::string error;
+    UdpProxyConfig config;
+    config.listen = *parse_udp_address("127.0.0.1:0", &error);
+    config.upstream = *parse_udp_address("127.0.0.1:" + std::to_string(server_port), &error);
+    config.link.duplicate = 1.0;  // every datagram arrives twice, each way
+    config.max_clients = 2;
+    UdpProxy proxy(config);
+    std::atomic<bool> stop{false};
+    std::thread serving([&] { proxy.run(stop, now_us() + 20'000'000); });
+
+    std::uint16_t ports[3];
+    const int clients[3] = {loopback_socket(&ports[0]), loopback_socket(&ports[1]), loopback_socket(&ports[2])};
+    const sockaddr_in to_proxy = loopback(proxy.port());
+    std::vector<std::uint16_t> sources;
+    int echoes[3] = {0, 0, 0};
+    const std::uint64_t end = now_us() + 1'000'000;
+    for (int round = 0; now_us() < end; ++round) {
+        if (round < 10)
+            for (int c = 0; c < 3; ++c) {
+                const std::uint8_t b = static_cast<std::uint8_t>(c);
+                ::sendto(clients[c], &b, 1, 0, reinterpret_cast<const sockaddr*>(&to_proxy), sizeof to_proxy);
+            }
+        std::uint8_t b[16];
+        sockaddr_in from{};
+        socklen_t len = sizeof from;
+        while (::recvfrom(server, b, sizeof b, 0, reinterpret_cast<sockaddr*>(&from), &len) == 1) {
+            if (std::find(sources.begin(), sources.end(), ntohs(from.sin_port)) == sources.end())
+                sources.push_back(ntohs(from.sin_port));
+            ::sendto(server, b, 1, 0, reinterpret_cast<const sockaddr*>(&from), len);
+        }
+        for (int c = 0; c < 3; ++c)
+            while (::recv(clients[c], b, sizeof b, 0) == 1) echoes[c] += b[0] == c;
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    stop = true;
+    serving.join();
+    for (int fd : clients) ::close(fd);
+    ::close(server);
+
+    EXPECT_EQ(sources.size(), 2u);                       // two clients admitted, two sources
+    for (std::uint16_t p : sources) EXPECT_NE(p, proxy.port());
+    EXPECT_EQ(echoes[0] + echoes[1] + echoes[2], 2 * 10 * 4);  // 2 clients x 10 x (2 up x 2 down)
+    EXPECT_EQ(proxy.counters().refused_clients, 10u);   // the third client, every datagram
+    EXPECT_EQ(proxy.counters().clients, 2u);
+    EXPECT_EQ(proxy.counters().dropped, 0u);
 }
 
 // Runs `lockroll proxy ARGS` (bounded by --duration-s), returns the exit status and output.
