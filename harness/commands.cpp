@@ -8,6 +8,7 @@
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
 #include "harness/synctest_command.h"
+#include "harness/view_command.h"
 #include "harness/stability_command.h"
 
 namespace lockroll::harness {
@@ -24,6 +25,7 @@ void add_all_commands(CLI::App& app) {
     add_peer_command(app);
     add_live_command(app);
     add_proxy_command(app);
+    add_view_command(app);
 }
 
 }  // namespace lockroll::harness

@@ -8,10 +8,12 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <string_view>
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/client_result.h"
+#include "harness/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"
@@ -49,7 +51,7 @@ struct Shared;
 
 class Client final : public rollback::SessionObserver {
 public:
-    Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
+    Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay, int prediction,
            transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us);
 
     void on_frame_simulated(const rollback::FrameSimulated& f) override;
@@ -57,6 +59,7 @@ public:
     void on_rollback_end(const rollback::RollbackInfo& r) override;
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override;
     void on_desync_report(const rollback::DesyncReport& r) override;
+    void on_desync(const rollback::DesyncEvent& e) override;
 
     std::uint64_t next_tick_us() const {
         // Tick k at start + k / (tick_rate * (1 + drift)) seconds, computed exactly in integers.
@@ -66,7 +69,28 @@ public:
     }
     void tick(std::uint64_t now);
 
+    // Times the harness's own work inside an observer callback, so that CPU per tick and
+    // resimulation CPU can leave it out: they describe the session, not the measuring.
+    struct ObserverScope {
+        Client& c;
+        std::uint64_t t0;
+        explicit ObserverScope(Client& client) : c(client), t0(client.cpu_clock_()) {
+            if (c.on_observer_) c.on_observer_();
+        }
+        ~ObserverScope() {
+            const std::uint64_t d = c.cpu_clock_() - t0;
+            c.observer_ns_ += d;
+            if (c.in_rollback_) c.rollback_observer_ns_ += d;
+        }
+        ObserverScope(const ObserverScope&) = delete;
+        ObserverScope& operator=(const ObserverScope&) = delete;
+    };
+    std::uint64_t observer_ns_ = 0, rollback_observer_ns_ = 0;
+    bool in_rollback_ = false;
+
     Shared& shared_;
+    std::function<std::uint64_t()> cpu_clock_;
+    std::function<void()> on_observer_;
     int index_;
     int tick_rate_;
     std::int64_t drift_ppm_;
@@ -75,6 +99,7 @@ public:
     int wait_ticks_ = 0;
     std::uint64_t now_ = 0;
     rollback::WorldSimulation sim_;
+    TimedSimulation timed_;  // what the session steps: sim_, each step timed
     Bot bot_;
     transport::Transport& endpoint_;
     std::unique_ptr<rollback::Session> session_;
@@ -88,10 +113,23 @@ public:
     std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
+    transport::SimNetwork* net_ = nullptr;          // for loss events
+    std::map<std::uint32_t, std::vector<sim::Vec3>> displayed_;  // shown, awaiting confirmation
+    std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
+    std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
+    std::vector<double> recent_rtt_ms_;             // adaptive delay: last two seconds, ring
+    std::size_t recent_next_ = 0;
+    void adapt_delay();
+    void event(const char* kind, double value) {
+        shared_result().events.push_back({seconds(now_), index_, session_->frame(), kind, value});
+    }
+    RunResult& shared_result();
+    double seconds(std::uint64_t t) const;
 };
 
 struct Shared {
     const RunConfig& cfg;
+    std::vector<Client*> all;  // every client, by index
     int target;
     int clients;
     std::uint64_t start_us;
@@ -102,13 +140,16 @@ struct Shared {
 };
 
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
-               transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
+               int prediction, transport::Transport& endpoint, std::int64_t drift_ppm, std::uint64_t start_us)
     : shared_(shared),
+      cpu_clock_(cfg.cpu_clock ? cfg.cpu_clock : std::function<std::uint64_t()>(thread_cpu_ns)),
+      on_observer_(cfg.on_observer),
       index_(index),
       tick_rate_(cfg.tick_rate),
       drift_ppm_(drift_ppm),
       start_us_(start_us),
       sim_(scene, cfg.players),
+      timed_(sim_, cpu_clock_, shared.result.physics_step_us),
       bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
       endpoint_(endpoint) {
     rollback::SessionConfig sc;
@@ -117,28 +158,37 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.input_size = rollback::kWorldInputSize;
     sc.tick_rate = cfg.tick_rate;
     sc.input_delay = input_delay;
-    sc.prediction_window = cfg.mode == Mode::Lockstep ? 0 : cfg.prediction;
+    sc.prediction_window = prediction;
     sc.checksum_interval = cfg.checksum_interval;
-    sc.cpu_clock = thread_cpu_ns;
-    session_ = std::make_unique<rollback::Session>(sc, sim_, this);
+    sc.cpu_clock = cpu_clock_;
+    session_ = std::make_unique<rollback::Session>(sc, timed_, this);
     shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
-    shown_at_.push_back(start_us);
+    // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
+    // tick rate counts it: N frames take N periods.
+    shown_at_.push_back(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
 }
 
+RunResult& Client::shared_result() { return shared_.result; }
+double Client::seconds(std::uint64_t t) const { return static_cast<double>(t - shared_.start_us) / 1e6; }
+
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
+    const ObserverScope scope(*this);
     Shared& s = shared_;
     const sim::World& w = sim_.world();
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
     if (!f.resimulation) {
-        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, dynamic_positions(w));
         shown_at_.push_back(now_);
         if (index_ == 0) {
-            // Frames shown during the last second of virtual time.
+            // Frames shown during the last second of virtual time. Set before record(): when
+            // client 0 is the last to show the frame, record() reduces the row at once.
             const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
             const auto shown = static_cast<double>(shown_at_.end() - first);
             const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
             s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
         }
+        std::vector<sim::Vec3> shown = dynamic_positions(w);
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, shown);
+        displayed_.emplace(f.frame, std::move(shown));
     }
     // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
     const std::uint32_t input_frame = f.frame - 1;
@@ -162,21 +212,47 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     }
 }
 
-void Client::on_rollback_begin(const rollback::RollbackInfo&) { before_rollback_ = dynamic_positions(sim_.world()); }
+void Client::on_rollback_begin(const rollback::RollbackInfo&) {
+    in_rollback_ = true;  // inside the session's resimulation timing until on_rollback_end
+    const ObserverScope scope(*this);
+    before_rollback_ = dynamic_positions(sim_.world());
+}
 
 void Client::on_rollback_end(const rollback::RollbackInfo& r) {
+    in_rollback_ = false;
+    const ObserverScope scope(*this);
     if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
-    shared_.result.rollback_depth.add(r.depth);
+    RunResult& res = shared_.result;
+    res.rollback_depth.add(r.depth);
+    if (res.rollback_depth_histogram.size() <= r.depth) res.rollback_depth_histogram.resize(r.depth + 1, 0);
+    ++res.rollback_depth_histogram[r.depth];
     shared_.positions.note_rollback(r.displayed_frame, r.depth);
+    event("rollback", r.depth);
     if (!r.displayed_changed()) return;
     const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
     double jump = 0;
     for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_rollback_[b], after[b]));
     shared_.result.correction_jump.add(jump);
+    event("correction", jump);
 }
 
 void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
+    const ObserverScope scope(*this);
     if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
+    // What this client showed for the frame against the state it now knows to be final.
+    if (auto shown = displayed_.find(f.frame); shown != displayed_.end()) {
+        if (const auto state = session_->saved_state(f.frame)) {
+            Stat& st = shared_.result.displayed_vs_confirmed[static_cast<std::size_t>(index_)];
+            for (std::uint32_t b = 0; b < shown->second.size(); ++b) {
+                sim::Vec3 confirmed;
+                confirmed.x = sim::Fixed::from_raw(sim_.field_value(*state, b, 0));
+                confirmed.y = sim::Fixed::from_raw(sim_.field_value(*state, b, 1));
+                confirmed.z = sim::Fixed::from_raw(sim_.field_value(*state, b, 2));
+                st.add(distance_m(shown->second[b], confirmed));
+            }
+        }
+        displayed_.erase(displayed_.begin(), std::next(shown));
+    }
     auto& entry = shared_.confirmed[f.frame];
     if (entry.second == 0) {
         entry.first = f.checksum;
@@ -196,6 +272,7 @@ void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
 }
 
 void Client::on_desync_report(const rollback::DesyncReport& r) {
+    const ObserverScope scope(*this);
     DesyncRecord rec;
     rec.client = index_;
     rec.summary = r.summary;
@@ -203,6 +280,13 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
     rec.frame = r.frame;
     rec.body = r.body_id;
     rec.field = r.field_name;
+    // The diverging frame was first shown by whichever client showed it first.
+    std::uint64_t first_shown = now_;
+    for (const Client* c : shared_.all)
+        if (r.frame < c->shown_at_.size()) first_shown = std::min(first_shown, c->shown_at_[r.frame]);
+    const auto alert = alert_us_.find(static_cast<int>(r.peer));
+    rec.alert_ms = static_cast<double>((alert != alert_us_.end() ? alert->second : now_) - first_shown) / 1000.0;
+    rec.report_ms = static_cast<double>(now_ - first_shown) / 1000.0;
     if (!shared_.cfg.evidence_dir.empty() && !r.local_state.empty()) {
         const auto path = std::filesystem::path(shared_.cfg.evidence_dir) /
                           ("desync-client" + std::to_string(index_) + "-peer" + std::to_string(r.peer) + "-frame" +
@@ -211,6 +295,37 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
         rec.evidence_file = path.string();
     }
     shared_.result.desyncs.push_back(rec);
+}
+
+void Client::on_desync(const rollback::DesyncEvent& e) {
+    const ObserverScope scope(*this);
+    alert_us_.emplace(static_cast<int>(e.peer), now_);
+}
+
+void Client::adapt_delay() {
+    const rollback::SessionStats& st = session_->stats();
+    std::uint64_t worst = 0;
+    for (std::size_t p = 0; p < st.peers.size(); ++p)
+        if (static_cast<int>(p) != index_) worst = std::max(worst, st.peers[p].rtt_us);
+    if (worst == 0) return;
+    const std::size_t keep = 2 * static_cast<std::size_t>(tick_rate_);
+    if (recent_rtt_ms_.size() < keep)
+        recent_rtt_ms_.push_back(static_cast<double>(worst) / 1000.0);
+    else
+        recent_rtt_ms_[recent_next_++ % keep] = static_cast<double>(worst) / 1000.0;
+    if (recent_rtt_ms_.size() < keep || tick_ % static_cast<std::uint64_t>(tick_rate_) != 0) return;
+    std::vector<double> v = recent_rtt_ms_;
+    std::sort(v.begin(), v.end());
+    const double p50 = v[v.size() / 2], p95 = v[std::min(v.size() - 1, v.size() * 95 / 100)];
+    double deviation = 0;
+    for (double x : v) deviation += std::abs(x - p50);
+    deviation /= static_cast<double>(v.size());
+    const int target = adaptive_input_delay(shared_.cfg.mode, p50, p95 + 2 * deviation, tick_rate_,
+                                            session_->config().prediction_window);
+    if (target == session_->input_delay()) return;
+    session_->set_input_delay(target);
+    ++shared_.result.input_delay_changes;
+    event("delay_change", target);
 }
 
 void Client::tick(std::uint64_t now) {
@@ -227,10 +342,13 @@ void Client::tick(std::uint64_t now) {
             const std::uint32_t input_frame = session_->frame() + static_cast<std::uint32_t>(session_->input_delay());
             const sim::PlayerInput in = bot_.input(input_frame, sim_.world());
             const auto bytes = rollback::encode_input(in);
-            const std::uint64_t t0 = thread_cpu_ns();
+            const std::uint64_t obs0 = observer_ns_, robs0 = rollback_observer_ns_;
+            const std::uint64_t t0 = cpu_clock_();
             const rollback::AdvanceResult r = session_->advance(bytes, now);
-            res.cpu_us_per_tick.add(static_cast<double>(thread_cpu_ns() - t0) / 1000.0);
-            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns) / 1000.0);
+            const std::uint64_t spent = cpu_clock_() - t0, observed = observer_ns_ - obs0;
+            const std::uint64_t resim_observed = rollback_observer_ns_ - robs0;
+            res.cpu_us_per_tick.add(static_cast<double>(spent - std::min(spent, observed)) / 1000.0);
+            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
             // The session takes the first input offered for each frame, stalled tick or not,
             // and ignores later offers for the same frame.
             const bool taken = !have_last_input_ || input_frame > last_input_frame_;
@@ -246,12 +364,29 @@ void Client::tick(std::uint64_t now) {
                 have_last_input_ = true;
             }
             wait_ticks_ = r.wait_frames;
+            if (!r.advanced) event("stall", r.blocking_player);
+            res.input_delay_used.add(session_->input_delay());
+            if (shared_.cfg.adaptive_delay) adapt_delay();
+            if (r.wait_frames > 0) event("time_sync_wait", r.wait_frames);
+            if (session_->frame() <= static_cast<std::uint32_t>(shared_.target)) {
+                res.time_sync.push_back({seconds(now), index_, session_->frame(),
+                                         session_->frames_ahead_x100() / 100.0, r.wait_frames});
+                const rollback::SessionStats& st = session_->stats();
+                for (std::size_t p = 0; p < st.peers.size(); ++p)
+                    if (static_cast<int>(p) != index_ && st.peers[p].rtt_us > 0)
+                        res.rtt[rtt_slot_[p]].rtt_ms.add(static_cast<double>(st.peers[p].rtt_us) / 1000.0);
+            }
             if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
         }
     }
     out_.clear();
     session_->poll(now, out_);
-    for (const auto& d : out_) endpoint_.send(d.peer, d.bytes, now);
+    for (const auto& d : out_) {
+        const transport::LinkStats& ls = net_->link_stats(static_cast<transport::PeerId>(index_), d.peer);
+        const std::uint64_t lost = ls.lost_random + ls.lost_burst + ls.lost_queue;
+        endpoint_.send(d.peer, d.bytes, now);
+        if (ls.lost_random + ls.lost_burst + ls.lost_queue != lost) event("loss", d.peer);
+    }
     ++tick_;
 }
 
@@ -286,6 +421,24 @@ std::vector<double> measure_rtt(transport::SimNetwork& net, int clients) {
         if (t > kDuration && net.in_flight() == 0) break;
     }
     return rtts;
+}
+
+double to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
+
+std::string bodies_csv(const sim::World& w) {
+    std::string out = "index,id,player,dynamic,shape,x,z,radius,hx,hz\n";
+    char line[256];
+    std::vector<long> index(w.body_count(), -1);
+    for (std::size_t i = 0; i < w.dynamic_ids().size(); ++i) index[w.dynamic_ids()[i]] = static_cast<long>(i);
+    for (std::size_t id = 0; id < w.body_count(); ++id) {
+        const sim::BodyDesc& b = w.scene().bodies[id];
+        const char* shape = b.shape == sim::Shape::Box ? "box" : b.shape == sim::Shape::Sphere ? "sphere" : "capsule";
+        std::snprintf(line, sizeof line, "%ld,%zu,%d,%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f\n", index[id], id, b.player,
+                      index[id] >= 0 ? 1 : 0, shape, to_m(b.position.x), to_m(b.position.z), to_m(b.radius),
+                      to_m(b.half_extents.x), to_m(b.half_extents.z));
+        out += line;
+    }
+    return out;
 }
 
 double percentile(std::vector<double> v, double p) {
@@ -373,6 +526,16 @@ int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_r
     return mode == Mode::Lockstep ? lockstep : (lockstep + 1) / 2;
 }
 
+int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window) {
+    const int lockstep = auto_input_delay(Mode::Lockstep, rtt_p50_ms, rtt_p95_ms, tick_rate);
+    if (mode == Mode::Lockstep) return std::min(60, lockstep);
+    return std::min(60, std::max(auto_input_delay(Mode::Rollback, rtt_p50_ms, rtt_p95_ms, tick_rate), lockstep - window + 1));
+}
+
+int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay) {
+    return std::min(60, std::max(configured, lockstep_delay - rollback_delay + 1));
+}
+
 RunResult run_match(const RunConfig& cfg) {
     validate(cfg);
     sim::SceneDesc scene = with_players(cfg.scene, cfg.players);
@@ -394,12 +557,17 @@ RunResult run_match(const RunConfig& cfg) {
     res.loss = cfg.net.loss;
     res.duplicate = cfg.net.duplicate;
     res.reorder = cfg.net.reorder;
+    res.burst_loss = cfg.net.burst_loss;
+    res.adaptive_delay = cfg.adaptive_delay;
 
     const std::vector<double> rtts = measure_rtt(net, cfg.players);
     res.rtt_p50_ms = percentile(rtts, 50);
     res.rtt_p95_ms = percentile(rtts, 95);
     res.input_delay = cfg.input_delay >= 0 ? cfg.input_delay
                                            : auto_input_delay(cfg.mode, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate);
+    if (cfg.input_delay < 0 && cfg.mode == Mode::Rollback)
+        res.prediction = auto_prediction_window(
+            cfg.prediction, auto_input_delay(Mode::Lockstep, res.rtt_p50_ms, res.rtt_p95_ms, cfg.tick_rate), res.input_delay);
     if (!cfg.evidence_dir.empty()) std::filesystem::create_directories(cfg.evidence_dir);
 
     // The match starts after the ping phase; clients start within one tick of each other and
@@ -407,7 +575,7 @@ RunResult run_match(const RunConfig& cfg) {
     const std::uint64_t start = 4000000;
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
-    Shared shared{cfg, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
+    Shared shared{cfg, {}, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
                   res, {}, {}};
     std::vector<std::unique_ptr<Client>> clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
@@ -417,13 +585,33 @@ RunResult run_match(const RunConfig& cfg) {
         const std::int64_t drift = drift_range ? static_cast<std::int64_t>(rng.below(2 * drift_range + 1)) -
                                                      static_cast<std::int64_t>(drift_range)
                                                : 0;
-        clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay,
+        clients.push_back(std::make_unique<Client>(shared, c, cfg, scene, res.input_delay, res.prediction,
                                                    net.endpoint(static_cast<transport::PeerId>(c)), drift, start + offset));
     }
     if (cfg.record_inputs) {
         std::vector<std::uint8_t> state(clients[0]->sim_.state_size());
         clients[0]->sim_.save(state);
         res.initial_checksum = clients[0]->sim_.checksum(state);
+    }
+    for (const auto& c : clients) {
+        shared.all.push_back(c.get());
+        c->net_ = &net;
+        c->rtt_slot_.assign(static_cast<std::size_t>(cfg.players), 0);
+        for (int p = 0; p < cfg.players; ++p) {
+            if (p == c->index_) continue;
+            c->rtt_slot_[static_cast<std::size_t>(p)] = res.rtt.size();
+            res.rtt.push_back(PeerRtt{c->index_, p, Stat::keeping_samples()});
+        }
+    }
+    res.displayed_vs_confirmed.resize(static_cast<std::size_t>(cfg.players));
+    {
+        const sim::World w(scene);
+        if (cfg.record_positions) res.bodies_csv = bodies_csv(w);
+        res.body_ids.assign(w.dynamic_ids().begin(), w.dynamic_ids().end());
+        res.body_player.assign(res.body_ids.size(), -1);
+        for (int p = 0; p < w.player_count(); ++p)
+            for (std::size_t b = 0; b < res.body_ids.size(); ++b)
+                if (res.body_ids[b] == w.player_body(p)) res.body_player[b] = p;
     }
     for (const auto& inj : cfg.injections) {
         const std::string e = clients[static_cast<std::size_t>(inj.client)]->session_->inject_fault(
@@ -469,17 +657,22 @@ RunResult run_match(const RunConfig& cfg) {
         cr.final_checksum = c->final_checksum_;
         cr.final_confirmed = c->final_confirmed_;
         res.completed = res.completed && c->final_confirmed_;
-        if (res.rollback_depth_histogram.size() < st.rollback_depth_histogram.size())
-            res.rollback_depth_histogram.resize(st.rollback_depth_histogram.size());
-        for (std::size_t d = 0; d < st.rollback_depth_histogram.size(); ++d)
-            res.rollback_depth_histogram[d] += st.rollback_depth_histogram[d];
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);
     }
+    res.input_delay_min = static_cast<int>(res.input_delay);
+    res.input_delay_max = res.input_delay_min;
+    for (const auto& e : res.events)
+        if (std::string_view(e.kind) == "delay_change") {
+            res.input_delay_min = std::min(res.input_delay_min, static_cast<int>(e.value));
+            res.input_delay_max = std::max(res.input_delay_max, static_cast<int>(e.value));
+        }
     res.position_error = shared.positions.error();
     res.rows = shared.positions.rows();
     res.positions_csv = shared.positions.positions_csv();
     res.per_body_max_error = shared.positions.per_body_max();
+    res.pair_error = shared.positions.pair_errors();
+    res.body_error = shared.positions.body_errors();
     return res;
 }
 

@@ -55,6 +55,9 @@ struct RunConfig {
     int frames = 720;
     int tick_rate = 60;
     int input_delay = -1;         // frames; -1 = auto (from a measured ping phase)
+    // Adaptive input delay: every second each client re-picks its delay from the RTT it has
+    // measured in the last two seconds (adaptive_input_delay); input_delay is the start.
+    bool adaptive_delay = false;
     int prediction = 8;           // window W in rollback mode (lockstep always uses 0)
     int checksum_interval = 1;
     NetConditions net;
@@ -67,6 +70,12 @@ struct RunConfig {
     std::string evidence_dir;     // where desync evidence files go ("" = none)
     // Called now and then with (frames shown by client 0, target); for terminal progress.
     std::function<void(int, int)> progress;
+    // The CPU clock every figure in CPU time is read from (ns). Empty: this thread's CPU time.
+    // Tests pass a counting clock to check what is inside and outside a measurement.
+    std::function<std::uint64_t()> cpu_clock;
+    // Called at the start of each of the harness's own observer callbacks (tests use it to make
+    // the harness's work visible on a fake cpu_clock).
+    std::function<void()> on_observer;
 };
 
 // Throws UsageError naming the option for values out of range.
@@ -78,8 +87,20 @@ sim::SceneDesc with_players(const sim::SceneDesc& scene, int players);
 
 // Input delay --input-delay auto picks from a measured round-trip distribution: lockstep needs
 // the 95th-percentile one-way time covered, plus one frame for tick phase; rollback takes half
-// of that (rounded up), trading a little latency for shallower rollbacks.
+// of that (rounded up), trading a little latency for shallower rollbacks, and widens its
+// window to match (auto_prediction_window).
 int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate);
+
+// The prediction window auto-tuned rollback uses: at least the configured one, and wide enough
+// that delay + window exceeds lockstep's delay, so that rollback never stalls more than lockstep
+// at the same conditions (it stalls when an input is older than delay + window frames).
+int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay);
+
+// The delay adaptive mode moves to during the match, from a client's recent RTT (p50, and p95
+// widened by twice the mean deviation, as jitter the smoothed RTT hides). Lockstep: as
+// auto_input_delay. Rollback: half of that, but never so little that delay + window falls to
+// lockstep's delay or below: the window is fixed mid-match, so rollback would stall more.
+int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window);
 
 RunResult run_match(const RunConfig& config);
 

@@ -35,7 +35,12 @@ double distance_m(const sim::Vec3& a, const sim::Vec3& b) {
 }
 
 PositionErrorTracker::PositionErrorTracker(int clients, std::size_t bodies, bool keep_positions)
-    : clients_(clients), bodies_(bodies), keep_positions_(keep_positions), body_max_(bodies, 0.0) {
+    : clients_(clients),
+      bodies_(bodies),
+      keep_positions_(keep_positions),
+      pair_error_(static_cast<std::size_t>(clients * (clients - 1) / 2)),
+      body_error_(bodies),
+      body_max_(bodies, 0.0) {
     if (keep_positions_) positions_csv_ = "frame,client,body_index,x,y,z\n";
 }
 
@@ -54,8 +59,9 @@ void PositionErrorTracker::record(int client, std::uint32_t frame, double time_s
 }
 
 void PositionErrorTracker::note_rollback(std::uint32_t displayed_frame, std::uint32_t depth) {
-    auto& d = rollback_depth_[displayed_frame];
-    d = std::max(d, depth);
+    auto& d = rollbacks_[displayed_frame];
+    ++d.first;
+    d.second = std::max(d.second, depth);
 }
 
 void PositionErrorTracker::set_tick_rate(std::uint32_t frame, double tps) { tick_rate_[frame] = tps; }
@@ -66,22 +72,27 @@ void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
     row.time_s = p.time_s;
     double sum = 0;
     std::uint64_t n = 0;
-    const auto& ref = p.by_client[0];
-    for (int c = 1; c < clients_; ++c) {
-        const auto& other = p.by_client[static_cast<std::size_t>(c)];
-        for (std::size_t b = 0; b < bodies_; ++b) {
-            const double e = distance_m(ref[b], other[b]);
-            error_.add(e);
-            body_max_[b] = std::max(body_max_[b], e);
-            sum += e;
-            ++n;
-            row.max_error = std::max(row.max_error, e);
+    std::size_t pair = 0;
+    for (int a = 0; a < clients_; ++a)
+        for (int c = a + 1; c < clients_; ++c, ++pair) {
+            const auto& ref = p.by_client[static_cast<std::size_t>(a)];
+            const auto& other = p.by_client[static_cast<std::size_t>(c)];
+            for (std::size_t b = 0; b < bodies_; ++b) {
+                const double e = distance_m(ref[b], other[b]);
+                error_.add(e);
+                pair_error_[pair].add(e);
+                body_error_[b].add(e);
+                body_max_[b] = std::max(body_max_[b], e);
+                sum += e;
+                ++n;
+                row.max_error = std::max(row.max_error, e);
+            }
         }
-    }
     row.mean_error = n ? sum / static_cast<double>(n) : 0.0;
-    if (auto it = rollback_depth_.find(frame); it != rollback_depth_.end()) {
-        row.rollback_depth = it->second;
-        rollback_depth_.erase(it);
+    if (auto it = rollbacks_.find(frame); it != rollbacks_.end()) {
+        row.rollbacks = it->second.first;
+        row.max_rollback_depth = it->second.second;
+        rollbacks_.erase(it);
     }
     if (auto it = tick_rate_.find(frame); it != tick_rate_.end()) {
         row.ticks_per_second = it->second;
@@ -125,10 +136,21 @@ double RunResult::packets_sent_per_s() const {
     for (const auto& c : clients) s += static_cast<double>(c.packets_sent);
     return clients.empty() || virtual_seconds <= 0 ? 0 : s / static_cast<double>(clients.size()) / virtual_seconds;
 }
-std::uint64_t RunResult::rollbacks() const {
+std::uint64_t RunResult::rollbacks() const { return rollback_depth.count; }
+std::uint64_t RunResult::resimulated_frames() const {
     std::uint64_t s = 0;
-    for (const auto& c : clients) s += c.rollbacks;
+    for (const auto& c : clients) s += c.resimulated_frames;
     return s;
+}
+double RunResult::resim_frames_per_s() const {
+    return clients.empty() || virtual_seconds <= 0
+               ? 0
+               : static_cast<double>(resimulated_frames()) / static_cast<double>(clients.size()) / virtual_seconds;
+}
+double RunResult::full_window_rollback_us() const {
+    const std::uint64_t frames = resimulated_frames();
+    const double per_frame = frames ? resim_us_per_tick.sum / static_cast<double>(frames) : physics_step_us.percentile(50);
+    return prediction * per_frame;
 }
 std::uint64_t RunResult::desync_count() const {
     std::uint64_t s = 0;

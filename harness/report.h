@@ -17,9 +17,14 @@ inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and un
 
 nlohmann::json summary_json(const RunResult& r);
 std::string frames_csv(const RunResult& r);
+// time_s,client,frame,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
+std::string events_csv(const RunResult& r);
+// time_s,client,frame,frames_ahead,wait_frames: every client's time sync, tick by tick.
+std::string timesync_csv(const RunResult& r);
 std::string console_summary(const RunResult& r);
 
-// Writes summary.json, frames.csv and (when recorded) positions.csv into dir, atomically.
+// Writes summary.json, frames.csv, events.csv, timesync.csv and (when recorded) positions.csv
+// into dir, atomically.
 void write_run(const std::filesystem::path& dir, const RunResult& r);
 
 // The seed paper's figures, for the side-by-side table.
@@ -31,8 +36,14 @@ struct PaperFigures {
     static constexpr double lockstep_ticks_per_second = 7;
 };
 
-nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, double step_us);
-std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, double step_us,
+// The paper's conditions: 2 players on its scene at 60 Hz, 57 ms read either as round trip
+// (28.5 ms one way) or one way, ±10 ms jitter, no loss, duplication or reordering. Its figures
+// are shown beside ours only then.
+bool at_paper_conditions(const RunResult& r);
+
+// rollback_delay0 is the like-for-like run: rollback at input delay 0 (what the paper measured).
+nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0);
+std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0,
                              const std::string& plots_note);
 
 }  // namespace lockroll::harness

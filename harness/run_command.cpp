@@ -17,6 +17,7 @@
 #include "harness/replay_command.h"
 #include "harness/report.h"
 #include "harness/scene_loader.h"
+#include "harness/view_command.h"
 #include "rollback/world_simulation.h"
 #include "sim/world.h"
 
@@ -39,6 +40,7 @@ struct RunOptions {
     std::string bot = "random";
     std::string out = "out/run";
     bool positions = false;
+    bool view = false;
     std::string record;
     std::vector<std::string> injections;
 };
@@ -50,7 +52,9 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
         ->capture_default_str();
     cmd->add_option("--frames", o.frames, "Frames every client simulates")->capture_default_str();
     cmd->add_option("--tick-rate", o.tick_rate, "Ticks per second (also the physics rate)")->capture_default_str();
-    cmd->add_option("--input-delay", o.input_delay, "Input delay in frames, or auto (from measured RTT and jitter)")
+    cmd->add_option("--input-delay", o.input_delay,
+                    "Input delay in frames, auto (from RTT and jitter measured before the match) or adaptive "
+                    "(auto, then re-picked every second from the RTT measured during it)")
         ->capture_default_str();
     cmd->add_option("--prediction", o.prediction, "Prediction window W in rollback mode")->capture_default_str();
     cmd->add_option("--checksum-interval", o.checksum_interval, "Compare confirmed checksums every K frames")
@@ -66,6 +70,7 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
     cmd->add_option("--bot", o.bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
     cmd->add_option("--out", o.out, "Output directory")->capture_default_str();
     cmd->add_flag("--positions", o.positions, "Also write positions.csv (every body, frame and client)");
+    cmd->add_flag("--view", o.view, "Also write view.html (implies --positions; see lockroll view)");
     if (with_mode)
         cmd->add_option("--record", o.record,
                         "Write a replay (confirmed inputs and checksums) to this file; check it with lockroll replay");
@@ -84,12 +89,13 @@ RunConfig to_config(const RunOptions& o) {
     c.players = o.players;
     c.frames = o.frames;
     c.tick_rate = o.tick_rate;
-    if (o.input_delay == "auto") {
+    if (o.input_delay == "auto" || o.input_delay == "adaptive") {
         c.input_delay = -1;
+        c.adaptive_delay = o.input_delay == "adaptive";
     } else {
         char* end = nullptr;
         const long v = std::strtol(o.input_delay.c_str(), &end, 10);
-        if (o.input_delay.empty() || *end != '\0' || v < 0) throw UsageError("--input-delay " + o.input_delay + ": expected a frame count or auto");
+        if (o.input_delay.empty() || *end != '\0' || v < 0) throw UsageError("--input-delay " + o.input_delay + ": expected a frame count, auto or adaptive");
         c.input_delay = static_cast<int>(v);
     }
     c.prediction = o.prediction;
@@ -99,7 +105,7 @@ RunConfig to_config(const RunOptions& o) {
     c.bot = *parse_bot_kind(o.bot);
     c.drift_ppm = o.drift_ppm;
     for (const auto& s : o.injections) c.injections.push_back(parse_injection(s));
-    c.record_positions = o.positions;
+    c.record_positions = o.positions || o.view;
     c.record_inputs = !o.record.empty();
     c.evidence_dir = (fs::path(o.out) / "desync").string();
     if (::isatty(2))
@@ -115,6 +121,7 @@ void do_run(const RunOptions& o) {
     const RunConfig cfg = to_config(o);
     const RunResult r = run_match(cfg);
     write_run(o.out, r);
+    if (o.view) write_view(o.out);
     if (!o.record.empty() && r.completed) {
         rollback::Replay replay;
         replay.players = static_cast<std::uint32_t>(r.players);
@@ -134,61 +141,73 @@ void do_run(const RunOptions& o) {
 }
 
 void do_compare(const RunOptions& o) {
-    RunOptions lo = o, ro = o;
+    RunOptions lo = o, ro = o, r0 = o;
     lo.mode = "lockstep";
     ro.mode = "rollback";
+    r0.mode = "rollback";
+    r0.input_delay = "0";  // like-for-like with the paper: rollback hiding all latency
     lo.out = (fs::path(o.out) / "lockstep").string();
     ro.out = (fs::path(o.out) / "rollback").string();
-    const RunConfig lcfg = to_config(lo), rcfg = to_config(ro);
+    r0.out = (fs::path(o.out) / "rollback-delay0").string();
+    const RunConfig lcfg = to_config(lo), rcfg = to_config(ro), r0cfg = to_config(r0);
     const RunResult ls = run_match(lcfg);
     const RunResult rb = run_match(rcfg);
+    const RunResult rb0 = rb.input_delay == 0 ? rb : run_match(r0cfg);
     write_run(lo.out, ls);
     write_run(ro.out, rb);
-    const double step_us = time_physics_step(rcfg.scene, rcfg.players);
+    write_run(r0.out, rb0);
     const std::string plot_error = run_plot_script("plot.py", {"compare", o.out});
     const std::string note = plot_error.empty()
                                  ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
-                                   "![tick rate over time](tick_rate.png)\n"
+                                   "![tick rate over time](tick_rate.png)\n\n![time sync](time_sync.png)\n"
                                  : "Plots were not made: " + plot_error + "\n";
-    write_file_atomic(fs::path(o.out) / "compare.json", compare_json(ls, rb, step_us).dump(2) + "\n");
-    write_file_atomic(fs::path(o.out) / "report.md", compare_markdown(ls, rb, step_us, note));
-    std::printf("%s\n%s", console_summary(ls).c_str(), console_summary(rb).c_str());
-    std::printf("\nphysics step %.2f us (paper, Photon Quantum: 189.8 us)\n", step_us);
+    write_file_atomic(fs::path(o.out) / "compare.json", compare_json(ls, rb, rb0).dump(2) + "\n");
+    write_file_atomic(fs::path(o.out) / "report.md", compare_markdown(ls, rb, rb0, note));
+    if (o.view) write_view(o.out);
+    std::printf("%s\n%s\n%s", console_summary(ls).c_str(), console_summary(rb).c_str(), console_summary(rb0).c_str());
+    std::printf("\nphysics step, median CPU: lockstep %.2f us, rollback %.2f us (paper, Photon Quantum: 189.8 us)\n",
+                ls.physics_step_us.percentile(50), rb.physics_step_us.percentile(50));
     std::printf("written %s/compare.json, report.md%s\n", o.out.c_str(), plot_error.empty() ? ", *.png" : "");
     if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
-    if (!ls.completed || !rb.completed) throw std::runtime_error("a run did not complete");
+    if (!ls.completed || !rb.completed || !rb0.completed) throw std::runtime_error("a run did not complete");
 }
 
 struct SweepOptions {
     std::vector<int> delays{0, 1, 2, 3, 4, 6};
     std::vector<int> windows{0, 2, 4, 8};
     std::vector<double> latencies{15, 30, 60, 100};
+    bool adaptive = true;  // also one adaptive-delay run per window and latency
 };
 
 void do_sweep(const RunOptions& base, const SweepOptions& s) {
     std::string csv =
         "input_delay,prediction,latency_ms,mean_error,max_error,input_latency_ms,cpu_us_per_tick,ticks_per_second,"
-        "stall_fraction,rollbacks_per_second,confirmed_mismatches\n";
-    const std::size_t total = s.delays.size() * s.windows.size() * s.latencies.size();
+        "stall_fraction,rollbacks_per_second,confirmed_mismatches,adaptive\n";
+    std::vector<std::string> delays;
+    for (int d : s.delays) delays.push_back(std::to_string(d));
+    if (s.adaptive) delays.emplace_back("adaptive");
+    const std::size_t total = delays.size() * s.windows.size() * s.latencies.size();
     std::size_t done = 0;
     for (double lat : s.latencies)
         for (int w : s.windows)
-            for (int d : s.delays) {
+            for (const std::string& d : delays) {
                 RunOptions o = base;
                 o.mode = w == 0 ? "lockstep" : "rollback";
                 o.prediction = w == 0 ? 8 : w;
-                o.input_delay = std::to_string(d);
+                o.input_delay = d;
                 o.latency = lat;
                 RunConfig cfg = to_config(o);
                 cfg.progress = nullptr;
                 cfg.evidence_dir.clear();
                 const RunResult r = run_match(cfg);
                 char line[320];
-                std::snprintf(line, sizeof line, "%d,%d,%g,%.9g,%.9g,%.3f,%.3f,%.3f,%.4f,%.3f,%llu\n", d, w, lat,
+                // The adaptive row's delay is the mean each client used over the match.
+                std::snprintf(line, sizeof line, "%.3g,%d,%g,%.9g,%.9g,%.3f,%.3f,%.3f,%.4f,%.3f,%llu,%d\n",
+                              r.input_delay_used.mean(), w, lat,
                               r.position_error.mean(), r.position_error.max, r.input_latency_local.mean(),
                               r.cpu_us_per_tick.mean(), r.ticks_per_second(), r.stall_fraction(),
                               r.virtual_seconds > 0 ? static_cast<double>(r.rollbacks()) / r.virtual_seconds / r.players : 0.0,
-                              static_cast<unsigned long long>(r.confirmed_mismatches));
+                              static_cast<unsigned long long>(r.confirmed_mismatches), r.adaptive_delay ? 1 : 0);
                 csv += line;
                 ++done;
                 if (::isatty(2)) std::fprintf(stderr, "\r[sweep] %zu / %zu runs ", done, total);
@@ -267,6 +286,7 @@ void add_sweep_command(CLI::App& app) {
     cmd->add_option("--delays", s->delays, "Input delays to try (frames)")->delimiter(',');
     cmd->add_option("--windows", s->windows, "Prediction windows to try (0 = lockstep)")->delimiter(',');
     cmd->add_option("--latencies", s->latencies, "One-way latencies to try (ms)")->delimiter(',');
+    cmd->add_flag("!--no-adaptive", s->adaptive, "Leave out the adaptive-delay run of each window and latency");
     cmd->callback([o, s] { do_sweep(*o, *s); });
 }
 

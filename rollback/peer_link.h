@@ -43,12 +43,18 @@ public:
     const std::string& last_error() const { return last_error_; }
 
     // Round-trip samples (µs): exponentially smoothed with weight 1/8, as TCP does.
+    // Jitter: the mean deviation of samples from the smoothed RTT, weight 1/4 (TCP's rttvar).
     void add_rtt_sample(std::uint64_t us) {
+        if (has_rtt_) {
+            const std::uint64_t dev = us > rtt_us_ ? us - rtt_us_ : rtt_us_ - us;
+            rtt_var_us_ = (3 * rtt_var_us_ + dev) / 4;
+        }
         rtt_us_ = has_rtt_ ? (7 * rtt_us_ + us) / 8 : us;
         has_rtt_ = true;
     }
     bool has_rtt() const { return has_rtt_; }
     std::uint64_t rtt_us() const { return rtt_us_; }
+    std::uint64_t rtt_var_us() const { return rtt_var_us_; }
 
     TimeSync& time_sync() { return time_sync_; }
     const TimeSync& time_sync() const { return time_sync_; }
@@ -120,6 +126,7 @@ private:
     std::string last_error_;
     bool has_rtt_ = false;
     std::uint64_t rtt_us_ = 0;
+    std::uint64_t rtt_var_us_ = 0;
     TimeSync time_sync_;
 };
 

@@ -753,6 +753,26 @@ std::int32_t Session::behind(std::uint64_t now_us) const {
     return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
 }
 
+NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const {
+    NetworkStats n;
+    if (p >= links_.size() || p == config_.local_player) return n;
+    const PeerLink& l = links_[p];
+    n.ping_us = l.rtt_us();
+    n.jitter_us = l.rtt_var_us();
+    const double seconds = now_us > started_us_ ? static_cast<double>(now_us - started_us_) / 1e6 : 0;
+    if (seconds > 0) {
+        n.kbps_sent = static_cast<double>(stats_.peers[p].bytes_sent) * 8 / 1000 / seconds;
+        n.kbps_received = static_cast<double>(stats_.peers[p].bytes_received) * 8 / 1000 / seconds;
+    }
+    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - estimated_frame(l, now_us));
+    if (config_.role != Role::Spectator) {
+        const std::uint32_t sent = count_of(config_.local_player);
+        n.send_queue = sent > l.remote_ack ? sent - l.remote_ack : 0;
+    }
+    n.interrupted = l.interrupted;
+    return n;
+}
+
 std::uint32_t Session::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
 
 void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {

@@ -178,6 +178,17 @@ struct AdvanceResult {
     int tick_stretch_ppm = 0;
 };
 
+// One peer's link as a game's network overlay shows it (GGPO's GGPONetworkStats).
+struct NetworkStats {
+    std::uint64_t ping_us = 0;       // smoothed round trip
+    std::uint64_t jitter_us = 0;     // mean deviation of round-trip samples
+    double kbps_sent = 0;            // payload kilobits per second to / from it since the start
+    double kbps_received = 0;
+    std::int32_t frames_behind = 0;  // how far its displayed frame is estimated behind ours
+    std::uint32_t send_queue = 0;    // our inputs it has not acknowledged yet (frames)
+    bool interrupted = false;
+};
+
 enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
 const char* phase_name(SessionPhase p);
 
@@ -250,6 +261,8 @@ public:
     // The first of our input frames peer p has not acknowledged: p holds our inputs of every
     // frame before it (so once it is > n and p has everyone else's, p can confirm frame n + 1).
     std::uint32_t peer_ack(PlayerId p) const { return links_[p].remote_ack; }
+    // Ping, jitter, bandwidth, frames behind and send queue of one peer, for an overlay.
+    NetworkStats network_stats(PlayerId p, std::uint64_t now_us) const;
     bool desynced(PlayerId p) const { return detector_->desynced(p); }
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;

@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
-# root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user
-# and clang used by scripts/cross-check.sh.
+# root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user,
+# clang, emscripten and node used by scripts/cross-check.sh.
 set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
-          libbenchmark-dev python3 python3-matplotlib)
+          libbenchmark-dev python3 python3-matplotlib zlib1g-dev
+          chromium)  # chromium: the headless browser test of lockroll view
 if [[ "${1:-}" == "--cross" ]]; then
-  packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu qemu-user)
+  packages+=(clang g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu g++-arm-linux-gnueabihf qemu-user
+             emscripten nodejs)
 fi
 
 missing=()

@@ -28,8 +28,7 @@ Broadphase::Box Broadphase::make_box(const Vec3& p, const Vec3& e, std::int64_t 
     for (int k = 0; k < 3; ++k) {
         // Plain int64 unless something overflows (only near the Q32.32 limits); then saturate.
         std::int64_t reach, lo, hi;
-        if (__builtin_add_overflow(h[k], m, &reach) || __builtin_sub_overflow(c[k], reach, &lo) ||
-            __builtin_add_overflow(c[k], reach, &hi)) {
+        if (add_overflow(h[k], m, &reach) || sub_overflow(c[k], reach, &lo) || add_overflow(c[k], reach, &hi)) {
             const i128 wide = static_cast<i128>(h[k]) + m;
             lo = sat(static_cast<i128>(c[k]) - wide);
             hi = sat(static_cast<i128>(c[k]) + wide);

@@ -1,6 +1,7 @@
 #include "sim/fixed.h"
 
 #include <algorithm>
+#include <bit>
 #include <vector>
 
 namespace lockroll::sim {
@@ -12,17 +13,17 @@ thread_local std::uint64_t t_overflow_events = 0;
 
 int bit_length(u128 n) {
     const auto hi = static_cast<std::uint64_t>(n >> 64);
-    if (hi) return 128 - __builtin_clzll(hi);
-    const auto lo = static_cast<std::uint64_t>(n);
-    return lo ? 64 - __builtin_clzll(lo) : 0;
+    if (hi) return 128 - std::countl_zero(hi);
+    return 64 - std::countl_zero(static_cast<std::uint64_t>(n));
 }
 
 // Correctly rounded n / d (ties to even) for d != 0, saturating to int64.
 // |n| / |d| and |n| % |d| for d != 0. On x86-64, when the quotient fits 64 bits (every
 // in-range result), one divq instruction gives exactly what the generic 128-bit division does,
 // several times faster; the results are the same integers either way, so determinism holds.
+// The portable path (sim/wide_int.h) never uses assembly.
 void divmod_unsigned(u128 n, u128 d, u128& q, u128& r) {
-#if defined(__x86_64__)
+#if LOCKROLL_BUILTIN_INT128 && defined(__x86_64__)
     const auto hi = static_cast<std::uint64_t>(n >> 64);
     if ((d >> 64) == 0 && hi < static_cast<std::uint64_t>(d)) {
         std::uint64_t q64, r64;
@@ -32,8 +33,7 @@ void divmod_unsigned(u128 n, u128 d, u128& q, u128& r) {
         return;
     }
 #endif
-    q = n / d;
-    r = n % d;
+    divmod(n, d, q, r);
 }
 
 Fixed divide_round(i128 n, i128 d) {
@@ -65,7 +65,7 @@ Fixed Fixed::ratio(std::int64_t num, std::int64_t den) {
         note_overflow();
         return num > 0 ? max() : num < 0 ? min() : zero();
     }
-    return divide_round(static_cast<i128>(num) * kOne, den);
+    return divide_round(mul_wide(num, kOne), den);
 }
 
 Fixed operator/(Fixed a, Fixed b) {
@@ -73,7 +73,7 @@ Fixed operator/(Fixed a, Fixed b) {
         note_overflow();
         return a.raw > 0 ? Fixed::max() : a.raw < 0 ? Fixed::min() : Fixed::zero();
     }
-    return divide_round(static_cast<i128>(a.raw) * Fixed::kOne, b.raw);
+    return divide_round(mul_wide(a.raw, Fixed::kOne), b.raw);
 }
 
 std::uint64_t isqrt_floor(u128 n) {
@@ -93,7 +93,7 @@ std::uint64_t isqrt_floor(u128 n) {
 std::uint64_t isqrt_round(u128 n) {
     const std::uint64_t r = isqrt_floor(n);
     // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
-    const u128 r2 = static_cast<u128>(r) * r;
+    const u128 r2 = mul_wide_unsigned(r, r);
     // r == 2^64 - 1 can only round up to 2^64, which does not fit: saturate instead of wrapping.
     return (n - r2 > r && r != UINT64_MAX) ? r + 1 : r;
 }
@@ -229,11 +229,11 @@ std::optional<Fixed> Fixed::parse(std::string_view s) {
 
 std::string Fixed::to_string() const {
     std::string out;
-    u128 mag = raw < 0 ? static_cast<u128>(-(static_cast<i128>(raw))) : static_cast<u128>(raw);
+    // |raw| <= 2^63 fits uint64; the fraction times 10 stays below 2^36.
+    const std::uint64_t mag = raw < 0 ? 0 - static_cast<std::uint64_t>(raw) : static_cast<std::uint64_t>(raw);
     if (raw < 0) out.push_back('-');
-    const u128 int_part = mag >> 32;
-    out += std::to_string(static_cast<std::uint64_t>(int_part));
-    u128 frac = mag & 0xFFFFFFFFu;
+    out += std::to_string(mag >> 32);
+    std::uint64_t frac = mag & 0xFFFFFFFFu;
     if (frac) {
         out.push_back('.');
         // Each step multiplies the fraction by 10 and emits the integer digit: exact.

@@ -10,8 +10,9 @@
 //    nearest representable value, ties to even. Add and subtract are exact when they fit.
 //  - Division by zero saturates toward the sign of the dividend (0/0 gives 0) and counts as an
 //    overflow; so does sqrt of a negative number (gives 0).
-//  - No float or double anywhere: results are bit-identical on every compiler and CPU that
-//    provides two's-complement int64 and GCC/Clang __int128.
+//  - No float or double anywhere: results are bit-identical on every compiler and CPU with
+//    two's-complement int64 (guaranteed by C++20), whether the 128-bit intermediates come from
+//    the compiler's __int128 or the portable implementation (sim/wide_int.h).
 #pragma once
 
 #include <cstdint>
@@ -19,10 +20,9 @@
 #include <string>
 #include <string_view>
 
-namespace lockroll::sim {
+#include "sim/wide_int.h"
 
-using i128 = __int128;
-using u128 = unsigned __int128;
+namespace lockroll::sim {
 
 // Overflow events on this thread since it started. Monotonic; callers diff it around a step.
 std::uint64_t overflow_events();
@@ -70,19 +70,21 @@ inline Fixed saturate_i128(i128 v) {
     return Fixed::from_raw(static_cast<std::int64_t>(v));
 }
 
-// Rounds v / 2^shift to nearest, ties to even, without overflow for any i128 v.
-inline i128 round_shift(i128 v, int shift) {
-    const i128 q = v >> shift;  // floor (arithmetic shift)
-    const u128 mask = (u128{1} << shift) - 1;
-    const u128 rem = static_cast<u128>(v) & mask;
-    const u128 half = u128{1} << (shift - 1);
+// Rounds v / 2^shift to nearest, ties to even, without overflow for any v, 1 <= shift <= 126.
+// A template so that tools may pass the compiler's __int128 even when sim/ computes with the
+// portable i128.
+template <class I>
+constexpr I round_shift(I v, int shift) {
+    const I q = v >> shift;                     // floor (arithmetic shift)
+    const I rem = v & ((I{1} << shift) - 1);    // v - q * 2^shift, in [0, 2^shift)
+    const I half = I{1} << (shift - 1);
     // Round up when rem > half, or rem == half and q is odd (ties to even).
-    return q + static_cast<i128>(rem + static_cast<u128>(q & 1) > half);
+    return q + static_cast<I>(rem + (q & 1) > half);
 }
 
 inline Fixed operator+(Fixed a, Fixed b) {
     std::int64_t r;
-    if (__builtin_add_overflow(a.raw, b.raw, &r)) {
+    if (add_overflow(a.raw, b.raw, &r)) {
         note_overflow();
         return b.raw > 0 ? Fixed::max() : Fixed::min();
     }
@@ -90,7 +92,7 @@ inline Fixed operator+(Fixed a, Fixed b) {
 }
 inline Fixed operator-(Fixed a, Fixed b) {
     std::int64_t r;
-    if (__builtin_sub_overflow(a.raw, b.raw, &r)) {
+    if (sub_overflow(a.raw, b.raw, &r)) {
         note_overflow();
         return b.raw < 0 ? Fixed::max() : Fixed::min();
     }
@@ -101,12 +103,12 @@ inline Fixed operator-(Fixed a) {
     return Fixed::from_raw(-a.raw);
 }
 inline Fixed operator*(Fixed a, Fixed b) {
-    return saturate_i128(round_shift(static_cast<i128>(a.raw) * b.raw, Fixed::kFracBits));
+    return saturate_i128(round_shift(mul_wide(a.raw, b.raw), Fixed::kFracBits));
 }
 // Fixed times a plain integer (exact unless it overflows).
 inline Fixed operator*(Fixed a, std::int64_t k) {
     std::int64_t r;
-    if (__builtin_mul_overflow(a.raw, k, &r)) {
+    if (mul_overflow(a.raw, k, &r)) {
         note_overflow();
         return ((a.raw < 0) != (k < 0)) ? Fixed::min() : Fixed::max();
     }

@@ -39,7 +39,7 @@ struct NumberTraits<Fixed> {
     static Fixed ratio(std::int64_t a, std::int64_t b) { return Fixed::ratio(a, b); }
     static Fixed dot(const Vec3& a, const Vec3& b) { return sim::dot(a, b); }
     static u128 length_sq(const Vec3& v) { return length_sq_wide(v); }
-    static u128 square(Fixed x) { return static_cast<u128>(static_cast<i128>(x.raw) * x.raw); }
+    static u128 square(Fixed x) { return static_cast<u128>(mul_wide(x.raw, x.raw)); }
     // Same cast as everywhere in sim/: a root above INT64_MAX cannot come from a squared Fixed
     // distance that mattered (it would be beyond any reach compared against it).
     static Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }

@@ -4,6 +4,8 @@
 
 #include <cstdint>
 
+#include "sim/wide_int.h"
+
 namespace lockroll::sim {
 
 class SplitMix64 {
@@ -21,7 +23,7 @@ public:
     // rejection). bound must be > 0.
     std::uint64_t below(std::uint64_t bound) {
         for (;;) {
-            const unsigned __int128 m = static_cast<unsigned __int128>(next()) * bound;
+            const u128 m = mul_wide_unsigned(next(), bound);
             const auto low = static_cast<std::uint64_t>(m);
             if (low >= bound || low >= (0 - bound) % bound) return static_cast<std::uint64_t>(m >> 64);
         }

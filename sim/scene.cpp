@@ -80,7 +80,7 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
     SplitMix64 rng(s.seed);
     const Fixed r = bounding_radius(s);
     const Fixed reach = r + r;
-    const u128 reach_sq = static_cast<u128>(static_cast<i128>(reach.raw) * reach.raw);
+    const u128 reach_sq = static_cast<u128>(mul_wide(reach.raw, reach.raw));
     // Accepted positions bucketed by cells of edge >= 2r, so the overlap test looks at 27
     // cells instead of every earlier body. Whether a spot is clear is an AND over neighbours,
     // independent of the map's iteration order, so the result stays deterministic.

@@ -25,13 +25,13 @@ inline Vec3& operator-=(Vec3& a, const Vec3& b) { return a = a - b; }
 // product is at most 2^126), so far beyond Fixed's range either way, with the partial's sign.
 inline bool dot_wide_checked(const Vec3& a, const Vec3& b, i128* out) {
     constexpr i128 kWideMax = static_cast<i128>(~u128{0} >> 1);
-    i128 s = static_cast<i128>(a.x.raw) * b.x.raw;
+    i128 s = mul_wide(a.x.raw, b.x.raw);
     i128 t;
-    if (__builtin_add_overflow(s, static_cast<i128>(a.y.raw) * b.y.raw, &t)) {
+    if (add_overflow(s, mul_wide(a.y.raw, b.y.raw), &t)) {
         *out = s > 0 ? kWideMax : -kWideMax;
         return false;
     }
-    if (__builtin_add_overflow(t, static_cast<i128>(a.z.raw) * b.z.raw, &s)) {
+    if (add_overflow(t, mul_wide(a.z.raw, b.z.raw), &s)) {
         *out = t > 0 ? kWideMax : -kWideMax;
         return false;
     }
@@ -59,8 +59,8 @@ inline Fixed dot(const Vec3& a, const Vec3& b) {
 // |v|^2 in Q64.64 (exact, never overflows: 3 * 2^126 < 2^128).
 inline u128 length_sq_wide(const Vec3& v) {
     auto sq = [](Fixed f) {
-        const u128 m = static_cast<u128>(f.raw < 0 ? -static_cast<i128>(f.raw) : f.raw);
-        return m * m;
+        const std::uint64_t m = f.raw < 0 ? 0 - static_cast<std::uint64_t>(f.raw) : static_cast<std::uint64_t>(f.raw);
+        return mul_wide_unsigned(m, m);
     };
     return sq(v.x) + sq(v.y) + sq(v.z);
 }

@@ -35,7 +35,7 @@ expect 2 "bad.json: /bodies/0/position: expected an array of 3 numbers" -- "$loc
 expect 2 "broken.json: .*line 2" -- "$lockroll" sim --scene "$tmp/broken.json"
 expect 2 "--loss must be a probability" -- "$lockroll" run --loss 2 --out "$tmp/r"
 expect 2 "--players must be 2..16" -- "$lockroll" run --players 40 --out "$tmp/r"
-expect 2 "--input-delay x: expected a frame count or auto" -- "$lockroll" run --input-delay x --out "$tmp/r"
+expect 2 "--input-delay x: expected a frame count, auto or adaptive" -- "$lockroll" run --input-delay x --out "$tmp/r"
 expect 2 "CLIENT:FRAME:BODY" -- "$lockroll" run --inject-desync 1:x:3 --out "$tmp/r"
 expect 2 "--mode" -- "$lockroll" run --mode sideways
 

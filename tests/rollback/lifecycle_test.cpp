@@ -69,6 +69,18 @@ TEST(Lifecycle, HandshakeMeasuresRttThenEveryoneStarts) {
         EXPECT_LT(c->session->rtt_us(c == cluster.clients[0] ? 1 : 0), 110000u);
     }
     expect_equal_at(cluster, 300);
+    // The overlay's figures: ~85 ms ping with up to 10 ms of jitter both ways, a few hundred
+    // bits per second each way, nobody far behind, a short send queue.
+    const NetworkStats n = cluster.clients[0]->session->network_stats(1, cluster.now());
+    EXPECT_GT(n.ping_us, 70000u);
+    EXPECT_LT(n.ping_us, 110000u);
+    EXPECT_GT(n.jitter_us, 0u);
+    EXPECT_LT(n.jitter_us, 15000u);
+    EXPECT_GT(n.kbps_sent, 1.0);
+    EXPECT_LT(n.kbps_sent, 20.0);
+    EXPECT_GT(n.kbps_received, 1.0);
+    EXPECT_LE(std::abs(n.frames_behind), 4);
+    EXPECT_LE(n.send_queue, 12u);
 }
 
 TEST(Lifecycle, MismatchedMatchIdIsRefusedOnBothSides) {

@@ -20,6 +20,11 @@
 
 namespace lockroll::sim::accuracy {
 
+// The references use the compiler's __int128 (so these tests need GCC or Clang), never sim's
+// i128: in a LOCKROLL_PORTABLE_MATH build that is the portable implementation under test.
+using i128 = __int128;
+using u128 = unsigned __int128;
+
 inline constexpr int kRandomCases = 1'000'000;
 inline constexpr std::uint64_t kSeed = 20261122;
 

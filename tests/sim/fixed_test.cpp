@@ -22,6 +22,8 @@ namespace lockroll::sim {
 namespace {
 
 using namespace accuracy;
+using accuracy::i128;  // the builtin references, not sim's (possibly portable) i128
+using accuracy::u128;
 
 constexpr i128 kUlpsPerOne = i128{1} << 32;
 

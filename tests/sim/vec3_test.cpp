@@ -14,6 +14,8 @@ namespace lockroll::sim {
 namespace {
 
 using namespace accuracy;
+using accuracy::i128;  // the builtin references, not sim's (possibly portable) i128
+using accuracy::u128;
 
 Vec3 raw3(std::int64_t x, std::int64_t y, std::int64_t z) {
     return {Fixed::from_raw(x), Fixed::from_raw(y), Fixed::from_raw(z)};
