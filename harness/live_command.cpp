@@ -234,7 +234,7 @@ struct ProcessRecord {
 
 // Runs one mode's processes; returns what each did (players first, by slot; then rejoined
 // players and spectators).
-std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir) {
+std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir, int input_delay) {
     const LiveOptions& o = p.o;
     const std::string exe = self_exe();
     const int n = o.players, ids = n + o.spectators;
@@ -314,7 +314,7 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
             if (j != r.slot) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
         args.insert(args.end(),
                     {"--scene", o.scene, "--bot", o.bot, "--frames", std::to_string(o.frames), "--tick-rate",
-                     std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(p.input_delay.at(mode)),
+                     std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(input_delay),
                      "--prediction", std::to_string(o.prediction), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
                      "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress",
                      "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--recoveries",
@@ -423,7 +423,7 @@ void merge(Stat& s, double mean, double max, std::uint64_t count) {
     s.max = std::max(s.max, max);
 }
 
-RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all) {
+RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all, int input_delay) {
     const auto players = players_of(all, p.o.players);
     const LiveOptions& o = p.o;
     RunResult r;
@@ -433,7 +433,7 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     r.players = o.players;
     r.frames = o.frames;
     r.tick_rate = o.tick_rate;
-    r.input_delay = p.input_delay.at(mode);
+    r.input_delay = input_delay;
     r.prediction = mode == Mode::Lockstep ? 0 : o.prediction;
     r.seed = o.seed;
     r.latency_ms = o.latency;
@@ -647,23 +647,31 @@ int do_live(const LiveOptions& options) {
     std::map<Mode, RunResult> live, virt;
     json modes = json::object();
     bool ok = true;
-    for (Mode m : p.modes) {
-        const fs::path dir = out / mode_name(m);
-        std::fprintf(stderr, "[live] %s: %d processes%s, %d frames\n", mode_name(m), p.o.players,
+    // Both modes: also rollback at input delay 0, the like-for-like run of the paper (compare's
+    // third column), as real processes too.
+    std::vector<std::pair<std::string, Mode>> runs;
+    for (Mode m : p.modes) runs.emplace_back(mode_name(m), m);
+    if (p.modes.size() == 2) runs.emplace_back("rollback-delay0", Mode::Rollback);
+    std::map<std::string, RunResult> by_name;
+    for (const auto& [name, m] : runs) {
+        const fs::path dir = out / name;
+        const int delay = name == "rollback-delay0" ? 0 : p.input_delay.at(m);
+        std::fprintf(stderr, "[live] %s: %d processes%s, %d frames\n", name.c_str(), p.o.players,
                      p.proxied ? " behind proxies" : "", p.o.frames);
-        const auto recs = run_processes(p, m, dir);
-        RunResult r = collect(p, m, dir, recs);
+        const auto recs = run_processes(p, m, dir, delay);
+        RunResult r = collect(p, m, dir, recs, delay);
         write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
         write_file_atomic(dir / "frames.csv", frames_csv(r));
         json lj = live_json(recs, dir);
         ok = ok && lj["ok"].get<bool>();
-        modes[mode_name(m)] = lj;
+        modes[name] = lj;
         std::printf("real processes, %s", console_summary(r).c_str());
-        live.emplace(m, std::move(r));
-        if (!p.o.no_virtual) {
+        if (name == mode_name(m)) live.emplace(m, r);
+        by_name.emplace(name, std::move(r));
+        if (!p.o.no_virtual && name == mode_name(m)) {
             RunConfig cfg = p.base;
             cfg.mode = m;
-            cfg.input_delay = p.input_delay.at(m);
+            cfg.input_delay = delay;
             RunResult v = run_match(cfg);
             write_run(out / "virtual" / mode_name(m), v);
             virt.emplace(m, std::move(v));
@@ -678,15 +686,14 @@ int do_live(const LiveOptions& options) {
     }
     std::string report;
     if (p.modes.size() == 2) {
-        const double step_us = time_physics_step(p.base.scene, p.o.players);
         const std::string plot_error = run_plot_script("plot.py", {"compare", out.string()});
         const std::string note = plot_error.empty()
                                      ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
                                        "![tick rate over time](tick_rate.png)\n"
                                      : "Plots were not made: " + plot_error + "\n";
         write_file_atomic(out / "compare.json",
-                          compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), step_us).dump(2) + "\n");
-        report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), step_us, note);
+                          compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0")).dump(2) + "\n");
+        report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0"), note);
     }
     report += "\n## Real processes beside virtual time\n\nThe same scene, players, frames, seed, input delay and network "
               "conditions: N `lockroll peer` processes over ENet on 127.0.0.1 (through `lockroll proxy` when impaired), "
