@@ -13,8 +13,9 @@
 // It then reads every process's summary.json, frames.csv and positions.csv and builds one
 // RunResult per mode -- the positional error is the paper's metric across processes -- and
 // writes DIR/MODE/{summary.json,frames.csv,pK/...}, DIR/compare.json, DIR/report.md and the
-// plots of `compare` (both modes), with the in-process virtual-time match of the same flags
-// beside it (DIR/virtual/MODE/), and DIR/live.json: per process exit status, outcome, final
+// plots of `compare` (both modes, plus rollback at input delay 0 as compare's third column),
+// with the in-process virtual-time match of the same flags beside it (DIR/virtual/MODE/), and
+// DIR/live.json: per process exit status, outcome, final
 // checksum, frames, disconnect frames, kill frame and the longest stall after a kill.
 //
 // Lifecycle: --kill SLOT@FRAME SIGKILLs that process once it shows FRAME; --rejoin SLOT@FRAME
