@@ -1,6 +1,9 @@
 #include "harness/commands.h"
 
+#include "harness/live_command.h"
+#include "harness/peer_command.h"
 #include "harness/precision_command.h"
+#include "harness/proxy_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
@@ -19,6 +22,9 @@ void add_all_commands(CLI::App& app) {
     add_sweep_command(app);
     add_replay_command(app);
     add_synctest_command(app);
+    add_peer_command(app);
+    add_live_command(app);
+    add_proxy_command(app);
     add_view_command(app);
 }
 

@@ -12,6 +12,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
+#include "harness/client_result.h"
 #include "harness/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -29,23 +30,6 @@ std::uint64_t thread_cpu_ns() {
     timespec ts{};
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-
-transport::Micros to_us(double ms) { return static_cast<transport::Micros>(std::llround(ms * 1000.0)); }
-
-transport::LinkConditions link_for(const NetConditions& n) {
-    transport::LinkConditions l;
-    l.latency_us = to_us(n.latency_ms);
-    l.jitter_us = to_us(n.jitter_ms);
-    l.loss = n.loss;
-    l.duplicate = n.duplicate;
-    l.reorder = n.reorder;
-    if (n.burst_loss > 0) {
-        l.burst_enter = n.burst_loss;
-        l.burst_exit = 0.5;
-        l.burst_loss = 1.0;
-    }
-    return l;
 }
 
 std::vector<sim::Vec3> dynamic_positions(const sim::World& w) {
@@ -467,6 +451,33 @@ double percentile(std::vector<double> v, double p) {
 
 }  // namespace
 
+transport::LinkConditions link_for(const NetConditions& n) {
+    const auto to_us = [](double ms) { return static_cast<transport::Micros>(std::llround(ms * 1000.0)); };
+    transport::LinkConditions l;
+    l.latency_us = to_us(n.latency_ms);
+    l.jitter_us = to_us(n.jitter_ms);
+    l.loss = n.loss;
+    l.duplicate = n.duplicate;
+    l.reorder = n.reorder;
+    if (n.burst_loss > 0) {
+        l.burst_enter = n.burst_loss;
+        l.burst_exit = 0.5;
+        l.burst_loss = 1.0;
+    }
+    return l;
+}
+
+void validate(const NetConditions& n) {
+    auto fail = [](const std::string& m) { throw UsageError(m); };
+    if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
+    if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
+    for (auto [v, name] : {std::pair{n.loss, "--loss"}, {n.duplicate, "--duplicate"}, {n.reorder, "--reorder"},
+                           {n.burst_loss, "--burst-loss"}})
+        if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
+    if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
+    if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
+}
+
 const char* mode_name(Mode m) { return m == Mode::Lockstep ? "lockstep" : "rollback"; }
 
 void validate(const RunConfig& c) {
@@ -477,17 +488,10 @@ void validate(const RunConfig& c) {
     if (c.input_delay < -1 || c.input_delay > 60) fail("--input-delay must be 0..60 or auto");
     if (c.prediction < 1 || c.prediction > 60) fail("--prediction must be 1..60 (lockstep mode uses 0 itself)");
     if (c.checksum_interval < 1 || c.checksum_interval > 65535) fail("--checksum-interval must be 1..65535");
-    const NetConditions& n = c.net;
-    if (!(n.latency_ms >= 0 && n.latency_ms <= 10000)) fail("--latency must be 0..10000 ms");
-    if (!(n.jitter_ms >= 0 && n.jitter_ms <= n.latency_ms + 1e-9 + 10000)) fail("--jitter must be >= 0 ms");
-    for (auto [v, name] : {std::pair{n.loss, "--loss"}, {n.duplicate, "--duplicate"}, {n.reorder, "--reorder"},
-                           {n.burst_loss, "--burst-loss"}})
-        if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
-    if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
+    validate(c.net);
     if (!(c.drift_ppm >= 0 && c.drift_ppm <= 10000)) fail("--drift-ppm must be 0..10000");
     for (const auto& inj : c.injections)
         if (inj.client < 0 || inj.client >= c.players) fail("--inject-desync: client must be 0..players-1");
-    if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
 }
 
 sim::SceneDesc with_players(const sim::SceneDesc& scene, int players) {
@@ -644,27 +648,12 @@ RunResult run_match(const RunConfig& cfg) {
     // Stats count every tick, including the few after the last frame spent confirming it.
     for (const auto& c : clients) {
         const rollback::SessionStats& st = c->session_->stats();
-        ClientResult cr;
+        ClientResult cr = client_result(st);
         // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
         const std::uint64_t end = c->reached_target_us_ ? c->reached_target_us_ : now;
         const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
-        cr.frames = st.frames_advanced;
-        cr.ticks = st.ticks;
-        cr.stall_ticks = st.stall_ticks;
-        cr.time_sync_waits = st.time_sync_wait_frames;
         // Effective tick rate: frames shown per second of the client's own running time.
         cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
-        cr.stall_fraction = st.ticks ? static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks) : 0;
-        cr.rollbacks = st.rollbacks;
-        cr.resimulated_frames = st.resimulated_frames;
-        cr.max_rollback_depth = st.max_rollback_depth;
-        cr.bytes_sent = st.bytes_sent;
-        cr.bytes_received = st.bytes_received;
-        cr.packets_sent = st.packets_sent;
-        cr.packets_received = st.packets_received;
-        for (const auto& p : st.peers) cr.mispredictions += p.mispredictions;
-        cr.malformed_packets = st.malformed_packets;
-        cr.desyncs = st.desyncs;
         cr.final_checksum = c->final_checksum_;
         cr.final_confirmed = c->final_confirmed_;
         res.completed = res.completed && c->final_confirmed_;

@@ -17,6 +17,7 @@
 #include "harness/bots.h"
 #include "harness/metrics.h"
 #include "sim/scene.h"
+#include "transport/link_conditions.h"
 
 namespace lockroll::harness {
 
@@ -31,6 +32,11 @@ struct NetConditions {
     double duplicate = 0;
     double reorder = 0;
 };
+
+// The simulated link every directed link gets for these conditions (also what `lockroll proxy`
+// applies to real traffic). validate() throws UsageError naming the flag.
+transport::LinkConditions link_for(const NetConditions& n);
+void validate(const NetConditions& n);
 
 // --inject-desync CLIENT:FRAME:BODY — flip one bit of one body on one client when it produces
 // that frame (bit 20 of position.x unless given as CLIENT:FRAME:BODY:FIELD:BIT).

@@ -83,36 +83,6 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
                     "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body on one client at a frame (repeatable)");
 }
 
-DesyncInjection parse_injection(const std::string& text) {
-    // Each part is range-checked before it is narrowed: 4294967298 must not become frame 2.
-    constexpr long long kMax[5] = {15, 0xFFFFFFFFll, 0xFFFFFFFFll, 5, 63};
-    constexpr const char* kName[5] = {"CLIENT", "FRAME", "BODY", "FIELD", "BIT"};
-    std::vector<long long> parts;
-    std::stringstream ss(text);
-    std::string item;
-    while (std::getline(ss, item, ':')) {
-        char* end = nullptr;
-        errno = 0;
-        const long long v = std::strtoll(item.c_str(), &end, 10);
-        if (item.empty() || *end != '\0' || v < 0 || errno == ERANGE)
-            throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
-        if (parts.size() < 5 && v > kMax[parts.size()])
-            throw UsageError("--inject-desync " + text + ": " + kName[parts.size()] + " " + item + " is above " +
-                             std::to_string(kMax[parts.size()]));
-        parts.push_back(v);
-    }
-    if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
-    DesyncInjection d;
-    d.client = static_cast<int>(parts[0]);
-    d.frame = static_cast<std::uint32_t>(parts[1]);
-    d.body = static_cast<std::uint32_t>(parts[2]);
-    if (parts.size() == 5) {
-        d.field = static_cast<int>(parts[3]);
-        d.bit = static_cast<int>(parts[4]);
-    }
-    return d;
-}
-
 RunConfig to_config(const RunOptions& o) {
     check_output_dir("--out", o.out);
     if (!o.record.empty()) check_output_file("--record", o.record);
@@ -257,6 +227,37 @@ void do_sweep(const RunOptions& base, const SweepOptions& s) {
     if (!plot_error.empty()) std::fprintf(stderr, "warning: %s\n", plot_error.c_str());
 }
 }  // namespace
+
+DesyncInjection parse_injection(const std::string& text) {
+    // Each part is range-checked before it is narrowed: 4294967298 must not become frame 2.
+    constexpr long long kMax[5] = {15, 0xFFFFFFFFll, 0xFFFFFFFFll, 5, 63};
+    constexpr const char* kName[5] = {"CLIENT", "FRAME", "BODY", "FIELD", "BIT"};
+    std::vector<long long> parts;
+    std::stringstream ss(text);
+    std::string item;
+    while (std::getline(ss, item, ':')) {
+        char* end = nullptr;
+        errno = 0;
+        const long long v = std::strtoll(item.c_str(), &end, 10);
+        if (item.empty() || *end != '\0' || v < 0 || errno == ERANGE)
+            throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT] of non-negative integers");
+        if (parts.size() < 5 && v > kMax[parts.size()])
+            throw UsageError("--inject-desync " + text + ": " + kName[parts.size()] + " " + item + " is above " +
+                             std::to_string(kMax[parts.size()]));
+        parts.push_back(v);
+    }
+    if (parts.size() != 3 && parts.size() != 5) throw UsageError("--inject-desync " + text + ": expected CLIENT:FRAME:BODY[:FIELD:BIT]");
+    DesyncInjection d;
+    d.client = static_cast<int>(parts[0]);
+    d.frame = static_cast<std::uint32_t>(parts[1]);
+    d.body = static_cast<std::uint32_t>(parts[2]);
+    if (parts.size() == 5) {
+        d.field = static_cast<int>(parts[3]);
+        d.bit = static_cast<int>(parts[4]);
+    }
+    return d;
+}
+
 
 void add_run_command(CLI::App& app) {
     auto o = std::make_shared<RunOptions>();

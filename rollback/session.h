@@ -258,6 +258,9 @@ public:
     bool peer_error(PlayerId p) const { return links_[p].error(); }
     // Smoothed round trip to a peer (µs; 0 until measured).
     std::uint64_t rtt_us(PlayerId p) const { return links_[p].rtt_us(); }
+    // The first of our input frames peer p has not acknowledged: p holds our inputs of every
+    // frame before it (so once it is > n and p has everyone else's, p can confirm frame n + 1).
+    std::uint32_t peer_ack(PlayerId p) const { return links_[p].remote_ack; }
     // Ping, jitter, bandwidth, frames behind and send queue of one peer, for an overlay.
     NetworkStats network_stats(PlayerId p, std::uint64_t now_us) const;
     bool desynced(PlayerId p) const { return detector_->desynced(p); }

@@ -2,7 +2,9 @@
 
 #include <enet/enet.h>
 
+#include <cstddef>
 #include <cstdlib>
+#include <cstring>
 #include <mutex>
 #include <stdexcept>
 #include <string>
@@ -12,9 +14,36 @@ namespace lockroll::transport {
 
 namespace {
 
-constexpr enet_uint8 kInputChannel = 0;
-// Upper bound on ENet events handled per poll, so one call stays bounded under a flood.
+constexpr enet_uint8 kInputChannel = 0;     // unreliable unsequenced
+constexpr enet_uint8 kReliableChannel = 1;  // reliable, ordered
+constexpr std::size_t kChannels = 2;
+
+// Bounds on one poll(), so a flood cannot keep it busy: ENet events handled, service errors
+// skipped, and service calls that return nothing before we conclude the socket is drained
+// (each call reads up to 256 datagrams; junk yields no event).
 constexpr int kMaxEventsPerPoll = 4096;
+constexpr int kMaxErrorsPerPoll = 1024;
+constexpr int kIdleCallsPerPoll = 2;
+
+// Disconnect data we send, so the other side can say why (0 is ENet's: timeout or plain close).
+enum CloseCode : enet_uint32 {
+    kClosed = 1,            // orderly shutdown (destructor)
+    kRefusedOwnId = 2,      // you claimed my own id
+    kRefusedDuplicate = 3,  // your id is held by a live connection
+    kCrossed = 4,           // both connected at once; the one the lower id initiated is kept
+    kReplaced = 5,          // a new connection claiming your id replaced this silent one
+};
+
+std::string close_reason(enet_uint32 code) {
+    switch (code) {
+        case kClosed: return "closed by the peer";
+        case kRefusedOwnId: return "refused by the peer: we claimed its own id";
+        case kRefusedDuplicate: return "refused by the peer: our id is held by another live connection";
+        case kCrossed: return "crossed connect: the peer keeps the connection the lower id initiated";
+        case kReplaced: return "the peer replaced this connection with a newer one claiming our id";
+        default: return "timed out or closed";
+    }
+}
 
 // enet_initialize once per process, enet_deinitialize at exit.
 void ensure_enet_initialized() {
@@ -33,25 +62,118 @@ void configure_peer(ENetPeer* peer) {
     enet_peer_throttle_configure(peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
 }
 
+// The transport whose host is inside enet_host_service on this thread: ENet's intercept
+// callback has no user pointer.
+thread_local EnetTransport* t_servicing = nullptr;
+
+int ENET_CALLBACK intercept_callback(ENetHost* host, ENetEvent* /*event*/) {
+    return t_servicing != nullptr ? t_servicing->intercept(host) : 0;
+}
+
+std::uint16_t read_be16(const enet_uint8* p) { return static_cast<std::uint16_t>((p[0] << 8) | p[1]); }
+
 }  // namespace
 
-EnetTransport::EnetTransport(const EnetConfig& config) : local_id_(config.local_id) {
+EnetTransport::EnetTransport(const EnetConfig& config) : config_(config), local_id_(config.local_id) {
+    if (config.max_peers < 1 || config.max_peers > ENET_PROTOCOL_MAXIMUM_PEER_ID)
+        throw std::invalid_argument("EnetTransport: max_peers must be 1.." + std::to_string(ENET_PROTOCOL_MAXIMUM_PEER_ID));
+    if (config.max_connections_per_address < 1)
+        throw std::invalid_argument("EnetTransport: max_connections_per_address must be >= 1");
+    if (config.max_packet_bytes < kMaxDatagramBytes)
+        throw std::invalid_argument("EnetTransport: max_packet_bytes must be >= " + std::to_string(kMaxDatagramBytes));
     ensure_enet_initialized();
     const std::string where = config.bind_host + ":" + std::to_string(config.port);
     ENetAddress address{};
     if (enet_address_set_host(&address, config.bind_host.c_str()) != 0)
         throw std::runtime_error("ENet: cannot resolve bind address " + where);
     address.port = config.port;
-    host_ = enet_host_create(&address, config.max_peers, 1, 0, 0);
+    host_ = enet_host_create(&address, config.max_peers, kChannels, 0, 0);
     if (host_ == nullptr) throw std::runtime_error("ENet: cannot create a host bound to " + where);
+    host_->duplicatePeers = config.max_connections_per_address;
+    host_->maximumPacketSize = config.max_packet_bytes;
+    host_->maximumWaitingData = config.max_waiting_bytes;
+    host_->intercept = intercept_callback;
     ENetAddress bound{};
     port_ = enet_socket_get_address(host_->socket, &bound) == 0 ? bound.port : config.port;
 }
 
 EnetTransport::~EnetTransport() {
-    for (auto& [id, conn] : by_id_) enet_peer_disconnect_now(conn.peer, 0);
+    for (auto& [id, conn] : by_id_) enet_peer_disconnect_now(conn.peer, kClosed);
     enet_host_flush(host_);
     enet_host_destroy(host_);
+}
+
+int EnetTransport::intercept(ENetHost* host) {
+    // Only connect requests matter here: a datagram whose header names no peer (peer id
+    // ENET_PROTOCOL_MAXIMUM_PEER_ID) and whose first command is CONNECT. ENet parses the rest.
+    const enet_uint8* data = host->receivedData;
+    const std::size_t size = host->receivedDataLength;
+    if (size < 2) return 0;
+    const std::uint16_t header = read_be16(data);
+    if ((header & ENET_PROTOCOL_HEADER_FLAG_COMPRESSED) != 0) return 0;
+    if ((header & ~(ENET_PROTOCOL_HEADER_FLAG_MASK | ENET_PROTOCOL_HEADER_SESSION_MASK)) != ENET_PROTOCOL_MAXIMUM_PEER_ID)
+        return 0;
+    const std::size_t header_size = (header & ENET_PROTOCOL_HEADER_FLAG_SENT_TIME) != 0 ? 4 : 2;
+    if (size < header_size + sizeof(ENetProtocolConnect)) return 0;
+    const enet_uint8* command = data + header_size;
+    if ((command[0] & ENET_PROTOCOL_COMMAND_MASK) != ENET_PROTOCOL_COMMAND_CONNECT) return 0;
+    // ENet keeps connectID as it came off the wire; compare the same raw bytes.
+    enet_uint32 connect_id = 0;
+    std::memcpy(&connect_id, command + offsetof(ENetProtocolConnect, connectID), sizeof connect_id);
+
+    // The rule of enet_protocol_handle_connect, so that what it would refuse silently is
+    // counted here instead.
+    std::size_t same_address = 0;
+    bool free_slot = false;
+    for (std::size_t i = 0; i < host->peerCount; ++i) {
+        const ENetPeer& p = host->peers[i];
+        if (p.state == ENET_PEER_STATE_DISCONNECTED) {
+            free_slot = true;
+        } else if (p.state != ENET_PEER_STATE_CONNECTING && p.address.host == host->receivedAddress.host) {
+            if (p.address.port == host->receivedAddress.port && p.connectID == connect_id) return 0;  // a resend
+            ++same_address;
+        }
+    }
+    if (same_address >= config_.max_connections_per_address) {
+        ++enet_counters_.refused_address_limit;
+        ++counters_.rejected;
+        return 1;
+    }
+    if (!free_slot) {
+        ++enet_counters_.refused_no_slot;
+        ++counters_.rejected;
+        return 1;
+    }
+    return 0;
+}
+
+bool EnetTransport::silent(const Connection& c) const {
+    return last_now_ >= c.last_heard_us && last_now_ - c.last_heard_us >= config_.silent_after_us;
+}
+
+void EnetTransport::push_event(TransportEvent::Type type, PeerId peer, std::string reason) {
+    if (events_.size() >= config_.max_events) {
+        ++enet_counters_.dropped_events;
+        return;
+    }
+    events_.push_back(TransportEvent{type, peer, std::move(reason)});
+}
+
+bool EnetTransport::next_event(TransportEvent& out) {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
+void EnetTransport::refuse(ENetPeer* peer, std::uint32_t code) { enet_peer_disconnect_now(peer, code); }
+
+void EnetTransport::drop_connection(PeerId id, std::uint32_t code) {
+    const auto it = by_id_.find(id);
+    if (it == by_id_.end()) return;
+    by_peer_.erase(it->second.peer);
+    enet_peer_disconnect_now(it->second.peer, code);  // resets the slot; no event for it here
+    by_id_.erase(it);
 }
 
 bool EnetTransport::connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error) {
@@ -60,13 +182,18 @@ bool EnetTransport::connect(PeerId remote, const std::string& host, std::uint16_
         return false;
     };
     if (remote == local_id_) return fail("peer id " + std::to_string(remote) + " is the local id");
-    if (by_id_.contains(remote)) return fail("peer id " + std::to_string(remote) + " is already connected or connecting");
+    if (const auto it = by_id_.find(remote); it != by_id_.end()) {
+        if (!it->second.established || !silent(it->second))
+            return fail("peer id " + std::to_string(remote) + " is already connected or connecting");
+        drop_connection(remote, kReplaced);  // silent: its process is probably gone
+        ++enet_counters_.replaced;
+    }
     ENetAddress address{};
     if (enet_address_set_host(&address, host.c_str()) != 0) return fail("cannot resolve host '" + host + "'");
     address.port = port;
-    ENetPeer* peer = enet_host_connect(host_, &address, 1, local_id_);
+    ENetPeer* peer = enet_host_connect(host_, &address, kChannels, local_id_);
     if (peer == nullptr) return fail("no free ENet connection slot");
-    by_id_[remote] = Connection{peer, false};
+    by_id_[remote] = Connection{peer, false, true, last_now_, peer->lastReceiveTime};
     by_peer_[peer] = remote;
     return true;
 }
@@ -86,82 +213,161 @@ std::vector<PeerId> EnetTransport::connected_peers() const {
     return ids;
 }
 
-void EnetTransport::forget(ENetPeer* peer) {
-    const auto it = by_peer_.find(peer);
-    if (it == by_peer_.end()) return;
-    by_id_.erase(it->second);
-    by_peer_.erase(it);
+void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
+    ENetPeer* peer = event.peer;
+    if (const auto it = by_peer_.find(peer); it != by_peer_.end()) {  // our outgoing connect completed
+        Connection& c = by_id_.at(it->second);
+        c.established = true;
+        c.last_heard_us = now;
+        configure_peer(peer);
+        push_event(TransportEvent::Type::Connected, it->second, "connected (we connected)");
+        return;
+    }
+    const PeerId remote = event.data;
+    const std::string who = "peer " + std::to_string(remote) + " from port " + std::to_string(peer->address.port);
+    if (remote == local_id_) {
+        ++enet_counters_.refused_own_id;
+        ++counters_.rejected;
+        refuse(peer, kRefusedOwnId);
+        push_event(TransportEvent::Type::Refused, remote, who + " claimed our own id");
+        return;
+    }
+    std::string reason = "connected (it connected)";
+    if (const auto it = by_id_.find(remote); it != by_id_.end()) {
+        const Connection& old = it->second;
+        if (old.established && silent(old)) {
+            ++enet_counters_.replaced;
+            drop_connection(remote, kReplaced);
+            reason = "reconnected: replaces a connection silent for " +
+                     std::to_string((now - old.last_heard_us) / 1000) + " ms";
+        } else if (old.outgoing) {
+            // Crossed connects: keep the one initiated by the lower id, the same on both sides.
+            ++enet_counters_.crossed_connects;
+            if (remote > local_id_) {
+                refuse(peer, kCrossed);
+                return;
+            }
+            drop_connection(remote, kCrossed);
+            reason = "connected (crossed connects: kept the one the lower id initiated)";
+        } else {
+            ++enet_counters_.refused_duplicate_id;
+            ++counters_.rejected;
+            refuse(peer, kRefusedDuplicate);
+            push_event(TransportEvent::Type::Refused, remote, who + ": id held by a live connection");
+            return;
+        }
+    }
+    by_id_[remote] = Connection{peer, true, false, now, peer->lastReceiveTime};
+    by_peer_[peer] = remote;
+    configure_peer(peer);
+    push_event(TransportEvent::Type::Connected, remote, reason);
 }
 
 void EnetTransport::handle(const ENetEvent& event, Micros now) {
     switch (event.type) {
-        case ENET_EVENT_TYPE_CONNECT: {
-            if (const auto it = by_peer_.find(event.peer); it != by_peer_.end()) {
-                by_id_[it->second].established = true;  // our outgoing connect completed
-                configure_peer(event.peer);
-                return;
-            }
-            const PeerId remote = event.data;
-            if (remote == local_id_ || by_id_.contains(remote)) {
-                ++counters_.rejected;
-                enet_peer_disconnect_now(event.peer, 0);
-                return;
-            }
-            by_id_[remote] = Connection{event.peer, true};
-            by_peer_[event.peer] = remote;
-            configure_peer(event.peer);
+        case ENET_EVENT_TYPE_CONNECT:
+            handle_connect(event, now);
             return;
-        }
         case ENET_EVENT_TYPE_RECEIVE: {
             const auto it = by_peer_.find(event.peer);
-            const bool known = it != by_peer_.end() && by_id_[it->second].established;
-            if (!known || event.channelID != kInputChannel || event.packet->dataLength > kMaxDatagramBytes) {
+            Connection* c = it != by_peer_.end() ? &by_id_.at(it->second) : nullptr;
+            const std::size_t size = event.packet->dataLength;
+            std::uint64_t* drop = nullptr;
+            if (c == nullptr || !c->established)
+                drop = &enet_counters_.dropped_unknown_peer;
+            else if (event.channelID != kInputChannel && event.channelID != kReliableChannel)
+                drop = &enet_counters_.dropped_bad_channel;
+            else if (size > kMaxDatagramBytes)
+                drop = &enet_counters_.dropped_oversized;
+            else if (inbox_.size() >= config_.max_inbox)
+                drop = &enet_counters_.dropped_inbox_full;
+            if (drop != nullptr) {
+                ++*drop;
                 ++counters_.rejected;
             } else {
+                c->last_heard_us = now;
                 Datagram d;
                 d.from = it->second;
                 d.time_us = now;
-                d.bytes.assign(event.packet->data, event.packet->data + event.packet->dataLength);
+                d.bytes.assign(event.packet->data, event.packet->data + size);
+                d.reliable = event.channelID == kReliableChannel;
                 inbox_.push_back(std::move(d));
             }
             enet_packet_destroy(event.packet);
             return;
         }
-        case ENET_EVENT_TYPE_DISCONNECT:
-            forget(event.peer);
+        case ENET_EVENT_TYPE_DISCONNECT: {
+            const auto it = by_peer_.find(event.peer);
+            if (it == by_peer_.end()) return;  // a refused or replaced connection
+            const PeerId id = it->second;
+            const bool was_established = by_id_.at(id).established;
+            by_id_.erase(id);
+            by_peer_.erase(it);
+            ++enet_counters_.disconnects;
+            // kCrossed: usually the peer's own connection is on its way (a Connected follows);
+            // but if we are a restarted process whose old connection the peer still thinks
+            // alive, nothing follows, and the runner should connect() again in a second.
+            push_event(TransportEvent::Type::Disconnected, id,
+                       (was_established ? "" : "could not connect: ") + close_reason(event.data));
             return;
+        }
         case ENET_EVENT_TYPE_NONE:
             return;
     }
 }
 
 void EnetTransport::poll(Micros now) {
+    last_now_ = now;
+    // ENet restores its default timeouts (30 s) whenever it resets a slot, and half-open
+    // connections take a slot without ever producing an event: set ours on every slot, always.
+    for (std::size_t i = 0; i < host_->peerCount; ++i)
+        enet_peer_timeout(&host_->peers[i], config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
+
+    t_servicing = this;
     ENetEvent event;
-    for (int i = 0; i < kMaxEventsPerPoll; ++i) {
+    int events = 0, errors = 0, idle = 0;
+    while (events < kMaxEventsPerPoll && errors < kMaxErrorsPerPoll && idle < kIdleCallsPerPoll) {
         const int r = enet_host_service(host_, &event, 0);
         if (r < 0) {
-            ++service_errors_;
-            return;
+            // The datagram that caused it is consumed; keep serving the ones behind it.
+            ++errors;
+            ++enet_counters_.receive_errors;
+        } else if (r == 0) {
+            ++idle;
+        } else {
+            idle = 0;
+            ++events;
+            handle(event, now);
         }
-        if (r == 0) return;
-        handle(event, now);
+    }
+    t_servicing = nullptr;
+
+    // Anything ENet heard from a connection (datagrams, pings, acknowledgements) moves its
+    // lastReceiveTime; we only compare it for change and time silence on the caller's clock.
+    for (auto& [id, c] : by_id_) {
+        if (c.peer->lastReceiveTime != c.enet_last_receive) {
+            c.enet_last_receive = c.peer->lastReceiveTime;
+            c.last_heard_us = now;
+        }
     }
 }
 
-bool EnetTransport::send(PeerId to, std::span<const std::uint8_t> bytes, Micros /*now*/) {
+bool EnetTransport::send_on(PeerId to, std::span<const std::uint8_t> bytes, bool reliable) {
     const auto it = by_id_.find(to);
     if (it == by_id_.end() || !it->second.established || bytes.size() > kMaxDatagramBytes) {
+        if (bytes.size() > kMaxDatagramBytes) ++enet_counters_.dropped_oversized;
         ++counters_.rejected;
         return false;
     }
     ++counters_.datagrams_sent;
     counters_.bytes_sent += bytes.size();
-    ENetPacket* packet = enet_packet_create(bytes.data(), bytes.size(), ENET_PACKET_FLAG_UNSEQUENCED);
+    ENetPacket* packet =
+        enet_packet_create(bytes.data(), bytes.size(), reliable ? ENET_PACKET_FLAG_RELIABLE : ENET_PACKET_FLAG_UNSEQUENCED);
     if (packet == nullptr) {
         ++counters_.dropped;
         return true;
     }
-    if (enet_peer_send(it->second.peer, kInputChannel, packet) != 0) {
+    if (enet_peer_send(it->second.peer, reliable ? kReliableChannel : kInputChannel, packet) != 0) {
         // Not queued: ENet did not take ownership.
         if (packet->referenceCount == 0) enet_packet_destroy(packet);
         ++counters_.dropped;
@@ -171,12 +377,21 @@ bool EnetTransport::send(PeerId to, std::span<const std::uint8_t> bytes, Micros 
     return true;
 }
 
+bool EnetTransport::send(PeerId to, std::span<const std::uint8_t> bytes, Micros /*now*/) {
+    return send_on(to, bytes, false);
+}
+
+bool EnetTransport::send_reliable(PeerId to, std::span<const std::uint8_t> bytes, Micros /*now*/) {
+    return send_on(to, bytes, true);
+}
+
 bool EnetTransport::receive(Datagram& out, Micros now) {
     if (inbox_.empty()) poll(now);
     if (inbox_.empty()) return false;
     Datagram& front = inbox_.front();
     out.from = front.from;
     out.time_us = front.time_us;
+    out.reliable = front.reliable;
     out.bytes.swap(front.bytes);
     inbox_.pop_front();
     ++counters_.datagrams_received;

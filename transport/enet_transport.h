@@ -1,16 +1,35 @@
-// The Transport interface over real UDP, through ENet: one ENet host per local peer, one ENet
-// connection per remote peer, input datagrams on channel 0 as unreliable *unsequenced* packets
-// (no ordering, no retransmission, no head-of-line blocking: the session resends inputs itself).
+// The Transport interface over real UDP, through ENet, fit for hostile networks: one ENet host
+// per local peer, one ENet connection per remote peer.
 //
-// ENet keeps its own millisecond clock for its protocol (handshake, pings, timeouts): that is
-// ENet's business. This wrapper takes `now` only to stamp received datagrams and never makes a
-// decision from the wall clock; it never blocks either (every ENet service call has timeout 0).
+// Channels: inputs travel on channel 0 as unreliable *unsequenced* packets (no ordering, no
+// retransmission, no head-of-line blocking: the session resends inputs itself); send_reliable()
+// uses channel 1, reliable and ordered, for control messages and snapshot chunks. Both are
+// limited to kMaxDatagramBytes per send.
 //
-// Peer ids travel in ENet's connect data: the side that calls connect() sends its local id, and
-// the accepting side learns the remote id from it. Exactly one side of each pair connects (by
-// convention the lower id). A connection claiming an id that is already taken, or our own, is
-// refused and counted as rejected; so is traffic from peers without an established connection.
-// ENet itself discards duplicate unsequenced packets (its unsequenced window).
+// Peer ids travel in ENet's connect data. Either side may connect. For each remote id at most one
+// connection is kept:
+//  - crossed connects (both sides connect at once) keep the connection initiated by the lower id,
+//    on both sides, whatever order the handshakes finish in (the higher id sees its own closed
+//    as Disconnected; a restarted higher id whose old connection still looks alive retries);
+//  - a connection claiming an id whose current connection is silent (no datagram, ping or
+//    acknowledgement for EnetConfig::silent_after_us of the caller's time) replaces it: a killed
+//    and restarted process gets its id back at once, without waiting for ENet's timeout;
+//  - any other claim to a held id, or to our own id, is refused and counted.
+// Ids are not authenticated: this is for experiments among cooperating processes.
+//
+// Host limits (each against a demonstrated attack; see docs/network-model.md):
+//  - at most max_connections_per_address connections (half-open included) from one IP address,
+//    so a flood of connection requests from one address leaves slots for real peers; half-open
+//    and dead connections time out in seconds (timeout_*_ms on every slot, not ENet's 30 s);
+//  - ENet's maximumPacketSize / maximumWaitingData are set to max_packet_bytes (4 KB) and
+//    max_waiting_bytes (256 KB per connection), so no client can make us reassemble megabytes;
+//  - poll() drains every event ENet has, keeps going past receive errors (a UDP datagram over
+//    ENet's 4 KB buffer makes enet_host_service return an error with the rest unread) and is
+//    bounded per call; the inbox of undelivered datagrams is bounded too.
+//
+// Time: ENet keeps its own millisecond clock for its protocol (handshake, pings, retransmission,
+// timeouts): that is ENet's business. This wrapper never reads a clock: it takes `now` from the
+// caller to stamp datagrams and to judge silence. It never blocks (service timeout 0).
 //
 // Not thread-safe; one EnetTransport per thread. Not copyable or movable.
 #pragma once
@@ -34,12 +53,53 @@ struct EnetConfig {
     PeerId local_id = 0;
     std::string bind_host = "127.0.0.1";  // address to listen on ("0.0.0.0" for every interface)
     std::uint16_t port = 0;               // 0: an ephemeral port chosen by the OS (see port())
-    std::size_t max_peers = 16;           // ENet connection slots, incoming and outgoing
+    std::size_t max_peers = 64;           // ENet connection slots, incoming and outgoing
+    // Connections (half-open included) one IP address may hold; a flood from one address leaves
+    // the other max_peers minus this slots free. All peers of a match on one machine share
+    // 127.0.0.1 (and a restarted peer's dead connection counts until replaced or timed out):
+    // 16 covers 16 players on one machine. Keep max_peers well above it.
+    std::size_t max_connections_per_address = 16;
+    // A connection silent this long (caller's time) may be replaced by a new claim to its id.
+    Micros silent_after_us = 1'000'000;
+    // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable
+    // command (ping, handshake) goes unacknowledged past timeout_max_ms, or past timeout_min_ms
+    // after timeout_limit retries. ENet's defaults are 32 / 5000 / 30000.
+    std::uint32_t timeout_limit = 4;
+    std::uint32_t timeout_min_ms = 2'000;
+    std::uint32_t timeout_max_ms = 5'000;
+    // Largest packet ENet accepts or reassembles (ENetHost::maximumPacketSize; default 32 MB).
+    std::size_t max_packet_bytes = 4'096;
+    // Bytes one connection may have waiting in ENet: out-of-order reliable packets and fragments
+    // (ENetHost::maximumWaitingData; default 32 MB). Reliable data beyond it is lost.
+    std::size_t max_waiting_bytes = 256 * 1024;
+    std::size_t max_inbox = 4'096;   // received datagrams not yet taken by receive()
+    std::size_t max_events = 256;    // connection events not yet taken by next_event()
+};
+
+// Everything EnetTransport refused or dropped, by cause. Each also counts in
+// TransportCounters::rejected.
+struct EnetCounters {
+    std::uint64_t refused_own_id = 0;          // a connection claimed our own id
+    std::uint64_t refused_duplicate_id = 0;    // a connection claimed an id held by a live one
+    std::uint64_t refused_address_limit = 0;   // connect request over max_connections_per_address
+    std::uint64_t refused_no_slot = 0;         // connect request with every slot taken
+    std::uint64_t crossed_connects = 0;        // crossed connects resolved (not counted as rejected)
+    std::uint64_t replaced = 0;                // silent connections replaced by a new claim
+    std::uint64_t disconnects = 0;             // connections lost (timeouts, closed by the peer)
+    std::uint64_t dropped_unknown_peer = 0;    // datagrams on a connection without an id
+    std::uint64_t dropped_oversized = 0;       // datagrams over kMaxDatagramBytes or sends too large
+    std::uint64_t dropped_bad_channel = 0;     // datagrams on a channel we do not use
+    std::uint64_t dropped_inbox_full = 0;      // datagrams dropped because receive() fell behind
+    std::uint64_t dropped_events = 0;          // events dropped because next_event() fell behind
+    std::uint64_t receive_errors = 0;          // enet_host_service errors: UDP datagrams over ENet's
+                                               // 4 KB buffer, ICMP errors; all skipped
 };
 
 class EnetTransport final : public Transport {
 public:
-    // Throws std::runtime_error naming host:port when ENet cannot initialise or bind.
+    // Throws std::runtime_error naming host:port when ENet cannot initialise or bind, and
+    // std::invalid_argument for limits that cannot work (0 slots, max_packet_bytes below
+    // kMaxDatagramBytes).
     explicit EnetTransport(const EnetConfig& config);
     ~EnetTransport() override;
     EnetTransport(const EnetTransport&) = delete;
@@ -49,22 +109,29 @@ public:
     std::uint16_t port() const { return port_; }
 
     // Starts connecting to the peer `remote` listening at host:port. Returns false, with a
-    // reason in *error if given, when the id is ours or already known, the host does not
-    // resolve, or no connection slot is free. The connection completes during later poll() or
-    // receive() calls; is_connected() tells when.
+    // reason in *error if given, when the id is ours, a live connection for it exists (a silent
+    // one is replaced), the host does not resolve, or no connection slot is free. The
+    // connection completes during later poll() or receive() calls; is_connected() and a
+    // Connected event tell when.
     bool connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr);
     bool is_connected(PeerId remote) const;
     std::vector<PeerId> connected_peers() const;
 
     // Lets ENet send and receive without blocking: completes handshakes, answers pings, queues
-    // arrived datagrams (stamped with `now`). receive() calls it when its queue is empty.
+    // arrived datagrams (stamped with `now`) and events. receive() calls it when its queue is
+    // empty; call it every tick anyway.
     void poll(Micros now);
 
     PeerId local_id() const override { return local_id_; }
-    // Sends at once (flushes the host), so one send is one UDP datagram.
+    // Unreliable unsequenced, channel 0. Sends at once (flushes the host): one send, one datagram.
     bool send(PeerId to, std::span<const std::uint8_t> bytes, Micros now) override;
+    // Reliable and ordered, channel 1; flushed at once, retransmitted by ENet until acknowledged.
+    bool send_reliable(PeerId to, std::span<const std::uint8_t> bytes, Micros now) override;
     bool receive(Datagram& out, Micros now) override;
     const TransportCounters& counters() const override { return counters_; }
+    bool next_event(TransportEvent& out) override;
+
+    const EnetCounters& enet_counters() const { return enet_counters_; }
 
     // UDP payload bytes this host sent / received: our datagrams plus ENet's own headers,
     // handshakes, acknowledgements and pings (ENetHost::totalSentData / totalReceivedData).
@@ -72,26 +139,42 @@ public:
     std::uint64_t wire_bytes_sent() const;
     std::uint64_t wire_bytes_received() const;
 
-    // ENet service errors (socket failures) seen by poll(); the transport keeps going.
-    std::uint64_t service_errors() const { return service_errors_; }
+    // ENet service errors seen by poll() (same as enet_counters().receive_errors).
+    std::uint64_t service_errors() const { return enet_counters_.receive_errors; }
+
+    // Called by ENet for every UDP datagram it receives, before it parses it (ENetHost::intercept);
+    // public only so the callback can reach it. Counts and swallows connect requests the host
+    // limits refuse. Returns 1 to swallow, 0 to let ENet handle the datagram.
+    int intercept(_ENetHost* host);
 
 private:
     struct Connection {
         _ENetPeer* peer = nullptr;
         bool established = false;
+        bool outgoing = false;             // we initiated it
+        Micros last_heard_us = 0;          // caller's time when ENet last heard from it
+        std::uint32_t enet_last_receive = 0;  // ENet's lastReceiveTime when we last looked
     };
 
     void handle(const _ENetEvent& event, Micros now);
-    void forget(_ENetPeer* peer);
+    void handle_connect(const _ENetEvent& event, Micros now);
+    void refuse(_ENetPeer* peer, std::uint32_t code);
+    void drop_connection(PeerId id, std::uint32_t code);
+    bool silent(const Connection& c) const;
+    void push_event(TransportEvent::Type type, PeerId peer, std::string reason);
+    bool send_on(PeerId to, std::span<const std::uint8_t> bytes, bool reliable);
 
+    EnetConfig config_;
     PeerId local_id_;
     _ENetHost* host_ = nullptr;
     std::uint16_t port_ = 0;
+    Micros last_now_ = 0;
     std::map<PeerId, Connection> by_id_;
     std::unordered_map<_ENetPeer*, PeerId> by_peer_;
     std::deque<Datagram> inbox_;
+    std::deque<TransportEvent> events_;
     TransportCounters counters_;
-    std::uint64_t service_errors_ = 0;
+    EnetCounters enet_counters_;
 };
 
 }  // namespace lockroll::transport

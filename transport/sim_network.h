@@ -20,6 +20,7 @@
 
 #include "transport/counter_rng.h"
 #include "transport/link_conditions.h"
+#include "transport/link_model.h"
 #include "transport/transport.h"
 
 namespace lockroll::transport {
@@ -72,29 +73,16 @@ private:
             return a.deliver_at != b.deliver_at ? a.deliver_at > b.deliver_at : a.sequence > b.sequence;
         }
     };
-    struct Link {
-        LinkConditions conditions;
-        Chance loss, burst_enter, burst_exit, burst_loss, duplicate, reorder;
-        CounterRng rng{0};
-        std::uint64_t packets = 0;   // index of the next packet on this link
-        bool bad = false;            // Gilbert-Elliott state
-        Micros fifo_tail = 0;        // latest in-order arrival so far
-        Micros busy_until = 0;       // bottleneck transmitter free from this time
-        LinkStats stats;
-    };
-
     std::size_t link_index(PeerId from, PeerId to) const;
     void check_peer(PeerId id) const;
-    static void configure(Link& link, const LinkConditions& conditions);
-    // Decides the fate of one datagram and queues its copies.
-    struct Fate { bool delivered; bool duplicated; };
-    Fate transmit(PeerId from, PeerId to, std::span<const std::uint8_t> bytes, Micros now);
+    // Decides the fate of one datagram (LinkModel) and queues its copies.
+    PacketFate transmit(PeerId from, PeerId to, std::span<const std::uint8_t> bytes, Micros now);
     bool pop_due(PeerId to, Datagram& out, Micros now);
 
     int peers_;
     std::uint64_t seed_;
     std::size_t max_datagram_bytes_;
-    std::vector<Link> links_;  // from * peers + to
+    std::vector<LinkModel> links_;  // from * peers + to
     std::vector<std::priority_queue<InFlight, std::vector<InFlight>, Later>> queues_;  // by receiver
     std::vector<std::unique_ptr<Endpoint>> endpoints_;
     std::uint64_t next_sequence_ = 0;

@@ -5,6 +5,9 @@
 // Contract
 //  - Unreliable datagrams: a send may be lost, duplicated or reordered; a datagram that arrives
 //    arrives whole. Reliability (resending inputs until acknowledged) is the session's job.
+//    send_reliable() asks for more where the transport has it (ENet: a reliable, ordered
+//    channel for control messages and snapshot chunks); by default it is plain send(), so a
+//    session must still cope with its loss (re-request what it misses).
 //  - Time is a uint64 count of microseconds supplied by the caller. A Transport never reads the
 //    wall clock to decide anything; its only randomness is a private generator seeded explicitly.
 //  - Peers are named by value ids (PeerId), never by pointers or addresses.
@@ -15,6 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace lockroll::transport {
@@ -32,6 +36,20 @@ struct Datagram {
     // for real transports the `now` of the receive call that first saw it.
     Micros time_us = 0;
     std::vector<std::uint8_t> bytes;
+    // Sent with send_reliable() over a transport that has a reliable channel.
+    bool reliable = false;
+};
+
+// A change in a connection-oriented transport's peers, for the runner to log or act on.
+struct TransportEvent {
+    enum class Type : std::uint8_t {
+        Connected,     // `peer` is reachable (first time, or a new connection replaced a dead one)
+        Disconnected,  // `peer` has no connection any more (timed out, closed, refused by it)
+        Refused,       // an incoming connection claiming `peer` was refused
+    };
+    Type type = Type::Connected;
+    PeerId peer = 0;
+    std::string reason;
 };
 
 // Monotonic counters since the transport was created. "sent" counts datagrams the transport
@@ -57,11 +75,22 @@ public:
     // kMaxDatagramBytes. true does not mean it will arrive.
     virtual bool send(PeerId to, std::span<const std::uint8_t> bytes, Micros now) = 0;
 
+    // Like send(), but delivered reliably and in order (among reliable sends to the same peer)
+    // where the transport can; the same size limit. Default: send() (SimNetwork keeps it: the
+    // session's own protocol re-requests what is lost).
+    virtual bool send_reliable(PeerId to, std::span<const std::uint8_t> bytes, Micros now) {
+        return send(to, bytes, now);
+    }
+
     // Moves the next datagram deliverable by `now` into `out` (reusing out.bytes' capacity) and
     // returns true; false when nothing is deliverable yet. Call until false each tick.
     virtual bool receive(Datagram& out, Micros now) = 0;
 
     virtual const TransportCounters& counters() const = 0;
+
+    // Moves the oldest connection event into `out`; false when there is none. Transports
+    // without connections (SimNetwork) never have any.
+    virtual bool next_event(TransportEvent& /*out*/) { return false; }
 };
 
 }  // namespace lockroll::transport

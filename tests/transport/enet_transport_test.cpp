@@ -7,8 +7,11 @@
 #include <cstddef>
 
 #include <chrono>
+#include <cstdio>
 #include <algorithm>
 #include <functional>
+#include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -147,6 +150,162 @@ TEST(EnetTransport, BindFailureNamesTheAddress) {
         FAIL() << "binding the same port twice should fail";
     } catch (const std::runtime_error& e) {
         EXPECT_NE(std::string(e.what()).find(std::to_string(a.port())), std::string::npos) << e.what();
+    }
+}
+
+std::vector<TransportEvent> events_of(EnetTransport& t) {
+    std::vector<TransportEvent> out;
+    TransportEvent e;
+    while (t.next_event(e)) out.push_back(e);
+    return out;
+}
+
+bool has_event(const std::vector<TransportEvent>& events, TransportEvent::Type type, PeerId peer) {
+    return std::any_of(events.begin(), events.end(), [&](const TransportEvent& e) { return e.type == type && e.peer == peer; });
+}
+
+TEST(EnetTransport, ReliableChannelDeliversEverythingInOrder) {
+    EnetTransport a({.local_id = 0});
+    EnetTransport b({.local_id = 1});
+    ASSERT_TRUE(a.connect(1, "127.0.0.1", b.port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({&a, &b}, [&] { return a.is_connected(1) && b.is_connected(0); }, now));
+    constexpr int kCount = 60;
+    for (int i = 0; i < kCount; ++i) {
+        ASSERT_TRUE(a.send_reliable(1, bytes_of(static_cast<std::uint8_t>(i), kMaxDatagramBytes), now));
+        ASSERT_TRUE(a.send(1, bytes_of(200, 8), now));  // unreliable ones interleaved
+    }
+    EXPECT_FALSE(a.send_reliable(1, std::vector<std::uint8_t>(kMaxDatagramBytes + 1), now));
+    std::vector<int> reliable_order;
+    int unreliable = 0;
+    ASSERT_TRUE(pump({&a, &b}, [&] {
+        Datagram d;
+        while (b.receive(d, now)) {
+            if (d.reliable) reliable_order.push_back(d.bytes[0]);
+            else ++unreliable;
+        }
+        return reliable_order.size() >= kCount;
+    }, now));
+    std::vector<int> expected(kCount);
+    for (int i = 0; i < kCount; ++i) expected[static_cast<std::size_t>(i)] = i;
+    EXPECT_EQ(reliable_order, expected);
+    EXPECT_GT(unreliable, 0);
+    // SimNetwork and any transport without a reliable channel: send_reliable is send.
+}
+
+TEST(EnetTransport, EventsAndARestartedPeerGetsItsIdBack) {
+    EnetTransport a({.local_id = 0});
+    Micros now = 0;
+    auto b = std::make_unique<EnetTransport>(EnetConfig{.local_id = 1});
+    ASSERT_TRUE(b->connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, b.get()}, [&] { return a.is_connected(1) && b->is_connected(0); }, now));
+    auto ea = events_of(a);
+    EXPECT_TRUE(has_event(ea, TransportEvent::Type::Connected, 1));
+    EXPECT_TRUE(has_event(events_of(*b), TransportEvent::Type::Connected, 0));
+
+    // A second live claim to id 1 is refused.
+    EnetTransport impostor({.local_id = 1});
+    ASSERT_TRUE(impostor.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, b.get(), &impostor}, [&] { return a.enet_counters().refused_duplicate_id >= 1; }, now));
+    EXPECT_TRUE(has_event(events_of(a), TransportEvent::Type::Refused, 1));
+    ASSERT_TRUE(pump({&impostor}, [&] { return has_event(events_of(impostor), TransportEvent::Type::Disconnected, 0); }, now));
+
+    // b's process "dies": it stops answering (nothing reaches a any more). A restarted process
+    // with id 1 connects after a second of silence and replaces the dead connection at once,
+    // long before ENet would time it out.
+    for (int i = 0; i < 1200; ++i) {  // 1.2 s of a's time (a counter), only a polled
+        a.poll(now);
+        now += 1'000;
+    }
+    EnetTransport restarted({.local_id = 1});
+    ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replaced >= 1; }, now));
+    ea = events_of(a);
+    ASSERT_TRUE(has_event(ea, TransportEvent::Type::Connected, 1));
+    EXPECT_NE(ea.back().reason.find("reconnected"), std::string::npos) << ea.back().reason;
+    ASSERT_TRUE(a.send(1, bytes_of(9, 20), now));
+    Datagram d;
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.receive(d, now); }, now));
+    EXPECT_EQ(d.bytes, bytes_of(9, 20));
+    b.reset();  // the old process's socket closes; a has forgotten it already
+
+    // ENet's own timeout notices a peer that vanished without a word within seconds (the
+    // default would be up to 30 s): freeze `restarted` and keep polling a, for at most ~10 s.
+    bool gone = false;
+    const auto frozen_at = std::chrono::steady_clock::now();
+    for (int i = 0; i < 1000 && !gone; ++i) {
+        a.poll(now);
+        now += 10'000;
+        gone = has_event(events_of(a), TransportEvent::Type::Disconnected, 1);
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_TRUE(gone) << "a dead peer was not noticed";
+    std::printf("dead peer noticed after %.1f s\n",
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - frozen_at).count());
+    EXPECT_FALSE(a.is_connected(1));
+    EXPECT_GE(a.enet_counters().disconnects, 1u);
+}
+
+TEST(EnetTransport, APeerRestartedWithinASecondGetsInOnItsRetry) {
+    // 0 connected to 1; 1's process dies and restarts at once, before 0's connection to it has
+    // been silent for a second. 0 takes the new connection for the losing half of a crossed
+    // connect; the restarted 1 sees Disconnected and retries, and the retry replaces the then
+    // silent connection.
+    EnetTransport a({.local_id = 0});
+    auto old = std::make_unique<EnetTransport>(EnetConfig{.local_id = 1});
+    ASSERT_TRUE(a.connect(1, "127.0.0.1", old->port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({&a, old.get()}, [&] { return a.is_connected(1) && old->is_connected(0); }, now));
+
+    EnetTransport restarted({.local_id = 1});
+    ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return has_event(events_of(restarted), TransportEvent::Type::Disconnected, 0); }, now));
+    EXPECT_FALSE(restarted.is_connected(0));
+    for (int i = 0; i < 1200; ++i) {  // a second of a's time passes; the old process stays silent
+        a.poll(now);
+        now += 1'000;
+    }
+    ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replaced >= 1; }, now));
+    ASSERT_TRUE(restarted.send(0, bytes_of(4, 12), now));
+    Datagram d;
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return a.receive(d, now); }, now));
+    EXPECT_EQ(d.from, 1u);
+    EXPECT_EQ(d.bytes, bytes_of(4, 12));
+}
+
+TEST(EnetTransport, CrossedConnectsKeepOneConnectionBothWays) {
+    for (int round = 0; round < 3; ++round) {
+        EnetTransport a({.local_id = 3});
+        EnetTransport b({.local_id = 5});
+        ASSERT_TRUE(a.connect(5, "127.0.0.1", b.port()));
+        ASSERT_TRUE(b.connect(3, "127.0.0.1", a.port()));
+        Micros now = 0;
+        ASSERT_TRUE(pump({&a, &b}, [&] { return a.is_connected(5) && b.is_connected(3); }, now));
+        // Let the losing connection's refusal play out, then check traffic flows both ways.
+        for (int i = 0; i < 200; ++i) {
+            a.poll(now);
+            b.poll(now);
+            now += 1'000;
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        }
+        ASSERT_TRUE(a.is_connected(5) && b.is_connected(3)) << "round " << round;
+        EXPECT_GE(a.enet_counters().crossed_connects + b.enet_counters().crossed_connects, 1u);
+        EXPECT_EQ(a.counters().rejected + b.counters().rejected, 0u);
+        for (int i = 0; i < 10; ++i) {
+            ASSERT_TRUE(a.send(5, bytes_of(1, 10), now));
+            ASSERT_TRUE(b.send(3, bytes_of(2, 10), now));
+        }
+        int at_a = 0, at_b = 0;
+        pump({&a, &b}, [&] {
+            Datagram d;
+            while (a.receive(d, now)) at_a += d.from == 5;
+            while (b.receive(d, now)) at_b += d.from == 3;
+            return at_a >= 10 && at_b >= 10;
+        }, now);
+        EXPECT_EQ(at_a, 10);
+        EXPECT_EQ(at_b, 10);
+        EXPECT_FALSE(has_event(events_of(a), TransportEvent::Type::Disconnected, 5));
     }
 }
 

@@ -1,0 +1,748 @@
+#include "harness/live_command.h"
+
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "harness/atomic_file.h"
+#include "harness/child_process.h"
+#include "harness/cli_error.h"
+#include "harness/hex.h"
+#include "harness/match.h"
+#include "harness/plot_script.h"
+#include "harness/report.h"
+#include "harness/run_command.h"
+#include "harness/scene_loader.h"
+#include "net/clock.h"
+#include "sim/world.h"
+
+namespace lockroll::harness {
+
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct LiveOptions {
+    std::string topology = "p2p";
+    int players = 2;
+    int frames = 720;
+    int tick_rate = 60;
+    std::string scene = "paper";
+    std::string bot = "random";
+    double latency = 0, jitter = 0, loss = 0, burst = 0, duplicate = 0, reorder = 0;
+    std::uint64_t seed = 1;
+    std::string mode = "both";
+    std::string input_delay = "auto";
+    int prediction = 8;
+    std::vector<std::string> kills, rejoins, joins, injections;
+    int spectators = 0;
+    std::string out = "out/live";
+    std::string log_level = "info";
+    bool no_virtual = false;
+    double disconnect_timeout = 5;
+    int recoveries = 0;
+};
+
+struct Kill {
+    int slot = 0;
+    int frame = 0;
+};
+
+struct LivePlan {
+    LiveOptions o;
+    std::vector<Mode> modes;
+    RunConfig base;                        // the same match for the virtual-time run
+    std::map<Mode, int> input_delay;
+    std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
+    std::vector<std::string> injections;  // CLIENT:FRAME:BODY[:FIELD:BIT], for every peer
+    bool proxied = false;
+};
+
+std::pair<int, int> parse_at(const std::string& text, const std::string& flag) {
+    const auto at = text.find('@');
+    char *e1 = nullptr, *e2 = nullptr;
+    const std::string a = text.substr(0, at == std::string::npos ? 0 : at);
+    const std::string b = at == std::string::npos ? "" : text.substr(at + 1);
+    const long slot = std::strtol(a.c_str(), &e1, 10);
+    const long frame = std::strtol(b.c_str(), &e2, 10);
+    if (at == std::string::npos || a.empty() || b.empty() || *e1 || *e2 || slot < 0 || frame < 1)
+        throw UsageError(flag + " " + text + ": expected SLOT@FRAME (FRAME >= 1)");
+    return {static_cast<int>(slot), static_cast<int>(frame)};
+}
+
+LivePlan plan(const LiveOptions& o) {
+    LivePlan p;
+    p.o = o;
+    if (o.topology != "p2p") throw UsageError("--topology " + o.topology + ": only p2p is supported");
+    if (o.spectators < 0 || o.spectators > 8) throw UsageError("--spectators must be 0..8");
+    if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
+    if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
+    p.modes = o.mode == "both"       ? std::vector<Mode>{Mode::Lockstep, Mode::Rollback}
+              : o.mode == "lockstep" ? std::vector<Mode>{Mode::Lockstep}
+                                     : std::vector<Mode>{Mode::Rollback};
+    RunConfig& c = p.base;
+    try {
+        c.scene = load_scene(o.scene);
+    } catch (const SceneError& e) {
+        throw UsageError(e.what());
+    }
+    c.players = o.players;
+    c.frames = o.frames;
+    c.tick_rate = o.tick_rate;
+    c.prediction = o.prediction;
+    c.net = {o.latency, o.jitter, o.loss, o.burst, o.duplicate, o.reorder};
+    c.seed = o.seed;
+    c.bot = *parse_bot_kind(o.bot);
+    c.record_positions = false;
+    validate(c);  // players, frames, rates, network: the same limits and messages as `run`
+    for (Mode m : p.modes) {
+        if (o.input_delay == "auto") {
+            // The conditions are known exactly here: cover the worst one-way time.
+            const double rtt = 2 * o.latency, worst = 2 * (o.latency + o.jitter);
+            p.input_delay[m] = auto_input_delay(m, rtt, worst, o.tick_rate);
+        } else {
+            char* end = nullptr;
+            const long v = std::strtol(o.input_delay.c_str(), &end, 10);
+            if (o.input_delay.empty() || *end != '\0' || v < 0 || v > 60)
+                throw UsageError("--input-delay " + o.input_delay + ": expected 0..60 or auto");
+            p.input_delay[m] = static_cast<int>(v);
+        }
+    }
+    const auto at_list = [&](const std::vector<std::string>& texts, const std::string& flag, std::vector<Kill>& out) {
+        for (const auto& k : texts) {
+            const auto [slot, frame] = parse_at(k, flag);
+            if (slot >= o.players || frame > o.frames) throw UsageError(flag + " " + k + ": SLOT must be 0..players-1, FRAME 1..frames");
+            for (const auto& other : out)
+                if (other.slot == slot) throw UsageError(flag + " " + k + ": slot given twice");
+            out.push_back({slot, frame});
+        }
+    };
+    at_list(o.kills, "--kill", p.kills);
+    at_list(o.rejoins, "--rejoin", p.rejoins);
+    at_list(o.joins, "--join", p.joins);
+    for (const auto& r : p.rejoins) {
+        const auto k = std::find_if(p.kills.begin(), p.kills.end(), [&](const Kill& x) { return x.slot == r.slot; });
+        if (k == p.kills.end() || k->frame >= r.frame)
+            throw UsageError("--rejoin " + std::to_string(r.slot) + "@" + std::to_string(r.frame) +
+                             ": needs an earlier --kill of the same slot");
+    }
+    if (static_cast<int>(p.joins.size()) >= o.players) throw UsageError("--join: at least one slot must play from frame 0");
+    for (const auto& j : p.joins)
+        for (const auto& k : p.kills)
+            if (k.slot == j.slot) throw UsageError("--join and --kill of the same slot are not supported together");
+    for (const auto& text : o.injections) {
+        const DesyncInjection d = parse_injection(text);  // passed verbatim to every peer
+        if (d.client >= o.players) throw UsageError("--inject-desync " + text + ": CLIENT must be 0..players-1");
+        p.injections.push_back(text);
+    }
+    p.proxied = o.latency > 0 || o.jitter > 0 || o.loss > 0 || o.burst > 0 || o.duplicate > 0 || o.reorder > 0;
+    return p;
+}
+
+std::string self_exe() {
+    std::error_code ec;
+    const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+    if (ec) throw std::runtime_error("cannot find the lockroll executable (/proc/self/exe)");
+    return p.string();
+}
+
+// Distinct free UDP ports on 127.0.0.1: all bound at once (so distinct), then released.
+std::vector<std::uint16_t> free_ports(int n) {
+    std::vector<int> fds;
+    std::vector<std::uint16_t> ports;
+    for (int i = 0; i < n; ++i) {
+        const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+        sockaddr_in a{};
+        a.sin_family = AF_INET;
+        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        socklen_t len = sizeof a;
+        if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
+            ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
+            if (fd >= 0) ::close(fd);
+            for (int f : fds) ::close(f);
+            throw std::runtime_error("cannot find free UDP ports on 127.0.0.1");
+        }
+        fds.push_back(fd);
+        ports.push_back(ntohs(a.sin_port));
+    }
+    for (int f : fds) ::close(f);
+    return ports;
+}
+
+std::string num(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
+std::string read_text(const fs::path& p) {
+    std::ifstream f(p);
+    std::stringstream s;
+    s << f.rdbuf();
+    return s.str();
+}
+
+std::vector<std::vector<std::string>> read_csv_rows(const fs::path& p) {
+    std::vector<std::vector<std::string>> rows;
+    std::ifstream f(p);
+    std::string line;
+    bool header = true;
+    while (std::getline(f, line)) {
+        if (header) {
+            header = false;
+            continue;
+        }
+        std::vector<std::string> cells;
+        std::stringstream s(line);
+        std::string cell;
+        while (std::getline(s, cell, ',')) cells.push_back(cell);
+        rows.push_back(std::move(cells));
+    }
+    return rows;
+}
+
+struct ProcessRecord {
+    int slot = 0;                // player slot, or spectator id (>= players)
+    bool spectator = false;
+    bool joiner = false;         // started with --join (late join or rejoin)
+    std::string name;            // output directory under the mode's directory
+    int exit_status = -1;
+    bool started = false;
+    bool killed = false;
+    int killed_at_frame = -1;
+    std::uint64_t killed_mono_us = 0;
+    int last_progress = 0;
+    // Start condition: when player `after_slot` has shown `after_frame` (and, for a rejoin,
+    // once `after_kill_of` has been killed). -1: at once.
+    int after_slot = -1, after_frame = 0, after_kill_of = -1;
+    json summary;  // null when the process left none (killed)
+    std::vector<json> events;
+};
+
+// Runs one mode's processes; returns what each did (players first, by slot; then rejoined
+// players and spectators).
+std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir, int input_delay) {
+    const LiveOptions& o = p.o;
+    const std::string exe = self_exe();
+    const int n = o.players, ids = n + o.spectators;
+    const auto ports = free_ports(n + ids);  // [0, ids): peers and spectators, [ids, ids + n): proxies
+    const auto port = [&](int k) { return ports[static_cast<std::size_t>(k)]; };
+    const auto front = [&](int k) { return p.proxied ? port(ids + k) : port(k); };
+    fs::create_directories(dir);
+
+    std::vector<std::unique_ptr<ChildProcess>> proxies;
+    if (p.proxied) {
+        for (int k = 0; k < n; ++k) {
+            proxies.push_back(std::make_unique<ChildProcess>(
+                std::vector<std::string>{exe, "proxy", "--listen", "127.0.0.1:" + std::to_string(front(k)), "--to",
+                                         "127.0.0.1:" + std::to_string(port(k)), "--latency", num(o.latency), "--jitter",
+                                         num(o.jitter), "--loss", num(o.loss), "--burst", num(o.burst), "--duplicate",
+                                         num(o.duplicate), "--reorder", num(o.reorder), "--seed",
+                                         std::to_string(o.seed * 1000 + static_cast<std::uint64_t>(k))},
+                (dir / ("proxy" + std::to_string(k) + ".log")).string(), true));
+        }
+        // Wait (bounded) for every proxy to say it is listening.
+        std::vector<bool> ready(static_cast<std::size_t>(n), false);
+        const std::uint64_t until = net::now_us() + 10000000;
+        while (std::count(ready.begin(), ready.end(), true) < n) {
+            for (int k = 0; k < n; ++k) {
+                for (const auto& line : proxies[static_cast<std::size_t>(k)]->read_lines())
+                    if (line.find("listening") != std::string::npos) ready[static_cast<std::size_t>(k)] = true;
+                if (!proxies[static_cast<std::size_t>(k)]->running())
+                    throw std::runtime_error("proxy " + std::to_string(k) + " exited at start; see " +
+                                             (dir / ("proxy" + std::to_string(k) + ".log")).string());
+            }
+            if (net::now_us() > until) throw std::runtime_error("the proxies did not start within 10 s");
+            ::usleep(5000);
+        }
+    }
+
+    // What to start, and when.
+    std::vector<ProcessRecord> recs;
+    for (int k = 0; k < n; ++k) {
+        ProcessRecord r;
+        r.slot = k;
+        r.name = "p" + std::to_string(k);
+        for (const auto& j : p.joins)
+            if (j.slot == k) {
+                r.joiner = true;
+                r.after_frame = j.frame;
+            }
+        recs.push_back(r);
+    }
+    const int reference = [&] {  // the lowest slot that plays from frame 0: its progress is the clock
+        for (int k = 0; k < n; ++k)
+            if (!recs[static_cast<std::size_t>(k)].joiner) return k;
+        return 0;
+    }();
+    for (auto& r : recs)
+        if (r.joiner) r.after_slot = reference;
+    for (const auto& rj : p.rejoins) {
+        ProcessRecord r;
+        r.slot = rj.slot;
+        r.joiner = true;
+        r.name = "p" + std::to_string(rj.slot) + "-rejoin";
+        r.after_slot = rj.slot == reference ? (reference + 1) % n : reference;
+        r.after_frame = rj.frame;
+        r.after_kill_of = rj.slot;
+        recs.push_back(r);
+    }
+    for (int s = 0; s < o.spectators; ++s) {
+        ProcessRecord r;
+        r.slot = n + s;
+        r.spectator = true;
+        r.name = "s" + std::to_string(s);
+        recs.push_back(r);
+    }
+    const auto launch = [&](ProcessRecord& r) {
+        std::vector<std::string> args{exe, "peer", "--slot", std::to_string(r.slot), "--players", std::to_string(n), "--listen",
+                                      "127.0.0.1:" + std::to_string(port(r.slot))};
+        for (int j = 0; j < n; ++j)
+            if (j != r.slot) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
+        args.insert(args.end(),
+                    {"--scene", o.scene, "--bot", o.bot, "--frames", std::to_string(o.frames), "--tick-rate",
+                     std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(input_delay),
+                     "--prediction", std::to_string(o.prediction), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
+                     "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress",
+                     "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--recoveries",
+                     std::to_string(o.recoveries), "--out",
+                     (dir / r.name).string()});
+        for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
+        if (r.joiner) args.emplace_back("--join");
+        if (r.spectator) args.emplace_back("--spectate");
+        if (!r.spectator && !r.joiner)
+            for (const auto& inj : p.injections) args.insert(args.end(), {"--inject-desync", inj});
+        r.started = true;
+        return std::make_unique<ChildProcess>(args, (dir / (r.name + ".stderr.log")).string(), true);
+    };
+    std::vector<std::unique_ptr<ChildProcess>> procs(recs.size());
+    const auto progress_of = [&](int slot) {  // the newest process of that slot
+        int f = 0;
+        for (const auto& r : recs)
+            if (r.slot == slot && r.started) f = r.last_progress;
+        return f;
+    };
+    const auto killed = [&](int slot) {
+        for (const auto& r : recs)
+            if (r.slot == slot && r.killed) return true;
+        return false;
+    };
+
+    const std::uint64_t limit_us = static_cast<std::uint64_t>(10.0 * o.frames / o.tick_rate * 1e6) + 60000000;
+    const std::uint64_t start = net::now_us();
+    for (;;) {
+        for (std::size_t i = 0; i < recs.size(); ++i) {
+            ProcessRecord& r = recs[i];
+            if (r.started) continue;
+            const bool due = r.after_slot < 0 || (progress_of(r.after_slot) >= r.after_frame &&
+                                                   (r.after_kill_of < 0 || killed(r.after_kill_of)));
+            if (!due) continue;
+            procs[i] = launch(r);
+            if (r.joiner) std::fprintf(stderr, "[live %s] started %s (joins slot %d)\n", mode_name(mode), r.name.c_str(), r.slot);
+        }
+        std::vector<pollfd> fds;
+        for (const auto& c : procs)
+            if (c && c->stdout_fd() >= 0) fds.push_back({c->stdout_fd(), POLLIN, 0});
+        if (!fds.empty()) ::poll(fds.data(), fds.size(), 20);
+        else ::usleep(20000);
+        bool any_running = false, any_waiting = false;
+        for (std::size_t i = 0; i < recs.size(); ++i) {
+            ProcessRecord& r = recs[i];
+            if (!procs[i]) {
+                any_waiting = true;
+                continue;
+            }
+            ChildProcess& c = *procs[i];
+            for (const auto& line : c.read_lines()) {
+                unsigned f = 0;
+                if (std::sscanf(line.c_str(), "progress %u", &f) == 1) r.last_progress = static_cast<int>(f);
+            }
+            for (const Kill& kill : p.kills)
+                if (kill.slot == r.slot && !r.joiner && !r.spectator && !r.killed && r.last_progress >= kill.frame && c.running()) {
+                    c.signal(SIGKILL);
+                    r.killed = true;
+                    r.killed_at_frame = r.last_progress;
+                    r.killed_mono_us = net::now_us();
+                    std::fprintf(stderr, "[live %s] killed slot %d at frame %d\n", mode_name(mode), r.slot, r.last_progress);
+                }
+            if (c.running()) any_running = true;
+        }
+        if (!any_running && !any_waiting) break;
+        if (!any_running && any_waiting) {
+            std::fprintf(stderr, "[live %s] every process ended before the late ones could start\n", mode_name(mode));
+            break;
+        }
+        if (net::now_us() - start > limit_us) {
+            std::fprintf(stderr, "[live %s] time limit: stopping the remaining processes\n", mode_name(mode));
+            for (auto& c : procs)
+                if (c) c->stop(2000);
+            break;
+        }
+    }
+    for (auto& c : proxies) c->stop(2000);
+    for (std::size_t i = 0; i < recs.size(); ++i) {
+        ProcessRecord& r = recs[i];
+        if (!procs[i]) continue;
+        r.exit_status = *procs[i]->poll_exit();
+        const fs::path pd = dir / r.name;
+        if (fs::exists(pd / "summary.json")) r.summary = json::parse(read_text(pd / "summary.json"), nullptr, false);
+        std::ifstream ev(pd / "events.jsonl");
+        for (std::string line; std::getline(ev, line);) {
+            json e = json::parse(line, nullptr, false);
+            if (!e.is_discarded()) r.events.push_back(e);
+        }
+    }
+    return recs;
+}
+
+// For the metrics: per slot, the process that finished it (a rejoined one over the killed one).
+std::vector<const ProcessRecord*> players_of(const std::vector<ProcessRecord>& recs, int players) {
+    std::vector<const ProcessRecord*> out(static_cast<std::size_t>(players), nullptr);
+    for (const auto& r : recs)
+        if (!r.spectator && r.started) out[static_cast<std::size_t>(r.slot)] = &r;
+    return out;
+}
+
+// Merges a Stat from (mean, max, count) as summaries print it.
+void merge(Stat& s, double mean, double max, std::uint64_t count) {
+    s.sum += mean * static_cast<double>(count);
+    s.count += count;
+    s.max = std::max(s.max, max);
+}
+
+RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all, int input_delay) {
+    const auto players = players_of(all, p.o.players);
+    const LiveOptions& o = p.o;
+    RunResult r;
+    r.mode = mode_name(mode);
+    r.scene = p.base.scene.name;
+    r.bot = o.bot;
+    r.players = o.players;
+    r.frames = o.frames;
+    r.tick_rate = o.tick_rate;
+    r.input_delay = input_delay;
+    r.prediction = mode == Mode::Lockstep ? 0 : o.prediction;
+    r.seed = o.seed;
+    r.latency_ms = o.latency;
+    r.jitter_ms = o.jitter;
+    r.loss = o.loss;
+    r.duplicate = o.duplicate;
+    r.reorder = o.reorder;
+    r.completed = true;
+    std::vector<double> rtts;
+    const std::size_t bodies = sim::World(with_players(p.base.scene, o.players)).dynamic_count();
+    PositionErrorTracker tracker(o.players, bodies, false);
+    // Positions of every process: frame -> body positions (exact raw Q32.32 columns).
+    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(players.size());
+    std::map<std::uint32_t, double> time_s;
+    for (const ProcessRecord* recp : players) {
+        if (!recp) continue;
+        const ProcessRecord& rec = *recp;
+        const fs::path pd = dir / rec.name;
+        const json& s = rec.summary;
+        ClientResult c;
+        if (s.is_object()) {
+            const json& c0 = s["clients"][0];
+            c.ticks_per_second = c0.value("ticks_per_second", 0.0);
+            c.stall_fraction = c0.value("stall_fraction", 0.0);
+            c.frames = c0.value("frames", 0ull);
+            c.ticks = c0.value("ticks", 0ull);
+            c.stall_ticks = c0.value("stall_ticks", 0ull);
+            c.time_sync_waits = c0.value("time_sync_wait_frames", 0ull);
+            c.rollbacks = c0.value("rollbacks", 0ull);
+            c.resimulated_frames = c0.value("resimulated_frames", 0ull);
+            c.max_rollback_depth = c0.value("max_rollback_depth", 0u);
+            c.mispredictions = c0.value("mispredictions", 0ull);
+            c.bytes_sent = c0.value("bytes_sent", 0ull);
+            c.bytes_received = c0.value("bytes_received", 0ull);
+            c.packets_sent = c0.value("packets_sent", 0ull);
+            c.packets_received = c0.value("packets_received", 0ull);
+            c.malformed_packets = c0.value("malformed_packets", 0ull);
+            c.desyncs = c0.value("desyncs", 0ull);
+            if (s["final_checksum"].is_string()) {
+                c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
+                c.final_confirmed = true;
+            }
+            r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
+            const json& il = s["input_latency_ms"];
+            merge(r.input_latency_local, il.value("mean", 0.0), il.value("max", 0.0), il.value("samples", 0ull));
+            const json& vc = s["visual_corrections"];
+            merge(r.correction_jump, vc.value("mean_jump_m", 0.0), vc.value("max_jump_m", 0.0), vc.value("count", 0ull));
+            const json& cpu = s["cpu_us_per_tick"];
+            merge(r.cpu_us_per_tick, cpu.value("mean", 0.0), 0.0, c.ticks);
+            merge(r.resim_us_per_tick, cpu.value("resim_mean", 0.0), 0.0, c.ticks);
+            const json& rb = s["rollbacks"];
+            merge(r.rollback_depth, rb.value("mean_depth", 0.0), rb.value("max_depth", 0.0), rb.value("count", 0ull));
+            const auto hist = rb.value("depth_histogram", std::vector<std::uint64_t>{});
+            if (r.rollback_depth_histogram.size() < hist.size()) r.rollback_depth_histogram.resize(hist.size());
+            for (std::size_t d = 0; d < hist.size(); ++d) r.rollback_depth_histogram[d] += hist[d];
+            for (const auto& d : s["desync_reports"]) {
+                DesyncRecord dr;
+                dr.client = d.value("client", rec.slot);
+                dr.summary = d.value("summary", "");
+                dr.evidence_file = d.value("evidence_file", "");
+                dr.detected_frame = d.value("detected_frame", 0u);
+                dr.frame = d.value("frame", 0u);
+                dr.body = d.value("body", 0u);
+                dr.field = d.value("field", "");
+                r.desyncs.push_back(dr);
+            }
+            if (s.contains("rtt_ms"))
+                for (const auto& [peer, ms] : s["rtt_ms"].items()) rtts.push_back(ms.get<double>());
+        }
+        if (!c.final_confirmed || rec.exit_status != 0) r.completed = false;
+        r.clients.push_back(c);
+        for (const auto& row : read_csv_rows(pd / "frames.csv")) {
+            if (row.size() < 6) continue;
+            const auto f = static_cast<std::uint32_t>(std::stoul(row[0]));
+            const auto depth = static_cast<std::uint32_t>(std::stoul(row[3]));
+            if (depth) tracker.note_rollback(f, depth);
+            r.cpu_us_per_tick.samples.push_back(std::stod(row[5]));
+            if (rec.slot == 0) {
+                time_s[f] = std::stod(row[1]) / 1000.0;
+                tracker.set_tick_rate(f, std::stod(row[4]));
+            }
+        }
+        auto& mine = shown[static_cast<std::size_t>(rec.slot)];
+        for (const auto& row : read_csv_rows(pd / "positions.csv")) {
+            if (row.size() < 9) continue;
+            auto& v = mine[static_cast<std::uint32_t>(std::stoul(row[0]))];
+            v.push_back({sim::Fixed::from_raw(std::stoll(row[6])), sim::Fixed::from_raw(std::stoll(row[7])),
+                         sim::Fixed::from_raw(std::stoll(row[8]))});
+        }
+    }
+    for (std::uint32_t f = 1; f <= static_cast<std::uint32_t>(o.frames); ++f)
+        for (std::size_t k = 0; k < shown.size(); ++k)
+            if (const auto it = shown[k].find(f); it != shown[k].end() && it->second.size() == bodies)
+                tracker.record(static_cast<int>(k), f, time_s.contains(f) ? time_s[f] : 0.0, it->second);
+    r.position_error = tracker.error();
+    r.rows = tracker.rows();
+    r.per_body_max_error = tracker.per_body_max();
+    // Confirmed-state agreement: every checkpoint (every 60 frames) and the final checksum of
+    // each process against process 0's.
+    std::map<std::uint32_t, std::string> ref;
+    for (const ProcessRecord* rec : players) {
+        if (!rec) continue;
+        const json& s = rec->summary;
+        if (!s.is_object()) continue;
+        std::map<std::uint32_t, std::string> cps;
+        for (const auto& c : s["confirmed_checksums"]) cps[c["frame"].get<std::uint32_t>()] = c["checksum"].get<std::string>();
+        if (ref.empty()) {
+            ref = cps;
+            continue;
+        }
+        for (const auto& [f, c] : cps)
+            if (const auto it = ref.find(f); it != ref.end()) {
+                ++r.confirmed_compared;
+                if (it->second != c) ++r.confirmed_mismatches;
+            }
+    }
+    if (!rtts.empty()) {
+        std::sort(rtts.begin(), rtts.end());
+        r.rtt_p50_ms = rtts[rtts.size() / 2];
+        r.rtt_p95_ms = rtts[std::min(rtts.size() - 1, rtts.size() * 95 / 100)];
+    }
+    return r;
+}
+
+// Longest time a surviving process showed no new frame after a kill: gaps between shown frames
+// after the kill, and from its last shown frame to its exit when it never finished.
+double longest_stall_after(const ProcessRecord& rec, const fs::path& dir, std::uint64_t kill_us) {
+    // Wall times in frames.csv count from the first frame shown (the recorder's start).
+    double sync_ms = -1, finish_ms = -1;
+    for (const auto& e : rec.events) {
+        if (e.value("event", "") == "synchronized" && sync_ms < 0) sync_ms = e.value("mono_ms", 0.0);
+        if (e.value("event", "") == "finished") finish_ms = e.value("mono_ms", 0.0);
+    }
+    if (sync_ms < 0) return 0;
+    const double kill_ms = static_cast<double>(kill_us) / 1000.0;
+    double last = kill_ms, longest = 0;
+    for (const auto& row : read_csv_rows(dir / rec.name / "frames.csv")) {
+        const double t = sync_ms + std::stod(row[1]);
+        if (t < kill_ms) continue;
+        longest = std::max(longest, t - last);
+        last = t;
+    }
+    if (finish_ms > last) longest = std::max(longest, finish_ms - last);
+    return longest;
+}
+
+json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
+    std::uint64_t first_kill = 0;
+    for (const auto& r : recs)
+        if (r.killed && (!first_kill || r.killed_mono_us < first_kill)) first_kill = r.killed_mono_us;
+    json procs = json::array();
+    std::vector<std::string> finals;
+    for (const auto& r : recs) {
+        if (!r.started) continue;
+        // The session's agreed slot changes: dropped (frame: inputs held then) and (re)joined
+        // (frame: the first frame of the slot's own inputs).
+        json disconnects = json::array(), joins = json::array();
+        for (const auto& e : r.events) {
+            const std::string ev = e.value("event", "");
+            if (ev == "disconnected") disconnects.push_back({{"slot", e.value("peer", -1)}, {"frame", e.value("event_frame", 0)}});
+            if (ev == "joined") joins.push_back({{"slot", e.value("peer", -1)}, {"frame", e.value("event_frame", 0)}});
+        }
+        const json& s = r.summary;
+        json p = {{"slot", r.slot},
+                  {"name", r.name},
+                  {"role", r.spectator ? "spectator" : r.joiner ? "joiner" : "player"},
+                  {"exit_status", r.exit_status},
+                  {"outcome", s.is_object() ? s.value("outcome", "") : (r.killed ? "killed" : "no summary")},
+                  {"final_checksum", s.is_object() ? s["final_checksum"] : json(nullptr)},
+                  {"frames_shown", s.is_object() ? s.value("shown_frame", 0) : r.last_progress},
+                  {"confirmed_frame", s.is_object() ? s.value("confirmed_frame", 0) : 0},
+                  {"ticks_per_second", s.is_object() ? s["ticks_per_second"] : json(0)},
+                  {"killed_at_frame", r.killed ? json(r.killed_at_frame) : json(nullptr)},
+                  {"disconnects", disconnects},
+                  {"joins", joins},
+                  {"longest_stall_after_kill_ms",
+                   first_kill && !r.killed && !r.joiner ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
+        if (!r.killed && s.is_object() && s["final_checksum"].is_string()) finals.push_back(s["final_checksum"]);
+        procs.push_back(p);
+    }
+    bool survivors_ok = true;
+    for (const auto& r : recs)
+        if (!r.killed && (!r.started || r.exit_status != 0)) survivors_ok = false;
+    const bool equal = !finals.empty() && std::all_of(finals.begin(), finals.end(), [&](const auto& f) { return f == finals[0]; });
+    return {{"processes", procs},
+            {"final_checksums_equal", equal},
+            {"survivors_completed", survivors_ok},
+            {"ok", equal && survivors_ok}};
+}
+
+std::string side_by_side(const std::vector<std::pair<std::string, const RunResult*>>& runs) {
+    std::ostringstream o;
+    o << "| run | ticks/s | stalls | input delay | mean error (m) | max error (m) | rollbacks | CPU us/tick | payload B/s | "
+         "mismatches | desyncs | completed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+    char line[512];
+    for (const auto& [name, r] : runs) {
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %d | %.3g | %.3g | %llu | %.1f | %.0f | %llu | %llu | %s |\n",
+                      name.c_str(), r->ticks_per_second(), 100 * r->stall_fraction(), r->input_delay, r->position_error.mean(),
+                      r->position_error.max, static_cast<unsigned long long>(r->rollbacks()), r->cpu_us_per_tick.mean(),
+                      r->bytes_sent_per_s(), static_cast<unsigned long long>(r->confirmed_mismatches),
+                      static_cast<unsigned long long>(r->desync_count()), r->completed ? "yes" : "NO");
+        o << line;
+    }
+    return o.str();
+}
+
+int do_live(const LiveOptions& options) {
+    const LivePlan p = plan(options);
+    const fs::path out(p.o.out);
+    fs::create_directories(out);
+    std::map<Mode, RunResult> live, virt;
+    json modes = json::object();
+    bool ok = true;
+    // Both modes: also rollback at input delay 0, the like-for-like run of the paper (compare's
+    // third column), as real processes too.
+    std::vector<std::pair<std::string, Mode>> runs;
+    for (Mode m : p.modes) runs.emplace_back(mode_name(m), m);
+    if (p.modes.size() == 2) runs.emplace_back("rollback-delay0", Mode::Rollback);
+    std::map<std::string, RunResult> by_name;
+    for (const auto& [name, m] : runs) {
+        const fs::path dir = out / name;
+        const int delay = name == "rollback-delay0" ? 0 : p.input_delay.at(m);
+        std::fprintf(stderr, "[live] %s: %d processes%s, %d frames\n", name.c_str(), p.o.players,
+                     p.proxied ? " behind proxies" : "", p.o.frames);
+        const auto recs = run_processes(p, m, dir, delay);
+        RunResult r = collect(p, m, dir, recs, delay);
+        write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
+        write_file_atomic(dir / "frames.csv", frames_csv(r));
+        json lj = live_json(recs, dir);
+        ok = ok && lj["ok"].get<bool>();
+        modes[name] = lj;
+        std::printf("real processes, %s", console_summary(r).c_str());
+        if (name == mode_name(m)) live.emplace(m, r);
+        by_name.emplace(name, std::move(r));
+        if (!p.o.no_virtual && name == mode_name(m)) {
+            RunConfig cfg = p.base;
+            cfg.mode = m;
+            cfg.input_delay = delay;
+            RunResult v = run_match(cfg);
+            write_run(out / "virtual" / mode_name(m), v);
+            virt.emplace(m, std::move(v));
+        }
+    }
+    write_file_atomic(out / "live.json", json{{"modes", modes}, {"ok", ok}}.dump(2) + "\n");
+
+    std::vector<std::pair<std::string, const RunResult*>> table;
+    for (Mode m : p.modes) {
+        table.emplace_back(std::string(mode_name(m)) + ", real UDP processes", &live.at(m));
+        if (virt.contains(m)) table.emplace_back(std::string(mode_name(m)) + ", virtual time (in process)", &virt.at(m));
+    }
+    std::string report;
+    if (p.modes.size() == 2) {
+        const std::string plot_error = run_plot_script("plot.py", {"compare", out.string()});
+        const std::string note = plot_error.empty()
+                                     ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
+                                       "![tick rate over time](tick_rate.png)\n"
+                                     : "Plots were not made: " + plot_error + "\n";
+        write_file_atomic(out / "compare.json",
+                          compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0")).dump(2) + "\n");
+        report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0"), note);
+    }
+    report += "\n## Real processes beside virtual time\n\nThe same scene, players, frames, seed, input delay and network "
+              "conditions: N `lockroll peer` processes over ENet on 127.0.0.1 (through `lockroll proxy` when impaired), "
+              "and the in-process virtual-time match (`lockroll run`).\n\n" +
+              side_by_side(table) + "\nPer-process details: live.json, MODE/pK/.\n";
+    write_file_atomic(out / "report.md", report);
+    std::printf("written %s/report.md, live.json%s\n", out.c_str(), p.modes.size() == 2 ? ", compare.json" : "");
+    std::fflush(stdout);
+    return ok ? 0 : 1;
+}
+
+}  // namespace
+
+void add_live_command(CLI::App& app) {
+    auto o = std::make_shared<LiveOptions>();
+    CLI::App* cmd = app.add_subcommand(
+        "live", "Real processes: N `lockroll peer` over ENet on loopback behind impairment proxies; DIR/report.md, live.json");
+    cmd->add_option("--topology", o->topology, "p2p (every peer talks to every other)")->capture_default_str();
+    cmd->add_option("--players", o->players, "Processes (2..16)")->capture_default_str();
+    cmd->add_option("--frames", o->frames, "Frames every process plays")->capture_default_str();
+    cmd->add_option("--tick-rate", o->tick_rate, "Ticks per second")->capture_default_str();
+    cmd->add_option("--scene", o->scene, "Scene file or shipped scene name")->capture_default_str();
+    cmd->add_option("--bot", o->bot, "Input bots: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
+    cmd->add_option("--latency", o->latency, "One-way latency, ms (each direction, through the proxies)")->capture_default_str();
+    cmd->add_option("--jitter", o->jitter, "Uniform jitter, +- ms per packet")->capture_default_str();
+    cmd->add_option("--loss", o->loss, "Packet loss probability 0..1")->capture_default_str();
+    cmd->add_option("--burst,--burst-loss", o->burst, "Probability per packet of entering a loss burst 0..1")->capture_default_str();
+    cmd->add_option("--duplicate", o->duplicate, "Duplication probability 0..1")->capture_default_str();
+    cmd->add_option("--reorder", o->reorder, "Reordering probability 0..1")->capture_default_str();
+    cmd->add_option("--seed", o->seed, "Seed for the bots and the proxies")->capture_default_str();
+    cmd->add_option("--mode", o->mode, "lockstep, rollback or both")->check(CLI::IsMember({"lockstep", "rollback", "both"}))->capture_default_str();
+    cmd->add_option("--input-delay", o->input_delay, "Input delay in frames, or auto (from the latency and jitter asked for)")
+        ->capture_default_str();
+    cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
+    cmd->add_option("--kill", o->kills, "SLOT@FRAME: SIGKILL that process once it shows FRAME (repeatable)");
+    cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a --kill'ed slot with --join once slot 0 shows FRAME");
+    cmd->add_option("--join", o->joins, "SLOT@FRAME: the slot is absent from frame 0 and its process joins at FRAME");
+    cmd->add_option("--spectators", o->spectators, "Spectator processes following the match")->capture_default_str();
+    cmd->add_option("--recoveries", o->recoveries, "Desync recoveries per process (the minority reloads the majority's state)")
+        ->capture_default_str();
+    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a slot is dropped")
+        ->capture_default_str();
+    cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
+    cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();
+    cmd->add_flag("--no-virtual", o->no_virtual, "Skip the in-process virtual-time run beside it");
+    cmd->add_option("--out", o->out, "Output directory")->capture_default_str();
+    cmd->callback([o] {
+        if (do_live(*o) != 0) throw std::runtime_error("live: a process failed or the final checksums differ (see live.json)");
+    });
+}
+
+}  // namespace lockroll::harness

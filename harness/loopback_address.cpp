@@ -1,0 +1,27 @@
+#include "harness/loopback_address.h"
+
+#include "harness/cli_error.h"
+#include "net/udp_address.h"
+
+namespace lockroll::harness {
+
+std::string Endpoint::text() const {
+    return (host.find(':') != std::string::npos ? "[" + host + "]" : host) + ":" + std::to_string(port);
+}
+
+Endpoint parse_loopback_endpoint(const std::string& text, const std::string& flag, bool allow_port_zero) {
+    std::string error;
+    const auto a = net::parse_udp_address(text, &error);
+    if (!a) throw UsageError(flag + " " + text + ": " + error);
+    if (!a->is_loopback()) throw UsageError(flag + " " + text + ": only loopback addresses (127.0.0.0/8 or ::1) are allowed");
+    if (a->port() == 0 && !allow_port_zero) throw UsageError(flag + " " + text + ": port must be 1..65535");
+    Endpoint e;
+    e.port = a->port();
+    // to_string() is "HOST:PORT" or "[V6]:PORT": the numeric host ENet wants.
+    const std::string s = a->to_string();
+    e.host = s.substr(0, s.rfind(':'));
+    if (!e.host.empty() && e.host.front() == '[') e.host = e.host.substr(1, e.host.size() - 2);
+    return e;
+}
+
+}  // namespace lockroll::harness

@@ -1,0 +1,591 @@
+#include "harness/peer_command.h"
+
+#include <csignal>
+#include <ctime>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <set>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "harness/atomic_file.h"
+#include "harness/bots.h"
+#include "harness/cli_error.h"
+#include "harness/client_result.h"
+#include "harness/hex.h"
+#include "harness/loopback_address.h"
+#include "harness/match.h"
+#include "harness/report.h"
+#include "harness/run_command.h"
+#include "harness/scene_loader.h"
+#include "net/clock.h"
+#include "net/peer_runner.h"
+#include "rollback/session.h"
+#include "rollback/world_simulation.h"
+
+namespace lockroll::harness {
+
+namespace {
+namespace fs = std::filesystem;
+using nlohmann::json;
+using rollback::PlayerId;
+
+struct PeerOptions {
+    int slot = -1;
+    int players = 2;
+    std::string listen;
+    std::vector<std::string> peers;
+    std::string scene = "paper";
+    std::string bot = "random";
+    int frames = 720;
+    int tick_rate = 60;
+    std::string out;
+    std::string mode = "rollback";
+    int input_delay = 2;
+    int prediction = 8;
+    int checksum_interval = 1;
+    std::uint64_t seed = 1;
+    bool join = false;
+    bool spectate = false;
+    int spectators = 0;
+    std::vector<int> absent;
+    double disconnect_timeout = 5;
+    int recoveries = 0;
+    std::string log_level = "info";
+    std::string match_id;
+    std::vector<std::string> injections;
+    double connect_timeout = 30;
+    double finish_timeout = 15;
+    bool progress = false;
+};
+
+// Validated flags: everything checked before a socket is bound or a file written.
+struct PeerPlan {
+    PeerOptions o;
+    Mode mode = Mode::Rollback;
+    BotKind bot = BotKind::Random;
+    sim::SceneDesc scene;
+    Endpoint listen;
+    std::vector<net::PeerAddress> peers;
+    std::vector<DesyncInjection> injections;  // client field = this slot
+    spdlog::level::level_enum log_level = spdlog::level::info;
+};
+
+std::uint64_t thread_cpu_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
+}
+
+double raw_to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
+
+PeerPlan plan(const PeerOptions& o) {
+    PeerPlan p;
+    p.o = o;
+    if (o.players < 2 || o.players > 16) throw UsageError("--players must be 2..16");
+    if (o.spectators < 0 || o.spectators > 16) throw UsageError("--spectators must be 0..16");
+    if (o.spectate && (o.slot < o.players || o.slot >= o.players + o.spectators))
+        throw UsageError("--slot must be players..players+spectators-1 with --spectate (a spectator's id)");
+    if (!o.spectate && (o.slot < 0 || o.slot >= o.players)) throw UsageError("--slot must be 0..players-1");
+    if (o.join && o.spectate) throw UsageError("--join and --spectate exclude each other");
+    for (int a : o.absent)
+        if (a < 0 || a >= o.players) throw UsageError("--absent must name slots 0..players-1");
+    if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
+    if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
+    if (o.frames < 1) throw UsageError("--frames must be >= 1");
+    if (o.tick_rate < 1 || o.tick_rate > 1000) throw UsageError("--tick-rate must be 1..1000");
+    if (o.input_delay < 0 || o.input_delay > 60) throw UsageError("--input-delay must be 0..60");
+    if (o.prediction < 1 || o.prediction > 60) throw UsageError("--prediction must be 1..60 (lockstep mode uses 0 itself)");
+    if (o.checksum_interval < 1) throw UsageError("--checksum-interval must be >= 1");
+    if (!(o.connect_timeout > 0 && o.connect_timeout <= 3600)) throw UsageError("--connect-timeout must be 0..3600 s");
+    if (!(o.finish_timeout > 0 && o.finish_timeout <= 3600)) throw UsageError("--finish-timeout must be 0..3600 s");
+    if (o.out.empty()) throw UsageError("--out is required");
+    p.mode = o.mode == "lockstep" ? Mode::Lockstep : Mode::Rollback;
+    p.bot = *parse_bot_kind(o.bot);
+    const auto level = spdlog::level::from_str(o.log_level);
+    if (level == spdlog::level::off && o.log_level != "off")
+        throw UsageError("--log-level " + o.log_level + ": expected trace, debug, info, warn, error, critical or off");
+    p.log_level = level;
+    p.listen = parse_loopback_endpoint(o.listen, "--listen", true);
+    std::set<int> seen;
+    for (const auto& text : o.peers) {
+        const auto eq = text.find('=');
+        char* end = nullptr;
+        const std::string slot_text = text.substr(0, eq == std::string::npos ? 0 : eq);
+        const long slot = std::strtol(slot_text.c_str(), &end, 10);
+        if (eq == std::string::npos || slot_text.empty() || *end != '\0')
+            throw UsageError("--peer " + text + ": expected SLOT=HOST:PORT");
+        if (slot < 0 || slot >= o.players || slot == o.slot)
+            throw UsageError("--peer " + text + ": slot must be 0..players-1 and not --slot");
+        if (!seen.insert(static_cast<int>(slot)).second) throw UsageError("--peer " + text + ": slot given twice");
+        Endpoint e;
+        try {
+            e = parse_loopback_endpoint(text.substr(eq + 1), "--peer", false);
+        } catch (const UsageError& err) {
+            const std::string why = err.what();
+            throw UsageError("--peer " + text + why.substr(why.find(": ")));
+        }
+        p.peers.push_back({static_cast<PlayerId>(slot), e.host, e.port});
+    }
+    const int others = o.spectate ? o.players : o.players - 1;
+    if (static_cast<int>(seen.size()) != others)
+        throw UsageError("--peer: need an address for every other slot (" + std::to_string(others) + "), got " +
+                         std::to_string(seen.size()));
+    // Same syntax as run's; only this process's CLIENT applies (live passes every one to all).
+    for (const auto& text : o.injections)
+        if (const DesyncInjection d = parse_injection(text); d.client == o.slot) p.injections.push_back(d);
+    try {
+        p.scene = with_players(load_scene(o.scene), o.players);
+    } catch (const SceneError& e) {
+        throw UsageError(e.what());
+    }
+    p.scene.tick_rate = o.tick_rate;
+    if (const std::string e = sim::validate(p.scene); !e.empty()) throw UsageError("scene: " + e);
+    return p;
+}
+
+// Everything one process measures: session observer (frames, rollbacks, confirmations,
+// desyncs) and runner observer (connections, ticks). Output is built in memory and written at
+// the end, except events.jsonl, which is appended and flushed as events happen (a killed
+// process still leaves its events behind).
+class PeerRecorder final : public rollback::SessionObserver, public net::RunnerObserver {
+public:
+    PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log)
+        : p_(p), sim_(sim), log_(std::move(log)), process_start_us_(net::now_us()) {
+        events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
+        if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
+        rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
+        shown_us_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
+    }
+
+    rollback::Session* session = nullptr;
+    std::uint64_t synced_us = 0, reached_us = 0;
+    bool final_confirmed = false;
+    std::uint64_t final_checksum = 0;
+    std::vector<std::pair<std::uint32_t, std::uint64_t>> checkpoints;  // confirmed, every 60 frames
+    Stat cpu_us = Stat::keeping_samples();
+    Stat resim_us;
+    Stat rollback_depth;
+    Stat correction_jump;
+    Stat input_latency_local;
+    std::vector<DesyncRecord> desyncs;
+    double longest_stall_ms = 0;
+    std::uint64_t last_advance_us = 0;
+    std::uint32_t last_progress = 0;
+
+    void event(const std::string& name, std::uint64_t now, json extra = json::object()) {
+        json e = {{"t_ms", static_cast<double>(now - process_start_us_) / 1000.0},
+                  {"mono_ms", static_cast<double>(now) / 1000.0},
+                  {"frame", session ? session->frame() : 0},
+                  {"event", name},
+                  {"slot", p_.o.slot}};
+        for (auto& [k, v] : extra.items()) e[k] = v;
+        events_ << e.dump() << "\n";
+        events_.flush();
+    }
+
+    // Session side.
+    void on_frame_simulated(const rollback::FrameSimulated& f) override {
+        const std::uint64_t now = now_;
+        if (!synced_us) {  // the first frame shown: the match (or this joiner's part) starts
+            synced_us = now;
+            shown_us_.push_back(now);
+        }
+        if (f.frame <= static_cast<std::uint32_t>(p_.o.frames) && !f.resimulation) {
+            // Copied now (this runs inside advance(), whose CPU time is measured), formatted at the end.
+            shown_positions_.emplace_back(f.frame, positions());
+            shown_us_.push_back(now);
+            const auto first = std::lower_bound(shown_us_.begin(), shown_us_.end(), now >= 1000000 ? now - 1000000 : 0);
+            // Frames shown in the last second; in the first second, never more than the nominal
+            // rate (one frame shown a few microseconds after the start is not 30000 ticks/s).
+            const auto intervals = static_cast<double>(shown_us_.end() - first) - 1;
+            const double span = std::max(std::min(1.0, static_cast<double>(now - synced_us) / 1e6),
+                                         intervals / p_.o.tick_rate);
+            rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, session->confirmed_frame(), 0,
+                             span > 0 ? intervals / span : 0.0, 0.0});
+        }
+        // Local input latency: frame f consumed the inputs of frame f - 1.
+        if (const auto it = pending_.find(f.frame - 1); it != pending_.end()) {
+            const auto off = static_cast<std::size_t>(p_.o.slot) * rollback::kWorldInputSize;
+            if (std::equal(it->second.second.begin(), it->second.second.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(off))) {
+                input_latency_local.add(static_cast<double>(now - it->second.first) / 1000.0);
+                pending_.erase(it);
+            }
+        }
+    }
+    void on_rollback_begin(const rollback::RollbackInfo&) override { before_ = positions(); }
+    void on_rollback_end(const rollback::RollbackInfo& r) override {
+        if (r.displayed_frame > static_cast<std::uint32_t>(p_.o.frames)) return;
+        rollback_depth.add(r.depth);
+        for (auto it = rows_.rbegin(); it != rows_.rend(); ++it)
+            if (it->frame == r.displayed_frame) {
+                it->depth = std::max(it->depth, r.depth);
+                break;
+            }
+        if (!r.displayed_changed()) return;
+        const auto after = positions();
+        double jump = 0;
+        for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_[b], after[b]));
+        correction_jump.add(jump);
+    }
+    void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
+        if (f.frame % 60 == 0 && f.frame <= static_cast<std::uint32_t>(p_.o.frames)) checkpoints.emplace_back(f.frame, f.checksum);
+        if (f.frame == static_cast<std::uint32_t>(p_.o.frames)) {
+            final_checksum = f.checksum;
+            final_confirmed = true;
+            log_->info("confirmed the last frame {}: checksum {}", f.frame, hex16(f.checksum));
+        }
+    }
+    void on_desync(const rollback::DesyncEvent& d) override {
+        // The session's DesyncDetected event goes to events.jsonl; the checksums to the log.
+        log_->error("desync with slot {} at confirmed frame {}: local {} remote {}", d.peer, d.frame,
+                    hex16(d.local_checksum), hex16(d.remote_checksum));
+    }
+    void on_desync_report(const rollback::DesyncReport& r) override {
+        log_->error("desync report: {}", r.summary);
+        DesyncRecord rec;
+        rec.client = p_.o.slot;
+        rec.summary = r.summary;
+        rec.detected_frame = r.detected_frame;
+        rec.frame = r.frame;
+        rec.body = r.body_id;
+        rec.field = r.field_name;
+        if (!r.local_state.empty()) {
+            const auto path = fs::path(p_.o.out) / ("desync-client" + std::to_string(p_.o.slot) + "-peer" +
+                                                    std::to_string(r.peer) + "-frame" + std::to_string(r.frame) + ".txt");
+            write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
+            rec.evidence_file = path.string();
+        }
+        event("desync_report", net::now_us(),
+              {{"peer", r.peer}, {"first_frame", r.frame}, {"outcome", rollback::narrow_outcome_name(r.outcome)},
+               {"body", r.body_id}, {"field", r.field_name}, {"summary", r.summary}});
+        desyncs.push_back(rec);
+    }
+    void on_peer_error(PlayerId peer, const std::string& why) override {
+        log_->warn("slot {} sent too many malformed packets ({}); ignoring it from now on", peer, why);
+        event("peer_error", net::now_us(), {{"peer", peer}, {"why", why}});
+    }
+
+    // Runner side.
+    void on_transport_event(const transport::TransportEvent& e, std::uint64_t now) override {
+        using T = transport::TransportEvent::Type;
+        const char* name = e.type == T::Connected ? "connected" : e.type == T::Disconnected ? "connection_lost" : "connection_refused";
+        if (e.type == T::Connected) log_->info("connected to peer {}", e.peer);
+        else log_->warn("peer {}: {} {}", e.peer, name, e.reason);
+        event(name, now, {{"peer", e.peer}, {"reason", e.reason}});
+    }
+    void on_session_event(const rollback::SessionEvent& e) override {
+        using K = rollback::SessionEvent::Kind;
+        const bool bad = e.kind == K::Refused || e.kind == K::Disconnected || e.kind == K::Interrupted || e.kind == K::Kicked ||
+                         e.kind == K::Failed || e.kind == K::DesyncDetected || e.kind == K::SnapshotRejected;
+        log_->log(bad ? spdlog::level::warn : spdlog::level::info, "{} peer {} frame {}{}{}", rollback::event_name(e.kind),
+                  e.peer, e.frame, e.detail.empty() ? "" : ": ", e.detail);
+        json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
+        if (!e.detail.empty()) extra["detail"] = e.detail;
+        if (e.kind == K::Synchronized) extra["input_delay"] = session->input_delay();
+        event(rollback::event_name(e.kind), e.at_us ? e.at_us : net::now_us(), extra);
+    }
+    void on_synchronized(std::uint64_t now) override {
+        if (!synced_us) synced_us = now;
+        log_->info("running from frame {} (input delay {}, {} mode)", session->frame(), session->input_delay(), mode_name(p_.mode));
+    }
+    void on_all_confirmed(std::uint64_t now) override {
+        log_->info("every peer has confirmed frame {}", p_.o.frames);
+        event("all_confirmed", now);
+    }
+    void on_tick(const net::TickReport& t) override {
+        const rollback::AdvanceResult& r = t.advance;
+        const double cpu = static_cast<double>(r.resim_ns + r.forward_ns) / 1000.0;
+        cpu_us.add(cpu);
+        resim_us.add(static_cast<double>(r.resim_ns) / 1000.0);
+        if (r.advanced && last_advance_us == 0) last_advance_us = t.now_us;  // the first frame
+        if (r.advanced) {
+            if (!rows_.empty() && rows_.back().frame == r.frame) rows_.back().cpu_us = cpu;
+            const double gap = static_cast<double>(t.now_us - last_advance_us) / 1000.0;
+            if (gap > longest_stall_ms) longest_stall_ms = gap;
+            if (gap > 250) log_->info("stalled {:.0f} ms before frame {}", gap, r.frame);
+            last_advance_us = t.now_us;
+        } else if (r.blocking_player >= 0) {
+            log_->trace("tick {} stalled waiting for slot {}", t.tick, r.blocking_player);
+        }
+        if (r.wait_frames > 0) log_->debug("time sync: {} frames ahead, lengthening ticks", r.wait_frames);
+        if (t.now_us > t.scheduled_us + 4000) log_->debug("tick {} ran {} us late", t.tick, t.now_us - t.scheduled_us);
+        if (!reached_us && r.frame >= static_cast<std::uint32_t>(p_.o.frames)) reached_us = t.now_us;
+        if (p_.o.progress && r.frame != last_progress) {
+            last_progress = r.frame;
+            std::printf("progress %u\n", r.frame);
+            std::fflush(stdout);
+        }
+    }
+
+    // Called by the input source, just before advance(): the time of this tick, and the input.
+    void before_advance(std::uint64_t now, std::uint32_t input_frame, const std::array<std::uint8_t, 3>& bytes) {
+        now_ = now;
+        const bool taken = !have_last_ || input_frame > last_frame_;
+        if (taken && (!have_last_ || bytes != last_bytes_)) pending_[input_frame] = {now, bytes};
+        if (taken) {
+            last_bytes_ = bytes;
+            last_frame_ = input_frame;
+            have_last_ = true;
+        }
+        while (pending_.size() > 256) pending_.erase(pending_.begin());
+    }
+
+    std::string frames_csv() const {
+        std::string out = "frame,wall_ms,confirmed_frame,rollback_depth,ticks_per_second,cpu_us\n";
+        char line[200];
+        for (const auto& r : rows_) {
+            std::snprintf(line, sizeof line, "%u,%.3f,%u,%u,%.3f,%.3f\n", r.frame, r.wall_ms, r.confirmed, r.depth, r.tps, r.cpu_us);
+            out += line;
+        }
+        return out;
+    }
+    std::string positions_csv() const {
+        std::string out = "frame,client,body_index,x,y,z,x_raw,y_raw,z_raw\n";
+        char line[200];
+        for (const auto& [frame, bodies] : shown_positions_)
+            for (std::size_t b = 0; b < bodies.size(); ++b) {
+                const sim::Vec3& v = bodies[b];
+                std::snprintf(line, sizeof line, "%u,%d,%zu,%.9f,%.9f,%.9f,%lld,%lld,%lld\n", frame, p_.o.slot, b, raw_to_m(v.x),
+                              raw_to_m(v.y), raw_to_m(v.z), static_cast<long long>(v.x.raw), static_cast<long long>(v.y.raw),
+                              static_cast<long long>(v.z.raw));
+                out += line;
+            }
+        return out;
+    }
+
+private:
+    struct Row {
+        std::uint32_t frame = 0;
+        double wall_ms = 0;
+        std::uint32_t confirmed = 0, depth = 0;
+        double tps = 0, cpu_us = 0;
+    };
+    std::vector<sim::Vec3> positions() const {
+        std::vector<sim::Vec3> out;
+        for (sim::BodyId id : sim_.world().dynamic_ids()) out.push_back(sim_.world().position(id));
+        return out;
+    }
+
+    const PeerPlan& p_;
+    rollback::WorldSimulation& sim_;
+    std::shared_ptr<spdlog::logger> log_;
+    std::uint64_t process_start_us_;
+    std::ofstream events_;
+    std::vector<std::pair<std::uint32_t, std::vector<sim::Vec3>>> shown_positions_;
+    std::vector<Row> rows_;
+    std::vector<std::uint64_t> shown_us_;
+    std::vector<sim::Vec3> before_;
+    std::uint64_t now_ = 0;
+    std::map<std::uint32_t, std::pair<std::uint64_t, std::array<std::uint8_t, 3>>> pending_;
+    std::array<std::uint8_t, 3> last_bytes_{};
+    std::uint32_t last_frame_ = 0;
+    bool have_last_ = false;
+};
+
+// --match-id as the session's 64-bit match id (FNV-1a): peers of other matches are refused.
+std::uint64_t match_hash(const std::string& id) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : id) h = (h ^ c) * 0x100000001b3ull;
+    return h;
+}
+
+std::atomic<net::PeerRunner*> g_runner{nullptr};
+void on_peer_stop_signal(int) {
+    if (net::PeerRunner* r = g_runner.load()) r->request_stop();
+}
+
+std::shared_ptr<spdlog::logger> make_logger(const PeerPlan& p) {
+    auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((fs::path(p.o.out) / "peer.log").string(), true);
+    auto err = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+    auto log = std::make_shared<spdlog::logger>("peer" + std::to_string(p.o.slot), spdlog::sinks_init_list{file, err});
+    log->set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%^%l%$] [slot " + std::to_string(p.o.slot) + "] %v");
+    log->set_level(p.log_level);
+    log->flush_on(spdlog::level::info);
+    return log;
+}
+
+int do_peer(const PeerOptions& options) {
+    const PeerPlan p = plan(options);
+    fs::create_directories(p.o.out);
+    auto log = make_logger(p);
+
+    rollback::WorldSimulation sim(p.scene, p.o.players);
+    PeerRecorder rec(p, sim, log);
+    rollback::SessionConfig sc;
+    sc.players = p.o.players;
+    sc.local_player = static_cast<PlayerId>(p.o.slot);
+    sc.input_size = rollback::kWorldInputSize;
+    sc.tick_rate = p.o.tick_rate;
+    sc.input_delay = p.o.input_delay;
+    sc.prediction_window = p.mode == Mode::Lockstep ? 0 : p.o.prediction;
+    sc.checksum_interval = p.o.checksum_interval;
+    sc.cpu_clock = thread_cpu_ns;
+    // Real networks: hello/welcome with match id and scene checksum, an RTT phase before frame 0,
+    // agreed disconnects, joins and spectators by snapshot (docs/sessions.md).
+    sc.handshake = true;
+    sc.match_id = match_hash(p.o.match_id);
+    sc.max_spectators = p.o.spectators;
+    for (int a : p.o.absent) sc.absent_slots |= std::uint64_t{1} << a;
+    sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
+    sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
+    sc.max_recoveries = p.o.recoveries;
+    rollback::Session session(sc, sim, &rec);
+    rec.session = &session;
+    for (const auto& inj : p.injections)
+        if (const std::string e = session.inject_fault(inj.frame, inj.body, inj.field, inj.bit); !e.empty())
+            throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) + ":" +
+                             std::to_string(inj.body) + ": " + e);
+
+    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
+                                   .bind_host = p.listen.host,
+                                   .port = p.listen.port,
+                                   .max_peers = 32});
+    log->info("listening on {}:{} as slot {} of {} ({} mode, match '{}')", p.listen.host, enet.port(), p.o.slot,
+              p.o.players, mode_name(p.mode), p.o.match_id);
+    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
+
+    net::RunnerConfig rc;
+    rc.tick_rate = p.o.tick_rate;
+    rc.target_frame = static_cast<std::uint32_t>(p.o.frames);
+    rc.peers = p.peers;
+    rc.connect_timeout_us = static_cast<std::uint64_t>(p.o.connect_timeout * 1e6);
+    rc.finish_timeout_us = static_cast<std::uint64_t>(p.o.finish_timeout * 1e6);
+    // A match that cannot advance (a peer gone for good) must still end: ten times its length.
+    rc.run_timeout_us = static_cast<std::uint64_t>(10.0 * p.o.frames / p.o.tick_rate * 1e6) + rc.finish_timeout_us;
+    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
+    net::PeerRunner runner(
+        rc, session, enet,
+        [&](std::uint32_t frame, std::span<std::uint8_t> out) {
+            const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
+            rec.before_advance(net::now_us(), frame, bytes);
+            std::copy(bytes.begin(), bytes.end(), out.begin());
+        },
+        &rec);
+    g_runner.store(&runner);
+    std::signal(SIGTERM, on_peer_stop_signal);
+    std::signal(SIGINT, on_peer_stop_signal);
+    const net::RunOutcome outcome = runner.run();
+    g_runner.store(nullptr);
+    const std::uint64_t end_us = net::now_us();
+    const bool ok = outcome == net::RunOutcome::Completed && rec.final_confirmed;
+    rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr)}});
+    log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", net::outcome_name(outcome),
+             session.frame(), session.confirmed_frame());
+
+    // summary.json: run's keys through the same code, for a "match" of this one process.
+    const rollback::SessionStats& st = session.stats();
+    RunResult r;
+    r.mode = mode_name(p.mode);
+    r.scene = p.scene.name;
+    r.bot = bot_kind_name(p.bot);
+    r.players = p.o.players;
+    r.frames = p.o.frames;
+    r.tick_rate = p.o.tick_rate;
+    r.input_delay = p.o.input_delay;
+    r.prediction = sc.prediction_window;
+    r.seed = p.o.seed;
+    r.completed = ok;
+    const std::uint64_t since = rec.synced_us ? rec.synced_us : end_us;
+    r.virtual_seconds = static_cast<double>(end_us - since) / 1e6;  // wall seconds of the match
+    r.cpu_us_per_tick = rec.cpu_us;
+    r.resim_us_per_tick = rec.resim_us;
+    r.rollback_depth = rec.rollback_depth;
+    r.correction_jump = rec.correction_jump;
+    r.input_latency_local = rec.input_latency_local;
+    r.rollback_depth_histogram = st.rollback_depth_histogram;
+    r.desyncs = rec.desyncs;
+    ClientResult cr = client_result(st);
+    const double seconds = rec.reached_us ? static_cast<double>(rec.reached_us - rec.synced_us) / 1e6 + 1.0 / p.o.tick_rate : 0;
+    cr.ticks_per_second = seconds > 0 ? p.o.frames / seconds : 0;
+    cr.final_checksum = rec.final_checksum;
+    cr.final_confirmed = rec.final_confirmed;
+    r.clients.push_back(cr);
+    json s = summary_json(r);
+    s["slot"] = p.o.slot;
+    s["match_id"] = p.o.match_id;
+    s["outcome"] = net::outcome_name(outcome);
+    s["final_checksum"] = rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr);
+    json cps = json::array();
+    for (const auto& [f, c] : rec.checkpoints) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});
+    s["confirmed_checksums"] = cps;
+    s["shown_frame"] = session.frame();
+    s["confirmed_frame"] = session.confirmed_frame();
+    s["wall_seconds"] = r.virtual_seconds;
+    s["longest_stall_ms"] = rec.longest_stall_ms;
+    s["listen_port"] = enet.port();
+    json rtts = json::object();
+    for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
+        if (peer != static_cast<std::size_t>(p.o.slot)) rtts[std::to_string(peer)] = static_cast<double>(st.peers[peer].rtt_us) / 1000.0;
+    s["rtt_ms"] = rtts;
+    s["runner"] = {{"stretched_ticks", runner.stretched_ticks()},
+                   {"stretch_total_ms", static_cast<double>(runner.stretch_total_us()) / 1000.0},
+                   {"schedule_resets", runner.schedule_resets()}};
+    s["transport"] = {{"datagrams_sent", enet.counters().datagrams_sent},
+                      {"datagrams_received", enet.counters().datagrams_received},
+                      {"rejected", enet.counters().rejected},
+                      {"dropped", enet.counters().dropped},
+                      {"wire_bytes_sent", enet.wire_bytes_sent()},
+                      {"wire_bytes_received", enet.wire_bytes_received()}};
+    if (enet.counters().rejected) log->warn("transport refused {} datagrams", enet.counters().rejected);
+    write_file_atomic(fs::path(p.o.out) / "frames.csv", rec.frames_csv());
+    write_file_atomic(fs::path(p.o.out) / "positions.csv", rec.positions_csv());
+    write_file_atomic(fs::path(p.o.out) / "summary.json", s.dump(2) + "\n");
+    std::printf("slot %d: %s, frame %u shown, %u confirmed, final checksum %s\n", p.o.slot, net::outcome_name(outcome),
+                session.frame(), session.confirmed_frame(), rec.final_confirmed ? hex16(rec.final_checksum).c_str() : "none");
+    std::fflush(stdout);
+    return ok ? 0 : 1;
+}
+
+}  // namespace
+
+void add_peer_command(CLI::App& app) {
+    auto o = std::make_shared<PeerOptions>();
+    CLI::App* cmd = app.add_subcommand("peer", "One player of a P2P match as a real process over ENet on loopback; write DIR/summary.json");
+    cmd->add_option("--slot", o->slot, "This process's player slot 0..players-1")->required();
+    cmd->add_option("--players", o->players, "Players in the match (2..16)")->capture_default_str();
+    cmd->add_option("--listen", o->listen, "HOST:PORT to bind (loopback only; port 0 = any free one)")->required();
+    cmd->add_option("--peer", o->peers, "SLOT=HOST:PORT of every other slot (repeatable; loopback only)");
+    cmd->add_option("--scene", o->scene, "Scene file or shipped scene name")->capture_default_str();
+    cmd->add_option("--bot", o->bot, "Input bot: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
+    cmd->add_option("--frames", o->frames, "Frames to play")->capture_default_str();
+    cmd->add_option("--tick-rate", o->tick_rate, "Ticks per second")->capture_default_str();
+    cmd->add_option("--out", o->out, "Output directory")->required();
+    cmd->add_option("--mode", o->mode, "rollback or lockstep")->check(CLI::IsMember({"rollback", "lockstep"}))->capture_default_str();
+    cmd->add_option("--input-delay", o->input_delay, "Input delay in frames")->capture_default_str();
+    cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
+    cmd->add_option("--checksum-interval", o->checksum_interval, "Compare confirmed checksums every K frames")->capture_default_str();
+    cmd->add_option("--seed", o->seed, "Seed for the bots")->capture_default_str();
+    cmd->add_flag("--join", o->join, "Join (or rejoin) a running match in --slot by snapshot");
+    cmd->add_flag("--spectate", o->spectate, "Watch without playing; --slot is then the spectator id (players..)");
+    cmd->add_option("--spectators", o->spectators, "Spectator ids the match admits (the same on every process)")->capture_default_str();
+    cmd->add_option("--absent", o->absent, "Slot nobody plays at frame 0 (joins later; the same on every process)");
+    cmd->add_option("--recoveries", o->recoveries, "Desync recoveries (reload the majority's state) before giving up")
+        ->capture_default_str();
+    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
+        ->capture_default_str();
+    cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")->capture_default_str();
+    cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
+    cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body at a frame, when CLIENT is --slot");
+    cmd->add_option("--connect-timeout", o->connect_timeout, "Seconds to wait for every peer to connect")->capture_default_str();
+    cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")
+        ->capture_default_str();
+    cmd->add_flag("--progress", o->progress, "Print 'progress FRAME' on stdout as frames are shown");
+    cmd->callback([o] {
+        const int status = do_peer(*o);
+        if (status != 0) throw std::runtime_error("the match did not complete (see peer.log)");
+    });
+}
+
+}  // namespace lockroll::harness

@@ -1,0 +1,222 @@
+#include "net/peer_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+#include "net/clock.h"
+
+namespace lockroll::net {
+
+namespace {
+// How often a lower slot re-tries connecting to a higher slot it is not connected to.
+constexpr std::uint64_t kReconnectEveryUs = 500000;
+// Reliable datagrams kept per unconnected peer (the newest; the session re-asks what is lost).
+constexpr std::size_t kMaxHeldPerPeer = 64;
+}  // namespace
+
+const char* outcome_name(RunOutcome o) {
+    switch (o) {
+        case RunOutcome::Completed: return "completed";
+        case RunOutcome::ConnectTimeout: return "connect_timeout";
+        case RunOutcome::FinishTimeout: return "finish_timeout";
+        case RunOutcome::RunTimeout: return "run_timeout";
+        case RunOutcome::Failed: return "failed";
+        case RunOutcome::Stopped: return "stopped";
+    }
+    return "?";
+}
+
+PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+                       InputSource input, RunnerObserver* observer)
+    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer) {
+    const auto& sc = session_.config();
+    if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
+    if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5))
+        throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
+    if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
+    if (config_.catch_up_frames < 0) throw std::invalid_argument("RunnerConfig: catch_up_frames must be >= 0");
+    if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
+    if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    const auto ids = static_cast<std::size_t>(sc.players + sc.max_spectators);
+    for (const auto& p : config_.peers)
+        if (p.slot >= ids || p.slot == sc.local_player)
+            throw std::invalid_argument("RunnerConfig: peer id " + std::to_string(p.slot) + " is out of range or local");
+    connected_.assign(ids, false);
+    held_.assign(ids, {});
+    input_bytes_.assign(sc.input_size, 0);
+    period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+}
+
+void PeerRunner::track_connections(std::uint64_t now) {
+    for (transport::TransportEvent e; transport_.next_event(e);) {
+        if (e.peer < connected_.size()) {
+            if (e.type == transport::TransportEvent::Type::Connected) {
+                connected_[e.peer] = true;
+                // Control messages the session sent before the connection existed (a joiner's
+                // hello to a peer it reaches after its snapshot): deliver them now, in order.
+                for (const auto& bytes : held_[e.peer]) transport_.send_reliable(e.peer, bytes, now);
+                held_[e.peer].clear();
+            }
+            if (e.type == transport::TransportEvent::Type::Disconnected) connected_[e.peer] = transport_.is_connected(e.peer);
+        }
+        if (observer_) observer_->on_transport_event(e, now);
+    }
+}
+
+void PeerRunner::service_until(std::uint64_t deadline_us) {
+    for (;;) {
+        const std::uint64_t now = now_us();
+        transport_.poll(now);
+        track_connections(now);
+        if (now - last_reconnect_us_ >= kReconnectEveryUs) {
+            last_reconnect_us_ = now;
+            // The lower id connects, one connection per pair: no crossed connects, also when a
+            // killed slot comes back (the lower survivors keep retrying it, it retries the higher
+            // ones). Spectators have the highest ids but nobody knows their addresses: they
+            // connect to everyone. connect() refuses harmlessly while a connection exists or is
+            // pending.
+            const auto& sc = session_.config();
+            const bool spectator = sc.role == rollback::Role::Spectator;
+            for (const auto& p : config_.peers)
+                if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
+                    transport_.connect(p.slot, p.host, p.port);
+        }
+        if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
+        std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
+    }
+}
+
+bool PeerRunner::connect_phase() {
+    // A handshaking session waits for its peers itself (hellos are resent until answered).
+    if (session_.config().handshake) return true;
+    const std::uint64_t begin = now_us();
+    const auto& sc = session_.config();
+    for (;;) {
+        service_until(now_us() + 5 * config_.service_interval_us);
+        bool all = true;
+        for (int p = 0; p < sc.players; ++p)
+            if (static_cast<rollback::PlayerId>(p) != sc.local_player && !connected_[static_cast<std::size_t>(p)]) all = false;
+        if (all) return true;
+        if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
+    }
+}
+
+bool PeerRunner::everyone_confirmed() const {
+    const std::uint32_t target = config_.target_frame;
+    if (session_.confirmed_frame() < target) return false;
+    const auto& sc = session_.config();
+    // A spectator sends no inputs: nobody needs anything from it.
+    if (sc.role == rollback::Role::Spectator) return true;
+    // Players wait for players only: spectators get the last inputs from the resends while the
+    // players linger, and are bounded by their own finish timeout.
+    for (int p = 0; p < sc.players; ++p) {
+        const auto id = static_cast<rollback::PlayerId>(p);
+        if (id == sc.local_player) continue;
+        // Dropped or absent slots and peers without a connection are not waited for.
+        if (session_.slot_state(id) != rollback::SlotState::Running || !connected_[static_cast<std::size_t>(p)]) continue;
+        if (session_.peer_ack(id) < target) return false;
+    }
+    return true;
+}
+
+void PeerRunner::drain_session_events() {
+    for (rollback::SessionEvent e; session_.next_event(e);)
+        if (observer_) observer_->on_session_event(e);
+}
+
+void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
+    while (transport_.receive(in_, now)) {
+        if (in_.from >= connected_.size()) continue;
+        session_.receive(static_cast<rollback::PlayerId>(in_.from), in_.bytes, in_.time_us);
+    }
+    const std::uint32_t input_frame = session_.frame() + static_cast<std::uint32_t>(session_.input_delay());
+    input_(input_frame, input_bytes_);
+    TickReport report;
+    report.tick = ticks_;
+    report.now_us = now;
+    report.scheduled_us = scheduled;
+    report.advance = session_.advance(input_bytes_, now);
+    // Only a joiner catches up by stepping faster (it starts behind, from a snapshot); players
+    // that drift apart are evened out by time sync.
+    if (config_.catch_up_frames > 0 && session_.config().role == rollback::Role::Joiner && session_.running() &&
+        session_.behind(now) > 0)
+        session_.catch_up(now, config_.catch_up_frames);
+    drain_session_events();
+    // Time sync by a slightly longer tick. The session's per-tick stretch is the advice; a
+    // wait_frames recommendation alone (sessions without it) becomes a debt repaid the same way,
+    // a newer one replacing the unpaid rest (it measures the whole gap as it stands).
+    const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
+    std::uint64_t extra = 0;
+    if (report.advance.tick_stretch_ppm > 0) {
+        debt_us_ = 0;
+        extra = std::min(max_extra, period_us_ * static_cast<std::uint64_t>(report.advance.tick_stretch_ppm) / 1000000u);
+    } else {
+        if (report.advance.wait_frames > 0) debt_us_ = static_cast<std::uint64_t>(report.advance.wait_frames) * period_us_;
+        extra = std::min(debt_us_, max_extra);
+        debt_us_ -= extra;
+    }
+    if (extra > 0) {
+        ++stretched_ticks_;
+        stretch_total_us_ += extra;
+    }
+    last_extra_us_ = extra;
+    out_.clear();
+    session_.poll(now, out_);
+    for (const auto& d : out_) {
+        if (!d.reliable) {
+            transport_.send(d.peer, d.bytes, now);
+        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size()) {
+            auto& held = held_[d.peer];
+            if (held.size() >= kMaxHeldPerPeer) held.pop_front();
+            held.push_back(d.bytes);
+        }
+    }
+    report.length_us = period_us_ + extra;
+    if (observer_) observer_->on_tick(report);
+    ++ticks_;
+}
+
+RunOutcome PeerRunner::run() {
+    const std::uint64_t begin = now_us();
+    if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
+    // Tick k is due at start + k / tick_rate seconds (exact integers) + all stretches so far.
+    const std::uint64_t start = now_us();
+    std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0;
+    const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
+    for (;;) {
+        std::uint64_t due = start + k * 1000000u / rate + offset;
+        service_until(due);
+        if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
+        const std::uint64_t now = now_us();
+        if (now > due + static_cast<std::uint64_t>(config_.max_catch_up) * period_us_) {
+            offset += now - due;
+            due = now;
+            ++schedule_resets_;
+        }
+        tick(now, due);
+        offset += last_extra_us_;
+        ++k;
+        if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
+        if (!started_us_) {
+            if (session_.running()) {
+                started_us_ = now;
+                if (observer_) observer_->on_synchronized(now);
+            } else if (now - begin > config_.connect_timeout_us) {
+                return RunOutcome::ConnectTimeout;
+            }
+            continue;
+        }
+        if (!reached && session_.frame() >= config_.target_frame) reached = now;
+        if (reached && !all_confirmed && everyone_confirmed()) {
+            all_confirmed = now;
+            if (observer_) observer_->on_all_confirmed(now);
+        }
+        if (all_confirmed && now - all_confirmed >= config_.linger_us) return RunOutcome::Completed;
+        if (reached && !all_confirmed && now - reached > config_.finish_timeout_us) return RunOutcome::FinishTimeout;
+        if (!reached && config_.run_timeout_us && now - started_us_ > config_.run_timeout_us) return RunOutcome::RunTimeout;
+    }
+}
+
+}  // namespace lockroll::net

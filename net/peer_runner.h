@@ -1,0 +1,154 @@
+// PeerRunner: one sans-IO rollback::Session bound to a real transport (ENet over UDP) and to the
+// monotonic clock, run at the tick rate. This is the real-time twin of harness/match (which runs
+// N sessions in one process in virtual time); it knows nothing of sim/ or harness/: the game is
+// whatever Simulation the caller built the Session on, and local input comes from a callback.
+//
+// Contract
+//  - Connections: a player (joiners too) connects to every higher peer id it has an address
+//    for, a spectator (highest ids, address known to nobody) to every peer, retrying every half
+//    second for the whole run while not connected (the transport lets a restarted process take
+//    its id back), so a killed and restarted peer is reconnected by the lower survivors.
+//  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
+//    phase is the start barrier and the runner ticks from the beginning; without one, the runner
+//    waits until every remote slot is connected and then starts frame 0. Either way the session
+//    must be running within connect_timeout_us ("synchronized" is when it first runs).
+//  - Each tick: drain the transport -> Session::receive(from, bytes, arrival time) -> local
+//    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
+//    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
+//    send (send_reliable for datagrams the session marks reliable; those for a peer not yet
+//    connected -- a joiner's hello to a peer it reaches after its snapshot -- are held, the
+//    newest 64 per peer, and sent in order once it connects).
+//  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
+//    max_stretch); a session that only says wait_frames has that many frames of time repaid by
+//    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a
+//    visible freeze). A newer wait recommendation replaces the unpaid rest.
+//  - Never busy-spins: between ticks it sleeps, waking every service_interval_us to let the
+//    transport answer pings and stamp arrivals. A tick that is late runs at once; more than
+//    max_catch_up ticks behind, the schedule restarts from now (a frozen process does not then
+//    fast-forward in a burst).
+//  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
+//    resends and corrections still flow) until it has confirmed target_frame and every running,
+//    connected player slot has acknowledged its inputs up to target_frame (so it can confirm it
+//    too); dropped slots, disconnected peers and spectators are not waited for (spectators send
+//    no inputs and get the last ones from the resends while the players linger). Then it lingers
+//    linger_us more so its last acknowledgements reach the others. Bounded by
+//    finish_timeout_us after showing the target, and by run_timeout_us overall.
+//  - A session that fails (refused handshake, kicked) ends run() with Failed.
+//  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
+#pragma once
+
+#include <atomic>
+#include <deque>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rollback/session.h"
+#include "transport/enet_transport.h"
+
+namespace lockroll::net {
+
+struct PeerAddress {
+    rollback::PlayerId slot = 0;
+    std::string host;
+    std::uint16_t port = 0;
+};
+
+struct RunnerConfig {
+    int tick_rate = 60;
+    std::uint32_t target_frame = 600;
+    std::vector<PeerAddress> peers;              // every remote slot this process may connect to
+    std::uint64_t connect_timeout_us = 30000000;
+    std::uint64_t finish_timeout_us = 15000000;  // after showing target_frame
+    std::uint64_t run_timeout_us = 0;            // whole run after synchronizing; 0 = no bound
+    std::uint64_t linger_us = 300000;
+    std::uint64_t service_interval_us = 1000;
+    double max_stretch = 0.05;                   // longest tick = (1 + max_stretch) periods
+    int max_catch_up = 8;
+    int catch_up_frames = 8;                     // joiner: extra frames per tick while behind
+};
+
+enum class RunOutcome {
+    Completed,       // every peer confirmed target_frame (as far as this process can know)
+    ConnectTimeout,  // not every peer connected in time
+    FinishTimeout,   // target shown, but not confirmed everywhere within finish_timeout_us
+    RunTimeout,      // target never shown within run_timeout_us
+    Failed,          // the session failed (refused, kicked): Session::failure() says why
+    Stopped,         // request_stop()
+};
+const char* outcome_name(RunOutcome o);
+
+struct TickReport {
+    std::uint64_t tick = 0;           // ticks since frame 0 started
+    std::uint64_t now_us = 0;         // when this tick ran
+    std::uint64_t scheduled_us = 0;   // when it was due
+    std::uint64_t length_us = 0;      // period until the next tick (stretched or not)
+    rollback::AdvanceResult advance;
+};
+
+class RunnerObserver {
+public:
+    virtual ~RunnerObserver() = default;
+    // Transport connection changes (Connected, Disconnected, Refused with a reason).
+    virtual void on_transport_event(const transport::TransportEvent&, std::uint64_t /*now_us*/) {}
+    // Session lifecycle events, as drained from Session::next_event().
+    virtual void on_session_event(const rollback::SessionEvent&) {}
+    // The session runs frame 0 (or its snapshot frame) from now on.
+    virtual void on_synchronized(std::uint64_t /*now_us*/) {}
+    // After advance() and poll() of each tick.
+    virtual void on_tick(const TickReport&) {}
+    // Every peer has confirmed the target (before lingering).
+    virtual void on_all_confirmed(std::uint64_t /*now_us*/) {}
+};
+
+// Writes input_size bytes: the local input for `frame`.
+using InputSource = std::function<void(std::uint32_t frame, std::span<std::uint8_t> out)>;
+
+class PeerRunner {
+public:
+    // Session, transport and observer must outlive the runner. Throws std::invalid_argument for
+    // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one).
+    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+               InputSource input, RunnerObserver* observer = nullptr);
+
+    RunOutcome run();
+    void request_stop() { stop_.store(true, std::memory_order_relaxed); }
+
+    // Ticks that were lengthened for time sync, and the total extra time (µs).
+    std::uint64_t stretched_ticks() const { return stretched_ticks_; }
+    std::uint64_t stretch_total_us() const { return stretch_total_us_; }
+    // Times the schedule restarted because the process fell too far behind.
+    std::uint64_t schedule_resets() const { return schedule_resets_; }
+    std::uint64_t started_us() const { return started_us_; }
+
+private:
+    bool connect_phase();
+    void drain_session_events();
+    void service_until(std::uint64_t deadline_us);
+    void track_connections(std::uint64_t now);
+    void tick(std::uint64_t now, std::uint64_t scheduled);
+    bool everyone_confirmed() const;
+
+    RunnerConfig config_;
+    rollback::Session& session_;
+    transport::EnetTransport& transport_;
+    InputSource input_;
+    RunnerObserver* observer_;
+    std::atomic<bool> stop_{false};
+    std::vector<bool> connected_;      // by peer id (slots, then spectators)
+    std::vector<std::deque<std::vector<std::uint8_t>>> held_;  // reliable sends before connecting
+    std::vector<std::uint8_t> input_bytes_;
+    std::vector<rollback::Datagram> out_;
+    transport::Datagram in_;
+    std::uint64_t period_us_ = 0;
+    std::uint64_t started_us_ = 0;
+    std::uint64_t ticks_ = 0;
+    std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
+    std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0;
+    std::uint64_t last_extra_us_ = 0;     // stretch of the tick just run
+    std::uint64_t last_reconnect_us_ = 0;
+};
+
+}  // namespace lockroll::net

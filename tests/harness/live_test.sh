@@ -1,0 +1,89 @@
+#!/usr/bin/env bash
+# `lockroll live` with real processes on 127.0.0.1 (free ports, bounded by live's own time limit
+# and CTest's timeout): 3 players through impairment proxies at 5 % loss; a kill and a rejoin; a
+# late join with a spectator; an injected desync; bad flags. Outcomes only (checksums, events).
+set -u
+lockroll=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+failures=0
+fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+
+check() {  # check NAME DIR MODE PYTHON-ASSERTIONS (d: live.json's mode entry, procs by name)
+    local name=$1 dir=$2 mode=$3 code=$4
+    if /usr/bin/python3 - "$dir" "$mode" <<PY
+import json, os, sys
+d = json.load(open(os.path.join(sys.argv[1], "live.json")))["modes"][sys.argv[2]]
+procs = {p["name"]: p for p in d["processes"]}
+summary = json.load(open(os.path.join(sys.argv[1], sys.argv[2], "summary.json")))
+def events(name):
+    return [json.loads(l) for l in open(os.path.join(sys.argv[1], sys.argv[2], name, "events.jsonl"))]
+$code
+PY
+    then echo "ok: $name"; else fail "$name"; fi
+}
+
+# 1. Three players through proxies at 5 % loss: every process completes on the same checksum.
+"$lockroll" live --players 3 --frames 300 --latency 5 --jitter 2 --loss 0.05 --mode rollback --no-virtual \
+    --seed 3 --out "$tmp/loss" >"$tmp/loss.out" 2>&1 || { fail "loss: exit status $?"; tail -5 "$tmp/loss.out"; }
+check loss "$tmp/loss" rollback '
+assert d["ok"] and d["final_checksums_equal"], d
+assert len(procs) == 3 and all(p["outcome"] == "completed" for p in procs.values())
+assert summary["confirmed_mismatches"] == 0 and summary["confirmed_compared"] > 0
+assert summary["position_error"]["samples"] > 0 and summary["desyncs"] == 0
+assert os.path.exists(os.path.join(sys.argv[1], "report.md"))
+assert os.path.getsize(os.path.join(sys.argv[1], "rollback", "proxy0.log")) > 0
+'
+
+# 2. Kill slot 2 at frame 100, rejoin it at frame 250: the others drop it, go on, take it back;
+#    a spectator follows throughout.
+"$lockroll" live --players 3 --frames 420 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@100 \
+    --rejoin 2@250 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
+check kill "$tmp/kill" rollback '
+assert d["ok"] and d["final_checksums_equal"], d
+assert procs["p2"]["killed_at_frame"] >= 100 and procs["p2"]["outcome"] == "killed"
+assert procs["p2-rejoin"]["role"] == "joiner" and procs["p2-rejoin"]["outcome"] == "completed"
+for k in ("p0", "p1"):
+    p = procs[k]
+    assert [x["slot"] for x in p["disconnects"]] == [2] and [x["slot"] for x in p["joins"]] == [2], p
+    assert p["longest_stall_after_kill_ms"] > 0
+ev = [e["event"] for e in events("p2-rejoin")]
+assert "snapshot_loaded" in ev and "synchronized" in ev, ev
+assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == procs["p0"]["final_checksum"]
+'
+
+# 3. Slot 1 joins at frame 60 (absent before), one spectator follows: same checksums everywhere.
+"$lockroll" live --players 2 --frames 240 --latency 10 --mode lockstep --no-virtual --join 1@60 --spectators 1 \
+    --out "$tmp/join" >"$tmp/join.out" 2>&1 || { fail "join: exit status $?"; tail -5 "$tmp/join.out"; }
+check join "$tmp/join" lockstep '
+assert d["ok"] and d["final_checksums_equal"], d
+assert procs["p1"]["role"] == "joiner" and procs["s0"]["role"] == "spectator"
+assert all(p["final_checksum"] == procs["p0"]["final_checksum"] for p in procs.values())
+assert [x["slot"] for x in procs["p0"]["joins"]] == [1]
+'
+
+# 4. An injected bit flip on slot 1 is detected and named by the processes; live fails.
+"$lockroll" live --players 2 --frames 240 --mode rollback --no-virtual --inject-desync 1:100:20 \
+    --out "$tmp/desync" >"$tmp/desync.out" 2>&1 && fail "desync: live exited 0"
+check desync "$tmp/desync" rollback '
+assert not d["ok"]
+assert summary["desyncs"] > 0, summary["desyncs"]
+assert any(e["event"] == "desync" for e in events("p0")), "no desync event"
+'
+
+# 5. Bad flags: exit 2 naming the flag, before any process starts.
+expect2() {
+    local pattern=$1; shift
+    local out status
+    out=$("$lockroll" live "$@" --out "$tmp/bad" 2>&1); status=$?
+    if [[ $status -ne 2 ]] || ! grep -qE -- "$pattern" <<<"$out"; then fail "live $* -> $status: $out"; else echo "ok: exit 2 /$pattern/"; fi
+}
+expect2 "--topology star" --topology star
+expect2 "--kill 5@10: SLOT must be" --kill 5@10
+expect2 "--rejoin 1@50: needs an earlier --kill" --rejoin 1@50
+expect2 "--kill x: expected SLOT@FRAME" --kill x
+expect2 "--loss must be a probability" --loss 3
+[[ -e $tmp/bad ]] && fail "bad flags left output behind"
+
+[[ $failures -eq 0 ]] && echo "all passed" || echo "$failures failure(s)"
+exit $((failures > 0))
