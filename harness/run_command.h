@@ -10,7 +10,6 @@
 namespace lockroll::harness {
 
 void add_run_command(CLI::App& app);
-// Median µs per physics step of the scene (with `players` player bodies), timed here so a
 // --inject-desync CLIENT:FRAME:BODY[:FIELD:BIT] (run, compare, live, peer); UsageError naming
 // the text when malformed.
 DesyncInjection parse_injection(const std::string& text);
