@@ -143,7 +143,7 @@ TEST(WideInt, ConversionsKeepLowBitsAndSignExtend) {
     EXPECT_FALSE(static_cast<bool>(UInt128{}));
     EXPECT_EQ(bits(UInt128(Int128(-1))), ~BU{0});
     EXPECT_EQ(Int128(UInt128(~BU{0})), Int128(-1));
-    static_assert((UInt128(1) << 100) >> 99 == 2, "usable in constant expressions");
+    static_assert(((UInt128(1) << 100) >> 99) == 2, "usable in constant expressions");
 }
 
 // The helpers in the implementation this build uses (builtin or portable) against __int128.

@@ -20,6 +20,8 @@
 #include <lockroll/rollback/simulation.h>
 #include <lockroll/sim/snapshot.h>
 #include <lockroll/sim/world.h>
+#include <lockroll/net/clock.h>
+#include <lockroll/net/udp_address.h>
 #include <lockroll/transport/enet_transport.h>
 #include <lockroll/transport/sim_network.h>
 
@@ -137,12 +139,19 @@ std::string enet_line() {
     return enet.port() != 0 ? "enet bound" : "enet NOT bound";
 }
 
+// The real-time layer: its clock and its address parser (a compiled function, so it links).
+std::string net_line() {
+    std::string error;
+    const auto addr = lockroll::net::parse_udp_address("127.0.0.1:4000", &error);
+    return addr && lockroll::net::now_us() > 0 ? "net parses" : "net FAILED: " + error;
+}
+
 }  // namespace
 
 int main() {
-    const std::string world = world_line(), session = session_line(), enet = enet_line();
-    std::printf("lockroll consumer: %s; %s; %s\n", world.c_str(), session.c_str(), enet.c_str());
+    const std::string world = world_line(), session = session_line(), enet = enet_line(), net = net_line();
+    std::printf("lockroll consumer: %s; %s; %s; %s\n", world.c_str(), session.c_str(), enet.c_str(), net.c_str());
     const bool ok = world.find("frame 300,") != std::string::npos && session.find(" agree") != std::string::npos &&
-                    enet == "enet bound";
+                    enet == "enet bound" && net == "net parses";
     return ok ? 0 : 1;
 }
