@@ -49,6 +49,7 @@ struct LiveOptions {
     int prediction = 8;
     std::vector<std::string> kills, rejoins, joins, injections;
     int spectators = 0;
+    int spectate_at = 0;  // frame of the first player at which spectators start (0: at once)
     std::string out = "out/live";
     std::string log_level = "info";
     bool no_virtual = false;
@@ -305,6 +306,10 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         r.slot = n + s;
         r.spectator = true;
         r.name = "s" + std::to_string(s);
+        if (o.spectate_at > 0) {
+            r.after_slot = reference;
+            r.after_frame = o.spectate_at;
+        }
         recs.push_back(r);
     }
     const auto launch = [&](ProcessRecord& r) {
@@ -732,6 +737,9 @@ void add_live_command(CLI::App& app) {
     cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a --kill'ed slot with --join once slot 0 shows FRAME");
     cmd->add_option("--join", o->joins, "SLOT@FRAME: the slot is absent from frame 0 and its process joins at FRAME");
     cmd->add_option("--spectators", o->spectators, "Spectator processes following the match")->capture_default_str();
+    cmd->add_option("--spectate-at", o->spectate_at, "Start the spectators once the match shows this frame (0: at once)")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
     cmd->add_option("--recoveries", o->recoveries, "Desync recoveries per process (the minority reloads the majority's state)")
         ->capture_default_str();
     cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a slot is dropped")

@@ -37,11 +37,11 @@ assert os.path.getsize(os.path.join(sys.argv[1], "rollback", "proxy0.log")) > 0
 
 # 2. Kill slot 2 at frame 100, rejoin it at frame 250: the others drop it, go on, take it back;
 #    a spectator follows throughout.
-"$lockroll" live --players 3 --frames 420 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@100 \
-    --rejoin 2@250 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
+"$lockroll" live --players 3 --frames 600 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@200 \
+    --rejoin 2@400 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
 check kill "$tmp/kill" rollback '
 assert d["ok"] and d["final_checksums_equal"], d
-assert procs["p2"]["killed_at_frame"] >= 100 and procs["p2"]["outcome"] == "killed"
+assert procs["p2"]["killed_at_frame"] >= 200 and procs["p2"]["outcome"] == "killed"
 assert procs["p2-rejoin"]["role"] == "joiner" and procs["p2-rejoin"]["outcome"] == "completed"
 for k in ("p0", "p1"):
     p = procs[k]
@@ -52,8 +52,10 @@ assert "snapshot_loaded" in ev and "synchronized" in ev, ev
 assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == procs["p0"]["final_checksum"]
 '
 
-# 3. Slot 1 joins at frame 60 (absent before), one spectator follows: same checksums everywhere.
-"$lockroll" live --players 2 --frames 240 --latency 10 --mode lockstep --no-virtual --join 1@60 --spectators 1 \
+# 3. Slot 1 joins at frame 300 (absent before), a spectator joins at frame 150: same checksums
+#    everywhere.
+"$lockroll" live --players 2 --frames 420 --latency 10 --mode lockstep --no-virtual --join 1@300 --spectators 1 \
+    --spectate-at 150 \
     --out "$tmp/join" >"$tmp/join.out" 2>&1 || { fail "join: exit status $?"; tail -5 "$tmp/join.out"; }
 check join "$tmp/join" lockstep '
 assert d["ok"] and d["final_checksums_equal"], d
@@ -71,7 +73,21 @@ assert summary["desyncs"] > 0, summary["desyncs"]
 assert any(e["event"] == "desync" for e in events("p0")), "no desync event"
 '
 
-# 5. Bad flags: exit 2 naming the flag, before any process starts.
+# 5. Three players, slot 2 flips a bit at frame 100: the desync is named (frame, body, field) by
+#    the processes, slot 2 is the odd one out and reloads the majority's state; all end equal.
+"$lockroll" live --players 3 --frames 360 --latency 10 --mode rollback --no-virtual --inject-desync 2:100:20 \
+    --recoveries 2 --out "$tmp/recover" >"$tmp/recover.out" 2>&1 || { fail "recover: exit status $?"; tail -5 "$tmp/recover.out"; }
+check recover "$tmp/recover" rollback '
+assert d["ok"] and d["final_checksums_equal"], d
+odd = [e for e in events("p2") if e["event"] == "desync_recovered"]
+assert len(odd) == 1, [e["event"] for e in events("p2")]
+for k in ("p0", "p1"):
+    assert not any(e["event"] == "desync_recovered" for e in events(k)), k
+    reports = [e for e in events(k) if e["event"] == "desync_report" and e["peer"] == 2]
+    assert reports and reports[0]["first_frame"] == 100 and reports[0]["body"] == 20 and reports[0]["field"] == "position.x", reports
+'
+
+# 6. Bad flags: exit 2 naming the flag, before any process starts.
 expect2() {
     local pattern=$1; shift
     local out status
