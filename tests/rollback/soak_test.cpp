@@ -27,18 +27,24 @@ void expect_all_agree(Cluster& cluster, std::uint32_t frames) {
     }
 }
 
-// 150 +- 50 ms one way, 20 % loss, 5 % duplication, 10 % reordering, 8 players, 10 minutes.
-TEST(Soak, EightPlayersTenMinutesHarshNetwork) {
-    const auto scene = make_scene(8, 50);
-    SessionConfig cfg;
-    cfg.players = 8;
-    cfg.input_delay = 3;
+// The harsh network: 150 +- 50 ms one way, 20 % loss, 5 % duplication, 10 % reordering.
+NetParams harsh_network() {
     NetParams net;
     net.latency_us = 100000;
     net.jitter_us = 100000;
     net.loss_ppm = 200000;
     net.duplicate_ppm = 50000;
     net.reorder_ppm = 100000;
+    return net;
+}
+
+// The harsh network, 8 players, 10 minutes.
+TEST(Soak, EightPlayersTenMinutesHarshNetwork) {
+    const auto scene = make_scene(8, 50);
+    SessionConfig cfg;
+    cfg.players = 8;
+    cfg.input_delay = 3;
+    const NetParams net = harsh_network();
     if (const char* w = std::getenv("SOAK_TS_WINDOW")) cfg.time_sync_window = std::atoi(w);
     if (const char* m = std::getenv("SOAK_TS_MIN")) cfg.time_sync_min_frames = std::atoi(m);
     if (const char* d = std::getenv("SOAK_DELAY")) cfg.input_delay = std::atoi(d);
@@ -105,12 +111,7 @@ TEST(Soak, EightPlayersWithKillsAndRejoins) {
     cfg.input_delay = 3;
     cfg.handshake = true;
     cfg.match_id = 77;
-    NetParams net;
-    net.latency_us = 100000;
-    net.jitter_us = 100000;
-    net.loss_ppm = 200000;
-    net.duplicate_ppm = 50000;
-    net.reorder_ppm = 100000;
+    const NetParams net = harsh_network();
     Cluster cluster(scene, cfg, net, 4242);
     for (auto& c : cluster.clients) {
         c->record_replay = false;
