@@ -26,6 +26,7 @@
 #include "harness/report.h"
 #include "harness/run_command.h"
 #include "harness/scene_loader.h"
+#include "harness/view_command.h"
 #include "net/clock.h"
 #include "sim/world.h"
 
@@ -50,6 +51,7 @@ struct LiveOptions {
     std::vector<std::string> kills, rejoins, joins, injections;
     int spectators = 0;
     int spectate_at = 0;  // frame of the first player at which spectators start (0: at once)
+    bool view = false;    // also write each mode's view.html
     std::string out = "out/live";
     std::string log_level = "info";
     bool no_virtual = false;
@@ -524,6 +526,9 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
         auto& mine = shown[static_cast<std::size_t>(rec.slot)];
         for (const auto& row : read_csv_rows(pd / "positions.csv")) {
             if (row.size() < 9) continue;
+            // The mode's positions.csv (what lockroll view reads): every process's shown bodies.
+            r.positions_csv += row[0] + "," + std::to_string(rec.slot) + "," + row[2] + "," + row[3] + "," + row[4] + "," +
+                               row[5] + "\n";
             auto& v = mine[static_cast<std::uint32_t>(std::stoul(row[0]))];
             v.push_back({sim::Fixed::from_raw(std::stoll(row[6])), sim::Fixed::from_raw(std::stoll(row[7])),
                          sim::Fixed::from_raw(std::stoll(row[8]))});
@@ -533,6 +538,10 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
         for (std::size_t k = 0; k < shown.size(); ++k)
             if (const auto it = shown[k].find(f); it != shown[k].end() && it->second.size() == bodies)
                 tracker.record(static_cast<int>(k), f, time_s.contains(f) ? time_s[f] : 0.0, it->second);
+    if (!r.positions_csv.empty()) {
+        r.positions_csv.insert(0, "frame,client,body_index,x,y,z\n");
+        r.bodies_csv = bodies_csv(sim::World(with_players(p.base.scene, o.players)));
+    }
     r.position_error = tracker.error();
     r.rows = tracker.rows();
     r.per_body_max_error = tracker.per_body_max();
@@ -667,6 +676,11 @@ int do_live(const LiveOptions& options) {
         RunResult r = collect(p, m, dir, recs, delay);
         write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
         write_file_atomic(dir / "frames.csv", frames_csv(r));
+        if (!r.positions_csv.empty()) {
+            write_file_atomic(dir / "positions.csv", r.positions_csv);
+            write_file_atomic(dir / "bodies.csv", r.bodies_csv);
+            if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
+        }
         json lj = live_json(recs, dir);
         ok = ok && lj["ok"].get<bool>();
         modes[name] = lj;
@@ -747,6 +761,7 @@ void add_live_command(CLI::App& app) {
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
     cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();
     cmd->add_flag("--no-virtual", o->no_virtual, "Skip the in-process virtual-time run beside it");
+    cmd->add_flag("--view", o->view, "Also write DIR/MODE/view.html (lockroll view) for every mode run");
     cmd->add_option("--out", o->out, "Output directory")->capture_default_str();
     cmd->callback([o] {
         if (do_live(*o) != 0) throw std::runtime_error("live: a process failed or the final checksums differ (see live.json)");

@@ -426,21 +426,6 @@ std::vector<double> measure_rtt(transport::SimNetwork& net, int clients) {
 
 double to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
 
-std::string bodies_csv(const sim::World& w) {
-    std::string out = "index,id,player,dynamic,shape,x,z,radius,hx,hz\n";
-    char line[256];
-    std::vector<long> index(w.body_count(), -1);
-    for (std::size_t i = 0; i < w.dynamic_ids().size(); ++i) index[w.dynamic_ids()[i]] = static_cast<long>(i);
-    for (std::size_t id = 0; id < w.body_count(); ++id) {
-        const sim::BodyDesc& b = w.scene().bodies[id];
-        const char* shape = b.shape == sim::Shape::Box ? "box" : b.shape == sim::Shape::Sphere ? "sphere" : "capsule";
-        std::snprintf(line, sizeof line, "%ld,%zu,%d,%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f\n", index[id], id, b.player,
-                      index[id] >= 0 ? 1 : 0, shape, to_m(b.position.x), to_m(b.position.z), to_m(b.radius),
-                      to_m(b.half_extents.x), to_m(b.half_extents.z));
-        out += line;
-    }
-    return out;
-}
 
 double percentile(std::vector<double> v, double p) {
     if (v.empty()) return 0;
@@ -535,6 +520,22 @@ int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int ti
 
 int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay) {
     return std::min(60, std::max(configured, lockstep_delay - rollback_delay + 1));
+}
+
+std::string bodies_csv(const sim::World& w) {
+    std::string out = "index,id,player,dynamic,shape,x,z,radius,hx,hz\n";
+    char line[256];
+    std::vector<long> index(w.body_count(), -1);
+    for (std::size_t i = 0; i < w.dynamic_ids().size(); ++i) index[w.dynamic_ids()[i]] = static_cast<long>(i);
+    for (std::size_t id = 0; id < w.body_count(); ++id) {
+        const sim::BodyDesc& b = w.scene().bodies[id];
+        const char* shape = b.shape == sim::Shape::Box ? "box" : b.shape == sim::Shape::Sphere ? "sphere" : "capsule";
+        std::snprintf(line, sizeof line, "%ld,%zu,%d,%d,%s,%.6f,%.6f,%.6f,%.6f,%.6f\n", index[id], id, b.player,
+                      index[id] >= 0 ? 1 : 0, shape, to_m(b.position.x), to_m(b.position.z), to_m(b.radius),
+                      to_m(b.half_extents.x), to_m(b.half_extents.z));
+        out += line;
+    }
+    return out;
 }
 
 RunResult run_match(const RunConfig& cfg) {

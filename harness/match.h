@@ -104,4 +104,8 @@ int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int ti
 
 RunResult run_match(const RunConfig& config);
 
+// bodies.csv of a world (what the viewer draws: id, player, shape, size), as run --positions
+// writes it.
+std::string bodies_csv(const sim::World& w);
+
 }  // namespace lockroll::harness

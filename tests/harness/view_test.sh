@@ -61,6 +61,14 @@ grep -q 'data-encoding="gzip+base64"' "$out/big/view.html" || fail "large data n
 frame=$(awk -F, 'NR > 1 && $3 + 0 >= best { best = $3 + 0; f = $1 } END { print f }' "$out/big/frames.csv")
 check_frame "$out/big" "$frame"
 
+# Real processes: lockroll live --view writes each mode's page from the processes' shown
+# positions, and it reports what the mode's frames.csv says.
+"$lockroll" live --players 2 --frames 180 --latency 28.5 --jitter 10 --mode rollback --no-virtual --view \
+    --out "$out/live" >/dev/null 2>&1 || fail "lockroll live --view"
+[[ -f $out/live/rollback/view.html ]] || fail "live: no view.html"
+frame=$(awk -F, 'NR > 1 && $3 + 0 >= best { best = $3 + 0; f = $1 } END { print f }' "$out/live/rollback/frames.csv")
+[[ -n $frame ]] && check_frame "$out/live/rollback" "$frame"
+
 # Bad input: exit 2 naming the file, nothing written.
 mkdir -p "$out/empty"
 msg=$("$lockroll" view "$out/empty" 2>&1)
