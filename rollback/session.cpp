@@ -341,6 +341,10 @@ void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std
     switch (*kind) {
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
+            if (phase_ == SessionPhase::Synchronizing && is_slot(from)) {
+                peer_started_ = true;  // it plays already: follow it
+                maybe_start(now_us);
+            }
             return handle_input(from, now_us);
         case MessageKind::Query: {
             if (const char* e = decode(datagram, query_msg_)) return malformed(from, e);
@@ -469,18 +473,23 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     link.last_heard_us = now_us;
     if (link.roundtrips < 1000) ++link.roundtrips;
     link.has_remote_frame = link.has_remote_frame || m.running;
+    if (m.running && is_slot(from)) peer_started_ = true;
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
     maybe_start(now_us);
 }
 
-// A player starts frame 0 once every slot present at start has answered enough hellos.
+// A player starts frame 0 once every slot present at start has answered enough hellos, or, as
+// soon as another player has started (it says so in a welcome or sends inputs), once every one
+// has answered at least once: following the first starter at once keeps the starts a one-way
+// trip apart instead of a whole sync phase, so time sync has little to even out.
 void Session::maybe_start(std::uint64_t now_us) {
     if (config_.role != Role::Player || phase_ != SessionPhase::Synchronizing) return;
+    const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
         if (pid == config_.local_player || !slot_running(pid)) continue;
-        if (links_[pid].roundtrips < config_.sync_roundtrips) return;
+        if (links_[pid].roundtrips < needed) return;
     }
     start_running(now_us);
 }

@@ -375,6 +375,7 @@ private:
     std::uint64_t mismatch_since_us_ = 0;
     int recoveries_ = 0;
     std::uint64_t incarnation_ = 0;
+    bool peer_started_ = false;  // another player has started frame 0 (sync phase ends early)
     HelloMessage hello_msg_;
     WelcomeMessage welcome_msg_;
     SnapshotRequestMessage snap_req_msg_;
