@@ -237,9 +237,10 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
         const Connection& old = it->second;
         if (old.established && silent(old)) {
             ++enet_counters_.replaced;
-            drop_connection(remote, kReplaced);
+            // Read what the message needs before drop_connection() erases `old`.
             reason = "reconnected: replaces a connection silent for " +
                      std::to_string((now - old.last_heard_us) / 1000) + " ms";
+            drop_connection(remote, kReplaced);
         } else if (old.outgoing) {
             // Crossed connects: keep the one initiated by the lower id, the same on both sides.
             ++enet_counters_.crossed_connects;

@@ -54,7 +54,7 @@ assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == p
 
 # 3. Slot 1 joins at frame 300 (absent before), a spectator joins at frame 150: same checksums
 #    everywhere.
-"$lockroll" live --players 2 --frames 420 --latency 10 --mode lockstep --no-virtual --join 1@300 --spectators 1 \
+"$lockroll" live --players 2 --frames 600 --latency 10 --mode lockstep --no-virtual --join 1@300 --spectators 1 \
     --spectate-at 150 \
     --out "$tmp/join" >"$tmp/join.out" 2>&1 || { fail "join: exit status $?"; tail -5 "$tmp/join.out"; }
 check join "$tmp/join" lockstep '
