@@ -157,7 +157,8 @@ void RelaySession::handle_welcome(std::uint64_t now_us) {
     welcomed_ = true;
     my_id_ = w.slot;
     checksum_interval_ = w.checksum_interval;
-    if (w.echo_us && w.echo_us <= now_us) link_.add_rtt_sample(now_us - w.echo_us);
+    // No round trip from the hello's echo: the hello may have waited for the connection (a
+    // runner holds reliable sends until it is up). Frames messages echo input stamps instead.
     emit(SessionEvent::Kind::Synchronizing, static_cast<PlayerId>(my_id_), 0, now_us,
          "welcomed by the relay server as id " + std::to_string(my_id_));
     room_started_ = w.started;
@@ -167,10 +168,6 @@ void RelaySession::handle_welcome(std::uint64_t now_us) {
         begin_transfer(w.snapshot_from, reason, now_us);
     } else if (w.started) {
         start_running(now_us);
-    }
-    if (config_.auto_input_delay && link_.has_rtt()) {
-        last_delay_revision_us_ = 0;
-        revise_input_delay(now_us);
     }
 }
 

@@ -38,18 +38,18 @@ void write_atomically(const std::string& path, const std::string& text) {
     std::filesystem::rename(tmp, path, ec);
 }
 
-std::string status_json(const RelayServer& s, bool draining, std::uint16_t port, double uptime_s) {
+std::string status_json(const RelayServer& s, const transport::EnetServer& enet, bool draining, double uptime_s) {
     const ServerCounters& c = s.counters();
-    char buf[1024];
+    auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+    char buf[1200];
     std::snprintf(buf, sizeof buf,
                   "{\"state\": \"%s\", \"port\": %u, \"uptime_s\": %.1f, \"rooms\": %zu, \"connections\": %zu, "
                   "\"rooms_created\": %llu, \"rooms_closed\": %llu, \"hellos_refused\": %llu, \"bad_packets\": %llu, "
-                  "\"throttled\": %llu, \"kicks\": %llu, \"datagrams_in\": %llu, \"datagrams_out\": %llu}\n",
-                  draining ? "draining" : "ready", port, uptime_s, s.room_count(), s.connection_count(),
-                  static_cast<unsigned long long>(c.rooms_created), static_cast<unsigned long long>(c.rooms_closed),
-                  static_cast<unsigned long long>(c.hellos_refused), static_cast<unsigned long long>(c.bad_packets),
-                  static_cast<unsigned long long>(c.throttled), static_cast<unsigned long long>(c.kicks),
-                  static_cast<unsigned long long>(c.datagrams_in), static_cast<unsigned long long>(c.datagrams_out));
+                  "\"throttled\": %llu, \"kicks\": %llu, \"datagrams_in\": %llu, \"datagrams_out\": %llu, "
+                  "\"bytes_in\": %llu, \"bytes_out\": %llu, \"wire_bytes_in\": %llu, \"wire_bytes_out\": %llu}\n",
+                  draining ? "draining" : "ready", enet.port(), uptime_s, s.room_count(), s.connection_count(), u(c.rooms_created),
+                  u(c.rooms_closed), u(c.hellos_refused), u(c.bad_packets), u(c.throttled), u(c.kicks), u(c.datagrams_in),
+                  u(c.datagrams_out), u(c.bytes_in), u(c.bytes_out), u(enet.wire_bytes_received()), u(enet.wire_bytes_sent()));
     return buf;
 }
 }  // namespace
@@ -138,14 +138,13 @@ int ServerProcess::run() {
         if (now >= next_status) {
             next_status = now + 1000000;
             if (!options_.status_file.empty())
-                write_atomically(options_.status_file, status_json(server, server.draining(), enet.port(),
-                                                                   static_cast<double>(now - start) / 1e6));
+                write_atomically(options_.status_file, status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
         }
         if (server.drained()) {
             out.clear();
             enet.flush();
             if (!options_.status_file.empty())
-                write_atomically(options_.status_file, status_json(server, true, enet.port(), static_cast<double>(now - start) / 1e6));
+                write_atomically(options_.status_file, status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
             log->info("drained: every room finished; exiting");
             return 0;
         }
