@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <random>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -562,6 +563,9 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     for (int a : p.o.absent) rc.absent_slots = static_cast<std::uint16_t>(rc.absent_slots | (1u << a));
     rc.max_recoveries = std::max(p.o.recoveries, 0);
     rc.cpu_clock = thread_cpu_ns;
+    // The token a reconnect resumes the slot with: random, so no other client can take it over.
+    std::random_device rd;
+    rc.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
     rollback::RelaySession session(rc, sim, &rec);
     rec.watch(session);
     inject_faults(p, session);

@@ -34,6 +34,7 @@ void RelayRunner::service_until(std::uint64_t deadline_us) {
         transport_.poll(now);
         for (transport::TransportEvent e; transport_.next_event(e);) {
             if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
+                if (connections_++ > 0) session_.transport_reconnected(now);  // a new connection: hello again
                 for (const auto& bytes : held_) transport_.send_reliable(e.peer, bytes, now);
                 held_.clear();
             }

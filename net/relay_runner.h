@@ -1,7 +1,8 @@
 // RelayRunner: one RelaySession bound to ENet and the clock, talking to the relay server. The
 // relay twin of PeerRunner (peer_runner.h, whose RunnerConfig, observer and outcomes it shares):
 //  - Connection: one, to the server, retried every half second while not connected, for the
-//    whole run (a server that restarts, or a connection ENet dropped, is reached again).
+//    whole run. A connection ENet dropped is made again and the session says hello again: the
+//    server resumes it by its incarnation.
 //  - Each tick: drain the transport -> RelaySession::receive -> local input for frame() +
 //    input_delay() -> advance -> catch_up() while behind() (a late start, a joiner, a clock
 //    running slow: the session says how far it is behind the room clock) -> events -> poll ->
@@ -58,6 +59,7 @@ private:
     std::vector<std::vector<std::uint8_t>> held_;  // reliable sends before the connection is up
     std::uint64_t period_us_ = 0;
     std::uint64_t last_connect_us_ = 0;
+    int connections_ = 0;  // to the server so far (a later one is a reconnect)
     std::uint64_t last_extra_us_ = 0;
     std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
 };

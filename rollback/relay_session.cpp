@@ -155,6 +155,11 @@ void RelaySession::handle_welcome(std::uint64_t now_us) {
     if (w.players != config_.players || w.input_size != config_.input_size || w.tick_rate != config_.tick_rate)
         return fail("relay server: the room's players, input size or tick rate differ", now_us);
     welcomed_ = true;
+    if (phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring) {
+        // Welcomed again after a reconnect: the server resumed this client where it was.
+        emit(SessionEvent::Kind::Resumed, static_cast<PlayerId>(w.slot), frame(), now_us, "resumed on a new connection");
+        return;
+    }
     my_id_ = w.slot;
     checksum_interval_ = w.checksum_interval;
     // No round trip from the hello's echo: the hello may have waited for the connection (a
@@ -376,6 +381,13 @@ void RelaySession::handle_notice(std::uint64_t now_us) {
             emit(SessionEvent::Kind::Kicked, static_cast<PlayerId>(std::max(my_id_, 0)), frame(), now_us, "kicked by the relay server");
             return fail("kicked by the relay server", now_us);
     }
+}
+
+void RelaySession::transport_reconnected(std::uint64_t now_us) {
+    (void)now_us;
+    if (phase_ == SessionPhase::Failed || !welcomed_) return;
+    welcomed_ = false;  // say hello again on the new connection (same incarnation: a resume)
+    hello_sent_ = false;
 }
 
 // ---- pacing ----

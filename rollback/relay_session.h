@@ -64,7 +64,9 @@ struct RelaySessionConfig {
     std::uint64_t room_id = 0;
     std::uint64_t scene_checksum = 0;   // 0: the simulation's initial-state checksum
     std::uint16_t absent_slots = 0;     // bit s: nobody plays slot s at frame 0
-    std::uint64_t incarnation = 0;      // 0: taken from the first now_us
+    // Names this process to the server; a reconnect with the same value resumes its slot, so
+    // make it unguessable (random). 0: taken from the first now_us (tests).
+    std::uint64_t incarnation = 0;
     std::uint64_t hello_resend_us = 250000;
     std::uint64_t transfer_resend_us = 250000;
     int transfer_window = 32;
@@ -108,6 +110,9 @@ public:
     // Frames this client is behind its target (0 when on time or ahead).
     std::int32_t behind(std::uint64_t now_us) const;
     bool next_event(SessionEvent& out);
+    // The transport lost the server and connected again: say hello again. The server knows this
+    // process by its incarnation and resumes it (same slot, stream and state; no snapshot).
+    void transport_reconnected(std::uint64_t now_us);
     // As Session::inject_fault.
     std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
 

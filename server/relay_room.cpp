@@ -137,6 +137,22 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
     }
     if (h.slot >= players_) return refuse(RelayRefusal::BadSlot);
     Slot& s = slots_[h.slot];
+    // The same process on a new connection (its transport reconnected): it keeps its slot, its
+    // stream and its state; no snapshot. The incarnation is the client's secret token.
+    if (started_ && h.incarnation != 0 && h.incarnation == s.incarnation && s.state != SlotState::Absent) {
+        if (s.connected && replaced) *replaced = s.client.connection;
+        const bool was_running = s.state == SlotState::Running;
+        s.connected = true;
+        s.client = fresh;
+        s.state = SlotState::Running;
+        if (!was_running) {  // it had left: its inputs count again from a little ahead
+            s.input_from = std::max(confirmed_next_, clock_frame(now_us)) + static_cast<std::uint32_t>(config_.handoff_ticks);
+            std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+        }
+        s.late = false;  // resumes: no snapshot
+        send_welcome(c, h.slot, RelayRefusal::None, h.stamp_us, now_us, out);
+        return RelayRefusal::None;
+    }
     if (s.connected) {
         if (now_us - s.client.last_heard_us < config_.replace_silent_us) return refuse(RelayRefusal::SlotTaken);
         if (replaced) *replaced = s.client.connection;  // a restarted process takes its slot back

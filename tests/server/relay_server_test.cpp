@@ -24,8 +24,10 @@ protected:
 
     void connect(ConnectionId c) { server->on_connect(c, now); }
     void send(ConnectionId c, const std::vector<std::uint8_t>& bytes) { server->receive(c, bytes, now); }
-    void hello(ConnectionId c, std::uint64_t room, int slot, RelayRole role = RelayRole::Player, int players = 2) {
+    void hello(ConnectionId c, std::uint64_t room, int slot, RelayRole role = RelayRole::Player, int players = 2,
+               std::uint64_t incarnation = 0) {
         RelayHello h;
+        h.incarnation = incarnation ? incarnation : 1000 + c;
         h.room_id = room;
         h.players = static_cast<std::uint8_t>(players);
         h.input_size = 2;
@@ -137,6 +139,27 @@ TEST_F(Server, HelloForAHeldSlotIsRefusedAndTheHolderIsUntouched) {
     EXPECT_FALSE(was_kicked(2));
     EXPECT_EQ(server->room(7)->slot_of(2), 1);
     EXPECT_EQ(server->room(7)->confirmed_frames(), 4u);
+}
+
+TEST_F(Server, SameProcessOnANewConnectionResumesItsSlotOthersAreRefused) {
+    start_room(7, 1, 2);  // incarnations 1001 and 1002
+    inputs(1, 0, 1, 4);
+    inputs(2, 0, 2, 4);
+    connect(3);
+    hello(3, 7, 1, RelayRole::Player, 2, 4242);  // not slot 1's process, and slot 1 is live
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::SlotTaken);
+    connect(4);
+    hello(4, 7, 1, RelayRole::Player, 2, 1002);  // slot 1's process after a reconnect
+    drain();
+    ASSERT_FALSE(welcomes[4].empty());
+    EXPECT_EQ(last_refusal(4), RelayRefusal::None);
+    EXPECT_EQ(welcomes[4].back().snapshot_from, RelayRoom::kNoSlot);  // it keeps its own state
+    EXPECT_TRUE(was_kicked(2));                                       // the old connection goes
+    EXPECT_EQ(server->room(7)->slot_of(4), 1);
+    inputs(1, 4, 1, 2);
+    inputs(4, 4, 2, 2);  // its stream goes on where it was
+    EXPECT_EQ(server->room(7)->confirmed_frames(), 6u);
 }
 
 TEST_F(Server, BoundConnectionClaimingAnotherSlotIsKicked) {
