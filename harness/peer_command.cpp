@@ -525,6 +525,15 @@ net::RunnerConfig runner_config(const PeerPlan& p) {
     return rc;
 }
 
+// The bot's input for a frame, recorded for the input-latency figures.
+net::InputSource bot_input(const Bot& bot, const rollback::WorldSimulation& sim, PeerRecorder& rec) {
+    return [&bot, &sim, &rec](std::uint32_t frame, std::span<std::uint8_t> out) {
+        const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
+        rec.before_advance(net::now_us(), frame, bytes);
+        std::copy(bytes.begin(), bytes.end(), out.begin());
+    };
+}
+
 template <class SessionT>
 void inject_faults(const PeerPlan& p, SessionT& session) {
     for (const auto& inj : p.injections)
@@ -574,13 +583,7 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
               p.o.spectate ? "spectator" : "slot", p.o.slot, p.o.players, mode_name(p.mode));
     rec.event("listening", net::now_us(), {{"port", enet.port()}, {"room", p.o.room}});
     const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::RelayRunner runner(runner_config(p), p.server.host, p.server.port, session, enet,
-                            [&](std::uint32_t frame, std::span<std::uint8_t> out) {
-                                const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-                                rec.before_advance(net::now_us(), frame, bytes);
-                                std::copy(bytes.begin(), bytes.end(), out.begin());
-                            },
-                            &rec);
+    net::RelayRunner runner(runner_config(p), p.server.host, p.server.port, session, enet, bot_input(bot, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     if (outcome == net::RunOutcome::Failed) log->error("session failed: {}", session.failure());
     const rollback::RelayStats& rs = session.relay_stats();
@@ -637,14 +640,7 @@ int do_peer(const PeerOptions& options) {
     rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
 
     const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::PeerRunner runner(
-        runner_config(p), session, enet,
-        [&](std::uint32_t frame, std::span<std::uint8_t> out) {
-            const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-            rec.before_advance(net::now_us(), frame, bytes);
-            std::copy(bytes.begin(), bytes.end(), out.begin());
-        },
-        &rec);
+    net::PeerRunner runner(runner_config(p), session, enet, bot_input(bot, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     const rollback::SessionStats& st = session.stats();
     json rtts = json::object();

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "net/clock.h"
+#include "net/tick_schedule.h"
 
 namespace lockroll::net {
 
@@ -181,23 +182,15 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 RunOutcome PeerRunner::run() {
     const std::uint64_t begin = now_us();
     if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    // Tick k is due at start + k / tick_rate seconds (exact integers) + all stretches so far.
-    const std::uint64_t start = now_us();
-    std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0;
-    const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
+    TickSchedule schedule(now_us(), config_.tick_rate, config_.max_catch_up);
+    RunEnd end(config_);
     for (;;) {
-        std::uint64_t due = start + k * 1000000u / rate + offset;
-        service_until(due);
+        service_until(schedule.due());
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
         const std::uint64_t now = now_us();
-        if (now > due + static_cast<std::uint64_t>(config_.max_catch_up) * period_us_) {
-            offset += now - due;
-            due = now;
-            ++schedule_resets_;
-        }
-        tick(now, due);
-        offset += last_extra_us_;
-        ++k;
+        tick(now, schedule.start_tick(now));
+        schedule_resets_ = schedule.resets();
+        schedule.finish_tick(last_extra_us_);
         if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
         if (!started_us_) {
             if (session_.running()) {
@@ -208,14 +201,9 @@ RunOutcome PeerRunner::run() {
             }
             continue;
         }
-        if (!reached && session_.frame() >= config_.target_frame) reached = now;
-        if (reached && !all_confirmed && everyone_confirmed()) {
-            all_confirmed = now;
-            if (observer_) observer_->on_all_confirmed(now);
-        }
-        if (all_confirmed && now - all_confirmed >= config_.linger_us) return RunOutcome::Completed;
-        if (reached && !all_confirmed && now - reached > config_.finish_timeout_us) return RunOutcome::FinishTimeout;
-        if (!reached && config_.run_timeout_us && now - started_us_ > config_.run_timeout_us) return RunOutcome::RunTimeout;
+        const bool shown = session_.frame() >= config_.target_frame;
+        if (auto outcome = end.check(now, started_us_, shown, (shown || end.reached()) && everyone_confirmed(), observer_))
+            return *outcome;
     }
 }
 

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "net/clock.h"
+#include "net/tick_schedule.h"
 
 namespace lockroll::net {
 
@@ -87,24 +88,18 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 
 RunOutcome RelayRunner::run() {
     const std::uint64_t begin = now_us();
-    const std::uint64_t start = begin;
-    std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0, started = 0;
-    const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
+    TickSchedule schedule(begin, config_.tick_rate, config_.max_catch_up);
+    RunEnd end(config_);
+    std::uint64_t started = 0;
     const bool spectator = session_.config().role == rollback::RelayRole::Spectator;
     const std::uint32_t target = config_.target_frame;
     for (;;) {
-        std::uint64_t due = start + k * 1000000u / rate + offset;
-        service_until(due);
+        service_until(schedule.due());
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
         const std::uint64_t now = now_us();
-        if (now > due + static_cast<std::uint64_t>(config_.max_catch_up) * period_us_) {
-            offset += now - due;
-            due = now;
-            ++schedule_resets_;
-        }
-        tick(now, due);
-        offset += last_extra_us_;
-        ++k;
+        tick(now, schedule.start_tick(now));
+        schedule_resets_ = schedule.resets();
+        schedule.finish_tick(last_extra_us_);
         if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
         if (!started) {
             if (session_.running()) {
@@ -115,15 +110,10 @@ RunOutcome RelayRunner::run() {
             }
             continue;
         }
-        if (!reached && session_.frame() >= target) reached = now;
-        if (reached && !all_confirmed && session_.confirmed_frame() >= target &&
-            (spectator || session_.server_input_ack() >= target)) {
-            all_confirmed = now;
-            if (observer_) observer_->on_all_confirmed(now);
-        }
-        if (all_confirmed && now - all_confirmed >= config_.linger_us) return RunOutcome::Completed;
-        if (reached && !all_confirmed && now - reached > config_.finish_timeout_us) return RunOutcome::FinishTimeout;
-        if (!reached && config_.run_timeout_us && now - started > config_.run_timeout_us) return RunOutcome::RunTimeout;
+        // Everyone's confirmation is the server's business; ours, and the server holding our
+        // inputs up to the target, is what this process waits for.
+        const bool confirmed = session_.confirmed_frame() >= target && (spectator || session_.server_input_ack() >= target);
+        if (auto outcome = end.check(now, started, session_.frame() >= target, confirmed, observer_)) return *outcome;
     }
 }
 

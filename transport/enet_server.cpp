@@ -2,6 +2,8 @@
 
 #include <enet/enet.h>
 
+#include "transport/enet_library.h"
+
 #include <cstdlib>
 #include <mutex>
 #include <stdexcept>
@@ -14,15 +16,6 @@ constexpr enet_uint8 kReliableChannel = 1;
 constexpr int kMaxEventsPerPoll = 8192;
 constexpr int kMaxErrorsPerPoll = 1024;
 
-void ensure_enet_initialized() {
-    static std::once_flag once;
-    static bool ok = false;
-    std::call_once(once, [] {
-        ok = enet_initialize() == 0;
-        if (ok) std::atexit(enet_deinitialize);
-    });
-    if (!ok) throw std::runtime_error("ENet: enet_initialize failed");
-}
 
 std::uint32_t id_of(const ENetPeer* p) { return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(p->data)); }
 

@@ -2,6 +2,8 @@
 
 #include <enet/enet.h>
 
+#include "transport/enet_library.h"
+
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
@@ -45,16 +47,6 @@ std::string close_reason(enet_uint32 code) {
     }
 }
 
-// enet_initialize once per process, enet_deinitialize at exit.
-void ensure_enet_initialized() {
-    static std::once_flag once;
-    static bool ok = false;
-    std::call_once(once, [] {
-        ok = enet_initialize() == 0;
-        if (ok) std::atexit(enet_deinitialize);
-    });
-    if (!ok) throw std::runtime_error("ENet: enet_initialize failed");
-}
 
 void configure_peer(ENetPeer* peer) {
     // Deceleration 0: ENet never lowers the packet throttle, so it never discards our

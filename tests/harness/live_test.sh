@@ -94,7 +94,7 @@ expect2() {
     out=$("$lockroll" live "$@" --out "$tmp/bad" 2>&1); status=$?
     if [[ $status -ne 2 ]] || ! grep -qE -- "$pattern" <<<"$out"; then fail "live $* -> $status: $out"; else echo "ok: exit 2 /$pattern/"; fi
 }
-expect2 "--topology star" --topology star
+expect2 "--topology: star not in" --topology star
 expect2 "--kill 5@10: SLOT must be" --kill 5@10
 expect2 "--rejoin 1@50: needs an earlier --kill" --rejoin 1@50
 expect2 "--kill x: expected SLOT@FRAME" --kill x

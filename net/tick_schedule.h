@@ -1,0 +1,72 @@
+// When a runner's ticks are due, and when its run is over: the timing PeerRunner and
+// RelayRunner share.
+//
+// TickSchedule: tick k is due at start + k / tick_rate seconds (exact integers) plus every
+// stretch so far. A tick that is late runs at once; more than max_behind ticks late, the schedule
+// restarts from now, so a process that froze does not then fast-forward in a burst.
+//
+// RunEnd: after the session started, the run completes once the target frame was shown and
+// everyone confirmed it, plus linger_us (so the last acknowledgements get out); it times out
+// finish_timeout_us after showing the target, or run_timeout_us after starting without showing
+// it.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "net/peer_runner.h"
+
+namespace lockroll::net {
+
+class TickSchedule {
+public:
+    TickSchedule(std::uint64_t start_us, int tick_rate, int max_behind)
+        : start_(start_us), rate_(static_cast<std::uint64_t>(tick_rate)), max_behind_(static_cast<std::uint64_t>(max_behind)) {}
+
+    std::uint64_t due() const { return start_ + k_ * 1000000u / rate_ + offset_; }
+    // The next tick runs at `now`: returns when it was due (now, after a restart).
+    std::uint64_t start_tick(std::uint64_t now) {
+        std::uint64_t d = due();
+        if (now > d + max_behind_ * (1000000u / rate_)) {
+            offset_ += now - d;
+            d = now;
+            ++resets_;
+        }
+        return d;
+    }
+    // That tick ran; the one after it comes extra_us later than the rate says.
+    void finish_tick(std::uint64_t extra_us) {
+        offset_ += extra_us;
+        ++k_;
+    }
+    std::uint64_t resets() const { return resets_; }
+
+private:
+    std::uint64_t start_, rate_, max_behind_;
+    std::uint64_t offset_ = 0, k_ = 0, resets_ = 0;
+};
+
+class RunEnd {
+public:
+    explicit RunEnd(const RunnerConfig& config) : config_(config) {}
+    // Called every tick after the session started (at started_us): nullopt while the run goes on.
+    std::optional<RunOutcome> check(std::uint64_t now, std::uint64_t started_us, bool shown_target, bool everyone_confirmed,
+                                    RunnerObserver* observer) {
+        if (!reached_ && shown_target) reached_ = now;
+        if (reached_ && !all_confirmed_ && everyone_confirmed) {
+            all_confirmed_ = now;
+            if (observer) observer->on_all_confirmed(now);
+        }
+        if (all_confirmed_ && now - all_confirmed_ >= config_.linger_us) return RunOutcome::Completed;
+        if (reached_ && !all_confirmed_ && now - reached_ > config_.finish_timeout_us) return RunOutcome::FinishTimeout;
+        if (!reached_ && config_.run_timeout_us && now - started_us > config_.run_timeout_us) return RunOutcome::RunTimeout;
+        return std::nullopt;
+    }
+    bool reached() const { return reached_ != 0; }
+
+private:
+    const RunnerConfig& config_;
+    std::uint64_t reached_ = 0, all_confirmed_ = 0;
+};
+
+}  // namespace lockroll::net
