@@ -360,7 +360,17 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
         if (const char* e = decode(d, fwd_)) return e;
         Client* to = client(fwd_.slot);
         if (fwd_.slot == id) return "relay forward: to itself";
-        if (!to) return nullptr;  // it left: the requester asks again elsewhere
+        if (!to) {
+            // Its snapshot source left: name another (if any), and the requester asks it.
+            RelayNotice n;
+            n.kind = RelayNoticeKind::Snapshot;
+            n.slot = static_cast<std::uint8_t>(snapshot_source(id));
+            if (n.slot == kNoSlot) return nullptr;
+            Outgoing o{cl->connection, {}, true};
+            encode(n, o.bytes);
+            out.push_back(std::move(o));
+            return nullptr;
+        }
         RelayForward back;
         back.slot = static_cast<std::uint8_t>(id);
         back.payload = std::move(fwd_.payload);

@@ -235,6 +235,37 @@ TEST_F(Server, DrainRefusesNewHellosAndEndsWhenRoomsFinish) {
     EXPECT_TRUE(server->drained());
 }
 
+TEST_F(Server, ForwardToAClientThatLeftNamesAnotherSource) {
+    connect(1);
+    connect(2);
+    connect(3);
+    hello(1, 7, 0, RelayRole::Player, 3);
+    hello(2, 7, 1, RelayRole::Player, 3);
+    hello(3, 7, 2, RelayRole::Player, 3);
+    drain();
+    for (ConnectionId c : {1u, 2u, 3u}) inputs(c, 0, 1, 3);  // everyone has confirmed frames
+    for (ConnectionId c : {1u, 2u, 3u}) inputs(c, 3, 1, 1, 3);
+    server->on_disconnect(1, now);
+    RelayForward f;
+    f.slot = 0;  // slot 2 asks the departed slot 0 for a snapshot
+    f.payload = {6, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    std::vector<std::uint8_t> b;
+    encode(f, b);
+    send(3, b);
+    std::vector<Outgoing> out;
+    server->take_outgoing(out);
+    bool told = false;
+    for (const auto& o : out)
+        if (o.to == 3 && peek_relay_kind(o.bytes) == RelayKind::Notice) {
+            RelayNotice n;
+            ASSERT_EQ(decode(o.bytes, n), nullptr);
+            EXPECT_EQ(n.kind, RelayNoticeKind::Snapshot);
+            EXPECT_EQ(n.slot, 1);  // the lowest connected player left
+            told = true;
+        }
+    EXPECT_TRUE(told);
+}
+
 TEST_F(Server, RoomLimitIsEnforced) {
     ServerConfig c = config();
     c.max_rooms = 1;
