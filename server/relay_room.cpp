@@ -24,9 +24,10 @@ RelayRoom::RelayRoom(std::uint64_t id, const RelayHello& first, const RoomConfig
       tick_rate_(first.tick_rate),
       scene_checksum_(first.scene_checksum),
       absent_at_start_(first.absent_slots),
-      period_us_(1000000u / std::max<unsigned>(1, first.tick_rate)) {
-    const double frames = std::max(1.0, config.history_s * tick_rate_);
-    history_cap_ = static_cast<std::size_t>(std::min(frames, 1e9));
+      period_us_(1000000u / std::max<unsigned>(1, first.tick_rate)),
+      history_(static_cast<std::size_t>(first.players) * (1 + first.input_size),
+               static_cast<std::size_t>(std::min(std::max(1.0, config.history_s * first.tick_rate), 1e9))) {
+
     slots_.resize(static_cast<std::size_t>(players_));
     for (auto& s : slots_) {
         s.last_input.assign(input_size_, 0);
@@ -211,12 +212,7 @@ std::uint32_t RelayRoom::input_ack(const Slot& s) const {
 void RelayRoom::confirm_one(std::uint64_t now_us) {
     (void)now_us;
     const std::uint32_t f = confirmed_next_;
-    std::vector<std::uint8_t> rec;
-    if (history_.size() >= history_cap_) {
-        rec = std::move(history_.front());
-        history_.pop_front();
-    }
-    rec.assign(static_cast<std::size_t>(players_) * (1 + input_size_), 0);
+    const std::span<std::uint8_t> rec = history_.push();
     std::uint8_t* inputs = rec.data() + players_;
     for (int p = 0; p < players_; ++p) {
         Slot& s = slots_[static_cast<std::size_t>(p)];
@@ -233,7 +229,6 @@ void RelayRoom::confirm_one(std::uint64_t now_us) {
             ++s.counters.replaced;
         }
     }
-    history_.push_back(std::move(rec));
     ++confirmed_next_;
 }
 
@@ -275,7 +270,7 @@ void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us,
     m.flags.resize(count * slots);
     m.inputs.resize(count * slots * input_size_);
     for (std::uint32_t i = 0; i < count; ++i) {
-        const auto& rec = history_[from + i - history_base()];
+        const auto rec = history_.at(from + i - history_base());
         std::copy_n(rec.begin(), slots, m.flags.begin() + static_cast<std::ptrdiff_t>(i * slots));
         std::copy_n(rec.begin() + static_cast<std::ptrdiff_t>(slots), slots * input_size_,
                     m.inputs.begin() + static_cast<std::ptrdiff_t>(i * slots * input_size_));
@@ -404,7 +399,7 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
             const auto frame = static_cast<std::uint32_t>(f);
             if (frame < low) {
                 if (frame < confirmed_next_ && frame >= history_base() &&
-                    (history_[frame - history_base()][static_cast<std::size_t>(id)] & kRelayReplaced))
+                    (history_.at(frame - history_base())[static_cast<std::size_t>(id)] & kRelayReplaced))
                     ++s.counters.late;
                 continue;
             }
@@ -497,10 +492,16 @@ void RelayRoom::decide(Check& c, std::vector<Outgoing>& out) {
 
 bool RelayRoom::confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const {
     if (frame >= confirmed_next_ || frame < history_base()) return false;
-    const auto& rec = history_[frame - history_base()];
+    const auto rec = history_.at(frame - history_base());
     flags.assign(rec.begin(), rec.begin() + players_);
     inputs.assign(rec.begin() + players_, rec.end());
     return true;
+}
+
+std::size_t RelayRoom::bytes_reserved() const {
+    std::size_t n = history_.bytes_reserved();
+    for (const auto& sl : slots_) n += sl.pending.capacity() + sl.pending_frame.capacity() * sizeof(std::uint32_t) + sl.last_input.capacity();
+    return n;
 }
 
 }  // namespace lockroll::server

@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "rollback/relay_messages.h"
+#include "server/frame_history.h"
 
 namespace lockroll::server {
 
@@ -159,6 +160,11 @@ private:
     void decide(Check& c, std::vector<Outgoing>& out);
     int snapshot_source(int except) const;
     std::uint32_t history_base() const { return confirmed_next_ - static_cast<std::uint32_t>(history_.size()); }
+public:
+    // Bytes this room holds beyond its fixed part (history, input windows): what one room costs.
+    std::size_t bytes_reserved() const;
+
+private:
 
     std::uint64_t id_;
     RoomConfig config_;
@@ -172,9 +178,8 @@ private:
     std::uint64_t start_us_ = 0;
     std::uint64_t next_tick_us_ = 0;
     std::uint32_t confirmed_next_ = 0;
-    std::size_t history_cap_;
     // Confirmed frames, oldest first: players flags then players * input_size inputs each.
-    std::deque<std::vector<std::uint8_t>> history_;
+    FrameHistory history_;
     std::vector<Slot> slots_;
     std::vector<Spectator> spectators_;
     static constexpr std::size_t kMaxPendingChecks = 16;
