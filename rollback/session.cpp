@@ -142,6 +142,21 @@ void validate(const SessionConfig& c) {
     require(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
     require(c.max_recoveries >= 0, "max_recoveries must be >= 0");
     require(c.relay_lag >= 0, "relay_lag must be >= 0");
+    if (!c.slot_hosts.empty()) {
+        require(c.slot_hosts.size() == static_cast<std::size_t>(c.players), "slot_hosts must have one entry per slot");
+        bool guests = false;
+        for (std::size_t s = 0; s < c.slot_hosts.size(); ++s) {
+            const PlayerId h = c.slot_hosts[s];
+            require(h <= s && c.slot_hosts[h] == h,
+                    "slot_hosts[" + std::to_string(s) + "] must be a slot <= " + std::to_string(s) + " that hosts itself");
+            require((c.absent_slots >> s & 1) == (c.absent_slots >> h & 1),
+                    "slot " + std::to_string(s) + " must be absent exactly when its host is");
+            if (h != s && h == c.local_player) guests = true;
+        }
+        if (c.role != Role::Spectator)
+            require(c.slot_hosts[c.local_player] == c.local_player, "local_player must be the lowest slot of its process");
+        require(!guests || c.role == Role::Player, "a joiner cannot host other slots yet");
+    }
 }
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
@@ -187,6 +202,12 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     local_advantage_.assign(peers, 0);
     replies_this_poll_.assign(peers, 0);
     slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
+    for (int s = 0; s < config_.players; ++s) any_guest_ = any_guest_ || is_guest(static_cast<PlayerId>(s));
+    guest_scratch_.assign(kMaxInputSize, 0);
+    if (config_.role != Role::Spectator)
+        for (int s = 0; s < config_.players; ++s)
+            if (static_cast<PlayerId>(s) == config_.local_player || my_guest(static_cast<PlayerId>(s)))
+                local_slots_.push_back(static_cast<PlayerId>(s));
     for (int s = 0; s < config_.players; ++s)
         if (config_.absent_slots >> s & 1) slots_[static_cast<std::size_t>(s)].state = SlotState::Absent;
     if (config_.role != Role::Player) {
@@ -231,7 +252,7 @@ void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
 }
 
 bool Session::live_peer(PlayerId p) const {
-    if (p == config_.local_player || p >= links_.size()) return false;
+    if (p == config_.local_player || p >= links_.size() || is_guest(p)) return false;
     const PeerLink& l = links_[p];
     if (!l.welcomed || l.error()) return false;
     if (is_slot(p)) return slot_running(p);
@@ -488,7 +509,7 @@ void Session::maybe_start(std::uint64_t now_us) {
     const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid)) continue;
+        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
         if (links_[pid].roundtrips < needed) return;
     }
     start_running(now_us);
@@ -629,7 +650,8 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
-    if (slot == config_.local_player && config_.role != Role::Spectator && e.state != SlotState::Running) {
+    if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
+        e.state != SlotState::Running) {
         emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
         fail("dropped from the match by the other peers", now_us);
         return;
@@ -661,7 +683,7 @@ void Session::apply_blocks(PlayerId from) {
     const std::size_t n = config_.input_size;
     for (const StreamBlock& b : in_msg_.blocks) {
         if (is_slot(from) && b.slot == from) continue;
-        if (config_.role != Role::Spectator && b.slot == config_.local_player) continue;
+        if (config_.role != Role::Spectator && (b.slot == config_.local_player || my_guest(b.slot))) continue;
         const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
         if (!first) continue;
         for (std::uint32_t k = 0; k < b.frame_count; ++k) {
@@ -795,11 +817,15 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     links_[slot].interrupted = false;
     detector_->peer_failed(slot);
     emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
+    // The slots its process played go with it.
+    for (int s = slot + 1; s < config_.players; ++s)
+        if (host_of(static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, "its host was dropped");
     refresh_resend_floor();
 }
 
 void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
-    if (!is_slot(slot) || slot == config_.local_player) throw std::invalid_argument("disconnect_player: not a remote slot");
+    if (!is_slot(slot) || slot == config_.local_player || my_guest(slot))
+        throw std::invalid_argument("disconnect_player: not a remote slot");
     drop_slot(slot, now_us, "kicked");
 }
 
@@ -862,12 +888,37 @@ void Session::author_absent_streams(std::uint64_t now_us) {
     }
 }
 
+// The slots this session hosts follow its own stream frame for frame: their inputs are
+// confirmed at once (the gap a longer input delay opens repeats each one's last input, as the
+// local stream does) and reach the peers as stream blocks (fill_extension).
+void Session::author_guest_streams(std::span<const std::uint8_t> inputs) {
+    const std::size_t n = config_.input_size;
+    const std::uint32_t want = count_of(config_.local_player);
+    for (std::size_t i = 1; i < local_slots_.size(); ++i) {
+        const PlayerId g = local_slots_[i];
+        if (!slot_running(g)) continue;
+        const auto input = inputs.subspan((i - 1) * n, n);
+        const InputQueue& q = sync_->queue(g);
+        while (count_of(g) < want) {
+            const std::uint32_t f = count_of(g);
+            const auto last = q.last_confirmed();
+            std::copy(input.begin(), input.end(), guest_scratch_.begin());
+            if (f + 1 < want && !last.empty()) std::copy(last.begin(), last.end(), guest_scratch_.begin());
+            if (f + 1 < want && last.empty()) std::fill(guest_scratch_.begin(), guest_scratch_.end(), std::uint8_t{0});
+            if (sync_->add_remote_input(g, f, std::span(guest_scratch_).first(n)) != InputQueue::Add::Stored) break;
+        }
+    }
+}
+
 AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
-    if (local_input.size() != config_.input_size)
-        throw std::invalid_argument("advance: local input must be input_size bytes");
-    last_now_us_ = std::max(last_now_us_, now_us);
     AdvanceResult result;
     result.frame = sync_->frame();
+    const std::size_t expected = std::max<std::size_t>(local_slots_.size(), 1) * config_.input_size;
+    if (local_input.size() != expected) {
+        ++stats_.bad_local_inputs;
+        return result;
+    }
+    last_now_us_ = std::max(last_now_us_, now_us);
     if (phase_ != SessionPhase::Running) return result;
     ++stats_.ticks;
     check_silence(now_us);
@@ -892,8 +943,10 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
         const std::uint32_t min_frame = joining_ ? count : 0;
         const std::uint32_t target = std::max(local_target(), min_frame);
         const InputQueue& local = sync_->queue(config_.local_player);
+        const std::size_t n = config_.input_size;
         if (std::uint64_t{target} < std::uint64_t{local.floor()} + local.capacity())
-            input_taken = sync_->add_local_input(local_input, input_delay_, min_frame);
+            input_taken = sync_->add_local_input(local_input.first(n), input_delay_, min_frame);
+        author_guest_streams(local_input.subspan(n));
     }
     const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
                                 : sync_->must_wait(input_delay_);
@@ -965,7 +1018,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
     // Hellos: a player until frame 0; a newcomer until every running slot has welcomed it.
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid)) continue;
+        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
         PeerLink& l = links_[pid];
         const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
                                    : phase_ == SessionPhase::Synchronizing;
@@ -1341,6 +1394,8 @@ void Session::consider_recovery(std::uint64_t now_us) {
 
 bool Session::extension_needed(PlayerId to) const {
     if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
+    // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
+    if (any_guest_) return true;
     if (any_slot_not_running()) return true;
     for (const SlotView& v : slots_)
         if (v.handed_off_by_me) return true;
@@ -1376,7 +1431,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
         const std::uint32_t mine = q.confirmed_count();
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
-        const bool relay = !is_slot(to) || v.state != SlotState::Running ||
+        const bool relay = !is_slot(to) || v.state != SlotState::Running || my_guest(slot) ||
                            (v.handed_off_by_me && theirs < v.handoff) ||
                            mine > theirs + static_cast<std::uint32_t>(config_.relay_lag);
         if (!relay) continue;

@@ -124,6 +124,17 @@ struct SessionConfig {
     // Names this process in its hellos (0: taken from the first now_us this session sees, which
     // differs between a process and its restarted successor).
     std::uint64_t incarnation = 0;
+
+    // ---- several local players per process (couch + online) ----
+    // Empty: every slot is its own process (peer id == slot). Otherwise one entry per slot:
+    // slot_hosts[s] is the slot whose process plays s, always the lowest slot of that process
+    // (slot_hosts[s] <= s, and a host hosts itself). Every peer passes the same table. A hosted
+    // slot (a "guest": slot_hosts[s] != s) has no peer id or connection of its own: its host's
+    // session authors its stream (confirmed at once, sent to everyone as stream blocks, like the
+    // owner's neutral inputs for absent slots), and it is dropped together with its host. This
+    // session plays local_player plus every slot whose host is local_player (local_slots()).
+    // Joiners cannot host guests yet.
+    std::vector<PlayerId> slot_hosts;
 };
 
 // What the session tells its owner (drained with next_event()).
@@ -206,9 +217,11 @@ public:
     // A datagram from player `from`. Never throws or asserts on its content.
     void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
     // One tick: rolls back if needed, then steps once unless the window is full. local_input
-    // (input_size bytes) becomes the input of frame() + input_delay() if that frame has none yet
-    // -- also on a stalled tick, since in lockstep both sides wait for each other's input of the
-    // same frame -- and is otherwise not used.
+    // (input_size bytes per local slot, in the order of local_slots()) becomes the input of
+    // frame() + input_delay() if that frame has none yet -- also on a stalled tick, since in
+    // lockstep both sides wait for each other's input of the same frame -- and is otherwise not
+    // used. Never throws: input of the wrong size is a caller's bug, counted in
+    // stats().bad_local_inputs, and the tick does nothing.
     AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     // Appends the datagrams to send now: one input message per healthy peer, plus desync
     // queries and replies. Call every tick, stalled or not (resends are what beat loss).
@@ -232,6 +245,13 @@ public:
     std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
 
     const SessionConfig& config() const { return config_; }
+    // The slots this session plays, ascending: local_player first, then the slots it hosts
+    // (config.slot_hosts). Empty for a spectator. advance() takes one input per entry.
+    std::span<const PlayerId> local_slots() const { return local_slots_; }
+    // The slot whose process plays `slot` (itself unless config.slot_hosts says otherwise).
+    PlayerId host_of(PlayerId slot) const {
+        return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
+    }
     SessionPhase phase() const { return phase_; }
     bool running() const { return phase_ == SessionPhase::Running; }
     const std::string& failure() const { return failure_; }
@@ -309,6 +329,7 @@ private:
     void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void author_absent_streams(std::uint64_t now_us);
+    void author_guest_streams(std::span<const std::uint8_t> inputs);
     void start_running(std::uint64_t now_us);
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
@@ -316,6 +337,12 @@ private:
     bool extension_needed(PlayerId to) const;
     void fill_extension(PlayerId to, InputMessage& m, std::size_t budget);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
+    // A slot played by another slot's process: no peer id, no link of its own.
+    bool is_guest(PlayerId p) const { return host_of(p) != p; }
+    // A guest slot whose stream this session authors.
+    bool my_guest(PlayerId p) const {
+        return config_.role != Role::Spectator && is_guest(p) && host_of(p) == config_.local_player;
+    }
     bool slot_running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
     // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
     bool live_peer(PlayerId p) const;
@@ -351,6 +378,9 @@ private:
     SessionPhase phase_ = SessionPhase::Running;
     std::string failure_;
     std::vector<SlotView> slots_;
+    std::vector<PlayerId> local_slots_;
+    bool any_guest_ = false;
+    std::vector<std::uint8_t> guest_scratch_;
     std::deque<SessionEvent> events_;
     std::uint64_t dropped_events_ = 0;
     std::uint64_t foreign_packets_ = 0;
