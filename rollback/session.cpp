@@ -106,6 +106,12 @@ private:
     SessionObserver* next_;
 };
 
+// A game that saved more than it declared: its states cannot be kept, so the session stops.
+static std::string oversized_message(const Simulation& sim) {
+    return "the simulation saved " + std::to_string(sim.saved_size()) + " bytes, more than its state_size() of " +
+           std::to_string(sim.state_size());
+}
+
 void validate(const SessionConfig& c) {
     require(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
     require(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
@@ -192,6 +198,7 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     dc.resend_us = config_.query_resend_us;
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
+    if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
     links_.reserve(peers);
@@ -967,6 +974,7 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
         result.advanced = true;
         confirm_frames();
     }
+    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     result.frame = sync_->frame();
     // Time sync: at most one recommendation per window, from fresh samples only.
     if (result.frame >= next_time_sync_frame_) {
@@ -1002,6 +1010,7 @@ int Session::catch_up(std::uint64_t now_us, int max_frames) {
         confirm_frames();
         ++stepped;
     }
+    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     return stepped;
 }
 
