@@ -239,7 +239,7 @@ void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, 
     events_.push_back({kind, peer, frame, now_us, std::move(detail)});
 }
 
-bool Session::next_event(SessionEvent& out) {
+bool Session::next_event(SessionEvent& out) noexcept {
     if (events_.empty()) return false;
     out = std::move(events_.front());
     events_.pop_front();
@@ -251,6 +251,61 @@ void Session::fail(const std::string& why, std::uint64_t now_us) {
     phase_ = SessionPhase::Failed;
     failure_ = why;
     emit(SessionEvent::Kind::Failed, config_.local_player, frame(), now_us, why);
+}
+
+// Per-tick calls never throw (a game loop has nowhere to catch). What could -- the game's own
+// step/save/load, an allocation, an invariant of ours -- fails the session instead, with the
+// exception's message as the reason. Called from inside a catch handler only.
+void Session::fail_from_exception(const char* where, std::uint64_t now_us) noexcept {
+    try {
+        std::string why;
+        try {
+            throw;
+        } catch (const std::exception& e) {
+            why = e.what();
+        } catch (...) {
+            why = "an exception that is not a std::exception";
+        }
+        fail(std::string(where) + ": " + why, now_us);
+    } catch (...) {
+        phase_ = SessionPhase::Failed;  // not even the message could be built
+    }
+}
+
+void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
+    try {
+        receive_impl(from, datagram, now_us);
+    } catch (...) {
+        fail_from_exception("receive", now_us);
+    }
+}
+
+AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
+    try {
+        return advance_impl(local_input, now_us);
+    } catch (...) {
+        fail_from_exception("advance", now_us);
+        AdvanceResult r;
+        r.frame = frame();
+        return r;
+    }
+}
+
+int Session::catch_up(std::uint64_t now_us, int max_frames) noexcept {
+    try {
+        return catch_up_impl(now_us, max_frames);
+    } catch (...) {
+        fail_from_exception("catch_up", now_us);
+        return 0;
+    }
+}
+
+void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
+    try {
+        poll_impl(now_us, out);
+    } catch (...) {
+        fail_from_exception("poll", now_us);
+    }
 }
 
 void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
@@ -289,7 +344,7 @@ void Session::malformed(PlayerId from, const char* why) {
     }
 }
 
-void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
+void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
     last_now_us_ = std::max(last_now_us_, now_us);
     ++stats_.packets_received;
     stats_.bytes_received += datagram.size();
@@ -917,7 +972,7 @@ void Session::author_guest_streams(std::span<const std::uint8_t> inputs) {
     }
 }
 
-AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
+AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     AdvanceResult result;
     result.frame = sync_->frame();
     const std::size_t expected = std::max<std::size_t>(local_slots_.size(), 1) * config_.input_size;
@@ -997,7 +1052,7 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
     return result;
 }
 
-int Session::catch_up(std::uint64_t now_us, int max_frames) {
+int Session::catch_up_impl(std::uint64_t now_us, int max_frames) {
     if (phase_ != SessionPhase::Running) return 0;
     int stepped = 0;
     const bool spectator = config_.role == Role::Spectator;
@@ -1472,7 +1527,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
     }
 }
 
-void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     last_now_us_ = std::max(last_now_us_, now_us);
     const auto account = [&](const Datagram& d) {
         ++stats_.packets_sent;

@@ -31,6 +31,12 @@
 //  - Confirmed-frame checksums ride along every checksum_interval frames; a mismatch fires
 //    SessionObserver::on_desync and then a DesyncReport naming the first differing body/field.
 //  - Malformed datagrams are counted; after max_bad_packets the peer is ignored for good.
+//  - No exceptions across per-tick calls: receive, advance, poll, catch_up and next_event are
+//    noexcept. Errors come back as values (counters in stats(), AdvanceResult) or events; what
+//    cannot go on (the game's step/save/load threw, an allocation failed) fails the session:
+//    phase() == Failed, failure() says where and why, and a `failed` event. Only construction
+//    (a bad config) and the commands set_input_delay / disconnect_player (an argument out of
+//    range) throw std::invalid_argument.
 //
 // Lifecycle (docs/sessions.md has the whole story):
 //  - Slots. N player slots are fixed at start; each is Absent, Running or Disconnected in a
@@ -215,17 +221,17 @@ public:
     Session& operator=(const Session&) = delete;
 
     // A datagram from player `from`. Never throws or asserts on its content.
-    void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
     // One tick: rolls back if needed, then steps once unless the window is full. local_input
     // (input_size bytes per local slot, in the order of local_slots()) becomes the input of
     // frame() + input_delay() if that frame has none yet -- also on a stalled tick, since in
     // lockstep both sides wait for each other's input of the same frame -- and is otherwise not
     // used. Never throws: input of the wrong size is a caller's bug, counted in
     // stats().bad_local_inputs, and the tick does nothing.
-    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept;
     // Appends the datagrams to send now: one input message per healthy peer, plus desync
     // queries and replies. Call every tick, stalled or not (resends are what beat loss).
-    void poll(std::uint64_t now_us, std::vector<Datagram>& out);
+    void poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept;
 
     // Takes effect for the next local input. Growing repeats the last input into the gap;
     // shrinking drops inputs until the delay has caught up (sent inputs never change).
@@ -234,11 +240,11 @@ public:
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
     // input (call after advance() while behind() > 0). Returns the frames stepped.
-    int catch_up(std::uint64_t now_us, int max_frames);
+    int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // Frames the most advanced running peer is estimated to be ahead of this session.
     std::int32_t behind(std::uint64_t now_us) const;
     // Lifecycle events in order; false when none is left.
-    bool next_event(SessionEvent& out);
+    bool next_event(SessionEvent& out) noexcept;
     // Fault injection: every time frame `frame` is produced by a step on this client, flip
     // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
     // already simulated, or the simulation has no such body/field).
@@ -305,6 +311,11 @@ private:
         std::uint64_t created_us = 0;
     };
 
+    void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
+    int catch_up_impl(std::uint64_t now_us, int max_frames);
+    void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
     void handle_input(PlayerId from, std::uint64_t now_us);
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
