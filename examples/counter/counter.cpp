@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
         input[0] = static_cast<std::uint8_t>((frame / 7 + static_cast<std::uint32_t>(slot)) % 3 == 0 ? 1 : 0);
     });
     for (lockroll::rollback::SessionEvent e; session->next_event(e);)
-        std::fprintf(stderr, "event %s peer %d frame %u %s\n", lockroll::rollback::event_name(e.kind), int{e.peer}, e.frame,
+        std::fprintf(stderr, "event %s peer %d frame %u %s\n", lockroll::rollback::event_name(e.kind), static_cast<int>(e.peer), e.frame,
                      e.detail.c_str());
 
     const auto checksum = session->session().confirmed_checksum(static_cast<std::uint32_t>(frames));

@@ -87,7 +87,8 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     auto a = SessionBuilder().players(3).input_size(1).local_player(0).local_player(1).frames(kFrames).input_delay(1);
     auto b = SessionBuilder().players(3).input_size(1).local_player(2).frames(kFrames).input_delay(1);
     // Ephemeral ports: B binds one, gives it up, and takes it again once A knows it.
-    const std::uint16_t port_b = b.start(sim_b)->port();
+    const std::uint16_t port_b =
+        SessionBuilder(b).remote_player(0, "127.0.0.1", 1).remote_player(1, "127.0.0.1", 1).start(sim_b)->port();
     std::unique_ptr<NetSession> sa = a.remote_player(2, "127.0.0.1", port_b).start(sim_a);
     std::unique_ptr<NetSession> sb =
         b.listen("127.0.0.1", port_b).remote_player(0, "127.0.0.1", sa->port()).remote_player(1, "127.0.0.1", sa->port())
