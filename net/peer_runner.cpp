@@ -98,8 +98,11 @@ bool PeerRunner::connect_phase() {
     for (;;) {
         service_until(now_us() + 5 * config_.service_interval_us);
         bool all = true;
-        for (int p = 0; p < sc.players; ++p)
-            if (static_cast<rollback::PlayerId>(p) != sc.local_player && !connected_[static_cast<std::size_t>(p)]) all = false;
+        for (int p = 0; p < sc.players; ++p) {
+            const auto id = static_cast<rollback::PlayerId>(p);
+            // Slots played by another slot's process have no connection of their own.
+            if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) all = false;
+        }
         if (all) return true;
         if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
     }
