@@ -54,7 +54,8 @@ public:
     // Plays until the configured frames are confirmed everywhere (Completed), request_stop()
     // (Stopped), the session fails, or a timeout; see RunOutcome. Blocks; `input` is called once
     // per tick for input_size bytes per local slot (local_slots() order). `observer` (optional)
-    // sees every tick, session and transport event as they happen.
+    // sees every tick, session and transport event as they happen. lockroll throws nothing
+    // from here; an exception thrown by your own callbacks passes through unchanged.
     RunOutcome run(InputSource input, RunnerObserver* observer = nullptr);
     // Thread- and signal-safe; also fine from inside the callbacks and before run().
     void request_stop();
