@@ -42,11 +42,13 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
     const auto ids = static_cast<std::size_t>(sc.players + sc.max_spectators);
     for (const auto& p : config_.peers)
-        if (p.slot >= ids || p.slot == sc.local_player)
-            throw std::invalid_argument("RunnerConfig: peer id " + std::to_string(p.slot) + " is out of range or local");
+        if (p.slot >= ids || session_.host_of(p.slot) == sc.local_player || session_.host_of(p.slot) != p.slot)
+            throw std::invalid_argument("RunnerConfig: peer id " + std::to_string(p.slot) +
+                                        " is out of range, local, or a slot played by another slot's process");
     connected_.assign(ids, false);
     held_.assign(ids, {});
-    input_bytes_.assign(sc.input_size, 0);
+    // One input per local slot (several players on one machine: SessionConfig::slot_hosts).
+    input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
 }
 
@@ -97,8 +99,11 @@ bool PeerRunner::connect_phase() {
     for (;;) {
         service_until(now_us() + 5 * config_.service_interval_us);
         bool all = true;
-        for (int p = 0; p < sc.players; ++p)
-            if (static_cast<rollback::PlayerId>(p) != sc.local_player && !connected_[static_cast<std::size_t>(p)]) all = false;
+        for (int p = 0; p < sc.players; ++p) {
+            const auto id = static_cast<rollback::PlayerId>(p);
+            // Slots played by another slot's process have no connection of their own.
+            if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) all = false;
+        }
         if (all) return true;
         if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
     }

@@ -103,7 +103,8 @@ public:
     virtual void on_all_confirmed(std::uint64_t /*now_us*/) {}
 };
 
-// Writes input_size bytes: the local input for `frame`.
+// Writes the local input for `frame`: input_size bytes per local slot, in the order of
+// Session::local_slots() (one slot unless SessionConfig::slot_hosts gives this process several).
 using InputSource = std::function<void(std::uint32_t frame, std::span<std::uint8_t> out)>;
 
 class PeerRunner {

@@ -175,13 +175,11 @@ std::optional<ReplayMismatch> verify_replay(const Replay& replay, Simulation& si
     if (replay.inputs.size() != std::size_t{replay.players} * replay.input_size * replay.frames())
         throw std::invalid_argument("replay inputs do not match its frame count");
     std::vector<std::uint8_t> state(sim.state_size());
-    sim.save(state);
-    if (const std::uint64_t c = sim.checksum(state); c != replay.initial_checksum)
+    if (const std::uint64_t c = sim.checksum(sim.save_to(state)); c != replay.initial_checksum)
         return ReplayMismatch{0, replay.initial_checksum, c};
     for (std::uint32_t i = 0; i < replay.frames(); ++i) {
         sim.step(replay.inputs_of(i));
-        sim.save(state);
-        const std::uint64_t c = sim.checksum(state);
+        const std::uint64_t c = sim.checksum(sim.save_to(state));
         if (c != replay.checksums[i]) return ReplayMismatch{i + 1, replay.checksums[i], c};
     }
     return std::nullopt;

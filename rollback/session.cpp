@@ -107,6 +107,12 @@ private:
     SessionObserver* next_;
 };
 
+// A game that saved more than it declared: its states cannot be kept, so the session stops.
+static std::string oversized_message(const Simulation& sim) {
+    return "the simulation saved " + std::to_string(sim.saved_size()) + " bytes, more than its state_size() of " +
+           std::to_string(sim.state_size());
+}
+
 void validate(const SessionConfig& c) {
     require(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
     require(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
@@ -143,6 +149,21 @@ void validate(const SessionConfig& c) {
     require(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
     require(c.max_recoveries >= 0, "max_recoveries must be >= 0");
     require(c.relay_lag >= 0, "relay_lag must be >= 0");
+    if (!c.slot_hosts.empty()) {
+        require(c.slot_hosts.size() == static_cast<std::size_t>(c.players), "slot_hosts must have one entry per slot");
+        bool guests = false;
+        for (std::size_t s = 0; s < c.slot_hosts.size(); ++s) {
+            const PlayerId h = c.slot_hosts[s];
+            require(h <= s && c.slot_hosts[h] == h,
+                    "slot_hosts[" + std::to_string(s) + "] must be a slot <= " + std::to_string(s) + " that hosts itself");
+            require((c.absent_slots >> s & 1) == (c.absent_slots >> h & 1),
+                    "slot " + std::to_string(s) + " must be absent exactly when its host is");
+            if (h != s && h == c.local_player) guests = true;
+        }
+        if (c.role != Role::Spectator)
+            require(c.slot_hosts[c.local_player] == c.local_player, "local_player must be the lowest slot of its process");
+        require(!guests || c.role == Role::Player, "a joiner cannot host other slots yet");
+    }
 }
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
@@ -178,6 +199,7 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     dc.resend_us = config_.query_resend_us;
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
+    if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
     links_.reserve(peers);
@@ -188,6 +210,12 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     local_advantage_.assign(peers, 0);
     replies_this_poll_.assign(peers, 0);
     slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
+    for (int s = 0; s < config_.players; ++s) any_guest_ = any_guest_ || is_guest(static_cast<PlayerId>(s));
+    guest_scratch_.assign(kMaxInputSize, 0);
+    if (config_.role != Role::Spectator)
+        for (int s = 0; s < config_.players; ++s)
+            if (static_cast<PlayerId>(s) == config_.local_player || my_guest(static_cast<PlayerId>(s)))
+                local_slots_.push_back(static_cast<PlayerId>(s));
     for (int s = 0; s < config_.players; ++s)
         if (config_.absent_slots >> s & 1) slots_[static_cast<std::size_t>(s)].state = SlotState::Absent;
     if (config_.role != Role::Player) {
@@ -212,7 +240,7 @@ void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, 
     events_.push_back({kind, peer, frame, now_us, std::move(detail)});
 }
 
-bool Session::next_event(SessionEvent& out) {
+bool Session::next_event(SessionEvent& out) noexcept {
     if (events_.empty()) return false;
     out = std::move(events_.front());
     events_.pop_front();
@@ -226,13 +254,68 @@ void Session::fail(const std::string& why, std::uint64_t now_us) {
     emit(SessionEvent::Kind::Failed, config_.local_player, frame(), now_us, why);
 }
 
+// Per-tick calls never throw (a game loop has nowhere to catch). What could -- the game's own
+// step/save/load, an allocation, an invariant of ours -- fails the session instead, with the
+// exception's message as the reason. Called from inside a catch handler only.
+void Session::fail_from_exception(const char* where, std::uint64_t now_us) noexcept {
+    try {
+        std::string why;
+        try {
+            throw;
+        } catch (const std::exception& e) {
+            why = e.what();
+        } catch (...) {
+            why = "an exception that is not a std::exception";
+        }
+        fail(std::string(where) + ": " + why, now_us);
+    } catch (...) {
+        phase_ = SessionPhase::Failed;  // not even the message could be built
+    }
+}
+
+void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
+    try {
+        receive_impl(from, datagram, now_us);
+    } catch (...) {
+        fail_from_exception("receive", now_us);
+    }
+}
+
+AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
+    try {
+        return advance_impl(local_input, now_us);
+    } catch (...) {
+        fail_from_exception("advance", now_us);
+        AdvanceResult r;
+        r.frame = frame();
+        return r;
+    }
+}
+
+int Session::catch_up(std::uint64_t now_us, int max_frames) noexcept {
+    try {
+        return catch_up_impl(now_us, max_frames);
+    } catch (...) {
+        fail_from_exception("catch_up", now_us);
+        return 0;
+    }
+}
+
+void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
+    try {
+        poll_impl(now_us, out);
+    } catch (...) {
+        fail_from_exception("poll", now_us);
+    }
+}
+
 void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
     Datagram d{to, std::move(bytes), true};
     pending_out_.push_back(std::move(d));
 }
 
 bool Session::live_peer(PlayerId p) const {
-    if (p == config_.local_player || p >= links_.size()) return false;
+    if (p == config_.local_player || p >= links_.size() || is_guest(p)) return false;
     const PeerLink& l = links_[p];
     if (!l.welcomed || l.error()) return false;
     if (is_slot(p)) return slot_running(p);
@@ -262,7 +345,7 @@ void Session::malformed(PlayerId from, const char* why) {
     }
 }
 
-void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
+void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
     last_now_us_ = std::max(last_now_us_, now_us);
     ++stats_.packets_received;
     stats_.bytes_received += datagram.size();
@@ -489,7 +572,7 @@ void Session::maybe_start(std::uint64_t now_us) {
     const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid)) continue;
+        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
         if (links_[pid].roundtrips < needed) return;
     }
     start_running(now_us);
@@ -630,7 +713,8 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
-    if (slot == config_.local_player && config_.role != Role::Spectator && e.state != SlotState::Running) {
+    if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
+        e.state != SlotState::Running) {
         emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
         fail("dropped from the match by the other peers", now_us);
         return;
@@ -662,7 +746,7 @@ void Session::apply_blocks(PlayerId from) {
     const std::size_t n = config_.input_size;
     for (const StreamBlock& b : in_msg_.blocks) {
         if (is_slot(from) && b.slot == from) continue;
-        if (config_.role != Role::Spectator && b.slot == config_.local_player) continue;
+        if (config_.role != Role::Spectator && (b.slot == config_.local_player || my_guest(b.slot))) continue;
         const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
         if (!first) continue;
         for (std::uint32_t k = 0; k < b.frame_count; ++k) {
@@ -796,11 +880,15 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     links_[slot].interrupted = false;
     detector_->peer_failed(slot);
     emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
+    // The slots its process played go with it.
+    for (int s = slot + 1; s < config_.players; ++s)
+        if (host_of(static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, "its host was dropped");
     refresh_resend_floor();
 }
 
 void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
-    if (!is_slot(slot) || slot == config_.local_player) throw std::invalid_argument("disconnect_player: not a remote slot");
+    if (!is_slot(slot) || slot == config_.local_player || my_guest(slot))
+        throw std::invalid_argument("disconnect_player: not a remote slot");
     drop_slot(slot, now_us, "kicked");
 }
 
@@ -863,12 +951,37 @@ void Session::author_absent_streams(std::uint64_t now_us) {
     }
 }
 
-AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
-    if (local_input.size() != config_.input_size)
-        throw std::invalid_argument("advance: local input must be input_size bytes");
-    last_now_us_ = std::max(last_now_us_, now_us);
+// The slots this session hosts follow its own stream frame for frame: their inputs are
+// confirmed at once (the gap a longer input delay opens repeats each one's last input, as the
+// local stream does) and reach the peers as stream blocks (fill_extension).
+void Session::author_guest_streams(std::span<const std::uint8_t> inputs) {
+    const std::size_t n = config_.input_size;
+    const std::uint32_t want = count_of(config_.local_player);
+    for (std::size_t i = 1; i < local_slots_.size(); ++i) {
+        const PlayerId g = local_slots_[i];
+        if (!slot_running(g)) continue;
+        const auto input = inputs.subspan((i - 1) * n, n);
+        const InputQueue& q = sync_->queue(g);
+        while (count_of(g) < want) {
+            const std::uint32_t f = count_of(g);
+            const auto last = q.last_confirmed();
+            std::copy(input.begin(), input.end(), guest_scratch_.begin());
+            if (f + 1 < want && !last.empty()) std::copy(last.begin(), last.end(), guest_scratch_.begin());
+            if (f + 1 < want && last.empty()) std::fill(guest_scratch_.begin(), guest_scratch_.end(), std::uint8_t{0});
+            if (sync_->add_remote_input(g, f, std::span(guest_scratch_).first(n)) != InputQueue::Add::Stored) break;
+        }
+    }
+}
+
+AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     AdvanceResult result;
     result.frame = sync_->frame();
+    const std::size_t expected = std::max<std::size_t>(local_slots_.size(), 1) * config_.input_size;
+    if (local_input.size() != expected) {
+        ++stats_.bad_local_inputs;
+        return result;
+    }
+    last_now_us_ = std::max(last_now_us_, now_us);
     if (phase_ != SessionPhase::Running) return result;
     ++stats_.ticks;
     check_silence(now_us);
@@ -893,8 +1006,10 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
         const std::uint32_t min_frame = joining_ ? count : 0;
         const std::uint32_t target = std::max(local_target(), min_frame);
         const InputQueue& local = sync_->queue(config_.local_player);
+        const std::size_t n = config_.input_size;
         if (std::uint64_t{target} < std::uint64_t{local.floor()} + local.capacity())
-            input_taken = sync_->add_local_input(local_input, input_delay_, min_frame);
+            input_taken = sync_->add_local_input(local_input.first(n), input_delay_, min_frame);
+        author_guest_streams(local_input.subspan(n));
     }
     const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
                                 : sync_->must_wait(input_delay_);
@@ -915,6 +1030,7 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
         result.advanced = true;
         confirm_frames();
     }
+    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     result.frame = sync_->frame();
     // Time sync: at most one recommendation per window, from fresh samples only.
     if (result.frame >= next_time_sync_frame_) {
@@ -937,7 +1053,7 @@ AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::u
     return result;
 }
 
-int Session::catch_up(std::uint64_t now_us, int max_frames) {
+int Session::catch_up_impl(std::uint64_t now_us, int max_frames) {
     if (phase_ != SessionPhase::Running) return 0;
     int stepped = 0;
     const bool spectator = config_.role == Role::Spectator;
@@ -950,6 +1066,7 @@ int Session::catch_up(std::uint64_t now_us, int max_frames) {
         confirm_frames();
         ++stepped;
     }
+    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     return stepped;
 }
 
@@ -966,7 +1083,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
     // Hellos: a player until frame 0; a newcomer until every running slot has welcomed it.
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid)) continue;
+        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
         PeerLink& l = links_[pid];
         const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
                                    : phase_ == SessionPhase::Synchronizing;
@@ -1342,6 +1459,8 @@ void Session::consider_recovery(std::uint64_t now_us) {
 
 bool Session::extension_needed(PlayerId to) const {
     if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
+    // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
+    if (any_guest_) return true;
     if (any_slot_not_running()) return true;
     for (const SlotView& v : slots_)
         if (v.handed_off_by_me) return true;
@@ -1377,7 +1496,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
         const std::uint32_t mine = q.confirmed_count();
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
-        const bool relay = !is_slot(to) || v.state != SlotState::Running ||
+        const bool relay = !is_slot(to) || v.state != SlotState::Running || my_guest(slot) ||
                            (v.handed_off_by_me && theirs < v.handoff) ||
                            mine > theirs + static_cast<std::uint32_t>(config_.relay_lag);
         if (!relay) continue;
@@ -1409,7 +1528,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
     }
 }
 
-void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     last_now_us_ = std::max(last_now_us_, now_us);
     const auto account = [&](const Datagram& d) {
         ++stats_.packets_sent;

@@ -31,6 +31,12 @@
 //  - Confirmed-frame checksums ride along every checksum_interval frames; a mismatch fires
 //    SessionObserver::on_desync and then a DesyncReport naming the first differing body/field.
 //  - Malformed datagrams are counted; after max_bad_packets the peer is ignored for good.
+//  - No exceptions across per-tick calls: receive, advance, poll, catch_up and next_event are
+//    noexcept. Errors come back as values (counters in stats(), AdvanceResult) or events; what
+//    cannot go on (the game's step/save/load threw, an allocation failed) fails the session:
+//    phase() == Failed, failure() says where and why, and a `failed` event. Only construction
+//    (a bad config) and the commands set_input_delay / disconnect_player (an argument out of
+//    range) throw std::invalid_argument.
 //
 // Lifecycle (docs/sessions.md has the whole story):
 //  - Slots. N player slots are fixed at start; each is Absent, Running or Disconnected in a
@@ -124,6 +130,17 @@ struct SessionConfig {
     // Names this process in its hellos (0: taken from the first now_us this session sees, which
     // differs between a process and its restarted successor).
     std::uint64_t incarnation = 0;
+
+    // ---- several local players per process (couch + online) ----
+    // Empty: every slot is its own process (peer id == slot). Otherwise one entry per slot:
+    // slot_hosts[s] is the slot whose process plays s, always the lowest slot of that process
+    // (slot_hosts[s] <= s, and a host hosts itself). Every peer passes the same table. A hosted
+    // slot (a "guest": slot_hosts[s] != s) has no peer id or connection of its own: its host's
+    // session authors its stream (confirmed at once, sent to everyone as stream blocks, like the
+    // owner's neutral inputs for absent slots), and it is dropped together with its host. This
+    // session plays local_player plus every slot whose host is local_player (local_slots()).
+    // Joiners cannot host guests yet.
+    std::vector<PlayerId> slot_hosts;
 };
 
 // What the session tells its owner (drained with next_event()).
@@ -205,15 +222,17 @@ public:
     Session& operator=(const Session&) = delete;
 
     // A datagram from player `from`. Never throws or asserts on its content.
-    void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
     // One tick: rolls back if needed, then steps once unless the window is full. local_input
-    // (input_size bytes) becomes the input of frame() + input_delay() if that frame has none yet
-    // -- also on a stalled tick, since in lockstep both sides wait for each other's input of the
-    // same frame -- and is otherwise not used.
-    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    // (input_size bytes per local slot, in the order of local_slots()) becomes the input of
+    // frame() + input_delay() if that frame has none yet -- also on a stalled tick, since in
+    // lockstep both sides wait for each other's input of the same frame -- and is otherwise not
+    // used. Never throws: input of the wrong size is a caller's bug, counted in
+    // stats().bad_local_inputs, and the tick does nothing.
+    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept;
     // Appends the datagrams to send now: one input message per healthy peer, plus desync
     // queries and replies. Call every tick, stalled or not (resends are what beat loss).
-    void poll(std::uint64_t now_us, std::vector<Datagram>& out);
+    void poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept;
 
     // Takes effect for the next local input. Growing repeats the last input into the gap;
     // shrinking drops inputs until the delay has caught up (sent inputs never change).
@@ -222,17 +241,24 @@ public:
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
     // input (call after advance() while behind() > 0). Returns the frames stepped.
-    int catch_up(std::uint64_t now_us, int max_frames);
+    int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // Frames the most advanced running peer is estimated to be ahead of this session.
     std::int32_t behind(std::uint64_t now_us) const;
     // Lifecycle events in order; false when none is left.
-    bool next_event(SessionEvent& out);
+    bool next_event(SessionEvent& out) noexcept;
     // Fault injection: every time frame `frame` is produced by a step on this client, flip
     // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
     // already simulated, or the simulation has no such body/field).
     std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
 
     const SessionConfig& config() const { return config_; }
+    // The slots this session plays, ascending: local_player first, then the slots it hosts
+    // (config.slot_hosts). Empty for a spectator. advance() takes one input per entry.
+    std::span<const PlayerId> local_slots() const { return local_slots_; }
+    // The slot whose process plays `slot` (itself unless config.slot_hosts says otherwise).
+    PlayerId host_of(PlayerId slot) const {
+        return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
+    }
     SessionPhase phase() const { return phase_; }
     bool running() const { return phase_ == SessionPhase::Running; }
     const std::string& failure() const { return failure_; }
@@ -286,6 +312,11 @@ private:
         std::uint64_t created_us = 0;
     };
 
+    void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
+    int catch_up_impl(std::uint64_t now_us, int max_frames);
+    void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
     void handle_input(PlayerId from, std::uint64_t now_us);
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
@@ -310,6 +341,7 @@ private:
     void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void author_absent_streams(std::uint64_t now_us);
+    void author_guest_streams(std::span<const std::uint8_t> inputs);
     void start_running(std::uint64_t now_us);
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
@@ -317,6 +349,12 @@ private:
     bool extension_needed(PlayerId to) const;
     void fill_extension(PlayerId to, InputMessage& m, std::size_t budget);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
+    // A slot played by another slot's process: no peer id, no link of its own.
+    bool is_guest(PlayerId p) const { return host_of(p) != p; }
+    // A guest slot whose stream this session authors.
+    bool my_guest(PlayerId p) const {
+        return config_.role != Role::Spectator && is_guest(p) && host_of(p) == config_.local_player;
+    }
     bool slot_running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
     // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
     bool live_peer(PlayerId p) const;
@@ -352,6 +390,9 @@ private:
     SessionPhase phase_ = SessionPhase::Running;
     std::string failure_;
     std::vector<SlotView> slots_;
+    std::vector<PlayerId> local_slots_;
+    bool any_guest_ = false;
+    std::vector<std::uint8_t> guest_scratch_;
     std::deque<SessionEvent> events_;
     std::uint64_t dropped_events_ = 0;
     std::uint64_t foreign_packets_ = 0;

@@ -9,6 +9,14 @@
 
 namespace lockroll::rollback {
 
+std::span<std::uint8_t> Simulation::save_to(std::span<std::uint8_t> buffer) const {
+    const std::size_t n = saved_size();
+    if (n > state_size() || n > buffer.size()) return {};
+    const auto out = buffer.first(n);
+    save(out);
+    return out;
+}
+
 std::uint64_t Simulation::checksum(std::span<const std::uint8_t> state) const {
     return XXH3_64bits(state.data(), state.size());
 }

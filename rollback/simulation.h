@@ -13,9 +13,14 @@
 //    state may depend on Absent vs present, never on Predicted vs Confirmed: that difference is
 //    for presentation only (a prediction that turned out right is not resimulated). The
 //    two-argument step() forwards to the one-argument one unless a game overrides it.
-//  - save/load: state_size() is constant for the simulation's life, so snapshot buffers are
-//    allocated once. save(); load() of those bytes; step() gives the same state as step()
-//    without the round trip, bit for bit. load() validates before touching anything.
+//  - save/load: state_size() is constant for the simulation's life -- the capacity, so snapshot
+//    buffers are allocated once. A state that grows and shrinks (games spawn and despawn)
+//    overrides saved_size(): the bytes save() writes now, at most state_size(); lockroll keeps
+//    that many per saved frame and hands exactly those bytes to load(), checksum() and the
+//    narrowing functions (save_to() does both steps). A saved_size() above state_size() is a
+//    bug in the game: the session fails with a message saying so. save(); load() of those
+//    bytes; step() gives the same state as step() without the round trip, bit for bit. load()
+//    validates before touching anything.
 //  - checksum(state) hashes a *saved* state, so confirmed frames can be checksummed long after
 //    the live state moved on. Equal states must give equal checksums on every platform.
 //  - The optional part (bodies, fields, describe_state, flip_bit) exists for desync narrowing and
@@ -53,9 +58,15 @@ public:
         step(inputs);
     }
 
+    // The most bytes a saved state can take (fixed for the simulation's life).
     virtual std::size_t state_size() const = 0;
-    // Writes exactly state_size() bytes into out (out.size() >= state_size()).
+    // Bytes save() writes for the current state (<= state_size()). Default: state_size().
+    virtual std::size_t saved_size() const { return state_size(); }
+    // Writes exactly saved_size() bytes into out (out.size() >= saved_size()).
     virtual void save(std::span<std::uint8_t> out) const = 0;
+    // save() into `buffer` (state_size() bytes); returns the bytes written, or an empty span
+    // when saved_size() broke its promise (then nothing was written).
+    std::span<std::uint8_t> save_to(std::span<std::uint8_t> buffer) const;
     // Empty string on success; otherwise what was wrong, and the state is unchanged.
     virtual std::string load(std::span<const std::uint8_t> in) = 0;
 

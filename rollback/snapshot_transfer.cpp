@@ -39,7 +39,8 @@ std::string unpack_transfer(std::span<const std::uint8_t> blob, std::size_t stat
     out.frame = r.u32();
     const std::uint32_t size = r.u32();
     if (!r.ok()) return "snapshot transfer: truncated header";
-    if (size != state_size) return "snapshot transfer: state size " + std::to_string(size) + ", expected " + std::to_string(state_size);
+    if (size > state_size)
+        return "snapshot transfer: state size " + std::to_string(size) + ", above the capacity " + std::to_string(state_size);
     const auto state = r.bytes(size);
     if (!r.ok()) return "snapshot transfer: truncated state";
     out.state.assign(state.begin(), state.end());

@@ -7,6 +7,20 @@
 
 namespace lockroll::rollback {
 
+namespace {
+// Saves the live state as `frame` into the ring: only the bytes the state takes now (a
+// variable-size state), allocation-free. A game whose saved_size() exceeds its declared
+// capacity is counted (the session then fails) and leaves an empty state rather than writing
+// past the buffer.
+std::span<const std::uint8_t> save_frame(SnapshotRing& ring, const Simulation& sim, std::uint32_t frame,
+                                         SessionStats& stats) {
+    const auto saved = sim.save_to(ring.slot_for(frame));
+    if (saved.empty() && sim.saved_size() != 0) ++stats.oversized_states;
+    ring.set_used(frame, saved.size());
+    return saved;
+}
+}  // namespace
+
 Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, SessionObserver* observer,
            SessionStats& stats, CpuClock cpu_clock)
     : config_(config),
@@ -36,9 +50,7 @@ Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, Sess
         throw std::invalid_argument("retained frames must be below half the input capacity");
     if (static_cast<std::uint32_t>(config.prediction_window) * 2 >= config.input_capacity)
         throw std::invalid_argument("input capacity must exceed twice the prediction window");
-    auto slot = ring_.slot_for(0);
-    sim_.save(slot);
-    initial_checksum_ = sim_.checksum(slot);
+    initial_checksum_ = sim_.checksum(save_frame(ring_, sim_, 0, stats_));
     if (!config_.all_streams_remote) keep_from_[config_.local_player] = 0;  // nothing of ours is acknowledged yet
     stats_.rollback_depth_histogram.assign(static_cast<std::size_t>(config.prediction_window) + 1, 0);
 }
@@ -75,7 +87,7 @@ std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> 
     frame_ = frame;
     highest_simulated_ = frame;
     confirmed_frame_ = frame;
-    sim_.save(ring_.slot_for(frame));
+    save_frame(ring_, sim_, frame, stats_);
     return {};
 }
 
@@ -166,7 +178,7 @@ void Sync::simulate_one(bool resimulation) {
     frame_ = f + 1;
     for (const Fault& fault : faults_)
         if (fault.frame == frame_) sim_.flip_bit(fault.body_id, fault.field, fault.bit);
-    sim_.save(ring_.slot_for(frame_));
+    save_frame(ring_, sim_, frame_, stats_);
     if (!resimulation) {
         highest_simulated_ = frame_;
         stats_.predicted_inputs += static_cast<std::uint64_t>(__builtin_popcountll(predicted));

@@ -22,8 +22,8 @@ SyncTest::SyncTest(Simulation& sim, const SyncTestConfig& config)
       inputs_(slots_for(config) * static_cast<std::size_t>(std::max(config.players, 1)) * config.input_size),
       scratch_(sim.state_size()) {
     if (config.players < 1 || config.input_size < 1) throw std::invalid_argument("players and input size must be >= 1");
-    auto s = ring_.slot_for(0);
-    sim_.save(s);
+    const auto s = sim_.save_to(ring_.slot_for(0));
+    ring_.set_used(0, s.size());
     checksums_[0] = sim_.checksum(s);
 }
 
@@ -55,8 +55,8 @@ std::optional<SyncTestFailure> SyncTest::advance(std::span<const std::uint8_t> i
     std::copy(inputs.begin(), inputs.end(), inputs_.begin() + static_cast<std::ptrdiff_t>((frame_ % slots) * frame_bytes));
     sim_.step(inputs);
     ++frame_;
-    auto saved = ring_.slot_for(frame_);
-    sim_.save(saved);
+    const auto saved = sim_.save_to(ring_.slot_for(frame_));
+    ring_.set_used(frame_, saved.size());
     checksums_[frame_ % slots] = sim_.checksum(saved);
 
     // Roll back and resimulate.
@@ -67,20 +67,20 @@ std::optional<SyncTestFailure> SyncTest::advance(std::span<const std::uint8_t> i
         SyncTestFailure f{from, from, checksums_[from % slots], 0, "load failed: " + err};
         return f;
     }
-    sim_.save(scratch_);
-    if (!std::equal(scratch_.begin(), scratch_.end(), start->begin())) {
-        return SyncTestFailure{from, from, checksums_[from % slots], sim_.checksum(scratch_),
+    const auto reloaded = sim_.save_to(scratch_);
+    if (!std::equal(reloaded.begin(), reloaded.end(), start->begin(), start->end())) {
+        return SyncTestFailure{from, from, checksums_[from % slots], sim_.checksum(reloaded),
                                "save after load differs from the saved state: " +
-                                   describe_difference(*start, scratch_)};
+                                   describe_difference(*start, reloaded)};
     }
     for (std::uint32_t f = from; f < frame_; ++f) {
         sim_.step(std::span(inputs_).subspan((f % slots) * frame_bytes, frame_bytes));
         ++resimulated_;
-        sim_.save(scratch_);
-        const std::uint64_t actual = sim_.checksum(scratch_);
+        const auto now = sim_.save_to(scratch_);
+        const std::uint64_t actual = sim_.checksum(now);
         const std::uint64_t expected = checksums_[(f + 1) % slots];
         if (actual != expected)
-            return SyncTestFailure{f + 1, from, expected, actual, describe_difference(*ring_.find(f + 1), scratch_)};
+            return SyncTestFailure{f + 1, from, expected, actual, describe_difference(*ring_.find(f + 1), now)};
     }
     return std::nullopt;
 }

@@ -36,6 +36,8 @@ struct SessionStats {
     std::uint64_t forward_ns = 0;         // forward steps with their saves
     std::uint64_t predicted_inputs = 0;   // remote player-frames simulated with a guess
     std::uint64_t dropped_local_inputs = 0;  // after a shorter input delay caught up
+    std::uint64_t oversized_states = 0;   // saves whose saved_size() exceeded state_size() (session fails)
+    std::uint64_t bad_local_inputs = 0;   // advance() given the wrong number of bytes (tick skipped)
     std::uint64_t time_sync_waits = 0, time_sync_wait_frames = 0;
     std::uint64_t desyncs = 0;            // peers found desynced
     std::uint64_t bytes_sent = 0, bytes_received = 0, packets_sent = 0, packets_received = 0;

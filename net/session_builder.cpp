@@ -1,0 +1,171 @@
+#include "net/session_builder.h"
+
+#include "net/clock.h"
+
+#include <algorithm>
+#include <limits>
+#include <map>
+#include <stdexcept>
+#include <utility>
+
+namespace lockroll::net {
+
+namespace {
+constexpr std::size_t kMaxQueuedEvents = 1024;
+
+[[noreturn]] void bad(const std::string& what) { throw std::invalid_argument("SessionBuilder: " + what); }
+}  // namespace
+
+// ---- NetSession ----
+
+NetSession::~NetSession() = default;
+
+RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
+    if (!input) return RunOutcome::Failed;  // nothing to play with (a caller's bug; never throws)
+    observer_ = observer;
+    input_ = std::move(input);
+    const RunOutcome outcome = runner_->run();
+    observer_ = nullptr;
+    return outcome;
+}
+
+void NetSession::request_stop() { runner_->request_stop(); }
+
+bool NetSession::next_event(rollback::SessionEvent& out) {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
+rollback::NetworkStats NetSession::network_stats(rollback::PlayerId peer) const {
+    return session_->network_stats(peer, net::now_us());
+}
+
+void NetSession::on_transport_event(const transport::TransportEvent& e, std::uint64_t now_us) {
+    if (observer_) observer_->on_transport_event(e, now_us);
+}
+void NetSession::on_session_event(const rollback::SessionEvent& e) {
+    if (events_.size() >= kMaxQueuedEvents) events_.pop_front();
+    events_.push_back(e);
+    if (observer_) observer_->on_session_event(e);
+}
+void NetSession::on_synchronized(std::uint64_t now_us) {
+    if (observer_) observer_->on_synchronized(now_us);
+}
+void NetSession::on_tick(const TickReport& r) {
+    if (observer_) observer_->on_tick(r);
+}
+void NetSession::on_all_confirmed(std::uint64_t now_us) {
+    if (observer_) observer_->on_all_confirmed(now_us);
+}
+
+// ---- SessionBuilder ----
+
+SessionBuilder& SessionBuilder::players(int n) { players_ = n; return *this; }
+SessionBuilder& SessionBuilder::input_size(std::size_t bytes) { input_size_ = bytes; return *this; }
+SessionBuilder& SessionBuilder::local_player(rollback::PlayerId slot) { local_.push_back(slot); return *this; }
+SessionBuilder& SessionBuilder::remote_player(rollback::PlayerId slot, std::string host, std::uint16_t port) {
+    remote_.push_back({slot, std::move(host), port});
+    return *this;
+}
+SessionBuilder& SessionBuilder::server(std::string host, std::uint16_t port) {
+    server_.emplace(std::move(host), port);
+    return *this;
+}
+SessionBuilder& SessionBuilder::listen(std::string host, std::uint16_t port) {
+    listen_host_ = std::move(host);
+    listen_port_ = port;
+    return *this;
+}
+SessionBuilder& SessionBuilder::tick_rate(int hz) { tick_rate_ = hz; return *this; }
+SessionBuilder& SessionBuilder::input_delay(int frames) { input_delay_ = frames; return *this; }
+SessionBuilder& SessionBuilder::prediction_window(int frames) { prediction_window_ = frames; return *this; }
+SessionBuilder& SessionBuilder::match_id(std::uint64_t id) { match_id_ = id; return *this; }
+SessionBuilder& SessionBuilder::frames(std::uint32_t n) { frames_ = n; return *this; }
+SessionBuilder& SessionBuilder::configure(std::function<void(rollback::SessionConfig&, RunnerConfig&)> f) {
+    configure_ = std::move(f);
+    return *this;
+}
+
+rollback::SessionConfig SessionBuilder::session_config() const {
+    if (server_)
+        throw std::logic_error("SessionBuilder::server(" + server_->first + ":" + std::to_string(server_->second) +
+                               "): the relay server (issue 8) is not in this build; name the peers with remote_player()");
+    if (players_ < 1 || players_ > rollback::kMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kMaxPlayers));
+    if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
+    if (local_.empty()) bad("no local_player(): name the slot(s) this machine plays");
+    const auto n = static_cast<std::size_t>(players_);
+    // Every slot named exactly once; the host of a group is its lowest slot.
+    std::vector<int> host(n, -1);
+    const auto name = [&](rollback::PlayerId s, const char* how) {
+        if (s >= n) bad(std::string(how) + "(" + std::to_string(s) + "): slot out of range 0.." + std::to_string(n - 1));
+        if (host[s] != -1) bad("slot " + std::to_string(s) + " is named twice");
+    };
+    const rollback::PlayerId me = *std::min_element(local_.begin(), local_.end());
+    for (rollback::PlayerId s : local_) {
+        name(s, "local_player");
+        host[s] = me;
+    }
+    std::map<std::pair<std::string, std::uint16_t>, rollback::PlayerId> process;  // address -> lowest slot
+    for (const Remote& r : remote_) {
+        if (r.host.empty() || r.port == 0) bad("remote_player(" + std::to_string(r.slot) + "): needs a host and a port");
+        auto [it, fresh] = process.try_emplace({r.host, r.port}, r.slot);
+        if (!fresh) it->second = std::min(it->second, r.slot);
+    }
+    for (const Remote& r : remote_) {
+        name(r.slot, "remote_player");
+        host[r.slot] = process.at({r.host, r.port});
+    }
+    for (std::size_t s = 0; s < n; ++s)
+        if (host[s] == -1) bad("slot " + std::to_string(s) + " is neither local_player() nor remote_player()");
+    rollback::SessionConfig c;
+    c.players = players_;
+    c.local_player = me;
+    c.input_size = input_size_;
+    c.tick_rate = tick_rate_;
+    c.input_delay = input_delay_;
+    c.prediction_window = prediction_window_;
+    c.handshake = true;
+    c.match_id = match_id_;
+    bool shared = false;
+    for (std::size_t s = 0; s < n; ++s) shared = shared || static_cast<std::size_t>(host[s]) != s;
+    if (shared)  // several slots in one process; otherwise every slot is its own peer
+        for (std::size_t s = 0; s < n; ++s) c.slot_hosts.push_back(static_cast<rollback::PlayerId>(host[s]));
+    return c;
+}
+
+RunnerConfig SessionBuilder::runner_config() const {
+    RunnerConfig rc;
+    rc.tick_rate = tick_rate_;
+    // 0 frames: no end but request_stop() (frame numbers never get near 2^32 in a session).
+    rc.target_frame = frames_ != 0 ? frames_ : std::numeric_limits<std::uint32_t>::max();
+    for (const Remote& r : remote_) {
+        bool first = true;
+        for (const Remote& o : remote_)
+            if (o.host == r.host && o.port == r.port && o.slot < r.slot) first = false;
+        if (first) rc.peers.push_back({r.slot, r.host, r.port});
+    }
+    return rc;
+}
+
+std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulation) const {
+    rollback::SessionConfig sc = session_config();
+    RunnerConfig rc = runner_config();
+    if (configure_) configure_(sc, rc);
+    rollback::validate(sc);  // names the field, before anything is bound
+    std::unique_ptr<NetSession> s(new NetSession());
+    s->runner_config_ = rc;
+    s->transport_ = std::make_unique<transport::EnetTransport>(transport::EnetConfig{
+        .local_id = static_cast<transport::PeerId>(sc.local_player), .bind_host = listen_host_, .port = listen_port_});
+    s->session_ = std::make_unique<rollback::Session>(sc, simulation);
+    // The runner checks its own config (tick rate, peers) here, not on the first run().
+    NetSession* raw = s.get();
+    RunnerObserver* as_observer = raw;  // a private base: converted here, where it is accessible
+    s->runner_ = std::make_unique<PeerRunner>(
+        rc, *s->session_, *s->transport_,
+        [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+    return s;
+}
+
+}  // namespace lockroll::net

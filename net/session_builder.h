@@ -1,0 +1,145 @@
+// SessionBuilder: the high-level entry point for the common case, in the spirit of GGRS's
+// SessionBuilder. A game states its slots (which are local, where the others listen), its
+// Simulation and its input size, and gets back a NetSession: a rollback::Session on ENet at the
+// tick rate (net::PeerRunner) with its events. The sans-IO rollback::Session stays available
+// underneath (NetSession::session()) and on its own for engines with their own sockets.
+//
+// Contract
+//  - Configuration errors throw at start(): std::invalid_argument naming the setting (a slot
+//    named twice or never, no local slot, a bad delay, ...), std::runtime_error when the UDP port
+//    cannot be bound, std::logic_error for server() (see below). Nothing NetSession does per
+//    tick throws: failures come back as RunOutcome values and events.
+//  - Slots: every slot 0..players-1 is named exactly once, by local_player() or remote_player().
+//    Several local slots are several players on this machine (couch + online); remote slots
+//    that share an address are one remote process. Each process is known by its lowest slot
+//    (its ENet peer id); the others' streams are authored by it (SessionConfig::slot_hosts).
+//    Every process must be built with the same slots, players, input size, tick rate, input
+//    delay, prediction window and match id.
+//  - Addresses: every process listens on listen() (default 127.0.0.1, an ephemeral port:
+//    NetSession::port()); remote_player() gives where the others listen. Connections follow
+//    PeerRunner's rules (the lower process connects, retried every 0.5 s).
+//  - server(): the hook for a relay server (issue 8): instead of remote addresses the session
+//    would reach every peer through one server. Not in this build: start() throws
+//    std::logic_error saying so, so a game written against it fails loudly, never silently P2P.
+//  - Defaults are those of a real network: handshake on (match id, hello/RTT phase before frame
+//    0, agreed drops), input delay 2, prediction window 8 (0 = lockstep), 60 Hz, run until
+//    request_stop() (frames(N): until N frames are confirmed everywhere). configure() reaches
+//    every SessionConfig and RunnerConfig field the builder does not name.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "net/peer_runner.h"
+#include "rollback/session.h"
+#include "rollback/simulation.h"
+#include "transport/enet_transport.h"
+
+namespace lockroll::net {
+
+// A running session over ENet (built by SessionBuilder::start). Not copyable or movable.
+class NetSession final : private RunnerObserver {
+public:
+    NetSession(const NetSession&) = delete;
+    NetSession& operator=(const NetSession&) = delete;
+    ~NetSession() override;
+
+    // Plays until the configured frames are confirmed everywhere (Completed), request_stop()
+    // (Stopped), the session fails, or a timeout; see RunOutcome. Blocks; `input` is called once
+    // per tick for input_size bytes per local slot (local_slots() order). `observer` (optional)
+    // sees every tick, session and transport event as they happen. lockroll throws nothing
+    // from here; an exception thrown by your own callbacks passes through unchanged.
+    RunOutcome run(InputSource input, RunnerObserver* observer = nullptr);
+    // Thread- and signal-safe; also fine from inside the callbacks and before run().
+    void request_stop();
+
+    // Lifecycle events of the session (SessionEvent), in order, also while run() is going (from
+    // its callbacks). The newest 1024 are kept.
+    bool next_event(rollback::SessionEvent& out);
+
+    std::uint16_t port() const { return transport_->port(); }
+    std::span<const rollback::PlayerId> local_slots() const { return session_->local_slots(); }
+    // Overlay figures for a remote process (its lowest slot).
+    rollback::NetworkStats network_stats(rollback::PlayerId peer) const;
+    // The sans-IO core and the transport underneath, for stats and anything the builder hides.
+    rollback::Session& session() { return *session_; }
+    const rollback::Session& session() const { return *session_; }
+    transport::EnetTransport& transport() { return *transport_; }
+    const RunnerConfig& runner_config() const { return runner_config_; }
+
+private:
+    friend class SessionBuilder;
+    NetSession() = default;
+    void on_transport_event(const transport::TransportEvent& e, std::uint64_t now_us) override;
+    void on_session_event(const rollback::SessionEvent& e) override;
+    void on_synchronized(std::uint64_t now_us) override;
+    void on_tick(const TickReport& r) override;
+    void on_all_confirmed(std::uint64_t now_us) override;
+
+    RunnerConfig runner_config_;
+    std::unique_ptr<transport::EnetTransport> transport_;
+    std::unique_ptr<rollback::Session> session_;
+    std::unique_ptr<PeerRunner> runner_;
+    RunnerObserver* observer_ = nullptr;
+    InputSource input_;
+    std::deque<rollback::SessionEvent> events_;
+};
+
+class SessionBuilder {
+public:
+    SessionBuilder& players(int n);
+    SessionBuilder& input_size(std::size_t bytes);
+    // A slot played on this machine; call once per local player.
+    SessionBuilder& local_player(rollback::PlayerId slot);
+    // A slot played by the process listening at host:port (loopback or not: the builder does
+    // not judge addresses; lockroll's own tools keep to loopback).
+    SessionBuilder& remote_player(rollback::PlayerId slot, std::string host, std::uint16_t port);
+    // Reach the others through a relay server instead (issue 8; see the contract).
+    SessionBuilder& server(std::string host, std::uint16_t port);
+    SessionBuilder& listen(std::string host, std::uint16_t port);
+    SessionBuilder& tick_rate(int hz);
+    SessionBuilder& input_delay(int frames);
+    SessionBuilder& prediction_window(int frames);  // 0: lockstep
+    SessionBuilder& match_id(std::uint64_t id);
+    // run() completes once frame n is confirmed by everyone; 0 (default): runs until stopped.
+    SessionBuilder& frames(std::uint32_t n);
+    // Last word on every field (called after the builder has filled both configs).
+    SessionBuilder& configure(std::function<void(rollback::SessionConfig&, RunnerConfig&)> f);
+
+    // Binds the port and builds the session on `simulation` (in its initial state; it must
+    // outlive the NetSession). Throws on any configuration error (see the contract).
+    std::unique_ptr<NetSession> start(rollback::Simulation& simulation) const;
+
+    // The configs start() would use (validated the same way); for tests and tools.
+    rollback::SessionConfig session_config() const;
+    RunnerConfig runner_config() const;
+
+private:
+    struct Remote {
+        rollback::PlayerId slot;
+        std::string host;
+        std::uint16_t port;
+    };
+    int players_ = 2;
+    std::size_t input_size_ = 0;
+    std::vector<rollback::PlayerId> local_;
+    std::vector<Remote> remote_;
+    std::optional<std::pair<std::string, std::uint16_t>> server_;
+    std::string listen_host_ = "127.0.0.1";
+    std::uint16_t listen_port_ = 0;
+    int tick_rate_ = 60;
+    int input_delay_ = 2;
+    int prediction_window_ = 8;
+    std::uint64_t match_id_ = 0;
+    std::uint32_t frames_ = 0;
+    std::function<void(rollback::SessionConfig&, RunnerConfig&)> configure_;
+};
+
+}  // namespace lockroll::net

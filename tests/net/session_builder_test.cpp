@@ -1,0 +1,124 @@
+// SessionBuilder: configuration errors throw at start() naming the setting; slots that share an
+// address become one process (SessionConfig::slot_hosts); and a couch of two plus one online
+// player, as two NetSessions on threads over ENet on 127.0.0.1, confirm the same checksums.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <thread>
+
+#include "net/session_builder.h"
+#include "rollback/simulation.h"
+
+namespace lockroll::net {
+namespace {
+
+// Each slot's counter mixed with its input byte.
+class Counters final : public rollback::Simulation {
+public:
+    using Simulation::step;
+    void step(std::span<const std::uint8_t> in) override {
+        for (std::size_t s = 0; s < v_.size(); ++s) v_[s] = v_[s] * 31 + in[s] + 1;
+    }
+    std::size_t state_size() const override { return 24; }
+    void save(std::span<std::uint8_t> out) const override {
+        for (std::size_t i = 0; i < 24; ++i) out[i] = static_cast<std::uint8_t>(v_[i / 8] >> (8 * (i % 8)));
+    }
+    std::string load(std::span<const std::uint8_t> in) override {
+        v_ = {};
+        for (std::size_t i = 0; i < 24; ++i) v_[i / 8] |= std::uint64_t{in[i]} << (8 * (i % 8));
+        return {};
+    }
+
+private:
+    std::array<std::uint64_t, 3> v_{};
+};
+
+template <class F>
+std::string error_of(F&& f) {
+    try {
+        f();
+    } catch (const std::exception& e) {
+        return e.what();
+    }
+    return "(no exception)";
+}
+
+TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
+    Counters sim;
+    const auto base = [] { return SessionBuilder().players(2).input_size(1); };
+    EXPECT_NE(error_of([&] { base().remote_player(1, "127.0.0.1", 9).start(sim); }).find("no local_player"), std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).start(sim); }).find("slot 1 is neither"), std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).local_player(0).start(sim); }).find("named twice"), std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).remote_player(2, "127.0.0.1", 9).start(sim); }).find("out of range"),
+              std::string::npos);
+    EXPECT_NE(error_of([&] { SessionBuilder().local_player(0).remote_player(1, "127.0.0.1", 9).start(sim); })
+                  .find("input_size"),
+              std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).remote_player(1, "127.0.0.1", 9).input_delay(-1).start(sim); })
+                  .find("input_delay"),
+              std::string::npos);
+    // The relay server is a hook, not silently peer-to-peer.
+    EXPECT_THROW(base().local_player(0).server("127.0.0.1", 9).start(sim), std::logic_error);
+}
+
+TEST(SessionBuilder, SlotsAtOneAddressAreOneProcess) {
+    const auto b = SessionBuilder().players(4).input_size(2).local_player(1).local_player(3)
+                       .remote_player(2, "127.0.0.1", 7002).remote_player(0, "127.0.0.1", 7002);
+    const rollback::SessionConfig c = b.session_config();
+    EXPECT_EQ(c.local_player, 1);
+    EXPECT_EQ(c.slot_hosts, (std::vector<rollback::PlayerId>{0, 1, 0, 1}));
+    EXPECT_TRUE(c.handshake);
+    const RunnerConfig rc = b.runner_config();
+    ASSERT_EQ(rc.peers.size(), 1u);  // one process to connect to, known by its lowest slot
+    EXPECT_EQ(rc.peers[0].slot, 0);
+    EXPECT_EQ(rc.peers[0].port, 7002);
+    // One slot per process: no table, the plain wire of before.
+    EXPECT_TRUE(SessionBuilder().players(2).input_size(1).local_player(0).remote_player(1, "h", 1).session_config()
+                    .slot_hosts.empty());
+}
+
+// Process A plays slots 0 and 1 on one machine, process B slot 2.
+TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
+    constexpr std::uint32_t kFrames = 180;
+    Counters sim_a, sim_b;
+    auto a = SessionBuilder().players(3).input_size(1).local_player(0).local_player(1).frames(kFrames).input_delay(1);
+    auto b = SessionBuilder().players(3).input_size(1).local_player(2).frames(kFrames).input_delay(1);
+    // Ephemeral ports: B binds one, gives it up, and takes it again once A knows it.
+    const std::uint16_t port_b =
+        SessionBuilder(b).remote_player(0, "127.0.0.1", 1).remote_player(1, "127.0.0.1", 1).start(sim_b)->port();
+    std::unique_ptr<NetSession> sa = a.remote_player(2, "127.0.0.1", port_b).start(sim_a);
+    std::unique_ptr<NetSession> sb =
+        b.listen("127.0.0.1", port_b).remote_player(0, "127.0.0.1", sa->port()).remote_player(1, "127.0.0.1", sa->port())
+            .start(sim_b);
+    ASSERT_EQ(sa->local_slots().size(), 2u);
+    const auto input = [](rollback::PlayerId slot, std::uint32_t f) { return static_cast<std::uint8_t>(f * 3 + slot * 50); };
+    RunOutcome oa{}, ob{};
+    std::thread ta([&] {
+        oa = sa->run([&](std::uint32_t f, std::span<std::uint8_t> out) {
+            out[0] = input(0, f);
+            out[1] = input(1, f);
+        });
+    });
+    std::thread tb([&] { ob = sb->run([&](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = input(2, f); }); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << sa->session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << sb->session().failure();
+    for (std::uint32_t f = 1; f <= kFrames; ++f) {
+        const auto ca = sa->session().confirmed_checksum(f), cb = sb->session().confirmed_checksum(f);
+        ASSERT_TRUE(ca && cb) << f;
+        ASSERT_EQ(*ca, *cb) << "frame " << f;
+    }
+    bool synchronized = false;
+    for (rollback::SessionEvent e; sb->next_event(e);)
+        synchronized = synchronized || e.kind == rollback::SessionEvent::Kind::Synchronized;
+    EXPECT_TRUE(synchronized);
+    // B heard slot 1 only through A: nothing about it is "remote" to predict forever.
+    EXPECT_EQ(sb->session().slot_state(1), rollback::SlotState::Running);
+}
+
+}  // namespace
+}  // namespace lockroll::net
