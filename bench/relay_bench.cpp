@@ -458,7 +458,24 @@ private:
             Room& room = rooms_[r];
             bool ready = true;
             for (auto* c : room.c) ready = ready && c->peer && c->welcomed && c->has_clock;
-            if (!ready) continue;
+            if (!ready) {
+                // Waiting for the partner or the first Frames: a welcomed client still says
+                // something every tick, as a real one would, or the room drops it as silent.
+                for (auto* c : room.c)
+                    if (c->peer && c->welcomed) {
+                        input_.confirmed_ack = c->confirmed_next;
+                        input_.first_frame = 0;
+                        input_.frame_count = 0;
+                        input_.inputs.clear();
+                        input_.stamp = static_cast<std::uint16_t>(now / 100);
+                        input_.checksum_count = 0;
+                        bytes_.clear();
+                        encode(input_, kInputSize, bytes_);
+                        enet_peer_send(c->peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
+                        queued = true;
+                    }
+                continue;
+            }
             if (!room.live) {
                 // Join the room clock: the first input is for the frame the clock reaches
                 // input_delay frames from now.
