@@ -452,6 +452,22 @@ private:
         out[2] = 0;
     }
 
+    // Queues one RelayInput: the client's own inputs for [first, first + count) (none: a
+    // heartbeat) and its acknowledgement.
+    void send_input(Client& c, std::uint32_t first, std::uint32_t count, std::uint64_t now) {
+        RelayInput& m = input_;
+        m.confirmed_ack = c.confirmed_next;
+        m.first_frame = first;
+        m.frame_count = static_cast<std::uint8_t>(count);
+        m.inputs.resize(count * kInputSize);
+        for (std::uint32_t i = 0; i < count; ++i) bot_input(c.room, c.slot, first + i, &m.inputs[i * kInputSize]);
+        m.stamp = static_cast<std::uint16_t>(now / 100);
+        m.checksum_count = 0;
+        bytes_.clear();
+        encode(m, kInputSize, bytes_);
+        enet_peer_send(c.peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
+    }
+
     void fire(int h, std::uint64_t now) {
         bool queued = false;
         for (std::size_t r = static_cast<std::size_t>(h); r < rooms_.size(); r += hosts_.size()) {
@@ -463,15 +479,7 @@ private:
                 // something every tick, as a real one would, or the room drops it as silent.
                 for (auto* c : room.c)
                     if (c->peer && c->welcomed) {
-                        input_.confirmed_ack = c->confirmed_next;
-                        input_.first_frame = 0;
-                        input_.frame_count = 0;
-                        input_.inputs.clear();
-                        input_.stamp = static_cast<std::uint16_t>(now / 100);
-                        input_.checksum_count = 0;
-                        bytes_.clear();
-                        encode(input_, kInputSize, bytes_);
-                        enet_peer_send(c->peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
+                        send_input(*c, 0, 0, now);
                         queued = true;
                     }
                 continue;
@@ -487,17 +495,8 @@ private:
             }
             const std::uint32_t f = room.next_frame++;
             for (auto* c : room.c) {
-                RelayInput& m = input_;
-                m.confirmed_ack = c->confirmed_next;
-                m.first_frame = std::min(f, std::max({c->input_ack, room.first_frame, f + 1 - std::min(f + 1, kMaxResend)}));
-                m.frame_count = static_cast<std::uint8_t>(f + 1 - m.first_frame);
-                m.inputs.resize(m.frame_count * kInputSize);
-                for (std::uint32_t i = 0; i < m.frame_count; ++i) bot_input(c->room, c->slot, m.first_frame + i, &m.inputs[i * kInputSize]);
-                m.stamp = static_cast<std::uint16_t>(now / 100);
-                m.checksum_count = 0;
-                bytes_.clear();
-                encode(m, kInputSize, bytes_);
-                enet_peer_send(c->peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
+                const std::uint32_t first = std::min(f, std::max({c->input_ack, room.first_frame, f + 1 - std::min(f + 1, kMaxResend)}));
+                send_input(*c, first, f + 1 - first, now);
                 queued = true;
             }
             room.sent_frame[f % kRing] = f + 1;

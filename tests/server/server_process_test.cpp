@@ -153,6 +153,13 @@ private:
     std::vector<RelayNoticeKind> notices_;
 };
 
+// Connects, says hello for (room, slot), and returns the server's answer (nullopt: none in time).
+std::optional<RelayWelcome> join(RelayClient& c, std::uint64_t room, std::uint8_t slot) {
+    if (!c.connect(3000)) return std::nullopt;
+    c.hello(room, slot);
+    return c.welcome(3000);
+}
+
 class ServerProcessTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() { ASSERT_EQ(enet_initialize(), 0); }
@@ -181,17 +188,13 @@ TEST_F(ServerProcessTest, RoomLimitRefusesTheNextRoom) {
     Server s({"--max-rooms", "1"}, dir.path / "server.log");
     ASSERT_NE(s.port, 0);
     RelayClient a(s.port), b(s.port), c(s.port);
-    ASSERT_TRUE(a.connect(3000) && b.connect(3000) && c.connect(3000));
-    a.hello(1, 0);
-    auto wa = a.welcome(3000);
+    auto wa = join(a, 1, 0);
     ASSERT_TRUE(wa);
     EXPECT_EQ(wa->refusal, RelayRefusal::None);
-    b.hello(2, 0);  // a second room: over the limit
-    auto wb = b.welcome(3000);
+    auto wb = join(b, 2, 0);  // a second room: over the limit
     ASSERT_TRUE(wb);
     EXPECT_EQ(wb->refusal, RelayRefusal::Full);
-    c.hello(1, 1);  // the existing room still takes its second player
-    auto wc = c.welcome(3000);
+    auto wc = join(c, 1, 1);  // the existing room still takes its second player
     ASSERT_TRUE(wc);
     EXPECT_EQ(wc->refusal, RelayRefusal::None);
     a.leave();
@@ -204,9 +207,7 @@ TEST_F(ServerProcessTest, SigtermDrainsRefusesNewHellosAndExitsZeroOnceEmpty) {
     Server s({"--status-file", status.string(), "--drain-timeout", "30"}, dir.path / "server.log");
     ASSERT_NE(s.port, 0);
     RelayClient player(s.port);
-    ASSERT_TRUE(player.connect(3000));
-    player.hello(7, 0);
-    auto w = player.welcome(3000);
+    auto w = join(player, 7, 0);
     ASSERT_TRUE(w);
     ASSERT_EQ(w->refusal, RelayRefusal::None);
     ASSERT_TRUE(eventually([&] { return read_file(status).find("\"rooms\": 1") != std::string::npos; }, 3000));
@@ -220,9 +221,7 @@ TEST_F(ServerProcessTest, SigtermDrainsRefusesNewHellosAndExitsZeroOnceEmpty) {
     EXPECT_TRUE(s.child->running());
     // A new hello is refused with the reason.
     RelayClient late(s.port);
-    ASSERT_TRUE(late.connect(3000));
-    late.hello(8, 0);
-    auto wl = late.welcome(3000);
+    auto wl = join(late, 8, 0);
     ASSERT_TRUE(wl);
     EXPECT_EQ(wl->refusal, RelayRefusal::Draining);
     // The last room's player leaves: drained, exit 0.
