@@ -31,6 +31,10 @@ void add_server_options(CLI::App& cmd) {
         ->check(CLI::Range(1.0, 86400.0))
         ->capture_default_str();
     cmd.add_option("--max-rooms", o->server.max_rooms, "Rooms this process accepts at once")->check(CLI::Range(1, 100000))->capture_default_str();
+    cmd.add_option("--max-connections", o->server.max_connections,
+                   "Connections this process accepts at once (ENet walks every slot on each pass: size it to rooms x (players + spectators))")
+        ->check(CLI::Range(2, 4095))
+        ->capture_default_str();
     cmd.add_option("--max-spectators", o->server.room.max_spectators, "Spectator places per room")->check(CLI::Range(0, 64))->capture_default_str();
     cmd.add_option("--per-address", o->max_connections_per_address, "Connections one IP address may hold (raise for a load test)")
         ->check(CLI::Range(1, 4095))

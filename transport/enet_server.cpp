@@ -15,6 +15,8 @@ constexpr enet_uint8 kInputChannel = 0;
 constexpr enet_uint8 kReliableChannel = 1;
 constexpr int kMaxEventsPerPoll = 8192;
 constexpr int kMaxErrorsPerPoll = 1024;
+// Datagrams ENet reads from the socket per enet_host_service call (protocol.c, 1.3.x).
+constexpr int kEnetReceiveBatch = 256;
 
 
 std::uint32_t id_of(const ENetPeer* p) { return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(p->data)); }
@@ -43,6 +45,8 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
     host_->duplicatePeers = config.max_connections_per_address;
     host_->maximumPacketSize = config.max_packet_bytes;
     host_->maximumWaitingData = config.max_waiting_bytes;
+    enet_socket_set_option(host_->socket, ENET_SOCKOPT_RCVBUF, config.socket_receive_bytes);
+    enet_socket_set_option(host_->socket, ENET_SOCKOPT_SNDBUF, config.socket_send_bytes);
     ENetAddress bound{};
     port_ = enet_socket_get_address(host_->socket, &bound) == 0 ? bound.port : config.port;
 }
@@ -58,6 +62,11 @@ void EnetServer::poll(Micros now, std::uint32_t wait_us) {
     int errors = 0;
     enet_uint32 wait_ms = (wait_us + 999) / 1000;
     for (int handled = 0; handled < kMaxEventsPerPoll;) {
+        // Each enet_host_service call walks every peer slot of the host twice (acks, pings,
+        // queued sends) around one read of at most kEnetReceiveBatch datagrams; with thousands
+        // of slots those walks are most of the server's cost. So one call reads the socket and
+        // enet_host_check_events (no walk) dispatches what it read; another call follows only
+        // if that batch may have left datagrams in the socket.
         const int r = enet_host_service(host_, &e, wait_ms);
         wait_ms = 0;
         if (r < 0) {
@@ -66,50 +75,60 @@ void EnetServer::poll(Micros now, std::uint32_t wait_us) {
             continue;
         }
         if (r == 0) break;
-        ++handled;
-        switch (e.type) {
-            case ENET_EVENT_TYPE_CONNECT: {
-                const std::uint32_t id = next_id_++;
-                if (next_id_ == 0) next_id_ = 1;
-                e.peer->data = reinterpret_cast<void*>(static_cast<std::uintptr_t>(id));
-                enet_peer_timeout(e.peer, config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
-                enet_peer_throttle_configure(e.peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
-                by_id_[id] = e.peer;
-                ++counters_.connections;
-                events_.push_back({ServerConnectionEvent::Type::Connected, id, address_text(e.peer->address)});
-                break;
-            }
-            case ENET_EVENT_TYPE_DISCONNECT: {
-                const std::uint32_t id = id_of(e.peer);
-                if (id != 0 && by_id_.erase(id)) {
-                    ++counters_.disconnects;
-                    events_.push_back({ServerConnectionEvent::Type::Disconnected, id, address_text(e.peer->address)});
-                }
-                e.peer->data = nullptr;
-                break;
-            }
-            case ENET_EVENT_TYPE_RECEIVE: {
-                const std::uint32_t id = id_of(e.peer);
-                if (e.channelID > kReliableChannel) ++counters_.dropped_bad_channel;
-                else if (e.packet->dataLength > kMaxDatagramBytes) ++counters_.dropped_oversized;
-                else if (inbox_.size() >= config_.max_inbox) ++counters_.dropped_inbox_full;
-                else if (id != 0) {
-                    ServerDatagram d;
-                    if (!spare_.empty()) {
-                        d = std::move(spare_.back());
-                        spare_.pop_back();
-                    }
-                    d.connection = id;
-                    d.bytes.assign(e.packet->data, e.packet->data + e.packet->dataLength);
-                    d.time_us = now;
-                    inbox_.push_back(std::move(d));
-                    ++counters_.datagrams_in;
-                }
-                enet_packet_destroy(e.packet);
-                break;
-            }
-            default: break;
+        int batch = 0;
+        do {
+            handle(e, now);
+            ++handled;
+            ++batch;
+        } while (handled < kMaxEventsPerPoll && enet_host_check_events(host_, &e) > 0);
+        if (batch < kEnetReceiveBatch) break;
+    }
+}
+
+void EnetServer::handle(const _ENetEvent& ev, Micros now) {
+    ENetEvent e = ev;
+    switch (e.type) {
+        case ENET_EVENT_TYPE_CONNECT: {
+            const std::uint32_t id = next_id_++;
+            if (next_id_ == 0) next_id_ = 1;
+            e.peer->data = reinterpret_cast<void*>(static_cast<std::uintptr_t>(id));
+            enet_peer_timeout(e.peer, config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
+            enet_peer_throttle_configure(e.peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
+            by_id_[id] = e.peer;
+            ++counters_.connections;
+            events_.push_back({ServerConnectionEvent::Type::Connected, id, address_text(e.peer->address)});
+            break;
         }
+        case ENET_EVENT_TYPE_DISCONNECT: {
+            const std::uint32_t id = id_of(e.peer);
+            if (id != 0 && by_id_.erase(id)) {
+                ++counters_.disconnects;
+                events_.push_back({ServerConnectionEvent::Type::Disconnected, id, address_text(e.peer->address)});
+            }
+            e.peer->data = nullptr;
+            break;
+        }
+        case ENET_EVENT_TYPE_RECEIVE: {
+            const std::uint32_t id = id_of(e.peer);
+            if (e.channelID > kReliableChannel) ++counters_.dropped_bad_channel;
+            else if (e.packet->dataLength > kMaxDatagramBytes) ++counters_.dropped_oversized;
+            else if (inbox_.size() >= config_.max_inbox) ++counters_.dropped_inbox_full;
+            else if (id != 0) {
+                ServerDatagram d;
+                if (!spare_.empty()) {
+                    d = std::move(spare_.back());
+                    spare_.pop_back();
+                }
+                d.connection = id;
+                d.bytes.assign(e.packet->data, e.packet->data + e.packet->dataLength);
+                d.time_us = now;
+                inbox_.push_back(std::move(d));
+                ++counters_.datagrams_in;
+            }
+            enet_packet_destroy(e.packet);
+            break;
+        }
+        default: break;
     }
 }
 

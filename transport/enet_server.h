@@ -22,6 +22,7 @@
 
 struct _ENetHost;
 struct _ENetPeer;
+struct _ENetEvent;
 
 namespace lockroll::transport {
 
@@ -36,6 +37,11 @@ struct EnetServerConfig {
     std::uint32_t timeout_min_ms = 2000;
     std::uint32_t timeout_max_ms = 5000;
     std::size_t max_inbox = 1 << 16;              // datagrams not yet taken by receive()
+    // Socket buffers. ENet's 256 KiB receive buffer holds about 2 ms of a thousand rooms'
+    // inputs: a scheduling hiccup longer than that drops datagrams in the kernel. Linux caps
+    // the value at net.core.rmem_max / wmem_max (docs/deployment.md).
+    int socket_receive_bytes = 4 * 1024 * 1024;
+    int socket_send_bytes = 1024 * 1024;
 };
 
 struct ServerConnectionEvent {
@@ -84,6 +90,8 @@ public:
     std::uint64_t wire_bytes_received() const;
 
 private:
+    void handle(const _ENetEvent& e, Micros now);
+
     EnetServerConfig config_;
     _ENetHost* host_ = nullptr;
     std::uint16_t port_ = 0;

@@ -1,0 +1,717 @@
+// relay_bench: how many two-player rooms one lockroll-server process sustains on one core.
+//
+// A load generator on loopback. For each room count R of a sweep it starts one lockroll-server
+// (pinned to --server-cpu; the generator pins itself to --client-cpu), connects 2R ENet client
+// peers spread over a few ENet hosts, and speaks the relay protocol directly
+// (rollback/relay_messages.h): every peer says hello for its room and slot, then sends one
+// RelayInput per tick at 60 Hz, as a client with an input delay of --input-delay frames would
+// (its input for frame f leaves while the room clock is about f - delay). Rooms are spread
+// evenly over the tick: host g carries the rooms of phase g / hosts, and sends all of them in
+// one flush.
+//
+// Relay delay of frame f: from the flush that sent the later of the room's two inputs for f to
+// the receipt, by each of the two clients, of the first Frames message that carries f (one
+// sample per client and frame; loopback both ways, ENet on both ends and the generator's own
+// event handling are included). Reported per run over the measurement window: p50 / p99 delay,
+// replaced inputs (frames the server confirmed without a slot's input: the deadline passed),
+// relay datagrams per second in and out (the server's own counters, from its status file), UDP
+// datagrams the generator sent and received (ENet's counters: pings and acks included), the
+// server's CPU (utime + stime from /proc/PID/stat over the window, as a share of one core) and
+// its RSS at the end. A run "sustains" R when every room played, p99 <= --goal-us and nothing
+// was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
+// whose generator fell behind measures the generator, not the server.
+//
+// A benchmark, not a test: run by hand (docs/performance.md, "Relay server"), e.g.
+//   build/bench/relay_bench --server build/server/lockroll-server --rooms 100,250,500,1000,1500
+// Loopback only: the server listens on 127.0.0.1.
+#include <CLI/CLI.hpp>
+#include <enet/enet.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "rollback/relay_messages.h"
+
+namespace {
+
+using namespace lockroll::rollback;
+using Clock = std::chrono::steady_clock;
+
+std::uint64_t now_us() {
+    return static_cast<std::uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
+}
+
+constexpr int kPlayers = 2;
+constexpr std::size_t kInputSize = 3;
+constexpr int kTickRate = 60;
+constexpr std::uint64_t kPeriodUs = 1000000 / kTickRate;
+constexpr std::uint32_t kRing = 1024;           // frames of send times kept per room
+constexpr std::uint32_t kMaxResend = 8;         // unacknowledged own inputs carried per message
+
+struct Options {
+    std::string server;
+    std::string connect;  // HOST:PORT of a server started by hand (then --server-pid for its CPU)
+    int server_pid = 0;
+    std::vector<int> rooms{100, 250, 500, 1000, 1500};
+    double seconds = 10;
+    double warmup = 3;
+    int repeat = 3;
+    int hosts = 64;
+    int input_delay = 2;
+    double ramp_rooms_per_s = 250;
+    int server_cpu = 0;
+    int client_cpu = 1;
+    int nice = 0;
+    double goal_us = 2000;
+    bool verbose = false;
+    std::string csv;
+    std::vector<std::string> server_args;
+};
+
+struct Client {
+    ENetPeer* peer = nullptr;
+    int room = 0;
+    int slot = 0;
+    bool welcomed = false;
+    std::uint32_t input_ack = 0;        // the server's: next own input it needs
+    std::uint32_t confirmed_next = 0;   // frames [0, this) received
+    bool has_clock = false;
+    bool connected = false;
+    double clock_frame = 0;             // server_frame + subframe at clock_at_us
+    std::uint64_t clock_at_us = 0;
+};
+
+struct Room {
+    std::uint64_t id = 0;
+    int host = 0;
+    Client* c[kPlayers] = {};
+    bool live = false;
+    std::uint32_t first_frame = 0;      // first frame this room sent inputs for
+    std::uint32_t next_frame = 0;       // next frame to send
+    std::array<std::uint64_t, kRing> sent_us{};
+    std::array<std::uint32_t, kRing> sent_frame{};  // frame + 1 held in each entry
+};
+
+struct RunResult {
+    int rooms = 0;
+    int rooms_live = 0;
+    double p50_us = 0, p99_us = 0, max_us = 0;
+    std::uint64_t samples = 0;
+    std::uint64_t replaced = 0;        // slot-frames confirmed as replaced in the window
+    std::uint64_t unsent = 0;          // frames confirmed before the generator sent them
+    double relay_in_per_s = 0, relay_out_per_s = 0;  // server counters (relay messages)
+    double udp_in_per_s = 0, udp_out_per_s = 0;      // generator's ENet counters (seen from the server)
+    double server_cpu = 0;             // share of one core
+    double server_rss_mib = 0;
+    double client_cpu = 0;
+    double late_p99_us = 0, late_max_us = 0;  // generator tick lateness
+    double loadavg = 0;
+    std::uint64_t disconnects = 0;
+    bool sustained = false;
+};
+
+double percentile(std::vector<std::uint32_t>& v, double p) {
+    if (v.empty()) return 0;
+    const auto k = static_cast<std::size_t>(std::min<double>(static_cast<double>(v.size() - 1), std::floor(p * static_cast<double>(v.size()))));
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+    return v[k];
+}
+
+// utime + stime of a process, in seconds.
+double process_cpu_s(int pid) {
+    std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+    std::string text((std::istreambuf_iterator<char>(f)), {});
+    const auto close = text.rfind(')');
+    if (close == std::string::npos) return 0;
+    std::istringstream in(text.substr(close + 2));
+    std::string field;
+    unsigned long long utime = 0, stime = 0;
+    for (int i = 3; i <= 15 && in >> field; ++i) {
+        if (i == 14) utime = std::stoull(field);
+        if (i == 15) stime = std::stoull(field);
+    }
+    return static_cast<double>(utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+double rss_mib(int pid) {
+    std::ifstream f("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(f, line);)
+        if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return 0;
+}
+
+double loadavg() {
+    std::ifstream f("/proc/loadavg");
+    double l = 0;
+    f >> l;
+    return l;
+}
+
+// The server's status file: a flat JSON object of numbers (server/server_process.cpp).
+double status_number(const std::string& path, const std::string& key) {
+    std::ifstream f(path);
+    std::string text((std::istreambuf_iterator<char>(f)), {});
+    const auto at = text.find("\"" + key + "\":");
+    if (at == std::string::npos) return -1;
+    return std::strtod(text.c_str() + at + key.size() + 3, nullptr);
+}
+
+void pin_to(int cpu) {
+    if (cpu < 0) return;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(cpu, &set);
+    if (sched_setaffinity(0, sizeof set, &set) != 0) std::perror("relay_bench: sched_setaffinity");
+}
+
+struct ServerChild {
+    int pid = 0;
+    std::uint16_t port = 0;
+    std::string status_file;
+};
+
+ServerChild start_server(const Options& o, int rooms, const std::string& dir) {
+    ServerChild s;
+    s.status_file = dir + "/status.json";
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    std::vector<std::string> args{o.server, "--listen", "127.0.0.1:0", "--max-rooms", std::to_string(rooms + 16),
+                                  "--per-address", "4095", "--status-file", s.status_file, "--log-level", "warn"};
+    // Sized as a deployment would size it (docs/deployment.md): ENet walks every connection
+    // slot of its host on each pass, used or not.
+    if (std::find(o.server_args.begin(), o.server_args.end(), "--max-connections") == o.server_args.end()) {
+        args.push_back("--max-connections");
+        args.push_back(std::to_string(std::min(4095, 2 * rooms + 64)));
+    }
+    args.insert(args.end(), o.server_args.begin(), o.server_args.end());
+    static int runs = 0;
+    const std::string log = dir + "/server-" + std::to_string(rooms) + "-" + std::to_string(runs++) + ".log";
+    s.pid = fork();
+    if (s.pid < 0) throw std::runtime_error("fork failed");
+    if (s.pid == 0) {
+        pin_to(o.server_cpu);
+        if (o.nice != 0) setpriority(PRIO_PROCESS, 0, o.nice);
+        dup2(fds[1], 1);
+        close(fds[0]);
+        close(fds[1]);
+        if (FILE* f = std::fopen(log.c_str(), "w")) dup2(fileno(f), 2);
+        std::vector<char*> argv;
+        for (auto& a : args) argv.push_back(a.data());
+        argv.push_back(nullptr);
+        execv(argv[0], argv.data());
+        std::perror("relay_bench: exec lockroll-server");
+        _exit(127);
+    }
+    close(fds[1]);
+    std::string line;
+    const std::uint64_t until = now_us() + 10'000'000;
+    while (now_us() < until && line.find('\n') == std::string::npos) {
+        pollfd p{fds[0], POLLIN, 0};
+        if (::poll(&p, 1, 100) <= 0) continue;
+        char c[64];
+        const ssize_t n = read(fds[0], c, sizeof c);
+        if (n <= 0) break;
+        line.append(c, static_cast<std::size_t>(n));
+    }
+    close(fds[0]);
+    unsigned port = 0;
+    if (std::sscanf(line.c_str(), "ready %u", &port) != 1 || port == 0) {
+        kill(s.pid, SIGKILL);
+        waitpid(s.pid, nullptr, 0);
+        throw std::runtime_error("lockroll-server did not print 'ready PORT' (see " + log + ")");
+    }
+    s.port = static_cast<std::uint16_t>(port);
+    return s;
+}
+
+void stop_server(const ServerChild& s) {
+    kill(s.pid, SIGTERM);
+    for (int i = 0; i < 100; ++i) {
+        if (waitpid(s.pid, nullptr, WNOHANG) == s.pid) return;
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    kill(s.pid, SIGKILL);
+    waitpid(s.pid, nullptr, 0);
+}
+
+class Generator {
+public:
+    Generator(const Options& o, int rooms, const std::string& host, std::uint16_t port, std::uint64_t run_id)
+        : o_(o), rooms_(static_cast<std::size_t>(rooms)), clients_(static_cast<std::size_t>(rooms) * kPlayers) {
+        const int hosts = std::max(1, std::min(o.hosts, rooms));
+        std::vector<int> per_host(static_cast<std::size_t>(hosts), 0);
+        for (int r = 0; r < rooms; ++r) per_host[static_cast<std::size_t>(r % hosts)] += kPlayers;
+        for (int h = 0; h < hosts; ++h) {
+            ENetHost* e = enet_host_create(nullptr, static_cast<std::size_t>(per_host[static_cast<std::size_t>(h)]), 2, 0, 0);
+            if (!e) throw std::runtime_error("enet_host_create failed");
+            e->duplicatePeers = ENET_PROTOCOL_MAXIMUM_PEER_ID;
+            enet_socket_set_option(e->socket, ENET_SOCKOPT_RCVBUF, 1 << 20);
+            hosts_.push_back(e);
+        }
+        if (enet_address_set_host(&address_, host.c_str()) != 0) throw std::runtime_error("cannot resolve " + host);
+        address_.port = port;
+        for (int r = 0; r < rooms; ++r) {
+            Room& room = rooms_[static_cast<std::size_t>(r)];
+            room.id = (run_id << 24) | static_cast<std::uint64_t>(r);
+            room.host = r % hosts;
+            for (int s = 0; s < kPlayers; ++s) {
+                Client& c = clients_[static_cast<std::size_t>(r * kPlayers + s)];
+                c.room = r;
+                c.slot = s;
+                room.c[s] = &c;
+            }
+        }
+    }
+
+    // Rooms connect at a bounded rate (a real fleet's matches do not all begin in one
+    // millisecond, and a burst of thousands of handshakes measures the burst, not the relay).
+    void connect_more(std::uint64_t now, std::uint64_t start) {
+        const auto due = std::min<std::size_t>(rooms_.size(), static_cast<std::size_t>(static_cast<double>(now - start) / 1e6 * o_.ramp_rooms_per_s) + 1);
+        for (; connected_rooms_ < due; ++connected_rooms_) {
+            Room& room = rooms_[connected_rooms_];
+            for (auto* c : room.c) {
+                c->peer = enet_host_connect(hosts_[static_cast<std::size_t>(room.host)], &address_, 2, 0);
+                if (!c->peer) throw std::runtime_error("enet_host_connect failed");
+                c->peer->data = c;
+            }
+        }
+    }
+    ~Generator() {
+        for (auto& c : clients_)
+            if (c.peer) enet_peer_disconnect_now(c.peer, 0);
+        for (auto* h : hosts_) {
+            enet_host_flush(h);
+            enet_host_destroy(h);
+        }
+    }
+
+    // Runs until every room is live and warm, then measures for o.seconds.
+    RunResult run(const ServerChild& server) {
+        RunResult res;
+        res.rooms = static_cast<int>(rooms_.size());
+        const std::uint64_t start = now_us();
+        const std::uint64_t ramp_limit = start + 30'000'000;
+        const int hosts = static_cast<int>(hosts_.size());
+        std::vector<std::uint64_t> next_fire(static_cast<std::size_t>(hosts));
+        for (int h = 0; h < hosts; ++h) next_fire[static_cast<std::size_t>(h)] = start + kPeriodUs * static_cast<std::uint64_t>(h) / static_cast<std::uint64_t>(hosts);
+        last_service_.assign(static_cast<std::size_t>(hosts), 0);
+        std::vector<pollfd> fds;
+        for (auto* h : hosts_) fds.push_back({static_cast<int>(h->socket), POLLIN, 0});
+        std::uint64_t window_start = 0, window_end = 0;
+        double cpu0 = 0, gen_cpu0 = 0, in0 = 0, out0 = 0, up0 = 0;
+        std::uint64_t udp_sent0 = 0, udp_recv0 = 0;
+        late_.clear();
+        for (;;) {
+            const std::uint64_t now = now_us();
+            connect_more(now, start);
+            // Ticks due: each host's rooms send their inputs, then one flush.
+            for (int h = 0; h < hosts; ++h) {
+                auto& nf = next_fire[static_cast<std::size_t>(h)];
+                while (now >= nf) {
+                    if (measuring_) late_.push_back(static_cast<std::uint32_t>(now - nf));
+                    fire(h, now);
+                    nf += kPeriodUs;
+                }
+            }
+            const int live = count_live();
+            if (o_.verbose && now >= next_debug_) {
+                next_debug_ = now + 1000000;
+                int conn = 0, wel = 0, clk = 0;
+                for (const auto& c : clients_) {
+                    conn += c.connected;
+                    wel += c.welcomed;
+                    clk += c.has_clock;
+                }
+                std::fprintf(stderr, "t=%.1f connected %d welcomed %d clock %d live rooms %d disconnects %llu\n",
+                             static_cast<double>(now - start) / 1e6, conn, wel, clk, live, static_cast<unsigned long long>(disconnects_));
+            }
+            if (!window_start && live == static_cast<int>(rooms_.size())) {
+                if (!warm_at_) warm_at_ = now + static_cast<std::uint64_t>(o_.warmup * 1e6);
+                if (now >= warm_at_) {
+                    window_start = now;
+                    window_end = now + static_cast<std::uint64_t>(o_.seconds * 1e6);
+                    measuring_ = true;
+                    cpu0 = server.pid ? process_cpu_s(server.pid) : 0;
+                    gen_cpu0 = process_cpu_s(getpid());
+                    in0 = status_number(server.status_file, "datagrams_in");
+                    out0 = status_number(server.status_file, "datagrams_out");
+                    up0 = status_number(server.status_file, "uptime_s");
+                    udp_sent0 = udp_sent();
+                    udp_recv0 = udp_received();
+                }
+            }
+            if (!window_start && now > ramp_limit) {
+                res.rooms_live = live;
+                std::fprintf(stderr, "relay_bench: only %d of %zu rooms started within 30 s\n", live, rooms_.size());
+                return res;
+            }
+            if (window_start && now >= window_end) {
+                const double wall = static_cast<double>(now - window_start) / 1e6;
+                res.rooms_live = live;
+                res.server_cpu = server.pid ? (process_cpu_s(server.pid) - cpu0) / wall : 0;
+                res.server_rss_mib = server.pid ? rss_mib(server.pid) : 0;
+                res.client_cpu = (process_cpu_s(getpid()) - gen_cpu0) / wall;
+                // The status file is rewritten every second: rates over its own uptime.
+                const double up1 = status_number(server.status_file, "uptime_s");
+                if (up0 >= 0 && up1 > up0) {
+                    res.relay_in_per_s = (status_number(server.status_file, "datagrams_in") - in0) / (up1 - up0);
+                    res.relay_out_per_s = (status_number(server.status_file, "datagrams_out") - out0) / (up1 - up0);
+                }
+                res.udp_in_per_s = static_cast<double>(udp_sent() - udp_sent0) / wall;
+                res.udp_out_per_s = static_cast<double>(udp_received() - udp_recv0) / wall;
+                res.samples = delays_.size();
+                res.p50_us = percentile(delays_, 0.50);
+                res.p99_us = percentile(delays_, 0.99);
+                res.max_us = delays_.empty() ? 0 : *std::max_element(delays_.begin(), delays_.end());
+                res.replaced = replaced_;
+                res.unsent = unsent_;
+                res.late_p99_us = percentile(late_, 0.99);
+                res.late_max_us = late_.empty() ? 0 : *std::max_element(late_.begin(), late_.end());
+                res.loadavg = loadavg();
+                res.disconnects = disconnects_;
+                res.sustained = res.rooms_live == res.rooms && res.disconnects == 0 && res.samples > 0 && res.p99_us <= o_.goal_us &&
+                                res.replaced == 0 && res.unsent == 0;
+                return res;
+            }
+            // Wait for traffic until the next tick is due.
+            std::uint64_t wake = *std::min_element(next_fire.begin(), next_fire.end());
+            const std::uint64_t t = now_us();
+            if (wake > t) {
+                const timespec ts{0, static_cast<long>((wake - t) * 1000)};
+                for (auto& f : fds) f.revents = 0;
+                ppoll(fds.data(), fds.size(), &ts, nullptr);
+            }
+            // Readable hosts are serviced at once, the others every few milliseconds (ENet's own
+            // timers: connects, pings, acks).
+            const std::uint64_t t2 = now_us();
+            for (int h = 0; h < hosts; ++h) {
+                auto& last = last_service_[static_cast<std::size_t>(h)];
+                if ((fds[static_cast<std::size_t>(h)].revents & POLLIN) || t2 - last >= 5000) {
+                    last = t2;
+                    service(h);
+                }
+            }
+        }
+    }
+
+private:
+    int count_live() const {
+        int n = 0;
+        for (const auto& r : rooms_) n += r.live ? 1 : 0;
+        return n;
+    }
+    std::uint64_t udp_sent() const {
+        std::uint64_t n = 0;
+        for (auto* h : hosts_) n += h->totalSentPackets;
+        return n;
+    }
+    std::uint64_t udp_received() const {
+        std::uint64_t n = 0;
+        for (auto* h : hosts_) n += h->totalReceivedPackets;
+        return n;
+    }
+
+    void send_hello(Client& c) {
+        RelayHello h;
+        h.room_id = rooms_[static_cast<std::size_t>(c.room)].id;
+        h.scene_checksum = 0x5EED;
+        h.players = kPlayers;
+        h.input_size = kInputSize;
+        h.tick_rate = kTickRate;
+        h.slot = static_cast<std::uint8_t>(c.slot);
+        h.stamp_us = now_us();
+        bytes_.clear();
+        encode(h, bytes_);
+        enet_peer_send(c.peer, 1, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_RELIABLE));
+    }
+
+    // A bot's input: a slow, deterministic pattern (a held direction changes every 30 frames).
+    static void bot_input(int room, int slot, std::uint32_t frame, std::uint8_t* out) {
+        const std::uint32_t phase = (frame / 30 + static_cast<std::uint32_t>(room * 7 + slot * 3)) % 9;
+        out[0] = static_cast<std::uint8_t>(static_cast<int>(phase % 3) - 1);
+        out[1] = static_cast<std::uint8_t>(static_cast<int>(phase / 3) - 1);
+        out[2] = 0;
+    }
+
+    // Queues one RelayInput: the client's own inputs for [first, first + count) (none: a
+    // heartbeat) and its acknowledgement.
+    void send_input(Client& c, std::uint32_t first, std::uint32_t count, std::uint64_t now) {
+        RelayInput& m = input_;
+        m.confirmed_ack = c.confirmed_next;
+        m.first_frame = first;
+        m.frame_count = static_cast<std::uint8_t>(count);
+        m.inputs.resize(count * kInputSize);
+        for (std::uint32_t i = 0; i < count; ++i) bot_input(c.room, c.slot, first + i, &m.inputs[i * kInputSize]);
+        m.stamp = static_cast<std::uint16_t>(now / 100);
+        m.checksum_count = 0;
+        bytes_.clear();
+        encode(m, kInputSize, bytes_);
+        enet_peer_send(c.peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
+    }
+
+    void fire(int h, std::uint64_t now) {
+        bool queued = false;
+        for (std::size_t r = static_cast<std::size_t>(h); r < rooms_.size(); r += hosts_.size()) {
+            Room& room = rooms_[r];
+            bool ready = true;
+            for (auto* c : room.c) ready = ready && c->peer && c->welcomed && c->has_clock;
+            if (!ready) {
+                // Waiting for the partner or the first Frames: a welcomed client still says
+                // something every tick, as a real one would, or the room drops it as silent.
+                for (auto* c : room.c)
+                    if (c->peer && c->welcomed) {
+                        send_input(*c, 0, 0, now);
+                        queued = true;
+                    }
+                continue;
+            }
+            if (!room.live) {
+                // Join the room clock: the first input is for the frame the clock reaches
+                // input_delay frames from now.
+                const Client& c = *room.c[0];
+                const double clock = c.clock_frame + static_cast<double>(now - c.clock_at_us) / static_cast<double>(kPeriodUs);
+                room.first_frame = static_cast<std::uint32_t>(std::ceil(clock)) + static_cast<std::uint32_t>(o_.input_delay);
+                room.next_frame = room.first_frame;
+                room.live = true;
+            }
+            const std::uint32_t f = room.next_frame++;
+            for (auto* c : room.c) {
+                const std::uint32_t first = std::min(f, std::max({c->input_ack, room.first_frame, f + 1 - std::min(f + 1, kMaxResend)}));
+                send_input(*c, first, f + 1 - first, now);
+                queued = true;
+            }
+            room.sent_frame[f % kRing] = f + 1;
+            room.sent_us[f % kRing] = 0;  // stamped at the flush below
+        }
+        if (!queued) return;
+        const std::uint64_t t = now_us();
+        for (std::size_t r = static_cast<std::size_t>(h); r < rooms_.size(); r += hosts_.size()) {
+            Room& room = rooms_[r];
+            if (room.live) {
+                const std::uint32_t f = room.next_frame - 1;
+                if (room.sent_frame[f % kRing] == f + 1 && room.sent_us[f % kRing] == 0) room.sent_us[f % kRing] = t;
+            }
+        }
+        (void)now;
+        enet_host_flush(hosts_[static_cast<std::size_t>(h)]);
+    }
+
+    void on_frames(Client& c, std::span<const std::uint8_t> d, std::uint64_t at) {
+        if (decode(d, kPlayers, kInputSize, frames_) != nullptr) {
+            ++bad_;
+            return;
+        }
+        c.input_ack = std::max(c.input_ack, frames_.input_ack);
+        c.clock_frame = frames_.server_frame + frames_.server_subframe / 65536.0;
+        c.clock_at_us = at;
+        c.has_clock = true;
+        Room& room = rooms_[static_cast<std::size_t>(c.room)];
+        const std::uint32_t end = frames_.first_frame + frames_.frame_count;
+        for (std::uint32_t f = std::max(c.confirmed_next, frames_.first_frame); f < end; ++f) {
+            if (!measuring_ || !room.live || f < room.first_frame) continue;
+            const std::uint32_t i = f - frames_.first_frame;
+            if (c.slot == 0)
+                for (int p = 0; p < kPlayers; ++p)
+                    if (frames_.flags[i * kPlayers + static_cast<std::uint32_t>(p)] & kRelayReplaced) ++replaced_;
+            if (room.sent_frame[f % kRing] != f + 1 || room.sent_us[f % kRing] == 0) {
+                if (c.slot == 0) ++unsent_;
+                continue;
+            }
+            delays_.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(at - room.sent_us[f % kRing], 0xFFFFFFFF)));
+        }
+        // Frames arrive in order on loopback; a gap (a lost datagram) is re-sent by the server
+        // from our acknowledgement on.
+        if (frames_.first_frame <= c.confirmed_next) c.confirmed_next = std::max(c.confirmed_next, end);
+    }
+
+    void service(int h) {
+        ENetEvent e;
+        while (enet_host_service(hosts_[static_cast<std::size_t>(h)], &e, 0) > 0) {
+            Client* c = e.peer ? static_cast<Client*>(e.peer->data) : nullptr;
+            if (!c) {
+                if (e.packet) enet_packet_destroy(e.packet);
+                continue;
+            }
+            switch (e.type) {
+                case ENET_EVENT_TYPE_CONNECT:
+                    enet_peer_throttle_configure(e.peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
+                    c->connected = true;
+                    send_hello(*c);
+                    break;
+                case ENET_EVENT_TYPE_DISCONNECT:
+                    ++disconnects_;
+                    c->peer = nullptr;
+                    break;
+                case ENET_EVENT_TYPE_RECEIVE: {
+                    const std::uint64_t at = now_us();
+                    const std::span<const std::uint8_t> d(e.packet->data, e.packet->dataLength);
+                    const auto kind = peek_relay_kind(d);
+                    if (kind == RelayKind::Frames) on_frames(*c, d, at);
+                    else if (kind == RelayKind::Welcome) {
+                        if (decode(d, welcome_) == nullptr && welcome_.refusal == RelayRefusal::None) c->welcomed = true;
+                        else
+                            std::fprintf(stderr, "relay_bench: room %d slot %d refused: %s\n", c->room, c->slot,
+                                         relay_refusal_name(welcome_.refusal));
+                    }
+                    enet_packet_destroy(e.packet);
+                    break;
+                }
+                default: break;
+            }
+        }
+    }
+
+    const Options& o_;
+    ENetAddress address_{};
+    std::size_t connected_rooms_ = 0;
+    std::vector<Room> rooms_;
+    std::vector<Client> clients_;
+    std::vector<ENetHost*> hosts_;
+    std::vector<std::uint8_t> bytes_;
+    RelayInput input_;
+    RelayFrames frames_;
+    RelayWelcome welcome_;
+    std::vector<std::uint32_t> delays_, late_;
+    std::vector<std::uint64_t> last_service_;
+    std::uint64_t replaced_ = 0, unsent_ = 0, bad_ = 0, disconnects_ = 0, warm_at_ = 0;
+    bool measuring_ = false;
+    std::uint64_t next_debug_ = 0;
+};
+
+double median(std::vector<double> v) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Options o;
+    CLI::App app{"relay_bench: R two-player rooms of 60 Hz bot inputs against one lockroll-server on loopback"};
+    app.add_option("--server", o.server, "lockroll-server binary to start for each run");
+    app.add_option("--connect", o.connect, "127.0.0.1:PORT of a server started by hand (one run per R)");
+    app.add_option("--server-pid", o.server_pid, "with --connect: its pid, for CPU and RSS");
+    app.add_option("--rooms", o.rooms, "room counts to sweep")->delimiter(',')->capture_default_str();
+    app.add_option("--seconds", o.seconds, "measurement window per run")->check(CLI::Range(1.0, 600.0))->capture_default_str();
+    app.add_option("--warmup", o.warmup, "seconds after every room started before measuring")->check(CLI::Range(0.0, 60.0))->capture_default_str();
+    app.add_option("--repeat", o.repeat, "runs per room count (medians reported)")->check(CLI::Range(1, 50))->capture_default_str();
+    app.add_option("--hosts", o.hosts, "ENet client hosts (tick phases)")->check(CLI::Range(1, 64))->capture_default_str();
+    app.add_option("--ramp", o.ramp_rooms_per_s, "rooms connected per second before measuring")->check(CLI::Range(1.0, 100000.0))->capture_default_str();
+    app.add_option("--input-delay", o.input_delay, "frames a bot's input leads the room clock")->check(CLI::Range(0, 60))->capture_default_str();
+    app.add_option("--server-cpu", o.server_cpu, "CPU the server is pinned to (-1: none)")->capture_default_str();
+    app.add_option("--client-cpu", o.client_cpu, "CPU the generator is pinned to (-1: none)")->capture_default_str();
+    app.add_option("--nice", o.nice, "nice value of the server and the generator (-20: a shared machine's other jobs yield the core)")
+        ->check(CLI::Range(-20, 19))
+        ->capture_default_str();
+    app.add_option("--goal-us", o.goal_us, "p99 relay delay a sustained run stays within")->capture_default_str();
+    app.add_flag("--verbose", o.verbose, "print the ramp's progress every second");
+    app.add_option("--csv", o.csv, "append one row per run here");
+    app.add_option("--server-arg", o.server_args, "extra lockroll-server flag (repeatable)");
+    CLI11_PARSE(app, argc, argv);
+    if (o.server.empty() == o.connect.empty()) {
+        std::fprintf(stderr, "relay_bench: give exactly one of --server and --connect\n");
+        return 2;
+    }
+    for (int r : o.rooms)
+        if (r < 1 || r > 2000) {
+            std::fprintf(stderr, "relay_bench: --rooms: %d is outside 1..2000 (a process holds at most 4000 connections)\n", r);
+            return 2;
+        }
+    if (enet_initialize() != 0) return 1;
+    pin_to(o.client_cpu);
+    if (o.nice != 0) {
+        if (setpriority(PRIO_PROCESS, 0, o.nice) != 0) std::perror("relay_bench: setpriority");
+        // With autogroup scheduling a process's nice ranks it only within its session; the
+        // session's own weight is its autogroup's nice (the server child shares the session).
+        std::ofstream ag("/proc/self/autogroup");
+        if (ag) ag << o.nice << "\n";
+    }
+    const std::string dir = std::filesystem::temp_directory_path() / ("relay_bench." + std::to_string(getpid()));
+    std::filesystem::create_directories(dir);
+    FILE* csv = o.csv.empty() ? nullptr : std::fopen(o.csv.c_str(), "a");
+    if (csv && std::ftell(csv) == 0)
+        std::fprintf(csv, "rooms,run,rooms_live,p50_us,p99_us,max_us,samples,replaced,unsent,relay_in_per_s,relay_out_per_s,"
+                          "udp_in_per_s,udp_out_per_s,server_cpu,server_rss_mib,generator_cpu,generator_late_p99_us,loadavg,sustained\n");
+    std::printf("%6s %4s %8s %8s %8s %10s %10s %10s %10s %7s %8s %7s %8s %5s %s\n", "rooms", "run", "p50_us", "p99_us", "max_us",
+                "replaced", "relay_in/s", "relay_out/s", "udp_in/s", "srv_cpu", "rss_MiB", "gen_cpu", "late_p99", "load", "sustained");
+    int best = 0;
+    std::uint64_t run_id = static_cast<std::uint64_t>(getpid()) << 8;
+    for (int rooms : o.rooms) {
+        std::vector<RunResult> runs;
+        for (int k = 0; k < o.repeat; ++k) {
+            ServerChild server;
+            std::string host = "127.0.0.1";
+            if (o.server.empty()) {
+                const auto colon = o.connect.rfind(':');
+                host = o.connect.substr(0, colon);
+                server.port = static_cast<std::uint16_t>(std::stoi(o.connect.substr(colon + 1)));
+                server.pid = o.server_pid;
+            } else {
+                server = start_server(o, rooms, dir);
+            }
+            RunResult r;
+            {
+                Generator g(o, rooms, host, server.port, ++run_id);
+                r = g.run(server);
+            }
+            if (!o.server.empty()) stop_server(server);
+            std::printf("%6d %4d %8.0f %8.0f %8.0f %10llu %10.0f %10.0f %10.0f %6.0f%% %8.1f %6.0f%% %8.0f %5.1f %s\n", rooms, k,
+                        r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.replaced + r.unsent), r.relay_in_per_s,
+                        r.relay_out_per_s, r.udp_in_per_s, r.server_cpu * 100, r.server_rss_mib, r.client_cpu * 100,
+                        r.late_p99_us, r.loadavg, r.sustained ? "yes" : "no");
+            std::fflush(stdout);
+            if (csv)
+                std::fprintf(csv, "%d,%d,%d,%.0f,%.0f,%.0f,%llu,%llu,%llu,%.0f,%.0f,%.0f,%.0f,%.4f,%.1f,%.4f,%.0f,%.2f,%d\n", rooms, k,
+                             r.rooms_live, r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.samples),
+                             static_cast<unsigned long long>(r.replaced), static_cast<unsigned long long>(r.unsent),
+                             r.relay_in_per_s, r.relay_out_per_s, r.udp_in_per_s, r.udp_out_per_s, r.server_cpu,
+                             r.server_rss_mib, r.client_cpu, r.late_p99_us, r.loadavg, r.sustained ? 1 : 0);
+            if (r.disconnects) std::fprintf(stderr, "relay_bench: %llu clients disconnected (server logs in %s)\n",
+                                            static_cast<unsigned long long>(r.disconnects), dir.c_str());
+            runs.push_back(r);
+        }
+        auto med = [&](auto field) {
+            std::vector<double> v;
+            for (const auto& r : runs) v.push_back(field(r));
+            return median(v);
+        };
+        int sustained = 0;
+        for (const auto& r : runs) sustained += r.sustained ? 1 : 0;
+        const bool ok = sustained * 2 > static_cast<int>(runs.size());
+        if (ok) best = std::max(best, rooms);
+        std::printf("median %6d rooms: p50 %.0f us, p99 %.0f us, relay in %.0f/s out %.0f/s, server CPU %.0f%% of a core "
+                    "(%.1f us per room-second), RSS %.1f MiB, replaced %.0f; sustained in %d of %zu runs\n",
+                    rooms, med([](const RunResult& r) { return r.p50_us; }), med([](const RunResult& r) { return r.p99_us; }),
+                    med([](const RunResult& r) { return r.relay_in_per_s; }), med([](const RunResult& r) { return r.relay_out_per_s; }),
+                    med([](const RunResult& r) { return r.server_cpu * 100; }),
+                    med([&](const RunResult& r) { return r.server_cpu * 1e6 / rooms; }),
+                    med([](const RunResult& r) { return r.server_rss_mib; }),
+                    med([](const RunResult& r) { return static_cast<double>(r.replaced + r.unsent); }), sustained, runs.size());
+        std::fflush(stdout);
+    }
+    std::printf("largest room count sustained (p99 <= %.0f us, nothing replaced, in most runs): %d\n", o.goal_us, best);
+    if (csv) std::fclose(csv);
+    std::printf("server logs: %s\n", dir.c_str());
+    enet_deinitialize();
+    return 0;
+}
