@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <random>
 #include <stdexcept>
 #include <utility>
 
@@ -24,12 +25,24 @@ RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
     if (!input) return RunOutcome::Failed;  // nothing to play with (a caller's bug; never throws)
     observer_ = observer;
     input_ = std::move(input);
-    const RunOutcome outcome = runner_->run();
+    const RunOutcome outcome = relay_runner_ ? relay_runner_->run() : runner_->run();
     observer_ = nullptr;
     return outcome;
 }
 
-void NetSession::request_stop() { runner_->request_stop(); }
+void NetSession::request_stop() {
+    if (relay_runner_) relay_runner_->request_stop();
+    else runner_->request_stop();
+}
+
+std::span<const rollback::PlayerId> NetSession::local_slots() const {
+    if (relay_session_) return relay_slots_;
+    return session_->local_slots();
+}
+
+std::optional<std::uint64_t> NetSession::confirmed_checksum(std::uint32_t frame) const {
+    return relay_session_ ? relay_session_->confirmed_checksum(frame) : session_->confirmed_checksum(frame);
+}
 
 bool NetSession::next_event(rollback::SessionEvent& out) {
     if (events_.empty()) return false;
@@ -39,6 +52,16 @@ bool NetSession::next_event(rollback::SessionEvent& out) {
 }
 
 rollback::NetworkStats NetSession::network_stats(rollback::PlayerId peer) const {
+    if (relay_session_) {
+        rollback::NetworkStats n;
+        n.ping_us = relay_session_->rtt_us();
+        n.jitter_us = relay_session_->jitter_us();
+        n.frames_behind = relay_session_->behind(net::now_us());
+        n.send_queue = relay_session_->frame() + static_cast<std::uint32_t>(relay_session_->input_delay()) -
+                       std::min(relay_session_->frame() + static_cast<std::uint32_t>(relay_session_->input_delay()),
+                                relay_session_->server_input_ack());
+        return n;
+    }
     return session_->network_stats(peer, net::now_us());
 }
 
@@ -79,8 +102,41 @@ SessionBuilder& SessionBuilder::listen(std::string host, std::uint16_t port) {
     return *this;
 }
 SessionBuilder& SessionBuilder::tick_rate(int hz) { tick_rate_ = hz; return *this; }
-SessionBuilder& SessionBuilder::input_delay(int frames) { input_delay_ = frames; return *this; }
-SessionBuilder& SessionBuilder::prediction_window(int frames) { prediction_window_ = frames; return *this; }
+SessionBuilder& SessionBuilder::input_delay(int frames) {
+    input_delay_ = frames;
+    input_delay_set_ = true;
+    return *this;
+}
+SessionBuilder& SessionBuilder::prediction_window(int frames) {
+    prediction_window_ = frames;
+    prediction_window_set_ = true;
+    return *this;
+}
+SessionBuilder& SessionBuilder::configure_relay(std::function<void(rollback::RelaySessionConfig&, RunnerConfig&)> f) {
+    configure_relay_ = std::move(f);
+    return *this;
+}
+
+rollback::RelaySessionConfig SessionBuilder::relay_config() const {
+    if (!server_) bad("relay_config() without server()");
+    if (server_->first.empty() || server_->second == 0) bad("server(): needs a host and a port");
+    if (!remote_.empty()) bad("server() and remote_player() exclude each other: through a server, nobody's address is needed");
+    if (players_ < 1 || players_ > rollback::kRelayMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kRelayMaxPlayers) + " through a server");
+    if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
+    if (local_.size() != 1) bad("through a server, exactly one local_player() (several local players need a mesh for now)");
+    if (input_delay_ < 0 || input_delay_ > 60) bad("input_delay must be 0..60");
+    rollback::RelaySessionConfig c;
+    c.players = players_;
+    c.local_slot = local_.front();
+    if (c.local_slot >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(c.local_slot) + "): slot out of range");
+    c.input_size = input_size_;
+    c.tick_rate = tick_rate_;
+    c.input_delay = input_delay_;
+    c.auto_input_delay = !input_delay_set_;
+    c.prediction_window = prediction_window_set_ ? prediction_window_ : 20;
+    c.room_id = match_id_;
+    return c;
+}
 SessionBuilder& SessionBuilder::match_id(std::uint64_t id) { match_id_ = id; return *this; }
 SessionBuilder& SessionBuilder::frames(std::uint32_t n) { frames_ = n; return *this; }
 SessionBuilder& SessionBuilder::configure(std::function<void(rollback::SessionConfig&, RunnerConfig&)> f) {
@@ -89,9 +145,7 @@ SessionBuilder& SessionBuilder::configure(std::function<void(rollback::SessionCo
 }
 
 rollback::SessionConfig SessionBuilder::session_config() const {
-    if (server_)
-        throw std::logic_error("SessionBuilder::server(" + server_->first + ":" + std::to_string(server_->second) +
-                               "): the relay server (issue 8) is not in this build; name the peers with remote_player()");
+    if (server_) bad("session_config() with server(): through a server the session is a RelaySession (relay_config())");
     if (players_ < 1 || players_ > rollback::kMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kMaxPlayers));
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
     if (local_.empty()) bad("no local_player(): name the slot(s) this machine plays");
@@ -150,6 +204,27 @@ RunnerConfig SessionBuilder::runner_config() const {
 }
 
 std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulation) const {
+    if (server_) {
+        rollback::RelaySessionConfig rs = relay_config();
+        RunnerConfig rc = runner_config();
+        if (configure_relay_) configure_relay_(rs, rc);
+        // The token the server resumes this process's slot with after a reconnect: random.
+        std::random_device rd;
+        if (rs.incarnation == 0) rs.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
+        rollback::validate(rs);
+        std::unique_ptr<NetSession> s(new NetSession());
+        s->runner_config_ = rc;
+        s->relay_slots_ = {rs.local_slot};
+        s->transport_ = std::make_unique<transport::EnetTransport>(transport::EnetConfig{
+            .local_id = static_cast<transport::PeerId>(rs.local_slot), .bind_host = listen_host_, .port = listen_port_});
+        s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation);
+        NetSession* raw = s.get();
+        RunnerObserver* as_observer = raw;
+        s->relay_runner_ = std::make_unique<RelayRunner>(
+            rc, server_->first, server_->second, *s->relay_session_, *s->transport_,
+            [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+        return s;
+    }
     rollback::SessionConfig sc = session_config();
     RunnerConfig rc = runner_config();
     if (configure_) configure_(sc, rc);

@@ -18,9 +18,12 @@
 //  - Addresses: every process listens on listen() (default 127.0.0.1, an ephemeral port:
 //    NetSession::port()); remote_player() gives where the others listen. Connections follow
 //    PeerRunner's rules (the lower process connects, retried every 0.5 s).
-//  - server(): the hook for a relay server (issue 8): instead of remote addresses the session
-//    would reach every peer through one server. Not in this build: start() throws
-//    std::logic_error saying so, so a game written against it fails loudly, never silently P2P.
+//  - server(host, port): play through a relay server (`lockroll server`, docs/relay.md) instead
+//    of a mesh: no remote_player(), exactly one local_player() (several local players through
+//    the server are not supported yet: start() throws naming it), match_id() is the room.
+//    NetSession then runs a rollback::RelaySession with net::RelayRunner; session() is the
+//    mesh's only (relay_session() here). Without input_delay() the delay adapts to the round
+//    trip; without prediction_window() the window is 20 frames (a 300 ms round trip).
 //  - Defaults are those of a real network: handshake on (match id, hello/RTT phase before frame
 //    0, agreed drops), input delay 2, prediction window 8 (0 = lockstep), 60 Hz, run until
 //    request_stop() (frames(N): until N frames are confirmed everywhere). configure() reaches
@@ -38,6 +41,8 @@
 #include <vector>
 
 #include "net/peer_runner.h"
+#include "net/relay_runner.h"
+#include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/simulation.h"
 #include "transport/enet_transport.h"
@@ -65,12 +70,19 @@ public:
     bool next_event(rollback::SessionEvent& out);
 
     std::uint16_t port() const { return transport_->port(); }
-    std::span<const rollback::PlayerId> local_slots() const { return session_->local_slots(); }
-    // Overlay figures for a remote process (its lowest slot).
+    std::span<const rollback::PlayerId> local_slots() const;
+    // Overlay figures for a remote process (its lowest slot); through a server: the server's
+    // link, whatever `peer` says.
     rollback::NetworkStats network_stats(rollback::PlayerId peer) const;
+    // Confirmed checksum of a recent frame (either kind of session).
+    std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
+    bool through_server() const { return relay_session_ != nullptr; }
     // The sans-IO core and the transport underneath, for stats and anything the builder hides.
+    // session(): peer to peer only; relay_session(): through a server only.
     rollback::Session& session() { return *session_; }
     const rollback::Session& session() const { return *session_; }
+    rollback::RelaySession& relay_session() { return *relay_session_; }
+    const rollback::RelaySession& relay_session() const { return *relay_session_; }
     transport::EnetTransport& transport() { return *transport_; }
     const RunnerConfig& runner_config() const { return runner_config_; }
 
@@ -87,6 +99,9 @@ private:
     std::unique_ptr<transport::EnetTransport> transport_;
     std::unique_ptr<rollback::Session> session_;
     std::unique_ptr<PeerRunner> runner_;
+    std::unique_ptr<rollback::RelaySession> relay_session_;
+    std::unique_ptr<RelayRunner> relay_runner_;
+    std::vector<rollback::PlayerId> relay_slots_;
     RunnerObserver* observer_ = nullptr;
     InputSource input_;
     std::deque<rollback::SessionEvent> events_;
@@ -101,7 +116,7 @@ public:
     // A slot played by the process listening at host:port (loopback or not: the builder does
     // not judge addresses; lockroll's own tools keep to loopback).
     SessionBuilder& remote_player(rollback::PlayerId slot, std::string host, std::uint16_t port);
-    // Reach the others through a relay server instead (issue 8; see the contract).
+    // Reach the others through a relay server instead (see the contract).
     SessionBuilder& server(std::string host, std::uint16_t port);
     SessionBuilder& listen(std::string host, std::uint16_t port);
     SessionBuilder& tick_rate(int hz);
@@ -112,13 +127,16 @@ public:
     SessionBuilder& frames(std::uint32_t n);
     // Last word on every field (called after the builder has filled both configs).
     SessionBuilder& configure(std::function<void(rollback::SessionConfig&, RunnerConfig&)> f);
+    // The same, through a server.
+    SessionBuilder& configure_relay(std::function<void(rollback::RelaySessionConfig&, RunnerConfig&)> f);
 
     // Binds the port and builds the session on `simulation` (in its initial state; it must
     // outlive the NetSession). Throws on any configuration error (see the contract).
     std::unique_ptr<NetSession> start(rollback::Simulation& simulation) const;
 
     // The configs start() would use (validated the same way); for tests and tools.
-    rollback::SessionConfig session_config() const;
+    rollback::SessionConfig session_config() const;   // peer to peer
+    rollback::RelaySessionConfig relay_config() const;  // through server()
     RunnerConfig runner_config() const;
 
 private:
@@ -136,10 +154,13 @@ private:
     std::uint16_t listen_port_ = 0;
     int tick_rate_ = 60;
     int input_delay_ = 2;
+    bool input_delay_set_ = false;
     int prediction_window_ = 8;
+    bool prediction_window_set_ = false;
     std::uint64_t match_id_ = 0;
     std::uint32_t frames_ = 0;
     std::function<void(rollback::SessionConfig&, RunnerConfig&)> configure_;
+    std::function<void(rollback::RelaySessionConfig&, RunnerConfig&)> configure_relay_;
 };
 
 }  // namespace lockroll::net

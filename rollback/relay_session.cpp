@@ -84,6 +84,13 @@ RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulat
     slot_flags_.assign(static_cast<std::size_t>(config_.players), kRelayAbsent);
     slot_seen_.assign(static_cast<std::size_t>(config_.players), false);
     input_delay_ = std::clamp(input_delay_, 0, static_cast<int>(config_.input_capacity / 4));
+    confirmed_checksums_.assign(kConfirmedKept, 0);
+    confirmed_frames_.assign(kConfirmedKept, 0);
+}
+
+std::optional<std::uint64_t> RelaySession::confirmed_checksum(std::uint32_t frame) const {
+    if (frame == 0 || frame > sync_->confirmed_frame() || confirmed_frames_[frame % kConfirmedKept] != frame) return std::nullopt;
+    return confirmed_checksums_[frame % kConfirmedKept];
 }
 
 RelaySession::~RelaySession() = default;
@@ -93,7 +100,7 @@ void RelaySession::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t fr
     events_.push_back({kind, peer, frame, now_us, std::move(detail)});
 }
 
-bool RelaySession::next_event(SessionEvent& out) {
+bool RelaySession::next_event(SessionEvent& out) noexcept {
     if (events_.empty()) return false;
     out = std::move(events_.front());
     events_.pop_front();
@@ -118,7 +125,7 @@ std::string RelaySession::inject_fault(std::uint32_t frame, std::uint32_t body_i
 
 // ---- receiving ----
 
-void RelaySession::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) {
+void RelaySession::receive_impl(std::span<const std::uint8_t> d, std::uint64_t now_us) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     ++stats_.packets_received;
     stats_.bytes_received += d.size();
@@ -451,6 +458,8 @@ void RelaySession::confirm_frames() {
     while (!sync_->rollback_pending() && sync_->confirmed_frame() < sync_->confirmable_frame()) {
         const FrameConfirmed fc = sync_->confirm_next();
         if (observer_) observer_->on_frame_confirmed(fc);
+        confirmed_checksums_[fc.frame % kConfirmedKept] = fc.checksum;
+        confirmed_frames_[fc.frame % kConfirmedKept] = fc.frame;
         if (checksum_interval_ && fc.frame % checksum_interval_ == 0 && config_.role != RelayRole::Spectator) {
             if (reports_.size() >= kMaxReports) reports_.pop_front();
             reports_.push_back({fc.frame, fc.checksum, kChecksumRepeats});
@@ -461,7 +470,7 @@ void RelaySession::confirm_frames() {
         own_.discard_before(std::min(server_ack_, sync_->queue(config_.local_slot).confirmed_count()));
 }
 
-AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
+AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     AdvanceResult r;
     ++stats_.ticks;
@@ -508,7 +517,7 @@ AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, s
     return r;
 }
 
-int RelaySession::catch_up(std::uint64_t now_us, int max_frames) {
+int RelaySession::catch_up_impl(std::uint64_t now_us, int max_frames) {
     int stepped = 0;
     const int want = std::min(max_frames, static_cast<int>(behind(now_us)));
     while (stepped < want && phase_ == SessionPhase::Running) {
@@ -528,7 +537,7 @@ int RelaySession::catch_up(std::uint64_t now_us, int max_frames) {
     return stepped;
 }
 
-void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     if (phase_ == SessionPhase::Failed) {
         pending_out_.clear();
@@ -621,6 +630,51 @@ void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
         out.push_back(std::move(d));
     }
     pending_out_.clear();
+}
+
+// ---- the per-tick calls: nothing thrown escapes ----
+
+namespace {
+template <class F, class R>
+R guarded(F&& f, R on_error, std::string& why) {
+    try {
+        return f();
+    } catch (const std::exception& e) {
+        why = e.what();
+    } catch (...) {
+        why = "unknown exception";
+    }
+    return on_error;
+}
+}  // namespace
+
+void RelaySession::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) noexcept {
+    std::string why;
+    if (!guarded([&] { receive_impl(d, now_us); return true; }, false, why)) fail("receive: " + why, now_us);
+}
+
+AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
+    std::string why;
+    AdvanceResult failed;
+    failed.frame = sync_->frame();
+    std::optional<AdvanceResult> r = guarded([&] { return std::optional<AdvanceResult>(advance_impl(local_input, now_us)); },
+                                             std::optional<AdvanceResult>(), why);
+    if (r) return *r;
+    fail("advance: " + why, now_us);
+    return failed;
+}
+
+void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
+    std::string why;
+    if (!guarded([&] { poll_impl(now_us, out); return true; }, false, why)) fail("poll: " + why, now_us);
+}
+
+int RelaySession::catch_up(std::uint64_t now_us, int max_frames) noexcept {
+    std::string why;
+    const int n = guarded([&] { return catch_up_impl(now_us, max_frames); }, -1, why);
+    if (n >= 0) return n;
+    fail("catch_up: " + why, now_us);
+    return 0;
 }
 
 }  // namespace lockroll::rollback

@@ -99,17 +99,17 @@ public:
     RelaySession& operator=(const RelaySession&) = delete;
 
     // A datagram from the server. Never throws or asserts on its content.
-    void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
     // One tick: rolls back if needed, then steps once unless the window is full. local_input
     // becomes this client's input of frame() + input_delay() (players only).
-    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept;
     // Appends the datagrams for the server: hellos, one input message per tick, forwards.
-    void poll(std::uint64_t now_us, std::vector<Datagram>& out);
+    void poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept;
     // Behind the target lead (a late start, a joiner, a slow clock): step up to max_frames now.
-    int catch_up(std::uint64_t now_us, int max_frames);
+    int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // Frames this client is behind its target (0 when on time or ahead).
     std::int32_t behind(std::uint64_t now_us) const;
-    bool next_event(SessionEvent& out);
+    bool next_event(SessionEvent& out) noexcept;
     // The transport lost the server and connected again: say hello again. The server knows this
     // process by its incarnation and resumes it (same slot, stream and state; no snapshot).
     void transport_reconnected(std::uint64_t now_us);
@@ -133,6 +133,9 @@ public:
     const RelayStats& relay_stats() const { return relay_stats_; }
     int recoveries() const { return recoveries_; }
     std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const { return sync_->saved_state(frame); }
+    // Checksum of a confirmed frame among the newest kConfirmedKept.
+    std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
+    static constexpr std::uint32_t kConfirmedKept = 4096;
 
 private:
     class OwnPredictor;
@@ -144,6 +147,12 @@ private:
         std::uint64_t created_us = 0;
     };
 
+    // The per-tick calls' bodies; the public ones turn anything thrown (the game's step / save /
+    // load, an allocation) into a failed session with the reason: nothing per tick throws.
+    void receive_impl(std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
+    int catch_up_impl(std::uint64_t now_us, int max_frames);
     void handle_welcome(std::uint64_t now_us);
     void handle_frames(std::uint64_t now_us);
     void handle_forward(std::uint64_t now_us);
@@ -202,6 +211,8 @@ private:
         int sends;
     };
     std::deque<Report> reports_;
+    std::vector<std::uint64_t> confirmed_checksums_;  // ring, frame % kConfirmedKept
+    std::vector<std::uint32_t> confirmed_frames_;
     // snapshot transfer, receiving side
     std::optional<std::uint8_t> transfer_from_;
     TransferReason transfer_reason_ = TransferReason::Join;

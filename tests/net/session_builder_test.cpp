@@ -3,12 +3,16 @@
 // player, as two NetSessions on threads over ENet on 127.0.0.1, confirm the same checksums.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <chrono>
+#include <cstdio>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <thread>
 
+#include "harness/child_process.h"
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
 
@@ -20,7 +24,7 @@ class Counters final : public rollback::Simulation {
 public:
     using Simulation::step;
     void step(std::span<const std::uint8_t> in) override {
-        for (std::size_t s = 0; s < v_.size(); ++s) v_[s] = v_[s] * 31 + in[s] + 1;
+        for (std::size_t s = 0; s < std::min(v_.size(), in.size()); ++s) v_[s] = v_[s] * 31 + in[s] + 1;
     }
     std::size_t state_size() const override { return 24; }
     void save(std::span<std::uint8_t> out) const override {
@@ -60,8 +64,12 @@ TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
     EXPECT_NE(error_of([&] { base().local_player(0).remote_player(1, "127.0.0.1", 9).input_delay(-1).start(sim); })
                   .find("input_delay"),
               std::string::npos);
-    // The relay server is a hook, not silently peer-to-peer.
-    EXPECT_THROW(base().local_player(0).server("127.0.0.1", 9).start(sim), std::logic_error);
+    // Through a server: nobody's address, one local player.
+    EXPECT_NE(error_of([&] { base().local_player(0).remote_player(1, "127.0.0.1", 9).server("127.0.0.1", 9).start(sim); })
+                  .find("exclude each other"),
+              std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).local_player(1).server("127.0.0.1", 9).start(sim); }).find("exactly one local_player"),
+              std::string::npos);
 }
 
 TEST(SessionBuilder, SlotsAtOneAddressAreOneProcess) {
@@ -118,6 +126,44 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     EXPECT_TRUE(synchronized);
     // B heard slot 1 only through A: nothing about it is "remote" to predict forever.
     EXPECT_EQ(sb->session().slot_state(1), rollback::SlotState::Running);
+}
+
+// Two processes' sessions through a real `lockroll-server` on 127.0.0.1: the builder's server().
+TEST(SessionBuilder, TwoPlayersThroughTheRelayServer) {
+    constexpr std::uint32_t kFrames = 180;
+    const std::string ready = ::testing::TempDir() + "/builder-relay-ready";
+    std::remove(ready.c_str());
+    harness::ChildProcess server({LOCKROLL_SERVER_EXE, "--listen", "127.0.0.1:0", "--ready-file", ready, "--run-seconds", "60"},
+                                 ::testing::TempDir() + "/builder-relay-server.log", true);
+    std::uint16_t port = 0;
+    for (int i = 0; i < 200 && port == 0; ++i) {
+        for (const auto& line : server.read_lines())
+            if (line.rfind("ready ", 0) == 0) port = static_cast<std::uint16_t>(std::stoi(line.substr(6)));
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_NE(port, 0) << "the server did not get ready";
+    Counters sim_a, sim_b;
+    const auto build = [&](rollback::PlayerId slot, Counters& sim) {
+        return SessionBuilder().players(2).input_size(1).local_player(slot).server("127.0.0.1", port).match_id(77)
+            .frames(kFrames).start(sim);
+    };
+    auto sa = build(0, sim_a);
+    auto sb = build(1, sim_b);
+    EXPECT_TRUE(sa->through_server());
+    RunOutcome oa{}, ob{};
+    std::thread ta([&] { oa = sa->run([](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f * 7); }); });
+    std::thread tb([&] { ob = sb->run([](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f ^ 0x5A); }); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << sa->relay_session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << sb->relay_session().failure();
+    for (std::uint32_t f = 1; f <= kFrames; ++f) {
+        const auto ca = sa->confirmed_checksum(f), cb = sb->confirmed_checksum(f);
+        ASSERT_TRUE(ca && cb) << f;
+        ASSERT_EQ(*ca, *cb) << "frame " << f;
+    }
+    EXPECT_GT(sa->network_stats(1).ping_us, 0u);
+    server.stop(5000);
 }
 
 }  // namespace
