@@ -1638,6 +1638,8 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     }
 }
 
+void Session::set_prediction_window(int frames) { sync_->set_prediction_window(frames); }
+
 void Session::set_input_delay(int frames) {
     const int max_delay = static_cast<int>(config_.input_capacity / 4);
     if (frames < 0 || frames > max_delay)

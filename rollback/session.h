@@ -237,6 +237,11 @@ public:
     // Takes effect for the next local input. Growing repeats the last input into the gap;
     // shrinking drops inputs until the delay has caught up (sent inputs never change).
     void set_input_delay(int frames);
+    // Switches between rollback (frames >= 1) and lockstep (0) mid-game, up to the configured
+    // prediction_window (throws std::invalid_argument beyond it). Peers need not agree: the
+    // window is this client's own choice of how far to run on guesses.
+    void set_prediction_window(int frames);
+    int prediction_window() const { return sync_->prediction_window(); }
     // Drops a slot on purpose (a kick): as if it had been silent for disconnect_us.
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking

@@ -24,6 +24,7 @@ std::span<const std::uint8_t> save_frame(SnapshotRing& ring, const Simulation& s
 Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, SessionObserver* observer,
            SessionStats& stats, CpuClock cpu_clock)
     : config_(config),
+      max_window_(config.prediction_window),
       sim_(sim),
       predictor_(predictor),
       observer_(observer),
@@ -240,6 +241,12 @@ FrameConfirmed Sync::confirm_next() {
     confirmed_frame_ = n;
     update_floors();
     return {n, confirm_inputs_, sim_.checksum(*state)};
+}
+
+void Sync::set_prediction_window(int frames) {
+    if (frames < 0 || frames > max_window_)
+        throw std::invalid_argument("prediction window must be 0.." + std::to_string(max_window_) + " (the window built with)");
+    config_.prediction_window = frames;
 }
 
 std::string Sync::add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {

@@ -69,6 +69,10 @@ public:
     int players() const { return config_.players; }
     std::size_t input_size() const { return config_.input_size; }
     int prediction_window() const { return config_.prediction_window; }
+    // Mid-game switch between rollback and lockstep: 0 <= frames <= the window this Sync was
+    // built with (its snapshot ring holds that many). Lowering it stalls until the frames on
+    // guesses are confirmed; frames already simulated on guesses may still roll back.
+    void set_prediction_window(int frames);
     bool rollback_pending() const { return pending_.has_value(); }
 
     // Gives the local player's input to max(frame() + delay, min_frame). When that frame already
@@ -138,6 +142,7 @@ private:
     };
 
     SyncConfig config_;
+    int max_window_;
     Simulation& sim_;
     Predictor& predictor_;
     SessionObserver* observer_;

@@ -4,8 +4,9 @@
 //   room SLOT MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--bot]
 //        [--screenshot FILE --shot-frame F]
 //
-// Keys: arrows or WASD move, space lifts, L toggles the view between rollback (predicted frames,
-// shown at once) and lockstep (only confirmed frames, what a lockstep client shows), Esc quits.
+// Keys: arrows or WASD move, space lifts, L toggles this client between rollback (runs ahead on
+// predictions, up to --window frames) and lockstep (prediction window 0: a frame runs once its
+// inputs are confirmed; set_prediction_window), Esc quits.
 // The overlay (SDL has no text; bars and digits drawn here): ping (ms), input delay (frames),
 // rollback depth (frames, newest), frames behind the peer, and the view (R or L).
 // --bot plays by itself (tests); --screenshot saves the window as BMP once frame F is shown.
@@ -157,7 +158,7 @@ int main(int argc, char** argv) {
     if (!shot.empty() && shot_frame < 0) return usage("--screenshot needs --shot-frame");
 
     const lockroll::sim::SceneDesc scene = paper_scene();
-    lockroll::rollback::WorldSimulation game(scene, 2), view(scene, 2);  // view: confirmed frames
+    lockroll::rollback::WorldSimulation game(scene, 2);
     std::unique_ptr<lockroll::net::NetSession> net;
     try {
         net = lockroll::net::SessionBuilder()
@@ -197,8 +198,6 @@ int main(int argc, char** argv) {
             // Draw what the last tick showed, then read the keys for this one.
             const auto& s = net->session();
             const lockroll::sim::World* shown = &game.world();
-            if (lockstep_view)
-                if (const auto st = s.saved_state(s.confirmed_frame()); st && view.load(*st).empty()) shown = &view.world();
             draw_world(ren, scene, *shown);
             const auto st = net->network_stats(other);
             gauge(ren, 10, "P", static_cast<long>(st.ping_us / 1000), 200);
@@ -218,7 +217,11 @@ int main(int argc, char** argv) {
             SDL_RenderPresent(ren);
             for (SDL_Event e; SDL_PollEvent(&e);) {
                 if (e.type == SDL_QUIT || (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_ESCAPE)) net->request_stop();
-                if (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_l && !e.key.repeat) lockstep_view = !lockstep_view;
+                if (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_l && !e.key.repeat) {
+                    // A real switch: this client stops running on guesses (window 0) or resumes.
+                    lockstep_view = !lockstep_view;
+                    net->session().set_prediction_window(lockstep_view ? 0 : static_cast<int>(window));
+                }
             }
             lockroll::sim::PlayerInput in;
             if (bot) {  // circles the room, a different way per slot

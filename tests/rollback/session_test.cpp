@@ -146,6 +146,31 @@ TEST(Session, LockstepWithShortDelayStallsButStaysExact) {
     }
 }
 
+// One client switches to lockstep mid-game (its own choice: the other stays rollback) and back.
+TEST(Session, PredictionWindowSwitchesToLockstepAndBackMidGame) {
+    const auto scene = make_scene(2, 20);
+    NetParams net;
+    net.latency_us = 40000;
+    Cluster cluster(scene, base_config(2, 8, 2), net, 5);
+    cluster.run_frames(120);
+    testing::Client& c = *cluster.clients[0];
+    EXPECT_GT(c.predicted_frames, 0u);  // rollback: guesses
+    EXPECT_THROW(c.session->set_prediction_window(9), std::invalid_argument);  // beyond what it was built with
+    c.session->set_prediction_window(0);
+    EXPECT_EQ(c.session->prediction_window(), 0);
+    cluster.run_frames(60);  // the frames already on guesses get confirmed (some may roll back)
+    const std::uint64_t predicted = c.predicted_frames, resimulated = c.resimulated;
+    cluster.run_frames(180);
+    EXPECT_EQ(c.predicted_frames, predicted);  // lockstep: no new frame runs on a guess
+    EXPECT_EQ(c.resimulated, resimulated);
+    EXPECT_GE(c.session->confirmed_frame(), c.session->frame() - 0);
+    c.session->set_prediction_window(8);  // rollback again (guessing only when it runs ahead)
+    EXPECT_EQ(c.session->prediction_window(), 8);
+    cluster.run_frames(120);
+    cluster.settle(480);
+    expect_converged(cluster, scene, 480);
+}
+
 TEST(Session, InputDelayChangesMidGame) {
     const auto scene = make_scene(2, 20);
     NetParams net;
