@@ -37,9 +37,19 @@ const char* text(std::string s) {
 
 bool valid_client(int c) { return g_match && c >= 0 && c < g_match->clients(); }
 
+bool valid_body(int c, int i) {
+    return valid_client(c) && i >= 0 && static_cast<std::size_t>(i) < g_match->world(c).dynamic_count();
+}
+
 const lockroll::sim::Vec3& body_position(int client, int index) {
     const lockroll::sim::World& w = g_match->world(client);
-    return w.position(w.dynamic_ids().at(static_cast<std::size_t>(index)));
+    return w.position(w.dynamic_ids()[static_cast<std::size_t>(index)]);
+}
+
+const lockroll::harness::FrameRow& row(int r) {
+    static const lockroll::harness::FrameRow none;
+    if (!g_match || r < 0 || static_cast<std::size_t>(r) >= g_match->rows().size()) return none;
+    return g_match->rows()[static_cast<std::size_t>(r)];
 }
 
 }  // namespace
@@ -131,20 +141,16 @@ EMSCRIPTEN_KEEPALIVE const char* lr_bodies_csv() {
 EMSCRIPTEN_KEEPALIVE int lr_body_count() {
     return g_match ? static_cast<int>(g_match->world(0).dynamic_count()) : 0;
 }
-EMSCRIPTEN_KEEPALIVE double lr_x(int c, int i) { return valid_client(c) ? metres(body_position(c, i).x) : 0; }
-EMSCRIPTEN_KEEPALIVE double lr_y(int c, int i) { return valid_client(c) ? metres(body_position(c, i).y) : 0; }
-EMSCRIPTEN_KEEPALIVE double lr_z(int c, int i) { return valid_client(c) ? metres(body_position(c, i).z) : 0; }
+EMSCRIPTEN_KEEPALIVE double lr_x(int c, int i) { return valid_body(c, i) ? metres(body_position(c, i).x) : 0; }
+EMSCRIPTEN_KEEPALIVE double lr_z(int c, int i) { return valid_body(c, i) ? metres(body_position(c, i).z) : 0; }
 
-// Error against time: rows (frames both clients have shown) so far; row r's fields.
+// Error against time: rows (frames both clients have shown) so far; row r's fields (0 for a row
+// that does not exist).
 EMSCRIPTEN_KEEPALIVE int lr_row_count() { return g_match ? static_cast<int>(g_match->rows().size()) : 0; }
-EMSCRIPTEN_KEEPALIVE double lr_row_frame(int r) { return g_match->rows().at(static_cast<std::size_t>(r)).frame; }
-EMSCRIPTEN_KEEPALIVE double lr_row_time_s(int r) { return g_match->rows().at(static_cast<std::size_t>(r)).time_s; }
-EMSCRIPTEN_KEEPALIVE double lr_row_mean_error(int r) {
-    return g_match->rows().at(static_cast<std::size_t>(r)).mean_error;
-}
-EMSCRIPTEN_KEEPALIVE double lr_row_max_error(int r) { return g_match->rows().at(static_cast<std::size_t>(r)).max_error; }
-EMSCRIPTEN_KEEPALIVE double lr_row_ticks_per_second(int r) {
-    return g_match->rows().at(static_cast<std::size_t>(r)).ticks_per_second;
-}
+EMSCRIPTEN_KEEPALIVE double lr_row_time_s(int r) { return row(r).time_s; }
+EMSCRIPTEN_KEEPALIVE double lr_row_mean_error(int r) { return row(r).mean_error; }
+EMSCRIPTEN_KEEPALIVE double lr_row_max_error(int r) { return row(r).max_error; }
+EMSCRIPTEN_KEEPALIVE double lr_row_ticks_per_second(int r) { return row(r).ticks_per_second; }
+EMSCRIPTEN_KEEPALIVE int lr_row_rollbacks(int r) { return static_cast<int>(row(r).rollbacks); }
 
 }  // extern "C"

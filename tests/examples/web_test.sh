@@ -84,7 +84,7 @@ check lockstep 28.5 10 0 1
 # Bad settings: the page shows the match's own message and does not start.
 dom=$(chrome --dump-dom "http://127.0.0.1:$port/index.html?loss=1&fast=1")
 grep -q 'class="error">--loss must be below 1' <<<"$dom" || fail "loss=1: no error on the page"
-grep -q 'data-done' <<<"$dom" && fail "loss=1: a match ran"
+grep -q 'data-done="1"' <<<"$dom" && fail "loss=1: a match ran"
 
 echo "$failures failures"
 [[ $failures -eq 0 ]]
