@@ -16,6 +16,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include <lockroll/harness/match.h>
 #include <lockroll/harness/scene_loader.h>
@@ -69,7 +70,9 @@ EMSCRIPTEN_KEEPALIVE int lr_start(int lockstep, double latency_ms, double jitter
         c.net.latency_ms = latency_ms;
         c.net.jitter_ms = jitter_ms;
         c.net.loss = loss;
-        if (!(seed >= 0 && seed <= 9007199254740991.0)) throw std::invalid_argument("seed must be 0..2^53-1");
+        // A JavaScript number holds integers exactly up to 2^53.
+        if (!(seed >= 0 && seed <= 9007199254740991.0) || static_cast<double>(static_cast<std::uint64_t>(seed)) != seed)
+            throw std::invalid_argument("seed must be an integer 0..2^53-1");
         c.seed = static_cast<std::uint64_t>(seed);
         g_match = std::make_unique<Match>(c);
         return 1;
