@@ -18,6 +18,7 @@ set(lockroll_config_dependencies "")  # lockrollConfig.cmake: finding what the s
 set(lockroll_pc_requires "")          # lockroll.pc: pkg-config modules they link
 set(lockroll_pc_libs "")              # lockroll.pc: -l flags, dependents first
 set(lockroll_installed "")
+set(lockroll_companions "")
 foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
   set(target lockroll_${name})
   if(NOT TARGET ${target})
@@ -40,7 +41,20 @@ foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
   # Static libraries pass their link dependencies on, private or not: the package must find each.
   get_target_property(links ${target} LINK_LIBRARIES)
   foreach(link IN LISTS links)
-    if(link MATCHES "^(lockroll::|lockroll_)" OR NOT TARGET ${link})
+    if(link MATCHES "^lockroll_" AND TARGET ${link} AND NOT link IN_LIST lockroll_companions)
+      # A companion built from the same folder (lockroll_relay_protocol of rollback/, which the
+      # relay server links without the rest): installed and exported with it, linked after it.
+      list(APPEND lockroll_companions ${link})
+      string(REGEX REPLACE "^lockroll_" "" companion ${link})
+      set_target_properties(${link} PROPERTIES EXPORT_NAME ${companion} POSITION_INDEPENDENT_CODE ON)
+      target_include_directories(${link} INTERFACE
+        $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
+        $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
+        $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/lockroll>)
+      install(TARGETS ${link} EXPORT lockrollTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+      list(INSERT lockroll_pc_libs 1 -l${link})
+      continue()
+    elseif(link MATCHES "^(lockroll::|lockroll_)" OR NOT TARGET ${link})
       continue()
     elseif(link STREQUAL "PkgConfig::ENET")
       if(NOT "libenet" IN_LIST lockroll_pc_requires)

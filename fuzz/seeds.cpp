@@ -1,6 +1,6 @@
 // Writes seed corpora for the fuzz targets from the real encoders, so every target starts from
 // valid inputs and mutates its way outward: fuzz_seeds DIR writes DIR/{protocol,session,replay,
-// snapshot}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
+// snapshot,relay}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -8,7 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "fuzz/relay_fuzz.h"
 #include "rollback/protocol.h"
+#include "rollback/relay_messages.h"
 #include "rollback/replay.h"
 #include "rollback/world_simulation.h"
 #include "tests/rollback/test_support.h"
@@ -118,5 +120,61 @@ int main(int argc, char** argv) {
     for (int f = 0; f < 40; ++f) sim.step(in);
     sim.save(state);
     put(root / "snapshot", "frame40", state);
+    // relay: two players start a room and play a few frames; a spectator; a bad hello.
+    {
+        using namespace lockroll::fuzz;
+        auto hello = [](int slot, RelayRole role) {
+            RelayHello h;
+            h.room_id = 7;
+            h.players = 2;
+            h.input_size = 3;
+            h.slot = static_cast<std::uint8_t>(slot);
+            h.role = role;
+            h.incarnation = 100 + static_cast<std::uint64_t>(slot);
+            std::vector<std::uint8_t> b;
+            encode(h, b);
+            return b;
+        };
+        auto inputs = [](std::uint32_t first, int count, std::uint32_t ack) {
+            RelayInput m;
+            m.confirmed_ack = ack;
+            m.first_frame = first;
+            m.frame_count = static_cast<std::uint8_t>(count);
+            m.inputs.assign(static_cast<std::size_t>(count) * 3, 0x42);
+            std::vector<std::uint8_t> b;
+            encode(m, 3, b);
+            return b;
+        };
+        std::vector<std::uint8_t> play;
+        relay_op(play, kOpen, 0);
+        relay_op(play, kOpen, 1);
+        relay_op(play, kDatagram, 0, hello(0, RelayRole::Player));
+        relay_op(play, kDatagram, 1, hello(1, RelayRole::Player));
+        for (std::uint32_t f = 0; f < 6; f += 2) {
+            relay_op(play, kDatagram, 0, inputs(f, 2, f));
+            relay_op(play, kDatagram, 1, inputs(f, 2, f));
+            relay_op(play, kTime, 0, {17});
+            relay_op(play, kTake, 0);
+        }
+        put(root / "relay", "two_players", play);
+        std::vector<std::uint8_t> watch = play;
+        relay_op(watch, kOpen, 2);
+        relay_op(watch, kDatagram, 2, hello(0, RelayRole::Spectator));
+        RelayForward fwd;
+        fwd.slot = 0;
+        fwd.payload = {6, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+        std::vector<std::uint8_t> fb;
+        encode(fwd, fb);
+        relay_op(watch, kDatagram, 2, fb);
+        relay_op(watch, kTime, 0, {200});
+        relay_op(watch, kTake, 0);
+        put(root / "relay", "spectator_forward", watch);
+        std::vector<std::uint8_t> late = play;
+        relay_op(late, kTime, 0, {255});
+        relay_op(late, kDatagram, 1, inputs(10000, 3, 0));
+        relay_op(late, kDatagram, 0, hello(1, RelayRole::Player));
+        relay_op(late, kTake, 0);
+        put(root / "relay", "late_and_spoof", late);
+    }
     return 0;
 }

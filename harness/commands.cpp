@@ -9,6 +9,7 @@
 #include "harness/sim_command.h"
 #include "harness/synctest_command.h"
 #include "harness/view_command.h"
+#include "server/server_cli.h"
 #include "harness/stability_command.h"
 
 namespace lockroll::harness {
@@ -24,6 +25,9 @@ void add_all_commands(CLI::App& app) {
     add_synctest_command(app);
     add_peer_command(app);
     add_live_command(app);
+    // The relay server (server/): the same options as the standalone lockroll-server.
+    server::add_server_options(*app.add_subcommand(
+        "server", "The relay server: rooms that collect, confirm and broadcast inputs (runs no simulation)"));
     add_proxy_command(app);
     add_view_command(app);
 }

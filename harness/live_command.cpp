@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <memory>
 #include <sstream>
 
@@ -57,6 +58,7 @@ struct LiveOptions {
     bool no_virtual = false;
     double disconnect_timeout = 5;
     int recoveries = 0;
+    bool prediction_given = false;
 };
 
 struct Kill {
@@ -72,6 +74,7 @@ struct LivePlan {
     std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
     std::vector<std::string> injections;  // CLIENT:FRAME:BODY[:FIELD:BIT], for every peer
     bool proxied = false;
+    std::vector<bool> topologies;  // false: peer to peer, true: through the relay server
 };
 
 std::pair<int, int> parse_at(const std::string& text, const std::string& flag) {
@@ -89,7 +92,9 @@ std::pair<int, int> parse_at(const std::string& text, const std::string& flag) {
 LivePlan plan(const LiveOptions& o) {
     LivePlan p;
     p.o = o;
-    if (o.topology != "p2p") throw UsageError("--topology " + o.topology + ": only p2p is supported");
+    if (o.topology == "p2p" || o.topology == "both") p.topologies.push_back(false);
+    if (o.topology == "relay" || o.topology == "both") p.topologies.push_back(true);
+    if (p.topologies.empty()) throw UsageError("--topology " + o.topology + ": expected p2p, relay or both");
     if (o.spectators < 0 || o.spectators > 8) throw UsageError("--spectators must be 0..8");
     if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
     if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
@@ -237,21 +242,55 @@ struct ProcessRecord {
 
 // Runs one mode's processes; returns what each did (players first, by slot; then rejoined
 // players and spectators).
-std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir, int input_delay) {
+// The relay server of a relay run: started first, stopped (drained) last.
+struct RelayServerRun {
+    std::unique_ptr<ChildProcess> process;
+    std::uint16_t port = 0;
+    fs::path status;
+};
+
+RelayServerRun start_relay_server(const LivePlan& p, const std::string& exe, const fs::path& dir, std::uint16_t port) {
+    RelayServerRun s;
+    s.port = port;
+    s.status = dir / "server-status.json";
+    s.process = std::make_unique<ChildProcess>(
+        std::vector<std::string>{exe, "server", "--listen", "127.0.0.1:" + std::to_string(port), "--status-file", s.status.string(),
+                                 "--max-spectators", std::to_string(std::max(1, p.o.spectators)), "--log-level", p.o.log_level},
+        (dir / "server.log").string(), true);
+    const std::uint64_t until = net::now_us() + 10000000;
+    for (;;) {
+        for (const auto& line : s.process->read_lines())
+            if (line.rfind("ready ", 0) == 0) return s;
+        if (!s.process->running()) throw std::runtime_error("the relay server exited at start; see " + (dir / "server.log").string());
+        if (net::now_us() > until) throw std::runtime_error("the relay server did not start within 10 s");
+        ::usleep(5000);
+    }
+}
+
+// Runs one mode's processes; returns what each did (players first, by slot; then rejoined
+// players and spectators). relay: every client talks to one `lockroll server` (through its own
+// proxy when impaired) instead of to every other peer; *server gets the server's counters.
+std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs::path& dir, int input_delay, bool relay,
+                                         json* server) {
     const LiveOptions& o = p.o;
     const std::string exe = self_exe();
     const int n = o.players, ids = n + o.spectators;
-    const auto ports = free_ports(n + ids);  // [0, ids): peers and spectators, [ids, ids + n): proxies
+    // [0, ids): peers and spectators, [ids, ids + n): proxies, then the relay server's.
+    const auto ports = free_ports(n + ids + 1);
     const auto port = [&](int k) { return ports[static_cast<std::size_t>(k)]; };
     const auto front = [&](int k) { return p.proxied ? port(ids + k) : port(k); };
     fs::create_directories(dir);
+    RelayServerRun relay_server;
+    if (relay) relay_server = start_relay_server(p, exe, dir, port(n + ids));
+    // Where a client's traffic goes: to its proxy in front of the server, or to the server.
+    const auto relay_front = [&](int k) { return p.proxied && k < n ? port(ids + k) : relay_server.port; };
 
     std::vector<std::unique_ptr<ChildProcess>> proxies;
     if (p.proxied) {
         for (int k = 0; k < n; ++k) {
             proxies.push_back(std::make_unique<ChildProcess>(
                 std::vector<std::string>{exe, "proxy", "--listen", "127.0.0.1:" + std::to_string(front(k)), "--to",
-                                         "127.0.0.1:" + std::to_string(port(k)), "--latency", num(o.latency), "--jitter",
+                                         "127.0.0.1:" + std::to_string(relay ? relay_server.port : port(k)), "--latency", num(o.latency), "--jitter",
                                          num(o.jitter), "--loss", num(o.loss), "--burst", num(o.burst), "--duplicate",
                                          num(o.duplicate), "--reorder", num(o.reorder), "--seed",
                                          std::to_string(o.seed * 1000 + static_cast<std::uint64_t>(k))},
@@ -315,18 +354,25 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         recs.push_back(r);
     }
     const auto launch = [&](ProcessRecord& r) {
-        std::vector<std::string> args{exe, "peer", "--slot", std::to_string(r.slot), "--players", std::to_string(n), "--listen",
-                                      "127.0.0.1:" + std::to_string(port(r.slot))};
-        for (int j = 0; j < n; ++j)
-            if (j != r.slot) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
+        std::vector<std::string> args{exe, relay ? "client" : "peer", "--slot", std::to_string(r.slot), "--players", std::to_string(n)};
+        const std::string match = std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed);
+        if (relay) {
+            args.insert(args.end(), {"--connect", "127.0.0.1:" + std::to_string(relay_front(r.slot)), "--room", match});
+            // The relay client adapts its input delay and covers a 300 ms round trip unless told.
+            if (o.input_delay != "auto") args.insert(args.end(), {"--input-delay", std::to_string(input_delay)});
+            if (o.prediction_given) args.insert(args.end(), {"--prediction", std::to_string(o.prediction)});
+        } else {
+            args.insert(args.end(), {"--listen", "127.0.0.1:" + std::to_string(port(r.slot))});
+            for (int j = 0; j < n; ++j)
+                if (j != r.slot) args.insert(args.end(), {"--peer", std::to_string(j) + "=127.0.0.1:" + std::to_string(front(j))});
+            args.insert(args.end(), {"--input-delay", std::to_string(input_delay), "--prediction", std::to_string(o.prediction),
+                                     "--match-id", match, "--spectators", std::to_string(o.spectators), "--disconnect-timeout",
+                                     num(o.disconnect_timeout)});
+        }
         args.insert(args.end(),
                     {"--scene", o.scene, "--bot", o.bot, "--frames", std::to_string(o.frames), "--tick-rate",
-                     std::to_string(o.tick_rate), "--mode", mode_name(mode), "--input-delay", std::to_string(input_delay),
-                     "--prediction", std::to_string(o.prediction), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
-                     "--match-id", std::string("live-") + mode_name(mode) + "-" + std::to_string(o.seed), "--progress",
-                     "--spectators", std::to_string(o.spectators), "--disconnect-timeout", num(o.disconnect_timeout), "--recoveries",
-                     std::to_string(o.recoveries), "--out",
-                     (dir / r.name).string()});
+                     std::to_string(o.tick_rate), "--mode", mode_name(mode), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
+                     "--progress", "--recoveries", std::to_string(o.recoveries), "--out", (dir / r.name).string()});
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
         if (r.joiner) args.emplace_back("--join");
         if (r.spectator) args.emplace_back("--spectate");
@@ -400,6 +446,10 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         }
     }
     for (auto& c : proxies) c->stop(2000);
+    if (relay_server.process) {
+        relay_server.process->stop(5000);  // SIGTERM: drains (every room has ended), exits
+        if (server) *server = json::parse(read_text(relay_server.status), nullptr, false);
+    }
     for (std::size_t i = 0; i < recs.size(); ++i) {
         ProcessRecord& r = recs[i];
         if (!procs[i]) continue;
@@ -654,6 +704,28 @@ std::string side_by_side(const std::vector<std::pair<std::string, const RunResul
     return o.str();
 }
 
+// One row per mode and topology: what the relay costs and gives against the mesh.
+std::string topology_table(const std::vector<std::tuple<std::string, const RunResult*, json>>& rows, int frames, int tick_rate) {
+    std::ostringstream o;
+    o << "| run | ticks/s | stalls | mean error (m) | rollbacks | input latency (ms) | payload B/s per client (sent) | "
+         "server payload B/s (in + out) | replaced inputs | completed |\n|---|---|---|---|---|---|---|---|---|---|\n";
+    const double seconds = static_cast<double>(frames) / tick_rate;
+    char line[600];
+    for (const auto& [name, r, extra] : rows) {
+        const bool relay = extra.is_object() && extra.contains("server");
+        const double server_bps = relay ? static_cast<double>(extra["server"].value("bytes_in", 0ull) +
+                                                              extra["server"].value("bytes_out", 0ull)) / seconds
+                                        : 0.0;
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %.3g | %llu | %.1f | %.0f | %s | %s | %s |\n", name.c_str(),
+                      r->ticks_per_second(), 100 * r->stall_fraction(), r->position_error.mean(),
+                      static_cast<unsigned long long>(r->rollbacks()), r->input_latency_local.mean(), r->bytes_sent_per_s(),
+                      relay ? num(server_bps).c_str() : "-",
+                      relay ? std::to_string(extra.value("replaced", 0ull)).c_str() : "-", r->completed ? "yes" : "NO");
+        o << line;
+    }
+    return o.str();
+}
+
 int do_live(const LiveOptions& options) {
     const LivePlan p = plan(options);
     const fs::path out(p.o.out);
@@ -661,39 +733,65 @@ int do_live(const LiveOptions& options) {
     std::map<Mode, RunResult> live, virt;
     json modes = json::object();
     bool ok = true;
-    // Both modes: also rollback at input delay 0, the like-for-like run of the paper (compare's
-    // third column), as real processes too.
-    std::vector<std::pair<std::string, Mode>> runs;
-    for (Mode m : p.modes) runs.emplace_back(mode_name(m), m);
-    if (p.modes.size() == 2) runs.emplace_back("rollback-delay0", Mode::Rollback);
     std::map<std::string, RunResult> by_name;
-    for (const auto& [name, m] : runs) {
-        const fs::path dir = out / name;
-        const int delay = name == "rollback-delay0" ? 0 : p.input_delay.at(m);
-        std::fprintf(stderr, "[live] %s: %d processes%s, %d frames\n", name.c_str(), p.o.players,
-                     p.proxied ? " behind proxies" : "", p.o.frames);
-        const auto recs = run_processes(p, m, dir, delay);
-        RunResult r = collect(p, m, dir, recs, delay);
-        write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
-        write_file_atomic(dir / "frames.csv", frames_csv(r));
-        if (!r.positions_csv.empty()) {
-            write_file_atomic(dir / "positions.csv", r.positions_csv);
-            write_file_atomic(dir / "bodies.csv", r.bodies_csv);
-            if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
-        }
-        json lj = live_json(recs, dir);
-        ok = ok && lj["ok"].get<bool>();
-        modes[name] = lj;
-        std::printf("real processes, %s", console_summary(r).c_str());
-        if (name == mode_name(m)) live.emplace(m, r);
-        by_name.emplace(name, std::move(r));
-        if (!p.o.no_virtual && name == mode_name(m)) {
-            RunConfig cfg = p.base;
-            cfg.mode = m;
-            cfg.input_delay = delay;
-            RunResult v = run_match(cfg);
-            write_run(out / "virtual" / mode_name(m), v);
-            virt.emplace(m, std::move(v));
+    std::vector<std::tuple<std::string, const RunResult*, json>> topo_rows;
+    std::map<std::string, json> topo_extra;
+    for (const bool relay : p.topologies) {
+        // Both modes: also rollback at input delay 0, the like-for-like run of the paper
+        // (compare's third column), as real processes too (peer to peer only).
+        std::vector<std::pair<std::string, Mode>> runs;
+        for (Mode m : p.modes) runs.emplace_back((relay ? "relay-" : "") + std::string(mode_name(m)), m);
+        if (p.modes.size() == 2 && !relay) runs.emplace_back("rollback-delay0", Mode::Rollback);
+        // The lockstep-against-rollback comparison is of the first topology run.
+        const bool primary = relay == p.topologies.front();
+        for (const auto& [name, m] : runs) {
+            const fs::path dir = out / name;
+            const int delay = name == "rollback-delay0" ? 0 : p.input_delay.at(m);
+            std::fprintf(stderr, "[live] %s: %d processes%s%s, %d frames\n", name.c_str(), p.o.players,
+                         relay ? " through the relay server" : "", p.proxied ? " behind proxies" : "", p.o.frames);
+            json server;
+            const auto recs = run_processes(p, m, dir, delay, relay, &server);
+            RunResult r = collect(p, m, dir, recs, delay);
+            if (relay)  // the relay clients chose their own delay (adaptive) and window
+                for (const auto& rec : recs)
+                    if (!rec.spectator && rec.summary.is_object()) {
+                        r.input_delay = rec.summary["input_delay"].value("start", r.input_delay);
+                        r.prediction = rec.summary.value("prediction_window", r.prediction);
+                        break;
+                    }
+            write_file_atomic(dir / "summary.json", summary_json(r).dump(2) + "\n");
+            write_file_atomic(dir / "frames.csv", frames_csv(r));
+            if (!r.positions_csv.empty()) {
+                write_file_atomic(dir / "positions.csv", r.positions_csv);
+                write_file_atomic(dir / "bodies.csv", r.bodies_csv);
+                if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
+            }
+            json lj = live_json(recs, dir);
+            json extra = json::object();
+            if (relay) {
+                std::uint64_t replaced = 0;
+                for (const auto& rec : recs)
+                    if (rec.summary.is_object() && rec.summary.contains("relay"))
+                        replaced += rec.summary["relay"].value("own_replaced", 0ull);
+                extra = {{"server", server.is_discarded() ? json::object() : server}, {"replaced", replaced}};
+                lj["relay_server"] = extra["server"];
+                lj["replaced_inputs"] = replaced;
+            }
+            ok = ok && lj["ok"].get<bool>();
+            modes[name] = lj;
+            std::printf("real processes, %s", console_summary(r).c_str());
+            if (primary && name == mode_name(m) + std::string()) live.emplace(m, r);
+            if (primary && relay && name == "relay-" + std::string(mode_name(m))) live.emplace(m, r);
+            topo_extra[name] = extra;
+            by_name.emplace(name, std::move(r));
+            if (!p.o.no_virtual && !relay && name == mode_name(m)) {
+                RunConfig cfg = p.base;
+                cfg.mode = m;
+                cfg.input_delay = delay;
+                RunResult v = run_match(cfg);
+                write_run(out / "virtual" / mode_name(m), v);
+                virt.emplace(m, std::move(v));
+            }
         }
     }
     write_file_atomic(out / "live.json", json{{"modes", modes}, {"ok", ok}}.dump(2) + "\n");
@@ -710,14 +808,24 @@ int do_live(const LiveOptions& options) {
                                      ? "![error against run time](error_vs_time.png)\n\n![rollback depth](rollback_depth.png)\n\n"
                                        "![tick rate over time](tick_rate.png)\n"
                                      : "Plots were not made: " + plot_error + "\n";
-        write_file_atomic(out / "compare.json",
-                          compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0")).dump(2) + "\n");
-        report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), by_name.at("rollback-delay0"), note);
+        const RunResult& delay0 = by_name.contains("rollback-delay0") ? by_name.at("rollback-delay0") : live.at(Mode::Rollback);
+        write_file_atomic(out / "compare.json", compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0).dump(2) + "\n");
+        report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0, note);
     }
     report += "\n## Real processes beside virtual time\n\nThe same scene, players, frames, seed, input delay and network "
               "conditions: N `lockroll peer` processes over ENet on 127.0.0.1 (through `lockroll proxy` when impaired), "
               "and the in-process virtual-time match (`lockroll run`).\n\n" +
               side_by_side(table) + "\nPer-process details: live.json, MODE/pK/.\n";
+    if (std::find(p.topologies.begin(), p.topologies.end(), true) != p.topologies.end()) {
+        for (Mode m : p.modes)
+            for (const std::string prefix : {"", "relay-"})
+                if (const std::string name = prefix + mode_name(m); by_name.contains(name))
+                    topo_rows.emplace_back(name, &by_name.at(name), topo_extra[name]);
+        report += "\n## Peer to peer against the relay server\n\nThe same conditions on every client's link (through the "
+                  "server, a client's input travels two links). Payload: the session's own bytes, without ENet/UDP/IP "
+                  "headers. Server payload: everything the server received and sent, per second of match.\n\n" +
+                  topology_table(topo_rows, p.o.frames, p.o.tick_rate);
+    }
     write_file_atomic(out / "report.md", report);
     std::printf("written %s/report.md, live.json%s\n", out.c_str(), p.modes.size() == 2 ? ", compare.json" : "");
     std::fflush(stdout);
@@ -730,7 +838,9 @@ void add_live_command(CLI::App& app) {
     auto o = std::make_shared<LiveOptions>();
     CLI::App* cmd = app.add_subcommand(
         "live", "Real processes: N `lockroll peer` over ENet on loopback behind impairment proxies; DIR/report.md, live.json");
-    cmd->add_option("--topology", o->topology, "p2p (every peer talks to every other)")->capture_default_str();
+    cmd->add_option("--topology", o->topology, "p2p (every peer talks to every other), relay (every client to one `lockroll server`) or both")
+        ->check(CLI::IsMember({"p2p", "relay", "both"}))
+        ->capture_default_str();
     cmd->add_option("--players", o->players, "Processes (2..16)")->capture_default_str();
     cmd->add_option("--frames", o->frames, "Frames every process plays")->capture_default_str();
     cmd->add_option("--tick-rate", o->tick_rate, "Ticks per second")->capture_default_str();
@@ -763,7 +873,8 @@ void add_live_command(CLI::App& app) {
     cmd->add_flag("--no-virtual", o->no_virtual, "Skip the in-process virtual-time run beside it");
     cmd->add_flag("--view", o->view, "Also write DIR/MODE/view.html (lockroll view) for every mode run");
     cmd->add_option("--out", o->out, "Output directory")->capture_default_str();
-    cmd->callback([o] {
+    cmd->callback([o, cmd] {
+        o->prediction_given = cmd->count("--prediction") > 0;
         if (do_live(*o) != 0) throw std::runtime_error("live: a process failed or the final checksums differ (see live.json)");
     });
 }

@@ -10,8 +10,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
+#include <random>
 #include <set>
 
 #include <nlohmann/json.hpp>
@@ -31,6 +33,8 @@
 #include "harness/scene_loader.h"
 #include "net/clock.h"
 #include "net/peer_runner.h"
+#include "net/relay_runner.h"
+#include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 
@@ -68,6 +72,12 @@ struct PeerOptions {
     double connect_timeout = 30;
     double finish_timeout = 15;
     bool progress = false;
+    // `lockroll client`: through the relay server instead of a mesh.
+    bool relay = false;
+    std::string connect;
+    std::string room;
+    bool fixed_delay = false;       // --input-delay given: no adaptive delay
+    bool prediction_given = false;
 };
 
 // Validated flags: everything checked before a socket is bound or a file written.
@@ -77,6 +87,7 @@ struct PeerPlan {
     BotKind bot = BotKind::Random;
     sim::SceneDesc scene;
     Endpoint listen;
+    Endpoint server;  // relay: the server's address
     std::vector<net::PeerAddress> peers;
     std::vector<DesyncInjection> injections;  // client field = this slot
     spdlog::level::level_enum log_level = spdlog::level::info;
@@ -95,7 +106,9 @@ PeerPlan plan(const PeerOptions& o) {
     p.o = o;
     if (o.players < 2 || o.players > 16) throw UsageError("--players must be 2..16");
     if (o.spectators < 0 || o.spectators > 16) throw UsageError("--spectators must be 0..16");
-    if (o.spectate && (o.slot < o.players || o.slot >= o.players + o.spectators))
+    if (o.spectate && o.relay && o.slot < o.players)
+        throw UsageError("--slot must be >= players with --spectate (the server assigns the spectator's place)");
+    if (o.spectate && !o.relay && (o.slot < o.players || o.slot >= o.players + o.spectators))
         throw UsageError("--slot must be players..players+spectators-1 with --spectate (a spectator's id)");
     if (!o.spectate && (o.slot < 0 || o.slot >= o.players)) throw UsageError("--slot must be 0..players-1");
     if (o.join && o.spectate) throw UsageError("--join and --spectate exclude each other");
@@ -117,7 +130,13 @@ PeerPlan plan(const PeerOptions& o) {
     if (level == spdlog::level::off && o.log_level != "off")
         throw UsageError("--log-level " + o.log_level + ": expected trace, debug, info, warn, error, critical or off");
     p.log_level = level;
-    p.listen = parse_loopback_endpoint(o.listen, "--listen", true);
+    if (o.relay) {
+        p.server = parse_loopback_endpoint(o.connect, "--connect", false);
+        if (o.room.empty()) throw UsageError("--room is required");
+        if (o.players > rollback::kRelayMaxPlayers) throw UsageError("--players must be 2..16");
+    } else {
+        p.listen = parse_loopback_endpoint(o.listen, "--listen", true);
+    }
     std::set<int> seen;
     for (const auto& text : o.peers) {
         const auto eq = text.find('=');
@@ -139,7 +158,7 @@ PeerPlan plan(const PeerOptions& o) {
         p.peers.push_back({static_cast<PlayerId>(slot), e.host, e.port});
     }
     const int others = o.spectate ? o.players : o.players - 1;
-    if (static_cast<int>(seen.size()) != others)
+    if (!o.relay && static_cast<int>(seen.size()) != others)
         throw UsageError("--peer: need an address for every other slot (" + std::to_string(others) + "), got " +
                          std::to_string(seen.size()));
     // Same syntax as run's; only this process's CLIENT applies (live passes every one to all).
@@ -169,7 +188,18 @@ public:
         shown_us_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
     }
 
-    rollback::Session* session = nullptr;
+    // What the recorder reads of the session (a P2P Session or a RelaySession).
+    struct View {
+        std::function<std::uint32_t()> frame, confirmed_frame;
+        std::function<int()> input_delay;
+    };
+    template <class S>
+    void watch(const S& s) {
+        view.frame = [&s] { return s.frame(); };
+        view.confirmed_frame = [&s] { return s.confirmed_frame(); };
+        view.input_delay = [&s] { return s.input_delay(); };
+    }
+    View view;
     std::uint64_t synced_us = 0, reached_us = 0;
     bool final_confirmed = false;
     std::uint64_t final_checksum = 0;
@@ -187,7 +217,7 @@ public:
     void event(const std::string& name, std::uint64_t now, json extra = json::object()) {
         json e = {{"t_ms", static_cast<double>(now - process_start_us_) / 1000.0},
                   {"mono_ms", static_cast<double>(now) / 1000.0},
-                  {"frame", session ? session->frame() : 0},
+                  {"frame", view.frame ? view.frame() : 0},
                   {"event", name},
                   {"slot", p_.o.slot}};
         for (auto& [k, v] : extra.items()) e[k] = v;
@@ -212,7 +242,7 @@ public:
             const auto intervals = static_cast<double>(shown_us_.end() - first) - 1;
             const double span = std::max(std::min(1.0, static_cast<double>(now - synced_us) / 1e6),
                                          intervals / p_.o.tick_rate);
-            rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, session->confirmed_frame(), 0,
+            rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, view.confirmed_frame(), 0,
                              span > 0 ? intervals / span : 0.0, 0.0});
         }
         // Local input latency: frame f consumed the inputs of frame f - 1.
@@ -293,12 +323,12 @@ public:
                   e.peer, e.frame, e.detail.empty() ? "" : ": ", e.detail);
         json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
         if (!e.detail.empty()) extra["detail"] = e.detail;
-        if (e.kind == K::Synchronized) extra["input_delay"] = session->input_delay();
+        if (e.kind == K::Synchronized) extra["input_delay"] = view.input_delay();
         event(rollback::event_name(e.kind), e.at_us ? e.at_us : net::now_us(), extra);
     }
     void on_synchronized(std::uint64_t now) override {
         if (!synced_us) synced_us = now;
-        log_->info("running from frame {} (input delay {}, {} mode)", session->frame(), session->input_delay(), mode_name(p_.mode));
+        log_->info("running from frame {} (input delay {}, {} mode)", view.frame(), view.input_delay(), mode_name(p_.mode));
     }
     void on_all_confirmed(std::uint64_t now) override {
         log_->info("every peer has confirmed frame {}", p_.o.frames);
@@ -401,11 +431,6 @@ std::uint64_t match_hash(const std::string& id) {
     return h;
 }
 
-std::atomic<net::PeerRunner*> g_runner{nullptr};
-void on_peer_stop_signal(int) {
-    if (net::PeerRunner* r = g_runner.load()) r->request_stop();
-}
-
 std::shared_ptr<spdlog::logger> make_logger(const PeerPlan& p) {
     auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((fs::path(p.o.out) / "peer.log").string(), true);
     auto err = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
@@ -416,68 +441,12 @@ std::shared_ptr<spdlog::logger> make_logger(const PeerPlan& p) {
     return log;
 }
 
-int do_peer(const PeerOptions& options) {
-    const PeerPlan p = plan(options);
-    fs::create_directories(p.o.out);
-    auto log = make_logger(p);
-
-    rollback::WorldSimulation sim(p.scene, p.o.players);
-    PeerRecorder rec(p, sim, log);
-    rollback::SessionConfig sc;
-    sc.players = p.o.players;
-    sc.local_player = static_cast<PlayerId>(p.o.slot);
-    sc.input_size = rollback::kWorldInputSize;
-    sc.tick_rate = p.o.tick_rate;
-    sc.input_delay = p.o.input_delay;
-    sc.prediction_window = p.mode == Mode::Lockstep ? 0 : p.o.prediction;
-    sc.checksum_interval = p.o.checksum_interval;
-    sc.cpu_clock = thread_cpu_ns;
-    // Real networks: hello/welcome with match id and scene checksum, an RTT phase before frame 0,
-    // agreed disconnects, joins and spectators by snapshot (docs/sessions.md).
-    sc.handshake = true;
-    sc.match_id = match_hash(p.o.match_id);
-    sc.max_spectators = p.o.spectators;
-    for (int a : p.o.absent) sc.absent_slots |= std::uint64_t{1} << a;
-    sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
-    sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
-    sc.max_recoveries = p.o.recoveries;
-    rollback::Session session(sc, sim, &rec);
-    rec.session = &session;
-    for (const auto& inj : p.injections)
-        if (const std::string e = session.inject_fault(inj.frame, inj.body, inj.field, inj.bit); !e.empty())
-            throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) + ":" +
-                             std::to_string(inj.body) + ": " + e);
-
-    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
-                                   .bind_host = p.listen.host,
-                                   .port = p.listen.port,
-                                   .max_peers = 32});
-    log->info("listening on {}:{} as slot {} of {} ({} mode, match '{}')", p.listen.host, enet.port(), p.o.slot,
-              p.o.players, mode_name(p.mode), p.o.match_id);
-    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
-
-    net::RunnerConfig rc;
-    rc.tick_rate = p.o.tick_rate;
-    rc.target_frame = static_cast<std::uint32_t>(p.o.frames);
-    rc.peers = p.peers;
-    rc.connect_timeout_us = static_cast<std::uint64_t>(p.o.connect_timeout * 1e6);
-    rc.finish_timeout_us = static_cast<std::uint64_t>(p.o.finish_timeout * 1e6);
-    // A match that cannot advance (a peer gone for good) must still end: ten times its length.
-    rc.run_timeout_us = static_cast<std::uint64_t>(10.0 * p.o.frames / p.o.tick_rate * 1e6) + rc.finish_timeout_us;
-    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::PeerRunner runner(
-        rc, session, enet,
-        [&](std::uint32_t frame, std::span<std::uint8_t> out) {
-            const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-            rec.before_advance(net::now_us(), frame, bytes);
-            std::copy(bytes.begin(), bytes.end(), out.begin());
-        },
-        &rec);
-    g_runner.store(&runner);
-    std::signal(SIGTERM, on_peer_stop_signal);
-    std::signal(SIGINT, on_peer_stop_signal);
-    const net::RunOutcome outcome = runner.run();
-    g_runner.store(nullptr);
+// What both kinds of session leave behind: summary.json, frames.csv, positions.csv and the
+// final line on stdout. Returns the exit status.
+template <class SessionT, class RunnerT>
+int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session, const RunnerT& runner,
+                  transport::EnetTransport& enet, net::RunOutcome outcome, int prediction,
+                  const std::shared_ptr<spdlog::logger>& log, json extra) {
     const std::uint64_t end_us = net::now_us();
     const bool ok = outcome == net::RunOutcome::Completed && rec.final_confirmed;
     rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr)}});
@@ -493,8 +462,8 @@ int do_peer(const PeerOptions& options) {
     r.players = p.o.players;
     r.frames = p.o.frames;
     r.tick_rate = p.o.tick_rate;
-    r.input_delay = p.o.input_delay;
-    r.prediction = sc.prediction_window;
+    r.input_delay = session.input_delay();
+    r.prediction = prediction;
     r.seed = p.o.seed;
     r.completed = ok;
     const std::uint64_t since = rec.synced_us ? rec.synced_us : end_us;
@@ -524,11 +493,6 @@ int do_peer(const PeerOptions& options) {
     s["confirmed_frame"] = session.confirmed_frame();
     s["wall_seconds"] = r.virtual_seconds;
     s["longest_stall_ms"] = rec.longest_stall_ms;
-    s["listen_port"] = enet.port();
-    json rtts = json::object();
-    for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
-        if (peer != static_cast<std::size_t>(p.o.slot)) rtts[std::to_string(peer)] = static_cast<double>(st.peers[peer].rtt_us) / 1000.0;
-    s["rtt_ms"] = rtts;
     s["runner"] = {{"stretched_ticks", runner.stretched_ticks()},
                    {"stretch_total_ms", static_cast<double>(runner.stretch_total_us()) / 1000.0},
                    {"schedule_resets", runner.schedule_resets()}};
@@ -538,6 +502,7 @@ int do_peer(const PeerOptions& options) {
                       {"dropped", enet.counters().dropped},
                       {"wire_bytes_sent", enet.wire_bytes_sent()},
                       {"wire_bytes_received", enet.wire_bytes_received()}};
+    for (auto& [k, v] : extra.items()) s[k] = v;
     if (enet.counters().rejected) log->warn("transport refused {} datagrams", enet.counters().rejected);
     write_file_atomic(fs::path(p.o.out) / "frames.csv", rec.frames_csv());
     write_file_atomic(fs::path(p.o.out) / "positions.csv", rec.positions_csv());
@@ -548,15 +513,154 @@ int do_peer(const PeerOptions& options) {
     return ok ? 0 : 1;
 }
 
+net::RunnerConfig runner_config(const PeerPlan& p) {
+    net::RunnerConfig rc;
+    rc.tick_rate = p.o.tick_rate;
+    rc.target_frame = static_cast<std::uint32_t>(p.o.frames);
+    rc.peers = p.peers;
+    rc.connect_timeout_us = static_cast<std::uint64_t>(p.o.connect_timeout * 1e6);
+    rc.finish_timeout_us = static_cast<std::uint64_t>(p.o.finish_timeout * 1e6);
+    // A match that cannot advance (a peer gone for good) must still end: ten times its length.
+    rc.run_timeout_us = static_cast<std::uint64_t>(10.0 * p.o.frames / p.o.tick_rate * 1e6) + rc.finish_timeout_us;
+    return rc;
+}
+
+template <class SessionT>
+void inject_faults(const PeerPlan& p, SessionT& session) {
+    for (const auto& inj : p.injections)
+        if (const std::string e = session.inject_fault(inj.frame, inj.body, inj.field, inj.bit); !e.empty())
+            throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) + ":" +
+                             std::to_string(inj.body) + ": " + e);
+}
+
+template <class RunnerT>
+net::RunOutcome run_with_signals(RunnerT& runner) {
+    static std::atomic<RunnerT*> target{nullptr};
+    target.store(&runner);
+    std::signal(SIGTERM, [](int) {
+        if (RunnerT* r = target.load()) r->request_stop();
+    });
+    std::signal(SIGINT, [](int) {
+        if (RunnerT* r = target.load()) r->request_stop();
+    });
+    const net::RunOutcome outcome = runner.run();
+    target.store(nullptr);
+    return outcome;
+}
+
+// `lockroll client`: the same player (or spectator) through the relay server.
+int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& rec, const std::shared_ptr<spdlog::logger>& log) {
+    rollback::RelaySessionConfig rc;
+    rc.players = p.o.players;
+    rc.local_slot = static_cast<PlayerId>(p.o.spectate ? 0 : p.o.slot);
+    rc.role = p.o.spectate ? rollback::RelayRole::Spectator : p.o.join ? rollback::RelayRole::Joiner : rollback::RelayRole::Player;
+    rc.input_size = rollback::kWorldInputSize;
+    rc.tick_rate = p.o.tick_rate;
+    rc.input_delay = p.o.input_delay;
+    rc.auto_input_delay = !p.o.fixed_delay;
+    rc.prediction_window = p.mode == Mode::Lockstep ? 0 : (p.o.prediction_given ? p.o.prediction : 20);
+    rc.room_id = match_hash(p.o.room);
+    for (int a : p.o.absent) rc.absent_slots = static_cast<std::uint16_t>(rc.absent_slots | (1u << a));
+    rc.max_recoveries = std::max(p.o.recoveries, 0);
+    rc.cpu_clock = thread_cpu_ns;
+    // The token a reconnect resumes the slot with: random, so no other client can take it over.
+    std::random_device rd;
+    rc.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
+    rollback::RelaySession session(rc, sim, &rec);
+    rec.watch(session);
+    inject_faults(p, session);
+    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot), .bind_host = "127.0.0.1", .port = 0, .max_peers = 4});
+    log->info("connecting to the relay server {}:{} for room '{}' as {} {} of {} ({} mode)", p.server.host, p.server.port, p.o.room,
+              p.o.spectate ? "spectator" : "slot", p.o.slot, p.o.players, mode_name(p.mode));
+    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"room", p.o.room}});
+    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
+    net::RelayRunner runner(runner_config(p), p.server.host, p.server.port, session, enet,
+                            [&](std::uint32_t frame, std::span<std::uint8_t> out) {
+                                const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
+                                rec.before_advance(net::now_us(), frame, bytes);
+                                std::copy(bytes.begin(), bytes.end(), out.begin());
+                            },
+                            &rec);
+    const net::RunOutcome outcome = run_with_signals(runner);
+    if (outcome == net::RunOutcome::Failed) log->error("session failed: {}", session.failure());
+    const rollback::RelayStats& rs = session.relay_stats();
+    json extra = {{"topology", "relay"},
+                  {"room", p.o.room},
+                  {"rtt_ms", {{"server", static_cast<double>(session.rtt_us()) / 1000.0}}},
+                  {"relay", {{"own_replaced", rs.own_replaced},
+                             {"replaced_any", rs.replaced_any},
+                             {"desync_notices", rs.desync_notices},
+                             {"recoveries", session.recoveries()},
+                             {"catch_up_frames", runner.catch_up_frames()},
+                             {"lead_frames", static_cast<double>(rs.lead_x100) / 100.0},
+                             {"target_lead", rs.target_lead},
+                             {"jitter_ms", static_cast<double>(session.jitter_us()) / 1000.0}}}};
+    return write_outputs(p, rec, session, runner, enet, outcome, rc.prediction_window, log, extra);
+}
+
+int do_peer(const PeerOptions& options) {
+    const PeerPlan p = plan(options);
+    fs::create_directories(p.o.out);
+    auto log = make_logger(p);
+
+    rollback::WorldSimulation sim(p.scene, p.o.players);
+    PeerRecorder rec(p, sim, log);
+    if (p.o.relay) return do_client(p, sim, rec, log);
+    rollback::SessionConfig sc;
+    sc.players = p.o.players;
+    sc.local_player = static_cast<PlayerId>(p.o.slot);
+    sc.input_size = rollback::kWorldInputSize;
+    sc.tick_rate = p.o.tick_rate;
+    sc.input_delay = p.o.input_delay;
+    sc.prediction_window = p.mode == Mode::Lockstep ? 0 : p.o.prediction;
+    sc.checksum_interval = p.o.checksum_interval;
+    sc.cpu_clock = thread_cpu_ns;
+    // Real networks: hello/welcome with match id and scene checksum, an RTT phase before frame 0,
+    // agreed disconnects, joins and spectators by snapshot (docs/sessions.md).
+    sc.handshake = true;
+    sc.match_id = match_hash(p.o.match_id);
+    sc.max_spectators = p.o.spectators;
+    for (int a : p.o.absent) sc.absent_slots |= std::uint64_t{1} << a;
+    sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
+    sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
+    sc.max_recoveries = p.o.recoveries;
+    rollback::Session session(sc, sim, &rec);
+    rec.watch(session);
+    inject_faults(p, session);
+
+    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
+                                   .bind_host = p.listen.host,
+                                   .port = p.listen.port,
+                                   .max_peers = 32});
+    log->info("listening on {}:{} as slot {} of {} ({} mode, match '{}')", p.listen.host, enet.port(), p.o.slot,
+              p.o.players, mode_name(p.mode), p.o.match_id);
+    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
+
+    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
+    net::PeerRunner runner(
+        runner_config(p), session, enet,
+        [&](std::uint32_t frame, std::span<std::uint8_t> out) {
+            const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
+            rec.before_advance(net::now_us(), frame, bytes);
+            std::copy(bytes.begin(), bytes.end(), out.begin());
+        },
+        &rec);
+    const net::RunOutcome outcome = run_with_signals(runner);
+    const rollback::SessionStats& st = session.stats();
+    json rtts = json::object();
+    for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
+        if (peer != static_cast<std::size_t>(p.o.slot)) rtts[std::to_string(peer)] = static_cast<double>(st.peers[peer].rtt_us) / 1000.0;
+    json extra = {{"topology", "p2p"}, {"listen_port", enet.port()}, {"rtt_ms", rtts}};
+    return write_outputs(p, rec, session, runner, enet, outcome, sc.prediction_window, log, extra);
+}
+
 }  // namespace
 
-void add_peer_command(CLI::App& app) {
-    auto o = std::make_shared<PeerOptions>();
-    CLI::App* cmd = app.add_subcommand("peer", "One player of a P2P match as a real process over ENet on loopback; write DIR/summary.json");
+namespace {
+// The options `peer` and `client` share: the player, the game, the outputs.
+void add_player_options(CLI::App* cmd, const std::shared_ptr<PeerOptions>& o) {
     cmd->add_option("--slot", o->slot, "This process's player slot 0..players-1")->required();
     cmd->add_option("--players", o->players, "Players in the match (2..16)")->capture_default_str();
-    cmd->add_option("--listen", o->listen, "HOST:PORT to bind (loopback only; port 0 = any free one)")->required();
-    cmd->add_option("--peer", o->peers, "SLOT=HOST:PORT of every other slot (repeatable; loopback only)");
     cmd->add_option("--scene", o->scene, "Scene file or shipped scene name")->capture_default_str();
     cmd->add_option("--bot", o->bot, "Input bot: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();
     cmd->add_option("--frames", o->frames, "Frames to play")->capture_default_str();
@@ -565,25 +669,50 @@ void add_peer_command(CLI::App& app) {
     cmd->add_option("--mode", o->mode, "rollback or lockstep")->check(CLI::IsMember({"rollback", "lockstep"}))->capture_default_str();
     cmd->add_option("--input-delay", o->input_delay, "Input delay in frames")->capture_default_str();
     cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
-    cmd->add_option("--checksum-interval", o->checksum_interval, "Compare confirmed checksums every K frames")->capture_default_str();
     cmd->add_option("--seed", o->seed, "Seed for the bots")->capture_default_str();
     cmd->add_flag("--join", o->join, "Join (or rejoin) a running match in --slot by snapshot");
     cmd->add_flag("--spectate", o->spectate, "Watch without playing; --slot is then the spectator id (players..)");
-    cmd->add_option("--spectators", o->spectators, "Spectator ids the match admits (the same on every process)")->capture_default_str();
     cmd->add_option("--absent", o->absent, "Slot nobody plays at frame 0 (joins later; the same on every process)");
     cmd->add_option("--recoveries", o->recoveries, "Desync recoveries (reload the majority's state) before giving up")
         ->capture_default_str();
-    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
-        ->capture_default_str();
     cmd->add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")->capture_default_str();
-    cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit of one body at a frame, when CLIENT is --slot");
     cmd->add_option("--connect-timeout", o->connect_timeout, "Seconds to wait for every peer to connect")->capture_default_str();
     cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")
         ->capture_default_str();
     cmd->add_flag("--progress", o->progress, "Print 'progress FRAME' on stdout as frames are shown");
+}
+}  // namespace
+
+void add_peer_command(CLI::App& app) {
+    auto o = std::make_shared<PeerOptions>();
+    CLI::App* cmd = app.add_subcommand("peer", "One player of a P2P match as a real process over ENet on loopback; write DIR/summary.json");
+    add_player_options(cmd, o);
+    cmd->add_option("--listen", o->listen, "HOST:PORT to bind (loopback only; port 0 = any free one)")->required();
+    cmd->add_option("--peer", o->peers, "SLOT=HOST:PORT of every other slot (repeatable; loopback only)");
+    cmd->add_option("--checksum-interval", o->checksum_interval, "Compare confirmed checksums every K frames")->capture_default_str();
+    cmd->add_option("--spectators", o->spectators, "Spectator ids the match admits (the same on every process)")->capture_default_str();
+    cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
+        ->capture_default_str();
+    cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
     cmd->callback([o] {
         const int status = do_peer(*o);
+        if (status != 0) throw std::runtime_error("the match did not complete (see peer.log)");
+    });
+
+    auto c = std::make_shared<PeerOptions>();
+    c->relay = true;
+    CLI::App* client = app.add_subcommand(
+        "client", "One player (or spectator) of a match through the relay server (lockroll server), as a real process; write DIR/summary.json");
+    add_player_options(client, c);
+    client->add_option("--connect", c->connect, "HOST:PORT of the relay server (loopback only)")->required();
+    client->add_option("--room", c->room, "Room to join (created by its first player; every client of a match names the same)")->required();
+    client->callback([c, client] {
+        // Without --input-delay the delay adapts to the round trip and jitter; without
+        // --prediction the window covers a 300 ms round trip (20 frames).
+        c->fixed_delay = client->count("--input-delay") > 0;
+        c->prediction_given = client->count("--prediction") > 0;
+        const int status = do_peer(*c);
         if (status != 0) throw std::runtime_error("the match did not complete (see peer.log)");
     });
 }

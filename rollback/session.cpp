@@ -57,6 +57,7 @@ const char* event_name(SessionEvent::Kind k) {
         case K::DesyncRecovered: return "desync_recovered";
         case K::Kicked: return "kicked";
         case K::Failed: return "failed";
+        case K::Draining: return "server_draining";
     }
     return "unknown";
 }
@@ -1526,15 +1527,7 @@ void Session::set_input_delay(int frames) {
 }
 
 std::string Session::inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
-    if (frame <= sync_->frame())
-        return "frame " + std::to_string(frame) + " is already simulated (now at " + std::to_string(sync_->frame()) + ")";
-    if (field < 0 || field >= sim_.field_count()) return "field " + std::to_string(field) + " does not exist";
-    if (bit < 0 || bit > 63) return "bit must be 0..63";
-    bool found = false;
-    for (std::uint32_t i = 0; i < sim_.body_count() && !found; ++i) found = sim_.body_id(i) == body_id;
-    if (!found) return "body " + std::to_string(body_id) + " is not part of the simulation state (static or unknown)";
-    sync_->add_fault(frame, body_id, field, bit);
-    return {};
+    return sync_->add_fault(frame, body_id, field, bit);
 }
 
 }  // namespace lockroll::rollback

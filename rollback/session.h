@@ -144,6 +144,7 @@ struct SessionEvent {
         DesyncRecovered, // this session reloaded the majority's state at `frame`
         Kicked,          // the others dropped this session's slot
         Failed,          // the session cannot go on; detail says why
+        Draining,        // relay: the server is shutting down (the match may finish)
     };
     Kind kind = Kind::Synchronizing;
     PlayerId peer = 0;        // the slot or peer id concerned

@@ -39,14 +39,14 @@ Sync::Sync(const SyncConfig& config, Simulation& sim, Predictor& predictor, Sess
     auto slot = ring_.slot_for(0);
     sim_.save(slot);
     initial_checksum_ = sim_.checksum(slot);
-    keep_from_[config_.local_player] = 0;  // nothing of ours is acknowledged yet
+    if (!config_.all_streams_remote) keep_from_[config_.local_player] = 0;  // nothing of ours is acknowledged yet
     stats_.rollback_depth_histogram.assign(static_cast<std::size_t>(config.prediction_window) + 1, 0);
 }
 
 std::uint32_t Sync::remote_confirmed_inputs() const {
     std::uint32_t m = std::numeric_limits<std::uint32_t>::max();
     for (std::size_t p = 0; p < queues_.size(); ++p)
-        if (p != config_.local_player) m = std::min(m, queues_[p].confirmed_count());
+        if (p != config_.local_player || config_.all_streams_remote) m = std::min(m, queues_[p].confirmed_count());
     return m;
 }
 
@@ -71,7 +71,7 @@ std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> 
     if (std::string err = sim_.load(state); !err.empty()) return err;
     for (InputQueue& q : queues_) q.restart_at(frame);
     std::fill(keep_from_.begin(), keep_from_.end(), std::numeric_limits<std::uint32_t>::max());
-    keep_from_[config_.local_player] = frame;
+    if (!config_.all_streams_remote) keep_from_[config_.local_player] = frame;
     frame_ = frame;
     highest_simulated_ = frame;
     confirmed_frame_ = frame;
@@ -81,6 +81,7 @@ std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> 
 
 bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay, std::uint32_t min_frame) {
     if (input.size() != config_.input_size) throw std::invalid_argument("local input has the wrong size");
+    if (config_.all_streams_remote) throw std::logic_error("add_local_input: every stream is remote");
     InputQueue& q = queues_[config_.local_player];
     const std::uint32_t target = std::max(frame_ + static_cast<std::uint32_t>(std::max(delay, 0)), min_frame);
     std::uint32_t next = q.confirmed_count();
@@ -115,7 +116,7 @@ InputQueue::Add Sync::add_remote_input(PlayerId player, std::uint32_t frame, std
 bool Sync::must_wait(int delay) const {
     const std::uint64_t window = static_cast<std::uint64_t>(config_.prediction_window);
     if (std::uint64_t{frame_} >= std::uint64_t{remote_confirmed_inputs()} + window) return true;
-    return local_queue_full(delay);
+    return !config_.all_streams_remote && local_queue_full(delay);
 }
 
 bool Sync::local_queue_full(int delay) const {
@@ -128,7 +129,7 @@ int Sync::blocking_player() const {
     int who = -1;
     std::uint32_t least = std::numeric_limits<std::uint32_t>::max();
     for (std::size_t p = 0; p < queues_.size(); ++p)
-        if (p != config_.local_player && queues_[p].confirmed_count() < least) {
+        if ((p != config_.local_player || config_.all_streams_remote) && queues_[p].confirmed_count() < least) {
             least = queues_[p].confirmed_count();
             who = static_cast<int>(p);
         }
@@ -229,8 +230,16 @@ FrameConfirmed Sync::confirm_next() {
     return {n, confirm_inputs_, sim_.checksum(*state)};
 }
 
-void Sync::add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
+std::string Sync::add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
+    if (frame <= frame_)
+        return "frame " + std::to_string(frame) + " is already simulated (now at " + std::to_string(frame_) + ")";
+    if (field < 0 || field >= sim_.field_count()) return "field " + std::to_string(field) + " does not exist";
+    if (bit < 0 || bit > 63) return "bit must be 0..63";
+    bool found = false;
+    for (std::uint32_t i = 0; i < sim_.body_count() && !found; ++i) found = sim_.body_id(i) == body_id;
+    if (!found) return "body " + std::to_string(body_id) + " is not part of the simulation state (static or unknown)";
     faults_.push_back({frame, body_id, field, bit});
+    return {};
 }
 
 }  // namespace lockroll::rollback

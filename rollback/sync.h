@@ -26,6 +26,7 @@
 #include <functional>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "rollback/events.h"
@@ -49,6 +50,11 @@ struct SyncConfig {
     int evidence_frames = 64;
     std::uint32_t input_capacity = 1024;  // frames per input queue, a power of two
     std::uint32_t retain_frames = 0;      // inputs kept this far behind the confirmed frame
+    // A relay client: the server confirms every stream, the local slot's too (it may replace a
+    // late input). Every queue is then filled by add_remote_input(), add_local_input() is not
+    // used, the window counts the local queue like the others, and the local slot's guess is the
+    // predictor's (the relay session's predictor answers with the input it sent).
+    bool all_streams_remote = false;
 };
 
 class Sync {
@@ -115,7 +121,8 @@ public:
     std::uint64_t initial_checksum() const { return initial_checksum_; }
 
     // Every time frame `frame` is produced by a step (forward or resimulated), flip the bit.
-    void add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+    // Empty string on success, else why not (already simulated, no such body / field / bit).
+    std::string add_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
 
 private:
     void simulate_one(bool resimulation);

@@ -1,0 +1,130 @@
+#include "net/relay_runner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+#include "net/clock.h"
+
+namespace lockroll::net {
+
+namespace {
+constexpr std::uint64_t kReconnectEveryUs = 500000;
+constexpr std::size_t kMaxHeld = 256;
+}  // namespace
+
+RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
+                         rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                         RunnerObserver* observer)
+    : config_(config), host_(std::move(server_host)), port_(server_port), session_(session), transport_(transport),
+      input_(std::move(input)), observer_(observer) {
+    if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
+    if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5)) throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
+    if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
+    if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
+    if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    input_bytes_.assign(session_.config().input_size, 0);
+    period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+}
+
+void RelayRunner::service_until(std::uint64_t deadline_us) {
+    for (;;) {
+        const std::uint64_t now = now_us();
+        transport_.poll(now);
+        for (transport::TransportEvent e; transport_.next_event(e);) {
+            if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
+                if (connections_++ > 0) session_.transport_reconnected(now);  // a new connection: hello again
+                for (const auto& bytes : held_) transport_.send_reliable(e.peer, bytes, now);
+                held_.clear();
+            }
+            if (observer_) observer_->on_transport_event(e, now);
+        }
+        if (now - last_connect_us_ >= kReconnectEveryUs) {
+            last_connect_us_ = now;
+            if (!transport_.is_connected(rollback::kRelayServerPeer)) transport_.connect(rollback::kRelayServerPeer, host_, port_);
+        }
+        if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
+        std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
+    }
+}
+
+void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
+    while (transport_.receive(in_, now))
+        if (in_.from == rollback::kRelayServerPeer) session_.receive(in_.bytes, in_.time_us);
+    input_(session_.frame() + static_cast<std::uint32_t>(session_.input_delay()), input_bytes_);
+    TickReport report;
+    report.tick = ticks_;
+    report.now_us = now;
+    report.scheduled_us = scheduled;
+    report.advance = session_.advance(input_bytes_, now);
+    if (config_.catch_up_frames > 0 && session_.running() && session_.behind(now) > 0)
+        caught_up_ += static_cast<std::uint64_t>(session_.catch_up(now, config_.catch_up_frames));
+    for (rollback::SessionEvent e; session_.next_event(e);)
+        if (observer_) observer_->on_session_event(e);
+    const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
+    const std::uint64_t extra =
+        std::min(max_extra, period_us_ * static_cast<std::uint64_t>(std::max(0, report.advance.tick_stretch_ppm)) / 1000000u);
+    if (extra > 0) {
+        ++stretched_ticks_;
+        stretch_total_us_ += extra;
+    }
+    last_extra_us_ = extra;
+    out_.clear();
+    session_.poll(now, out_);
+    for (const auto& d : out_) {
+        if (!d.reliable) {
+            transport_.send(d.peer, d.bytes, now);
+        } else if (!transport_.send_reliable(d.peer, d.bytes, now)) {
+            if (held_.size() >= kMaxHeld) held_.erase(held_.begin());
+            held_.push_back(d.bytes);
+        }
+    }
+    report.length_us = period_us_ + extra;
+    if (observer_) observer_->on_tick(report);
+    ++ticks_;
+}
+
+RunOutcome RelayRunner::run() {
+    const std::uint64_t begin = now_us();
+    const std::uint64_t start = begin;
+    std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0, started = 0;
+    const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
+    const bool spectator = session_.config().role == rollback::RelayRole::Spectator;
+    const std::uint32_t target = config_.target_frame;
+    for (;;) {
+        std::uint64_t due = start + k * 1000000u / rate + offset;
+        service_until(due);
+        if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
+        const std::uint64_t now = now_us();
+        if (now > due + static_cast<std::uint64_t>(config_.max_catch_up) * period_us_) {
+            offset += now - due;
+            due = now;
+            ++schedule_resets_;
+        }
+        tick(now, due);
+        offset += last_extra_us_;
+        ++k;
+        if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
+        if (!started) {
+            if (session_.running()) {
+                started = now;
+                if (observer_) observer_->on_synchronized(now);
+            } else if (now - begin > config_.connect_timeout_us) {
+                return RunOutcome::ConnectTimeout;
+            }
+            continue;
+        }
+        if (!reached && session_.frame() >= target) reached = now;
+        if (reached && !all_confirmed && session_.confirmed_frame() >= target &&
+            (spectator || session_.server_input_ack() >= target)) {
+            all_confirmed = now;
+            if (observer_) observer_->on_all_confirmed(now);
+        }
+        if (all_confirmed && now - all_confirmed >= config_.linger_us) return RunOutcome::Completed;
+        if (reached && !all_confirmed && now - reached > config_.finish_timeout_us) return RunOutcome::FinishTimeout;
+        if (!reached && config_.run_timeout_us && now - started > config_.run_timeout_us) return RunOutcome::RunTimeout;
+    }
+}
+
+}  // namespace lockroll::net

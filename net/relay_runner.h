@@ -1,0 +1,67 @@
+// RelayRunner: one RelaySession bound to ENet and the clock, talking to the relay server. The
+// relay twin of PeerRunner (peer_runner.h, whose RunnerConfig, observer and outcomes it shares):
+//  - Connection: one, to the server, retried every half second while not connected, for the
+//    whole run. A connection ENet dropped is made again and the session says hello again: the
+//    server resumes it by its incarnation.
+//  - Each tick: drain the transport -> RelaySession::receive -> local input for frame() +
+//    input_delay() -> advance -> catch_up() while behind() (a late start, a joiner, a clock
+//    running slow: the session says how far it is behind the room clock) -> events -> poll ->
+//    send (reliable for what the session marks so).
+//  - Pacing: tick_stretch_ppm lengthens the next tick (at most max_stretch); the schedule is
+//    PeerRunner's (late ticks run at once; max_catch_up ticks behind, it restarts from now).
+//  - Finishing: after showing target_frame it keeps ticking until it has confirmed target_frame
+//    and the server holds its inputs up to target_frame (so nobody's frame before the target
+//    needs a replacement of its input), then lingers linger_us. A spectator only needs the
+//    confirmation. Bounded by finish_timeout_us and run_timeout_us.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "net/peer_runner.h"
+#include "rollback/relay_session.h"
+#include "transport/enet_transport.h"
+
+namespace lockroll::net {
+
+class RelayRunner {
+public:
+    // config.peers is unused; the server is at server_host:server_port. Throws
+    // std::invalid_argument for a bad config.
+    RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
+                rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                RunnerObserver* observer = nullptr);
+
+    RunOutcome run();
+    void request_stop() { stop_.store(true, std::memory_order_relaxed); }
+    std::uint64_t stretched_ticks() const { return stretched_ticks_; }
+    std::uint64_t stretch_total_us() const { return stretch_total_us_; }
+    std::uint64_t schedule_resets() const { return schedule_resets_; }
+    std::uint64_t catch_up_frames() const { return caught_up_; }
+
+private:
+    void service_until(std::uint64_t deadline_us);
+    void tick(std::uint64_t now, std::uint64_t scheduled);
+
+    RunnerConfig config_;
+    std::string host_;
+    std::uint16_t port_;
+    rollback::RelaySession& session_;
+    transport::EnetTransport& transport_;
+    InputSource input_;
+    RunnerObserver* observer_;
+    std::atomic<bool> stop_{false};
+    std::vector<std::uint8_t> input_bytes_;
+    std::vector<rollback::Datagram> out_;
+    transport::Datagram in_;
+    std::vector<std::vector<std::uint8_t>> held_;  // reliable sends before the connection is up
+    std::uint64_t period_us_ = 0;
+    std::uint64_t last_connect_us_ = 0;
+    int connections_ = 0;  // to the server so far (a later one is a reconnect)
+    std::uint64_t last_extra_us_ = 0;
+    std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
+};
+
+}  // namespace lockroll::net

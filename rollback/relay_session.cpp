@@ -1,0 +1,626 @@
+#include "rollback/relay_session.h"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+
+namespace lockroll::rollback {
+
+namespace {
+constexpr std::uint16_t kNoEcho = 0xFFFF;
+constexpr int kChecksumRepeats = 3;
+constexpr std::size_t kMaxReports = 8;
+constexpr std::size_t kMaxEvents = 1024;
+constexpr std::size_t kMaxOutgoingTransfers = 4;
+constexpr std::uint64_t kOutgoingTransferLifeUs = 20'000'000;
+constexpr std::size_t kClockSamples = 32;
+constexpr std::uint64_t kDelayRevisionUs = 2'000'000;
+constexpr std::int64_t kFrac = 65536;  // room clock units per frame
+}  // namespace
+
+// The local slot's guess is the input this client sent for that frame; everyone else's is the
+// game's predictor's.
+class RelaySession::OwnPredictor final : public Predictor {
+public:
+    OwnPredictor(RelaySession& s, Predictor& inner) : s_(s), inner_(inner) {}
+    void predict(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> last_confirmed,
+                 std::uint32_t last_confirmed_frame, std::span<std::uint8_t> out) override {
+        const InputQueue& own = s_.own_;
+        if (s_.config_.role != RelayRole::Spectator && player == s_.config_.local_slot && frame >= own.floor() &&
+            frame < own.confirmed_count()) {
+            const auto in = own.confirmed(frame);
+            std::copy(in.begin(), in.end(), out.begin());
+            return;
+        }
+        inner_.predict(player, frame, last_confirmed, last_confirmed_frame, out);
+    }
+
+private:
+    RelaySession& s_;
+    Predictor& inner_;
+};
+
+void validate(const RelaySessionConfig& c) {
+    auto need = [](bool ok, const char* what) {
+        if (!ok) throw std::invalid_argument(what);
+    };
+    need(c.players >= 1 && c.players <= kRelayMaxPlayers, "relay session: players must be 1..16");
+    need(c.role == RelayRole::Spectator || c.local_slot < static_cast<PlayerId>(c.players), "relay session: local slot out of range");
+    need(c.input_size >= 1 && c.input_size <= kRelayMaxInputSize, "relay session: input size must be 1..64");
+    need(c.tick_rate >= 1 && c.tick_rate <= 1000, "relay session: tick rate must be 1..1000");
+    need(c.input_delay >= 0 && c.input_delay <= 60, "relay session: input delay must be 0..60");
+    need(c.prediction_window >= 0 && c.prediction_window <= 120, "relay session: prediction window must be 0..120");
+    need(c.transfer_window >= 1 && c.transfer_window <= 256, "relay session: transfer window must be 1..256");
+    need(c.max_recoveries >= 0, "relay session: max recoveries must be >= 0");
+    need(c.hello_resend_us > 0 && c.transfer_resend_us > 0, "relay session: resend intervals must be positive");
+}
+
+RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
+                           Predictor* predictor)
+    : config_(config),
+      sim_(simulation),
+      observer_(observer),
+      own_(config.input_size, config.input_capacity),
+      link_(1, 60),
+      input_delay_(config.input_delay) {
+    validate(config_);
+    if (!config_.cpu_clock) config_.cpu_clock = [] { return std::uint64_t{0}; };
+    if (!predictor) {
+        default_predictor_ = std::make_unique<RepeatLastPredictor>();
+        predictor = default_predictor_.get();
+    }
+    own_predictor_ = std::make_unique<OwnPredictor>(*this, *predictor);
+    SyncConfig sc;
+    sc.players = config_.players;
+    sc.local_player = config_.role == RelayRole::Spectator ? 0 : config_.local_slot;
+    sc.input_size = config_.input_size;
+    sc.prediction_window = config_.prediction_window;
+    sc.evidence_frames = config_.evidence_frames;
+    sc.input_capacity = config_.input_capacity;
+    sc.all_streams_remote = true;
+    stats_.peers.resize(static_cast<std::size_t>(config_.players));
+    sync_ = std::make_unique<Sync>(sc, sim_, *own_predictor_, observer_, stats_, config_.cpu_clock);
+    if (config_.scene_checksum == 0) config_.scene_checksum = sync_->initial_checksum();
+    slot_flags_.assign(static_cast<std::size_t>(config_.players), kRelayAbsent);
+    slot_seen_.assign(static_cast<std::size_t>(config_.players), false);
+    input_delay_ = std::clamp(input_delay_, 0, static_cast<int>(config_.input_capacity / 4));
+}
+
+RelaySession::~RelaySession() = default;
+
+void RelaySession::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
+    if (events_.size() >= kMaxEvents) events_.pop_front();
+    events_.push_back({kind, peer, frame, now_us, std::move(detail)});
+}
+
+bool RelaySession::next_event(SessionEvent& out) {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
+void RelaySession::fail(const std::string& why, std::uint64_t now_us) {
+    if (phase_ == SessionPhase::Failed) return;
+    phase_ = SessionPhase::Failed;
+    failure_ = why;
+    emit(SessionEvent::Kind::Failed, config_.local_slot, frame(), now_us, why);
+}
+
+void RelaySession::malformed(const char* why) {
+    ++stats_.malformed_packets;
+    link_.note_malformed(why);
+}
+
+std::string RelaySession::inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
+    return sync_->add_fault(frame, body_id, field, bit);
+}
+
+// ---- receiving ----
+
+void RelaySession::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) {
+    if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
+    ++stats_.packets_received;
+    stats_.bytes_received += d.size();
+    if (phase_ == SessionPhase::Failed) return;
+    const auto kind = peek_relay_kind(d);
+    if (!kind) return malformed("relay: unknown message kind");
+    const char* err = nullptr;
+    switch (*kind) {
+        case RelayKind::Welcome:
+            if (!(err = decode(d, welcome_))) handle_welcome(now_us);
+            break;
+        case RelayKind::Frames:
+            if (!(err = decode(d, config_.players, config_.input_size, frames_))) handle_frames(now_us);
+            break;
+        case RelayKind::Forward:
+            if (!(err = decode(d, forward_))) handle_forward(now_us);
+            break;
+        case RelayKind::Notice:
+            if (!(err = decode(d, notice_))) handle_notice(now_us);
+            break;
+        default: err = "relay: a client's message kind from the server";
+    }
+    if (err) malformed(err);
+}
+
+void RelaySession::handle_welcome(std::uint64_t now_us) {
+    const RelayWelcome& w = welcome_;
+    if (welcomed_) return;  // a repeat
+    if (w.refusal != RelayRefusal::None) {
+        const std::string why = std::string("relay server refused: ") + relay_refusal_name(w.refusal);
+        emit(SessionEvent::Kind::Refused, config_.local_slot, 0, now_us, why);
+        return fail(why, now_us);
+    }
+    if (w.players != config_.players || w.input_size != config_.input_size || w.tick_rate != config_.tick_rate)
+        return fail("relay server: the room's players, input size or tick rate differ", now_us);
+    welcomed_ = true;
+    if (phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring) {
+        // Welcomed again after a reconnect: the server resumed this client where it was.
+        emit(SessionEvent::Kind::Resumed, static_cast<PlayerId>(w.slot), frame(), now_us, "resumed on a new connection");
+        return;
+    }
+    my_id_ = w.slot;
+    checksum_interval_ = w.checksum_interval;
+    // No round trip from the hello's echo: the hello may have waited for the connection (a
+    // runner holds reliable sends until it is up). Frames messages echo input stamps instead.
+    emit(SessionEvent::Kind::Synchronizing, static_cast<PlayerId>(my_id_), 0, now_us,
+         "welcomed by the relay server as id " + std::to_string(my_id_));
+    room_started_ = w.started;
+    handoff_ = w.handoff_frame;
+    if (w.started && w.snapshot_from != RelayWelcome{}.snapshot_from) {
+        const auto reason = config_.role == RelayRole::Spectator ? TransferReason::Spectate : TransferReason::Join;
+        begin_transfer(w.snapshot_from, reason, now_us);
+    } else if (w.started) {
+        start_running(now_us);
+    }
+}
+
+void RelaySession::start_running(std::uint64_t now_us) {
+    if (phase_ == SessionPhase::Running) return;
+    phase_ = SessionPhase::Running;
+    started_us_ = now_us;
+    emit(SessionEvent::Kind::Synchronized, static_cast<PlayerId>(std::max(my_id_, 0)), frame(), now_us,
+         "input delay " + std::to_string(input_delay_) + ", rtt " + std::to_string(link_.rtt_us() / 1000) + " ms");
+}
+
+void RelaySession::handle_frames(std::uint64_t now_us) {
+    const RelayFrames& m = frames_;
+    if (!welcomed_) return;
+    // Round trip from the echoed stamp, then the room clock sample (the freshest of a window wins:
+    // a delayed datagram only ever makes the clock look older).
+    if (m.hold != kNoEcho) {
+        const auto elapsed = static_cast<std::uint16_t>(static_cast<std::uint16_t>(now_us / 100) - m.echo);
+        if (elapsed >= m.hold && elapsed - m.hold < 30000) link_.add_rtt_sample(static_cast<std::uint64_t>(elapsed - m.hold) * 100);
+    }
+    link_.has_stamp = true;
+    link_.stamp = m.stamp;
+    link_.stamp_at_us = now_us;
+    const std::int64_t room = static_cast<std::int64_t>(m.server_frame) * kFrac + m.server_subframe;
+    const std::int64_t half_rtt = static_cast<std::int64_t>(link_.rtt_us() / 2 * static_cast<std::uint64_t>(config_.tick_rate)) * kFrac / 1000000;
+    const std::int64_t local = static_cast<std::int64_t>(now_us) * config_.tick_rate / 1000000 * kFrac +
+                               static_cast<std::int64_t>(now_us * static_cast<std::uint64_t>(config_.tick_rate) % 1000000) * kFrac / 1000000;
+    clock_offsets_.push_back(room + half_rtt - local);
+    if (clock_offsets_.size() > kClockSamples) clock_offsets_.pop_front();
+    clock_offset_ = *std::max_element(clock_offsets_.begin(), clock_offsets_.end());
+    server_ack_ = std::max(server_ack_, m.input_ack);
+    room_started_ = true;
+    if (phase_ == SessionPhase::Synchronizing && !transfer_from_) start_running(now_us);
+    if (phase_ != SessionPhase::Running) return;
+
+    const std::uint32_t before = sync_->inputs_complete();
+    const std::size_t slots = static_cast<std::size_t>(config_.players);
+    const std::size_t n = config_.input_size;
+    for (std::uint32_t i = 0; i < m.frame_count; ++i) {
+        const std::uint32_t f = m.first_frame + i;
+        for (std::size_t p = 0; p < slots; ++p) {
+            const std::uint8_t flags = m.flags[i * slots + p];
+            const auto input = std::span<const std::uint8_t>(m.inputs).subspan((i * slots + p) * n, n);
+            if (sync_->add_remote_input(static_cast<PlayerId>(p), f, input, (flags & kRelayAbsent) != 0) !=
+                InputQueue::Add::Stored)
+                continue;
+            if (flags & kRelayReplaced) {
+                ++relay_stats_.replaced_any;
+                if (config_.role != RelayRole::Spectator && p == config_.local_slot) ++relay_stats_.own_replaced;
+            }
+            const bool absent = flags & kRelayAbsent;
+            const bool was_absent = slot_flags_[p] & kRelayAbsent;
+            if (slot_seen_[p] && absent != was_absent)
+                emit(absent ? SessionEvent::Kind::Disconnected : SessionEvent::Kind::Joined, static_cast<PlayerId>(p), f,
+                     now_us, absent ? "its input is absent from here (the server)" : "its inputs start here");
+            slot_flags_[p] = flags;
+            slot_seen_[p] = true;
+        }
+    }
+    relay_stats_.frames_received += sync_->inputs_complete() - before;
+}
+
+void RelaySession::send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload) {
+    RelayForward f;
+    f.slot = to;
+    f.payload = payload;
+    Datagram d{kRelayServerPeer, {}, true};
+    encode(f, d.bytes);
+    pending_out_.push_back(std::move(d));
+}
+
+void RelaySession::handle_forward(std::uint64_t now_us) {
+    const std::uint8_t from = forward_.slot;
+    const auto payload = std::span<const std::uint8_t>(forward_.payload);
+    const auto kind = peek_kind(payload);
+    if (kind == MessageKind::SnapshotRequest) {
+        if (const char* e = decode(payload, snap_req_)) return malformed(e);
+        if (snap_req_.transfer_id == 0) {
+            // Offer the newest confirmed frame (every peer that plays holds it).
+            if (phase_ != SessionPhase::Running) return;
+            const std::uint32_t f = sync_->confirmed_frame();
+            const auto state = sync_->saved_state(f);
+            if (!state) return;
+            TransferContents t;
+            t.frame = f;
+            t.state.assign(state->begin(), state->end());
+            t.streams.resize(static_cast<std::size_t>(config_.players));
+            OutgoingTransfer o;
+            o.id = next_transfer_id_++;
+            o.to = from;
+            o.blob = pack_transfer(t, config_.input_size);
+            o.created_us = now_us;
+            o.offer.reason = snap_req_.reason;
+            o.offer.transfer_id = o.id;
+            o.offer.frame = f;
+            o.offer.size = static_cast<std::uint32_t>(o.blob.size());
+            o.offer.hash = transfer_hash(o.blob);
+            std::erase_if(outgoing_, [&](const OutgoingTransfer& x) { return x.to == from || now_us - x.created_us > kOutgoingTransferLifeUs; });
+            if (outgoing_.size() >= kMaxOutgoingTransfers) outgoing_.erase(outgoing_.begin());
+            scratch_.clear();
+            encode(o.offer, scratch_);
+            send_forward(from, scratch_);
+            outgoing_.push_back(std::move(o));
+            return;
+        }
+        for (const auto& o : outgoing_) {
+            if (o.id != snap_req_.transfer_id || o.to != from) continue;
+            const std::size_t begin = static_cast<std::size_t>(snap_req_.chunk) * kSnapshotChunkBytes;
+            if (begin >= o.blob.size()) return malformed("snapshot request: chunk out of range");
+            SnapshotChunkMessage c;
+            c.transfer_id = o.id;
+            c.chunk = snap_req_.chunk;
+            c.bytes.assign(o.blob.begin() + static_cast<std::ptrdiff_t>(begin),
+                           o.blob.begin() + static_cast<std::ptrdiff_t>(std::min(o.blob.size(), begin + kSnapshotChunkBytes)));
+            scratch_.clear();
+            encode(c, scratch_);
+            send_forward(from, scratch_);
+            return;
+        }
+        return;  // an expired transfer: the requester asks for a new offer
+    }
+    if (!transfer_from_ || from != *transfer_from_) return;  // not the source we asked
+    if (kind == MessageKind::SnapshotOffer) {
+        if (const char* e = decode(payload, snap_offer_)) return malformed(e);
+        if (incoming_ && incoming_->offer().transfer_id == snap_offer_.transfer_id) return;
+        if (snap_offer_.size == 0 || snap_offer_.size > config_.max_snapshot_bytes) return malformed("snapshot offer: size out of range");
+        incoming_ = std::make_unique<TransferReceiver>(snap_offer_);
+        incoming_->started_us = now_us;
+        return;
+    }
+    if (kind == MessageKind::SnapshotChunk) {
+        if (const char* e = decode(payload, snap_chunk_)) return malformed(e);
+        if (!incoming_ || !incoming_->add(snap_chunk_)) return;
+        if (incoming_->complete()) finish_transfer(now_us);
+        return;
+    }
+    malformed("relay forward: not a snapshot message");
+}
+
+void RelaySession::begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us) {
+    (void)now_us;
+    phase_ = SessionPhase::Transferring;
+    transfer_from_ = from;
+    transfer_reason_ = reason;
+    incoming_.reset();
+    last_offer_request_us_ = 0;
+}
+
+void RelaySession::finish_transfer(std::uint64_t now_us) {
+    const auto blob = incoming_->verified();
+    TransferContents t;
+    std::string err = blob ? unpack_transfer(*blob, sim_.state_size(), config_.players, config_.input_size,
+                                             config_.input_capacity, t)
+                           : "checksum of the assembled snapshot does not match the offer";
+    if (err.empty()) err = sync_->restart_at(t.frame, t.state);
+    incoming_.reset();
+    if (!err.empty()) {
+        emit(SessionEvent::Kind::SnapshotRejected, *transfer_from_, 0, now_us, err);
+        last_offer_request_us_ = 0;  // ask for a new offer at once
+        return;
+    }
+    const std::uint8_t from = *transfer_from_;
+    transfer_from_.reset();
+    std::fill(slot_seen_.begin(), slot_seen_.end(), false);
+    clock_offsets_.clear();  // paced afresh from the next frames message
+    emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us, "from id " + std::to_string(from));
+    if (transfer_reason_ == TransferReason::Recover) {
+        recover_after_ = t.frame + 1;
+        phase_ = SessionPhase::Running;
+        emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us, "reloaded the majority's state");
+        return;
+    }
+    if (config_.role != RelayRole::Spectator) {
+        own_.restart_at(std::max(handoff_, t.frame));
+        server_ack_ = std::max(server_ack_, std::max(handoff_, t.frame));
+    }
+    phase_ = SessionPhase::Synchronizing;
+    start_running(now_us);
+}
+
+void RelaySession::handle_notice(std::uint64_t now_us) {
+    const RelayNotice& n = notice_;
+    switch (n.kind) {
+        case RelayNoticeKind::Desync: {
+            if (phase_ != SessionPhase::Running || n.frame < recover_after_) return;  // stale, or already reloading
+            ++relay_stats_.desync_notices;
+            ++stats_.desyncs;
+            emit(SessionEvent::Kind::DesyncDetected, static_cast<PlayerId>(std::max(my_id_, 0)), n.frame, now_us,
+                 "the relay server found this client's checksum of frame " + std::to_string(n.frame) +
+                     " in the minority; reloading from slot " + std::to_string(n.slot));
+            if (observer_) observer_->on_desync({static_cast<PlayerId>(n.slot), n.frame, 0, n.detail});
+            if (recoveries_ >= config_.max_recoveries)
+                return fail("desync at frame " + std::to_string(n.frame) + " (the server's verdict) and no recovery left", now_us);
+            ++recoveries_;
+            if (n.slot == RelayWelcome{}.snapshot_from) return fail("desync: no majority client to reload from", now_us);
+            begin_transfer(n.slot, TransferReason::Recover, now_us);
+            return;
+        }
+        case RelayNoticeKind::Snapshot:
+            if (transfer_from_) begin_transfer(n.slot, transfer_reason_, now_us);
+            return;
+        case RelayNoticeKind::Draining:
+            emit(SessionEvent::Kind::Draining, kRelayServerPeer, frame(), now_us, "the relay server is draining");
+            return;
+        case RelayNoticeKind::Kicked:
+            emit(SessionEvent::Kind::Kicked, static_cast<PlayerId>(std::max(my_id_, 0)), frame(), now_us, "kicked by the relay server");
+            return fail("kicked by the relay server", now_us);
+    }
+}
+
+void RelaySession::transport_reconnected(std::uint64_t now_us) {
+    (void)now_us;
+    if (phase_ == SessionPhase::Failed || !welcomed_) return;
+    welcomed_ = false;  // say hello again on the new connection (same incarnation: a resume)
+    hello_sent_ = false;
+}
+
+// ---- pacing ----
+
+std::optional<std::int64_t> RelaySession::room_clock(std::uint64_t now_us) const {
+    if (!clock_offset_) return std::nullopt;
+    const std::int64_t local = static_cast<std::int64_t>(now_us) * config_.tick_rate / 1000000 * kFrac +
+                               static_cast<std::int64_t>(now_us * static_cast<std::uint64_t>(config_.tick_rate) % 1000000) * kFrac / 1000000;
+    return local + *clock_offset_;
+}
+
+std::int64_t RelaySession::target_lead() const {
+    const auto period = static_cast<std::int64_t>(1000000 / config_.tick_rate);
+    const auto need = static_cast<std::int64_t>(link_.rtt_us() / 2 + 2 * link_.rtt_var_us());
+    return (need + period - 1) / period + 1 - input_delay_;
+}
+
+std::int32_t RelaySession::behind(std::uint64_t now_us) const {
+    if (phase_ != SessionPhase::Running) return 0;
+    const auto clock = room_clock(now_us);
+    if (!clock) return 0;
+    const std::int64_t target = *clock / kFrac + target_lead();
+    const std::int64_t gap = target - static_cast<std::int64_t>(frame());
+    return gap >= 2 ? static_cast<std::int32_t>(std::min<std::int64_t>(gap - 1, 1 << 20)) : 0;
+}
+
+void RelaySession::revise_input_delay(std::uint64_t now_us) {
+    if (!config_.auto_input_delay || config_.role == RelayRole::Spectator || !link_.has_rtt()) return;
+    if (last_delay_revision_us_ && now_us - last_delay_revision_us_ < kDelayRevisionUs) return;
+    const auto period = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
+    const std::uint64_t rtt = link_.rtt_us(), jitter = link_.rtt_var_us();
+    int want;
+    if (config_.prediction_window == 0)  // lockstep: the whole round trip, so frames arrive confirmed
+        want = std::clamp(static_cast<int>((rtt + 2 * jitter + period - 1) / period) + 1, 1, 30);
+    else
+        want = std::clamp(static_cast<int>((rtt / 4 + 2 * jitter + period - 1) / period), 1, 8);
+    if (last_delay_revision_us_ == 0) input_delay_ = want;  // the first estimate, before frame 0
+    else if (want > input_delay_) ++input_delay_;
+    else if (want < input_delay_) --input_delay_;
+    last_delay_revision_us_ = now_us;
+}
+
+// ---- ticking ----
+
+void RelaySession::add_own_input(std::span<const std::uint8_t> input) {
+    if (config_.role == RelayRole::Spectator) return;
+    const std::uint32_t target = std::max(frame() + static_cast<std::uint32_t>(input_delay_), handoff_);
+    std::uint32_t next = own_.confirmed_count();
+    if (target < next) {
+        ++stats_.dropped_local_inputs;  // the delay shrank: sent inputs never change
+        return;
+    }
+    scratch_.assign(config_.input_size, 0);
+    if (const auto last = own_.last_confirmed(); !last.empty()) scratch_.assign(last.begin(), last.end());
+    for (; next < target; ++next)
+        if (own_.add_confirmed(next, scratch_) != InputQueue::Add::Stored) return;
+    own_.add_confirmed(target, input);
+}
+
+void RelaySession::confirm_frames() {
+    while (!sync_->rollback_pending() && sync_->confirmed_frame() < sync_->confirmable_frame()) {
+        const FrameConfirmed fc = sync_->confirm_next();
+        if (observer_) observer_->on_frame_confirmed(fc);
+        if (checksum_interval_ && fc.frame % checksum_interval_ == 0 && config_.role != RelayRole::Spectator) {
+            if (reports_.size() >= kMaxReports) reports_.pop_front();
+            reports_.push_back({fc.frame, fc.checksum, kChecksumRepeats});
+        }
+    }
+    // Own inputs the server holds and this client has seen confirmed are never read again.
+    if (config_.role != RelayRole::Spectator)
+        own_.discard_before(std::min(server_ack_, sync_->queue(config_.local_slot).confirmed_count()));
+}
+
+AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
+    if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
+    AdvanceResult r;
+    ++stats_.ticks;
+    if (phase_ != SessionPhase::Running) {
+        r.frame = frame();
+        return r;
+    }
+    if (local_input.size() != config_.input_size) {
+        fail("advance: local input has the wrong size", now_us);
+        r.frame = frame();
+        return r;
+    }
+    const std::uint64_t t0 = config_.cpu_clock();
+    r.rollback_depth = sync_->rollback_if_needed();
+    if (r.rollback_depth) r.resim_ns = config_.cpu_clock() - t0;
+    confirm_frames();
+    revise_input_delay(now_us);
+    add_own_input(local_input);
+    if (sync_->must_wait(0)) {
+        ++stats_.stall_ticks;
+        if (!stalled_since_) stalled_since_ = now_us;
+        r.blocking_player = sync_->blocking_player();
+    } else {
+        if (stalled_since_) {
+            stats_.stall_time_us += now_us - *stalled_since_;
+            stalled_since_.reset();
+        }
+        const std::uint64_t t1 = config_.cpu_clock();
+        sync_->step_forward();
+        r.forward_ns = config_.cpu_clock() - t1;
+        r.advanced = true;
+        confirm_frames();
+    }
+    r.frame = frame();
+    // Pacing: ahead of the target lead, lengthen ticks in proportion (at most 5 %).
+    if (const auto clock = room_clock(now_us)) {
+        const std::int64_t lead = static_cast<std::int64_t>(frame()) * kFrac - *clock;
+        relay_stats_.lead_x100 = lead * 100 / kFrac;
+        relay_stats_.target_lead = target_lead();
+        const std::int64_t excess = lead - target_lead() * kFrac;
+        if (excess > kFrac / 2)
+            r.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(50000, excess * 1000000 / (kFrac * config_.tick_rate)));
+    }
+    return r;
+}
+
+int RelaySession::catch_up(std::uint64_t now_us, int max_frames) {
+    int stepped = 0;
+    const int want = std::min(max_frames, static_cast<int>(behind(now_us)));
+    while (stepped < want && phase_ == SessionPhase::Running) {
+        if (sync_->rollback_pending()) sync_->rollback_if_needed();
+        if (sync_->must_wait(0)) break;
+        if (config_.role != RelayRole::Spectator) {
+            // The skipped tick's input repeats the last one.
+            scratch_.assign(config_.input_size, 0);
+            if (const auto last = own_.last_confirmed(); !last.empty()) scratch_.assign(last.begin(), last.end());
+            const std::vector<std::uint8_t> input = scratch_;
+            add_own_input(input);
+        }
+        sync_->step_forward();
+        confirm_frames();
+        ++stepped;
+    }
+    return stepped;
+}
+
+void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+    if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
+    if (phase_ == SessionPhase::Failed) {
+        pending_out_.clear();
+        return;
+    }
+    if (!welcomed_ && (!hello_sent_ || now_us - last_hello_us_ >= config_.hello_resend_us)) {
+        RelayHello h;
+        h.room_id = config_.room_id;
+        h.scene_checksum = config_.scene_checksum;
+        h.players = static_cast<std::uint8_t>(config_.players);
+        h.input_size = static_cast<std::uint8_t>(config_.input_size);
+        h.tick_rate = static_cast<std::uint16_t>(config_.tick_rate);
+        h.role = config_.role;
+        h.slot = static_cast<std::uint8_t>(config_.role == RelayRole::Spectator ? 0 : config_.local_slot);
+        h.absent_slots = config_.absent_slots;
+        h.incarnation = incarnation_;
+        h.stamp_us = now_us;
+        Datagram d{kRelayServerPeer, {}, true};
+        encode(h, d.bytes);
+        pending_out_.push_back(std::move(d));
+        hello_sent_ = true;
+        last_hello_us_ = now_us;
+    }
+    if (transfer_from_) {
+        const std::uint8_t from = *transfer_from_;
+        if (!incoming_) {
+            if (!last_offer_request_us_ || now_us - last_offer_request_us_ >= config_.transfer_resend_us) {
+                SnapshotRequestMessage q;
+                q.reason = transfer_reason_;
+                scratch_.clear();
+                encode(q, scratch_);
+                send_forward(from, scratch_);
+                last_offer_request_us_ = now_us;
+            }
+        } else {
+            std::vector<std::uint32_t> due;
+            incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
+            for (std::uint32_t c : due) {
+                SnapshotRequestMessage q;
+                q.reason = transfer_reason_;
+                q.transfer_id = incoming_->offer().transfer_id;
+                q.chunk = c;
+                scratch_.clear();
+                encode(q, scratch_);
+                send_forward(from, scratch_);
+            }
+        }
+    }
+    if (welcomed_) {
+        // One input message per tick: own inputs the server lacks, acks, stamps, checksums. It is
+        // also the keepalive before the room starts and while a snapshot loads.
+        RelayInput m;
+        m.confirmed_ack = phase_ == SessionPhase::Running ? sync_->inputs_complete() : kRelayNoFrames;
+        if (config_.role != RelayRole::Spectator && phase_ == SessionPhase::Running) {
+            const std::uint32_t from = std::max(server_ack_, own_.floor());
+            const std::uint32_t end = own_.confirmed_count();
+            const std::uint32_t count = end > from ? std::min<std::uint32_t>(end - from, relay_max_inputs(config_.input_size)) : 0;
+            m.first_frame = from;
+            m.frame_count = static_cast<std::uint8_t>(count);
+            m.inputs.resize(count * config_.input_size);
+            for (std::uint32_t i = 0; i < count; ++i) {
+                const auto in = own_.confirmed(from + i);
+                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(i * config_.input_size));
+            }
+        }
+        m.stamp = static_cast<std::uint16_t>(now_us / 100);
+        if (m.stamp == kNoEcho) m.stamp = 0;
+        if (link_.has_stamp) {
+            m.echo = link_.stamp;
+            m.hold = static_cast<std::uint16_t>(std::min<std::uint64_t>((now_us - link_.stamp_at_us) / 100, kNoEcho - 1));
+        } else {
+            m.echo = kNoEcho;
+            m.hold = kNoEcho;
+        }
+        for (auto& rep : reports_) {
+            if (m.checksum_count >= kRelayMaxChecksums) break;
+            m.checksum_frames[m.checksum_count] = rep.frame;
+            m.checksums[m.checksum_count] = rep.checksum;
+            ++m.checksum_count;
+            --rep.sends;
+        }
+        std::erase_if(reports_, [](const Report& r) { return r.sends <= 0; });
+        Datagram d{kRelayServerPeer, {}, false};
+        encode(m, config_.input_size, d.bytes);
+        pending_out_.push_back(std::move(d));
+    }
+    for (auto& d : pending_out_) {
+        ++stats_.packets_sent;
+        stats_.bytes_sent += d.bytes.size();
+        out.push_back(std::move(d));
+    }
+    pending_out_.clear();
+}
+
+}  // namespace lockroll::rollback

@@ -1,0 +1,226 @@
+// RelaySession: one client's side of a match played through the relay server (server/). Sans-IO
+// like Session: time comes in as now_us, datagrams go out through poll() (all to the server) and
+// come in through receive(), and any Simulation is driven.
+//
+// How it differs from the peer-to-peer Session (docs/relay.md has the whole story):
+//  - The server confirms every input, this client's own too: a local input is a guess until the
+//    server's input set for its frame arrives, and when the server replaced it (it came after
+//    the deadline) the frame is resimulated like any misprediction. Sync runs with
+//    all_streams_remote; the predictor answers the local slot with the input this client sent.
+//  - Pacing: the room clock is the match clock. Each frames message carries it; this client
+//    estimates it (plus half the round trip), and keeps its shown frame a target lead ahead of
+//    it, so its inputs reach the server just before their frame is due:
+//        lead = ceil((rtt / 2 + 2 * jitter) / tick) + 1 - input_delay   (may be negative)
+//    Ahead of the target: tick_stretch_ppm lengthens ticks; behind it: behind() > 0 and the
+//    caller steps catch_up() frames (the local input of a skipped frame repeats the last one).
+//  - Input delay (auto_input_delay): ceil((rtt / 4 + 2 * jitter) / tick), 1..8 frames, set from
+//    the welcome's round trip and revised every two seconds by at most one frame.
+//  - Lifecycle comes from the server: a welcome starts the session (refusals end it with the
+//    reason), the frames' flags say when a slot is absent (its neutral input) or replaced.
+//    Joiners and spectators pull a snapshot of a confirmed frame from the slot the welcome names,
+//    through the server (forwards), then take the confirmed frames after it from the server's
+//    history and catch up. A Desync notice (this client's checksum was in the minority) makes it
+//    reload the state of the slot the notice names the same way.
+//  - Checksums of confirmed frames that are multiples of the room's interval ride on the input
+//    messages (each three times); the server arbitrates.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rollback/events.h"
+#include "rollback/input_queue.h"
+#include "rollback/peer_link.h"
+#include "rollback/player_id.h"
+#include "rollback/predictor.h"
+#include "rollback/relay_messages.h"
+#include "rollback/session.h"
+#include "rollback/simulation.h"
+#include "rollback/snapshot_transfer.h"
+#include "rollback/sync.h"
+#include "rollback/telemetry.h"
+
+namespace lockroll::rollback {
+
+// The server's id in Datagram::peer (poll() addresses everything to it; receive() takes only it).
+inline constexpr PlayerId kRelayServerPeer = 0xFFFF;
+
+struct RelaySessionConfig {
+    int players = 2;
+    PlayerId local_slot = 0;            // ignored for spectators
+    RelayRole role = RelayRole::Player;
+    std::size_t input_size = 3;
+    int tick_rate = 60;
+    int input_delay = 2;                // frames; overridden by auto_input_delay
+    bool auto_input_delay = true;
+    int prediction_window = 16;         // W; 0 = lockstep (frames run only once confirmed)
+    int evidence_frames = 64;
+    std::uint32_t input_capacity = 1024;
+    std::uint64_t room_id = 0;
+    std::uint64_t scene_checksum = 0;   // 0: the simulation's initial-state checksum
+    std::uint16_t absent_slots = 0;     // bit s: nobody plays slot s at frame 0
+    // Names this process to the server; a reconnect with the same value resumes its slot, so
+    // make it unguessable (random). 0: taken from the first now_us (tests).
+    std::uint64_t incarnation = 0;
+    std::uint64_t hello_resend_us = 250000;
+    std::uint64_t transfer_resend_us = 250000;
+    int transfer_window = 32;
+    std::uint32_t max_snapshot_bytes = 64u << 20;
+    int max_recoveries = 3;             // reloads after Desync notices before giving up
+    CpuClock cpu_clock;
+};
+
+// Throws std::invalid_argument naming the field.
+void validate(const RelaySessionConfig& config);
+
+// What the relay did to this client's match, beyond SessionStats.
+struct RelayStats {
+    std::uint64_t own_replaced = 0;      // frames whose own input the server replaced (late)
+    std::uint64_t replaced_any = 0;      // slot-frames replaced, every slot
+    std::uint64_t frames_received = 0;   // confirmed frames taken from the server
+    std::uint64_t desync_notices = 0;
+    std::int64_t lead_x100 = 0;          // shown frame minus the estimated room clock (x100), last tick
+    std::int64_t target_lead = 0;        // frames
+};
+
+class RelaySession {
+public:
+    // The simulation must be in its initial state and outlive the session, as must the
+    // observer and predictor (nullptr: none / repeat-last). Throws std::invalid_argument.
+    RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer = nullptr,
+                 Predictor* predictor = nullptr);
+    ~RelaySession();
+    RelaySession(const RelaySession&) = delete;
+    RelaySession& operator=(const RelaySession&) = delete;
+
+    // A datagram from the server. Never throws or asserts on its content.
+    void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    // One tick: rolls back if needed, then steps once unless the window is full. local_input
+    // becomes this client's input of frame() + input_delay() (players only).
+    AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
+    // Appends the datagrams for the server: hellos, one input message per tick, forwards.
+    void poll(std::uint64_t now_us, std::vector<Datagram>& out);
+    // Behind the target lead (a late start, a joiner, a slow clock): step up to max_frames now.
+    int catch_up(std::uint64_t now_us, int max_frames);
+    // Frames this client is behind its target (0 when on time or ahead).
+    std::int32_t behind(std::uint64_t now_us) const;
+    bool next_event(SessionEvent& out);
+    // The transport lost the server and connected again: say hello again. The server knows this
+    // process by its incarnation and resumes it (same slot, stream and state; no snapshot).
+    void transport_reconnected(std::uint64_t now_us);
+    // As Session::inject_fault.
+    std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+
+    const RelaySessionConfig& config() const { return config_; }
+    SessionPhase phase() const { return phase_; }
+    bool running() const { return phase_ == SessionPhase::Running; }
+    const std::string& failure() const { return failure_; }
+    std::uint32_t frame() const { return sync_->frame(); }
+    std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
+    int input_delay() const { return input_delay_; }
+    // The server holds this client's inputs of every frame before this.
+    std::uint32_t server_input_ack() const { return server_ack_; }
+    // This client's id in the room (its slot, or players + place for a spectator).
+    int room_id_slot() const { return my_id_; }
+    std::uint64_t rtt_us() const { return link_.rtt_us(); }
+    std::uint64_t jitter_us() const { return link_.rtt_var_us(); }
+    const SessionStats& stats() const { return stats_; }
+    const RelayStats& relay_stats() const { return relay_stats_; }
+    int recoveries() const { return recoveries_; }
+    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const { return sync_->saved_state(frame); }
+
+private:
+    class OwnPredictor;
+    struct OutgoingTransfer {
+        std::uint32_t id = 0;
+        std::uint8_t to = 0;
+        std::vector<std::uint8_t> blob;
+        SnapshotOfferMessage offer;
+        std::uint64_t created_us = 0;
+    };
+
+    void handle_welcome(std::uint64_t now_us);
+    void handle_frames(std::uint64_t now_us);
+    void handle_forward(std::uint64_t now_us);
+    void handle_notice(std::uint64_t now_us);
+    void start_running(std::uint64_t now_us);
+    void begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us);
+    void finish_transfer(std::uint64_t now_us);
+    void confirm_frames();
+    void add_own_input(std::span<const std::uint8_t> input);
+    void send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload);
+    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
+    void fail(const std::string& why, std::uint64_t now_us);
+    void malformed(const char* why);
+    // Estimated room clock now, in 1/65536 frames (nullopt before the first frames message).
+    std::optional<std::int64_t> room_clock(std::uint64_t now_us) const;
+    std::int64_t target_lead() const;
+    void revise_input_delay(std::uint64_t now_us);
+
+    RelaySessionConfig config_;
+    Simulation& sim_;
+    SessionObserver* observer_;
+    std::unique_ptr<Predictor> default_predictor_;
+    std::unique_ptr<OwnPredictor> own_predictor_;
+    SessionStats stats_;
+    RelayStats relay_stats_;
+    std::unique_ptr<Sync> sync_;
+    InputQueue own_;                     // inputs this client made, from the server's ack on
+    PeerLink link_;                      // the server: round trip, stamps
+    SessionPhase phase_ = SessionPhase::Synchronizing;
+    std::string failure_;
+    std::deque<SessionEvent> events_;
+    std::vector<Datagram> pending_out_;
+    int input_delay_;
+    int my_id_ = -1;
+    std::uint32_t handoff_ = 0;
+    std::uint32_t server_ack_ = 0;
+    std::uint16_t checksum_interval_ = 0;
+    std::uint64_t incarnation_ = 0;
+    std::uint64_t last_hello_us_ = 0;
+    bool hello_sent_ = false;
+    bool welcomed_ = false;
+    bool room_started_ = false;
+    std::uint64_t started_us_ = 0;
+    std::uint64_t last_delay_revision_us_ = 0;
+    // Room clock estimate: the largest (room clock - local clock) seen in a window of samples.
+    std::deque<std::int64_t> clock_offsets_;
+    std::optional<std::int64_t> clock_offset_;
+    std::optional<std::uint64_t> stalled_since_;
+    // slot flags of the newest confirmed frame (for Joined / Disconnected events)
+    std::vector<std::uint8_t> slot_flags_;
+    std::vector<bool> slot_seen_;
+    // checksums to report, each sent kChecksumRepeats times
+    struct Report {
+        std::uint32_t frame;
+        std::uint64_t checksum;
+        int sends;
+    };
+    std::deque<Report> reports_;
+    // snapshot transfer, receiving side
+    std::optional<std::uint8_t> transfer_from_;
+    TransferReason transfer_reason_ = TransferReason::Join;
+    std::unique_ptr<TransferReceiver> incoming_;
+    std::uint64_t last_offer_request_us_ = 0;
+    std::uint32_t recover_after_ = 0;    // Desync notices for frames before this are stale
+    int recoveries_ = 0;
+    // providing side
+    std::vector<OutgoingTransfer> outgoing_;
+    std::uint32_t next_transfer_id_ = 1;
+    // decode scratch
+    RelayWelcome welcome_;
+    RelayFrames frames_;
+    RelayForward forward_;
+    RelayNotice notice_;
+    SnapshotRequestMessage snap_req_;
+    SnapshotOfferMessage snap_offer_;
+    SnapshotChunkMessage snap_chunk_;
+    std::vector<std::uint8_t> scratch_;
+};
+
+}  // namespace lockroll::rollback

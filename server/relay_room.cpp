@@ -1,0 +1,496 @@
+#include "server/relay_room.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lockroll::server {
+
+using namespace lockroll::rollback;
+
+namespace {
+// Frames of inputs a slot may send ahead of the confirmed frame (ring size).
+constexpr std::uint32_t kWindow = 512;
+
+std::uint16_t stamp_hold(std::uint64_t since_us, std::uint64_t now_us) {
+    return static_cast<std::uint16_t>(std::min<std::uint64_t>(0xFFFF, (now_us - since_us) / 100));
+}
+}  // namespace
+
+RelayRoom::RelayRoom(std::uint64_t id, const RelayHello& first, const RoomConfig& config)
+    : id_(id),
+      config_(config),
+      players_(first.players),
+      input_size_(first.input_size),
+      tick_rate_(first.tick_rate),
+      scene_checksum_(first.scene_checksum),
+      absent_at_start_(first.absent_slots),
+      period_us_(1000000u / std::max<unsigned>(1, first.tick_rate)) {
+    const double frames = std::max(1.0, config.history_s * tick_rate_);
+    history_cap_ = static_cast<std::size_t>(std::min(frames, 1e9));
+    slots_.resize(static_cast<std::size_t>(players_));
+    for (auto& s : slots_) {
+        s.last_input.assign(input_size_, 0);
+        s.pending.assign(kWindow * input_size_, 0);
+        s.pending_frame.assign(kWindow, 0);
+    }
+    spectators_.resize(static_cast<std::size_t>(std::max(0, config.max_spectators)));
+}
+
+bool RelayRoom::matches(const RelayHello& h) const {
+    return h.players == players_ && h.input_size == input_size_ && h.tick_rate == tick_rate_ &&
+           h.scene_checksum == scene_checksum_ && h.absent_slots == absent_at_start_;
+}
+
+std::uint32_t RelayRoom::clock_frame(std::uint64_t now_us) const {
+    if (!started_ || now_us < start_us_) return 0;
+    return static_cast<std::uint32_t>((now_us - start_us_) * static_cast<std::uint64_t>(tick_rate_) / 1000000u);
+}
+
+int RelayRoom::slot_of(ConnectionId c) const {
+    for (int s = 0; s < players_; ++s)
+        if (slots_[static_cast<std::size_t>(s)].connected && slots_[static_cast<std::size_t>(s)].client.connection == c) return s;
+    for (std::size_t i = 0; i < spectators_.size(); ++i)
+        if (spectators_[i].connected && spectators_[i].client.connection == c) return players_ + static_cast<int>(i);
+    return -1;
+}
+
+RelayRoom::Client* RelayRoom::client(int id) {
+    if (id < 0) return nullptr;
+    if (id < players_) {
+        auto& s = slots_[static_cast<std::size_t>(id)];
+        return s.connected ? &s.client : nullptr;
+    }
+    const auto i = static_cast<std::size_t>(id - players_);
+    if (i >= spectators_.size() || !spectators_[i].connected) return nullptr;
+    return &spectators_[i].client;
+}
+
+bool RelayRoom::empty() const {
+    for (const auto& s : slots_)
+        if (s.connected) return false;
+    for (const auto& s : spectators_)
+        if (s.connected) return false;
+    return true;
+}
+
+int RelayRoom::snapshot_source(int except) const {
+    for (int s = 0; s < players_; ++s) {
+        const auto& slot = slots_[static_cast<std::size_t>(s)];
+        if (s != except && slot.connected && slot.state == SlotState::Running && slot.client.ack > 0) return s;
+    }
+    return kNoSlot;
+}
+
+void RelayRoom::send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
+                             std::vector<Outgoing>& out) {
+    RelayWelcome w;
+    w.refusal = r;
+    w.players = static_cast<std::uint8_t>(players_);
+    w.input_size = static_cast<std::uint8_t>(input_size_);
+    w.tick_rate = static_cast<std::uint16_t>(tick_rate_);
+    w.checksum_interval = static_cast<std::uint16_t>(config_.checksum_interval);
+    w.input_deadline = static_cast<std::uint8_t>(config_.input_deadline);
+    w.echo_us = echo_us;
+    w.started = started_;
+    w.server_frame = clock_frame(now_us);
+    if (r == RelayRefusal::None) {
+        w.slot = static_cast<std::uint8_t>(id);
+        // A newcomer to a running room pulls a snapshot from the lowest connected player.
+        w.snapshot_from = started_ && id_joined_late(id) ? static_cast<std::uint8_t>(snapshot_source(id)) : kNoSlot;
+        if (id < players_) w.handoff_frame = slots_[static_cast<std::size_t>(id)].input_from;
+    }
+    Outgoing o{c, {}, true};
+    encode(w, o.bytes);
+    out.push_back(std::move(o));
+}
+
+bool RelayRoom::id_joined_late(int id) const {
+    if (id >= players_) return spectators_[static_cast<std::size_t>(id - players_)].late;
+    return slots_[static_cast<std::size_t>(id)].late;
+}
+
+void RelayRoom::welcome_again(ConnectionId c, const RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out) {
+    const int id = slot_of(c);
+    if (id >= 0) send_welcome(c, id, RelayRefusal::None, h.stamp_us, now_us, out);
+}
+
+RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out,
+                              ConnectionId* replaced) {
+    auto refuse = [&](RelayRefusal r) {
+        send_welcome(c, -1, r, h.stamp_us, now_us, out);
+        return r;
+    };
+    if (!matches(h)) return refuse(RelayRefusal::RoomParams);
+
+    Client fresh;
+    fresh.connection = c;
+    fresh.last_heard_us = now_us;
+    fresh.ack = started_ ? confirmed_next_ : 0;
+    if (h.role == RelayRole::Spectator) {
+        auto it = std::find_if(spectators_.begin(), spectators_.end(), [](const Spectator& s) { return !s.connected; });
+        if (it == spectators_.end()) return refuse(RelayRefusal::Full);
+        it->connected = true;
+        it->late = started_;
+        it->client = fresh;
+        send_welcome(c, players_ + static_cast<int>(it - spectators_.begin()), RelayRefusal::None, h.stamp_us, now_us, out);
+        return RelayRefusal::None;
+    }
+    if (h.slot >= players_) return refuse(RelayRefusal::BadSlot);
+    Slot& s = slots_[h.slot];
+    // The same process on a new connection (its transport reconnected): it keeps its slot, its
+    // stream and its state; no snapshot. The incarnation is the client's secret token.
+    if (started_ && h.incarnation != 0 && h.incarnation == s.incarnation && s.state != SlotState::Absent) {
+        if (s.connected && replaced) *replaced = s.client.connection;
+        const bool was_running = s.state == SlotState::Running;
+        s.connected = true;
+        s.client = fresh;
+        s.state = SlotState::Running;
+        if (!was_running) {  // it had left: its inputs count again from a little ahead
+            s.input_from = std::max(confirmed_next_, clock_frame(now_us)) + static_cast<std::uint32_t>(config_.handoff_ticks);
+            std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+        }
+        s.late = false;  // resumes: no snapshot
+        send_welcome(c, h.slot, RelayRefusal::None, h.stamp_us, now_us, out);
+        return RelayRefusal::None;
+    }
+    if (s.connected) {
+        if (now_us - s.client.last_heard_us < config_.replace_silent_us) return refuse(RelayRefusal::SlotTaken);
+        if (replaced) *replaced = s.client.connection;  // a restarted process takes its slot back
+    }
+    s.connected = true;
+    s.client = fresh;
+    s.incarnation = h.incarnation;
+    s.late = started_;
+    const bool was_running = s.state == SlotState::Running;
+    s.state = SlotState::Running;
+    if (!started_) {
+        s.input_from = 0;
+    } else {
+        // Its inputs count from a little ahead of the clock, so the snapshot, the catch-up and
+        // the first input's trip fit before then; frames until then are absent (a join) or
+        // replaced (a reconnect whose slot was still running).
+        const std::uint32_t from = std::max(confirmed_next_, clock_frame(now_us)) +
+                                   static_cast<std::uint32_t>(config_.handoff_ticks);
+        s.input_from = was_running ? std::max(s.input_from, from) : from;
+        if (!was_running) s.last_input.assign(input_size_, 0);
+    }
+    std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+    send_welcome(c, h.slot, RelayRefusal::None, h.stamp_us, now_us, out);
+    if (!started_) {
+        bool all = true;
+        for (int i = 0; i < players_; ++i)
+            if (!(absent_at_start_ & (1u << i)) && !slots_[static_cast<std::size_t>(i)].connected) all = false;
+        if (all) start(now_us);
+    }
+    return RelayRefusal::None;
+}
+
+void RelayRoom::start(std::uint64_t now_us) {
+    started_ = true;
+    start_us_ = now_us;
+    next_tick_us_ = now_us;
+    for (auto& s : slots_)
+        if (s.connected) s.client.last_heard_us = now_us;
+}
+
+bool RelayRoom::has_input(const Slot& s, std::uint32_t frame) const {
+    return s.pending_frame[frame % kWindow] == frame + 1;
+}
+
+const std::uint8_t* RelayRoom::input_at(const Slot& s, std::uint32_t frame) const {
+    return &s.pending[(frame % kWindow) * input_size_];
+}
+
+std::uint32_t RelayRoom::input_ack(const Slot& s) const {
+    std::uint32_t f = std::max(confirmed_next_, s.input_from);
+    const std::uint32_t end = confirmed_next_ + kWindow;
+    while (f < end && has_input(s, f)) ++f;
+    return f;
+}
+
+void RelayRoom::confirm_one(std::uint64_t now_us) {
+    (void)now_us;
+    const std::uint32_t f = confirmed_next_;
+    std::vector<std::uint8_t> rec;
+    if (history_.size() >= history_cap_) {
+        rec = std::move(history_.front());
+        history_.pop_front();
+    }
+    rec.assign(static_cast<std::size_t>(players_) * (1 + input_size_), 0);
+    std::uint8_t* inputs = rec.data() + players_;
+    for (int p = 0; p < players_; ++p) {
+        Slot& s = slots_[static_cast<std::size_t>(p)];
+        std::uint8_t* dst = inputs + static_cast<std::size_t>(p) * input_size_;
+        if (s.state != SlotState::Running || f < s.input_from) {
+            rec[static_cast<std::size_t>(p)] = kRelayAbsent;
+        } else if (has_input(s, f)) {
+            std::copy_n(input_at(s, f), input_size_, dst);
+            std::copy_n(dst, input_size_, s.last_input.begin());
+            s.pending_frame[f % kWindow] = 0;
+        } else {
+            rec[static_cast<std::size_t>(p)] = kRelayReplaced;
+            std::copy_n(s.last_input.begin(), input_size_, dst);
+            ++s.counters.replaced;
+        }
+    }
+    history_.push_back(std::move(rec));
+    ++confirmed_next_;
+}
+
+void RelayRoom::confirm_ready(std::uint64_t now_us, std::vector<Outgoing>& out) {
+    const std::uint32_t before = confirmed_next_;
+    const std::uint32_t clock = clock_frame(now_us);
+    const auto deadline = static_cast<std::uint32_t>(config_.input_deadline);
+    for (;;) {
+        const std::uint32_t f = confirmed_next_;
+        bool ready = true;
+        for (const auto& s : slots_)
+            if (s.state == SlotState::Running && f >= s.input_from && !has_input(s, f)) ready = false;
+        // Nobody waits on a late slot past the deadline; and never beyond the clock otherwise
+        // (a room where nobody plays confirms nothing ahead of time).
+        const bool due = started_ && clock >= f + deadline;
+        bool anyone = false;
+        for (const auto& s : slots_)
+            if (s.state == SlotState::Running && f >= s.input_from) anyone = true;
+        if (!(due || (ready && anyone))) break;
+        confirm_one(now_us);
+    }
+    if (confirmed_next_ != before) broadcast(now_us, false, out);
+}
+
+void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us, std::vector<Outgoing>& out) {
+    RelayFrames& m = frames_;
+    const std::uint64_t ticks = started_ && now_us >= start_us_ ? (now_us - start_us_) * static_cast<std::uint64_t>(tick_rate_) : 0;
+    m.server_frame = static_cast<std::uint32_t>(ticks / 1000000u);
+    m.server_subframe = static_cast<std::uint16_t>((ticks % 1000000u) * 65536u / 1000000u);
+    m.input_ack = ack;
+    m.players = static_cast<std::uint8_t>(players_);
+    m.input_size = static_cast<std::uint8_t>(input_size_);
+    const std::uint32_t from = std::max(cl.ack, history_base());
+    const std::uint32_t count = std::min<std::uint32_t>(confirmed_next_ > from ? confirmed_next_ - from : 0,
+                                                        relay_max_frames(players_, input_size_));
+    m.first_frame = from;
+    m.frame_count = static_cast<std::uint16_t>(count);
+    const std::size_t slots = static_cast<std::size_t>(players_);
+    m.flags.resize(count * slots);
+    m.inputs.resize(count * slots * input_size_);
+    for (std::uint32_t i = 0; i < count; ++i) {
+        const auto& rec = history_[from + i - history_base()];
+        std::copy_n(rec.begin(), slots, m.flags.begin() + static_cast<std::ptrdiff_t>(i * slots));
+        std::copy_n(rec.begin() + static_cast<std::ptrdiff_t>(slots), slots * input_size_,
+                    m.inputs.begin() + static_cast<std::ptrdiff_t>(i * slots * input_size_));
+    }
+    m.stamp = static_cast<std::uint16_t>(now_us / 100);
+    m.echo = cl.has_stamp ? cl.stamp : 0;
+    m.hold = cl.has_stamp ? stamp_hold(cl.stamp_at_us, now_us) : 0xFFFF;
+    Outgoing o{cl.connection, {}, false};
+    encode(m, o.bytes);
+    out.push_back(std::move(o));
+    cl.last_send_us = now_us;
+}
+
+void RelayRoom::broadcast(std::uint64_t now_us, bool only_if_due, std::vector<Outgoing>& out) {
+    for (auto& s : slots_) {
+        if (!s.connected) continue;
+        if (only_if_due && now_us - s.client.last_send_us < period_us_) continue;
+        send_frames(s.client, input_ack(s), now_us, out);
+    }
+    for (auto& sp : spectators_) {
+        if (!sp.connected) continue;
+        if (only_if_due && now_us - sp.client.last_send_us < period_us_) continue;
+        send_frames(sp.client, 0, now_us, out);
+    }
+}
+
+void RelayRoom::tick(std::uint64_t now_us, std::vector<Outgoing>& out) {
+    if (!started_ || now_us < next_tick_us_) return;
+    next_tick_us_ += period_us_;
+    if (next_tick_us_ <= now_us) next_tick_us_ = now_us + period_us_;
+    confirm_ready(now_us, out);
+    broadcast(now_us, true, out);
+    // Checksum rounds whose missing reports are not coming (a client left or lags).
+    while (!checks_.empty() &&
+           checks_.front().frame + static_cast<std::uint32_t>(config_.checksum_timeout_frames) < confirmed_next_) {
+        decide(checks_.front(), out);
+        checks_.pop_front();
+    }
+}
+
+void RelayRoom::notify_all(const RelayNotice& n, std::vector<Outgoing>& out) {
+    std::vector<std::uint8_t> bytes;
+    encode(n, bytes);
+    for (auto& s : slots_)
+        if (s.connected) out.push_back({s.client.connection, bytes, true});
+    for (auto& s : spectators_)
+        if (s.connected) out.push_back({s.client.connection, bytes, true});
+}
+
+void RelayRoom::silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const {
+    for (const auto& s : slots_)
+        if (s.connected && now_us - s.client.last_heard_us >= config_.silence_drop_us) out.push_back(s.client.connection);
+    for (const auto& s : spectators_)
+        if (s.connected && now_us - s.client.last_heard_us >= config_.silence_drop_us) out.push_back(s.client.connection);
+}
+
+void RelayRoom::remove(ConnectionId c, std::uint64_t now_us) {
+    (void)now_us;
+    const int id = slot_of(c);
+    if (id < 0) return;
+    if (id < players_) {
+        Slot& s = slots_[static_cast<std::size_t>(id)];
+        s.connected = false;
+        // Before the start a slot simply frees up; after it, its stream turns absent from the
+        // next frame to confirm (until someone rejoins it).
+        s.state = started_ ? SlotState::Left : SlotState::Absent;
+        std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+    } else {
+        spectators_[static_cast<std::size_t>(id - players_)].connected = false;
+    }
+}
+
+const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us,
+                               std::vector<Outgoing>& out) {
+    const int id = slot_of(c);
+    Client* cl = client(id);
+    if (!cl) return "relay: connection not in this room";
+    cl->last_heard_us = now_us;
+    const auto kind = peek_relay_kind(d);
+    if (!kind) return "relay: unknown message kind";
+    if (*kind == RelayKind::Forward) {
+        if (const char* e = decode(d, fwd_)) return e;
+        Client* to = client(fwd_.slot);
+        if (fwd_.slot == id) return "relay forward: to itself";
+        if (!to) return nullptr;  // it left: the requester asks again elsewhere
+        RelayForward back;
+        back.slot = static_cast<std::uint8_t>(id);
+        back.payload = std::move(fwd_.payload);
+        Outgoing o{to->connection, {}, true};
+        encode(back, o.bytes);
+        out.push_back(std::move(o));
+        return nullptr;
+    }
+    if (*kind != RelayKind::Input) return "relay: unexpected message kind from a client";
+    if (const char* e = decode(d, input_size_, in_)) return e;
+    if (in_.confirmed_ack == kRelayNoFrames) cl->ack = confirmed_next_;  // the clock only, for now
+    else if (in_.confirmed_ack > confirmed_next_) return "relay input: acknowledges frames not confirmed";
+    else cl->ack = std::max(in_.confirmed_ack, history_base());
+    cl->stamp = in_.stamp;
+    cl->stamp_at_us = now_us;
+    cl->has_stamp = true;
+    const char* problem = nullptr;
+    if (id < players_ && in_.frame_count > 0) {
+        Slot& s = slots_[static_cast<std::size_t>(id)];
+        const std::uint32_t low = std::max(confirmed_next_, s.input_from);
+        const std::uint64_t clock_limit = started_ ? std::uint64_t{clock_frame(now_us)} + static_cast<std::uint64_t>(config_.max_frames_ahead)
+                                                   : static_cast<std::uint64_t>(config_.max_frames_ahead);
+        const std::uint64_t limit = std::min<std::uint64_t>(clock_limit, std::uint64_t{confirmed_next_} + kWindow);
+        for (std::uint32_t i = 0; i < in_.frame_count; ++i) {
+            const std::uint64_t f = std::uint64_t{in_.first_frame} + i;
+            if (f >= limit) {
+                ++s.counters.out_of_window;
+                problem = "relay input: frame out of window";
+                break;
+            }
+            const auto frame = static_cast<std::uint32_t>(f);
+            if (frame < low) {
+                if (frame < confirmed_next_ && frame >= history_base() &&
+                    (history_[frame - history_base()][static_cast<std::size_t>(id)] & kRelayReplaced))
+                    ++s.counters.late;
+                continue;
+            }
+            if (has_input(s, frame)) continue;
+            std::copy_n(in_.inputs.begin() + static_cast<std::ptrdiff_t>(i * input_size_), input_size_,
+                        s.pending.begin() + static_cast<std::ptrdiff_t>((frame % kWindow) * input_size_));
+            s.pending_frame[frame % kWindow] = frame + 1;
+            ++s.counters.inputs;
+        }
+    }
+    if (id < players_)
+        for (int i = 0; i < in_.checksum_count; ++i) {
+            const std::uint32_t f = in_.checksum_frames[i];
+            if (config_.checksum_interval <= 0 || f % static_cast<std::uint32_t>(config_.checksum_interval) != 0 ||
+                f >= confirmed_next_)
+                return "relay input: checksum of a frame not confirmed or not a checkpoint";
+            report_checksum(id, f, in_.checksums[i], now_us, out);
+        }
+    confirm_ready(now_us, out);
+    return problem;
+}
+
+void RelayRoom::report_checksum(int slot, std::uint32_t frame, std::uint64_t value, std::uint64_t now_us,
+                                std::vector<Outgoing>& out) {
+    (void)now_us;
+    auto it = std::find_if(checks_.begin(), checks_.end(), [&](const Check& c) { return c.frame == frame; });
+    if (it == checks_.end()) {
+        // Rounds already decided (older than the oldest open one) are not reopened.
+        if (!checks_.empty() && frame < checks_.front().frame) return;
+        if (!decided_.empty() && frame <= decided_.back()) return;
+        if (checks_.size() >= kMaxPendingChecks) {
+            decide(checks_.front(), out);
+            checks_.pop_front();
+        }
+        Check c;
+        c.frame = frame;
+        it = std::upper_bound(checks_.begin(), checks_.end(), frame, [](std::uint32_t f, const Check& x) { return f < x.frame; });
+        it = checks_.insert(it, c);
+    }
+    it->value[static_cast<std::size_t>(slot)] = value;
+    it->have |= 1u << slot;
+    std::uint32_t need = 0;
+    for (int p = 0; p < players_; ++p)
+        if (slots_[static_cast<std::size_t>(p)].connected && slots_[static_cast<std::size_t>(p)].state == SlotState::Running)
+            need |= 1u << p;
+    if ((it->have & need) == need) {
+        decide(*it, out);
+        checks_.erase(it);
+    }
+}
+
+void RelayRoom::decide(Check& c, std::vector<Outgoing>& out) {
+    decided_.push_back(c.frame);
+    if (decided_.size() > kMaxPendingChecks) decided_.pop_front();
+    // The value most slots report; on a tie, the one of the lowest slot among the tied values.
+    int best_count = 0;
+    std::uint64_t best = 0;
+    for (int p = 0; p < players_; ++p) {
+        if (!(c.have & (1u << p))) continue;
+        int n = 0;
+        for (int q = 0; q < players_; ++q)
+            if ((c.have & (1u << q)) && c.value[static_cast<std::size_t>(q)] == c.value[static_cast<std::size_t>(p)]) ++n;
+        if (n > best_count) {
+            best_count = n;
+            best = c.value[static_cast<std::size_t>(p)];
+        }
+    }
+    int source = kNoSlot;
+    for (int p = 0; p < players_; ++p)
+        if ((c.have & (1u << p)) && c.value[static_cast<std::size_t>(p)] == best && slots_[static_cast<std::size_t>(p)].connected) {
+            source = p;
+            break;
+        }
+    for (int p = 0; p < players_; ++p) {
+        if (!(c.have & (1u << p)) || c.value[static_cast<std::size_t>(p)] == best) continue;
+        Slot& s = slots_[static_cast<std::size_t>(p)];
+        ++s.counters.desyncs;
+        verdicts_.emplace_back(c.frame, p);
+        if (!s.connected) continue;
+        RelayNotice n;
+        n.kind = RelayNoticeKind::Desync;
+        n.slot = static_cast<std::uint8_t>(source);
+        n.frame = c.frame;
+        n.detail = best;
+        Outgoing o{s.client.connection, {}, true};
+        encode(n, o.bytes);
+        out.push_back(std::move(o));
+    }
+}
+
+bool RelayRoom::confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const {
+    if (frame >= confirmed_next_ || frame < history_base()) return false;
+    const auto& rec = history_[frame - history_base()];
+    flags.assign(rec.begin(), rec.begin() + players_);
+    inputs.assign(rec.begin() + players_, rec.end());
+    return true;
+}
+
+}  // namespace lockroll::server

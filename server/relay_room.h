@@ -1,0 +1,190 @@
+// RelayRoom: one match on the relay server. It runs no simulation: it collects each slot's
+// inputs, confirms frames in order, broadcasts the confirmed input sets, arbitrates checksums,
+// and routes snapshot transfers between its clients.
+//
+// Contract
+//  - Clock: the room clock starts when every slot not absent at frame 0 has a player; its frame
+//    is (now - start) * tick_rate. It is the match clock: clients pace themselves against it.
+//  - Confirmation: frame f (the next unconfirmed one) is confirmed as soon as every running
+//    slot's input for f is in, or once the clock reaches f + input_deadline. A running slot
+//    whose input is then missing gets its last confirmed input again, flagged Replaced (its own
+//    input, arriving later, is dropped and counted as late). A slot nobody plays (absent, left,
+//    or joining before its handoff frame) gets the neutral input (zeros), flagged Absent. So
+//    every client receives exactly the same input set for every frame, its own slot included,
+//    and nobody waits on a slow player past the deadline.
+//  - Broadcast: each connection is sent the frames from its acknowledgement on, delta coded and
+//    as many as fit one datagram, at once when frames are confirmed and at least once per tick
+//    (which also carries the clock and the input acknowledgement). Loss costs latency only.
+//  - History: confirmed frames are kept for history_s (at least the snapshot window), so a
+//    joiner, a reconnecting player or a spectator that loaded a snapshot of a recent frame gets
+//    every frame after it from the room.
+//  - Checksums: clients report confirmed checksums of multiples of checksum_interval. Once every
+//    running slot reported a frame (or checksum_timeout_frames later), the majority value wins;
+//    a slot in the minority is sent a Desync notice naming a majority slot to reload from. Two
+//    slots that disagree: the lower slot is taken as right.
+//  - Joins: a hello for an absent or departed slot (or a held slot whose connection has been
+//    silent for replace_silent_us: a restarted process) binds it with a handoff frame a little
+//    ahead of the clock; its inputs count from there. Spectators take places after the slots.
+//    Both are told which slot to pull a snapshot from (the lowest connected player).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "rollback/relay_messages.h"
+
+namespace lockroll::server {
+
+using ConnectionId = std::uint32_t;
+using rollback::RelayRefusal;
+
+struct RoomConfig {
+    int input_deadline = 8;                 // ticks past a frame's time before inputs are replaced
+    int checksum_interval = 60;             // frames; 0: no arbitration
+    int checksum_timeout_frames = 120;      // decide without the missing reports after this
+    double history_s = 600;                 // confirmed frames kept (late join, reconnect)
+    int max_frames_ahead = 240;             // inputs beyond clock + this are out of window
+    int max_spectators = 4;
+    std::uint64_t silence_drop_us = 5'000'000;   // a slot silent this long has left
+    std::uint64_t replace_silent_us = 1'000'000; // a held slot may be taken over after this silence
+    int handoff_ticks = 30;                 // a joiner's inputs start this far ahead of the clock
+};
+
+struct Outgoing {
+    ConnectionId to = 0;
+    std::vector<std::uint8_t> bytes;
+    bool reliable = false;  // welcome, notices, forwards: the transport's reliable channel
+};
+
+// Per slot, for tests, the log and reports.
+struct SlotCounters {
+    std::uint64_t inputs = 0;           // own inputs accepted
+    std::uint64_t replaced = 0;         // frames confirmed with its input replaced
+    std::uint64_t late = 0;             // inputs that arrived after their frame was confirmed
+    std::uint64_t out_of_window = 0;    // inputs for frames too far ahead
+    std::uint64_t desyncs = 0;          // times it was in the checksum minority
+};
+
+class RelayRoom {
+public:
+    enum class SlotState : std::uint8_t { Absent, Running, Left };
+    static constexpr std::uint8_t kNoSlot = 255;
+
+    RelayRoom(std::uint64_t id, const rollback::RelayHello& first, const RoomConfig& config);
+
+    std::uint64_t id() const { return id_; }
+    bool matches(const rollback::RelayHello& h) const;
+    // Binds c to a slot (or a spectator place) if the hello may have it; queues the welcome (or
+    // the refusal) either way. Returns the refusal (None on success).
+    // A held slot taken over from a silent connection names it in *replaced (to be closed).
+    RelayRefusal admit(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out,
+                       ConnectionId* replaced);
+    // A bound connection said hello again (its welcome was lost): the same welcome again.
+    void welcome_again(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out);
+    // A bound connection's datagram. Returns nullptr, or why it was bad (the caller counts it).
+    const char* receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us, std::vector<Outgoing>& out);
+    // The connection is gone (closed, kicked or silent).
+    void remove(ConnectionId c, std::uint64_t now_us);
+    void tick(std::uint64_t now_us, std::vector<Outgoing>& out);
+    void notify_all(const rollback::RelayNotice& n, std::vector<Outgoing>& out);
+    // Connections silent past silence_drop_us, for the server to remove.
+    void silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const;
+
+    bool started() const { return started_; }
+    bool empty() const;  // no connection left
+    std::uint32_t clock_frame(std::uint64_t now_us) const;
+    std::uint32_t confirmed_frames() const { return confirmed_next_; }  // frames [0, this) confirmed
+    int players() const { return players_; }
+    SlotState slot_state(int slot) const { return slots_[static_cast<std::size_t>(slot)].state; }
+    const SlotCounters& slot_counters(int slot) const { return slots_[static_cast<std::size_t>(slot)].counters; }
+    // Its id in the room: a slot (< players), players + place for a spectator, -1 if not here.
+    int slot_of(ConnectionId c) const;
+    std::size_t history_frames() const { return history_.size(); }
+    // Verdicts so far: (frame, odd slot).
+    const std::vector<std::pair<std::uint32_t, int>>& desync_verdicts() const { return verdicts_; }
+    // The confirmed input set of a frame still in the history: flags then inputs.
+    bool confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const;
+
+private:
+    struct Client {
+        ConnectionId connection = 0;
+        std::uint32_t ack = 0;             // next confirmed frame it needs
+        std::uint64_t last_heard_us = 0;
+        std::uint64_t last_send_us = 0;
+        std::uint16_t stamp = 0;           // its last stamp, and when we got it
+        std::uint64_t stamp_at_us = 0;
+        bool has_stamp = false;
+    };
+    struct Slot {
+        SlotState state = SlotState::Absent;
+        Client client;
+        bool connected = false;
+        bool late = false;                 // bound after the start: begins from a snapshot
+        std::uint64_t incarnation = 0;
+        std::uint32_t input_from = 0;      // its own inputs count from this frame
+        std::vector<std::uint8_t> last_input;
+        std::vector<std::uint8_t> pending;  // ring of kWindow inputs
+        std::vector<std::uint32_t> pending_frame;  // frame held in each ring entry (+1; 0 = none)
+        SlotCounters counters;
+    };
+    struct Spectator {
+        Client client;
+        bool connected = false;
+        bool late = false;
+    };
+    struct Check {
+        std::uint32_t frame = 0;
+        std::array<std::uint64_t, rollback::kRelayMaxPlayers> value{};
+        std::uint32_t have = 0;            // bit per slot
+    };
+
+    Client* client(int id);  // by slot_of() id; nullptr when nobody is connected there
+    void start(std::uint64_t now_us);
+    void send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
+                      std::vector<Outgoing>& out);
+    bool id_joined_late(int id) const;
+    bool has_input(const Slot& s, std::uint32_t frame) const;
+    const std::uint8_t* input_at(const Slot& s, std::uint32_t frame) const;
+    std::uint32_t input_ack(const Slot& s) const;
+    void confirm_ready(std::uint64_t now_us, std::vector<Outgoing>& out);
+    void confirm_one(std::uint64_t now_us);
+    void send_frames(Client& cl, std::uint32_t input_ack, std::uint64_t now_us, std::vector<Outgoing>& out);
+    void broadcast(std::uint64_t now_us, bool only_if_due, std::vector<Outgoing>& out);
+    void report_checksum(int slot, std::uint32_t frame, std::uint64_t value, std::uint64_t now_us, std::vector<Outgoing>& out);
+    void decide(Check& c, std::vector<Outgoing>& out);
+    int snapshot_source(int except) const;
+    std::uint32_t history_base() const { return confirmed_next_ - static_cast<std::uint32_t>(history_.size()); }
+
+    std::uint64_t id_;
+    RoomConfig config_;
+    int players_;
+    std::size_t input_size_;
+    int tick_rate_;
+    std::uint64_t scene_checksum_;
+    std::uint16_t absent_at_start_;
+    std::uint64_t period_us_;
+    bool started_ = false;
+    std::uint64_t start_us_ = 0;
+    std::uint64_t next_tick_us_ = 0;
+    std::uint32_t confirmed_next_ = 0;
+    std::size_t history_cap_;
+    // Confirmed frames, oldest first: players flags then players * input_size inputs each.
+    std::deque<std::vector<std::uint8_t>> history_;
+    std::vector<Slot> slots_;
+    std::vector<Spectator> spectators_;
+    static constexpr std::size_t kMaxPendingChecks = 16;
+    std::deque<Check> checks_;
+    std::deque<std::uint32_t> decided_;  // frames of the latest decided rounds
+    std::vector<std::pair<std::uint32_t, int>> verdicts_;
+    // decode / encode scratch
+    rollback::RelayInput in_;
+    rollback::RelayForward fwd_;
+    rollback::RelayFrames frames_;
+};
+
+}  // namespace lockroll::server

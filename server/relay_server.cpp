@@ -1,0 +1,267 @@
+#include "server/relay_server.h"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace lockroll::server {
+
+using namespace lockroll::rollback;
+
+const char* server_event_name(ServerEvent::Kind k) {
+    switch (k) {
+        case ServerEvent::Kind::RoomCreated: return "room_created";
+        case ServerEvent::Kind::RoomStarted: return "room_started";
+        case ServerEvent::Kind::RoomClosed: return "room_closed";
+        case ServerEvent::Kind::Joined: return "joined";
+        case ServerEvent::Kind::Left: return "left";
+        case ServerEvent::Kind::Refused: return "refused";
+        case ServerEvent::Kind::Kicked: return "kicked";
+        case ServerEvent::Kind::Desync: return "desync";
+        case ServerEvent::Kind::Throttled: return "throttled";
+    }
+    return "?";
+}
+
+void validate(const ServerConfig& c) {
+    auto need = [](bool ok, const char* what) {
+        if (!ok) throw std::invalid_argument(what);
+    };
+    need(c.room.input_deadline >= 1 && c.room.input_deadline <= 255, "input deadline must be 1..255 ticks");
+    need(c.room.checksum_interval >= 0 && c.room.checksum_interval <= 65535, "checksum interval must be 0..65535");
+    need(c.room.history_s >= 1 && c.room.history_s <= 86400, "history must be 1..86400 s");
+    need(c.room.max_frames_ahead >= 8 && c.room.max_frames_ahead <= 480, "max frames ahead must be 8..480");
+    need(c.room.max_spectators >= 0 && c.room.max_spectators <= 64, "max spectators must be 0..64");
+    need(c.max_rooms >= 1, "room limit must be >= 1");
+    need(c.max_connections >= 2, "connection limit must be >= 2");
+    need(c.max_bad_packets >= 1, "max bad packets must be >= 1");
+    need(c.packets_per_second > 0 && c.packet_burst >= 1, "packet rate and burst must be positive");
+}
+
+RelayServer::RelayServer(const ServerConfig& config) : config_(config) { validate(config_); }
+RelayServer::~RelayServer() = default;
+
+void RelayServer::emit(ServerEvent e) {
+    if (events_.size() >= 4096) events_.pop_front();  // the log fell behind: keep the newest
+    events_.push_back(std::move(e));
+}
+
+const RelayRoom* RelayServer::room(std::uint64_t id) const {
+    auto it = rooms_.find(id);
+    return it == rooms_.end() ? nullptr : it->second.get();
+}
+
+void RelayServer::on_connect(ConnectionId c, std::uint64_t now_us) {
+    if (connections_.count(c)) return;
+    Connection conn;
+    conn.connected_us = now_us;
+    conn.tokens = config_.packet_burst;
+    conn.refill_us = now_us;
+    connections_.emplace(c, conn);
+    if (connections_.size() > config_.max_connections) kick(c, connections_[c], "server connection limit", now_us);
+}
+
+void RelayServer::on_disconnect(ConnectionId c, std::uint64_t now_us) {
+    auto it = connections_.find(c);
+    if (it == connections_.end()) return;
+    const Connection conn = it->second;
+    connections_.erase(it);
+    if (!conn.bound) return;
+    auto r = rooms_.find(conn.room);
+    if (r == rooms_.end()) return;
+    const int slot = r->second->slot_of(c);
+    r->second->remove(c, now_us);
+    emit({ServerEvent::Kind::Left, conn.room, slot, r->second->confirmed_frames(), c, {}});
+    close_room_if_done(conn.room);
+}
+
+void RelayServer::kick(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us) {
+    (void)now_us;
+    if (conn.kicked) return;
+    conn.kicked = true;
+    ++counters_.kicks;
+    kicks_.push_back(c);
+    int slot = -1;
+    if (conn.bound)
+        if (auto r = rooms_.find(conn.room); r != rooms_.end()) slot = r->second->slot_of(c);
+    emit({ServerEvent::Kind::Kicked, conn.room, slot, 0, c, why});
+}
+
+void RelayServer::bad(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us) {
+    ++counters_.bad_packets;
+    if (++conn.bad > static_cast<std::uint64_t>(config_.max_bad_packets)) kick(c, conn, why, now_us);
+}
+
+void RelayServer::refuse(ConnectionId c, RelayRefusal why, const RelayHello& h) {
+    RelayWelcome w;
+    w.refusal = why;
+    w.echo_us = h.stamp_us;
+    Outgoing o{c, {}, true};
+    encode(w, o.bytes);
+    out_.push_back(std::move(o));
+}
+
+void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us) {
+    auto it = connections_.find(c);
+    if (it == connections_.end()) return;  // the transport reports connections first
+    Connection& conn = it->second;
+    ++counters_.datagrams_in;
+    counters_.bytes_in += d.size();
+    if (conn.kicked) return;
+    // Token bucket: a flood is dropped here, before any decoding, and kicked if it goes on.
+    conn.tokens = std::min(config_.packet_burst,
+                           conn.tokens + static_cast<double>(now_us - conn.refill_us) * config_.packets_per_second / 1e6);
+    conn.refill_us = now_us;
+    if (conn.tokens < 1) {
+        ++counters_.throttled;
+        if (++conn.throttled == 1) emit({ServerEvent::Kind::Throttled, conn.room, -1, 0, c, {}});
+        if (conn.throttled > config_.flood_kick_after) kick(c, conn, "flooding", now_us);
+        return;
+    }
+    conn.tokens -= 1;
+    if (d.size() > kRelayMaxDatagramBytes) return bad(c, conn, "oversized datagram", now_us);
+    const auto kind = peek_relay_kind(d);
+    if (!conn.bound) {
+        if (kind != RelayKind::Hello) return bad(c, conn, "datagram before hello", now_us);
+        return handle_hello(c, conn, d, now_us);
+    }
+    auto r = rooms_.find(conn.room);
+    if (r == rooms_.end()) return;
+    if (kind == RelayKind::Hello) {
+        // A repeat of its own hello is harmless; a hello for another slot is a spoof.
+        if (const char* e = decode(d, hello_)) return bad(c, conn, e, now_us);
+        const int id = r->second->slot_of(c);
+        if (hello_.room_id == conn.room && (hello_.role == RelayRole::Spectator ? id >= r->second->players() : id == hello_.slot))
+            return r->second->welcome_again(c, hello_, now_us, out_);
+        refuse(c, RelayRefusal::Spoof, hello_);
+        return bad(c, conn, "hello for another slot", now_us);
+    }
+    const std::size_t verdicts = r->second->desync_verdicts().size();
+    const bool was_started = r->second->started();
+    if (const char* e = r->second->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
+    const auto& v = r->second->desync_verdicts();
+    for (std::size_t i = verdicts; i < v.size(); ++i)
+        emit({ServerEvent::Kind::Desync, conn.room, v[i].second, v[i].first, c, "checksum in the minority"});
+    if (!was_started && r->second->started())
+        emit({ServerEvent::Kind::RoomStarted, conn.room, -1, 0, c, {}});
+}
+
+void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const std::uint8_t> d, std::uint64_t now_us) {
+    if (const char* e = decode(d, hello_)) return bad(c, conn, e, now_us);
+    const RelayHello& h = hello_;
+    auto refused = [&](RelayRefusal why) {
+        ++counters_.hellos_refused;
+        refuse(c, why, h);
+        emit({ServerEvent::Kind::Refused, h.room_id, h.slot, 0, c, relay_refusal_name(why)});
+        kick(c, conn, relay_refusal_name(why), now_us);
+    };
+    if (h.version != kRelayProtocolVersion) return refused(RelayRefusal::Version);
+    if (draining_) return refused(RelayRefusal::Draining);
+    if (h.players < 1 || h.players > kRelayMaxPlayers || h.input_size < 1 || h.input_size > kRelayMaxInputSize ||
+        h.tick_rate < 1 || h.tick_rate > 1000)
+        return refused(RelayRefusal::RoomParams);
+    auto it = rooms_.find(h.room_id);
+    const bool created = it == rooms_.end();
+    if (created) {
+        if (rooms_.size() >= config_.max_rooms) return refused(RelayRefusal::Full);
+        it = rooms_.emplace(h.room_id, std::make_unique<RelayRoom>(h.room_id, h, config_.room)).first;
+        ++counters_.rooms_created;
+        emit({ServerEvent::Kind::RoomCreated, h.room_id, -1, 0, c, {}});
+    }
+    RelayRoom& room = *it->second;
+    const bool was_started = room.started();
+    ConnectionId replaced = 0;
+    bool has_replaced = false;
+    const std::size_t before = out_.size();
+    const RelayRefusal why = room.admit(c, h, now_us, out_, &replaced);
+    (void)before;
+    if (why != RelayRefusal::None) {
+        ++counters_.hellos_refused;
+        emit({ServerEvent::Kind::Refused, h.room_id, h.slot, 0, c, relay_refusal_name(why)});
+        kick(c, conn, relay_refusal_name(why), now_us);
+        if (created) close_room_if_done(h.room_id);
+        return;
+    }
+    has_replaced = replaced != 0 && replaced != c;
+    conn.bound = true;
+    conn.room = h.room_id;
+    emit({ServerEvent::Kind::Joined, h.room_id, room.slot_of(c), room.confirmed_frames(), c,
+          h.role == RelayRole::Spectator ? "spectator" : (h.role == RelayRole::Joiner ? "joiner" : "player")});
+    if (!was_started && room.started()) emit({ServerEvent::Kind::RoomStarted, h.room_id, -1, 0, c, {}});
+    if (has_replaced) {
+        auto old = connections_.find(replaced);
+        if (old != connections_.end()) {
+            old->second.bound = false;  // its slot now belongs to c
+            kick(replaced, old->second, "replaced by a restarted process", now_us);
+        }
+    }
+}
+
+void RelayServer::tick(std::uint64_t now_us) {
+    std::vector<ConnectionId> silent;
+    for (auto& [c, conn] : connections_)
+        if (!conn.bound && !conn.kicked && now_us - conn.connected_us >= config_.hello_timeout_us)
+            kick(c, conn, "no hello", now_us);
+    std::vector<std::uint64_t> done;
+    for (auto& [id, room] : rooms_) {
+        room->tick(now_us, out_);
+        silent.clear();
+        room->silent_connections(now_us, silent);
+        for (ConnectionId c : silent) {
+            room->remove(c, now_us);
+            auto it = connections_.find(c);
+            if (it != connections_.end()) {
+                it->second.bound = false;
+                kick(c, it->second, "silent", now_us);
+            }
+        }
+        if ((room->started() || draining_) && room->empty()) done.push_back(id);
+    }
+    for (auto id : done) close_room_if_done(id);
+}
+
+void RelayServer::close_room_if_done(std::uint64_t id) {
+    auto it = rooms_.find(id);
+    if (it == rooms_.end() || !it->second->empty()) return;
+    // An unstarted room with nobody in it goes too: its creator left before the others came.
+    emit({ServerEvent::Kind::RoomClosed, id, -1, it->second->confirmed_frames(), 0, {}});
+    ++counters_.rooms_closed;
+    rooms_.erase(it);
+}
+
+void RelayServer::start_drain(std::uint64_t now_us) {
+    (void)now_us;
+    if (draining_) return;
+    draining_ = true;
+    RelayNotice n;
+    n.kind = RelayNoticeKind::Draining;
+    for (auto& [id, room] : rooms_) room->notify_all(n, out_);
+    std::vector<std::uint64_t> empty;
+    for (auto& [id, room] : rooms_)
+        if (room->empty()) empty.push_back(id);
+    for (auto id : empty) close_room_if_done(id);
+}
+
+void RelayServer::take_outgoing(std::vector<Outgoing>& out) {
+    for (auto& o : out_) {
+        ++counters_.datagrams_out;
+        counters_.bytes_out += o.bytes.size();
+        out.push_back(std::move(o));
+    }
+    out_.clear();
+}
+
+bool RelayServer::next_kick(ConnectionId& out) {
+    if (kicks_.empty()) return false;
+    out = kicks_.front();
+    kicks_.pop_front();
+    return true;
+}
+
+bool RelayServer::next_event(ServerEvent& out) {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
+}  // namespace lockroll::server

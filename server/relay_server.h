@@ -1,0 +1,143 @@
+// RelayServer: the relay's whole logic, sans-IO. It holds many rooms (RelayRoom), binds each
+// connection to one room and one slot, and polices what connections send. It reads no clock and
+// owns no socket: the process (server/server_process.h) hands it connection events and
+// datagrams with the time, calls tick(), and sends what it queued. So the same code runs under
+// the tests' virtual time, the fuzzer and ENet.
+//
+// Contract
+//  - A room is created by the first hello carrying its id, with that hello's parameters (slots,
+//    input size, tick rate, scene checksum, absent slots); a later hello with other parameters is
+//    refused (RoomParams). Its clock starts once every slot not absent at frame 0 has a player.
+//  - The slot comes from the connection: a hello binds a connection to (room, slot) once; every
+//    later datagram of that connection speaks for that slot, and no packet field can name
+//    another. A second hello for another slot is refused (Spoof) and counted as bad.
+//  - Never trust a client: malformed datagrams, inputs outside [confirmed frame, room clock +
+//    max_frames_ahead), reports for frames not confirmed yet, and anything before a hello count
+//    as bad; past max_bad_packets the connection is kicked. Each connection has a token bucket
+//    (packets_per_second, packet_burst); datagrams beyond it are dropped (throttled), and past
+//    flood_kick_after throttled datagrams the connection is kicked. None of this changes what the
+//    room's other connections, or other rooms, receive.
+//  - Kicks are requests: next_kick() hands them to the process, which closes the connection and
+//    then reports on_disconnect().
+//  - Draining (start_drain): every hello not yet bound is refused (Draining), bound clients get
+//    a Draining notice, running rooms go on until their last connection leaves; drained() is then
+//    true.
+//  - Memory per room is bounded by its history (history_s of confirmed frames), its slots' input
+//    windows and at most kMaxPendingChecks checksum rounds; per connection by constant state.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "server/relay_room.h"
+
+namespace lockroll::server {
+
+struct ServerConfig {
+    RoomConfig room;                          // deadline, checksum interval, history, limits
+    std::size_t max_rooms = 1000;
+    std::size_t max_connections = 4000;
+    int max_bad_packets = 16;
+    double packets_per_second = 240;          // per connection, refill of its token bucket
+    double packet_burst = 240;
+    std::uint64_t flood_kick_after = 480;     // throttled datagrams before the kick
+    std::uint64_t hello_timeout_us = 5'000'000;  // a connection that never says hello is kicked
+};
+
+// Throws std::invalid_argument naming the field.
+void validate(const ServerConfig& config);
+
+struct ServerCounters {
+    std::uint64_t rooms_created = 0;
+    std::uint64_t rooms_closed = 0;
+    std::uint64_t hellos_refused = 0;
+    std::uint64_t bad_packets = 0;       // malformed, out of window, before hello, spoofed
+    std::uint64_t throttled = 0;         // dropped by a token bucket
+    std::uint64_t kicks = 0;
+    std::uint64_t datagrams_in = 0;
+    std::uint64_t datagrams_out = 0;
+    std::uint64_t bytes_in = 0;
+    std::uint64_t bytes_out = 0;
+};
+
+// What happened, for the process's log and the tests (drained with next_event()).
+struct ServerEvent {
+    enum class Kind : std::uint8_t {
+        RoomCreated, RoomStarted, RoomClosed, Joined, Left, Refused, Kicked, Desync, Throttled,
+    };
+    Kind kind = Kind::RoomCreated;
+    std::uint64_t room = 0;
+    int slot = -1;               // -1: none / not bound
+    std::uint32_t frame = 0;
+    ConnectionId connection = 0;
+    std::string detail;
+};
+const char* server_event_name(ServerEvent::Kind k);
+
+class RelayServer {
+public:
+    explicit RelayServer(const ServerConfig& config);  // throws std::invalid_argument
+    ~RelayServer();
+    RelayServer(const RelayServer&) = delete;
+    RelayServer& operator=(const RelayServer&) = delete;
+
+    void on_connect(ConnectionId c, std::uint64_t now_us);
+    void on_disconnect(ConnectionId c, std::uint64_t now_us);
+    // A datagram from connection c. Never throws or asserts on its content.
+    void receive(ConnectionId c, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
+    // Deadlines, periodic sends, silence. Call often (every millisecond or so).
+    void tick(std::uint64_t now_us);
+    // Moves the queued datagrams into out (appending).
+    void take_outgoing(std::vector<Outgoing>& out);
+    bool next_kick(ConnectionId& out);
+    bool next_event(ServerEvent& out);
+
+    void start_drain(std::uint64_t now_us);
+    bool draining() const { return draining_; }
+    bool drained() const { return draining_ && rooms_.empty(); }
+
+    std::size_t room_count() const { return rooms_.size(); }
+    std::size_t connection_count() const { return connections_.size(); }
+    const ServerCounters& counters() const { return counters_; }
+    // nullptr when no such room.
+    const RelayRoom* room(std::uint64_t id) const;
+    const ServerConfig& config() const { return config_; }
+
+private:
+    struct Connection {
+        std::uint64_t room = 0;
+        bool bound = false;
+        std::uint64_t connected_us = 0;
+        double tokens = 0;
+        std::uint64_t refill_us = 0;
+        std::uint64_t bad = 0;
+        std::uint64_t throttled = 0;
+        bool kicked = false;
+    };
+    void handle_hello(ConnectionId c, Connection& conn, std::span<const std::uint8_t> d, std::uint64_t now_us);
+    void bad(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
+    void kick(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
+    void refuse(ConnectionId c, RelayRefusal why, const rollback::RelayHello& h);
+    void collect(RelayRoom& room);
+    void close_room_if_done(std::uint64_t id);
+    void emit(ServerEvent e);
+
+    ServerConfig config_;
+    std::unordered_map<ConnectionId, Connection> connections_;
+    std::map<std::uint64_t, std::unique_ptr<RelayRoom>> rooms_;
+    std::vector<Outgoing> out_;
+    std::deque<ConnectionId> kicks_;
+    std::deque<ServerEvent> events_;
+    ServerCounters counters_;
+    bool draining_ = false;
+    rollback::RelayHello hello_;
+    std::vector<std::uint8_t> scratch_;
+};
+
+}  // namespace lockroll::server

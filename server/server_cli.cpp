@@ -1,0 +1,55 @@
+#include "server/server_cli.h"
+
+#include <memory>
+#include <stdexcept>
+
+#include "server/server_process.h"
+
+namespace lockroll::server {
+
+void add_server_options(CLI::App& cmd) {
+    auto o = std::make_shared<ServerProcessOptions>();
+    cmd.add_option("--listen", o->listen, "HOST:PORT to listen on (port 0: any free one; printed as 'ready PORT')")
+        ->capture_default_str()
+        ->check([](const std::string& s) {
+            try {
+                std::string h;
+                std::uint16_t p;
+                parse_listen(s, h, p);
+                return std::string();
+            } catch (const std::exception& e) {
+                return std::string(e.what());
+            }
+        });
+    cmd.add_option("--input-deadline", o->server.room.input_deadline, "Ticks past a frame's time before late inputs are replaced")
+        ->check(CLI::Range(1, 255))
+        ->capture_default_str();
+    cmd.add_option("--checksum-interval", o->server.room.checksum_interval, "Arbitrate confirmed checksums every K frames (0: off)")
+        ->check(CLI::Range(0, 65535))
+        ->capture_default_str();
+    cmd.add_option("--history-s", o->server.room.history_s, "Seconds of confirmed input history kept per room (late join, reconnect)")
+        ->check(CLI::Range(1.0, 86400.0))
+        ->capture_default_str();
+    cmd.add_option("--max-rooms", o->server.max_rooms, "Rooms this process accepts at once")->check(CLI::Range(1, 100000))->capture_default_str();
+    cmd.add_option("--max-spectators", o->server.room.max_spectators, "Spectator places per room")->check(CLI::Range(0, 64))->capture_default_str();
+    cmd.add_option("--per-address", o->max_connections_per_address, "Connections one IP address may hold (raise for a load test)")
+        ->check(CLI::Range(1, 4095))
+        ->capture_default_str();
+    cmd.add_option("--ready-file", o->ready_file, "Write the bound port here once listening");
+    cmd.add_option("--status-file", o->status_file, "Rewrite this JSON health/status file every second");
+    cmd.add_option("--drain-timeout", o->drain_timeout_s, "Seconds a drain may take before the process gives up (exit 3)")
+        ->check(CLI::Range(0.1, 86400.0))
+        ->capture_default_str();
+    cmd.add_option("--run-seconds", o->run_seconds, "Drain after this many seconds (0: run until SIGTERM)")
+        ->check(CLI::Range(0.0, 1e7))
+        ->capture_default_str();
+    cmd.add_option("--log-level", o->log_level, "trace, debug, info, warn, error, critical or off")
+        ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
+        ->capture_default_str();
+    cmd.callback([o] {
+        const int status = run_server_process(*o);
+        if (status != 0) throw std::runtime_error("the drain timed out with rooms still open");
+    });
+}
+
+}  // namespace lockroll::server

@@ -1,0 +1,168 @@
+#include "server/server_process.h"
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+#include "transport/enet_server.h"
+
+namespace lockroll::server {
+
+namespace {
+std::atomic<ServerProcess*> g_process{nullptr};
+
+void on_signal(int) {
+    if (ServerProcess* p = g_process.load()) p->request_drain();
+}
+
+std::uint64_t monotonic_us() {
+    return static_cast<std::uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
+}
+
+// Written to a temporary name and renamed: a probe never reads half a file.
+void write_atomically(const std::string& path, const std::string& text) {
+    const std::string tmp = path + ".tmp";
+    {
+        std::ofstream f(tmp, std::ios::trunc);
+        f << text;
+        if (!f) return;
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+}
+
+std::string status_json(const RelayServer& s, const transport::EnetServer& enet, bool draining, double uptime_s) {
+    const ServerCounters& c = s.counters();
+    auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+    char buf[1200];
+    std::snprintf(buf, sizeof buf,
+                  "{\"state\": \"%s\", \"port\": %u, \"uptime_s\": %.1f, \"rooms\": %zu, \"connections\": %zu, "
+                  "\"rooms_created\": %llu, \"rooms_closed\": %llu, \"hellos_refused\": %llu, \"bad_packets\": %llu, "
+                  "\"throttled\": %llu, \"kicks\": %llu, \"datagrams_in\": %llu, \"datagrams_out\": %llu, "
+                  "\"bytes_in\": %llu, \"bytes_out\": %llu, \"wire_bytes_in\": %llu, \"wire_bytes_out\": %llu}\n",
+                  draining ? "draining" : "ready", enet.port(), uptime_s, s.room_count(), s.connection_count(), u(c.rooms_created),
+                  u(c.rooms_closed), u(c.hellos_refused), u(c.bad_packets), u(c.throttled), u(c.kicks), u(c.datagrams_in),
+                  u(c.datagrams_out), u(c.bytes_in), u(c.bytes_out), u(enet.wire_bytes_received()), u(enet.wire_bytes_sent()));
+    return buf;
+}
+}  // namespace
+
+void parse_listen(const std::string& text, std::string& host, std::uint16_t& port) {
+    const auto colon = text.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+        throw std::invalid_argument("'" + text + "' is not HOST:PORT");
+    host = text.substr(0, colon);
+    if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+    const std::string p = text.substr(colon + 1);
+    if (p.find_first_not_of("0123456789") != std::string::npos || p.size() > 5 || std::stoul(p) > 65535)
+        throw std::invalid_argument("'" + text + "': port must be 0..65535");
+    port = static_cast<std::uint16_t>(std::stoul(p));
+}
+
+ServerProcess::ServerProcess(const ServerProcessOptions& options) : options_(options) {
+    validate(options_.server);
+    std::string host;
+    std::uint16_t port = 0;
+    parse_listen(options_.listen, host, port);
+    if (!(options_.drain_timeout_s > 0)) throw std::invalid_argument("drain timeout must be positive");
+}
+
+ServerProcess* ServerProcess::signal_target() { return g_process.load(); }
+
+int ServerProcess::run() {
+    auto log = spdlog::get("server");
+    if (!log) {
+        log = spdlog::stderr_color_mt("server");
+        log->set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%^%l%$] [server] %v");
+    }
+    log->set_level(spdlog::level::from_str(options_.log_level));
+    std::string host;
+    std::uint16_t port = 0;
+    parse_listen(options_.listen, host, port);
+    transport::EnetServerConfig ec;
+    ec.bind_host = host;
+    ec.port = port;
+    ec.max_connections = std::min<std::size_t>(options_.server.max_connections, 4095);
+    ec.max_connections_per_address = options_.max_connections_per_address;
+    transport::EnetServer enet(ec);
+    RelayServer server(options_.server);
+    const std::uint64_t start = monotonic_us();
+    log->info("listening on {}:{} (room limit {}, input deadline {} ticks, checksum interval {}, history {} s)", host,
+              enet.port(), options_.server.max_rooms, options_.server.room.input_deadline,
+              options_.server.room.checksum_interval, options_.server.room.history_s);
+    if (!options_.ready_file.empty()) write_atomically(options_.ready_file, std::to_string(enet.port()) + "\n");
+    std::printf("ready %u\n", enet.port());
+    std::fflush(stdout);
+
+    std::vector<Outgoing> out;
+    transport::ServerDatagram d;
+    std::uint64_t next_status = 0, drain_started = 0;
+    for (;;) {
+        enet.poll(monotonic_us(), 1000);
+        const std::uint64_t now = monotonic_us();
+        for (transport::ServerConnectionEvent e; enet.next_event(e);) {
+            if (e.type == transport::ServerConnectionEvent::Type::Connected) {
+                log->debug("connection {} from {}", e.connection, e.address);
+                server.on_connect(e.connection, now);
+            } else {
+                log->debug("connection {} closed", e.connection);
+                server.on_disconnect(e.connection, now);
+            }
+        }
+        while (enet.receive(d)) server.receive(d.connection, d.bytes, d.time_us);
+        server.tick(now);
+        out.clear();
+        server.take_outgoing(out);
+        for (const auto& o : out) enet.send(o.to, o.bytes, o.reliable);
+        for (ConnectionId k; server.next_kick(k);) enet.disconnect(k);
+        enet.flush();
+        for (ServerEvent e; server.next_event(e);) {
+            const bool bad = e.kind == ServerEvent::Kind::Kicked || e.kind == ServerEvent::Kind::Refused ||
+                             e.kind == ServerEvent::Kind::Desync || e.kind == ServerEvent::Kind::Throttled;
+            log->log(bad ? spdlog::level::warn : spdlog::level::info, "room {:x} {} slot {} frame {} connection {}{}{}",
+                     e.room, server_event_name(e.kind), e.slot, e.frame, e.connection, e.detail.empty() ? "" : ": ", e.detail);
+        }
+        if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
+        if (drain_.load(std::memory_order_relaxed) && !server.draining()) {
+            log->info("draining: refusing new hellos; {} rooms play on", server.room_count());
+            server.start_drain(now);
+            drain_started = now;
+        }
+        if (now >= next_status) {
+            next_status = now + 1000000;
+            if (!options_.status_file.empty())
+                write_atomically(options_.status_file, status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
+        }
+        if (server.drained()) {
+            out.clear();
+            enet.flush();
+            if (!options_.status_file.empty())
+                write_atomically(options_.status_file, status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
+            log->info("drained: every room finished; exiting");
+            return 0;
+        }
+        if (drain_started && now - drain_started > static_cast<std::uint64_t>(options_.drain_timeout_s * 1e6)) {
+            log->error("drain timed out with {} rooms still open", server.room_count());
+            return 3;
+        }
+    }
+}
+
+int run_server_process(const ServerProcessOptions& options) {
+    ServerProcess p(options);
+    g_process.store(&p);
+    std::signal(SIGTERM, on_signal);
+    std::signal(SIGINT, on_signal);
+    const int status = p.run();
+    g_process.store(nullptr);
+    return status;
+}
+
+}  // namespace lockroll::server

@@ -1,0 +1,57 @@
+// The relay server as a process: RelayServer bound to EnetServer and the monotonic clock (this
+// file and net/clock.h are the only places lockroll reads a clock), with what a game-server
+// orchestrator such as Agones needs (docs/deployment.md):
+//  - ready: once listening, a line "ready PORT" on stdout and, if asked, a ready file;
+//  - health: a status file rewritten atomically every second (state, rooms, connections,
+//    counters): a liveness probe checks that it is fresh, a readiness probe that it says ready;
+//  - drain on SIGTERM (or request_drain()): new hellos are refused with the reason, running rooms
+//    play to their end, and the process exits 0 once the last room closed (or after
+//    drain_timeout_s, exiting 3);
+//  - a room limit (ServerConfig::max_rooms).
+// The loop waits in the socket for the first datagram (no busy spin), handles everything that
+// arrived, ticks the rooms, and flushes what they queued: a relay delay of one pass.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+
+#include "server/relay_server.h"
+
+namespace spdlog {
+class logger;
+}
+
+namespace lockroll::server {
+
+struct ServerProcessOptions {
+    std::string listen = "127.0.0.1:0";
+    ServerConfig server;
+    std::size_t max_connections_per_address = 64;
+    std::string ready_file;    // written with the port once listening
+    std::string status_file;   // JSON, rewritten every second
+    double drain_timeout_s = 900;
+    double run_seconds = 0;    // > 0: drain after this long (tests, soak)
+    std::string log_level = "info";
+};
+
+// HOST:PORT or [V6]:PORT; throws std::invalid_argument naming the text.
+void parse_listen(const std::string& text, std::string& host, std::uint16_t& port);
+
+class ServerProcess {
+public:
+    explicit ServerProcess(const ServerProcessOptions& options);  // throws on bad options
+    // Runs until drained. 0: drained cleanly; 3: drain timed out.
+    int run();
+    void request_drain() { drain_.store(true, std::memory_order_relaxed); }
+    static ServerProcess* signal_target();
+
+private:
+    ServerProcessOptions options_;
+    std::atomic<bool> drain_{false};
+};
+
+// Installs SIGTERM / SIGINT handlers that drain the running ServerProcess, then runs it.
+int run_server_process(const ServerProcessOptions& options);
+
+}  // namespace lockroll::server

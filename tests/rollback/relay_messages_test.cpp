@@ -1,0 +1,136 @@
+// The relay messages (rollback/relay_messages.h) against docs/wire-format.md, "Relay messages":
+// sizes, round trips, delta coding, and every kind of malformed datagram refused.
+#include <gtest/gtest.h>
+
+#include "rollback/relay_messages.h"
+
+namespace lockroll::rollback {
+namespace {
+
+TEST(RelayMessages, SizesAreTheDocumentedOnes) {
+    std::vector<std::uint8_t> b;
+    encode(RelayHello{}, b);
+    EXPECT_EQ(b.size(), 43u);
+    b.clear();
+    encode(RelayWelcome{}, b);
+    EXPECT_EQ(b.size(), 30u);
+    b.clear();
+    encode(RelayNotice{}, b);
+    EXPECT_EQ(b.size(), 15u);
+    b.clear();
+    RelayFrames f;
+    f.players = 2;
+    f.input_size = 3;
+    encode(f, b);
+    EXPECT_EQ(b.size(), 25u);  // the header alone
+}
+
+TEST(RelayMessages, HelloAndWelcomeRoundTrip) {
+    RelayHello h;
+    h.room_id = 0x1122334455667788;
+    h.scene_checksum = 99;
+    h.players = 4;
+    h.input_size = 5;
+    h.tick_rate = 30;
+    h.role = RelayRole::Joiner;
+    h.slot = 3;
+    h.absent_slots = 0x8;
+    h.incarnation = 777;
+    h.stamp_us = 123456;
+    std::vector<std::uint8_t> b;
+    encode(h, b);
+    RelayHello g;
+    ASSERT_EQ(decode(b, g), nullptr);
+    EXPECT_EQ(g.room_id, h.room_id);
+    EXPECT_EQ(g.role, RelayRole::Joiner);
+    EXPECT_EQ(g.absent_slots, 0x8);
+    EXPECT_EQ(g.incarnation, 777u);
+    b.back() ^= 0;  // still fine
+    b.push_back(0);
+    EXPECT_NE(decode(b, g), nullptr);  // trailing byte
+    b.pop_back();
+    b[24 - 1] = 9;                     // role byte out of range
+    EXPECT_NE(decode(b, g), nullptr);
+}
+
+TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
+    RelayFrames f;
+    f.players = 3;
+    f.input_size = 2;
+    f.first_frame = 1000;
+    f.frame_count = 4;
+    f.server_frame = 1003;
+    f.input_ack = 1006;
+    f.flags = {0, kRelayAbsent, 0, 0, kRelayAbsent, 0, 0, kRelayAbsent, kRelayReplaced, 0, kRelayAbsent, kRelayReplaced};
+    f.inputs = {1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 2, 2, 0, 0, 5, 5};
+    std::vector<std::uint8_t> b;
+    encode(f, b);
+    // Frame 0: slots 0 and 2 and the absent slot 1 (flags != 0) listed; frame 1: nothing
+    // changed; frame 2: slot 2's flag; frame 3: slot 0's input.
+    EXPECT_EQ(b.size(), 25u + (1 + 3 * 3) + 1 + (1 + 3) + (1 + 3));
+    RelayFrames g;
+    ASSERT_EQ(decode(b, 3, 2, g), nullptr);
+    EXPECT_EQ(g.flags, f.flags);
+    EXPECT_EQ(g.inputs, f.inputs);
+    EXPECT_EQ(g.first_frame, 1000u);
+    EXPECT_NE(decode(b, 4, 2, g), nullptr);  // another room's sizes
+    auto bad = b;
+    bad[25] |= 0x80;  // a mask bit past the room's slots
+    EXPECT_NE(decode(bad, 3, 2, g), nullptr);
+    for (std::size_t n = 0; n < b.size(); ++n)
+        EXPECT_NE(decode(std::span(b).first(n), 3, 2, g), nullptr) << "truncated to " << n;
+}
+
+TEST(RelayMessages, InputForwardNoticeRoundTripAndLimits) {
+    RelayInput m;
+    m.confirmed_ack = kRelayNoFrames;
+    m.first_frame = 70000;
+    m.frame_count = 2;
+    m.inputs = {1, 2, 3, 4, 5, 6};
+    m.checksum_count = 1;
+    m.checksum_frames[0] = 60;
+    m.checksums[0] = 0xABCDEF0123456789;
+    std::vector<std::uint8_t> b;
+    encode(m, 3, b);
+    RelayInput g;
+    ASSERT_EQ(decode(b, 3, g), nullptr);
+    EXPECT_EQ(g.first_frame, 70000u);
+    EXPECT_EQ(g.inputs, m.inputs);
+    EXPECT_EQ(g.checksums[0], m.checksums[0]);
+    EXPECT_NE(decode(b, 4, g), nullptr);  // another input size does not parse
+    RelayInput many;
+    many.frame_count = static_cast<std::uint8_t>(relay_max_inputs(3) + 1);
+    many.inputs.assign(many.frame_count * 3u, 0);
+    EXPECT_THROW(encode(many, 3, b), std::invalid_argument);
+
+    RelayForward f;
+    f.slot = 4;
+    f.payload.assign(kRelayMaxForwardBytes, 7);
+    b.clear();
+    encode(f, b);
+    EXPECT_LE(b.size(), kRelayMaxDatagramBytes);
+    RelayForward h;
+    ASSERT_EQ(decode(b, h), nullptr);
+    EXPECT_EQ(h.payload.size(), kRelayMaxForwardBytes);
+    b[2] = 0xFF;  // length beyond the limit
+    b[3] = 0xFF;
+    EXPECT_NE(decode(b, h), nullptr);
+
+    RelayNotice n;
+    n.kind = RelayNoticeKind::Desync;
+    n.slot = 2;
+    n.frame = 120;
+    n.detail = 5;
+    b.clear();
+    encode(n, b);
+    RelayNotice k;
+    ASSERT_EQ(decode(b, k), nullptr);
+    EXPECT_EQ(k.frame, 120u);
+    b[1] = 0;  // no notice kind 0
+    EXPECT_NE(decode(b, k), nullptr);
+    EXPECT_FALSE(peek_relay_kind(std::vector<std::uint8_t>{1}).has_value());  // a peer-to-peer kind
+    EXPECT_FALSE(peek_relay_kind({}).has_value());
+}
+
+}  // namespace
+}  // namespace lockroll::rollback

@@ -1,0 +1,160 @@
+// Matches through the relay server in virtual time (tests/server/relay_match.h): the deadline
+// keeps fast players from waiting on a slow one, replaced inputs are rolled back like any
+// misprediction, joins / rejoins / spectators pull buddy snapshots, and the server's checksum
+// verdict names the odd client, which reloads the majority's state.
+#include <gtest/gtest.h>
+
+#include "tests/server/relay_match.h"
+
+namespace lockroll::server {
+namespace {
+
+using testing::RelayCluster;
+using Kind = rollback::SessionEvent::Kind;
+
+rollback::RelaySessionConfig player(int players, int slot) {
+    rollback::RelaySessionConfig c;
+    c.players = players;
+    c.local_slot = static_cast<rollback::PlayerId>(slot);
+    c.prediction_window = 20;
+    return c;
+}
+
+int count(const testing::RelayClient& c, Kind k) {
+    int n = 0;
+    for (const auto& e : c.events) n += e.kind == k;
+    return n;
+}
+
+// Every listed client confirmed `frame`, all with one checksum.
+void expect_equal_at(RelayCluster& cl, std::initializer_list<int> who, std::uint32_t frame) {
+    std::optional<std::uint64_t> first;
+    for (int i : who) {
+        const auto& c = cl.client(i);
+        const auto it = c.confirmed.find(frame);
+        ASSERT_NE(it, c.confirmed.end()) << "client " << i << " never confirmed frame " << frame;
+        if (!first) first = it->second;
+        EXPECT_EQ(it->second, *first) << "client " << i << " differs at frame " << frame;
+    }
+}
+
+TEST(RelayMatch, SlowPlayerIsReplacedPastTheDeadlineAndNobodyWaitsForIt) {
+    const auto scene = rollback::testing::make_scene(4, 20);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams fast{30000, 5000, 100000, 0, 0};
+    const rollback::testing::NetParams slow{150000, 10000, 100000, 0, 0};
+    for (int s = 0; s < 3; ++s) cl.add(player(4, s), fast, 10 + static_cast<std::uint64_t>(s));
+    cl.add(player(4, 3), slow, 13);
+    ASSERT_TRUE(cl.run_until_frame(600));
+    cl.run_for(3'000'000);
+    expect_equal_at(cl, {0, 1, 2, 3}, 600);
+    // The slow player's first inputs reached the server after their deadline (it started a
+    // one-way trip late and learned the clock a round trip late): replaced, and it rolled back.
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_GT(room->slot_counters(3).replaced, 0u);
+    EXPECT_EQ(cl.client(3).session->relay_stats().own_replaced, room->slot_counters(3).replaced);
+    for (int s = 0; s < 3; ++s) {
+        // Fast players never stalled past the deadline (8 ticks = 133 ms) on the slow one.
+        EXPECT_LT(cl.client(s).longest_stall_us, 150000u) << "slot " << s;
+        EXPECT_EQ(cl.client(s).session->relay_stats().own_replaced, 0u) << "slot " << s;
+    }
+}
+
+TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
+    const auto scene = rollback::testing::make_scene(3, 10);
+    ServerConfig sc;
+    sc.room.silence_drop_us = 2'000'000;
+    RelayCluster cl(scene, sc);
+    const rollback::testing::NetParams link{20000, 2000, 0, 0, 0};
+    for (int s = 0; s < 3; ++s) cl.add(player(3, s), link, 20 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(120));
+    cl.client(2).frozen = true;
+    const std::uint32_t at = cl.client(0).session->frame();
+    ASSERT_TRUE(cl.run_until_frame(at + 300));  // the frozen client is not waited for
+    cl.run_for(2'000'000);
+    expect_equal_at(cl, {0, 1}, at + 300);
+    EXPECT_LT(cl.client(0).longest_stall_us, 200000u);
+    EXPECT_LT(cl.client(1).longest_stall_us, 200000u);
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_GT(room->slot_counters(2).replaced, 0u);  // until the silence dropped it
+    EXPECT_EQ(room->slot_state(2), RelayRoom::SlotState::Left);
+    EXPECT_GE(count(cl.client(0), Kind::Disconnected), 1);
+}
+
+TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
+    const auto scene = rollback::testing::make_scene(3, 20);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{25000, 3000, 50000, 0, 0};
+    auto cfg = [&](int slot) {
+        auto c = player(3, slot);
+        c.absent_slots = 1u << 2;
+        return c;
+    };
+    cl.add(cfg(0), link, 31);
+    cl.add(cfg(1), link, 32);
+    ASSERT_TRUE(cl.run_until_frame(200));
+    auto joiner = cfg(2);
+    joiner.role = rollback::RelayRole::Joiner;
+    const int j = cl.add(joiner, link, 33);
+    auto watcher = cfg(0);
+    watcher.role = rollback::RelayRole::Spectator;
+    const int w = cl.add(watcher, link, 34);
+    ASSERT_TRUE(cl.run_until_frame(700));
+    cl.run_for(2'000'000);
+    expect_equal_at(cl, {0, 1, j, w}, 700);
+    EXPECT_EQ(count(cl.client(j), Kind::SnapshotLoaded), 1);
+    EXPECT_EQ(count(cl.client(w), Kind::SnapshotLoaded), 1);
+    EXPECT_GE(count(cl.client(0), Kind::Joined), 1);  // slot 2's inputs start: seen by the others
+    // The joiner's own inputs count from its handoff on.
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_GT(room->slot_counters(2).inputs, 300u);
+}
+
+TEST(RelayMatch, KilledPlayerRejoinsItsSlot) {
+    const auto scene = rollback::testing::make_scene(2, 20);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{30000, 3000, 50000, 20000, 20000};
+    cl.add(player(2, 0), link, 41);
+    cl.add(player(2, 1), link, 42);
+    ASSERT_TRUE(cl.run_until_frame(200));
+    cl.kill(1);
+    cl.run_for(2'000'000);
+    auto again = player(2, 1);
+    again.role = rollback::RelayRole::Joiner;
+    const int r = cl.add(again, link, 43);
+    ASSERT_TRUE(cl.run_until_frame(cl.client(0).session->frame() + 400));
+    cl.run_for(2'000'000);
+    const std::uint32_t f = cl.client(r).session->confirmed_frame() - 10;
+    expect_equal_at(cl, {0, r}, f);
+    EXPECT_EQ(count(cl.client(r), Kind::SnapshotLoaded), 1);
+    EXPECT_LT(cl.client(0).longest_stall_us, 200000u);
+}
+
+TEST(RelayMatch, ServerNamesTheOddClientWhichReloadsTheMajorityState) {
+    const auto scene = rollback::testing::make_scene(3, 20);
+    ServerConfig sc;
+    sc.room.checksum_interval = 30;
+    RelayCluster cl(scene, sc);
+    const rollback::testing::NetParams link{20000, 2000, 20000, 0, 0};
+    for (int s = 0; s < 3; ++s) cl.add(player(3, s), link, 50 + static_cast<std::uint64_t>(s));
+    const std::uint32_t body = cl.client(1).sim.body_id(0);
+    ASSERT_EQ(cl.client(1).session->inject_fault(100, body, 0, 40), "");
+    ASSERT_TRUE(cl.run_until_frame(600));
+    cl.run_for(2'000'000);
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    ASSERT_FALSE(room->desync_verdicts().empty());
+    EXPECT_EQ(room->desync_verdicts().front().second, 1);    // the odd client, named
+    EXPECT_EQ(room->desync_verdicts().front().first, 120u);  // first checkpoint after frame 100
+    for (const auto& v : room->desync_verdicts()) EXPECT_EQ(v.second, 1);
+    EXPECT_EQ(count(cl.client(1), Kind::DesyncDetected), 1);
+    EXPECT_EQ(count(cl.client(1), Kind::DesyncRecovered), 1);
+    EXPECT_EQ(count(cl.client(0), Kind::DesyncDetected), 0);
+    expect_equal_at(cl, {0, 1, 2}, 600);
+}
+
+}  // namespace
+}  // namespace lockroll::server

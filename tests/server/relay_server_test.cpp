@@ -1,0 +1,250 @@
+// The relay server through its sans-IO API, with hand-made datagrams: rooms, the deadline, and
+// everything it must not trust. Links lockroll_server only: the server needs neither sim/ nor
+// the rest of rollback/.
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "server/relay_server.h"
+
+namespace lockroll::server {
+namespace {
+
+using namespace lockroll::rollback;
+
+class Server : public ::testing::Test {
+protected:
+    ServerConfig config() {
+        ServerConfig c;
+        c.room.input_deadline = 8;
+        c.max_bad_packets = 4;
+        return c;
+    }
+    void SetUp() override { server = std::make_unique<RelayServer>(config()); }
+
+    void connect(ConnectionId c) { server->on_connect(c, now); }
+    void send(ConnectionId c, const std::vector<std::uint8_t>& bytes) { server->receive(c, bytes, now); }
+    void hello(ConnectionId c, std::uint64_t room, int slot, RelayRole role = RelayRole::Player, int players = 2,
+               std::uint64_t incarnation = 0) {
+        RelayHello h;
+        h.incarnation = incarnation ? incarnation : 1000 + c;
+        h.room_id = room;
+        h.players = static_cast<std::uint8_t>(players);
+        h.input_size = 2;
+        h.slot = static_cast<std::uint8_t>(slot);
+        h.role = role;
+        std::vector<std::uint8_t> b;
+        encode(h, b);
+        send(c, b);
+    }
+    void inputs(ConnectionId c, std::uint32_t first, std::uint8_t value, int count, std::uint32_t ack = 0) {
+        RelayInput m;
+        m.confirmed_ack = ack;
+        m.first_frame = first;
+        m.frame_count = static_cast<std::uint8_t>(count);
+        m.inputs.assign(static_cast<std::size_t>(count) * 2, value);
+        std::vector<std::uint8_t> b;
+        encode(m, 2, b);
+        send(c, b);
+    }
+    void advance(std::uint64_t us) {
+        for (std::uint64_t t = 0; t < us; t += 1000) {
+            now += 1000;
+            server->tick(now);
+        }
+    }
+    // Drains the outgoing queue: welcomes by connection, and the kicks.
+    void drain() {
+        std::vector<Outgoing> out;
+        server->take_outgoing(out);
+        for (auto& o : out) {
+            if (peek_relay_kind(o.bytes) == RelayKind::Welcome) {
+                RelayWelcome w;
+                ASSERT_EQ(decode(o.bytes, w), nullptr);
+                welcomes[o.to].push_back(w);
+            }
+            sent[o.to] += 1;
+        }
+        for (ConnectionId k; server->next_kick(k);) {
+            kicked.push_back(k);
+            server->on_disconnect(k, now);
+        }
+    }
+    bool was_kicked(ConnectionId c) const { return std::find(kicked.begin(), kicked.end(), c) != kicked.end(); }
+    RelayRefusal last_refusal(ConnectionId c) { return welcomes[c].empty() ? RelayRefusal::None : welcomes[c].back().refusal; }
+    // Two honest players in `room` on connections a and b, started.
+    void start_room(std::uint64_t room, ConnectionId a, ConnectionId b) {
+        connect(a);
+        connect(b);
+        hello(a, room, 0);
+        hello(b, room, 1);
+        drain();
+        ASSERT_TRUE(server->room(room)->started());
+    }
+
+    std::unique_ptr<RelayServer> server;
+    std::uint64_t now = 1'000'000;
+    std::map<ConnectionId, std::vector<RelayWelcome>> welcomes;
+    std::map<ConnectionId, int> sent;
+    std::vector<ConnectionId> kicked;
+};
+
+TEST_F(Server, FrameIsConfirmedWhenAllInputsAreInOrAtTheDeadline) {
+    start_room(7, 1, 2);
+    const RelayRoom& room = *server->room(7);
+    inputs(1, 0, 0x11, 3);
+    EXPECT_EQ(room.confirmed_frames(), 0u);  // slot 1's inputs are missing
+    inputs(2, 0, 0x22, 2);
+    EXPECT_EQ(room.confirmed_frames(), 2u);  // frames 0 and 1: both in, confirmed at once
+    // Frame 2 waits for slot 1 until the clock reaches 2 + 8.
+    advance(9 * 16667);
+    EXPECT_EQ(room.confirmed_frames(), 2u);
+    advance(2 * 16667);
+    EXPECT_GE(room.confirmed_frames(), 3u);
+    std::vector<std::uint8_t> flags, in;
+    ASSERT_TRUE(room.confirmed_inputs(2, flags, in));
+    EXPECT_EQ(flags[0], 0);
+    EXPECT_EQ(flags[1], kRelayReplaced);
+    EXPECT_EQ(in[2], 0x22);  // slot 1's last input, repeated
+    EXPECT_GT(room.slot_counters(1).replaced, 0u);
+    // Its input for frame 2, arriving now, is late and changes nothing.
+    inputs(2, 2, 0x33, 1);
+    ASSERT_TRUE(room.confirmed_inputs(2, flags, in));
+    EXPECT_EQ(in[2], 0x22);
+    EXPECT_EQ(room.slot_counters(1).late, 1u);
+}
+
+TEST_F(Server, ASecondRoomIsCreatedByItsFirstHelloAndParametersMustMatch) {
+    start_room(7, 1, 2);
+    connect(3);
+    hello(3, 8, 0, RelayRole::Player, 3);
+    drain();
+    EXPECT_EQ(server->room_count(), 2u);
+    connect(4);
+    hello(4, 8, 1, RelayRole::Player, 2);  // room 8 has 3 slots
+    drain();
+    EXPECT_EQ(last_refusal(4), RelayRefusal::RoomParams);
+    EXPECT_TRUE(was_kicked(4));
+}
+
+TEST_F(Server, HelloForAHeldSlotIsRefusedAndTheHolderIsUntouched) {
+    start_room(7, 1, 2);
+    inputs(1, 0, 1, 4);
+    inputs(2, 0, 2, 4);
+    connect(3);
+    hello(3, 7, 1);  // a spoof: slot 1 is held by a live connection
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::SlotTaken);
+    EXPECT_TRUE(was_kicked(3));
+    EXPECT_FALSE(was_kicked(2));
+    EXPECT_EQ(server->room(7)->slot_of(2), 1);
+    EXPECT_EQ(server->room(7)->confirmed_frames(), 4u);
+}
+
+TEST_F(Server, SameProcessOnANewConnectionResumesItsSlotOthersAreRefused) {
+    start_room(7, 1, 2);  // incarnations 1001 and 1002
+    inputs(1, 0, 1, 4);
+    inputs(2, 0, 2, 4);
+    connect(3);
+    hello(3, 7, 1, RelayRole::Player, 2, 4242);  // not slot 1's process, and slot 1 is live
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::SlotTaken);
+    connect(4);
+    hello(4, 7, 1, RelayRole::Player, 2, 1002);  // slot 1's process after a reconnect
+    drain();
+    ASSERT_FALSE(welcomes[4].empty());
+    EXPECT_EQ(last_refusal(4), RelayRefusal::None);
+    EXPECT_EQ(welcomes[4].back().snapshot_from, RelayRoom::kNoSlot);  // it keeps its own state
+    EXPECT_TRUE(was_kicked(2));                                       // the old connection goes
+    EXPECT_EQ(server->room(7)->slot_of(4), 1);
+    inputs(1, 4, 1, 2);
+    inputs(4, 4, 2, 2);  // its stream goes on where it was
+    EXPECT_EQ(server->room(7)->confirmed_frames(), 6u);
+}
+
+TEST_F(Server, BoundConnectionClaimingAnotherSlotIsKicked) {
+    start_room(7, 1, 2);
+    for (int i = 0; i < 5; ++i) hello(1, 7, 1);
+    drain();
+    EXPECT_EQ(last_refusal(1), RelayRefusal::Spoof);
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_EQ(server->room(7)->slot_of(2), 1);  // slot 1 still belongs to its connection
+}
+
+TEST_F(Server, GarbageGetsTheSenderKickedAndNobodyElse) {
+    start_room(7, 1, 2);
+    start_room(9, 3, 4);
+    connect(5);
+    const std::vector<std::vector<std::uint8_t>> junk = {{}, {0xFF}, {34, 1, 2}, {32}, std::vector<std::uint8_t>(1500, 34)};
+    for (const auto& j : junk) send(2, j);
+    drain();
+    EXPECT_TRUE(was_kicked(2));
+    send(5, {1, 2, 3});  // unbound: anything but a hello
+    for (int i = 0; i < 4; ++i) send(5, {34, 0, 0});
+    drain();
+    EXPECT_TRUE(was_kicked(5));
+    EXPECT_FALSE(was_kicked(1));
+    EXPECT_FALSE(was_kicked(3));
+    EXPECT_FALSE(was_kicked(4));
+    // Room 9 plays on untouched.
+    inputs(3, 0, 5, 10);
+    inputs(4, 0, 6, 10);
+    EXPECT_EQ(server->room(9)->confirmed_frames(), 10u);
+}
+
+TEST_F(Server, InputsFarInTheFutureAreDroppedCountedAndKicked) {
+    start_room(7, 1, 2);
+    for (int i = 0; i < 5; ++i) inputs(1, 10000, 9, 3);
+    drain();
+    const RelayRoom* room = server->room(7);
+    ASSERT_NE(room, nullptr);
+    EXPECT_TRUE(was_kicked(1));
+    // Slot 1 (honest) sees only honest confirmations: slot 0 left and is absent from then on.
+    inputs(2, 0, 2, 5);
+    EXPECT_EQ(room->confirmed_frames(), 5u);
+    std::vector<std::uint8_t> flags, in;
+    ASSERT_TRUE(room->confirmed_inputs(4, flags, in));
+    EXPECT_EQ(flags[0], kRelayAbsent);
+    EXPECT_EQ(in[0], 0);
+    EXPECT_EQ(in[2], 2);
+}
+
+TEST_F(Server, FloodIsThrottledThenKicked) {
+    start_room(7, 1, 2);
+    for (int i = 0; i < 2000; ++i) inputs(1, 0, 1, 1);
+    drain();
+    EXPECT_GE(server->counters().throttled, config().flood_kick_after);  // dropped before any decoding
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_FALSE(was_kicked(2));
+}
+
+TEST_F(Server, DrainRefusesNewHellosAndEndsWhenRoomsFinish) {
+    start_room(7, 1, 2);
+    server->start_drain(now);
+    connect(3);
+    hello(3, 8, 0);
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::Draining);
+    EXPECT_FALSE(server->drained());  // room 7 still plays
+    inputs(1, 0, 1, 5);
+    inputs(2, 0, 1, 5);
+    EXPECT_EQ(server->room(7)->confirmed_frames(), 5u);
+    server->on_disconnect(1, now);
+    server->on_disconnect(2, now);
+    advance(2000);
+    EXPECT_TRUE(server->drained());
+}
+
+TEST_F(Server, RoomLimitIsEnforced) {
+    ServerConfig c = config();
+    c.max_rooms = 1;
+    server = std::make_unique<RelayServer>(c);
+    start_room(7, 1, 2);
+    connect(3);
+    hello(3, 8, 0);
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::Full);
+}
+
+}  // namespace
+}  // namespace lockroll::server

@@ -1,0 +1,98 @@
+// EnetServer: the accepting side of a star (the relay server's sockets). Unlike EnetTransport,
+// which names every connection by the peer id its owner claims (a mesh of cooperating peers),
+// it names connections by ids it assigns itself, in order of arrival: nothing a client sends
+// decides who it is. Built for thousands of connections on one host:
+//  - send() queues; flush() sends everything queued in one pass over the host (EnetTransport
+//    flushes on every send, which is a pass over every connection each time);
+//  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
+//    no sleep granularity added to the relay delay), then drains what is there, bounded;
+//  - connections are limited in number, per address, in packet size and in waiting data, as
+//    EnetTransport's are (docs/network-model.md), and ENet's timeouts are seconds, not 30 s.
+// Channels as EnetTransport: 0 unreliable unsequenced, 1 reliable ordered.
+// Not thread-safe; reads no clock (now is passed in).
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "transport/transport.h"
+
+struct _ENetHost;
+struct _ENetPeer;
+
+namespace lockroll::transport {
+
+struct EnetServerConfig {
+    std::string bind_host = "127.0.0.1";
+    std::uint16_t port = 0;                       // 0: an ephemeral port (see port())
+    std::size_t max_connections = 4000;           // ENet allows at most 4095
+    std::size_t max_connections_per_address = 64; // a load test from one address raises it
+    std::size_t max_packet_bytes = 4096;
+    std::size_t max_waiting_bytes = 64 * 1024;
+    std::uint32_t timeout_limit = 4;
+    std::uint32_t timeout_min_ms = 2000;
+    std::uint32_t timeout_max_ms = 5000;
+    std::size_t max_inbox = 1 << 16;              // datagrams not yet taken by receive()
+};
+
+struct ServerConnectionEvent {
+    enum class Type : std::uint8_t { Connected, Disconnected };
+    Type type = Type::Connected;
+    std::uint32_t connection = 0;
+    std::string address;  // host:port of the client
+};
+
+struct ServerDatagram {
+    std::uint32_t connection = 0;
+    std::vector<std::uint8_t> bytes;
+    Micros time_us = 0;
+};
+
+struct EnetServerCounters {
+    std::uint64_t connections = 0;
+    std::uint64_t disconnects = 0;
+    std::uint64_t datagrams_in = 0, datagrams_out = 0;
+    std::uint64_t dropped_oversized = 0, dropped_bad_channel = 0, dropped_inbox_full = 0;
+    std::uint64_t send_failures = 0, service_errors = 0;
+};
+
+class EnetServer {
+public:
+    // Throws std::runtime_error naming host:port when it cannot bind, std::invalid_argument for
+    // limits that cannot work.
+    explicit EnetServer(const EnetServerConfig& config);
+    ~EnetServer();
+    EnetServer(const EnetServer&) = delete;
+    EnetServer& operator=(const EnetServer&) = delete;
+
+    std::uint16_t port() const { return port_; }
+    // Waits up to wait_us for traffic, then takes everything ENet has (bounded per call).
+    void poll(Micros now, std::uint32_t wait_us);
+    bool next_event(ServerConnectionEvent& out);
+    bool receive(ServerDatagram& out);
+    // Queues a datagram (sent by the next flush()); false when the connection is gone.
+    bool send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable);
+    void flush();
+    // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
+    void disconnect(std::uint32_t connection);
+    std::size_t connection_count() const { return by_id_.size(); }
+    const EnetServerCounters& counters() const { return counters_; }
+    std::uint64_t wire_bytes_sent() const;
+    std::uint64_t wire_bytes_received() const;
+
+private:
+    EnetServerConfig config_;
+    _ENetHost* host_ = nullptr;
+    std::uint16_t port_ = 0;
+    std::uint32_t next_id_ = 1;
+    std::unordered_map<std::uint32_t, _ENetPeer*> by_id_;
+    std::deque<ServerConnectionEvent> events_;
+    std::deque<ServerDatagram> inbox_;
+    std::vector<ServerDatagram> spare_;  // reused buffers
+    EnetServerCounters counters_;
+};
+
+}  // namespace lockroll::transport
