@@ -12,7 +12,14 @@ endmacro()
 find_path(XXHASH_INCLUDE_DIR xxhash.h)
 lockroll_require(XXHASH_INCLUDE_DIR libxxhash-dev "xxHash headers")
 
+# nlohmann-json: header-only, compiled into lockroll_match's scene loader (found as a path, like
+# xxHash, so the installed package does not depend on it, and a WebAssembly build finds it too).
 if(NOT LOCKROLL_SIM_ONLY)
+  find_path(NLOHMANN_JSON_INCLUDE_DIR nlohmann/json.hpp)
+  lockroll_require(NLOHMANN_JSON_INCLUDE_DIR nlohmann-json3-dev "nlohmann-json headers")
+endif()
+
+if(NOT LOCKROLL_SIM_ONLY AND LOCKROLL_ENET)
   find_package(PkgConfig QUIET)
   lockroll_require(PKG_CONFIG_FOUND pkg-config "pkg-config")
   pkg_check_modules(ENET QUIET IMPORTED_TARGET libenet)

@@ -1,5 +1,6 @@
 # The public libraries as another project sees them. Each lockroll_<name> built from <name>/
-# becomes lockroll::<name>, with its headers <name>/*.h reachable as <lockroll/<name>/...>:
+# becomes lockroll::<name>, with its headers <name>/*.h reachable as <lockroll/<name>/...>
+# (a library may name another directory and a subset of its headers: cmake/PublicHeaders.cmake):
 #  - in this build tree (a parent project using add_subdirectory gets the same spelling),
 #  - after `cmake --install`: find_package(lockroll) (versioned, SameMajorVersion) and lockroll.pc.
 # The headers include each other as "sim/fixed.h", so both <prefix>/include and
@@ -25,15 +26,16 @@ foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
   endif()
   list(APPEND lockroll_installed ${name})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} POSITION_INDEPENDENT_CODE ON)
+  lockroll_public_headers(${name} header_dir headers)  # cmake/PublicHeaders.cmake
   file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/include/lockroll)
-  file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${name} ${PROJECT_BINARY_DIR}/include/lockroll/${name} SYMBOLIC)
+  file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${header_dir} ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir} SYMBOLIC)
   target_include_directories(${target} INTERFACE
     $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/lockroll>)
   install(TARGETS ${target} EXPORT lockrollTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-  install(DIRECTORY ${PROJECT_SOURCE_DIR}/${name}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll/${name}
-          FILES_MATCHING PATTERN "*.h")
+  list(TRANSFORM headers PREPEND ${PROJECT_SOURCE_DIR}/${header_dir}/)
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll/${header_dir})
   list(PREPEND lockroll_pc_libs -l${target})
 
   # Static libraries pass their link dependencies on, private or not: the package must find each.
@@ -85,8 +87,11 @@ install(EXPORT lockrollTargets NAMESPACE lockroll:: DESTINATION ${CMAKE_INSTALL_
 list(TRANSFORM lockroll_installed PREPEND lockroll:: OUTPUT_VARIABLE LOCKROLL_INSTALLED_TARGETS)
 string(REPLACE ";" " " LOCKROLL_INSTALLED_TARGETS "${LOCKROLL_INSTALLED_TARGETS}")
 set(LOCKROLL_CONFIG_DEPENDENCIES "${lockroll_config_dependencies}")
+# The shipped scenes (the match's load_scene finds them by name there): lockroll_SCENE_DIR.
+set(LOCKROLL_SCENE_DIR ${CMAKE_INSTALL_DATADIR}/lockroll/scenes)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/lockrollConfig.cmake.in
-  ${PROJECT_BINARY_DIR}/lockrollConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll)
+  ${PROJECT_BINARY_DIR}/lockrollConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/lockroll
+  PATH_VARS LOCKROLL_SCENE_DIR)
 # 0.x: every 0.y release is compatible with the 0.1 API until 1.0.
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/lockrollConfigVersion.cmake
   COMPATIBILITY SameMajorVersion)
@@ -102,9 +107,11 @@ string(REPLACE ";" " " LOCKROLL_PC_LIBS "${lockroll_pc_libs};${lockroll_pc_threa
 configure_file(${PROJECT_SOURCE_DIR}/cmake/lockroll.pc.in ${PROJECT_BINARY_DIR}/lockroll.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/lockroll.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 
-if(NOT LOCKROLL_SIM_ONLY)
+if(TARGET lockroll_match)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/harness/scenes/ DESTINATION ${LOCKROLL_SCENE_DIR})
+endif()
+if(TARGET lockroll)  # not in LOCKROLL_SIM_ONLY or WebAssembly (LOCKROLL_ENET=OFF) builds
   install(TARGETS lockroll RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
-  install(DIRECTORY ${PROJECT_SOURCE_DIR}/harness/scenes/ DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scenes)
   # The plotting scripts lockroll compare/sweep/precision call (found beside the scenes).
   install(PROGRAMS ${PROJECT_SOURCE_DIR}/scripts/plot.py ${PROJECT_SOURCE_DIR}/scripts/plot_precision.py
           DESTINATION ${CMAKE_INSTALL_DATADIR}/lockroll/scripts)

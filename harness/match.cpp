@@ -538,14 +538,48 @@ std::string bodies_csv(const sim::World& w) {
     return out;
 }
 
-RunResult run_match(const RunConfig& cfg) {
+// Everything a match holds between ticks. The network is built in place (it is neither copyable
+// nor movable) and outlives the clients, whose endpoints refer to it.
+struct Match::State {
+    RunConfig cfg;
+    sim::SceneDesc scene;
+    transport::SimNetwork net;
+    RunResult res;
+    std::unique_ptr<Shared> shared;
+    std::vector<std::unique_ptr<Client>> clients;
+    std::uint64_t start = 0, limit = 0, now = 0;
+    int last_progress = -1;
+    bool timed_out = false;
+
+    State(const RunConfig& config, sim::SceneDesc s)
+        : cfg(config), scene(std::move(s)), net({.peers = cfg.players, .seed = cfg.seed, .link = link_for(cfg.net)}) {}
+
+    // The client whose tick comes next (the lowest index on a tie).
+    Client& next_client() const {
+        Client* next = clients[0].get();
+        for (const auto& c : clients)
+            if (c->next_tick_us() < next->next_tick_us()) next = c.get();
+        return *next;
+    }
+};
+
+namespace {
+
+sim::SceneDesc match_scene(const RunConfig& cfg) {
     validate(cfg);
     sim::SceneDesc scene = with_players(cfg.scene, cfg.players);
     scene.tick_rate = cfg.tick_rate;
     if (const std::string e = sim::validate(scene); !e.empty()) throw UsageError("scene: " + e);
+    return scene;
+}
 
-    transport::SimNetwork net({.peers = cfg.players, .seed = cfg.seed, .link = link_for(cfg.net)});
-    RunResult res;
+}  // namespace
+
+Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match_scene(config))) {
+    const RunConfig& cfg = s_->cfg;
+    const sim::SceneDesc& scene = s_->scene;
+    transport::SimNetwork& net = s_->net;
+    RunResult& res = s_->res;
     res.mode = mode_name(cfg.mode);
     res.scene = scene.name;
     res.bot = bot_kind_name(cfg.bot);
@@ -576,9 +610,10 @@ RunResult run_match(const RunConfig& cfg) {
     const std::uint64_t start = 4000000;
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
-    Shared shared{cfg, {}, cfg.frames, cfg.players, start, PositionErrorTracker(cfg.players, bodies, cfg.record_positions),
-                  res, {}, {}};
-    std::vector<std::unique_ptr<Client>> clients;
+    s_->shared.reset(new Shared{cfg, {}, cfg.frames, cfg.players, start,
+                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res, {}, {}});
+    Shared& shared = *s_->shared;
+    std::vector<std::unique_ptr<Client>>& clients = s_->clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
     const auto drift_range = static_cast<std::uint64_t>(std::llround(cfg.drift_ppm));
     for (int c = 0; c < cfg.players; ++c) {
@@ -623,31 +658,76 @@ RunResult run_match(const RunConfig& cfg) {
 
     // Stop when every client has confirmed the last frame, or at a generous time limit (a
     // network that loses everything must end the run, reported as incomplete).
-    const std::uint64_t limit = start + static_cast<std::uint64_t>(cfg.frames) * tick_us * 10 + 30000000;
-    std::uint64_t now = start;
-    int last_progress = -1;
-    for (;;) {
-        bool all_done = true;
-        for (const auto& c : clients) all_done = all_done && c->final_confirmed_;
-        if (all_done) break;
-        Client* next = clients[0].get();
-        for (const auto& c : clients)
-            if (c->next_tick_us() < next->next_tick_us()) next = c.get();
-        now = next->next_tick_us();
-        if (now > limit) break;
-        next->tick(now);
-        if (cfg.progress && next->index_ == 0) {
-            const int shown = static_cast<int>(next->session_->frame());
-            if (shown / 60 != last_progress / 60) {
-                cfg.progress(shown, cfg.frames);
-                last_progress = shown;
-            }
+    s_->start = start;
+    s_->limit = start + static_cast<std::uint64_t>(cfg.frames) * tick_us * 10 + 30000000;
+    s_->now = start;
+}
+
+Match::~Match() = default;
+
+bool Match::finished() const {
+    if (s_->timed_out) return true;
+    for (const auto& c : s_->clients)
+        if (!c->final_confirmed_) return false;
+    return true;
+}
+
+std::uint64_t Match::next_tick_us() const { return s_->next_client().next_tick_us(); }
+
+void Match::step() {
+    if (finished()) return;
+    Client& next = s_->next_client();
+    s_->now = next.next_tick_us();
+    if (s_->now > s_->limit) {
+        s_->timed_out = true;
+        return;
+    }
+    next.tick(s_->now);
+    if (s_->cfg.progress && next.index_ == 0) {
+        const int shown = static_cast<int>(next.session_->frame());
+        if (shown / 60 != s_->last_progress / 60) {
+            s_->cfg.progress(shown, s_->cfg.frames);
+            s_->last_progress = shown;
         }
     }
+}
+
+std::uint64_t Match::now_us() const { return s_->now; }
+std::uint64_t Match::start_us() const { return s_->start; }
+int Match::clients() const { return static_cast<int>(s_->clients.size()); }
+int Match::input_delay() const { return static_cast<int>(s_->res.input_delay); }
+int Match::prediction() const { return static_cast<int>(s_->res.prediction); }
+
+const sim::World& Match::world(int client) const { return s_->clients.at(static_cast<std::size_t>(client))->sim_.world(); }
+
+std::uint32_t Match::frame(int client) const {
+    return s_->clients.at(static_cast<std::size_t>(client))->session_->frame();
+}
+
+const rollback::SessionStats& Match::stats(int client) const {
+    return s_->clients.at(static_cast<std::size_t>(client))->session_->stats();
+}
+
+std::optional<std::uint64_t> Match::final_checksum(int client) const {
+    const Client& c = *s_->clients.at(static_cast<std::size_t>(client));
+    return c.final_confirmed_ ? std::optional<std::uint64_t>(c.final_checksum_) : std::nullopt;
+}
+
+const std::vector<FrameRow>& Match::rows() const { return s_->shared->positions.rows(); }
+
+void Match::set_conditions(const NetConditions& n) {
+    validate(n);
+    s_->net.set_all_links(link_for(n));
+}
+
+RunResult Match::finish() {
+    const RunConfig& cfg = s_->cfg;
+    RunResult& res = s_->res;
+    const std::uint64_t now = s_->now;
     res.completed = true;
     res.virtual_seconds = 0;
     // Stats count every tick, including the few after the last frame spent confirming it.
-    for (const auto& c : clients) {
+    for (const auto& c : s_->clients) {
         const rollback::SessionStats& st = c->session_->stats();
         ClientResult cr = client_result(st);
         // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
@@ -668,13 +748,20 @@ RunResult run_match(const RunConfig& cfg) {
             res.input_delay_min = std::min(res.input_delay_min, static_cast<int>(e.value));
             res.input_delay_max = std::max(res.input_delay_max, static_cast<int>(e.value));
         }
-    res.position_error = shared.positions.error();
-    res.rows = shared.positions.rows();
-    res.positions_csv = shared.positions.positions_csv();
-    res.per_body_max_error = shared.positions.per_body_max();
-    res.pair_error = shared.positions.pair_errors();
-    res.body_error = shared.positions.body_errors();
-    return res;
+    const PositionErrorTracker& positions = s_->shared->positions;
+    res.position_error = positions.error();
+    res.rows = positions.rows();
+    res.positions_csv = positions.positions_csv();
+    res.per_body_max_error = positions.per_body_max();
+    res.pair_error = positions.pair_errors();
+    res.body_error = positions.body_errors();
+    return std::move(res);
+}
+
+RunResult run_match(const RunConfig& cfg) {
+    Match match(cfg);
+    while (!match.finished()) match.step();
+    return match.finish();
 }
 
 }  // namespace lockroll::harness

@@ -7,16 +7,24 @@
 //   (skipped while time sync says wait) -> Session::poll -> send.
 // A client that has shown the last frame keeps receiving and polling until every client has
 // confirmed it, so the final checksums are of confirmed state.
+//
+// run_match plays a match to the end; Match is the same match one client tick at a time, for a
+// caller that shows it while it runs (examples/web steps it from JavaScript). Stepping a Match
+// to the end and calling finish() gives exactly what run_match gives.
 #pragma once
 
 #include <cstdint>
 #include <functional>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "harness/bots.h"
 #include "harness/metrics.h"
+#include "rollback/telemetry.h"
 #include "sim/scene.h"
+#include "sim/world.h"
 #include "transport/link_conditions.h"
 
 namespace lockroll::harness {
@@ -103,6 +111,49 @@ int auto_prediction_window(int configured, int lockstep_delay, int rollback_dela
 int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window);
 
 RunResult run_match(const RunConfig& config);
+
+class Match {
+public:
+    // Validates (UsageError naming the option), runs the ping phase that picks an auto input
+    // delay, and builds the clients; the first step() is the first client tick.
+    explicit Match(const RunConfig& config);
+    ~Match();
+    Match(const Match&) = delete;
+    Match& operator=(const Match&) = delete;
+
+    // Every client has confirmed the last frame, or the run's time limit has passed (a network
+    // that loses everything); step() does nothing then.
+    bool finished() const;
+    // Runs the next client tick (the client whose clock ticks first) in virtual time.
+    void step();
+    std::uint64_t next_tick_us() const;  // virtual time of the tick step() runs next
+    std::uint64_t now_us() const;        // virtual time of the last tick run
+    std::uint64_t start_us() const;      // virtual time the match started (after the ping phase)
+
+    int clients() const;
+    int input_delay() const;  // frames, as picked at the start
+    int prediction() const;   // the window W (0 in lockstep)
+    // What a client shows now, its frame and its session's counters; clients 0..clients()-1.
+    const sim::World& world(int client) const;
+    std::uint32_t frame(int client) const;
+    const rollback::SessionStats& stats(int client) const;
+    // The client's confirmed checksum of the last frame, once it has one.
+    std::optional<std::uint64_t> final_checksum(int client) const;
+    // Error against time so far: one row per frame every client has shown (frames.csv).
+    const std::vector<FrameRow>& rows() const;
+
+    // New conditions on every link, for datagrams sent from now on (a live slider); the input
+    // delay stays as picked at the start. Throws UsageError naming the flag.
+    void set_conditions(const NetConditions& n);
+
+    // The run's figures, as run_match returns them; call once, when finished() (or earlier, for
+    // an incomplete run).
+    RunResult finish();
+
+private:
+    struct State;
+    std::unique_ptr<State> s_;
+};
 
 // bodies.csv of a world (what the viewer draws: id, player, shape, size), as run --positions
 // writes it.

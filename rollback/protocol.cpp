@@ -21,7 +21,8 @@ void write_runs(ByteWriter& w, std::span<const std::uint8_t> inputs, std::size_t
     std::size_t i = 0;
     while (i < count) {
         std::size_t j = i + 1;
-        while (j < count && j - i < 255 && std::ranges::equal(at(j), at(i))) ++j;
+        // std::equal, not std::ranges::equal: emscripten 3.1.6's libc++ 14 lacks the latter.
+        while (j < count && j - i < 255 && std::equal(at(j).begin(), at(j).end(), at(i).begin(), at(i).end())) ++j;
         w.u8(static_cast<std::uint8_t>(j - i));
         w.bytes(at(i));
         i = j;

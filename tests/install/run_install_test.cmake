@@ -1,13 +1,16 @@
 # Driver of the install_find_package test (cmake -P). Inputs: BUILD_DIR, TEST_SOURCE_DIR
 # (tests/install), LIBDIR, WORK_DIR, GENERATOR, CXX_COMPILER, INTREE_CONSUMER, VERSION,
-# PKG_CONFIG, LIBRARIES (the public libraries, comma-separated: sim,rollback,transport).
-foreach(var BUILD_DIR TEST_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER VERSION PKG_CONFIG LIBRARIES)
+# PKG_CONFIG, LIBRARIES (the public libraries, comma-separated: sim,rollback,transport),
+# HEADER_DIRS (each one's directory under include/lockroll, in the same order).
+foreach(var BUILD_DIR TEST_SOURCE_DIR LIBDIR WORK_DIR GENERATOR CXX_COMPILER INTREE_CONSUMER VERSION PKG_CONFIG LIBRARIES
+        HEADER_DIRS)
   if(NOT DEFINED ${var})
     message(FATAL_ERROR "run_install_test.cmake: ${var} not set")
   endif()
 endforeach()
 
 string(REPLACE "," ";" LIBRARIES "${LIBRARIES}")
+string(REPLACE "," ";" HEADER_DIRS "${HEADER_DIRS}")
 list(TRANSFORM LIBRARIES PREPEND lockroll:: OUTPUT_VARIABLE expected_targets)
 set(prefix ${WORK_DIR}/prefix)
 set(consumer_source ${TEST_SOURCE_DIR}/consumer)
@@ -33,8 +36,8 @@ foreach(f ${LIBDIR}/cmake/lockroll/lockrollConfig.cmake ${LIBDIR}/cmake/lockroll
     message(FATAL_ERROR "install test: ${f} was not installed")
   endif()
 endforeach()
-foreach(lib IN LISTS LIBRARIES)
-  if(NOT EXISTS ${prefix}/${LIBDIR}/liblockroll_${lib}.a OR NOT IS_DIRECTORY ${prefix}/include/lockroll/${lib})
+foreach(lib dir IN ZIP_LISTS LIBRARIES HEADER_DIRS)
+  if(NOT EXISTS ${prefix}/${LIBDIR}/liblockroll_${lib}.a OR NOT IS_DIRECTORY ${prefix}/include/lockroll/${dir})
     message(FATAL_ERROR "install test: lockroll::${lib} (library or headers) was not installed")
   endif()
 endforeach()
