@@ -198,7 +198,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
         return;
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
-                     "restitution_threshold"});
+                     "restitution_threshold", "shock_propagation"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -232,6 +232,11 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("baumgarte")) rg.baumgarte = r.at("baumgarte").fixed_in("0", "1");
     if (r.has("slop")) rg.slop = r.at("slop").fixed_in("0", "1");
     if (r.has("restitution_threshold")) rg.restitution_threshold = r.at("restitution_threshold").fixed_in("0", "1000");
+    if (r.has("shock_propagation")) {
+        const Reader f = r.at("shock_propagation");
+        if (!f.raw().is_boolean()) f.fail("expected true or false");
+        rg.shock_propagation = f.raw().get<bool>();
+    }
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.

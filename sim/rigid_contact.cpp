@@ -117,18 +117,141 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     if (t.raw > 0 && t < Fixed::one()) sphere_box(p0 + (p1 - p0) * t, a.radius, box, margin, m);
 }
 
-// Corners of `from` within the margin of `to` (normal from `from` toward `to` when flip is
-// false; reversed otherwise so that it always points from A to B).
-void corners_against(const OrientedCollider& from, const OrientedCollider& to, Fixed margin, bool flip, Manifold& m) {
-    const Vec3 ex = column(*from.rot, 0) * from.half.x, ey = column(*from.rot, 1) * from.half.y,
-               ez = column(*from.rot, 2) * from.half.z;
-    for (int k = 0; k < 8; ++k) {
-        const Vec3 p = from.center + ((k & 1) ? ex : -ex) + ((k & 2) ? ey : -ey) + ((k & 4) ? ez : -ez);
-        Vec3 n, q;
-        Fixed dist;
-        if (!point_box(p, to, margin, n, q, dist)) continue;
-        add(m, flip ? -n : n, p, -dist);
+// Box-box by the separating-axis test over the 15 axes (3 face normals of each box, 9 edge
+// cross products). A face axis with the least penetration gives a face contact: the incident
+// box's face most opposed to it, clipped (Sutherland-Hodgman) to the reference face's side
+// planes; every clipped vertex within the margin of the reference plane is a point (up to 8).
+// An edge axis wins only when it penetrates clearly less (kEdgeBias), which keeps resting
+// face contacts from flickering to edge contacts; it gives one point between the two edges.
+
+struct Poly {
+    int n = 0;
+    Vec3 v[8];
+};
+
+// Keeps the part of poly where dot(dir, p) <= limit.
+void clip(const Poly& in, const Vec3& dir, Fixed limit, Poly& out) {
+    out.n = 0;
+    for (int i = 0; i < in.n; ++i) {
+        const Vec3& p = in.v[i];
+        const Vec3& q = in.v[(i + 1) % in.n];
+        const Fixed dp = dot(dir, p) - limit, dq = dot(dir, q) - limit;
+        if (dp.raw <= 0 && out.n < 8) out.v[out.n++] = p;
+        if ((dp.raw < 0) != (dq.raw < 0) && dp.raw != 0 && dq.raw != 0 && out.n < 8)
+            out.v[out.n++] = p + (q - p) * (dp / (dp - dq));
     }
+}
+
+Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
+    return b.half.x * abs(dot(column(*b.rot, 0), axis)) + b.half.y * abs(dot(column(*b.rot, 1), axis)) +
+           b.half.z * abs(dot(column(*b.rot, 2), axis));
+}
+
+// Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
+void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
+                  bool flip, Manifold& m) {
+    // Incident face: the face of inc whose outward normal is most opposed to n.
+    int j = 0;
+    Fixed best = Fixed::zero();
+    for (int i = 0; i < 3; ++i) {
+        const Fixed c = abs(dot(n, column(*inc.rot, i)));
+        if (c > best) { best = c; j = i; }
+    }
+    const Vec3 ij = column(*inc.rot, j);
+    const Vec3 f = dot(n, ij).raw > 0 ? -ij : ij;  // outward normal of the incident face
+    const Vec3 fc = inc.center + f * comp(inc.half, j);
+    const int u = (j + 1) % 3, v = (j + 2) % 3;
+    const Vec3 eu = column(*inc.rot, u) * comp(inc.half, u), ev = column(*inc.rot, v) * comp(inc.half, v);
+    Poly a, b;
+    a.n = 4;
+    a.v[0] = fc + eu + ev;
+    a.v[1] = fc - eu + ev;
+    a.v[2] = fc - eu - ev;
+    a.v[3] = fc + eu - ev;
+    // Side planes of the reference face.
+    for (int s = 1; s <= 2; ++s) {
+        const int t = (k + s) % 3;
+        const Vec3 axis = column(*ref.rot, t);
+        const Fixed c = dot(axis, ref.center), h = comp(ref.half, t);
+        clip(a, axis, c + h, b);
+        clip(b, -axis, h - c, a);
+    }
+    const Fixed plane = dot(n, ref.center) + comp(ref.half, k);
+    for (int i = 0; i < a.n; ++i) {
+        const Fixed sep = dot(n, a.v[i]) - plane;
+        if (sep > margin) continue;
+        add(m, flip ? -n : n, a.v[i], -sep);
+    }
+}
+
+constexpr std::int64_t kEdgeBias = Fixed::kOne / 200;  // 5 mm
+
+void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    const Vec3 d = b.center - a.center;
+    // Best face axis (largest separation; ties: A before B, x before y before z).
+    Fixed face_sep = Fixed::min();
+    int face_box = 0, face_k = 0;
+    Vec3 face_n{};
+    for (int box = 0; box < 2; ++box) {
+        const OrientedCollider& x = box == 0 ? a : b;
+        const OrientedCollider& y = box == 0 ? b : a;
+        for (int k = 0; k < 3; ++k) {
+            const Vec3 axis = column(*x.rot, k);
+            const Fixed dist = dot(d, axis);
+            const Fixed sep = abs(dist) - comp(x.half, k) - projected_radius(y, axis);
+            if (sep > margin) return;
+            if (sep > face_sep) {
+                face_sep = sep;
+                face_box = box;
+                face_k = k;
+                // From the reference box toward the other: for B as reference, toward A.
+                const bool toward_b = dist.raw >= 0;
+                face_n = (box == 0) == toward_b ? axis : -axis;
+            }
+        }
+    }
+    Fixed edge_sep = Fixed::min();
+    int edge_i = 0, edge_j = 0;
+    Vec3 edge_n{};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            const Vec3 c = cross(column(*a.rot, i), column(*b.rot, j));
+            const u128 len_sq = length_sq_wide(c);
+            if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
+            const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
+            Vec3 axis{c.x / len, c.y / len, c.z / len};
+            Fixed dist = dot(d, axis);
+            if (dist.raw < 0) {
+                axis = -axis;
+                dist = -dist;
+            }
+            const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
+            if (sep > margin) return;
+            if (sep > edge_sep) {
+                edge_sep = sep;
+                edge_i = i;
+                edge_j = j;
+                edge_n = axis;
+            }
+        }
+    if (edge_sep.raw > face_sep.raw + kEdgeBias) {
+        // Edge of A furthest along n against the edge of B furthest along -n.
+        Vec3 pa = a.center, pb = b.center;
+        for (int k = 0; k < 3; ++k) {
+            const Vec3 ak = column(*a.rot, k), bk = column(*b.rot, k);
+            if (k != edge_i) pa += dot(ak, edge_n).raw >= 0 ? ak * comp(a.half, k) : -(ak * comp(a.half, k));
+            if (k != edge_j) pb += dot(bk, edge_n).raw >= 0 ? -(bk * comp(b.half, k)) : bk * comp(b.half, k);
+        }
+        const Vec3 ea = column(*a.rot, edge_i) * comp(a.half, edge_i), eb = column(*b.rot, edge_j) * comp(b.half, edge_j);
+        Vec3 ca, cb;
+        closest_segments(pa - ea, pa + ea, pb - eb, pb + eb, ca, cb);
+        add(m, edge_n, ca + (cb - ca) * Fixed::from_raw(Fixed::kOne / 2), -edge_sep);
+        return;
+    }
+    if (face_box == 0)
+        face_contact(a, face_k, face_n, b, margin, false, m);
+    else
+        face_contact(b, face_k, face_n, a, margin, true, m);
 }
 }  // namespace
 
@@ -187,8 +310,7 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
         round_box(b, a, margin, m);
         for (int i = 0; i < m.count; ++i) m.points[i].normal = -m.points[i].normal;
     } else {
-        corners_against(a, b, margin, false, m);
-        corners_against(b, a, margin, true, m);
+        box_box(a, b, margin, m);
     }
 }
 

@@ -10,10 +10,8 @@
 //  - Routines: round-round (closest points of two core segments, then spheres); round-box (a
 //    sphere against an oriented box, exact; a capsule as its two end spheres plus the core
 //    point nearest the box centre, enough for lying, standing and leaning capsules); box-box
-//    (every corner of each box that lies within the margin of the other, with that box's
-//    nearest-face or closest-point normal: face-face, face-edge and face-corner contacts, in a
-//    fixed corner order; crossed edges touching edge on edge are not detected until a corner
-//    comes within the margin, see docs/physics.md).
+//    (separating-axis test over 15 axes; a face axis gives the incident face clipped to the
+//    reference face, up to 8 points, an edge axis one point between the two edges).
 //  - Deterministic: a fixed order of points, integer arithmetic only.
 #pragma once
 

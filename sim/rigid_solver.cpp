@@ -1,5 +1,7 @@
 #include "sim/rigid_solver.h"
 
+#include <algorithm>
+
 #include "sim/inertia.h"
 
 namespace lockroll::sim {
@@ -28,6 +30,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     enabled_ = scene.rigid.enabled;
     if (!enabled_) return;
     const RigidDesc& rg = scene.rigid;
+    shock_ = rg.shock_propagation;
     iterations_ = scene.iterations;
     dt_ = k.dt();
     inv_dt_ = Fixed::from_int(scene.tick_rate);
@@ -160,8 +163,19 @@ Vec3 RigidSolver::relative_velocity(const Point& p, const std::vector<Vec3>& vel
     return (vel[p.b] + cross(angvel[p.b], p.rb)) - (vel[p.a] + cross(angvel[p.a], p.ra));
 }
 
-void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const {
+void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
+                        BodyId only) const {
     // Static bodies have zero inverse mass and inertia: skipping them changes no bits.
+    if (only != kEveryBody) {
+        if (only == p.a) {
+            vel[p.a] -= j * inv_mass_[p.a];
+            angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
+        } else {
+            vel[p.b] += j * inv_mass_[p.b];
+            angvel[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
+        }
+        return;
+    }
     if (inv_mass_[p.a].raw != 0) {
         vel[p.a] -= j * inv_mass_[p.a];
         angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
@@ -214,34 +228,100 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     }
 }
 
+void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock) {
+    // Effective masses as if only `only` moved (shock pass), else the pair's.
+    Fixed mn = p.mass_n, m1 = p.mass_t1, m2 = p.mass_t2;
+    if (only != kEveryBody) {
+        const BodyId still = only == p.a ? p.b : p.a;
+        const Vec3& r = only == p.a ? p.ra : p.rb;
+        const Vec3& rs = only == p.a ? p.rb : p.ra;
+        (void)still;
+        (void)rs;
+        const auto single = [&](const Vec3& dir) {
+            const Vec3 c = cross(r, dir);
+            const Fixed k = inv_mass_[only] + dot(c, inv_i_world_[only] * c);
+            return k.raw > 0 ? reciprocal(k) : Fixed::zero();
+        };
+        mn = single(p.n);
+        m1 = single(p.t1);
+        m2 = single(p.t2);
+    }
+    // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
+    // adds impulse (it never takes back what the iterations gave).
+    Vec3 dv = relative_velocity(p, vel, angvel);
+    const Fixed vn = dot(dv, p.n);
+    const Fixed floor = shock ? p.pn : Fixed::zero();
+    const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
+    const Fixed dpn = pn - p.pn;
+    p.pn = pn;
+    if (dpn.raw != 0) {
+        apply(p, p.n * dpn, vel, angvel, only);
+        dv = relative_velocity(p, vel, angvel);
+    }
+    if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
+    // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
+    Fixed t1 = p.pt1 - m1 * dot(dv, p.t1);
+    Fixed t2 = p.pt2 - m2 * dot(dv, p.t2);
+    const Fixed limit_s = p.mu_s * p.pn;
+    const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
+    if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
+        const Fixed mag = sqrt_wide(mag_sq);
+        const Fixed scale = p.mu_k * p.pn / mag;
+        t1 = t1 * scale;
+        t2 = t2 * scale;
+    }
+    const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
+    p.pt1 = t1;
+    p.pt2 = t2;
+    if (d1.raw != 0 || d2.raw != 0) apply(p, p.t1 * d1 + p.t2 * d2, vel, angvel, only);
+}
+
 void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
-    for (Point& p : points_) {
-        // Normal: accumulated impulse stays >= 0 (contacts push, never pull).
-        Vec3 dv = relative_velocity(p, vel, angvel);
-        const Fixed vn = dot(dv, p.n);
-        const Fixed pn = max(p.pn + p.mass_n * (p.target - vn), Fixed::zero());
-        const Fixed dpn = pn - p.pn;
-        p.pn = pn;
-        if (dpn.raw != 0) {
-            apply(p, p.n * dpn, vel, angvel);
-            dv = relative_velocity(p, vel, angvel);
+    for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
+}
+
+void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
+    // Levels: distance in the contact graph (touching points) from a static body.
+    constexpr std::uint32_t kUnreached = ~std::uint32_t{0};
+    const std::size_t n = shape_.size();
+    adj_start_.assign(n + 1, 0);
+    order_.clear();
+    for (std::uint32_t k = 0; k < points_.size(); ++k) {
+        if (points_[k].pn.raw == 0) continue;  // not pressing: no support to propagate
+        order_.push_back(k);
+        ++adj_start_[points_[k].a + 1];
+        ++adj_start_[points_[k].b + 1];
+    }
+    for (std::size_t i = 1; i <= n; ++i) adj_start_[i] += adj_start_[i - 1];
+    adj_.resize(adj_start_[n]);
+    cursor_.assign(adj_start_.begin(), adj_start_.end() - 1);
+    for (std::uint32_t k : order_) {
+        adj_[cursor_[points_[k].a]++] = points_[k].b;
+        adj_[cursor_[points_[k].b]++] = points_[k].a;
+    }
+    level_.assign(n, kUnreached);
+    queue_.clear();
+    for (std::size_t id = 0; id < n; ++id)
+        if (inv_mass_[id].raw == 0) {
+            level_[id] = 0;
+            queue_.push_back(static_cast<BodyId>(id));
         }
-        if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) continue;
-        // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
-        Fixed t1 = p.pt1 - p.mass_t1 * dot(dv, p.t1);
-        Fixed t2 = p.pt2 - p.mass_t2 * dot(dv, p.t2);
-        const Fixed limit_s = p.mu_s * p.pn;
-        const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
-        if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
-            const Fixed mag = sqrt_wide(mag_sq);
-            const Fixed scale = p.mu_k * p.pn / mag;
-            t1 = t1 * scale;
-            t2 = t2 * scale;
+    for (std::size_t q = 0; q < queue_.size(); ++q) {
+        const BodyId u = queue_[q];
+        for (std::uint32_t j = adj_start_[u]; j < adj_start_[u + 1]; ++j) {
+            const BodyId v = adj_[j];
+            if (level_[v] != kUnreached) continue;
+            level_[v] = level_[u] + 1;
+            queue_.push_back(v);
         }
-        const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
-        p.pt1 = t1;
-        p.pt2 = t2;
-        if (d1.raw != 0 || d2.raw != 0) apply(p, p.t1 * d1 + p.t2 * d2, vel, angvel);
+    }
+    const auto low = [&](std::uint32_t k) { return std::min(level_[points_[k].a], level_[points_[k].b]); };
+    std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t x, std::uint32_t y) { return low(x) < low(y); });
+    for (std::uint32_t k : order_) {
+        Point& p = points_[k];
+        const std::uint32_t la = level_[p.a], lb = level_[p.b];
+        if (la == lb) continue;  // same level (or both unreached): no up and down
+        solve_point(p, vel, angvel, la < lb ? p.b : p.a, true);
     }
 }
 

@@ -12,6 +12,9 @@
 //     impulse (accumulated, >= 0), then friction (accumulated, on the tangent plane): while the
 //     friction needed stays within mu_s times the normal impulse the contact sticks; beyond it,
 //     the friction impulse is mu_k times the normal impulse against the slip (the cone).
+//  5b. (rigid.shock_propagation) one more pass from the ground up, in which each contact moves only
+//     its upper body (the lower one counts as immovable): no contact of a stack is left
+//     approaching, whatever the iteration count (Guendelman, Bridson and Fedkiw 2003).
 //  6. positions x += v dt; orientations by the exponential map. A body whose inertia is not
 //     isotropic keeps its angular momentum L = I w exact: the rotation uses w at the half step
 //     (from L and the half-turned orientation), and w is recomputed from L after the turn, so
@@ -54,6 +57,7 @@ public:
         find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
         build_contacts(pos, vel, angvel);
         for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel);
+        if (shock_) shock_pass(vel, angvel);
         integrate(pos, vel, orient, angvel);
     }
 
@@ -74,9 +78,14 @@ private:
     void update_inertia(const std::vector<Quat>& orient);
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    // Solves point p's normal and friction rows once; with `only` set, as if only that body moved.
+    void solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel) const;
-    void apply(const Point& p, const Vec3& impulse, std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
+    void apply(const Point& p, const Vec3& impulse, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
+               BodyId only = kEveryBody) const;
+    static constexpr BodyId kEveryBody = ~BodyId{0};
     Vec3 relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const;
     Fixed effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const;
     Fixed pair_restitution(BodyId a, BodyId b) const;
@@ -85,7 +94,7 @@ private:
     // w from angular momentum L at orientation q: R (I^-1 (R^T L)).
     Vec3 omega_from(BodyId id, const Quat& q, const Vec3& l) const;
 
-    bool enabled_ = false, damped_ = false;
+    bool enabled_ = false, damped_ = false, shock_ = false;
     int iterations_ = 4;
     Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_;
     Fixed kin_[kShapeCount][kShapeCount], stat_[kShapeCount][kShapeCount], rest_[kShapeCount][kShapeCount];
@@ -106,6 +115,9 @@ private:
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
     std::vector<Point> points_;
+    // Shock propagation scratch.
+    std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
+    std::vector<BodyId> queue_;
 };
 
 }  // namespace lockroll::sim

@@ -127,6 +127,9 @@ struct RigidDesc {
     Fixed slop = Fixed::from_raw(Fixed::kOne / 200);
     // Approach speeds below this (m/s) are resolved without restitution (resting contacts).
     Fixed restitution_threshold = Fixed::from_raw(Fixed::kOne / 2);
+    // After the iterations, one pass from the ground up in which each pressing contact moves
+    // only its upper body: tall stacks stop sinking whatever the iteration count.
+    bool shock_propagation = false;
 
     RigidDesc();
 };

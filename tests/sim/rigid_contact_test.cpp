@@ -83,8 +83,51 @@ TEST(RigidContact, BoxOnFloorHasFourCornerPoints) {
     for (int i = 0; i < 4; ++i) {
         EXPECT_EQ(m.points[i].normal, v3(0, -1, 0));
         EXPECT_NEAR(d(m.points[i].depth), 0.01, 1e-9);
-        EXPECT_NEAR(d(m.points[i].point.y), -0.01, 1e-9);
+        EXPECT_NEAR(d(m.points[i].point.y), 0, 0.0100001);  // on one of the two touching faces
+        EXPECT_NEAR(std::fabs(d(m.points[i].point.x)), 0.5, 1e-8);
     }
+}
+
+TEST(RigidContact, TurnedBoxOnFloorRestsOnAnEdge) {
+    // A cube turned 45 degrees about z with its lowest edge 1 cm into the floor: two points, the
+    // ends of that edge.
+    const Mat3 r = rotation(normalised({fx(std::cos(M_PI / 8)), Fixed::zero(), Fixed::zero(), fx(std::sin(M_PI / 8))}));
+    OrientedCollider b;
+    b.shape = Shape::Box;
+    b.center = v3(0, std::sqrt(0.5) - 0.01, 0);
+    b.rot = &r;
+    b.half = v3(0.5, 0.5, 0.5);
+    Manifold m;
+    contact_points(b, floor_box(), fx(0.005), m);
+    ASSERT_EQ(m.count, 2);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(m.points[i].normal, v3(0, -1, 0));
+        EXPECT_NEAR(d(m.points[i].depth), 0.01, 1e-7);
+        EXPECT_NEAR(d(m.points[i].point.x), 0, 1e-7);
+        EXPECT_NEAR(std::fabs(d(m.points[i].point.z)), 0.5, 1e-7);
+    }
+}
+
+TEST(RigidContact, CrossedBoxEdgesMeetEdgeOnEdge) {
+    // Two long bars turned 45 degrees about their long axes (x and z), one above the other: their
+    // edges cross; no corner of either is near the other.
+    const Mat3 ra = rotation(normalised({fx(std::cos(M_PI / 8)), fx(std::sin(M_PI / 8)), Fixed::zero(), Fixed::zero()}));
+    const Mat3 rb = rotation(normalised({fx(std::cos(M_PI / 8)), Fixed::zero(), Fixed::zero(), fx(std::sin(M_PI / 8))}));
+    OrientedCollider a, b;
+    a.shape = b.shape = Shape::Box;
+    a.rot = &ra;
+    b.rot = &rb;
+    a.half = v3(2, 0.5, 0.5);
+    b.half = v3(0.5, 0.5, 2);
+    a.center = v3(0, 0, 0);
+    b.center = v3(0, 2 * std::sqrt(0.5) - 0.02, 0);
+    Manifold m;
+    contact_points(a, b, fx(0.005), m);
+    ASSERT_EQ(m.count, 1);
+    EXPECT_NEAR(d(m.points[0].normal.y), 1, 1e-7);
+    EXPECT_NEAR(d(m.points[0].depth), 0.02, 1e-7);
+    EXPECT_NEAR(d(m.points[0].point.x), 0, 1e-7);
+    EXPECT_NEAR(d(m.points[0].point.z), 0, 1e-7);
 }
 
 TEST(RigidContact, CapsuleLyingOnFloorHasTwoPoints) {
