@@ -190,6 +190,24 @@ void read_common(const Reader& r, const std::map<std::string, Material>& materia
     if (r.has("static_friction")) d.static_friction = r.at("static_friction").fixed_in("0", "10");
 }
 
+// {"SHAPE-SHAPE": value, ...} into a symmetric table by shape, each value within [0, hi].
+void read_pair_table(const Reader& t, const char* hi, sim::Fixed (&table)[sim::kShapeCount][sim::kShapeCount]) {
+    for (auto it = t.raw().begin(); it != t.raw().end(); ++it) {
+        const std::string key = it.key();
+        const auto dash = key.find('-');
+        const Reader e = t.at(key);
+        auto parse_shape = [&](const std::string& s) {
+            if (s == "sphere") return 0;
+            if (s == "box") return 1;
+            if (s == "capsule") return 2;
+            e.fail("key must be SHAPE-SHAPE with shapes sphere, box, capsule");
+        };
+        if (dash == std::string::npos) e.fail("key must be SHAPE-SHAPE, e.g. \"sphere-box\"");
+        const int a = parse_shape(key.substr(0, dash)), b = parse_shape(key.substr(dash + 1));
+        table[a][b] = table[b][a] = e.fixed_in("0", hi);
+    }
+}
+
 // A rigid scene's bodies may turn and rub; every key of "rigid" defaults to sim::RigidDesc.
 void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     rg.enabled = true;
@@ -202,20 +220,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
-            for (auto it = tr.raw().begin(); it != tr.raw().end(); ++it) {
-                const std::string k = it.key();
-                const auto dash = k.find('-');
-                const Reader e = tr.at(k);
-                auto shape = [&](const std::string& name) {
-                    if (name == "sphere") return 0;
-                    if (name == "box") return 1;
-                    if (name == "capsule") return 2;
-                    e.fail("key must be SHAPE-SHAPE with shapes sphere, box, capsule");
-                };
-                if (dash == std::string::npos) e.fail("key must be SHAPE-SHAPE, e.g. \"sphere-box\"");
-                const int a = shape(k.substr(0, dash)), b = shape(k.substr(dash + 1));
-                t[a][b] = t[b][a] = e.fixed_in("0", "10");
-            }
+            read_pair_table(tr, "10", t);
         } else {  // one number for every pair
             const sim::Fixed v = tr.fixed_in("0", "10");
             for (auto& row : t)
@@ -317,20 +322,7 @@ sim::SceneDesc read_scene(const Reader& r) {
     if (r.has("restitution")) {
         const Reader t = r.at("restitution");
         if (!t.raw().is_object()) t.fail("expected an object such as {\"sphere-box\": 0.8}");
-        for (auto it = t.raw().begin(); it != t.raw().end(); ++it) {
-            const std::string key = it.key();
-            const auto dash = key.find('-');
-            const Reader e = t.at(key);
-            auto parse_shape = [&](const std::string& s) {
-                if (s == "sphere") return 0;
-                if (s == "box") return 1;
-                if (s == "capsule") return 2;
-                e.fail("key must be SHAPE-SHAPE with shapes sphere, box, capsule");
-            };
-            if (dash == std::string::npos) e.fail("key must be SHAPE-SHAPE, e.g. \"sphere-box\"");
-            const int a = parse_shape(key.substr(0, dash)), b = parse_shape(key.substr(dash + 1));
-            scene.restitution[a][b] = scene.restitution[b][a] = e.fixed_in("0", "1");
-        }
+        read_pair_table(t, "1", scene.restitution);
     }
     std::map<std::string, Material> materials;
     if (r.has("materials")) {

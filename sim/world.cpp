@@ -28,27 +28,23 @@ World::World(const SceneDesc& scene) : scene_(validated(scene)), kernel_(scene_)
 
 void World::step(std::span<const PlayerInput> inputs) {
     const std::uint64_t overflow_before = overflow_events();
-    if (rigid_.enabled()) {
+    const auto control = [this, inputs](std::vector<Vec3>&) {
+        if (!player_body_.empty()) apply_controller(inputs);
+    };
+    if (rigid_.enabled())
         rigid_.step(
             pos_, vel_, orient_, angvel_,
             [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
                 broadphase_.find_pairs(pos, rigid_.extent(), out);
             },
-            [this, inputs](std::vector<Vec3>&) {
-                if (!player_body_.empty()) apply_controller(inputs);
-            });
-        ++frame_;
-        overflow_count_ += overflow_events() - overflow_before;
-        return;
-    }
-    kernel_.step(
-        pos_, vel_,
-        [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
-            broadphase_.find_pairs(pos, kernel_.extent(), out);
-        },
-        [this, inputs](std::vector<Vec3>&) {
-            if (!player_body_.empty()) apply_controller(inputs);
-        });
+            control);
+    else
+        kernel_.step(
+            pos_, vel_,
+            [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+                broadphase_.find_pairs(pos, kernel_.extent(), out);
+            },
+            control);
     ++frame_;
     overflow_count_ += overflow_events() - overflow_before;
 }
