@@ -83,8 +83,8 @@ void BM_StepBallsPlusIdleFeatures(benchmark::State& state) {
     step_scene(state, s);
 }
 
-void BM_SavePaper(benchmark::State& state) {
-    sim::World w = warmed(harness::load_scene("paper"), 120);
+void save_scene(benchmark::State& state, const char* scene) {
+    sim::World w = warmed(harness::load_scene(scene), 120);
     std::vector<std::uint8_t> buf(sim::snapshot_size(w));
     for (auto _ : state) {
         sim::save(w, buf);
@@ -94,6 +94,11 @@ void BM_SavePaper(benchmark::State& state) {
     state.counters["bytes_per_dynamic_body"] =
         static_cast<double>(buf.size()) / static_cast<double>(w.dynamic_count());
 }
+void BM_SavePaper(benchmark::State& state) { save_scene(state, "paper"); }
+// paper_rigid: every body turns and rubs, capsule players (docs/physics.md).
+void BM_SavePaperRigid(benchmark::State& state) { save_scene(state, "paper_rigid"); }
+void BM_StepPaperRigid(benchmark::State& state) { step_scene(state, harness::load_scene("paper_rigid")); }
+void BM_Step10kRigid(benchmark::State& state) { step_scene(state, harness::load_scene("bodies_10k_rigid")); }
 
 void BM_LoadPaper(benchmark::State& state) {
     sim::World w = warmed(harness::load_scene("paper"), 120);
@@ -109,8 +114,8 @@ void BM_ChecksumPaper(benchmark::State& state) {
 
 // What a rollback of depth 8 costs the session: load the snapshot, then 8 steps each followed by
 // the save and checksum the ring buffer and desync detector need.
-void BM_Rollback8Paper(benchmark::State& state) {
-    sim::World w = warmed(harness::load_scene("paper"), 120);
+void rollback8(benchmark::State& state, const char* scene) {
+    sim::World w = warmed(harness::load_scene(scene), 120);
     const std::vector<sim::PlayerInput> in(2, sim::PlayerInput{60, -40, 0});
     std::vector<std::vector<std::uint8_t>> ring(9, std::vector<std::uint8_t>(sim::snapshot_size(w)));
     sim::save(w, ring[0]);
@@ -123,6 +128,8 @@ void BM_Rollback8Paper(benchmark::State& state) {
         }
     }
 }
+void BM_Rollback8Paper(benchmark::State& state) { rollback8(state, "paper"); }
+void BM_Rollback8PaperRigid(benchmark::State& state) { rollback8(state, "paper_rigid"); }
 
 }  // namespace
 
@@ -136,4 +143,8 @@ BENCHMARK(BM_Step10k)->Iterations(kSceneFrames)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_SavePaper);
 BENCHMARK(BM_LoadPaper);
 BENCHMARK(BM_ChecksumPaper);
+BENCHMARK(BM_StepPaperRigid)->Iterations(20 * kSceneFrames);
+BENCHMARK(BM_SavePaperRigid);
+BENCHMARK(BM_Rollback8PaperRigid)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step10kRigid)->Iterations(kSceneFrames)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

@@ -148,6 +148,7 @@ private:
 
 struct Material {
     std::optional<sim::Fixed> restitution;
+    std::optional<sim::Fixed> friction, static_friction;
 };
 
 // Fields shared by bodies and spawners: shape and size, mass, gravity scale, restitution.
@@ -181,14 +182,92 @@ void read_common(const Reader& r, const std::map<std::string, Material>& materia
         auto it = materials.find(name);
         if (it == materials.end()) r.at("material").fail("no material named \"" + name + "\"");
         d.restitution = it->second.restitution;
+        if (it->second.friction) d.friction = it->second.friction;
+        if (it->second.static_friction) d.static_friction = it->second.static_friction;
     }
     if (r.has("restitution")) d.restitution = r.at("restitution").fixed_in("0", "1");
+    if (r.has("friction")) d.friction = r.at("friction").fixed_in("0", "10");
+    if (r.has("static_friction")) d.static_friction = r.at("static_friction").fixed_in("0", "10");
+}
+
+// {"SHAPE-SHAPE": value, ...} into a symmetric table by shape, each value within [0, hi].
+void read_pair_table(const Reader& t, const char* hi, sim::Fixed (&table)[sim::kShapeCount][sim::kShapeCount]) {
+    for (auto it = t.raw().begin(); it != t.raw().end(); ++it) {
+        const std::string key = it.key();
+        const auto dash = key.find('-');
+        const Reader e = t.at(key);
+        auto parse_shape = [&](const std::string& s) {
+            if (s == "sphere") return 0;
+            if (s == "box") return 1;
+            if (s == "capsule") return 2;
+            e.fail("key must be SHAPE-SHAPE with shapes sphere, box, capsule");
+        };
+        if (dash == std::string::npos) e.fail("key must be SHAPE-SHAPE, e.g. \"sphere-box\"");
+        const int a = parse_shape(key.substr(0, dash)), b = parse_shape(key.substr(dash + 1));
+        table[a][b] = table[b][a] = e.fixed_in("0", hi);
+    }
+}
+
+// A rigid scene's bodies may turn and rub; every key of "rigid" defaults to sim::RigidDesc.
+void read_rigid(const Reader& r, sim::RigidDesc& rg) {
+    rg.enabled = true;
+    if (r.raw().is_boolean()) {
+        rg.enabled = r.raw().get<bool>();
+        return;
+    }
+    r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
+                     "restitution_threshold", "shock_propagation"});
+    auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
+        const Reader tr = r.at(key);
+        if (tr.raw().is_object()) {
+            read_pair_table(tr, "10", t);
+        } else {  // one number for every pair
+            const sim::Fixed v = tr.fixed_in("0", "10");
+            for (auto& row : t)
+                for (auto& x : row) x = v;
+        }
+    };
+    if (r.has("friction")) {
+        table("friction", rg.friction);
+        if (!r.has("static_friction")) table("friction", rg.static_friction);
+    }
+    if (r.has("static_friction")) table("static_friction", rg.static_friction);
+    if (r.has("linear_damping")) rg.linear_damping = r.at("linear_damping").fixed_in("0", "1000");
+    if (r.has("angular_damping")) rg.angular_damping = r.at("angular_damping").fixed_in("0", "1000");
+    if (r.has("baumgarte")) rg.baumgarte = r.at("baumgarte").fixed_in("0", "1");
+    if (r.has("slop")) rg.slop = r.at("slop").fixed_in("0", "1");
+    if (r.has("restitution_threshold")) rg.restitution_threshold = r.at("restitution_threshold").fixed_in("0", "1000");
+    if (r.has("shock_propagation")) {
+        const Reader f = r.at("shock_propagation");
+        if (!f.raw().is_boolean()) f.fail("expected true or false");
+        rg.shock_propagation = f.raw().get<bool>();
+    }
+}
+
+// Rigid-only body keys: a clear message when the scene is not rigid.
+void read_rigid_body(const Reader& b, const sim::SceneDesc& scene, sim::BodyDesc& d) {
+    for (const char* key : {"orientation", "angular_velocity", "linear_damping", "angular_damping", "friction",
+                            "static_friction"})
+        if (b.has(key) && !scene.rigid.enabled) b.at(key).fail("needs a rigid scene (top-level \"rigid\")");
+    if (b.has("orientation")) {
+        const Reader o = b.at("orientation");
+        if (!o.raw().is_array() || o.raw().size() != 4) o.fail("expected a unit quaternion [w, x, y, z]");
+        d.orientation = {o.at(0).fixed_in("-1", "1"), o.at(1).fixed_in("-1", "1"), o.at(2).fixed_in("-1", "1"),
+                         o.at(3).fixed_in("-1", "1")};
+        if (d.orientation == sim::Quat{sim::Fixed::zero(), sim::Fixed::zero(), sim::Fixed::zero(), sim::Fixed::zero()})
+            o.fail("must not be zero");
+    }
+    if (b.has("angular_velocity")) d.angular_velocity = b.at("angular_velocity").vec3();
+    if (b.has("linear_damping")) d.linear_damping = b.at("linear_damping").fixed_in("0", "1000");
+    if (b.has("angular_damping")) d.angular_damping = b.at("angular_damping").fixed_in("0", "1000");
 }
 
 constexpr auto kBodyKeys = {"shape", "position", "velocity", "radius", "half_extents", "half_height",
-                            "mass", "gravity_scale", "restitution", "material", "player"};
+                            "mass", "gravity_scale", "restitution", "material", "player", "orientation",
+                            "angular_velocity", "friction", "static_friction", "linear_damping", "angular_damping"};
 constexpr auto kSpawnerKeys = {"count", "shape", "radius", "half_extents", "half_height", "mass",
-                               "gravity_scale", "restitution", "material", "region", "max_speed", "seed"};
+                               "gravity_scale", "restitution", "material", "region", "max_speed", "seed",
+                               "friction", "static_friction"};
 
 // Opt-in solver features (docs/stability.md); every key defaults to the seed paper's solver.
 void read_solver(const Reader& r, sim::SolverDesc& sv) {
@@ -222,7 +301,8 @@ void read_solver(const Reader& r, sim::SolverDesc& sv) {
 
 sim::SceneDesc read_scene(const Reader& r) {
     r.expect_object({"name", "description", "tick_rate", "iterations", "gravity", "contact_margin",
-                     "broadphase", "restitution", "materials", "controller", "solver", "room", "bodies", "spawners"});
+                     "broadphase", "restitution", "materials", "controller", "solver", "rigid", "room", "bodies",
+                     "spawners"});
     sim::SceneDesc scene;
     if (r.has("name")) scene.name = r.at("name").string();
     if (r.has("tick_rate")) scene.tick_rate = static_cast<int>(r.at("tick_rate").integer(1, 1000));
@@ -242,20 +322,7 @@ sim::SceneDesc read_scene(const Reader& r) {
     if (r.has("restitution")) {
         const Reader t = r.at("restitution");
         if (!t.raw().is_object()) t.fail("expected an object such as {\"sphere-box\": 0.8}");
-        for (auto it = t.raw().begin(); it != t.raw().end(); ++it) {
-            const std::string key = it.key();
-            const auto dash = key.find('-');
-            const Reader e = t.at(key);
-            auto parse_shape = [&](const std::string& s) {
-                if (s == "sphere") return 0;
-                if (s == "box") return 1;
-                if (s == "capsule") return 2;
-                e.fail("key must be SHAPE-SHAPE with shapes sphere, box, capsule");
-            };
-            if (dash == std::string::npos) e.fail("key must be SHAPE-SHAPE, e.g. \"sphere-box\"");
-            const int a = parse_shape(key.substr(0, dash)), b = parse_shape(key.substr(dash + 1));
-            scene.restitution[a][b] = scene.restitution[b][a] = e.fixed_in("0", "1");
-        }
+        read_pair_table(t, "1", scene.restitution);
     }
     std::map<std::string, Material> materials;
     if (r.has("materials")) {
@@ -263,9 +330,11 @@ sim::SceneDesc read_scene(const Reader& r) {
         if (!m.raw().is_object()) m.fail("expected an object of named materials");
         for (auto it = m.raw().begin(); it != m.raw().end(); ++it) {
             const Reader one = m.at(it.key());
-            one.expect_object({"restitution"});
+            one.expect_object({"restitution", "friction", "static_friction"});
             Material mat;
             if (one.has("restitution")) mat.restitution = one.at("restitution").fixed_in("0", "1");
+            if (one.has("friction")) mat.friction = one.at("friction").fixed_in("0", "10");
+            if (one.has("static_friction")) mat.static_friction = one.at("static_friction").fixed_in("0", "10");
             materials[it.key()] = mat;
         }
     }
@@ -278,6 +347,7 @@ sim::SceneDesc read_scene(const Reader& r) {
             scene.controller.vertical_acceleration = c.at("vertical_acceleration").fixed_in("0", "100000");
     }
     if (r.has("solver")) read_solver(r.at("solver"), scene.solver);
+    if (r.has("rigid")) read_rigid(r.at("rigid"), scene.rigid);
     if (r.has("room")) {
         const Reader room = r.at("room");
         room.expect_object({"min", "max", "wall"});
@@ -305,6 +375,7 @@ sim::SceneDesc read_scene(const Reader& r) {
             b.expect_object(kBodyKeys);
             sim::BodyDesc d;
             read_common(b, materials, d);
+            read_rigid_body(b, scene, d);
             d.position = b.at("position").vec3();
             if (b.has("velocity")) d.velocity = b.at("velocity").vec3();
             if (b.has("player")) {
@@ -321,6 +392,8 @@ sim::SceneDesc read_scene(const Reader& r) {
             s.expect_object(kSpawnerKeys);
             sim::SpawnerDesc d;
             read_common(s, materials, d);
+            for (const char* key : {"friction", "static_friction"})
+                if (s.has(key) && !scene.rigid.enabled) s.at(key).fail("needs a rigid scene (top-level \"rigid\")");
             d.count = static_cast<int>(s.at("count").integer(0, 1000000));
             check_total(s.at("count"), static_cast<std::size_t>(d.count));
             const Reader region = s.at("region");

@@ -46,6 +46,8 @@ std::uint64_t WorldSimulation::checksum(std::span<const std::uint8_t> state) con
     return XXH3_64bits(state.data(), state.size());
 }
 
+int WorldSimulation::field_count() const { return sim::body_field_count(world_); }
+
 std::uint32_t WorldSimulation::body_count() const { return static_cast<std::uint32_t>(world_.dynamic_count()); }
 
 std::uint32_t WorldSimulation::body_id(std::uint32_t index) const { return world_.dynamic_ids()[index]; }
@@ -53,12 +55,13 @@ std::uint32_t WorldSimulation::body_id(std::uint32_t index) const { return world
 // Same value as sim::body_hash(world, id): XXH3-64 of the body's 48 snapshot bytes seeded with
 // its id.
 std::uint64_t WorldSimulation::body_hash(std::span<const std::uint8_t> state, std::uint32_t index) const {
-    const std::size_t at = sim::kSnapshotHeaderBytes + std::size_t{index} * sim::kSnapshotBodyBytes;
-    return XXH3_64bits_withSeed(state.data() + at, sim::kSnapshotBodyBytes, body_id(index));
+    const std::size_t body = sim::snapshot_body_bytes(world_);
+    const std::size_t at = sim::kSnapshotHeaderBytes + std::size_t{index} * body;
+    return XXH3_64bits_withSeed(state.data() + at, body, body_id(index));
 }
 
 const char* WorldSimulation::field_name(int field) const {
-    return field >= 0 && field < 6 ? sim::kBodyFieldNames[field] : "?";
+    return field >= 0 && field < field_count() ? sim::kBodyFieldNames[field] : "?";
 }
 
 std::int64_t WorldSimulation::field_value(std::span<const std::uint8_t> state, std::uint32_t index, int field) const {
@@ -76,7 +79,7 @@ std::string WorldSimulation::describe_state(std::span<const std::uint8_t> state)
                   body_count());
     out += buf;
     out += "# body";
-    for (int f = 0; f < 6; ++f) {
+    for (int f = 0; f < field_count(); ++f) {
         out += ' ';
         out += sim::kBodyFieldNames[f];
     }
@@ -84,7 +87,7 @@ std::string WorldSimulation::describe_state(std::span<const std::uint8_t> state)
     for (std::uint32_t i = 0; i < body_count(); ++i) {
         std::snprintf(buf, sizeof buf, "%u", body_id(i));
         out += buf;
-        for (int f = 0; f < 6; ++f) {
+        for (int f = 0; f < field_count(); ++f) {
             const std::int64_t raw = field_value(state, i, f);
             std::snprintf(buf, sizeof buf, " %" PRId64 "(%s)", raw, sim::Fixed::from_raw(raw).to_string().c_str());
             out += buf;
@@ -96,7 +99,7 @@ std::string WorldSimulation::describe_state(std::span<const std::uint8_t> state)
 
 bool WorldSimulation::flip_bit(std::uint32_t body_id, int field, int bit) {
     if (body_id >= world_.body_count() || world_.is_static(body_id)) return false;
-    if (field < 0 || field > 5 || bit < 0 || bit > 63) return false;
+    if (field < 0 || field >= field_count() || bit < 0 || bit > 63) return false;
     world_.flip_bit(body_id, field, bit);
     return true;
 }

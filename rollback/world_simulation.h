@@ -3,7 +3,8 @@
 // Inputs on the wire and in replays are sim::PlayerInput as 3 bytes per player: forward, right,
 // up, each an int8 (two's complement). Bodies are the World's *dynamic* bodies in ascending id
 // order (what a snapshot stores); body_id() gives the sim::BodyId a person sees in the scene.
-// Fields are sim::kBodyFieldNames: position.x/y/z, velocity.x/y/z as raw Q32.32.
+// Fields are sim::kBodyFieldNames: position.x/y/z, velocity.x/y/z as raw Q32.32, and in a rigid
+// scene also orientation.w/x/y/z and angular_velocity.x/y/z.
 //
 // The adapter owns its World so that one object is stepped, saved and read by the harness (for
 // positions) without a second copy drifting apart.
@@ -42,7 +43,7 @@ public:
     std::uint32_t body_count() const override;
     std::uint32_t body_id(std::uint32_t index) const override;
     std::uint64_t body_hash(std::span<const std::uint8_t> state, std::uint32_t index) const override;
-    int field_count() const override { return 6; }
+    int field_count() const override;
     const char* field_name(int field) const override;
     std::int64_t field_value(std::span<const std::uint8_t> state, std::uint32_t index, int field) const override;
     std::string describe_state(std::span<const std::uint8_t> state) const override;

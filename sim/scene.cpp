@@ -25,6 +25,12 @@ bool SolverDesc::is_default() const {
            continuous == d.continuous;
 }
 
+RigidDesc::RigidDesc() {
+    // 0.5 for every pair: a middle value (wood on wood is 0.3..0.5, rubber on concrete ~0.8).
+    for (int a = 0; a < kShapeCount; ++a)
+        for (int b = 0; b < kShapeCount; ++b) friction[a][b] = static_friction[a][b] = Fixed::ratio(1, 2);
+}
+
 SceneDesc::SceneDesc() {
     // The seed paper's custom engine: box-box 0 (inelastic), sphere-sphere 1 (elastic),
     // box-sphere 0.8. Capsules (player bodies in the Quantum build) behave like boxes.
@@ -103,6 +109,8 @@ void expand_spawner(SceneDesc& scene, const SpawnerDesc& s) {
         b.mass = s.mass;
         b.gravity_scale = s.gravity_scale;
         b.restitution = s.restitution;
+        b.friction = s.friction;
+        b.static_friction = s.static_friction;
         // A full region: stop searching for free spots (see kSpawnCrowdedLimit).
         const int tries = crowded >= kSpawnCrowdedLimit ? 1 : kSpawnTries;
         for (int attempt = 0; attempt < tries; ++attempt) {
@@ -159,6 +167,19 @@ std::string validate(const SceneDesc& scene) {
         for (int b = 0; b < kShapeCount; ++b)
             if (scene.restitution[a][b].raw < 0 || scene.restitution[a][b] > Fixed::one())
                 return "restitution must be within [0, 1]";
+    const RigidDesc& rg = scene.rigid;
+    if (rg.enabled) {
+        if (!sv.is_default()) return "rigid scenes use their own solver: drop the \"solver\" settings";
+        for (int a = 0; a < kShapeCount; ++a)
+            for (int b = 0; b < kShapeCount; ++b)
+                if (rg.friction[a][b].raw < 0 || rg.static_friction[a][b].raw < 0 ||
+                    rg.friction[a][b] > Fixed::from_int(10) || rg.static_friction[a][b] > Fixed::from_int(10))
+                    return "rigid.friction and rigid.static_friction must be within [0, 10]";
+        if (rg.linear_damping.raw < 0 || rg.angular_damping.raw < 0) return "rigid damping must be >= 0";
+        if (rg.baumgarte.raw < 0 || rg.baumgarte > Fixed::one()) return "rigid.baumgarte must be within [0, 1]";
+        if (rg.slop.raw < 0) return "rigid.slop must be >= 0";
+        if (rg.restitution_threshold.raw < 0) return "rigid.restitution_threshold must be >= 0";
+    }
     std::set<int> slots;
     for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
         const BodyDesc& b = scene.bodies[i];
@@ -179,6 +200,18 @@ std::string validate(const SceneDesc& scene) {
         }
         if (b.restitution && (b.restitution->raw < 0 || *b.restitution > Fixed::one()))
             return at + "restitution must be within [0, 1]";
+        const Quat identity;
+        // (Friction and damping overrides are simply unused by the particle solver.)
+        if (!rg.enabled && (b.orientation != identity || b.angular_velocity != Vec3{}))
+            return at + "orientation and angular_velocity need a rigid scene (\"rigid\")";
+        for (const Fixed c : {b.orientation.w, b.orientation.x, b.orientation.y, b.orientation.z})
+            if (c < -Fixed::one() || c > Fixed::one()) return at + "orientation components must be within [-1, 1]";
+        if (b.orientation == Quat{Fixed::zero(), Fixed::zero(), Fixed::zero(), Fixed::zero()})
+            return at + "orientation must not be zero";
+        for (const auto& o : {b.friction, b.static_friction})
+            if (o && (o->raw < 0 || *o > Fixed::from_int(10))) return at + "friction must be within [0, 10]";
+        for (const auto& o : {b.linear_damping, b.angular_damping})
+            if (o && o->raw < 0) return at + "damping must be >= 0";
         if (b.player >= 0) {
             if (b.mass.raw == 0) return at + "a player body must be dynamic (mass > 0)";
             if (!slots.insert(b.player).second) return at + "player slot " + std::to_string(b.player) + " is used twice";

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/vec3.h"
+#include "sim/quat.h"
 
 namespace lockroll::sim {
 
@@ -28,6 +28,13 @@ struct BodyDesc {
     Fixed gravity_scale = Fixed::one();
     std::optional<Fixed> restitution;  // overrides the shape-pair table (pairs combine by max)
     int player = -1;        // player slot that steers this body, or -1
+    // Rigid scenes only (SceneDesc::rigid.enabled): orientation (normalised when the world is
+    // built), angular velocity (rad/s, world frame), and per-body overrides of the friction
+    // table and the world's damping.
+    Quat orientation;
+    Vec3 angular_velocity;
+    std::optional<Fixed> friction, static_friction;
+    std::optional<Fixed> linear_damping, angular_damping;
 };
 
 // "count bodies of this shape in region [min, max], random velocities up to max_speed per
@@ -41,6 +48,7 @@ struct SpawnerDesc {
     Fixed mass = Fixed::one();
     Fixed gravity_scale = Fixed::one();
     std::optional<Fixed> restitution;
+    std::optional<Fixed> friction, static_friction;  // rigid scenes only
     Vec3 region_min, region_max;
     Fixed max_speed;
     std::uint64_t seed = 1;
@@ -102,6 +110,30 @@ struct SolverDesc {
     bool is_default() const;
 };
 
+// Rigid-body dynamics (opt-in; docs/physics.md): orientation, angular velocity, contact points,
+// Coulomb friction and damping. A scene that leaves `enabled` false runs the particle solver
+// above exactly as before (same bits, same cost); one that sets it runs sim/rigid_solver.h.
+struct RigidDesc {
+    bool enabled = false;
+    // Kinetic friction coefficient by shape pair (symmetric), and the static one, which a contact
+    // must exceed before it starts to slide. A body's own `friction` overrides the table; when
+    // both bodies carry one, the pair uses their geometric mean (Box2D's rule).
+    Fixed friction[kShapeCount][kShapeCount];
+    Fixed static_friction[kShapeCount][kShapeCount];
+    // Fraction of velocity lost per second (v *= 1 / (1 + c dt) per step); bodies may override.
+    Fixed linear_damping, angular_damping;
+    // Positional error fed back per step (Baumgarte factor) beyond `slop` metres of overlap.
+    Fixed baumgarte = Fixed::from_raw(Fixed::kOne / 5);
+    Fixed slop = Fixed::from_raw(Fixed::kOne / 200);
+    // Approach speeds below this (m/s) are resolved without restitution (resting contacts).
+    Fixed restitution_threshold = Fixed::from_raw(Fixed::kOne / 2);
+    // After the iterations, one pass from the ground up in which each pressing contact moves
+    // only its upper body: tall stacks stop sinking whatever the iteration count.
+    bool shock_propagation = false;
+
+    RigidDesc();
+};
+
 // Auto picks sweep-and-prune for small scenes and a uniform grid for large ones.
 enum class BroadphaseKind : std::uint8_t { Auto, SweepAndPrune, Grid };
 
@@ -120,6 +152,7 @@ struct SceneDesc {
     BroadphaseKind broadphase = BroadphaseKind::Auto;
     ControllerDesc controller;
     SolverDesc solver;
+    RigidDesc rigid;
     std::vector<BodyDesc> bodies;
 
     SceneDesc();

@@ -20,6 +20,8 @@ public:
     }
     static std::vector<Vec3>& pos(World& w) { return w.pos_; }
     static std::vector<Vec3>& vel(World& w) { return w.vel_; }
+    static std::vector<Quat>& orient(World& w) { return w.orient_; }
+    static std::vector<Vec3>& angvel(World& w) { return w.angvel_; }
 };
 
 namespace {
@@ -52,6 +54,33 @@ void put_body(std::uint8_t* p, const Vec3& pos, const Vec3& vel) {
     for (int k = 0; k < 6; ++k) put_u64(p + 8 * k, static_cast<std::uint64_t>(f[k].raw));
 }
 
+void put_i32(std::uint8_t* p, std::int32_t v) { put_u32(p, static_cast<std::uint32_t>(v)); }
+
+// Orientation components sit on the 2^-30 grid (sim/quat.h): raw / 4 is exact and fits int32.
+void put_rigid(std::uint8_t* p, const Quat& q, const Vec3& w) {
+    const Fixed c[4] = {q.w, q.x, q.y, q.z};
+    for (int k = 0; k < 4; ++k) put_i32(p + 4 * k, static_cast<std::int32_t>(c[k].raw / 4));
+    const Fixed f[3] = {w.x, w.y, w.z};
+    for (int k = 0; k < 3; ++k) put_u64(p + 16 + 8 * k, static_cast<std::uint64_t>(f[k].raw));
+}
+
+void put_world_body(std::uint8_t* p, const World& w, BodyId id) {
+    put_body(p, w.position(id), w.velocity(id));
+    if (w.rigid()) put_rigid(p + kSnapshotBodyBytes, w.orientation(id), w.angular_velocity(id));
+}
+
+// Byte offset and width of a field within a body's bytes.
+std::size_t field_offset(int field) {
+    if (field < 6) return 8 * static_cast<std::size_t>(field);
+    if (field < 10) return kSnapshotBodyBytes + 4 * static_cast<std::size_t>(field - 6);
+    return kSnapshotBodyBytes + 16 + 8 * static_cast<std::size_t>(field - 10);
+}
+int field_at(std::size_t byte) {
+    for (int f = kRigidFields - 1; f > 0; --f)
+        if (byte >= field_offset(f)) return f;
+    return 0;
+}
+
 // Per-thread scratch so checksum() needs no allocation after warm-up and stays const.
 std::vector<std::uint8_t>& scratch(std::size_t size) {
     thread_local std::vector<std::uint8_t> buf;
@@ -60,7 +89,14 @@ std::vector<std::uint8_t>& scratch(std::size_t size) {
 }
 }  // namespace
 
-std::size_t snapshot_size(const World& w) { return kSnapshotHeaderBytes + kSnapshotBodyBytes * w.dynamic_count(); }
+std::size_t snapshot_body_bytes(const World& w) { return w.rigid() ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes; }
+int body_field_count(const World& w) { return w.rigid() ? kRigidFields : kParticleFields; }
+std::size_t snapshot_body_bytes(std::span<const std::uint8_t> s) {
+    return s.size() >= kSnapshotHeaderBytes && get_u32(s.data() + 12) == kLayoutRigid ? kSnapshotRigidBodyBytes
+                                                                                         : kSnapshotBodyBytes;
+}
+
+std::size_t snapshot_size(const World& w) { return kSnapshotHeaderBytes + snapshot_body_bytes(w) * w.dynamic_count(); }
 
 void save(const World& w, std::span<std::uint8_t> out) {
     if (out.size() < snapshot_size(w)) throw std::length_error("snapshot buffer too small");
@@ -68,12 +104,13 @@ void save(const World& w, std::span<std::uint8_t> out) {
     put_u32(p, kSnapshotMagic);
     put_u32(p + 4, static_cast<std::uint32_t>(w.dynamic_count()));
     put_u32(p + 8, SnapshotAccess::frame(w));
-    put_u32(p + 12, 0);
+    put_u32(p + 12, w.rigid() ? kLayoutRigid : kLayoutParticle);
     put_u64(p + 16, SnapshotAccess::overflow(w));
     p += kSnapshotHeaderBytes;
+    const std::size_t body = snapshot_body_bytes(w);
     for (BodyId id : w.dynamic_ids()) {
-        put_body(p, w.position(id), w.velocity(id));
-        p += kSnapshotBodyBytes;
+        put_world_body(p, w, id);
+        p += body;
     }
 }
 
@@ -86,9 +123,12 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
     if (count != w.dynamic_count())
         return "snapshot holds " + std::to_string(count) + " dynamic bodies, the world has " +
                std::to_string(w.dynamic_count());
+    const std::uint32_t layout = get_u32(p + 12), want = w.rigid() ? kLayoutRigid : kLayoutParticle;
+    if (layout != want)
+        return "snapshot layout is " + std::to_string(layout) + ", the world needs " + std::to_string(want) +
+               (want == kLayoutRigid ? " (rigid)" : " (particle)");
     if (in.size() != snapshot_size(w))
         return "snapshot is " + std::to_string(in.size()) + " bytes, expected " + std::to_string(snapshot_size(w));
-    if (get_u32(p + 12) != 0) return "snapshot reserved word is not zero";
     SnapshotAccess::set(w, get_u32(p + 8), get_u64(p + 16));
     auto& pos = SnapshotAccess::pos(w);
     auto& vel = SnapshotAccess::vel(w);
@@ -98,7 +138,15 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
         for (int k = 0; k < 6; ++k) f[k] = Fixed::from_raw(static_cast<std::int64_t>(get_u64(p + 8 * k)));
         pos[id] = {f[0], f[1], f[2]};
         vel[id] = {f[3], f[4], f[5]};
-        p += kSnapshotBodyBytes;
+        if (w.rigid()) {
+            const std::uint8_t* r = p + kSnapshotBodyBytes;
+            auto c = [&](int k) { return Fixed::from_raw(std::int64_t{static_cast<std::int32_t>(get_u32(r + 4 * k))} * 4); };
+            SnapshotAccess::orient(w)[id] = {c(0), c(1), c(2), c(3)};
+            Fixed a[3];
+            for (int k = 0; k < 3; ++k) a[k] = Fixed::from_raw(static_cast<std::int64_t>(get_u64(r + 16 + 8 * k)));
+            SnapshotAccess::angvel(w)[id] = {a[0], a[1], a[2]};
+        }
+        p += snapshot_body_bytes(w);
     }
     return {};
 }
@@ -111,14 +159,19 @@ std::uint64_t checksum(const World& w) {
 }
 
 std::uint64_t body_hash(const World& w, BodyId id) {
-    std::uint8_t bytes[kSnapshotBodyBytes];
-    put_body(bytes, w.position(id), w.velocity(id));
-    return XXH3_64bits_withSeed(bytes, sizeof bytes, id);
+    std::uint8_t bytes[kSnapshotRigidBodyBytes];
+    put_world_body(bytes, w, id);
+    return XXH3_64bits_withSeed(bytes, snapshot_body_bytes(w), id);
 }
 
 std::int64_t snapshot_field(std::span<const std::uint8_t> s, std::size_t index, int field) {
-    const std::size_t at = kSnapshotHeaderBytes + index * kSnapshotBodyBytes + 8 * static_cast<std::size_t>(field);
-    if (field < 0 || field > 5 || at + 8 > s.size()) throw std::out_of_range("snapshot_field");
+    const std::size_t body = snapshot_body_bytes(s);
+    const int fields = body == kSnapshotRigidBodyBytes ? kRigidFields : kParticleFields;
+    if (field < 0 || field >= fields) throw std::out_of_range("snapshot_field");
+    const std::size_t at = kSnapshotHeaderBytes + index * body + field_offset(field);
+    const bool narrow = field >= 6 && field < 10;
+    if (at + (narrow ? 4 : 8) > s.size()) throw std::out_of_range("snapshot_field");
+    if (narrow) return std::int64_t{static_cast<std::int32_t>(get_u32(s.data() + at))} * 4;
     return static_cast<std::int64_t>(get_u64(s.data() + at));
 }
 
@@ -131,9 +184,9 @@ long first_difference(std::span<const std::uint8_t> a, std::span<const std::uint
         if (field) *field = -1;
         return 0;
     }
-    const std::size_t rel = i - kSnapshotHeaderBytes;
-    if (field) *field = static_cast<int>((rel % kSnapshotBodyBytes) / 8);
-    return static_cast<long>(rel / kSnapshotBodyBytes);
+    const std::size_t rel = i - kSnapshotHeaderBytes, body = snapshot_body_bytes(a);
+    if (field) *field = field_at(rel % body);
+    return static_cast<long>(rel / body);
 }
 
 }  // namespace lockroll::sim

@@ -2,23 +2,30 @@
 //
 // Contract
 //  - What is stored: the frame number, the overflow counter, and position and velocity of every
-//    dynamic body in ascending id order. Nothing else changes during a step, so nothing else is
+//    dynamic body in ascending id order; in a rigid scene (SceneDesc::rigid) also each body's
+//    orientation and angular velocity. Nothing else changes during a step, so nothing else is
 //    stored: static bodies, shapes, masses, materials and the scene are the World's immutable
 //    part and must match between saver and loader (same scene => same dynamic count).
 //  - Layout (canonical, identical on every platform; docs/snapshot-format.md):
-//      u32 magic "LRS1" | u32 dynamic_count | u32 frame | u32 reserved (0) | u64 overflow_count
+//      u32 magic "LRS1" | u32 dynamic_count | u32 frame | u32 layout | u64 overflow_count
 //      then per dynamic body: i64 pos.x, pos.y, pos.z, vel.x, vel.y, vel.z
-//    all little-endian, no padding: 24 + 48 * dynamic_count bytes.
+//      and, when layout is 1 (rigid): i32 orientation w, x, y, z (units of 2^-30: the grid
+//      sim/quat.h keeps them on), i64 angular_velocity.x, y, z
+//    all little-endian, no padding: 24 + 48 (layout 0) or 88 (layout 1) bytes * dynamic_count.
+//    Layout 0 is exactly the format before rigid bodies (the word was reserved, always 0), so
+//    particle scenes keep their bytes and checksums.
 //  - When: between steps, at any time; saving never changes the world.
 //  - Size: snapshot_size(world) bytes; the caller owns the buffer (a rollback ring buffer
 //    allocates once and reuses it).
+//  - Fields: 6 per body (position, velocity), 13 in a rigid scene (+ orientation w/x/y/z and
+//    angular_velocity x/y/z); snapshot_field() gives orientation as its Q32.32 raw value.
 //  - Loading validates size, magic and body count before touching the world: on any failure
 //    the world is unchanged and the error says what was wrong. Any int64 is a valid Fixed, so
 //    there is nothing else to reject.
 //  - Guarantee: save at frame f, load, step N frames == step N frames without saving, bit for
 //    bit (the broadphase keeps only a sort-order cache whose result never depends on history).
 //  - checksum(): XXH3-64 of exactly the snapshot bytes. body_hash(): XXH3-64 of one body's 48
-//    bytes, seeded with its id, for narrowing a desync to one body.
+//    (88) bytes, seeded with its id, for narrowing a desync to one body.
 #pragma once
 
 #include <cstdint>
@@ -32,10 +39,22 @@ namespace lockroll::sim {
 inline constexpr std::uint32_t kSnapshotMagic = 0x3153524Cu;  // "LRS1" little-endian
 inline constexpr std::size_t kSnapshotHeaderBytes = 24;
 inline constexpr std::size_t kSnapshotBodyBytes = 48;
+inline constexpr std::size_t kSnapshotRigidBodyBytes = 88;
+inline constexpr std::uint32_t kLayoutParticle = 0, kLayoutRigid = 1;
 
-// The six state words of a body, in snapshot order; names for desync reports.
-inline constexpr const char* kBodyFieldNames[6] = {"position.x", "position.y", "position.z",
-                                                   "velocity.x", "velocity.y", "velocity.z"};
+// The state words of a body, in snapshot order; names for desync reports. Particle scenes have
+// the first kParticleFields, rigid scenes all kRigidFields.
+inline constexpr int kParticleFields = 6, kRigidFields = 13;
+inline constexpr const char* kBodyFieldNames[kRigidFields] = {
+    "position.x",    "position.y",    "position.z",    "velocity.x",         "velocity.y",
+    "velocity.z",    "orientation.w", "orientation.x", "orientation.y",      "orientation.z",
+    "angular_velocity.x", "angular_velocity.y", "angular_velocity.z"};
+
+// Bytes and fields per body in this world's snapshots.
+std::size_t snapshot_body_bytes(const World& world);
+int body_field_count(const World& world);
+// Bytes per body of a snapshot, from its header's layout word (48 when too short to say).
+std::size_t snapshot_body_bytes(std::span<const std::uint8_t> snapshot);
 
 std::size_t snapshot_size(const World& world);
 
@@ -49,7 +68,8 @@ std::string load(World& world, std::span<const std::uint8_t> in);
 std::uint64_t checksum(const World& world);
 std::uint64_t body_hash(const World& world, BodyId id);
 
-// Reads body `index` (position in dynamic-id order) field `field` (0..5) out of a snapshot
+// Reads body `index` (position in dynamic-id order) field `field` (0..5, or 0..12 in a rigid
+// snapshot) out of a snapshot
 // buffer; used to name the first differing field between two snapshots.
 std::int64_t snapshot_field(std::span<const std::uint8_t> snapshot, std::size_t index, int field);
 

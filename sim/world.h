@@ -14,6 +14,7 @@
 #include "sim/broadphase.h"
 #include "sim/controller.h"
 #include "sim/input.h"
+#include "sim/rigid_solver.h"
 #include "sim/scene.h"
 #include "sim/step_kernel.h"
 
@@ -41,6 +42,12 @@ public:
     Shape shape(BodyId id) const { return kernel_.shape(id); }
     const Vec3& position(BodyId id) const { return pos_[id]; }
     const Vec3& velocity(BodyId id) const { return vel_[id]; }
+    // Rigid scenes (scene().rigid.enabled) only: orientation and angular velocity (rad/s, world
+    // frame) of every body; the particle solver has neither (empty).
+    bool rigid() const { return rigid_.enabled(); }
+    const Quat& orientation(BodyId id) const { return orient_[id]; }
+    const Vec3& angular_velocity(BodyId id) const { return angvel_[id]; }
+    const RigidSolver& rigid_solver() const { return rigid_; }
     Fixed inv_mass(BodyId id) const { return kernel_.inv_mass(id); }
     Fixed dt() const { return kernel_.dt(); }
     const std::vector<BodyId>& dynamic_ids() const { return kernel_.dynamic_ids(); }
@@ -49,7 +56,9 @@ public:
     const SceneDesc& scene() const { return scene_; }
 
     // Fault injection for desync tests: flips one bit of one state word of a dynamic body.
-    // field: 0..2 position x/y/z, 3..5 velocity x/y/z.
+    // field: 0..2 position x/y/z, 3..5 velocity x/y/z; rigid scenes also 6..9 orientation
+    // w/x/y/z (a bit of the stored 2^-30 grid value, so the world stays on the grid) and 10..12
+    // angular velocity x/y/z.
     void flip_bit(BodyId id, int field, int bit);
 
 private:
@@ -64,10 +73,13 @@ private:
     std::uint32_t frame_ = 0;
     std::uint64_t overflow_count_ = 0;
     std::vector<Vec3> pos_, vel_;
+    std::vector<Quat> orient_;  // rigid scenes only
+    std::vector<Vec3> angvel_;  // rigid scenes only
 
     std::vector<BodyId> player_body_;  // by player slot
     ControllerFactors controller_;     // used only when the scene has players
     Broadphase broadphase_;
+    RigidSolver rigid_;  // configured only for rigid scenes
 };
 
 }  // namespace lockroll::sim

@@ -53,6 +53,11 @@ const std::vector<GoldenScene> kScenes = {
     {"stability/resting_pile", {60, 240}},    // substeps
     {"stability/overlap_spawn", {60, 240}},   // push-out speed cap
     {"stability/tunneling", {60, 240}},       // swept tests against static bodies
+    // Rigid bodies (scene "rigid"): orientation, friction, contact points, box-box SAT.
+    {"paper_rigid", {0, 1, 60, 240}},
+    {"stability/rigid_spin", {60, 240}},      // free precession, Dzhanibekov flip
+    {"stability/rigid_tip", {60, 240}},       // edge contacts, friction, tipping
+    {"stability/rigid_pyramid_10", {60}},     // box-box manifolds, shock propagation
 };
 
 void run(const GoldenScene& g, const std::string& scene_dir, std::ostream& out) {

@@ -143,5 +143,39 @@ TEST(SceneLoader, SpawnerIsDeterministic) {
     EXPECT_NE(a.bodies[0].position, a.bodies[1].position);
 }
 
+TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
+    const sim::SceneDesc s = parse_scene(R"({"rigid": {"friction": {"sphere-box": 0.3}, "static_friction": 0.6,
+        "angular_damping": 0.1, "shock_propagation": true},
+        "bodies": [{"shape": "box", "position": [0, 0, 0], "half_extents": [1, 1, 1], "orientation": [0.5, 0.5, 0.5, 0.5]},
+                   {"shape": "sphere", "position": [0, 3, 0], "radius": 0.5, "mass": 1, "angular_velocity": [0, 2, 0],
+                    "friction": 0.9, "linear_damping": 0.5}]})",
+                                         "t.json");
+    EXPECT_TRUE(s.rigid.enabled);
+    EXPECT_TRUE(s.rigid.shock_propagation);
+    EXPECT_EQ(s.rigid.friction[0][1], *sim::Fixed::parse("0.3"));
+    EXPECT_EQ(s.rigid.friction[1][0], *sim::Fixed::parse("0.3"));
+    EXPECT_EQ(s.rigid.friction[1][1], *sim::Fixed::parse("0.5"));  // the default for pairs not named
+    EXPECT_EQ(s.rigid.static_friction[2][2], *sim::Fixed::parse("0.6"));
+    EXPECT_EQ(s.bodies[0].orientation.x, *sim::Fixed::parse("0.5"));
+    EXPECT_EQ(s.bodies[1].angular_velocity.y, sim::Fixed::from_int(2));
+    EXPECT_EQ(*s.bodies[1].friction, *sim::Fixed::parse("0.9"));
+    EXPECT_EQ(*s.bodies[1].linear_damping, *sim::Fixed::parse("0.5"));
+    for (const char* name : {"paper_rigid", "bodies_10k_rigid"}) EXPECT_TRUE(load_scene(name).rigid.enabled) << name;
+}
+
+TEST(SceneLoader, RigidKeysOutsideARigidSceneAreErrors) {
+    EXPECT_EQ(error_of(R"({"bodies": [{"shape": "sphere", "position": [0, 0, 0], "radius": 1, "mass": 1,
+        "angular_velocity": [1, 0, 0]}]})"),
+              "test.json: /bodies/0/angular_velocity: needs a rigid scene (top-level \"rigid\")");
+    EXPECT_EQ(error_of(R"({"rigid": true, "bodies": [{"shape": "sphere", "position": [0, 0, 0], "radius": 1,
+        "orientation": [0, 0, 0, 0]}]})"),
+              "test.json: /bodies/0/orientation: must not be zero");
+    EXPECT_EQ(error_of(R"({"rigid": {"friction": {"sphere-cone": 1}}})"),
+              "test.json: /rigid/friction/sphere-cone: key must be SHAPE-SHAPE with shapes sphere, box, capsule");
+    EXPECT_EQ(error_of(R"({"rigid": {"friction": 11}})"), "test.json: /rigid/friction: must be within [0, 10], got 11");
+    EXPECT_EQ(error_of(R"({"rigid": true, "solver": {"substeps": 2}})"),
+              "test.json: /: rigid scenes use their own solver: drop the \"solver\" settings");
+}
+
 }  // namespace
 }  // namespace lockroll::harness

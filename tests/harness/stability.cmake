@@ -5,7 +5,8 @@ target_link_libraries(stability_test PRIVATE lockroll_harness)
 # Every case of `lockroll stability` is its own test, so a failure names the case. The default
 # run (scripts/test.sh: -LE soak) takes a few seconds; the 10,000-body case is labelled soak.
 foreach(case free_fall bounce head_on newton_cradle stacks mass_ratio overlap_spawn tunneling far_origin
-        tiny_huge q32_limits paper_sweep resting_pile)
+        tiny_huge q32_limits paper_sweep resting_pile rigid_roll rigid_backspin rigid_spin
+        rigid_ramp rigid_tip rigid_pyramid rigid_stack)
   add_test(NAME stability_${case} COMMAND lockroll stability --case ${case})
   set_tests_properties(stability_${case} PROPERTIES LABELS "unit;stability" TIMEOUT 120)
 endforeach()

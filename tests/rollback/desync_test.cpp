@@ -21,13 +21,15 @@ struct Case {
     std::uint32_t body;
     int field;
     int bit;
+    bool rigid = false;  // rigid scene: 13 fields per body, orientation and angular velocity too
 };
 
 class DesyncInjection : public ::testing::TestWithParam<Case> {};
 
 TEST_P(DesyncInjection, AlertFiresWithinOneIntervalAndNamesBodyAndField) {
     const Case c = GetParam();
-    const auto scene = make_scene(c.players, 30);
+    auto scene = make_scene(c.players, 30);
+    scene.rigid.enabled = c.rigid;
     SessionConfig cfg;
     cfg.players = c.players;
     cfg.input_delay = 2;
@@ -70,7 +72,9 @@ TEST_P(DesyncInjection, AlertFiresWithinOneIntervalAndNamesBodyAndField) {
             EXPECT_EQ(r.body_id, c.body) << r.summary;
             EXPECT_EQ(r.field, c.field) << r.summary;
             EXPECT_EQ(r.field_name, sim::kBodyFieldNames[c.field]);
-            EXPECT_EQ(static_cast<std::uint64_t>(r.local_value ^ r.remote_value), std::uint64_t{1} << c.bit);
+            // Orientation is stored in units of 2^-30 and reported as Q32.32 raw (x 4).
+            const int shift = c.field >= 6 && c.field < 10 ? 2 : 0;
+            EXPECT_EQ(static_cast<std::uint64_t>(r.local_value ^ r.remote_value), std::uint64_t{1} << (c.bit + shift));
             // Evidence: this client's state at that frame, renderable for a person to diff.
             ASSERT_EQ(r.local_state.size(), cl.sim.state_size());
             const std::string text = cl.sim.describe_state(r.local_state);
@@ -88,7 +92,9 @@ INSTANTIATE_TEST_SUITE_P(Faults, DesyncInjection,
                                            Case{0, 2, 10, 53, 15, 2, 28},   // K = 10: alert at 60, narrowed to 53
                                            Case{0, 3, 4, 41, 30, 5, 20},    // three players
                                            Case{100000, 2, 1, 70, 12, 1, 26},   // 10 % loss
-                                           Case{100000, 4, 5, 64, 25, 3, 22})); // 4 players, 10 % loss
+                                           Case{100000, 4, 5, 64, 25, 3, 22},   // 4 players, 10 % loss
+                                           Case{0, 2, 1, 45, 20, 11, 20, true},  // rigid: angular_velocity.y
+                                           Case{0, 2, 4, 57, 9, 7, 12, true}));  // rigid: orientation.x
 
 TEST(Desync, LossyRunsNeverRaiseFalseAlarms) {
     // Heavy misprediction (predicted frames differ all the time) but confirmed frames agree.

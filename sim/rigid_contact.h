@@ -1,0 +1,53 @@
+// Narrowphase for rotating bodies: contact manifolds with points, so impulses create torque.
+//
+// Contract
+//  - Colliders are given in world space: centre, rotation matrix (sim/quat.h rotation()) and
+//    shape size. A capsule's core segment lies along its local y axis; a box is oriented.
+//  - contact_points() fills a manifold of up to kMaxManifold points when the colliders are
+//    closer than `margin` (speculative contacts: a point may have a negative depth, a gap, so
+//    the solver can stop a body exactly at the surface within the step). Each point carries its
+//    own unit normal from A to B, its world position and its depth (> 0 overlapping).
+//  - Routines: round-round (closest points of two core segments, then spheres); round-box (a
+//    sphere against an oriented box, exact; a capsule as its two end spheres plus the core
+//    point nearest the box centre, enough for lying, standing and leaning capsules); box-box
+//    (separating-axis test over 15 axes; a face axis gives the incident face clipped to the
+//    reference face, up to 8 points, an edge axis one point between the two edges).
+//  - Deterministic: a fixed order of points, integer arithmetic only.
+#pragma once
+
+#include "sim/quat.h"
+#include "sim/scene.h"
+
+namespace lockroll::sim {
+
+inline constexpr int kMaxManifold = 8;
+
+struct ContactPoint {
+    Vec3 normal;  // unit, from A to B
+    Vec3 point;   // world position where the impulse acts
+    Fixed depth;  // > 0 overlap; <= 0 a gap within the margin
+};
+
+struct Manifold {
+    int count = 0;
+    ContactPoint points[kMaxManifold];
+};
+
+struct OrientedCollider {
+    Shape shape = Shape::Sphere;
+    Vec3 center;
+    const Mat3* rot = nullptr;  // body to world
+    Fixed radius;               // sphere, capsule
+    Fixed core_half;            // capsule
+    Vec3 half;                  // box
+};
+
+// Fills m (m.count = 0 when apart). A and B may be any shapes; the normal always points A to B.
+void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
+
+// Point against an oriented box: closest point, unit normal from the point toward the box
+// surface (out of the box through the nearest face when the point is inside), and the signed
+// distance (negative inside). Returns false when the point is farther than `reach`.
+bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& normal, Vec3& surface, Fixed& distance);
+
+}  // namespace lockroll::sim

@@ -1,0 +1,354 @@
+#include "sim/rigid_solver.h"
+
+#include <algorithm>
+
+#include "sim/inertia.h"
+
+namespace lockroll::sim {
+
+namespace {
+Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }
+
+Vec3 unit(const Vec3& v) {
+    const Fixed len = sqrt_wide(length_sq_wide(v));
+    return {v.x / len, v.y / len, v.z / len};
+}
+
+// A tangent basis of unit n, a fixed function of n.
+void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
+    const Fixed k = Fixed::from_raw(2479700525);  // 1/sqrt(3): one of |n.x|, |n.y|, |n.z| is at least this
+    t1 = abs(n.x) >= k ? unit({n.y, -n.x, Fixed::zero()}) : unit({Fixed::zero(), n.z, -n.y});
+    t2 = cross(n, t1);
+}
+
+Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
+
+Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * dt); }
+}  // namespace
+
+void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) {
+    enabled_ = scene.rigid.enabled;
+    if (!enabled_) return;
+    const RigidDesc& rg = scene.rigid;
+    shock_ = rg.shock_propagation;
+    iterations_ = scene.iterations;
+    dt_ = k.dt();
+    inv_dt_ = Fixed::from_int(scene.tick_rate);
+    baumgarte_rate_ = rg.baumgarte * inv_dt_;
+    slop_ = rg.slop;
+    threshold_ = rg.restitution_threshold;
+    margin_ = scene.contact_margin;
+    for (int a = 0; a < kShapeCount; ++a)
+        for (int b = 0; b < kShapeCount; ++b) {
+            kin_[a][b] = rg.friction[a][b];
+            stat_[a][b] = max(rg.static_friction[a][b], rg.friction[a][b]);
+            rest_[a][b] = scene.restitution[a][b];
+        }
+    const std::size_t n = scene.bodies.size();
+    shape_.resize(n);
+    radius_.resize(n);
+    core_half_.resize(n);
+    inv_mass_.resize(n);
+    half_.resize(n);
+    extent_.resize(n);
+    gravity_dv_.resize(n);
+    inertia_.resize(n);
+    inv_inertia_.resize(n);
+    isotropic_.resize(n);
+    restitution_.resize(n);
+    friction_.resize(n);
+    static_friction_.resize(n);
+    lin_damp_.assign(n, Fixed::one());
+    ang_damp_.assign(n, Fixed::one());
+    rot_.resize(n);
+    inv_i_world_.assign(n, Mat3{});
+    dynamic_ = k.dynamic_ids();
+    const Fixed neg = -Fixed::one();
+    for (std::size_t i = 0; i < n; ++i) {
+        const BodyDesc& b = scene.bodies[i];
+        const auto id = static_cast<BodyId>(i);
+        shape_[i] = b.shape;
+        radius_[i] = k.radius(id);
+        core_half_[i] = k.core_half(id);
+        half_[i] = k.half_extents(id);
+        inv_mass_[i] = k.inv_mass(id);
+        restitution_[i] = b.restitution ? *b.restitution : neg;
+        friction_[i] = b.friction ? *b.friction : neg;
+        static_friction_[i] = b.static_friction ? *b.static_friction : b.friction ? *b.friction : neg;
+        rot_[i] = rotation(normalised(b.orientation));
+        if (b.mass.raw == 0) {
+            // A static body never turns: its exact AABB, |R| h (+ radius for round shapes).
+            const Mat3& r = rot_[i];
+            const Vec3 h = b.shape == Shape::Box ? half_[i] : Vec3{Fixed::zero(), core_half_[i], Fixed::zero()};
+            Vec3 e;
+            for (int row = 0; row < 3; ++row) {
+                const Vec3& rr = r.row[row];
+                const Fixed v = abs(rr.x) * h.x + abs(rr.y) * h.y + abs(rr.z) * h.z + radius_[i];
+                (row == 0 ? e.x : row == 1 ? e.y : e.z) = v;
+            }
+            extent_[i] = e;
+            continue;
+        }
+        // A dynamic body may turn any way: its bounding sphere.
+        const Fixed bound = b.shape == Shape::Box ? sqrt_wide(length_sq_wide(half_[i])) : radius_[i] + core_half_[i];
+        extent_[i] = {bound, bound, bound};
+        gravity_dv_[i] = scene.gravity * (b.gravity_scale * dt_);
+        inertia_[i] = inertia(b.shape, b.radius, b.half_extents, b.half_height, b.mass);
+        inv_inertia_[i] = inverse_inertia(b);
+        isotropic_[i] = inv_inertia_[i].x == inv_inertia_[i].y && inv_inertia_[i].y == inv_inertia_[i].z;
+        const Fixed lc = b.linear_damping ? *b.linear_damping : rg.linear_damping;
+        const Fixed ac = b.angular_damping ? *b.angular_damping : rg.angular_damping;
+        if (lc.raw > 0) lin_damp_[i] = damping_factor(lc, dt_);
+        if (ac.raw > 0) ang_damp_[i] = damping_factor(ac, dt_);
+        damped_ = damped_ || lc.raw > 0 || ac.raw > 0;
+    }
+}
+
+void RigidSolver::initial_state(const SceneDesc& scene, std::vector<Quat>& orient, std::vector<Vec3>& angvel) const {
+    const std::size_t n = scene.bodies.size();
+    orient.resize(n);
+    angvel.assign(n, Vec3{});
+    for (std::size_t i = 0; i < n; ++i) orient[i] = normalised(scene.bodies[i].orientation);
+    for (BodyId id : dynamic_) angvel[id] = scene.bodies[id].angular_velocity;
+}
+
+void RigidSolver::damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const {
+    for (BodyId id : dynamic_) {
+        if (lin_damp_[id] != Fixed::one()) vel[id] = vel[id] * lin_damp_[id];
+        if (ang_damp_[id] != Fixed::one()) angvel[id] = angvel[id] * ang_damp_[id];
+    }
+}
+
+void RigidSolver::update_inertia(const std::vector<Quat>& orient) {
+    for (BodyId id : dynamic_) {
+        rot_[id] = rotation(orient[id]);
+        if (isotropic_[id]) {
+            const Fixed s = inv_inertia_[id].x, z = Fixed::zero();
+            inv_i_world_[id] = {{{s, z, z}, {z, s, z}, {z, z, s}}};
+        } else {
+            inv_i_world_[id] = rotate_diagonal(rot_[id], inv_inertia_[id]);
+        }
+    }
+}
+
+OrientedCollider RigidSolver::collider(BodyId id, const std::vector<Vec3>& pos) const {
+    return {shape_[id], pos[id], &rot_[id], radius_[id], core_half_[id], half_[id]};
+}
+
+Fixed RigidSolver::pair_restitution(BodyId a, BodyId b) const {
+    const Fixed ea = restitution_[a], eb = restitution_[b];
+    if (ea.raw >= 0 || eb.raw >= 0) return max(ea, eb);
+    return rest_[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
+}
+
+void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const {
+    const auto combine = [](Fixed x, Fixed y, Fixed table) {
+        if (x.raw >= 0 && y.raw >= 0) return sqrt(x * y);
+        if (x.raw >= 0) return x;
+        if (y.raw >= 0) return y;
+        return table;
+    };
+    const int sa = static_cast<int>(shape_[a]), sb = static_cast<int>(shape_[b]);
+    mu_k = combine(friction_[a], friction_[b], kin_[sa][sb]);
+    mu_s = max(mu_k, combine(static_friction_[a], static_friction_[b], stat_[sa][sb]));
+}
+
+Fixed RigidSolver::effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const {
+    const Vec3 ca = cross(ra, dir), cb = cross(rb, dir);
+    const Fixed k = inv_mass_[a] + inv_mass_[b] + dot(ca, inv_i_world_[a] * ca) + dot(cb, inv_i_world_[b] * cb);
+    return k.raw > 0 ? reciprocal(k) : Fixed::zero();
+}
+
+Vec3 RigidSolver::relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const {
+    return (vel[p.b] + cross(angvel[p.b], p.rb)) - (vel[p.a] + cross(angvel[p.a], p.ra));
+}
+
+void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
+                        BodyId only) const {
+    // Static bodies have zero inverse mass and inertia: skipping them changes no bits.
+    if (only != kEveryBody) {
+        if (only == p.a) {
+            vel[p.a] -= j * inv_mass_[p.a];
+            angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
+        } else {
+            vel[p.b] += j * inv_mass_[p.b];
+            angvel[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
+        }
+        return;
+    }
+    if (inv_mass_[p.a].raw != 0) {
+        vel[p.a] -= j * inv_mass_[p.a];
+        angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
+    }
+    if (inv_mass_[p.b].raw != 0) {
+        vel[p.b] += j * inv_mass_[p.b];
+        angvel[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
+    }
+}
+
+void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
+                                 const std::vector<Vec3>& angvel) {
+    points_.clear();
+    Manifold m;
+    for (const BodyPair& pair : pairs_) {
+        // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
+        BodyId a = pair.a, b = pair.b;
+        if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
+        contact_points(collider(a, pos), collider(b, pos), margin_, m);
+        if (m.count == 0) continue;
+        const Fixed e = pair_restitution(a, b);
+        Fixed mu_k, mu_s;
+        pair_friction(a, b, mu_k, mu_s);
+        for (int i = 0; i < m.count; ++i) {
+            const ContactPoint& c = m.points[i];
+            Point p;
+            p.a = a;
+            p.b = b;
+            p.n = c.normal;
+            tangents(p.n, p.t1, p.t2);
+            p.ra = c.point - pos[a];
+            p.rb = c.point - pos[b];
+            p.mass_n = effective_mass(a, b, p.ra, p.rb, p.n);
+            p.mass_t1 = effective_mass(a, b, p.ra, p.rb, p.t1);
+            p.mass_t2 = effective_mass(a, b, p.ra, p.rb, p.t2);
+            p.mu_k = mu_k;
+            p.mu_s = mu_s;
+            p.pn = p.pt1 = p.pt2 = Fixed::zero();
+            // Target normal speed (> 0 separates): close a gap within this step and no faster;
+            // push out overlap beyond slop at baumgarte per step; bounce fast approaches.
+            Fixed target = c.depth.raw <= 0 ? c.depth * inv_dt_ : max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
+            const Fixed vn = dot(relative_velocity(p, vel, angvel), p.n);
+            if (e.raw > 0 && -vn > threshold_) {
+                // Only when the approach closes the gap within this step.
+                if (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()) target = max(target, -(e * vn));
+            }
+            p.target = target;
+            points_.push_back(p);
+        }
+    }
+}
+
+void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock) {
+    // Effective masses as if only `only` moved (shock pass), else the pair's.
+    Fixed mn = p.mass_n, m1 = p.mass_t1, m2 = p.mass_t2;
+    if (only != kEveryBody) {
+        const BodyId still = only == p.a ? p.b : p.a;
+        const Vec3& r = only == p.a ? p.ra : p.rb;
+        const Vec3& rs = only == p.a ? p.rb : p.ra;
+        (void)still;
+        (void)rs;
+        const auto single = [&](const Vec3& dir) {
+            const Vec3 c = cross(r, dir);
+            const Fixed k = inv_mass_[only] + dot(c, inv_i_world_[only] * c);
+            return k.raw > 0 ? reciprocal(k) : Fixed::zero();
+        };
+        mn = single(p.n);
+        m1 = single(p.t1);
+        m2 = single(p.t2);
+    }
+    // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
+    // adds impulse (it never takes back what the iterations gave).
+    Vec3 dv = relative_velocity(p, vel, angvel);
+    const Fixed vn = dot(dv, p.n);
+    const Fixed floor = shock ? p.pn : Fixed::zero();
+    const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
+    const Fixed dpn = pn - p.pn;
+    p.pn = pn;
+    if (dpn.raw != 0) {
+        apply(p, p.n * dpn, vel, angvel, only);
+        dv = relative_velocity(p, vel, angvel);
+    }
+    if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
+    // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
+    Fixed t1 = p.pt1 - m1 * dot(dv, p.t1);
+    Fixed t2 = p.pt2 - m2 * dot(dv, p.t2);
+    const Fixed limit_s = p.mu_s * p.pn;
+    const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
+    if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
+        const Fixed mag = sqrt_wide(mag_sq);
+        const Fixed scale = p.mu_k * p.pn / mag;
+        t1 = t1 * scale;
+        t2 = t2 * scale;
+    }
+    const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
+    p.pt1 = t1;
+    p.pt2 = t2;
+    if (d1.raw != 0 || d2.raw != 0) apply(p, p.t1 * d1 + p.t2 * d2, vel, angvel, only);
+}
+
+void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
+    for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
+}
+
+void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
+    // Levels: distance in the contact graph (touching points) from a static body.
+    constexpr std::uint32_t kUnreached = ~std::uint32_t{0};
+    const std::size_t n = shape_.size();
+    adj_start_.assign(n + 1, 0);
+    order_.clear();
+    for (std::uint32_t k = 0; k < points_.size(); ++k) {
+        if (points_[k].pn.raw == 0) continue;  // not pressing: no support to propagate
+        order_.push_back(k);
+        ++adj_start_[points_[k].a + 1];
+        ++adj_start_[points_[k].b + 1];
+    }
+    for (std::size_t i = 1; i <= n; ++i) adj_start_[i] += adj_start_[i - 1];
+    adj_.resize(adj_start_[n]);
+    cursor_.assign(adj_start_.begin(), adj_start_.end() - 1);
+    for (std::uint32_t k : order_) {
+        adj_[cursor_[points_[k].a]++] = points_[k].b;
+        adj_[cursor_[points_[k].b]++] = points_[k].a;
+    }
+    level_.assign(n, kUnreached);
+    queue_.clear();
+    for (std::size_t id = 0; id < n; ++id)
+        if (inv_mass_[id].raw == 0) {
+            level_[id] = 0;
+            queue_.push_back(static_cast<BodyId>(id));
+        }
+    for (std::size_t q = 0; q < queue_.size(); ++q) {
+        const BodyId u = queue_[q];
+        for (std::uint32_t j = adj_start_[u]; j < adj_start_[u + 1]; ++j) {
+            const BodyId v = adj_[j];
+            if (level_[v] != kUnreached) continue;
+            level_[v] = level_[u] + 1;
+            queue_.push_back(v);
+        }
+    }
+    const auto low = [&](std::uint32_t k) { return std::min(level_[points_[k].a], level_[points_[k].b]); };
+    std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t x, std::uint32_t y) { return low(x) < low(y); });
+    for (std::uint32_t k : order_) {
+        Point& p = points_[k];
+        const std::uint32_t la = level_[p.a], lb = level_[p.b];
+        if (la == lb) continue;  // same level (or both unreached): no up and down
+        solve_point(p, vel, angvel, la < lb ? p.b : p.a, true);
+    }
+}
+
+Vec3 RigidSolver::omega_from(BodyId id, const Quat& q, const Vec3& l) const {
+    const Mat3 r = rotation(q);
+    return r * hadamard(inv_inertia_[id], transpose_times(r, l));
+}
+
+void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
+                            std::vector<Vec3>& angvel) const {
+    const Fixed half_dt = Fixed::from_raw(dt_.raw / 2);
+    for (BodyId id : dynamic_) {
+        pos[id] += vel[id] * dt_;
+        const Vec3 w = angvel[id];
+        if (w == Vec3{}) continue;
+        if (isotropic_[id]) {  // w is constant between impulses: the exponential map is exact
+            orient[id] = integrated(orient[id], w, dt_);
+            continue;
+        }
+        // Angular momentum, conserved by the free motion: L = R I R^T w.
+        const Mat3& r = rot_[id];
+        const Vec3 l = r * hadamard(inertia_[id], transpose_times(r, w));
+        const Quat half = integrated(orient[id], w, half_dt);
+        const Vec3 w_half = omega_from(id, half, l);
+        orient[id] = integrated(orient[id], w_half, dt_);
+        angvel[id] = omega_from(id, orient[id], l);
+    }
+}
+
+}  // namespace lockroll::sim

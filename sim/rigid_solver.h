@@ -1,0 +1,123 @@
+// The rigid-body step, for scenes that opt in (SceneDesc::rigid.enabled; docs/physics.md).
+//
+// Order of operations per frame (dt = 1 / tick_rate):
+//  1. velocities: v += g dt; the frame's player input; damping v *= 1/(1 + c dt), w likewise.
+//  2. world-space inverse inertia R diag(I^-1) R^T of every dynamic body, once.
+//  3. candidate pairs (the world's broadphase, each body's AABB its bounding sphere's);
+//     contact manifolds with points (sim/rigid_contact.h), speculative within contact_margin.
+//  4. per contact point: lever arms, effective masses along the normal and two tangents, the
+//     target normal speed (Baumgarte feedback beyond slop, the gap / dt of a speculative point,
+//     restitution from the approach speed before solving when above the threshold).
+//  5. `iterations` passes of sequential impulses over the points in a fixed order: normal
+//     impulse (accumulated, >= 0), then friction (accumulated, on the tangent plane): while the
+//     friction needed stays within mu_s times the normal impulse the contact sticks; beyond it,
+//     the friction impulse is mu_k times the normal impulse against the slip (the cone).
+//  5b. (rigid.shock_propagation) one more pass from the ground up, in which each contact moves only
+//     its upper body (the lower one counts as immovable): no contact of a stack is left
+//     approaching, whatever the iteration count (Guendelman, Bridson and Fedkiw 2003).
+//  6. positions x += v dt; orientations by the exponential map. A body whose inertia is not
+//     isotropic keeps its angular momentum L = I w exact: the rotation uses w at the half step
+//     (from L and the half-turned orientation), and w is recomputed from L after the turn, so
+//     free bodies precess (and flip about their intermediate axis) as Euler's equations say.
+//
+// State lives in the World (position, velocity, orientation, angular velocity); this class
+// holds only per-body constants and per-step scratch, so a step depends on nothing else and
+// snapshots stay exactly the state. Never allocates after the first steps.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "sim/broadphase.h"
+#include "sim/rigid_contact.h"
+#include "sim/step_kernel.h"
+
+namespace lockroll::sim {
+
+class RigidSolver {
+public:
+    // Only for a scene with rigid.enabled; kernel supplies the shapes, sizes and masses.
+    void configure(const SceneDesc& scene, const StepKernel<Fixed>& kernel);
+    bool enabled() const { return enabled_; }
+
+    // The scene's orientations (normalised) and angular velocities (zero for static bodies).
+    void initial_state(const SceneDesc& scene, std::vector<Quat>& orient, std::vector<Vec3>& angvel) const;
+
+    // AABB half sizes for the broadphase: a dynamic body's bounding sphere (it may turn), a
+    // static body's exact box.
+    const std::vector<Vec3>& extent() const { return extent_; }
+
+    template <class FindPairs, class Control>
+    void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
+              FindPairs&& find_pairs, Control&& control) {
+        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+        control(vel);
+        if (damped_) damp(vel, angvel);
+        update_inertia(orient);
+        find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+        build_contacts(pos, vel, angvel);
+        for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel);
+        if (shock_) shock_pass(vel, angvel);
+        integrate(pos, vel, orient, angvel);
+    }
+
+    // Contact points of the last step (diagnostics and tests).
+    std::size_t contact_count() const { return points_.size(); }
+
+private:
+    struct Point {
+        BodyId a, b;
+        Vec3 n, t1, t2, ra, rb;
+        Fixed mass_n, mass_t1, mass_t2;
+        Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)
+        Fixed mu_k, mu_s;
+        Fixed pn, pt1, pt2;  // accumulated impulses
+    };
+
+    void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
+    void update_inertia(const std::vector<Quat>& orient);
+    void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
+    void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    // Solves point p's normal and friction rows once; with `only` set, as if only that body moved.
+    void solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock);
+    void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
+                   std::vector<Vec3>& angvel) const;
+    void apply(const Point& p, const Vec3& impulse, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
+               BodyId only = kEveryBody) const;
+    static constexpr BodyId kEveryBody = ~BodyId{0};
+    Vec3 relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const;
+    Fixed effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const;
+    Fixed pair_restitution(BodyId a, BodyId b) const;
+    void pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const;
+    OrientedCollider collider(BodyId id, const std::vector<Vec3>& pos) const;
+    // w from angular momentum L at orientation q: R (I^-1 (R^T L)).
+    Vec3 omega_from(BodyId id, const Quat& q, const Vec3& l) const;
+
+    bool enabled_ = false, damped_ = false, shock_ = false;
+    int iterations_ = 4;
+    Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_;
+    Fixed kin_[kShapeCount][kShapeCount], stat_[kShapeCount][kShapeCount], rest_[kShapeCount][kShapeCount];
+
+    // Per body, by id.
+    std::vector<Shape> shape_;
+    std::vector<Fixed> radius_, core_half_, inv_mass_;
+    std::vector<Vec3> half_, extent_, gravity_dv_;
+    std::vector<Vec3> inertia_, inv_inertia_;  // body frame, diagonal
+    std::vector<std::uint8_t> isotropic_;
+    std::vector<Fixed> restitution_;           // override or negative
+    std::vector<Fixed> friction_, static_friction_;  // override or negative
+    std::vector<Fixed> lin_damp_, ang_damp_;   // 1 / (1 + c dt)
+    std::vector<BodyId> dynamic_;
+
+    // Per step.
+    std::vector<Mat3> rot_;          // body to world; static bodies set once
+    std::vector<Mat3> inv_i_world_;  // zero for static bodies
+    std::vector<BodyPair> pairs_;
+    std::vector<Point> points_;
+    // Shock propagation scratch.
+    std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
+    std::vector<BodyId> queue_;
+};
+
+}  // namespace lockroll::sim
