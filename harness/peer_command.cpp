@@ -68,6 +68,9 @@ struct PeerOptions {
     double connect_timeout = 30;
     double finish_timeout = 15;
     bool progress = false;
+    int clock_skew_ppm = 0;      // fault test: this process's clock runs fast (> 0) or slow
+    int corrupt_snapshot = 0;    // fault test: flip a bit in the first N snapshot chunks sent
+    int truncate_snapshot = 0;   // fault test: drop the last byte of the first N chunks sent
 };
 
 // Validated flags: everything checked before a socket is bound or a file written.
@@ -111,6 +114,12 @@ PeerPlan plan(const PeerOptions& o) {
     if (!(o.connect_timeout > 0 && o.connect_timeout <= 3600)) throw UsageError("--connect-timeout must be 0..3600 s");
     if (!(o.finish_timeout > 0 && o.finish_timeout <= 3600)) throw UsageError("--finish-timeout must be 0..3600 s");
     if (o.out.empty()) throw UsageError("--out is required");
+    if (o.clock_skew_ppm < -net::Clock::kMaxSkewPpm || o.clock_skew_ppm > net::Clock::kMaxSkewPpm)
+        throw UsageError("--clock-skew-ppm " + std::to_string(o.clock_skew_ppm) + ": must be -500000..500000");
+    if (o.corrupt_snapshot < 0 || o.corrupt_snapshot > 1000) throw UsageError("--corrupt-snapshot must be 0..1000");
+    if (o.truncate_snapshot < 0 || o.truncate_snapshot > 1000) throw UsageError("--truncate-snapshot must be 0..1000");
+    if ((o.corrupt_snapshot > 0 || o.truncate_snapshot > 0) && (o.join || o.spectate))
+        throw UsageError("--corrupt-snapshot and --truncate-snapshot act on snapshots sent: not with --join or --spectate");
     p.mode = o.mode == "lockstep" ? Mode::Lockstep : Mode::Rollback;
     p.bot = *parse_bot_kind(o.bot);
     const auto level = spdlog::level::from_str(o.log_level);
@@ -161,8 +170,8 @@ PeerPlan plan(const PeerOptions& o) {
 // process still leaves its events behind).
 class PeerRecorder final : public rollback::SessionObserver, public net::RunnerObserver {
 public:
-    PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log)
-        : p_(p), sim_(sim), log_(std::move(log)), process_start_us_(net::now_us()) {
+    PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log, const net::Clock& clock)
+        : p_(p), sim_(sim), log_(std::move(log)), clock_(clock), process_start_us_(clock.now_us()) {
         events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
         if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
         rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
@@ -186,7 +195,7 @@ public:
 
     void event(const std::string& name, std::uint64_t now, json extra = json::object()) {
         json e = {{"t_ms", static_cast<double>(now - process_start_us_) / 1000.0},
-                  {"mono_ms", static_cast<double>(now) / 1000.0},
+                  {"mono_ms", static_cast<double>(clock_.to_monotonic_us(now)) / 1000.0},
                   {"frame", session ? session->frame() : 0},
                   {"event", name},
                   {"slot", p_.o.slot}};
@@ -267,14 +276,14 @@ public:
             write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
             rec.evidence_file = path.string();
         }
-        event("desync_report", net::now_us(),
+        event("desync_report", clock_.now_us(),
               {{"peer", r.peer}, {"first_frame", r.frame}, {"outcome", rollback::narrow_outcome_name(r.outcome)},
                {"body", r.body_id}, {"field", r.field_name}, {"summary", r.summary}});
         desyncs.push_back(rec);
     }
     void on_peer_error(PlayerId peer, const std::string& why) override {
         log_->warn("slot {} sent too many malformed packets ({}); ignoring it from now on", peer, why);
-        event("peer_error", net::now_us(), {{"peer", peer}, {"why", why}});
+        event("peer_error", clock_.now_us(), {{"peer", peer}, {"why", why}});
     }
 
     // Runner side.
@@ -294,7 +303,7 @@ public:
         json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
         if (!e.detail.empty()) extra["detail"] = e.detail;
         if (e.kind == K::Synchronized) extra["input_delay"] = session->input_delay();
-        event(rollback::event_name(e.kind), e.at_us ? e.at_us : net::now_us(), extra);
+        event(rollback::event_name(e.kind), e.at_us ? e.at_us : clock_.now_us(), extra);
     }
     void on_synchronized(std::uint64_t now) override {
         if (!synced_us) synced_us = now;
@@ -381,6 +390,7 @@ private:
     const PeerPlan& p_;
     rollback::WorldSimulation& sim_;
     std::shared_ptr<spdlog::logger> log_;
+    const net::Clock& clock_;
     std::uint64_t process_start_us_;
     std::ofstream events_;
     std::vector<std::pair<std::uint32_t, std::vector<sim::Vec3>>> shown_positions_;
@@ -422,7 +432,9 @@ int do_peer(const PeerOptions& options) {
     auto log = make_logger(p);
 
     rollback::WorldSimulation sim(p.scene, p.o.players);
-    PeerRecorder rec(p, sim, log);
+    // Every time this process measures or acts on; skewed only for the clock-skew fault tests.
+    const net::Clock clock(p.o.clock_skew_ppm);
+    PeerRecorder rec(p, sim, log, clock);
     rollback::SessionConfig sc;
     sc.players = p.o.players;
     sc.local_player = static_cast<PlayerId>(p.o.slot);
@@ -447,6 +459,8 @@ int do_peer(const PeerOptions& options) {
         if (const std::string e = session.inject_fault(inj.frame, inj.body, inj.field, inj.bit); !e.empty())
             throw UsageError("--inject-desync " + std::to_string(inj.client) + ":" + std::to_string(inj.frame) + ":" +
                              std::to_string(inj.body) + ": " + e);
+    if (p.o.corrupt_snapshot > 0) session.damage_outgoing_chunks(p.o.corrupt_snapshot, rollback::ChunkDamage::FlipBit);
+    if (p.o.truncate_snapshot > 0) session.damage_outgoing_chunks(p.o.truncate_snapshot, rollback::ChunkDamage::Truncate);
 
     transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
                                    .bind_host = p.listen.host,
@@ -454,9 +468,11 @@ int do_peer(const PeerOptions& options) {
                                    .max_peers = 32});
     log->info("listening on {}:{} as slot {} of {} ({} mode, match '{}')", p.listen.host, enet.port(), p.o.slot,
               p.o.players, mode_name(p.mode), p.o.match_id);
-    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
+    if (p.o.clock_skew_ppm != 0) log->info("clock skew {} ppm (fault test)", p.o.clock_skew_ppm);
+    rec.event("listening", clock.now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
 
     net::RunnerConfig rc;
+    rc.clock = clock;
     rc.tick_rate = p.o.tick_rate;
     rc.target_frame = static_cast<std::uint32_t>(p.o.frames);
     rc.peers = p.peers;
@@ -469,7 +485,7 @@ int do_peer(const PeerOptions& options) {
         rc, session, enet,
         [&](std::uint32_t frame, std::span<std::uint8_t> out) {
             const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-            rec.before_advance(net::now_us(), frame, bytes);
+            rec.before_advance(clock.now_us(), frame, bytes);
             std::copy(bytes.begin(), bytes.end(), out.begin());
         },
         &rec);
@@ -478,7 +494,7 @@ int do_peer(const PeerOptions& options) {
     std::signal(SIGINT, on_peer_stop_signal);
     const net::RunOutcome outcome = runner.run();
     g_runner.store(nullptr);
-    const std::uint64_t end_us = net::now_us();
+    const std::uint64_t end_us = clock.now_us();
     const bool ok = outcome == net::RunOutcome::Completed && rec.final_confirmed;
     rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr)}});
     log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", net::outcome_name(outcome),
@@ -529,6 +545,8 @@ int do_peer(const PeerOptions& options) {
     for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
         if (peer != static_cast<std::size_t>(p.o.slot)) rtts[std::to_string(peer)] = static_cast<double>(st.peers[peer].rtt_us) / 1000.0;
     s["rtt_ms"] = rtts;
+    s["clock_skew_ppm"] = p.o.clock_skew_ppm;
+    s["snapshot_chunks_damaged"] = session.damaged_chunks();
     s["runner"] = {{"stretched_ticks", runner.stretched_ticks()},
                    {"stretch_total_ms", static_cast<double>(runner.stretch_total_us()) / 1000.0},
                    {"schedule_resets", runner.schedule_resets()}};
@@ -582,6 +600,15 @@ void add_peer_command(CLI::App& app) {
     cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")
         ->capture_default_str();
     cmd->add_flag("--progress", o->progress, "Print 'progress FRAME' on stdout as frames are shown");
+    cmd->add_option("--clock-skew-ppm", o->clock_skew_ppm,
+                    "Fault test: this process's clock runs PPM parts per million fast (> 0) or slow (< 0), -500000..500000")
+        ->capture_default_str();
+    cmd->add_option("--corrupt-snapshot", o->corrupt_snapshot,
+                    "Fault test: flip one bit in each of the first N snapshot chunks this process sends (the receiver must reject the snapshot and ask again)")
+        ->capture_default_str();
+    cmd->add_option("--truncate-snapshot", o->truncate_snapshot,
+                    "Fault test: drop the last byte of each of the first N snapshot chunks this process sends (the receiver must refuse them and ask again)")
+        ->capture_default_str();
     cmd->callback([o] {
         const int status = do_peer(*o);
         if (status != 0) throw std::runtime_error("the match did not complete (see peer.log)");

@@ -67,7 +67,7 @@ void PeerRunner::track_connections(std::uint64_t now) {
 
 void PeerRunner::service_until(std::uint64_t deadline_us) {
     for (;;) {
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         transport_.poll(now);
         track_connections(now);
         if (now - last_reconnect_us_ >= kReconnectEveryUs) {
@@ -84,22 +84,23 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
                     transport_.connect(p.slot, p.host, p.port);
         }
         if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
-        std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
+        std::this_thread::sleep_for(std::chrono::microseconds(
+            std::min(config_.clock.monotonic_span_us(deadline_us - now), config_.service_interval_us)));
     }
 }
 
 bool PeerRunner::connect_phase() {
     // A handshaking session waits for its peers itself (hellos are resent until answered).
     if (session_.config().handshake) return true;
-    const std::uint64_t begin = now_us();
+    const std::uint64_t begin = config_.clock.now_us();
     const auto& sc = session_.config();
     for (;;) {
-        service_until(now_us() + 5 * config_.service_interval_us);
+        service_until(config_.clock.now_us() + 5 * config_.service_interval_us);
         bool all = true;
         for (int p = 0; p < sc.players; ++p)
             if (static_cast<rollback::PlayerId>(p) != sc.local_player && !connected_[static_cast<std::size_t>(p)]) all = false;
         if (all) return true;
-        if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
+        if (stop_.load(std::memory_order_relaxed) || config_.clock.now_us() - begin > config_.connect_timeout_us) return false;
     }
 }
 
@@ -179,17 +180,17 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 }
 
 RunOutcome PeerRunner::run() {
-    const std::uint64_t begin = now_us();
+    const std::uint64_t begin = config_.clock.now_us();
     if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
     // Tick k is due at start + k / tick_rate seconds (exact integers) + all stretches so far.
-    const std::uint64_t start = now_us();
+    const std::uint64_t start = config_.clock.now_us();
     std::uint64_t offset = 0, k = 0, reached = 0, all_confirmed = 0;
     const auto rate = static_cast<std::uint64_t>(config_.tick_rate);
     for (;;) {
         std::uint64_t due = start + k * 1000000u / rate + offset;
         service_until(due);
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         if (now > due + static_cast<std::uint64_t>(config_.max_catch_up) * period_us_) {
             offset += now - due;
             due = now;
