@@ -20,6 +20,7 @@
 // smallest capacity (64 frames, so they wrap), a time-sync recommendation every 16 ticks, a
 // silent peer interrupted after 12 ticks and dropped after 60 (then the neutral-input agreement).
 // docs/reliability.md has the rates and coverage before and after.
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -28,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "rollback/bytes.h"
 #include "rollback/protocol.h"
 #include "rollback/session.h"
 #include "rollback/simulation.h"
@@ -56,10 +58,11 @@ public:
     }
     std::size_t state_size() const override { return kBodies * kFields * 8; }
     void save(std::span<std::uint8_t> out) const override {
-        std::size_t at = 0;
+        std::vector<std::uint8_t> bytes;
+        ByteWriter w(bytes);
         for (const auto& bead : beads_)
-            for (std::uint64_t f : bead)
-                for (int i = 0; i < 8; ++i) out[at++] = static_cast<std::uint8_t>(f >> (8 * i));
+            for (std::uint64_t f : bead) w.u64(f);
+        std::copy(bytes.begin(), bytes.end(), out.begin());
     }
     std::string load(std::span<const std::uint8_t> in) override {
         if (in.size() != state_size()) return "beads state must be " + std::to_string(state_size()) + " bytes";
@@ -71,10 +74,8 @@ public:
     int field_count() const override { return kFields; }
     const char* field_name(int field) const override { return field == 0 ? "x" : field == 1 ? "v" : "?"; }
     std::int64_t field_value(std::span<const std::uint8_t> state, std::uint32_t index, int field) const override {
-        const std::size_t at = (std::size_t{index} * kFields + static_cast<std::size_t>(field)) * 8;
-        std::uint64_t v = 0;
-        for (int i = 0; i < 8; ++i) v |= std::uint64_t{state[at + static_cast<std::size_t>(i)]} << (8 * i);
-        return static_cast<std::int64_t>(v);
+        ByteReader r(state.subspan((std::size_t{index} * kFields + static_cast<std::size_t>(field)) * 8, 8));
+        return r.i64();
     }
     bool flip_bit(std::uint32_t body_id, int field, int bit) override {
         if (body_id >= kBodies || field < 0 || field >= kFields || bit < 0 || bit > 63) return false;
