@@ -11,9 +11,8 @@ trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/live_check.sh"
 
 # 1. Clock skew: slot 1's clock runs 1 % fast, slot 2's 5 % slow (6.3 % apart). Time sync must
-#    absorb it: the slow one sets the pace, the others lengthen their ticks and never run into
-#    the prediction window; all end on the same checksum. Without time sync the fast two drift
-#    ~57 frames ahead over the match and stall on ~6 % of their ticks.
+#    absorb it: the slow one sets the pace, the others lengthen (nearly) every tick instead of
+#    running into the prediction window; all end on the same checksum, stalls stay bounded.
 "$lockroll" live --players 3 --frames 900 --latency 5 --mode rollback --prediction 8 --no-virtual \
     --clock-skew 1=10000 --clock-skew 2=-50000 --out "$tmp/skew" >"$tmp/skew.out" 2>&1 ||
     { fail "skew: exit status $?"; tail -5 "$tmp/skew.out"; }
@@ -28,9 +27,11 @@ for k in ("p0", "p1"):
 assert runner["p2"]["stretched_ticks"] < runner["p0"]["stretched_ticks"] / 4, runner
 for k, p in procs.items():
     assert p["outcome"] == "completed", p
-    # Bounded stalls: 0 measured; 0.64 % on the fast one when time sync could stretch ticks by at
-    # most 5 % (too little for 6.3 %), ~6 % without time sync.
-    assert p["stall_fraction"] < 0.005, p
+    # Bounded stalls. Measured on a quiet machine: 0 (0.64 % on the fast one when the stretch
+    # was capped at 5 %, too little for 6.3 %). The bound is loose because a process starved by
+    # the scheduler for a few hundred ms stalls its peers too (2.1 % seen under a loaded ctest
+    # -j2); what fails without time sync is the stretch pattern above.
+    assert p["stall_fraction"] < 0.05, p
 '
 
 # 2. Corrupted snapshot during a late join: the provider flips a bit in the first chunk it
