@@ -59,6 +59,8 @@ struct LiveOptions {
     double disconnect_timeout = 5;
     int recoveries = 0;
     bool prediction_given = false;
+    std::vector<std::string> clock_skews;  // SLOT=PPM (fault test)
+    int corrupt_snapshot = 0, truncate_snapshot = 0;  // fault tests, on every player from frame 0
 };
 
 struct Kill {
@@ -73,6 +75,7 @@ struct LivePlan {
     std::map<Mode, int> input_delay;
     std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
     std::vector<std::string> injections;  // CLIENT:FRAME:BODY[:FIELD:BIT], for every peer
+    std::map<int, int> clock_skew_ppm;    // slot -> ppm, for every process of that slot
     bool proxied = false;
     std::vector<bool> topologies;  // false: peer to peer, true: through the relay server
 };
@@ -156,6 +159,25 @@ LivePlan plan(const LiveOptions& o) {
         if (d.client >= o.players) throw UsageError("--inject-desync " + text + ": CLIENT must be 0..players-1");
         p.injections.push_back(text);
     }
+    for (const auto& text : o.clock_skews) {
+        const auto eq = text.find('=');
+        const std::string a = text.substr(0, eq == std::string::npos ? 0 : eq);
+        const std::string b = eq == std::string::npos ? "" : text.substr(eq + 1);
+        char *e1 = nullptr, *e2 = nullptr;
+        const long slot = std::strtol(a.c_str(), &e1, 10);
+        const long ppm = std::strtol(b.c_str(), &e2, 10);
+        if (eq == std::string::npos || a.empty() || b.empty() || *e1 || *e2)
+            throw UsageError("--clock-skew " + text + ": expected SLOT=PPM");
+        if (slot < 0 || slot >= o.players) throw UsageError("--clock-skew " + text + ": SLOT must be 0..players-1");
+        if (ppm < -net::Clock::kMaxSkewPpm || ppm > net::Clock::kMaxSkewPpm)
+            throw UsageError("--clock-skew " + text + ": PPM must be -500000..500000");
+        if (!p.clock_skew_ppm.emplace(static_cast<int>(slot), static_cast<int>(ppm)).second)
+            throw UsageError("--clock-skew " + text + ": slot given twice");
+    }
+    if (o.corrupt_snapshot < 0 || o.corrupt_snapshot > 1000) throw UsageError("--corrupt-snapshot must be 0..1000");
+    if ((o.corrupt_snapshot > 0 || o.truncate_snapshot > 0) && o.topology != "p2p")
+        throw UsageError("--corrupt-snapshot / --truncate-snapshot: peer to peer only (--topology p2p)");
+    if (o.truncate_snapshot < 0 || o.truncate_snapshot > 1000) throw UsageError("--truncate-snapshot must be 0..1000");
     p.proxied = o.latency > 0 || o.jitter > 0 || o.loss > 0 || o.burst > 0 || o.duplicate > 0 || o.reorder > 0;
     return p;
 }
@@ -376,8 +398,14 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
         if (r.joiner) args.emplace_back("--join");
         if (r.spectator) args.emplace_back("--spectate");
-        if (!r.spectator && !r.joiner)
+        if (!r.spectator && !r.joiner) {
             for (const auto& inj : p.injections) args.insert(args.end(), {"--inject-desync", inj});
+            // Whichever player serves a snapshot damages its first chunks.
+            if (!relay && o.corrupt_snapshot > 0) args.insert(args.end(), {"--corrupt-snapshot", std::to_string(o.corrupt_snapshot)});
+            if (!relay && o.truncate_snapshot > 0) args.insert(args.end(), {"--truncate-snapshot", std::to_string(o.truncate_snapshot)});
+        }
+        if (const auto skew = p.clock_skew_ppm.find(r.slot); skew != p.clock_skew_ppm.end() && !r.spectator)
+            args.insert(args.end(), {"--clock-skew-ppm", std::to_string(skew->second)});
         r.started = true;
         return std::make_unique<ChildProcess>(args, (dir / (r.name + ".stderr.log")).string(), true);
     };
@@ -670,6 +698,10 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"frames_shown", s.is_object() ? s.value("shown_frame", 0) : r.last_progress},
                   {"confirmed_frame", s.is_object() ? s.value("confirmed_frame", 0) : 0},
                   {"ticks_per_second", s.is_object() ? s["ticks_per_second"] : json(0)},
+                  {"stall_fraction", s.is_object() ? s["stall_fraction"] : json(nullptr)},
+                  {"longest_stall_ms", s.is_object() ? s["longest_stall_ms"] : json(nullptr)},
+                  {"clock_skew_ppm", s.is_object() ? s.value("clock_skew_ppm", 0) : 0},
+                  {"snapshot_chunks_damaged", s.is_object() ? s.value("snapshot_chunks_damaged", 0) : 0},
                   {"killed_at_frame", r.killed ? json(r.killed_at_frame) : json(nullptr)},
                   {"disconnects", disconnects},
                   {"joins", joins},
@@ -870,6 +902,14 @@ void add_live_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
     cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();
+    cmd->add_option("--clock-skew", o->clock_skews,
+                    "SLOT=PPM: fault test, that slot's clock runs PPM parts per million fast (> 0) or slow (< 0) (repeatable)");
+    cmd->add_option("--corrupt-snapshot", o->corrupt_snapshot,
+                    "Fault test: every player from frame 0 flips a bit in the first N snapshot chunks it sends")
+        ->capture_default_str();
+    cmd->add_option("--truncate-snapshot", o->truncate_snapshot,
+                    "Fault test: every player from frame 0 drops the last byte of the first N snapshot chunks it sends")
+        ->capture_default_str();
     cmd->add_flag("--no-virtual", o->no_virtual, "Skip the in-process virtual-time run beside it");
     cmd->add_flag("--view", o->view, "Also write DIR/MODE/view.html (lockroll view) for every mode run");
     cmd->add_option("--out", o->out, "Output directory")->capture_default_str();

@@ -78,6 +78,9 @@ struct PeerOptions {
     std::string room;
     bool fixed_delay = false;       // --input-delay given: no adaptive delay
     bool prediction_given = false;
+    int clock_skew_ppm = 0;      // fault test: this process's clock runs fast (> 0) or slow
+    int corrupt_snapshot = 0;    // fault test: flip a bit in the first N snapshot chunks sent
+    int truncate_snapshot = 0;   // fault test: drop the last byte of the first N chunks sent
 };
 
 // Validated flags: everything checked before a socket is bound or a file written.
@@ -124,6 +127,12 @@ PeerPlan plan(const PeerOptions& o) {
     if (!(o.connect_timeout > 0 && o.connect_timeout <= 3600)) throw UsageError("--connect-timeout must be 0..3600 s");
     if (!(o.finish_timeout > 0 && o.finish_timeout <= 3600)) throw UsageError("--finish-timeout must be 0..3600 s");
     if (o.out.empty()) throw UsageError("--out is required");
+    if (o.clock_skew_ppm < -net::Clock::kMaxSkewPpm || o.clock_skew_ppm > net::Clock::kMaxSkewPpm)
+        throw UsageError("--clock-skew-ppm " + std::to_string(o.clock_skew_ppm) + ": must be -500000..500000");
+    if (o.corrupt_snapshot < 0 || o.corrupt_snapshot > 1000) throw UsageError("--corrupt-snapshot must be 0..1000");
+    if (o.truncate_snapshot < 0 || o.truncate_snapshot > 1000) throw UsageError("--truncate-snapshot must be 0..1000");
+    if ((o.corrupt_snapshot > 0 || o.truncate_snapshot > 0) && (o.join || o.spectate))
+        throw UsageError("--corrupt-snapshot and --truncate-snapshot act on snapshots sent: not with --join or --spectate");
     p.mode = o.mode == "lockstep" ? Mode::Lockstep : Mode::Rollback;
     p.bot = *parse_bot_kind(o.bot);
     const auto level = spdlog::level::from_str(o.log_level);
@@ -180,8 +189,8 @@ PeerPlan plan(const PeerOptions& o) {
 // process still leaves its events behind).
 class PeerRecorder final : public rollback::SessionObserver, public net::RunnerObserver {
 public:
-    PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log)
-        : p_(p), sim_(sim), log_(std::move(log)), process_start_us_(net::now_us()) {
+    PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log, const net::Clock& clock)
+        : p_(p), sim_(sim), log_(std::move(log)), clock_(clock), process_start_us_(clock.now_us()) {
         events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
         if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
         rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
@@ -201,6 +210,8 @@ public:
     }
     View view;
     std::uint64_t synced_us = 0, reached_us = 0;
+    // This process's clock (skewed only for the clock-skew fault tests).
+    std::uint64_t now_us() const { return clock_.now_us(); }
     bool final_confirmed = false;
     std::uint64_t final_checksum = 0;
     std::vector<std::pair<std::uint32_t, std::uint64_t>> checkpoints;  // confirmed, every 60 frames
@@ -216,7 +227,7 @@ public:
 
     void event(const std::string& name, std::uint64_t now, json extra = json::object()) {
         json e = {{"t_ms", static_cast<double>(now - process_start_us_) / 1000.0},
-                  {"mono_ms", static_cast<double>(now) / 1000.0},
+                  {"mono_ms", static_cast<double>(clock_.to_monotonic_us(now)) / 1000.0},
                   {"frame", view.frame ? view.frame() : 0},
                   {"event", name},
                   {"slot", p_.o.slot}};
@@ -297,14 +308,14 @@ public:
             write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
             rec.evidence_file = path.string();
         }
-        event("desync_report", net::now_us(),
+        event("desync_report", clock_.now_us(),
               {{"peer", r.peer}, {"first_frame", r.frame}, {"outcome", rollback::narrow_outcome_name(r.outcome)},
                {"body", r.body_id}, {"field", r.field_name}, {"summary", r.summary}});
         desyncs.push_back(rec);
     }
     void on_peer_error(PlayerId peer, const std::string& why) override {
         log_->warn("slot {} sent too many malformed packets ({}); ignoring it from now on", peer, why);
-        event("peer_error", net::now_us(), {{"peer", peer}, {"why", why}});
+        event("peer_error", clock_.now_us(), {{"peer", peer}, {"why", why}});
     }
 
     // Runner side.
@@ -324,7 +335,7 @@ public:
         json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
         if (!e.detail.empty()) extra["detail"] = e.detail;
         if (e.kind == K::Synchronized) extra["input_delay"] = view.input_delay();
-        event(rollback::event_name(e.kind), e.at_us ? e.at_us : net::now_us(), extra);
+        event(rollback::event_name(e.kind), e.at_us ? e.at_us : clock_.now_us(), extra);
     }
     void on_synchronized(std::uint64_t now) override {
         if (!synced_us) synced_us = now;
@@ -411,6 +422,7 @@ private:
     const PeerPlan& p_;
     rollback::WorldSimulation& sim_;
     std::shared_ptr<spdlog::logger> log_;
+    const net::Clock& clock_;
     std::uint64_t process_start_us_;
     std::ofstream events_;
     std::vector<std::pair<std::uint32_t, std::vector<sim::Vec3>>> shown_positions_;
@@ -447,7 +459,7 @@ template <class SessionT, class RunnerT>
 int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session, const RunnerT& runner,
                   transport::EnetTransport& enet, net::RunOutcome outcome, int prediction,
                   const std::shared_ptr<spdlog::logger>& log, json extra) {
-    const std::uint64_t end_us = net::now_us();
+    const std::uint64_t end_us = rec.now_us();
     const bool ok = outcome == net::RunOutcome::Completed && rec.final_confirmed;
     rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr)}});
     log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", net::outcome_name(outcome),
@@ -513,8 +525,9 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     return ok ? 0 : 1;
 }
 
-net::RunnerConfig runner_config(const PeerPlan& p) {
+net::RunnerConfig runner_config(const PeerPlan& p, const net::Clock& clock) {
     net::RunnerConfig rc;
+    rc.clock = clock;
     rc.tick_rate = p.o.tick_rate;
     rc.target_frame = static_cast<std::uint32_t>(p.o.frames);
     rc.peers = p.peers;
@@ -529,7 +542,7 @@ net::RunnerConfig runner_config(const PeerPlan& p) {
 net::InputSource bot_input(const Bot& bot, const rollback::WorldSimulation& sim, PeerRecorder& rec) {
     return [&bot, &sim, &rec](std::uint32_t frame, std::span<std::uint8_t> out) {
         const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-        rec.before_advance(net::now_us(), frame, bytes);
+        rec.before_advance(rec.now_us(), frame, bytes);
         std::copy(bytes.begin(), bytes.end(), out.begin());
     };
 }
@@ -558,7 +571,8 @@ net::RunOutcome run_with_signals(RunnerT& runner) {
 }
 
 // `lockroll client`: the same player (or spectator) through the relay server.
-int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& rec, const std::shared_ptr<spdlog::logger>& log) {
+int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& rec, const std::shared_ptr<spdlog::logger>& log,
+              const net::Clock& clock) {
     rollback::RelaySessionConfig rc;
     rc.players = p.o.players;
     rc.local_slot = static_cast<PlayerId>(p.o.spectate ? 0 : p.o.slot);
@@ -581,13 +595,14 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot), .bind_host = "127.0.0.1", .port = 0, .max_peers = 4});
     log->info("connecting to the relay server {}:{} for room '{}' as {} {} of {} ({} mode)", p.server.host, p.server.port, p.o.room,
               p.o.spectate ? "spectator" : "slot", p.o.slot, p.o.players, mode_name(p.mode));
-    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"room", p.o.room}});
+    rec.event("listening", rec.now_us(), {{"port", enet.port()}, {"room", p.o.room}});
     const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::RelayRunner runner(runner_config(p), p.server.host, p.server.port, session, enet, bot_input(bot, sim, rec), &rec);
+    net::RelayRunner runner(runner_config(p, clock), p.server.host, p.server.port, session, enet, bot_input(bot, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     if (outcome == net::RunOutcome::Failed) log->error("session failed: {}", session.failure());
     const rollback::RelayStats& rs = session.relay_stats();
     json extra = {{"topology", "relay"},
+                  {"clock_skew_ppm", p.o.clock_skew_ppm},
                   {"room", p.o.room},
                   {"rtt_ms", {{"server", static_cast<double>(session.rtt_us()) / 1000.0}}},
                   {"relay", {{"own_replaced", rs.own_replaced},
@@ -607,8 +622,10 @@ int do_peer(const PeerOptions& options) {
     auto log = make_logger(p);
 
     rollback::WorldSimulation sim(p.scene, p.o.players);
-    PeerRecorder rec(p, sim, log);
-    if (p.o.relay) return do_client(p, sim, rec, log);
+    // Every time this process measures or acts on; skewed only for the clock-skew fault tests.
+    const net::Clock clock(p.o.clock_skew_ppm);
+    PeerRecorder rec(p, sim, log, clock);
+    if (p.o.relay) return do_client(p, sim, rec, log, clock);
     rollback::SessionConfig sc;
     sc.players = p.o.players;
     sc.local_player = static_cast<PlayerId>(p.o.slot);
@@ -630,6 +647,8 @@ int do_peer(const PeerOptions& options) {
     rollback::Session session(sc, sim, &rec);
     rec.watch(session);
     inject_faults(p, session);
+    if (p.o.corrupt_snapshot > 0) session.damage_outgoing_chunks(p.o.corrupt_snapshot, rollback::ChunkDamage::FlipBit);
+    if (p.o.truncate_snapshot > 0) session.damage_outgoing_chunks(p.o.truncate_snapshot, rollback::ChunkDamage::Truncate);
 
     transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
                                    .bind_host = p.listen.host,
@@ -637,16 +656,21 @@ int do_peer(const PeerOptions& options) {
                                    .max_peers = 32});
     log->info("listening on {}:{} as slot {} of {} ({} mode, match '{}')", p.listen.host, enet.port(), p.o.slot,
               p.o.players, mode_name(p.mode), p.o.match_id);
-    rec.event("listening", net::now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
+    if (p.o.clock_skew_ppm != 0) log->info("clock skew {} ppm (fault test)", p.o.clock_skew_ppm);
+    rec.event("listening", rec.now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
 
     const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::PeerRunner runner(runner_config(p), session, enet, bot_input(bot, sim, rec), &rec);
+    net::PeerRunner runner(runner_config(p, clock), session, enet, bot_input(bot, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     const rollback::SessionStats& st = session.stats();
     json rtts = json::object();
     for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
         if (peer != static_cast<std::size_t>(p.o.slot)) rtts[std::to_string(peer)] = static_cast<double>(st.peers[peer].rtt_us) / 1000.0;
-    json extra = {{"topology", "p2p"}, {"listen_port", enet.port()}, {"rtt_ms", rtts}};
+    json extra = {{"topology", "p2p"},
+                  {"listen_port", enet.port()},
+                  {"rtt_ms", rtts},
+                  {"clock_skew_ppm", p.o.clock_skew_ppm},
+                  {"snapshot_chunks_damaged", session.damaged_chunks()}};
     return write_outputs(p, rec, session, runner, enet, outcome, sc.prediction_window, log, extra);
 }
 
@@ -677,6 +701,9 @@ void add_player_options(CLI::App* cmd, const std::shared_ptr<PeerOptions>& o) {
     cmd->add_option("--finish-timeout", o->finish_timeout, "Seconds after the last frame to wait for every peer to confirm it")
         ->capture_default_str();
     cmd->add_flag("--progress", o->progress, "Print 'progress FRAME' on stdout as frames are shown");
+    cmd->add_option("--clock-skew-ppm", o->clock_skew_ppm,
+                    "Fault test: this process's clock runs PPM parts per million fast (> 0) or slow (< 0), -500000..500000")
+        ->capture_default_str();
 }
 }  // namespace
 
@@ -691,6 +718,12 @@ void add_peer_command(CLI::App& app) {
     cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a peer's slot is dropped")
         ->capture_default_str();
     cmd->add_option("--match-id", o->match_id, "Name of the match: processes of another match are refused");
+    cmd->add_option("--corrupt-snapshot", o->corrupt_snapshot,
+                    "Fault test: flip one bit in each of the first N snapshot chunks this process sends (the receiver must reject the snapshot and ask again)")
+        ->capture_default_str();
+    cmd->add_option("--truncate-snapshot", o->truncate_snapshot,
+                    "Fault test: drop the last byte of each of the first N snapshot chunks this process sends (the receiver must refuse them and ask again)")
+        ->capture_default_str();
     cmd->callback([o] {
         const int status = do_peer(*o);
         if (status != 0) throw std::runtime_error("the match did not complete (see peer.log)");

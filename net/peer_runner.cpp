@@ -70,7 +70,7 @@ void PeerRunner::track_connections(std::uint64_t now) {
 
 void PeerRunner::service_until(std::uint64_t deadline_us) {
     for (;;) {
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         transport_.poll(now);
         track_connections(now);
         if (now - last_reconnect_us_ >= kReconnectEveryUs) {
@@ -87,17 +87,18 @@ void PeerRunner::service_until(std::uint64_t deadline_us) {
                     transport_.connect(p.slot, p.host, p.port);
         }
         if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
-        std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
+        std::this_thread::sleep_for(std::chrono::microseconds(
+            std::min(config_.clock.monotonic_span_us(deadline_us - now), config_.service_interval_us)));
     }
 }
 
 bool PeerRunner::connect_phase() {
     // A handshaking session waits for its peers itself (hellos are resent until answered).
     if (session_.config().handshake) return true;
-    const std::uint64_t begin = now_us();
+    const std::uint64_t begin = config_.clock.now_us();
     const auto& sc = session_.config();
     for (;;) {
-        service_until(now_us() + 5 * config_.service_interval_us);
+        service_until(config_.clock.now_us() + 5 * config_.service_interval_us);
         bool all = true;
         for (int p = 0; p < sc.players; ++p) {
             const auto id = static_cast<rollback::PlayerId>(p);
@@ -105,7 +106,7 @@ bool PeerRunner::connect_phase() {
             if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) all = false;
         }
         if (all) return true;
-        if (stop_.load(std::memory_order_relaxed) || now_us() - begin > config_.connect_timeout_us) return false;
+        if (stop_.load(std::memory_order_relaxed) || config_.clock.now_us() - begin > config_.connect_timeout_us) return false;
     }
 }
 
@@ -185,14 +186,14 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 }
 
 RunOutcome PeerRunner::run() {
-    const std::uint64_t begin = now_us();
+    const std::uint64_t begin = config_.clock.now_us();
     if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    TickSchedule schedule(now_us(), config_.tick_rate, config_.max_catch_up);
+    TickSchedule schedule(config_.clock.now_us(), config_.tick_rate, config_.max_catch_up);
     RunEnd end(config_);
     for (;;) {
         service_until(schedule.due());
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         tick(now, schedule.start_tick(now));
         schedule_resets_ = schedule.resets();
         schedule.finish_tick(last_extra_us_);

@@ -35,6 +35,8 @@
 //    finish_timeout_us after showing the target, and by run_timeout_us overall.
 //  - A session that fails (refused handshake, kicked) ends run() with Failed.
 //  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
+//  - Every time it reads or passes on (ticks, arrival stamps, timeouts) comes from config.clock:
+//    the monotonic clock, or one running fast or slow for the clock-skew fault tests.
 #pragma once
 
 #include <atomic>
@@ -45,6 +47,7 @@
 #include <string>
 #include <vector>
 
+#include "net/clock.h"
 #include "rollback/session.h"
 #include "transport/enet_transport.h"
 
@@ -65,9 +68,10 @@ struct RunnerConfig {
     std::uint64_t run_timeout_us = 0;            // whole run after synchronizing; 0 = no bound
     std::uint64_t linger_us = 300000;
     std::uint64_t service_interval_us = 1000;
-    double max_stretch = 0.05;                   // longest tick = (1 + max_stretch) periods
+    double max_stretch = 0.10;                   // longest tick = (1 + max_stretch) periods
     int max_catch_up = 8;
     int catch_up_frames = 8;                     // joiner: extra frames per tick while behind
+    Clock clock;                                 // this process's time (skewed only in fault tests)
 };
 
 enum class RunOutcome {

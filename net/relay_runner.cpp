@@ -31,7 +31,7 @@ RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, st
 
 void RelayRunner::service_until(std::uint64_t deadline_us) {
     for (;;) {
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         transport_.poll(now);
         for (transport::TransportEvent e; transport_.next_event(e);) {
             if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
@@ -87,7 +87,7 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 }
 
 RunOutcome RelayRunner::run() {
-    const std::uint64_t begin = now_us();
+    const std::uint64_t begin = config_.clock.now_us();
     TickSchedule schedule(begin, config_.tick_rate, config_.max_catch_up);
     RunEnd end(config_);
     std::uint64_t started = 0;
@@ -96,7 +96,7 @@ RunOutcome RelayRunner::run() {
     for (;;) {
         service_until(schedule.due());
         if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = now_us();
+        const std::uint64_t now = config_.clock.now_us();
         tick(now, schedule.start_tick(now));
         schedule_resets_ = schedule.resets();
         schedule.finish_tick(last_extra_us_);

@@ -88,6 +88,13 @@ namespace lockroll::rollback {
 // Two peers disagree and neither is a majority: whose state survives.
 enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
 
+// Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
+enum class ChunkDamage : std::uint8_t {
+    FlipBit,   // one bit of the chunk's last byte: the right length, so the receiver's hash check
+               // of the whole blob must reject the transfer (snapshot_rejected) and ask again
+    Truncate,  // the last byte dropped: the receiver's assembler must refuse the chunk and re-ask
+};
+
 struct SessionConfig {
     int players = 2;                   // 1..kMaxPlayers
     PlayerId local_player = 0;
@@ -191,7 +198,7 @@ struct AdvanceResult {
     std::uint64_t resim_ns = 0;        // cpu time of the rollback, if any
     std::uint64_t forward_ns = 0;      // cpu time of the forward step, if any
     // Time sync for real-time loops: lengthen the next tick by this many parts per million
-    // (0..50,000) so peers behind catch up without a visible skip. wait_frames is the same advice
+    // (0..100,000: 2 % per frame ahead) so peers behind catch up without a visible skip. wait_frames is the same advice
     // as whole ticks, for virtual-time loops.
     int tick_stretch_ppm = 0;
 };
@@ -255,6 +262,13 @@ public:
     // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
     // already simulated, or the simulation has no such body/field).
     std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+    // Fault injection (a test hook; `lockroll peer --corrupt-snapshot / --truncate-snapshot`):
+    // the next `count` snapshot chunks this session sends, as provider of a join, spectate or
+    // recovery transfer, are damaged as `how` says, after any still pending. Its own state and
+    // the blob it keeps stay intact, so a chunk asked for again goes out whole once the count is
+    // used up. damaged_chunks() counts the chunks damaged so far.
+    void damage_outgoing_chunks(int count, ChunkDamage how);
+    std::uint64_t damaged_chunks() const { return damaged_chunks_; }
 
     const SessionConfig& config() const { return config_; }
     // The slots this session plays, ascending: local_player first, then the slots it hosts
@@ -428,6 +442,9 @@ private:
     SnapshotRequestMessage snap_req_msg_;
     SnapshotOfferMessage snap_offer_msg_;
     SnapshotChunkMessage snap_chunk_msg_;
+    // fault injection on sent chunks (damage_outgoing_chunks), in order
+    std::vector<ChunkDamage> chunk_damage_;
+    std::uint64_t damaged_chunks_ = 0;
 };
 
 }  // namespace lockroll::rollback

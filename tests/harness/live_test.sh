@@ -6,22 +6,7 @@ set -u
 lockroll=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-
-check() {  # check NAME DIR MODE PYTHON-ASSERTIONS (d: live.json's mode entry, procs by name)
-    local name=$1 dir=$2 mode=$3 code=$4
-    if /usr/bin/python3 - "$dir" "$mode" <<PY
-import json, os, sys
-d = json.load(open(os.path.join(sys.argv[1], "live.json")))["modes"][sys.argv[2]]
-procs = {p["name"]: p for p in d["processes"]}
-summary = json.load(open(os.path.join(sys.argv[1], sys.argv[2], "summary.json")))
-def events(name):
-    return [json.loads(l) for l in open(os.path.join(sys.argv[1], sys.argv[2], name, "events.jsonl"))]
-$code
-PY
-    then echo "ok: $name"; else fail "$name"; fi
-}
+source "$(dirname "$0")/live_check.sh"
 
 # 1. Three players through proxies at 5 % loss: every process completes on the same checksum.
 "$lockroll" live --players 3 --frames 300 --latency 5 --jitter 2 --loss 0.05 --mode rollback --no-virtual \

@@ -315,6 +315,37 @@ TEST(Lifecycle, ClocksOnePercentFastAndFivePercentSlow) {
     }
 }
 
+// Real-time loops (net/peer_runner) follow time sync by lengthening the next tick by the
+// session's tick_stretch_ppm, up to a cap, instead of skipping ticks. Clocks 1 % fast and 5 % slow
+// are 6.3 % apart: capped at 5 % (GGRS's figure, the old cap) the faster clients cannot slow down
+// enough and stall at their window now and then; at 10 % (the session's and the runner's cap
+// now) nobody stalls once running. tests/harness/live_faults_test.sh runs the same with real
+// processes.
+TEST(Lifecycle, StretchedTicksFollowClocksSixPercentApart) {
+    const auto stalls_with_cap = [](int cap_ppm) {
+        const auto scene = make_scene(3, 20);
+        SessionConfig cfg = real_config(3, 8);
+        Cluster cluster(scene, cfg, {30000, 5000}, 17);
+        cluster.obey_time_sync = false;  // no skipped ticks: stretched ones only
+        cluster.clients[1]->drift_ppm = 10000;
+        cluster.clients[2]->drift_ppm = -50000;
+        std::uint64_t stalls = 0;
+        cluster.before_tick = [&](PlayerId, Client& c) {
+            const int ppm = std::min(c.last_advance.tick_stretch_ppm, cap_ppm);
+            c.start_offset_us += 16667u * static_cast<std::uint64_t>(ppm) / 1000000u;
+            if (c.session->running() && c.session->frame() > 60 && c.ticks > 1 && !c.last_advance.advanced) ++stalls;
+        };
+        cluster.run_frames(1800, 120'000'000);
+        cluster.settle(1800);
+        expect_equal_at(cluster, 1800);
+        std::printf("stretch capped at %d ppm: %llu stalled ticks after frame 60\n", cap_ppm,
+                    static_cast<unsigned long long>(stalls));
+        return stalls;
+    };
+    EXPECT_EQ(stalls_with_cap(100000), 0u);
+    EXPECT_GT(stalls_with_cap(50000), 0u);  // the control: the old cap is too small
+}
+
 TEST(Lifecycle, ForgedTimeSyncClaimIsBounded) {
     const auto scene = make_scene(2, 4);
     SessionConfig cfg = real_config(2, 8);

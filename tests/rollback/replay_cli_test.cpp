@@ -95,5 +95,21 @@ TEST_F(ReplayCli, CorruptedAndTruncatedAreRejectedWithWhere) {
     EXPECT_EQ(r.status, 2) << r.output;
 }
 
+// Issue 11's fault list: a replay cut off anywhere (empty, inside the header, inside the scene
+// text, inside a block, one byte short) exits 2 naming the file, and never runs a frame.
+TEST_F(ReplayCli, TruncatedAnywhereExitsTwo) {
+    const auto bytes = read(good_);
+    ASSERT_GT(bytes.size(), 200u);
+    for (const std::size_t keep : {std::size_t{0}, std::size_t{1}, std::size_t{7}, std::size_t{30}, bytes.size() / 4,
+                                   bytes.size() / 2, bytes.size() - 9, bytes.size() - 1}) {
+        const auto path = dir_ / ("cut" + std::to_string(keep) + ".replay");
+        write(path, std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(keep)));
+        const CliRun r = run_cli("replay " + path.string());
+        EXPECT_EQ(r.status, 2) << "kept " << keep << " of " << bytes.size() << " bytes: " << r.output;
+        EXPECT_NE(r.output.find(path.filename().string()), std::string::npos) << r.output;
+        EXPECT_EQ(r.output.find("every checksum matches"), std::string::npos) << r.output;
+    }
+}
+
 }  // namespace
 }  // namespace lockroll::rollback

@@ -185,6 +185,7 @@ struct Client : SessionObserver {
     std::int64_t drift_ppm = 0;  // this client's clock runs this much fast (negative: slow)
     std::vector<SessionEvent> events;  // drained after every tick
     int skip_ticks = 0;        // time-sync waits being served
+    AdvanceResult last_advance;  // of the latest tick (a test may follow its tick_stretch_ppm)
     std::uint64_t start_offset_us = 0;
     std::uint64_t ticks = 0;
 };
@@ -298,6 +299,7 @@ private:
         } else {
             const auto in = c.bot.next();
             const AdvanceResult r = c.session->advance(in, now_);
+            c.last_advance = r;
             if (obey_time_sync) c.skip_ticks = r.wait_frames;
             if (c.catches_up) c.session->catch_up(now_, 16);
         }
