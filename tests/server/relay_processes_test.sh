@@ -75,7 +75,7 @@ c = [s("c%d" % k) for k in range(4)]
 assert all(x["outcome"] == "completed" for x in c), [x["outcome"] for x in c]
 assert len({x["final_checksum"] for x in c}) == 1, [x["final_checksum"] for x in c]
 # The slow player is replaced past the deadline; the fast ones never stall on it. (How often a
-# fast player is replaced depends on this machine's load, not on the slow player: not asserted.)
+# fast player is replaced depends on the load of this machine, not on the slow player: not asserted.)
 assert c[3]["relay"]["own_replaced"] > 0, c[3]["relay"]
 assert c[0]["relay"]["replaced_any"] >= c[3]["relay"]["own_replaced"], (c[0]["relay"], c[3]["relay"])
 for k in range(3):
