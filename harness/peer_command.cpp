@@ -256,9 +256,10 @@ public:
             rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, view.confirmed_frame(), 0,
                              span > 0 ? intervals / span : 0.0, 0.0});
         }
-        // Local input latency: frame f consumed the inputs of frame f - 1.
-        if (const auto it = pending_.find(f.frame - 1); it != pending_.end()) {
-            const auto off = static_cast<std::size_t>(p_.o.slot) * rollback::kWorldInputSize;
+        // Local input latency: frame f consumed the inputs of frame f - 1. A spectator's id is
+        // past the players' inputs: it has no local input to time.
+        const auto off = static_cast<std::size_t>(p_.o.slot) * rollback::kWorldInputSize;
+        if (const auto it = pending_.find(f.frame - 1); it != pending_.end() && off + rollback::kWorldInputSize <= f.inputs.size()) {
             if (std::equal(it->second.second.begin(), it->second.second.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(off))) {
                 input_latency_local.add(static_cast<double>(now - it->second.first) / 1000.0);
                 pending_.erase(it);

@@ -57,6 +57,10 @@ PY
 }
 
 want() { [ -z "${ONLY:-}" ] || [[ " $ONLY " == *" $1 "* ]]; }
+# Stall bounds (ms) with slack for a loaded 2-core machine; under the sanitizers (ASAN_OPTIONS
+# set by scripts/sanitize.sh) every process runs several times slower, nine of them at once.
+export STALL_MS=1000 BAD_STALL_MS=1500
+if [ -n "${ASAN_OPTIONS:-}" ]; then export STALL_MS=6000 BAD_STALL_MS=6000; fi
 
 # ---- 1. four players, one slow, 10 % loss ----
 if want four; then
@@ -79,7 +83,7 @@ assert len({x["final_checksum"] for x in c}) == 1, [x["final_checksum"] for x in
 assert c[3]["relay"]["own_replaced"] > 0, c[3]["relay"]
 assert c[0]["relay"]["replaced_any"] >= c[3]["relay"]["own_replaced"], (c[0]["relay"], c[3]["relay"])
 for k in range(3):
-    assert c[k]["longest_stall_ms"] < 1000, (k, c[k]["longest_stall_ms"])
+    assert c[k]["longest_stall_ms"] < int(os.environ["STALL_MS"]), (k, c[k]["longest_stall_ms"])
 print("four: replaced", [x["relay"]["own_replaced"] for x in c], "longest stalls ms", [round(x["longest_stall_ms"]) for x in c])
 '
 fi
@@ -160,7 +164,7 @@ assert a[0]["final_checksum"] == a[1]["final_checksum"] and a[0]["final_checksum
 assert b[0]["final_checksum"] == b[1]["final_checksum"] and b[0]["final_checksum"], b
 for x in a + b:
     assert x["outcome"] == "completed", x["outcome"]
-    assert x["longest_stall_ms"] < 1500, x["longest_stall_ms"]
+    assert x["longest_stall_ms"] < int(os.environ["BAD_STALL_MS"]), x["longest_stall_ms"]
 server = log("server.log")
 for why in ("hello for another slot", "flooding", "frame out of window"):
     assert why in server, why
