@@ -593,7 +593,16 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     rollback::RelaySession session(rc, sim, &rec);
     rec.watch(session);
     inject_faults(p, session);
-    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot), .bind_host = "127.0.0.1", .port = 0, .max_peers = 4});
+    // One connection, to the server: ENet's own (long) timeouts, so a lossy link never closes
+    // it under a live server (a reconnect resumes, but costs seconds); the session watches the
+    // server's silence itself.
+    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
+                                   .bind_host = "127.0.0.1",
+                                   .port = 0,
+                                   .max_peers = 4,
+                                   .timeout_limit = 32,
+                                   .timeout_min_ms = 5000,
+                                   .timeout_max_ms = 30000});
     log->info("connecting to the relay server {}:{} for room '{}' as {} {} of {} ({} mode)", p.server.host, p.server.port, p.o.room,
               p.o.spectate ? "spectator" : "slot", p.o.slot, p.o.players, mode_name(p.mode));
     rec.event("listening", rec.now_us(), {{"port", enet.port()}, {"room", p.o.room}});

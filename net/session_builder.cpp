@@ -215,8 +215,14 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         std::unique_ptr<NetSession> s(new NetSession());
         s->runner_config_ = rc;
         s->relay_slots_ = {rs.local_slot};
-        s->transport_ = std::make_unique<transport::EnetTransport>(transport::EnetConfig{
-            .local_id = static_cast<transport::PeerId>(rs.local_slot), .bind_host = listen_host_, .port = listen_port_});
+        // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
+        s->transport_ = std::make_unique<transport::EnetTransport>(
+            transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
+                                  .bind_host = listen_host_,
+                                  .port = listen_port_,
+                                  .timeout_limit = 32,
+                                  .timeout_min_ms = 5000,
+                                  .timeout_max_ms = 30000});
         s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation);
         NetSession* raw = s.get();
         RunnerObserver* as_observer = raw;

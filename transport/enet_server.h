@@ -33,9 +33,13 @@ struct EnetServerConfig {
     std::size_t max_connections_per_address = 64; // a load test from one address raises it
     std::size_t max_packet_bytes = 4096;
     std::size_t max_waiting_bytes = 64 * 1024;
-    std::uint32_t timeout_limit = 4;
-    std::uint32_t timeout_min_ms = 2000;
-    std::uint32_t timeout_max_ms = 5000;
+    // ENet's own timeouts (enet_peer_timeout), left at ENet's defaults: a lossy link must not
+    // close a connection under a client that still talks (a reliable ping lost five times in a
+    // row at 10 % loss each way is one in 4,000). Dead clients are noticed by the rooms'
+    // silence rule (RoomConfig::silence_drop_us, 5 s) long before.
+    std::uint32_t timeout_limit = 32;
+    std::uint32_t timeout_min_ms = 5000;
+    std::uint32_t timeout_max_ms = 30000;
     std::size_t max_inbox = 1 << 16;              // datagrams not yet taken by receive()
     // Socket buffers. ENet's 256 KiB receive buffer holds about 2 ms of a thousand rooms'
     // inputs: a scheduling hiccup longer than that drops datagrams in the kernel. Linux caps
