@@ -43,10 +43,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             round_trip<SnapshotChunkMessage>(d);
             break;
         case 1: {
-            // The blob parser, for a small world: state of 48 bytes, 3 players, 3-byte inputs.
+            // The blob parser, for a small world: state of at most 48 bytes (a variable-size
+            // state saves fewer, Simulation::saved_size), 3 players, 3-byte inputs.
             TransferContents t;
             if (unpack_transfer(d, 48, 3, 3, 512, t).empty()) {
-                check(t.state.size() == 48 && t.streams.size() == 3);
+                check(t.state.size() <= 48 && t.streams.size() == 3);
                 check(pack_transfer(t, 3) == std::vector<std::uint8_t>(d.begin(), d.end()));
             }
             break;
