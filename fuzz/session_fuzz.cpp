@@ -58,11 +58,12 @@ public:
     }
     std::size_t state_size() const override { return kBodies * kFields * 8; }
     void save(std::span<std::uint8_t> out) const override {
-        std::vector<std::uint8_t> bytes;
-        ByteWriter w(bytes);
+        // Little-endian field by field, straight into `out`: no heap buffer per save (a save
+        // runs every tick and every resimulated frame, and allocation is dear under ASan).
+        std::size_t at = 0;
         for (const auto& bead : beads_)
-            for (std::uint64_t f : bead) w.u64(f);
-        std::copy(bytes.begin(), bytes.end(), out.begin());
+            for (std::uint64_t f : bead)
+                for (int i = 0; i < 8; ++i) out[at++] = static_cast<std::uint8_t>(f >> (8 * i));
     }
     std::string load(std::span<const std::uint8_t> in) override {
         if (in.size() != state_size()) return "beads state must be " + std::to_string(state_size()) + " bytes";

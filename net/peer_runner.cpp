@@ -188,29 +188,19 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 RunOutcome PeerRunner::run() {
     const std::uint64_t begin = config_.clock.now_us();
     if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    TickSchedule schedule(config_.clock.now_us(), config_.tick_rate, config_.max_catch_up);
-    RunEnd end(config_);
-    for (;;) {
-        service_until(schedule.due());
-        if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = config_.clock.now_us();
-        tick(now, schedule.start_tick(now));
-        schedule_resets_ = schedule.resets();
-        schedule.finish_tick(last_extra_us_);
-        if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
-        if (!started_us_) {
-            if (session_.running()) {
-                started_us_ = now;
-                if (observer_) observer_->on_synchronized(now);
-            } else if (now - begin > config_.connect_timeout_us) {
-                return RunOutcome::ConnectTimeout;
-            }
-            continue;
-        }
-        const bool shown = session_.frame() >= config_.target_frame;
-        if (auto outcome = end.check(now, started_us_, shown, (shown || end.reached()) && everyone_confirmed(), observer_))
-            return *outcome;
-    }
+    return run_ticks(
+        config_, begin, stop_, observer_, {started_us_, schedule_resets_},
+        [this](std::uint64_t due) { service_until(due); },
+        [this](std::uint64_t now, std::uint64_t due) {
+            tick(now, due);
+            return last_extra_us_;
+        },
+        [this] {
+            return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
+                              .running = session_.running(),
+                              .shown_target = session_.frame() >= config_.target_frame,
+                              .confirmed = everyone_confirmed()};
+        });
 }
 
 }  // namespace lockroll::net

@@ -87,34 +87,24 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
 }
 
 RunOutcome RelayRunner::run() {
-    const std::uint64_t begin = config_.clock.now_us();
-    TickSchedule schedule(begin, config_.tick_rate, config_.max_catch_up);
-    RunEnd end(config_);
-    std::uint64_t started = 0;
     const bool spectator = session_.config().role == rollback::RelayRole::Spectator;
     const std::uint32_t target = config_.target_frame;
-    for (;;) {
-        service_until(schedule.due());
-        if (stop_.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = config_.clock.now_us();
-        tick(now, schedule.start_tick(now));
-        schedule_resets_ = schedule.resets();
-        schedule.finish_tick(last_extra_us_);
-        if (session_.phase() == rollback::SessionPhase::Failed) return RunOutcome::Failed;
-        if (!started) {
-            if (session_.running()) {
-                started = now;
-                if (observer_) observer_->on_synchronized(now);
-            } else if (now - begin > config_.connect_timeout_us) {
-                return RunOutcome::ConnectTimeout;
-            }
-            continue;
-        }
-        // Everyone's confirmation is the server's business; ours, and the server holding our
-        // inputs up to the target, is what this process waits for.
-        const bool confirmed = session_.confirmed_frame() >= target && (spectator || session_.server_input_ack() >= target);
-        if (auto outcome = end.check(now, started, session_.frame() >= target, confirmed, observer_)) return *outcome;
-    }
+    return run_ticks(
+        config_, config_.clock.now_us(), stop_, observer_, {started_us_, schedule_resets_},
+        [this](std::uint64_t due) { service_until(due); },
+        [this](std::uint64_t now, std::uint64_t due) {
+            tick(now, due);
+            return last_extra_us_;
+        },
+        [&] {
+            // Everyone's confirmation is the server's business; ours, and the server holding
+            // our inputs up to the target, is what this process waits for.
+            return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
+                              .running = session_.running(),
+                              .shown_target = session_.frame() >= target,
+                              .confirmed = session_.confirmed_frame() >= target &&
+                                           (spectator || session_.server_input_ack() >= target)};
+        });
 }
 
 }  // namespace lockroll::net

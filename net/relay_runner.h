@@ -61,6 +61,7 @@ private:
     std::uint64_t last_connect_us_ = 0;
     int connections_ = 0;  // to the server so far (a later one is a reconnect)
     std::uint64_t last_extra_us_ = 0;
+    std::uint64_t started_us_ = 0;  // when the session first ran
     std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
 };
 

@@ -9,8 +9,11 @@
 // everyone confirmed it, plus linger_us (so the last acknowledgements get out); it times out
 // finish_timeout_us after showing the target, or run_timeout_us after starting without showing
 // it.
+//
+// run_ticks: the loop both runners run on these two (PeerRunner after its connect phase).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <optional>
 
@@ -68,5 +71,52 @@ private:
     const RunnerConfig& config_;
     std::uint64_t reached_ = 0, all_confirmed_ = 0;
 };
+
+// What a runner reports after each tick, for run_ticks to judge.
+struct TickStatus {
+    bool failed = false;        // the session failed (refused, kicked)
+    bool running = false;       // the session runs frames (frame 0, or a joiner's snapshot frame)
+    bool shown_target = false;  // frame() reached config.target_frame
+    bool confirmed = false;     // the runner's own "everyone confirmed the target" condition
+};
+
+// The runner's state the loop keeps up to date, so the runner can report it.
+struct TickLoopState {
+    std::uint64_t& started_us;       // when the session first ran (0 until then)
+    std::uint64_t& schedule_resets;  // TickSchedule::resets()
+};
+
+// Ticks until the run is over: sleeps in service_until(due_us) (servicing the transport) until
+// the next tick is due, runs tick(now_us, due_us), which returns the extra length of the tick
+// after it (time-sync stretch), then asks status() and ends the run as the contracts say:
+// Stopped at the first wake-up after `stop`, Failed with the session, ConnectTimeout when the
+// session does not run within connect_timeout_us of begin_us, and after it runs, RunEnd's
+// verdict.
+template <class ServiceUntil, class Tick, class Status>
+RunOutcome run_ticks(const RunnerConfig& config, std::uint64_t begin_us, const std::atomic<bool>& stop,
+                     RunnerObserver* observer, TickLoopState state, ServiceUntil service_until, Tick tick, Status status) {
+    TickSchedule schedule(config.clock.now_us(), config.tick_rate, config.max_catch_up);
+    RunEnd end(config);
+    for (;;) {
+        service_until(schedule.due());
+        if (stop.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
+        const std::uint64_t now = config.clock.now_us();
+        const std::uint64_t extra_us = tick(now, schedule.start_tick(now));
+        state.schedule_resets = schedule.resets();
+        schedule.finish_tick(extra_us);
+        const TickStatus s = status();
+        if (s.failed) return RunOutcome::Failed;
+        if (!state.started_us) {
+            if (s.running) {
+                state.started_us = now;
+                if (observer) observer->on_synchronized(now);
+            } else if (now - begin_us > config.connect_timeout_us) {
+                return RunOutcome::ConnectTimeout;
+            }
+            continue;
+        }
+        if (auto outcome = end.check(now, state.started_us, s.shown_target, s.confirmed, observer)) return *outcome;
+    }
+}
 
 }  // namespace lockroll::net
