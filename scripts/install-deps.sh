@@ -8,6 +8,7 @@ set -euo pipefail
 packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
           libbenchmark-dev python3 python3-matplotlib zlib1g-dev
+          libbullet-dev  # the optional bench/bullet_bench comparison (docs/performance.md)
           chromium)  # chromium: the headless browser test of lockroll view
 if [[ "${1:-}" == "--cross" ]]; then
   packages+=(clang libclang-rt-14-dev g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu
