@@ -20,8 +20,9 @@
 //    Layout 0 is exactly the format before rigid bodies (the word was reserved, always 0), so
 //    particle scenes keep their bytes and checksums.
 //  - When: between steps, at any time; saving never changes the world.
-//  - Size: snapshot_size(world) bytes; the caller owns the buffer (a rollback ring buffer
-//    allocates once and reuses it).
+//  - Size: snapshot_size(world) bytes now, at most snapshot_capacity(world) (layout 2 grows and
+//    shrinks with the carried impulses); the caller owns the buffer (a rollback ring buffer
+//    allocates the capacity once and reuses it).
 //  - Fields: 6 per body (position, velocity), 13 in a rigid scene (+ orientation w/x/y/z and
 //    angular_velocity x/y/z); snapshot_field() gives orientation as its Q32.32 raw value.
 //  - Loading validates size, magic and body count before touching the world: on any failure
