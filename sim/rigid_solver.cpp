@@ -316,9 +316,10 @@ void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
         k.pt2 = p.pt2;
         impulses.push_back(k);
     }
-    // Keys are unique (one manifold per pair), so the order is a function of the keys alone.
+    // Keys are unique (one manifold per pair, feature ids unique in it); a stable sort keeps the
+    // result a function of the points' order even if two ever were not, on every library.
     if (!std::is_sorted(impulses.begin(), impulses.end(), key_less))
-        std::sort(impulses.begin(), impulses.end(), key_less);
+        std::stable_sort(impulses.begin(), impulses.end(), key_less);
     if (impulses.size() > impulse_capacity_) impulses.resize(impulse_capacity_);
 }
 
