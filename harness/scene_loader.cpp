@@ -72,6 +72,10 @@ public:
     Reader at(std::size_t i) const { return Reader(v_.at(i), origin_, path_ + "/" + std::to_string(i)); }
     bool has(const std::string& key) const { return v_.contains(key); }
     const json& raw() const { return v_; }
+    bool boolean() const {
+        if (!v_.is_boolean()) fail("expected true or false");
+        return v_.get<bool>();
+    }
 
     // Object with only the given keys; a typo in a scene file must not pass silently.
     void expect_object(std::initializer_list<const char*> keys) const {
@@ -216,7 +220,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
         return;
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
-                     "restitution_threshold", "shock_propagation"});
+                     "restitution_threshold", "shock_propagation", "warm_starting"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -237,11 +241,8 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("baumgarte")) rg.baumgarte = r.at("baumgarte").fixed_in("0", "1");
     if (r.has("slop")) rg.slop = r.at("slop").fixed_in("0", "1");
     if (r.has("restitution_threshold")) rg.restitution_threshold = r.at("restitution_threshold").fixed_in("0", "1000");
-    if (r.has("shock_propagation")) {
-        const Reader f = r.at("shock_propagation");
-        if (!f.raw().is_boolean()) f.fail("expected true or false");
-        rg.shock_propagation = f.raw().get<bool>();
-    }
+    if (r.has("shock_propagation")) rg.shock_propagation = r.at("shock_propagation").boolean();
+    if (r.has("warm_starting")) rg.warm_starting = r.at("warm_starting").boolean();
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.
@@ -273,11 +274,7 @@ constexpr auto kSpawnerKeys = {"count", "shape", "radius", "half_extents", "half
 void read_solver(const Reader& r, sim::SolverDesc& sv) {
     r.expect_object({"substeps", "integrator", "correction", "slop", "max_push_speed", "restitution_threshold",
                      "restitution_after", "position_based", "shock_propagation", "continuous", "continuous_min_speed"});
-    auto flag = [&](const char* key) {
-        const Reader f = r.at(key);
-        if (!f.raw().is_boolean()) f.fail("expected true or false");
-        return f.raw().get<bool>();
-    };
+    auto flag = [&](const char* key) { return r.at(key).boolean(); };
     if (r.has("substeps")) sv.substeps = static_cast<int>(r.at("substeps").integer(1, 64));
     if (r.has("integrator")) {
         const std::string i = r.at("integrator").string();

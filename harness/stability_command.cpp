@@ -1112,7 +1112,11 @@ Outcome rigid_stack_case(const char* name) {
         o.check(short_name + ": largest distance of any box from its start over 10 s", "<= 1 cm", fmt(drift, "m"),
                 drift <= 0.01L);
         o.report(short_name + ": largest tilt over 10 s, 1 - cos", fmt(tilt));
-        o.details[short_name] = {{"drift_m", drift}, {"tilt_1_minus_cos", tilt}};
+        // Standing or fallen: the highest box's height after 10 s against its start.
+        const BodyId top = w.dynamic_ids().back();
+        const LD height = p3(w.position(top)).y, start = x0.back().y;
+        o.report(short_name + ": last box's height after 10 s / at the start", fmt(height, "m") + " / " + fmt(start, "m"));
+        o.details[short_name] = {{"drift_m", drift}, {"tilt_1_minus_cos", tilt}, {"last_height_m", height}};
     }
     return o;
 }
@@ -1143,8 +1147,8 @@ std::vector<Case> all_cases() {
         {"rigid_ramp", "18. rigid: box on a 30 deg ramp, mu 0.7 sticks, mu 0.3 slides", false, false, rigid_ramp},
         {"rigid_tip", "19. rigid: box tipped on an edge, 2 deg past / short of balance", false, false, rigid_tip},
         {"rigid_pyramid", "20. rigid: 10-box pyramid with friction, 10 s", false, false, rigid_pyramid},
-        // Without warm starting (impulses carried between frames would be state) 16 sequential-
-        // impulse passes plus shock propagation do not hold 20 boxes: docs/physics.md.
+        // With warm starting and 64 iterations the 20 boxes stand for 10 s but sway by ~20 cm,
+        // far past the 1 cm asked: docs/physics.md.
         {"rigid_stack", "21. rigid: 20-box stack with friction, 10 s", false, true, rigid_stack},
     };
 }

@@ -35,7 +35,8 @@ void WorldSimulation::step(std::span<const std::uint8_t> inputs) {
     world_.step(decoded_);
 }
 
-std::size_t WorldSimulation::state_size() const { return sim::snapshot_size(world_); }
+std::size_t WorldSimulation::state_size() const { return sim::snapshot_capacity(world_); }
+std::size_t WorldSimulation::saved_size() const { return sim::snapshot_size(world_); }
 
 void WorldSimulation::save(std::span<std::uint8_t> out) const { sim::save(world_, out); }
 
@@ -52,12 +53,10 @@ std::uint32_t WorldSimulation::body_count() const { return static_cast<std::uint
 
 std::uint32_t WorldSimulation::body_id(std::uint32_t index) const { return world_.dynamic_ids()[index]; }
 
-// Same value as sim::body_hash(world, id): XXH3-64 of the body's 48 snapshot bytes seeded with
-// its id.
+// Same value as sim::body_hash(world, id): XXH3-64 of the body's snapshot bytes (and, with
+// warm starting, its carried contact impulses) seeded with its id.
 std::uint64_t WorldSimulation::body_hash(std::span<const std::uint8_t> state, std::uint32_t index) const {
-    const std::size_t body = sim::snapshot_body_bytes(world_);
-    const std::size_t at = sim::kSnapshotHeaderBytes + std::size_t{index} * body;
-    return XXH3_64bits_withSeed(state.data() + at, body, body_id(index));
+    return sim::snapshot_body_hash(world_, state, index);
 }
 
 const char* WorldSimulation::field_name(int field) const {

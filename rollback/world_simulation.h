@@ -35,7 +35,9 @@ public:
 
     using Simulation::step;
     void step(std::span<const std::uint8_t> inputs) override;
+    // Capacity; a rigid scene with warm starting saves fewer bytes (saved_size()).
     std::size_t state_size() const override;
+    std::size_t saved_size() const override;
     void save(std::span<std::uint8_t> out) const override;
     std::string load(std::span<const std::uint8_t> in) override;
     std::uint64_t checksum(std::span<const std::uint8_t> state) const override;

@@ -12,9 +12,9 @@ Vec3 column(const Mat3& r, int k) {
 Fixed& comp(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 Fixed comp(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
-void add(Manifold& m, const Vec3& n, const Vec3& p, Fixed depth) {
+void add(Manifold& m, const Vec3& n, const Vec3& p, Fixed depth, std::uint8_t feature) {
     if (m.count >= kMaxManifold) return;
-    m.points[m.count++] = {n, p, depth};
+    m.points[m.count++] = {n, p, depth, feature};
 }
 
 // Two spheres (centres ca, cb, radii ra, rb): a point when closer than the margin. Coincident
@@ -29,7 +29,7 @@ void spheres(const Vec3& ca, Fixed ra, const Vec3& cb, Fixed rb, Fixed margin, M
     if (dist.raw != 0) n = {d.x / dist, d.y / dist, d.z / dist};
     const Fixed depth = ra + rb - dist;
     // The point halfway between the two surfaces along the normal.
-    add(m, n, ca + n * (ra - Fixed::from_raw(depth.raw / 2)), depth);
+    add(m, n, ca + n * (ra - Fixed::from_raw(depth.raw / 2)), depth, 0);
 }
 
 // The core segment of a round collider: centre -+ axis * core_half.
@@ -94,27 +94,27 @@ void round_round(const OrientedCollider& a, const OrientedCollider& b, Fixed mar
 }
 
 // A sphere of radius r at c against the box: normal from sphere to box.
-void sphere_box(const Vec3& c, Fixed r, const OrientedCollider& box, Fixed margin, Manifold& m) {
+void sphere_box(const Vec3& c, Fixed r, const OrientedCollider& box, Fixed margin, Manifold& m, std::uint8_t feature) {
     Vec3 n, q;
     Fixed dist;
     if (!point_box(c, box, r + margin, n, q, dist)) return;
     const Fixed depth = r - dist;
     // The point on the box's surface (the deepest point of the sphere is q's twin on the sphere).
-    add(m, n, q, depth);
+    add(m, n, q, depth, feature);
 }
 
 void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed margin, Manifold& m) {
     if (a.core_half.raw == 0) {
-        sphere_box(a.center, a.radius, box, margin, m);
+        sphere_box(a.center, a.radius, box, margin, m, 0);
         return;
     }
     Vec3 p0, p1;
     segment(a, p0, p1);
-    sphere_box(p0, a.radius, box, margin, m);
-    sphere_box(p1, a.radius, box, margin, m);
+    sphere_box(p0, a.radius, box, margin, m, 0);
+    sphere_box(p1, a.radius, box, margin, m, 1);
     // The core point nearest the box centre, when it is not an end: leaning on an edge.
     const Fixed t = closest_param(p0, p1 - p0, box.center);
-    if (t.raw > 0 && t < Fixed::one()) sphere_box(p0 + (p1 - p0) * t, a.radius, box, margin, m);
+    if (t.raw > 0 && t < Fixed::one()) sphere_box(p0 + (p1 - p0) * t, a.radius, box, margin, m, 2);
 }
 
 // Box-box by the separating-axis test over the 15 axes (3 face normals of each box, 9 edge
@@ -124,21 +124,38 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
 // An edge axis wins only when it penetrates clearly less (kEdgeBias), which keeps resting
 // face contacts from flickering to edge contacts; it gives one point between the two edges.
 
+// A clipped polygon with feature ids, so a point keeps its id from frame to frame (the solver's
+// warm starting matches points by it): vertex i is an incident-face corner (id 0..3), an
+// incident edge e cut by reference side plane s (4 + 4 s + e), or a corner where side planes
+// s1 then s2 cut (20 + 4 s1 + s2). edge[i] says what the edge from v[i] to v[i+1] lies on: an
+// incident edge (0..3) or a side plane (4 + s).
 struct Poly {
     int n = 0;
     Vec3 v[8];
+    std::uint8_t id[8] = {};
+    std::uint8_t edge[8] = {};
 };
 
-// Keeps the part of poly where dot(dir, p) <= limit.
-void clip(const Poly& in, const Vec3& dir, Fixed limit, Poly& out) {
+// Keeps the part of poly where dot(dir, p) <= limit; `plane` (0..3) names the side plane.
+void clip(const Poly& in, const Vec3& dir, Fixed limit, int plane, Poly& out) {
     out.n = 0;
+    const auto push = [&](const Vec3& p, int id, int edge) {
+        if (out.n >= 8) return;
+        out.v[out.n] = p;
+        out.id[out.n] = static_cast<std::uint8_t>(id);
+        out.edge[out.n++] = static_cast<std::uint8_t>(edge);
+    };
     for (int i = 0; i < in.n; ++i) {
         const Vec3& p = in.v[i];
         const Vec3& q = in.v[(i + 1) % in.n];
+        const int on = in.edge[i];
         const Fixed dp = dot(dir, p) - limit, dq = dot(dir, q) - limit;
-        if (dp.raw <= 0 && out.n < 8) out.v[out.n++] = p;
-        if ((dp.raw < 0) != (dq.raw < 0) && dp.raw != 0 && dq.raw != 0 && out.n < 8)
-            out.v[out.n++] = p + (q - p) * (dp / (dp - dq));
+        if (dp.raw <= 0) push(p, in.id[i], on);
+        if ((dp.raw < 0) != (dq.raw < 0) && dp.raw != 0 && dq.raw != 0) {
+            const int id = on < 4 ? 4 + 4 * plane + on : 20 + 4 * (on - 4) + plane;
+            // Leaving the kept side, the next edge runs along this plane; entering, along `on`.
+            push(p + (q - p) * (dp / (dp - dq)), id, dp.raw < 0 ? 4 + plane : on);
+        }
     }
 }
 
@@ -168,19 +185,22 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     a.v[1] = fc - eu + ev;
     a.v[2] = fc - eu - ev;
     a.v[3] = fc + eu - ev;
+    for (int i = 0; i < 4; ++i) a.id[i] = a.edge[i] = static_cast<std::uint8_t>(i);
     // Side planes of the reference face.
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
         const Vec3 axis = column(*ref.rot, t);
         const Fixed c = dot(axis, ref.center), h = comp(ref.half, t);
-        clip(a, axis, c + h, b);
-        clip(b, -axis, h - c, a);
+        clip(a, axis, c + h, 2 * s - 2, b);
+        clip(b, -axis, h - c, 2 * s - 1, a);
     }
     const Fixed plane = dot(n, ref.center) + comp(ref.half, k);
+    // Which box is the reference is part of the feature: the other choice gives other points.
+    const int base = flip ? kFeatureFlipped : 0;
     for (int i = 0; i < a.n; ++i) {
         const Fixed sep = dot(n, a.v[i]) - plane;
         if (sep > margin) continue;
-        add(m, flip ? -n : n, a.v[i], -sep);
+        add(m, flip ? -n : n, a.v[i], -sep, static_cast<std::uint8_t>(base + a.id[i]));
     }
 }
 
@@ -245,7 +265,8 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         const Vec3 ea = column(*a.rot, edge_i) * comp(a.half, edge_i), eb = column(*b.rot, edge_j) * comp(b.half, edge_j);
         Vec3 ca, cb;
         closest_segments(pa - ea, pa + ea, pb - eb, pb + eb, ca, cb);
-        add(m, edge_n, ca + (cb - ca) * Fixed::from_raw(Fixed::kOne / 2), -edge_sep);
+        add(m, edge_n, ca + (cb - ca) * Fixed::from_raw(Fixed::kOne / 2), -edge_sep,
+            static_cast<std::uint8_t>(kFeatureEdge + 3 * edge_i + edge_j));
         return;
     }
     if (face_box == 0)

@@ -12,6 +12,8 @@
 //    point nearest the box centre, enough for lying, standing and leaning capsules); box-box
 //    (separating-axis test over 15 axes; a face axis gives the incident face clipped to the
 //    reference face, up to 8 points, an edge axis one point between the two edges).
+//  - Each point has a feature id (unique in its manifold, stable while the touching features
+//    are): warm starting carries impulses by it.
 //  - Deterministic: a fixed order of points, integer arithmetic only.
 #pragma once
 
@@ -22,10 +24,18 @@ namespace lockroll::sim {
 
 inline constexpr int kMaxManifold = 8;
 
+// Feature ids: what made a point, stable while the geometry is (the solver matches warm-start
+// impulses by them). Round shapes: 0 (a sphere, a capsule's first end), 1 (its second end), 2
+// (its core point nearest a box). Box-box face contacts: 0..35 for the clipped incident face
+// (rigid_contact.cpp), plus kFeatureFlipped when B's face is the reference; edge-edge:
+// kFeatureEdge + 3 i + j for edge i of A and j of B.
+inline constexpr std::uint8_t kFeatureFlipped = 64, kFeatureEdge = 128;
+
 struct ContactPoint {
     Vec3 normal;  // unit, from A to B
     Vec3 point;   // world position where the impulse acts
     Fixed depth;  // > 0 overlap; <= 0 a gap within the margin
+    std::uint8_t feature = 0;  // unique within a manifold
 };
 
 struct Manifold {

@@ -31,6 +31,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     if (!enabled_) return;
     const RigidDesc& rg = scene.rigid;
     shock_ = rg.shock_propagation;
+    warm_ = rg.warm_starting;
     iterations_ = scene.iterations;
     dt_ = k.dt();
     inv_dt_ = Fixed::from_int(scene.tick_rate);
@@ -63,6 +64,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     rot_.resize(n);
     inv_i_world_.assign(n, Mat3{});
     dynamic_ = k.dynamic_ids();
+    impulse_capacity_ = warm_ ? kImpulsesPerBody * dynamic_.size() : 0;
     const Fixed neg = -Fixed::one();
     for (std::size_t i = 0; i < n; ++i) {
         const BodyDesc& b = scene.bodies[i];
@@ -204,6 +206,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             Point p;
             p.a = a;
             p.b = b;
+            p.feature = c.feature;
             p.n = c.normal;
             tangents(p.n, p.t1, p.t2);
             p.ra = c.point - pos[a];
@@ -228,7 +231,8 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     }
 }
 
-void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock) {
+void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
+                              Rows rows) {
     // Effective masses as if only `only` moved (shock pass), else the pair's.
     Fixed mn = p.mass_n, m1 = p.mass_t1, m2 = p.mass_t2;
     if (only != kEveryBody) {
@@ -249,15 +253,18 @@ void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3
     // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
     // adds impulse (it never takes back what the iterations gave).
     Vec3 dv = relative_velocity(p, vel, angvel);
-    const Fixed vn = dot(dv, p.n);
-    const Fixed floor = shock ? p.pn : Fixed::zero();
-    const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
-    const Fixed dpn = pn - p.pn;
-    p.pn = pn;
-    if (dpn.raw != 0) {
-        apply(p, p.n * dpn, vel, angvel, only);
-        dv = relative_velocity(p, vel, angvel);
+    if (rows != Rows::Friction) {
+        const Fixed vn = dot(dv, p.n);
+        const Fixed floor = shock ? p.pn : Fixed::zero();
+        const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
+        const Fixed dpn = pn - p.pn;
+        p.pn = pn;
+        if (dpn.raw != 0) {
+            apply(p, p.n * dpn, vel, angvel, only);
+            dv = relative_velocity(p, vel, angvel);
+        }
     }
+    if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
     // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
     Fixed t1 = p.pt1 - m1 * dot(dv, p.t1);
@@ -276,8 +283,63 @@ void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3
     if (d1.raw != 0 || d2.raw != 0) apply(p, p.t1 * d1 + p.t2 * d2, vel, angvel, only);
 }
 
-void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
-    for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
+ContactImpulse RigidSolver::key_of(const Point& p) const {
+    ContactImpulse k;
+    const bool a_moves = inv_mass_[p.a].raw != 0;
+    k.body = a_moves ? p.a : p.b;
+    k.other = a_moves ? p.b : p.a;
+    k.feature = p.feature;
+    return k;
+}
+
+void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, std::vector<Vec3>& vel,
+                             std::vector<Vec3>& angvel) {
+    if (impulses.empty()) return;
+    for (Point& p : points_) {
+        const ContactImpulse k = key_of(p);
+        const auto it = std::lower_bound(impulses.begin(), impulses.end(), k, key_less);
+        if (it == impulses.end() || key_less(k, *it)) continue;
+        p.pn = it->pn;
+        p.pt1 = it->pt1;
+        p.pt2 = it->pt2;
+        apply(p, p.n * p.pn + p.t1 * p.pt1 + p.t2 * p.pt2, vel, angvel);
+    }
+}
+
+void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
+    impulses.clear();
+    for (const Point& p : points_) {
+        if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) continue;
+        ContactImpulse k = key_of(p);
+        k.pn = p.pn;
+        k.pt1 = p.pt1;
+        k.pt2 = p.pt2;
+        impulses.push_back(k);
+    }
+    // Keys are unique (one manifold per pair, feature ids unique in it); a stable sort keeps the
+    // result a function of the points' order even if two ever were not, on every library.
+    if (!std::is_sorted(impulses.begin(), impulses.end(), key_less))
+        std::stable_sort(impulses.begin(), impulses.end(), key_less);
+    if (impulses.size() > impulse_capacity_) impulses.resize(impulse_capacity_);
+}
+
+void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass) {
+    if (!warm_) {
+        for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
+        return;
+    }
+    // Warm-started scenes: every normal row, then every friction row, odd passes backwards.
+    // Friction solved point after point within a manifold leaves a net twist (the first corner
+    // always goes first), which turned every box of a stack the same way; alternating the
+    // direction spreads a stack's support both ways in one iteration pair.
+    const auto sweep = [&](Rows rows) {
+        if (pass & 1)
+            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_point(*it, vel, angvel, kEveryBody, false, rows);
+        else
+            for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false, rows);
+    };
+    sweep(Rows::Normal);
+    sweep(Rows::Friction);
 }
 
 void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {

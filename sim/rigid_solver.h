@@ -12,6 +12,10 @@
 //     impulse (accumulated, >= 0), then friction (accumulated, on the tangent plane): while the
 //     friction needed stays within mu_s times the normal impulse the contact sticks; beyond it,
 //     the friction impulse is mu_k times the normal impulse against the slip (the cone).
+//     With rigid.warm_starting each point first gets the impulses its key (body, other body,
+//     feature id) ended the last step with (ContactImpulse: state, in the snapshot), and
+//     the iterations refine them, so a stack's impulses converge over frames; each pass then
+//     solves every normal row before every friction row, odd passes in reverse order.
 //  5b. (rigid.shock_propagation) one more pass from the ground up, in which each contact moves only
 //     its upper body (the lower one counts as immovable): no contact of a stack is left
 //     approaching, whatever the iteration count (Guendelman, Bridson and Fedkiw 2003).
@@ -34,11 +38,31 @@
 
 namespace lockroll::sim {
 
+// The impulses a contact point ended a step with, for warm starting the next one. `body` is
+// the pair's dynamic body (the solver's first body unless that one is static), `other` the
+// other one, `feature` the point's feature id (sim/rigid_contact.h). Kept sorted by
+// (body, other, feature), so one body's entries are contiguous (desync narrowing hashes them
+// with the body).
+struct ContactImpulse {
+    BodyId body = 0, other = 0;
+    std::uint8_t feature = 0;
+    Fixed pn, pt1, pt2;  // normal and two tangent impulses (N s)
+};
+inline bool key_less(const ContactImpulse& x, const ContactImpulse& y) {
+    if (x.body != y.body) return x.body < y.body;
+    if (x.other != y.other) return x.other < y.other;
+    return x.feature < y.feature;
+}
+// At most this many carried impulses per dynamic body (a box resting on two others has 8
+// points); beyond, the last ones in key order are dropped, so the state has a fixed capacity.
+inline constexpr std::size_t kImpulsesPerBody = 8;
+
 class RigidSolver {
 public:
     // Only for a scene with rigid.enabled; kernel supplies the shapes, sizes and masses.
     void configure(const SceneDesc& scene, const StepKernel<Fixed>& kernel);
     bool enabled() const { return enabled_; }
+    bool warm_starting() const { return warm_; }
 
     // The scene's orientations (normalised) and angular velocities (zero for static bodies).
     void initial_state(const SceneDesc& scene, std::vector<Quat>& orient, std::vector<Vec3>& angvel) const;
@@ -47,19 +71,27 @@ public:
     // static body's exact box.
     const std::vector<Vec3>& extent() const { return extent_; }
 
+    // impulses: the warm-starting state (ContactImpulse), read and rewritten when
+    // warm_starting(), untouched otherwise.
     template <class FindPairs, class Control>
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
-              FindPairs&& find_pairs, Control&& control) {
+              std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control) {
         for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
         control(vel);
         if (damped_) damp(vel, angvel);
         update_inertia(orient);
         find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
         build_contacts(pos, vel, angvel);
-        for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel);
+        if (warm_) warm_start(impulses, vel, angvel);
+        for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel, i);
+        if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass(vel, angvel);
         integrate(pos, vel, orient, angvel);
     }
+
+    // Most ContactImpulse entries a step keeps (kImpulsesPerBody per dynamic body; 0 without
+    // warm starting).
+    std::size_t impulse_capacity() const { return impulse_capacity_; }
 
     // Contact points of the last step (diagnostics and tests).
     std::size_t contact_count() const { return points_.size(); }
@@ -67,6 +99,7 @@ public:
 private:
     struct Point {
         BodyId a, b;
+        std::uint8_t feature;  // ContactPoint::feature
         Vec3 n, t1, t2, ra, rb;
         Fixed mass_n, mass_t1, mass_t2;
         Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)
@@ -77,10 +110,18 @@ private:
     void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
     void update_inertia(const std::vector<Quat>& orient);
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
-    void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass);
+    // Gives each point its carried impulses and applies them; keep_impulses() stores the
+    // iterations' result (before the shock pass, which is not a physical impulse).
+    void warm_start(const std::vector<ContactImpulse>& impulses, std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void keep_impulses(std::vector<ContactImpulse>& impulses) const;
+    ContactImpulse key_of(const Point& p) const;
     void shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
-    // Solves point p's normal and friction rows once; with `only` set, as if only that body moved.
-    void solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock);
+    // Solves point p's normal and friction rows once (or only one kind); with `only` set, as if
+    // only that body moved.
+    enum class Rows : std::uint8_t { Both, Normal, Friction };
+    void solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
+                     Rows rows = Rows::Both);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel) const;
     void apply(const Point& p, const Vec3& impulse, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
@@ -94,7 +135,8 @@ private:
     // w from angular momentum L at orientation q: R (I^-1 (R^T L)).
     Vec3 omega_from(BodyId id, const Quat& q, const Vec3& l) const;
 
-    bool enabled_ = false, damped_ = false, shock_ = false;
+    bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false;
+    std::size_t impulse_capacity_ = 0;
     int iterations_ = 4;
     Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_;
     Fixed kin_[kShapeCount][kShapeCount], stat_[kShapeCount][kShapeCount], rest_[kShapeCount][kShapeCount];

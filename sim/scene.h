@@ -130,6 +130,10 @@ struct RigidDesc {
     // After the iterations, one pass from the ground up in which each pressing contact moves
     // only its upper body: tall stacks stop sinking whatever the iteration count.
     bool shock_propagation = false;
+    // Warm starting: each contact point starts the iterations from the impulses it ended the
+    // last step with (matched by the key body a, body b, point index), so tall stacks converge
+    // over frames instead of within one. The impulses become state (snapshot layout 2).
+    bool warm_starting = false;
 
     RigidDesc();
 };

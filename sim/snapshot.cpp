@@ -3,6 +3,7 @@
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <stdexcept>
@@ -22,6 +23,7 @@ public:
     static std::vector<Vec3>& vel(World& w) { return w.vel_; }
     static std::vector<Quat>& orient(World& w) { return w.orient_; }
     static std::vector<Vec3>& angvel(World& w) { return w.angvel_; }
+    static std::vector<ContactImpulse>& impulses(World& w) { return w.impulses_; }
 };
 
 namespace {
@@ -69,6 +71,39 @@ void put_world_body(std::uint8_t* p, const World& w, BodyId id) {
     if (w.rigid()) put_rigid(p + kSnapshotBodyBytes, w.orientation(id), w.angular_velocity(id));
 }
 
+bool warm(const World& w) { return w.rigid_solver().warm_starting(); }
+std::uint32_t layout_of(const World& w) { return warm(w) ? kLayoutRigidWarm : w.rigid() ? kLayoutRigid : kLayoutParticle; }
+// Where layout 2's impulse count sits: right after the bodies.
+std::size_t bodies_end(const World& w) { return kSnapshotHeaderBytes + snapshot_body_bytes(w) * w.dynamic_count(); }
+
+void put_impulse(std::uint8_t* p, const ContactImpulse& c) {
+    put_u32(p, c.body);
+    put_u32(p + 4, c.other);
+    p[8] = c.feature;
+    const Fixed f[3] = {c.pn, c.pt1, c.pt2};
+    for (int k = 0; k < 3; ++k) put_u64(p + 9 + 8 * k, static_cast<std::uint64_t>(f[k].raw));
+}
+ContactImpulse get_impulse(const std::uint8_t* p) {
+    ContactImpulse c;
+    c.body = get_u32(p);
+    c.other = get_u32(p + 4);
+    c.feature = p[8];
+    Fixed* f[3] = {&c.pn, &c.pt1, &c.pt2};
+    for (int k = 0; k < 3; ++k) *f[k] = Fixed::from_raw(static_cast<std::int64_t>(get_u64(p + 9 + 8 * k)));
+    return c;
+}
+
+// XXH3-64 of a body's bytes followed by its carried impulses' bytes (streaming gives the same
+// value as one call over the concatenation, so a body with none hashes as before).
+template <class EachImpulse>
+std::uint64_t hash_body(const std::uint8_t* body, std::size_t body_bytes, BodyId id, EachImpulse&& each_impulse) {
+    XXH3_state_t st;
+    XXH3_64bits_reset_withSeed(&st, id);
+    XXH3_64bits_update(&st, body, body_bytes);
+    each_impulse([&](const std::uint8_t* bytes) { XXH3_64bits_update(&st, bytes, kSnapshotImpulseBytes); });
+    return XXH3_64bits_digest(&st);
+}
+
 // Byte offset and width of a field within a body's bytes.
 std::size_t field_offset(int field) {
     if (field < 6) return 8 * static_cast<std::size_t>(field);
@@ -92,11 +127,17 @@ std::vector<std::uint8_t>& scratch(std::size_t size) {
 std::size_t snapshot_body_bytes(const World& w) { return w.rigid() ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes; }
 int body_field_count(const World& w) { return w.rigid() ? kRigidFields : kParticleFields; }
 std::size_t snapshot_body_bytes(std::span<const std::uint8_t> s) {
-    return s.size() >= kSnapshotHeaderBytes && get_u32(s.data() + 12) == kLayoutRigid ? kSnapshotRigidBodyBytes
-                                                                                         : kSnapshotBodyBytes;
+    if (s.size() < kSnapshotHeaderBytes) return kSnapshotBodyBytes;
+    const std::uint32_t layout = get_u32(s.data() + 12);
+    return layout == kLayoutRigid || layout == kLayoutRigidWarm ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes;
 }
 
-std::size_t snapshot_size(const World& w) { return kSnapshotHeaderBytes + snapshot_body_bytes(w) * w.dynamic_count(); }
+std::size_t snapshot_size(const World& w) {
+    return bodies_end(w) + (warm(w) ? 4 + kSnapshotImpulseBytes * w.contact_impulses().size() : 0);
+}
+std::size_t snapshot_capacity(const World& w) {
+    return bodies_end(w) + (warm(w) ? 4 + kSnapshotImpulseBytes * w.rigid_solver().impulse_capacity() : 0);
+}
 
 void save(const World& w, std::span<std::uint8_t> out) {
     if (out.size() < snapshot_size(w)) throw std::length_error("snapshot buffer too small");
@@ -104,13 +145,20 @@ void save(const World& w, std::span<std::uint8_t> out) {
     put_u32(p, kSnapshotMagic);
     put_u32(p + 4, static_cast<std::uint32_t>(w.dynamic_count()));
     put_u32(p + 8, SnapshotAccess::frame(w));
-    put_u32(p + 12, w.rigid() ? kLayoutRigid : kLayoutParticle);
+    put_u32(p + 12, layout_of(w));
     put_u64(p + 16, SnapshotAccess::overflow(w));
     p += kSnapshotHeaderBytes;
     const std::size_t body = snapshot_body_bytes(w);
     for (BodyId id : w.dynamic_ids()) {
         put_world_body(p, w, id);
         p += body;
+    }
+    if (!warm(w)) return;
+    put_u32(p, static_cast<std::uint32_t>(w.contact_impulses().size()));
+    p += 4;
+    for (const ContactImpulse& c : w.contact_impulses()) {
+        put_impulse(p, c);
+        p += kSnapshotImpulseBytes;
     }
 }
 
@@ -123,12 +171,35 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
     if (count != w.dynamic_count())
         return "snapshot holds " + std::to_string(count) + " dynamic bodies, the world has " +
                std::to_string(w.dynamic_count());
-    const std::uint32_t layout = get_u32(p + 12), want = w.rigid() ? kLayoutRigid : kLayoutParticle;
+    const std::uint32_t layout = get_u32(p + 12), want = layout_of(w);
     if (layout != want)
         return "snapshot layout is " + std::to_string(layout) + ", the world needs " + std::to_string(want) +
-               (want == kLayoutRigid ? " (rigid)" : " (particle)");
-    if (in.size() != snapshot_size(w))
-        return "snapshot is " + std::to_string(in.size()) + " bytes, expected " + std::to_string(snapshot_size(w));
+               (want == kLayoutRigidWarm ? " (rigid, warm starting)" : want == kLayoutRigid ? " (rigid)" : " (particle)");
+    const std::size_t end = bodies_end(w);
+    std::size_t expected = end, impulses = 0;
+    if (warm(w)) {
+        if (in.size() < end + 4)
+            return "snapshot is " + std::to_string(in.size()) + " bytes, too short for its impulse count at byte " +
+                   std::to_string(end);
+        impulses = get_u32(p + end);
+        if (impulses > w.rigid_solver().impulse_capacity())
+            return "snapshot carries " + std::to_string(impulses) + " contact impulses, more than the world's " +
+                   std::to_string(w.rigid_solver().impulse_capacity());
+        expected = end + 4 + kSnapshotImpulseBytes * impulses;
+    }
+    if (in.size() != expected)
+        return "snapshot is " + std::to_string(in.size()) + " bytes, expected " + std::to_string(expected);
+    // Carried impulses: keys of real body pairs, the first one dynamic, in strictly increasing
+    // order (the solver looks them up by binary search).
+    for (std::size_t k = 0; k < impulses; ++k) {
+        const ContactImpulse c = get_impulse(p + end + 4 + kSnapshotImpulseBytes * k);
+        const std::string at = "snapshot contact impulse " + std::to_string(k);
+        if (c.body >= w.body_count() || c.other >= w.body_count() || c.body == c.other || w.is_static(c.body))
+            return at + " names bodies " + std::to_string(c.body) + " and " + std::to_string(c.other) +
+                   ", not a dynamic body and another body of this scene";
+        if (k > 0 && !key_less(get_impulse(p + end + 4 + kSnapshotImpulseBytes * (k - 1)), c))
+            return at + " is out of key order";
+    }
     SnapshotAccess::set(w, get_u32(p + 8), get_u64(p + 16));
     auto& pos = SnapshotAccess::pos(w);
     auto& vel = SnapshotAccess::vel(w);
@@ -148,6 +219,9 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
         }
         p += snapshot_body_bytes(w);
     }
+    auto& carried = SnapshotAccess::impulses(w);
+    carried.clear();
+    for (std::size_t k = 0; k < impulses; ++k) carried.push_back(get_impulse(p + 4 + kSnapshotImpulseBytes * k));
     return {};
 }
 
@@ -161,7 +235,37 @@ std::uint64_t checksum(const World& w) {
 std::uint64_t body_hash(const World& w, BodyId id) {
     std::uint8_t bytes[kSnapshotRigidBodyBytes];
     put_world_body(bytes, w, id);
-    return XXH3_64bits_withSeed(bytes, snapshot_body_bytes(w), id);
+    const auto& carried = w.contact_impulses();
+    ContactImpulse first;
+    first.body = id;
+    auto it = std::lower_bound(carried.begin(), carried.end(), first, key_less);
+    return hash_body(bytes, snapshot_body_bytes(w), id, [&](auto&& update) {
+        for (; it != carried.end() && it->body == id; ++it) {
+            std::uint8_t e[kSnapshotImpulseBytes];
+            put_impulse(e, *it);
+            update(e);
+        }
+    });
+}
+
+std::uint64_t snapshot_body_hash(const World& w, std::span<const std::uint8_t> s, std::size_t index) {
+    const std::size_t body = snapshot_body_bytes(w), end = bodies_end(w);
+    const BodyId id = w.dynamic_ids()[index];
+    const std::uint8_t* at = s.data() + kSnapshotHeaderBytes + index * body;
+    if (!warm(w) || s.size() < end + 4) return hash_body(at, body, id, [](auto&&) {});
+    // The entries are sorted by body: binary search for the first of this one.
+    const std::uint8_t* e = s.data() + end + 4;
+    std::size_t lo = 0, hi = std::min<std::size_t>(get_u32(s.data() + end), (s.size() - end - 4) / kSnapshotImpulseBytes);
+    const std::size_t count = hi;
+    while (lo < hi) {
+        const std::size_t mid = lo + (hi - lo) / 2;
+        if (get_u32(e + mid * kSnapshotImpulseBytes) < id) lo = mid + 1;
+        else hi = mid;
+    }
+    return hash_body(at, body, id, [&](auto&& update) {
+        for (std::size_t k = lo; k < count && get_u32(e + k * kSnapshotImpulseBytes) == id; ++k)
+            update(e + k * kSnapshotImpulseBytes);
+    });
 }
 
 std::int64_t snapshot_field(std::span<const std::uint8_t> s, std::size_t index, int field) {
@@ -185,6 +289,11 @@ long first_difference(std::span<const std::uint8_t> a, std::span<const std::uint
         return 0;
     }
     const std::size_t rel = i - kSnapshotHeaderBytes, body = snapshot_body_bytes(a);
+    const std::size_t count = get_u32(a.data() + 4);
+    if (rel >= body * count) {  // layout 2's carried impulses
+        if (field) *field = -1;
+        return static_cast<long>(count);
+    }
     if (field) *field = field_at(rel % body);
     return static_cast<long>(rel / body);
 }

@@ -11,12 +11,18 @@
 //      then per dynamic body: i64 pos.x, pos.y, pos.z, vel.x, vel.y, vel.z
 //      and, when layout is 1 (rigid): i32 orientation w, x, y, z (units of 2^-30: the grid
 //      sim/quat.h keeps them on), i64 angular_velocity.x, y, z
-//    all little-endian, no padding: 24 + 48 (layout 0) or 88 (layout 1) bytes * dynamic_count.
+//    and, when layout is 2 (rigid with rigid.warm_starting): the layout-1 bodies, then
+//      u32 impulse_count, then per carried contact impulse (sim/rigid_solver.h ContactImpulse,
+//      in key order): u32 body, u32 other, u8 feature, i64 pn, pt1, pt2 (33 bytes)
+//    all little-endian, no padding: 24 + 48 (layout 0) or 88 (layouts 1, 2) bytes * dynamic_count
+//    (+ 4 + 33 * impulse_count in layout 2: the only variable-size layout; its capacity is
+//    snapshot_capacity(), with at most kImpulsesPerBody impulses per dynamic body).
 //    Layout 0 is exactly the format before rigid bodies (the word was reserved, always 0), so
 //    particle scenes keep their bytes and checksums.
 //  - When: between steps, at any time; saving never changes the world.
-//  - Size: snapshot_size(world) bytes; the caller owns the buffer (a rollback ring buffer
-//    allocates once and reuses it).
+//  - Size: snapshot_size(world) bytes now, at most snapshot_capacity(world) (layout 2 grows and
+//    shrinks with the carried impulses); the caller owns the buffer (a rollback ring buffer
+//    allocates the capacity once and reuses it).
 //  - Fields: 6 per body (position, velocity), 13 in a rigid scene (+ orientation w/x/y/z and
 //    angular_velocity x/y/z); snapshot_field() gives orientation as its Q32.32 raw value.
 //  - Loading validates size, magic and body count before touching the world: on any failure
@@ -25,7 +31,9 @@
 //  - Guarantee: save at frame f, load, step N frames == step N frames without saving, bit for
 //    bit (the broadphase keeps only a sort-order cache whose result never depends on history).
 //  - checksum(): XXH3-64 of exactly the snapshot bytes. body_hash(): XXH3-64 of one body's 48
-//    (88) bytes, seeded with its id, for narrowing a desync to one body.
+//    (88) bytes, seeded with its id, for narrowing a desync to one body; in layout 2 the hash
+//    then continues over the body's carried impulses (the entries whose `body` it is), so a
+//    difference there names the body too.
 #pragma once
 
 #include <cstdint>
@@ -40,7 +48,8 @@ inline constexpr std::uint32_t kSnapshotMagic = 0x3153524Cu;  // "LRS1" little-e
 inline constexpr std::size_t kSnapshotHeaderBytes = 24;
 inline constexpr std::size_t kSnapshotBodyBytes = 48;
 inline constexpr std::size_t kSnapshotRigidBodyBytes = 88;
-inline constexpr std::uint32_t kLayoutParticle = 0, kLayoutRigid = 1;
+inline constexpr std::size_t kSnapshotImpulseBytes = 33;
+inline constexpr std::uint32_t kLayoutParticle = 0, kLayoutRigid = 1, kLayoutRigidWarm = 2;
 
 // The state words of a body, in snapshot order; names for desync reports. Particle scenes have
 // the first kParticleFields, rigid scenes all kRigidFields.
@@ -56,7 +65,9 @@ int body_field_count(const World& world);
 // Bytes per body of a snapshot, from its header's layout word (48 when too short to say).
 std::size_t snapshot_body_bytes(std::span<const std::uint8_t> snapshot);
 
+// Bytes of this world's snapshot now, and the most it can take (equal unless the layout is 2).
 std::size_t snapshot_size(const World& world);
+std::size_t snapshot_capacity(const World& world);
 
 // Writes exactly snapshot_size(world) bytes; `out` must be at least that large (checked: a
 // short buffer throws std::length_error and writes nothing).
@@ -67,6 +78,8 @@ std::string load(World& world, std::span<const std::uint8_t> in);
 
 std::uint64_t checksum(const World& world);
 std::uint64_t body_hash(const World& world, BodyId id);
+// body_hash() of the body at `index` (dynamic-id order) of a saved snapshot of `world`'s scene.
+std::uint64_t snapshot_body_hash(const World& world, std::span<const std::uint8_t> snapshot, std::size_t index);
 
 // Reads body `index` (position in dynamic-id order) field `field` (0..5, or 0..12 in a rigid
 // snapshot) out of a snapshot
@@ -75,7 +88,8 @@ std::int64_t snapshot_field(std::span<const std::uint8_t> snapshot, std::size_t 
 
 // Compares two snapshots of the same scene. Returns -1 when identical; otherwise the index (in
 // dynamic-id order) of the first differing body, with its first differing field in *field
-// (-1 when the difference is in the header).
+// (-1 when the difference is in the header, or past the bodies in layout 2's carried impulses:
+// then the index is dynamic_count).
 long first_difference(std::span<const std::uint8_t> a, std::span<const std::uint8_t> b, int* field);
 
 }  // namespace lockroll::sim

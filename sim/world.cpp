@@ -20,6 +20,7 @@ World::World(const SceneDesc& scene) : scene_(validated(scene)), kernel_(scene_)
     controller_ = ControllerFactors::from(scene_.controller, kernel_.dt());
     rigid_.configure(scene_, kernel_);
     if (rigid_.enabled()) rigid_.initial_state(scene_, orient_, angvel_);
+    impulses_.reserve(rigid_.impulse_capacity());  // steps and loads never allocate for it
     broadphase_.configure(scene_.broadphase, kernel_.dynamic_ids(), kernel_.static_ids(), pos_,
                           rigid_.enabled() ? rigid_.extent() : kernel_.extent(), scene_.contact_margin);
     // Whatever scene construction saturated is part of the initial state.
@@ -33,7 +34,7 @@ void World::step(std::span<const PlayerInput> inputs) {
     };
     if (rigid_.enabled())
         rigid_.step(
-            pos_, vel_, orient_, angvel_,
+            pos_, vel_, orient_, angvel_, impulses_,
             [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
                 broadphase_.find_pairs(pos, rigid_.extent(), out);
             },

@@ -48,6 +48,9 @@ public:
     const Quat& orientation(BodyId id) const { return orient_[id]; }
     const Vec3& angular_velocity(BodyId id) const { return angvel_[id]; }
     const RigidSolver& rigid_solver() const { return rigid_; }
+    // Rigid scenes with rigid.warm_starting: the impulses carried to the next step (state,
+    // sorted by key; at most rigid_solver().impulse_capacity()). Empty otherwise.
+    const std::vector<ContactImpulse>& contact_impulses() const { return impulses_; }
     Fixed inv_mass(BodyId id) const { return kernel_.inv_mass(id); }
     Fixed dt() const { return kernel_.dt(); }
     const std::vector<BodyId>& dynamic_ids() const { return kernel_.dynamic_ids(); }
@@ -75,6 +78,7 @@ private:
     std::vector<Vec3> pos_, vel_;
     std::vector<Quat> orient_;  // rigid scenes only
     std::vector<Vec3> angvel_;  // rigid scenes only
+    std::vector<ContactImpulse> impulses_;  // rigid scenes with warm starting only
 
     std::vector<BodyId> player_body_;  // by player slot
     ControllerFactors controller_;     // used only when the scene has players

@@ -58,6 +58,7 @@ const std::vector<GoldenScene> kScenes = {
     {"stability/rigid_spin", {60, 240}},      // free precession, Dzhanibekov flip
     {"stability/rigid_tip", {60, 240}},       // edge contacts, friction, tipping
     {"stability/rigid_pyramid_10", {60}},     // box-box manifolds, shock propagation
+    {"stability/rigid_stack_20", {60}},       // warm starting: carried impulses (layout 2)
 };
 
 void run(const GoldenScene& g, const std::string& scene_dir, std::ostream& out) {

@@ -145,13 +145,15 @@ TEST(SceneLoader, SpawnerIsDeterministic) {
 
 TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     const sim::SceneDesc s = parse_scene(R"({"rigid": {"friction": {"sphere-box": 0.3}, "static_friction": 0.6,
-        "angular_damping": 0.1, "shock_propagation": true},
+        "angular_damping": 0.1, "shock_propagation": true, "warm_starting": true},
         "bodies": [{"shape": "box", "position": [0, 0, 0], "half_extents": [1, 1, 1], "orientation": [0.5, 0.5, 0.5, 0.5]},
                    {"shape": "sphere", "position": [0, 3, 0], "radius": 0.5, "mass": 1, "angular_velocity": [0, 2, 0],
                     "friction": 0.9, "linear_damping": 0.5}]})",
                                          "t.json");
     EXPECT_TRUE(s.rigid.enabled);
     EXPECT_TRUE(s.rigid.shock_propagation);
+    EXPECT_TRUE(s.rigid.warm_starting);
+    EXPECT_FALSE(load_scene("paper_rigid").rigid.warm_starting);  // opt-in
     EXPECT_EQ(s.rigid.friction[0][1], *sim::Fixed::parse("0.3"));
     EXPECT_EQ(s.rigid.friction[1][0], *sim::Fixed::parse("0.3"));
     EXPECT_EQ(s.rigid.friction[1][1], *sim::Fixed::parse("0.5"));  // the default for pairs not named
@@ -173,6 +175,7 @@ TEST(SceneLoader, RigidKeysOutsideARigidSceneAreErrors) {
     EXPECT_EQ(error_of(R"({"rigid": {"friction": {"sphere-cone": 1}}})"),
               "test.json: /rigid/friction/sphere-cone: key must be SHAPE-SHAPE with shapes sphere, box, capsule");
     EXPECT_EQ(error_of(R"({"rigid": {"friction": 11}})"), "test.json: /rigid/friction: must be within [0, 10], got 11");
+    EXPECT_EQ(error_of(R"({"rigid": {"warm_starting": 1}})"), "test.json: /rigid/warm_starting: expected true or false");
     EXPECT_EQ(error_of(R"({"rigid": true, "solver": {"substeps": 2}})"),
               "test.json: /: rigid scenes use their own solver: drop the \"solver\" settings");
 }

@@ -2,6 +2,7 @@
 // of rotating state, damping, and that a particle scene is untouched by the rigid path.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -39,6 +40,22 @@ BodyDesc ball(const char* vx, const char* wz) {
     b.velocity = v3(vx, "0", "0");
     b.angular_velocity = v3("0", "0", wz);
     return b;
+}
+
+// Saves `a`, loads the bytes into a fresh world of scene s, and checks both step the same 60
+// frames bit for bit; returns the snapshot.
+std::vector<std::uint8_t> expect_replays_bit_for_bit(const SceneDesc& s, World& a) {
+    std::vector<std::uint8_t> snap(snapshot_size(a));
+    save(a, snap);
+    World b(s);
+    EXPECT_EQ(load(b, snap), "");
+    EXPECT_EQ(checksum(a), checksum(b));
+    for (int f = 0; f < 60; ++f) {
+        a.step({});
+        b.step({});
+        EXPECT_EQ(checksum(a), checksum(b)) << "frame " << f;
+    }
+    return snap;
 }
 
 TEST(RigidSolver, SlidingBallEndsRollingAtFiveSevenths) {
@@ -123,16 +140,7 @@ TEST(RigidSolver, SnapshotHoldsRotationAndReplaysBitForBit) {
     World a(s);
     EXPECT_EQ(snapshot_size(a), 24u + 88u * 6u);
     for (int f = 0; f < 30; ++f) a.step({});
-    std::vector<std::uint8_t> snap(snapshot_size(a));
-    save(a, snap);
-    World b(s);
-    ASSERT_EQ(load(b, snap), "");
-    EXPECT_EQ(checksum(a), checksum(b));
-    for (int f = 0; f < 60; ++f) {
-        a.step({});
-        b.step({});
-        ASSERT_EQ(checksum(a), checksum(b)) << "frame " << f;
-    }
+    const std::vector<std::uint8_t> snap = expect_replays_bit_for_bit(s, a);
     EXPECT_TRUE(a.rigid_solver().contact_count() > 0);
     // Orientation is part of the state: a flipped bit shows up as that field.
     World c(s);
@@ -143,7 +151,10 @@ TEST(RigidSolver, SnapshotHoldsRotationAndReplaysBitForBit) {
     int field = -2;
     EXPECT_EQ(first_difference(snap, snap_c, &field), 2);
     EXPECT_STREQ(kBodyFieldNames[field], "orientation.y");
-    EXPECT_NE(body_hash(c, 3), body_hash(b, 3) + 0 * 0);
+    World unflipped(s);
+    ASSERT_EQ(load(unflipped, snap), "");
+    EXPECT_NE(body_hash(c, 3), body_hash(unflipped, 3));
+    EXPECT_EQ(body_hash(c, 1), body_hash(unflipped, 1));
 }
 
 TEST(RigidSolver, ParticleSnapshotRefusedByARigidWorld) {
@@ -156,6 +167,104 @@ TEST(RigidSolver, ParticleSnapshotRefusedByARigidWorld) {
     std::vector<std::uint8_t> snap(snapshot_size(particle));
     save(particle, snap);
     EXPECT_NE(load(rigid, snap).find("layout"), std::string::npos);
+}
+
+
+// A short warm-started stack: boxes on the floor and on each other.
+SceneDesc warm_stack(int boxes) {
+    SceneDesc s = floor_scene("0.5");
+    s.iterations = 8;
+    s.rigid.warm_starting = true;
+    for (int i = 0; i < boxes; ++i) {
+        BodyDesc b;
+        b.shape = Shape::Box;
+        b.mass = fx("1");
+        b.half_extents = v3("0.5", "0.5", "0.5");
+        b.position = {fx("0"), Fixed::from_int(i) + fx("0.5"), fx("0")};
+        s.bodies.push_back(b);
+    }
+    return s;
+}
+
+TEST(RigidSolver, WarmStartingCarriesImpulsesThroughSnapshots) {
+    const SceneDesc s = warm_stack(4);
+    World a(s);
+    EXPECT_EQ(snapshot_size(a), 24u + 88u * 4u + 4u);  // no impulses yet
+    EXPECT_EQ(snapshot_capacity(a), 24u + 88u * 4u + 4u + 33u * 8u * 4u);
+    for (int f = 0; f < 30; ++f) a.step({});
+    // At least four face points under every box, each carried, keyed by the pair's dynamic
+    // body first (the floor is static), in key order.
+    const auto& carried = a.contact_impulses();
+    ASSERT_GE(carried.size(), 16u);
+    EXPECT_EQ(carried[0].body, 1u);
+    EXPECT_EQ(carried[0].other, 0u);  // the static floor
+    EXPECT_TRUE(std::is_sorted(carried.begin(), carried.end(), key_less));
+    // The bottom box carries the weight of four: 4 m g dt over its points on the floor.
+    Fixed bottom;
+    for (const ContactImpulse& c : carried)
+        if (c.body == 1 && c.other == 0) bottom += c.pn;
+    EXPECT_NEAR(d(bottom), 4 * 9.81 / 60, 0.065);  // within 10 %: still settling after 0.5 s
+    EXPECT_EQ(snapshot_size(a), 24u + 88u * 4u + 4u + 33u * carried.size());
+
+    const std::vector<std::uint8_t> snap = expect_replays_bit_for_bit(s, a);
+    // Without the impulses the same bodies step differently: they are state.
+    World c(s);
+    ASSERT_EQ(load(c, snap), "");
+    World cold(s);
+    std::vector<std::uint8_t> no_impulses(snap.begin(), snap.begin() + 24 + 88 * 4 + 4);
+    no_impulses[24 + 88 * 4] = 0;
+    ASSERT_EQ(load(cold, no_impulses), "");
+    c.step({});
+    cold.step({});
+    EXPECT_NE(checksum(c), checksum(cold));
+}
+
+TEST(RigidSolver, WarmStartImpulsesNarrowToTheirBody) {
+    const SceneDesc s = warm_stack(3);
+    World a(s);
+    for (int f = 0; f < 20; ++f) a.step({});
+    std::vector<std::uint8_t> snap(snapshot_size(a)), other(snapshot_size(a));
+    save(a, snap);
+    other = snap;
+    // Box 2's first impulse (box 1's come first: on the floor and under box 2), a bit of its pn.
+    const auto& carried = a.contact_impulses();
+    const auto box2 = std::find_if(carried.begin(), carried.end(), [](const ContactImpulse& c) { return c.body == 2; });
+    ASSERT_NE(box2, carried.end());
+    const std::size_t entry = 24 + 88 * 3 + 4 + 33 * static_cast<std::size_t>(box2 - carried.begin());
+    ASSERT_EQ(snap[entry], 2u);
+    other[entry + 9] ^= 1;
+    int field = 0;
+    EXPECT_EQ(first_difference(snap, other, &field), 3);  // past the bodies
+    EXPECT_EQ(field, -1);
+    EXPECT_EQ(snapshot_body_hash(a, snap, 1), body_hash(a, 2));
+    EXPECT_EQ(snapshot_body_hash(a, snap, 0), snapshot_body_hash(a, other, 0));
+    EXPECT_NE(snapshot_body_hash(a, snap, 1), snapshot_body_hash(a, other, 1));
+    EXPECT_EQ(snapshot_body_hash(a, snap, 2), snapshot_body_hash(a, other, 2));
+}
+
+TEST(RigidSolver, WarmStartSnapshotsAreValidatedBeforeLoading) {
+    const SceneDesc s = warm_stack(3);
+    World a(s);
+    for (int f = 0; f < 20; ++f) a.step({});
+    std::vector<std::uint8_t> snap(snapshot_size(a));
+    save(a, snap);
+    const std::uint64_t before = checksum(a);
+    const std::size_t first = 24 + 88 * 3 + 4;
+    auto broken = [&](auto&& edit) {
+        std::vector<std::uint8_t> bad = snap;
+        edit(bad);
+        return load(a, bad);
+    };
+    EXPECT_NE(broken([&](auto& b) { b[first + 33 + 8] = 0; }).find("out of key order"), std::string::npos);
+    EXPECT_NE(broken([&](auto& b) { b[first] = 0; }).find("not a dynamic body"), std::string::npos);  // the floor
+    EXPECT_NE(broken([&](auto& b) { b[first - 4] = 200; }).find("more than the world's"), std::string::npos);
+    EXPECT_NE(broken([&](auto& b) { b.pop_back(); }).find("bytes, expected"), std::string::npos);
+    EXPECT_EQ(checksum(a), before);  // every refusal left the world as it was
+    // A world without warm starting refuses layout 2 and says why.
+    SceneDesc plain = s;
+    plain.rigid.warm_starting = false;
+    World p(plain);
+    EXPECT_NE(load(p, snap).find("layout is 2"), std::string::npos);
 }
 
 }  // namespace
