@@ -191,6 +191,8 @@ void encode(const RelayFrames& m, std::vector<std::uint8_t>& out) {
         m.frame_count > relay_max_frames(m.players, n) || m.flags.size() != m.frame_count * slots ||
         m.inputs.size() != m.frame_count * slots * n)
         throw std::invalid_argument("RelayFrames: counts out of range");
+    // At most: the header, then per frame a mask and every slot's flag and input.
+    out.reserve(out.size() + kFramesHeaderBytes + m.frame_count * (mask_bytes(m.players) + slots * (1 + n)));
     ByteWriter w(out);
     w.u8(kind_byte(RelayKind::Frames));
     w.u32(m.server_frame);

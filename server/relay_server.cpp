@@ -95,9 +95,7 @@ void RelayServer::refuse(ConnectionId c, RelayRefusal why, const RelayHello& h) 
     RelayWelcome w;
     w.refusal = why;
     w.echo_us = h.stamp_us;
-    Outgoing o{c, {}, true};
-    encode(w, o.bytes);
-    out_.push_back(std::move(o));
+    encode(w, out_.add(c, true).bytes);
 }
 
 void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us) {
@@ -242,12 +240,7 @@ void RelayServer::start_drain(std::uint64_t now_us) {
 }
 
 void RelayServer::take_outgoing(std::vector<Outgoing>& out) {
-    for (auto& o : out_) {
-        ++counters_.datagrams_out;
-        counters_.bytes_out += o.bytes.size();
-        out.push_back(std::move(o));
-    }
-    out_.clear();
+    send_outgoing([&](Outgoing& o) { out.push_back(std::move(o)); });
 }
 
 bool RelayServer::next_kick(ConnectionId& out) {

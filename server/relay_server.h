@@ -95,6 +95,17 @@ public:
     void tick(std::uint64_t now_us);
     // Moves the queued datagrams into out (appending).
     void take_outgoing(std::vector<Outgoing>& out);
+    // Hands each queued datagram to send(Outgoing&) and empties the queue, keeping its buffers
+    // for the next pass (the process's path: no allocation per datagram).
+    template <class Send>
+    void send_outgoing(Send&& send) {
+        for (Outgoing& o : out_.items()) {
+            ++counters_.datagrams_out;
+            counters_.bytes_out += o.bytes.size();
+            send(o);
+        }
+        out_.clear();
+    }
     bool next_kick(ConnectionId& out);
     bool next_event(ServerEvent& out);
 
@@ -131,7 +142,7 @@ private:
     ServerConfig config_;
     std::unordered_map<ConnectionId, Connection> connections_;
     std::map<std::uint64_t, std::unique_ptr<RelayRoom>> rooms_;
-    std::vector<Outgoing> out_;
+    Outbox out_;
     std::deque<ConnectionId> kicks_;
     std::deque<ServerEvent> events_;
     ServerCounters counters_;
