@@ -91,10 +91,13 @@ public:
     void silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const;
 
     bool started() const { return started_; }
+    // When tick() next has work: the next room tick once started (tick() before it does nothing).
+    std::uint64_t next_tick_us() const { return next_tick_us_; }
     bool empty() const;  // no connection left
     std::uint32_t clock_frame(std::uint64_t now_us) const;
     std::uint32_t confirmed_frames() const { return confirmed_next_; }  // frames [0, this) confirmed
     int players() const { return players_; }
+    int tick_rate() const { return tick_rate_; }
     SlotState slot_state(int slot) const { return slots_[static_cast<std::size_t>(slot)].state; }
     const SlotCounters& slot_counters(int slot) const { return slots_[static_cast<std::size_t>(slot)].counters; }
     // Its id in the room: a slot (< players), players + place for a spectator, -1 if not here.
