@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <thread>
 
 #include "server/server_pass.h"
 #include "transport/enet_server.h"
@@ -104,8 +105,15 @@ int ServerProcess::run() {
 
     ServerPass pass;
     std::uint64_t next_status = 0, drain_started = 0;
+    std::uint64_t last_pass = 0;
     for (;;) {
-        enet.poll(monotonic_us(), 1000);
+        if (options_.pass_interval_us > 0) {
+            const std::uint64_t t = monotonic_us();
+            if (t < last_pass + options_.pass_interval_us)
+                std::this_thread::sleep_for(std::chrono::microseconds(last_pass + options_.pass_interval_us - t));
+        }
+        last_pass = monotonic_us();
+        enet.poll(last_pass, 1000);
         const std::uint64_t now = monotonic_us();
         pass.run(enet, server, now, log.get());
         if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
