@@ -29,6 +29,7 @@
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/epoll.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -314,8 +315,23 @@ public:
         std::vector<std::uint64_t> next_fire(static_cast<std::size_t>(hosts));
         for (int h = 0; h < hosts; ++h) next_fire[static_cast<std::size_t>(h)] = start + kPeriodUs * static_cast<std::uint64_t>(h) / static_cast<std::uint64_t>(hosts);
         last_service_.assign(static_cast<std::size_t>(hosts), 0);
-        std::vector<pollfd> fds;
-        for (auto* h : hosts_) fds.push_back({static_cast<int>(h->socket), POLLIN, 0});
+        // One epoll set over every host's socket: a wait costs what is ready, not what is
+        // watched (ppoll over 64 sockets was a quarter of the generator's CPU at 500 rooms).
+        const int ep = epoll_create1(EPOLL_CLOEXEC);
+        if (ep < 0) throw std::runtime_error("epoll_create1 failed");
+        struct EpollFd {
+            int fd;
+            ~EpollFd() { close(fd); }
+        } ep_guard{ep};
+        for (int h = 0; h < hosts; ++h) {
+            epoll_event ev{};
+            ev.events = EPOLLIN;
+            ev.data.u32 = static_cast<std::uint32_t>(h);
+            if (epoll_ctl(ep, EPOLL_CTL_ADD, static_cast<int>(hosts_[static_cast<std::size_t>(h)]->socket), &ev) != 0)
+                throw std::runtime_error("epoll_ctl failed");
+        }
+        std::vector<epoll_event> ready_events(static_cast<std::size_t>(hosts));
+        std::vector<char> readable(static_cast<std::size_t>(hosts), 0);
         std::uint64_t window_start = 0, window_end = 0;
         double cpu0 = 0, gen_cpu0 = 0, in0 = 0, out0 = 0, up0 = 0;
         std::uint64_t udp_sent0 = 0, udp_recv0 = 0;
@@ -395,17 +411,19 @@ public:
             // Wait for traffic until the next tick is due.
             std::uint64_t wake = *std::min_element(next_fire.begin(), next_fire.end());
             const std::uint64_t t = now_us();
-            if (wake > t) {
-                const timespec ts{0, static_cast<long>((wake - t) * 1000)};
-                for (auto& f : fds) f.revents = 0;
-                ppoll(fds.data(), fds.size(), &ts, nullptr);
+            {
+                const std::uint64_t wait_us = wake > t ? std::min<std::uint64_t>(wake - t, 999'999) : 0;
+                const timespec ts{0, static_cast<long>(wait_us * 1000)};
+                std::fill(readable.begin(), readable.end(), 0);
+                const int n = epoll_pwait2(ep, ready_events.data(), hosts, &ts, nullptr);
+                for (int i = 0; i < n; ++i) readable[ready_events[static_cast<std::size_t>(i)].data.u32] = 1;
             }
             // Readable hosts are serviced at once, the others every few milliseconds (ENet's own
             // timers: connects, pings, acks).
             const std::uint64_t t2 = now_us();
             for (int h = 0; h < hosts; ++h) {
                 auto& last = last_service_[static_cast<std::size_t>(h)];
-                if ((fds[static_cast<std::size_t>(h)].revents & POLLIN) || t2 - last >= 5000) {
+                if (readable[static_cast<std::size_t>(h)] || t2 - last >= 5000) {
                     last = t2;
                     service(h);
                 }
