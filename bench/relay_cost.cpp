@@ -67,7 +67,7 @@ struct Counts {
 extern "C" __attribute__((noinline)) void relay_cost_server_pass(transport::EnetServer& enet, server::RelayServer& relay,
                                                                   server::ServerPass& pass, std::uint64_t now) {
     enet.poll(now, 0);
-    pass.run(enet, relay, now, nullptr);
+    pass.run(enet, relay, now, nullptr, false);  // as lockroll-server without a pass interval
 }
 
 namespace {
@@ -175,7 +175,7 @@ private:
     void set_enet_time() { enet_time_set(static_cast<enet_uint32>(now_ / 1000)); }
     void server_pass() {
         enet_->poll(now_, 0);
-        pass_.run(*enet_, *relay_, now_, nullptr);
+        pass_.run(*enet_, *relay_, now_, nullptr, false);
     }
 
     void send_input(Bot& b, std::uint32_t first, std::uint32_t count) {

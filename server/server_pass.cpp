@@ -4,7 +4,7 @@
 
 namespace lockroll::server {
 
-void ServerPass::run(transport::EnetServer& enet, RelayServer& server, std::uint64_t now, spdlog::logger* log) {
+void ServerPass::run(transport::EnetServer& enet, RelayServer& server, std::uint64_t now, spdlog::logger* log, bool flush) {
     for (transport::ServerConnectionEvent e; enet.next_event(e);) {
         if (e.type == transport::ServerConnectionEvent::Type::Connected) {
             if (log) log->debug("connection {} from {}", e.connection, e.address);
@@ -18,7 +18,7 @@ void ServerPass::run(transport::EnetServer& enet, RelayServer& server, std::uint
     server.tick(now);
     server.send_outgoing([&](const Outgoing& o) { enet.send(o.to, o.bytes, o.reliable); });
     for (ConnectionId k; server.next_kick(k);) enet.disconnect(k);
-    enet.flush();
+    if (flush) enet.flush();
     for (ServerEvent e; server.next_event(e);) {
         if (!log) continue;
         const bool bad = e.kind == ServerEvent::Kind::Kicked || e.kind == ServerEvent::Kind::Refused ||

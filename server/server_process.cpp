@@ -115,7 +115,8 @@ int ServerProcess::run() {
         last_pass = monotonic_us();
         enet.poll(last_pass, 1000);
         const std::uint64_t now = monotonic_us();
-        pass.run(enet, server, now, log.get());
+        // Polling again at once sends what the pass queued; sleeping first (a pass interval) does not.
+        pass.run(enet, server, now, log.get(), options_.pass_interval_us > 0);
         if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
         if (drain_.load(std::memory_order_relaxed) && !server.draining()) {
             log->info("draining: refusing new hellos; {} rooms play on", server.room_count());

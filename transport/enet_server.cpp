@@ -66,10 +66,15 @@ void EnetServer::release_taken() {
 
 void EnetServer::poll(Micros now, std::uint32_t wait_us) {
     release_taken();
+    // enet_host_service sends what is queued before it reads, unless it has events left over
+    // from the last poll to hand out first: then flush, or queued sends would wait.
+    if (events_left_) enet_host_flush(host_);
+    events_left_ = false;
     ENetEvent e;
     int errors = 0;
     enet_uint32 wait_ms = (wait_us + 999) / 1000;
-    for (int handled = 0; handled < kMaxEventsPerPoll;) {
+    int handled = 0;
+    while (handled < kMaxEventsPerPoll) {
         // Each enet_host_service call walks every peer slot of the host twice (acks, pings,
         // queued sends) around one read of at most kEnetReceiveBatch datagrams; with thousands
         // of slots those walks are most of the server's cost. So one call reads the socket and
@@ -91,6 +96,7 @@ void EnetServer::poll(Micros now, std::uint32_t wait_us) {
         } while (handled < kMaxEventsPerPoll && enet_host_check_events(host_, &e) > 0);
         if (batch < kEnetReceiveBatch) break;
     }
+    events_left_ = handled >= kMaxEventsPerPoll;
 }
 
 void EnetServer::handle(const _ENetEvent& ev, Micros now) {

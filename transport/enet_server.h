@@ -3,7 +3,9 @@
 // it names connections by ids it assigns itself, in order of arrival: nothing a client sends
 // decides who it is. Built for thousands of connections on one host:
 //  - send() queues; flush() sends everything queued in one pass over the host (EnetTransport
-//    flushes on every send, which is a pass over every connection each time);
+//    flushes on every send, which is a pass over every connection each time), and so does the
+//    next poll() before it waits: a loop that polls again at once need not flush (ENet walks
+//    every connection slot on each flush, used or not);
 //  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
 //    no sleep granularity added to the relay delay), then drains what is there, bounded;
 //  - connections are limited in number, per address, in packet size and in waiting data, as
@@ -88,7 +90,7 @@ public:
     bool next_event(ServerConnectionEvent& out);
     // The next datagram (see ServerDatagram: a view valid until the next receive() or poll()).
     bool receive(ServerDatagram& out);
-    // Queues a datagram (sent by the next flush()); false when the connection is gone.
+    // Queues a datagram (sent by the next flush() or poll()); false when the connection is gone.
     bool send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable);
     void flush();
     // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
@@ -100,6 +102,7 @@ public:
 
 private:
     void handle(const _ENetEvent& e, Micros now);
+    bool events_left_ = false;  // the last poll stopped at its event cap: ENet still holds some
     void release_taken();
 
     struct Received {
