@@ -230,7 +230,7 @@ void RelayRoom::confirm_one(std::uint64_t now_us) {
     ++confirmed_next_;
 }
 
-void RelayRoom::confirm_ready(std::uint64_t now_us, Outbox& out) {
+void RelayRoom::confirm_ready(std::uint64_t now_us) {
     const std::uint32_t before = confirmed_next_;
     const std::uint32_t clock = clock_frame(now_us);
     const auto deadline = static_cast<std::uint32_t>(config_.input_deadline);
@@ -248,7 +248,16 @@ void RelayRoom::confirm_ready(std::uint64_t now_us, Outbox& out) {
         if (!(due || (ready && anyone))) break;
         confirm_one(now_us);
     }
-    if (confirmed_next_ != before) broadcast(now_us, false, out);
+    if (confirmed_next_ != before) {
+        frames_pending_ = true;
+        pending_now_us_ = now_us;
+    }
+}
+
+void RelayRoom::send_pending(Outbox& out) {
+    if (!frames_pending_) return;
+    frames_pending_ = false;
+    broadcast(pending_now_us_, false, out);
 }
 
 void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us, Outbox& out) {
@@ -297,7 +306,8 @@ void RelayRoom::tick(std::uint64_t now_us, Outbox& out) {
     if (!started_ || now_us < next_tick_us_) return;
     next_tick_us_ += period_us_;
     if (next_tick_us_ <= now_us) next_tick_us_ = now_us + period_us_;
-    confirm_ready(now_us, out);
+    confirm_ready(now_us);
+    send_pending(out);
     broadcast(now_us, true, out);
     // Checksum rounds whose missing reports are not coming (a client left or lags).
     while (!checks_.empty() &&
@@ -410,7 +420,7 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
                 return "relay input: checksum of a frame not confirmed or not a checkpoint";
             report_checksum(id, f, in_.checksums[i], now_us, out);
         }
-    confirm_ready(now_us, out);
+    confirm_ready(now_us);
     return problem;
 }
 

@@ -13,8 +13,9 @@
 //    every client receives exactly the same input set for every frame, its own slot included,
 //    and nobody waits on a slow player past the deadline.
 //  - Broadcast: each connection is sent the frames from its acknowledgement on, delta coded and
-//    as many as fit one datagram, at once when frames are confirmed and at least once per tick
-//    (which also carries the clock and the input acknowledgement). Loss costs latency only.
+//    as many as fit one datagram, as soon as frames are confirmed (once per batch of received
+//    datagrams: send_pending()) and at least once per tick (which also carries the clock and the
+//    input acknowledgement). Loss costs latency only.
 //  - History: confirmed frames are kept for history_s (at least the snapshot window), so a
 //    joiner, a reconnecting player or a spectator that loaded a snapshot of a recent frame gets
 //    every frame after it from the room.
@@ -86,6 +87,12 @@ public:
     // The connection is gone (closed, kicked or silent).
     void remove(ConnectionId c, std::uint64_t now_us);
     void tick(std::uint64_t now_us, Outbox& out);
+    // Frames newly confirmed by receive() are broadcast by send_pending() (or the next tick()),
+    // not at once: a pass that confirms several frames of a room (a backlog, both inputs of
+    // two frames) then sends each client one Frames message carrying them all, not one per
+    // frame. The caller calls send_pending() before it sends what the pass queued.
+    bool frames_pending() const { return frames_pending_; }
+    void send_pending(Outbox& out);
     void notify_all(const rollback::RelayNotice& n, Outbox& out);
     // Connections silent past silence_drop_us, for the server to remove.
     void silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const;
@@ -149,7 +156,7 @@ private:
     bool has_input(const Slot& s, std::uint32_t frame) const;
     const std::uint8_t* input_at(const Slot& s, std::uint32_t frame) const;
     std::uint32_t input_ack(const Slot& s) const;
-    void confirm_ready(std::uint64_t now_us, Outbox& out);
+    void confirm_ready(std::uint64_t now_us);
     void confirm_one(std::uint64_t now_us);
     void send_frames(Client& cl, std::uint32_t input_ack, std::uint64_t now_us, Outbox& out);
     void broadcast(std::uint64_t now_us, bool only_if_due, Outbox& out);
@@ -175,6 +182,8 @@ private:
     std::uint64_t start_us_ = 0;
     std::uint64_t next_tick_us_ = 0;
     std::uint32_t confirmed_next_ = 0;
+    bool frames_pending_ = false;        // confirmed frames not broadcast yet (send_pending)
+    std::uint64_t pending_now_us_ = 0;   // when they were confirmed: the Frames' clock stamp
     // Confirmed frames, oldest first: players flags then players * input_size inputs each.
     FrameHistory history_;
     std::vector<Slot> slots_;

@@ -136,7 +136,9 @@ void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::
     }
     const std::size_t verdicts = r->second->desync_verdicts().size();
     const bool was_started = r->second->started();
+    const bool was_pending = r->second->frames_pending();
     if (const char* e = r->second->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
+    if (!was_pending && r->second->frames_pending()) pending_rooms_.push_back(conn.room);
     const auto& v = r->second->desync_verdicts();
     for (std::size_t i = verdicts; i < v.size(); ++i)
         emit({ServerEvent::Kind::Desync, conn.room, v[i].second, v[i].first, c, "checksum in the minority"});
@@ -201,7 +203,14 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     }
 }
 
+void RelayServer::send_pending() {
+    for (std::uint64_t id : pending_rooms_)
+        if (auto r = rooms_.find(id); r != rooms_.end()) r->second->send_pending(out_);
+    pending_rooms_.clear();
+}
+
 void RelayServer::tick(std::uint64_t now_us) {
+    send_pending();
     // Hello timeouts: the oldest unbound connections first; bound, gone or kicked ones leave.
     while (!unbound_.empty()) {
         const auto [c, since] = unbound_.front();
@@ -278,6 +287,7 @@ void RelayServer::start_drain(std::uint64_t now_us) {
 }
 
 void RelayServer::take_outgoing(std::vector<Outgoing>& out) {
+    send_pending();
     send_outgoing([&](Outgoing& o) { out.push_back(std::move(o)); });
 }
 

@@ -100,6 +100,7 @@ public:
     // for the next pass (the process's path: no allocation per datagram).
     template <class Send>
     void send_outgoing(Send&& send) {
+        send_pending();
         for (Outgoing& o : out_.items()) {
             ++counters_.datagrams_out;
             counters_.bytes_out += o.bytes.size();
@@ -138,6 +139,8 @@ private:
     void refuse(ConnectionId c, RelayRefusal why, const rollback::RelayHello& h);
     void collect(RelayRoom& room);
     void close_room_if_done(std::uint64_t id);
+    // Broadcasts the frames rooms confirmed since the last call (RelayRoom::send_pending).
+    void send_pending();
     // Runs room id's periodic work (its tick, silence) if `due` is still its scheduled time.
     void service_room(std::uint64_t id, std::uint64_t due, std::uint64_t now_us);
     // Makes room id due by `due_us` at the latest.
@@ -157,6 +160,7 @@ private:
     // Connections not bound yet, in connection order, for the hello timeout: (id, connected_us).
     std::deque<std::pair<ConnectionId, std::uint64_t>> unbound_;
     std::vector<ConnectionId> silent_;
+    std::vector<std::uint64_t> pending_rooms_;  // rooms with confirmed frames not broadcast yet
     Outbox out_;
     std::deque<ConnectionId> kicks_;
     std::deque<ServerEvent> events_;
