@@ -191,40 +191,50 @@ void encode(const RelayFrames& m, std::vector<std::uint8_t>& out) {
         m.frame_count > relay_max_frames(m.players, n) || m.flags.size() != m.frame_count * slots ||
         m.inputs.size() != m.frame_count * slots * n)
         throw std::invalid_argument("RelayFrames: counts out of range");
-    ByteWriter w(out);
-    w.u8(kind_byte(RelayKind::Frames));
-    w.u32(m.server_frame);
-    w.u16(m.server_subframe);
-    w.u32(m.input_ack);
-    w.u32(m.first_frame);
-    w.u16(m.frame_count);
-    w.u8(m.players);
-    w.u8(m.input_size);
-    w.u16(m.stamp);
-    w.u16(m.echo);
-    w.u16(m.hold);
+    // The relay server encodes one of these per client per tick: written through a pointer into
+    // space sized for the most it can take (the header, then per frame a mask and every slot's
+    // flag and input), then trimmed; no per-byte growth checks.
     const std::size_t mb = mask_bytes(m.players);
+    const std::size_t at = out.size();
+    out.resize(at + kFramesHeaderBytes + m.frame_count * (mb + slots * (1 + n)));
+    std::uint8_t* p = out.data() + at;
+    auto put = [&p](std::uint64_t v, int bytes) {
+        for (int i = 0; i < bytes; ++i) *p++ = static_cast<std::uint8_t>(v >> (8 * i));
+    };
+    put(kind_byte(RelayKind::Frames), 1);
+    put(m.server_frame, 4);
+    put(m.server_subframe, 2);
+    put(m.input_ack, 4);
+    put(m.first_frame, 4);
+    put(m.frame_count, 2);
+    put(m.players, 1);
+    put(m.input_size, 1);
+    put(m.stamp, 2);
+    put(m.echo, 2);
+    put(m.hold, 2);
+    const std::uint8_t* flags = m.flags.data();
+    const std::uint8_t* inputs = m.inputs.data();
     for (std::size_t f = 0; f < m.frame_count; ++f) {
         // Delta against the frame before (all zero before the first): a mask, then the changes.
-        std::uint8_t mask[(kRelayMaxPlayers + 7) / 8] = {};
+        std::uint8_t* mask = p;
+        std::fill_n(mask, mb, std::uint8_t{0});
+        p += mb;
         for (std::size_t s = 0; s < slots; ++s) {
-            const std::uint8_t* cur = &m.inputs[(f * slots + s) * n];
+            const std::uint8_t flag = flags[f * slots + s];
+            const std::uint8_t* cur = inputs + (f * slots + s) * n;
             bool same;
             if (f == 0) {
-                same = m.flags[s] == 0 && std::all_of(cur, cur + n, [](std::uint8_t b) { return b == 0; });
+                same = flag == 0 && std::all_of(cur, cur + n, [](std::uint8_t v) { return v == 0; });
             } else {
-                const std::uint8_t* prev = &m.inputs[((f - 1) * slots + s) * n];
-                same = m.flags[f * slots + s] == m.flags[(f - 1) * slots + s] && std::equal(cur, cur + n, prev);
+                same = flag == flags[(f - 1) * slots + s] && std::equal(cur, cur + n, cur - slots * n);
             }
-            if (!same) mask[s / 8] = static_cast<std::uint8_t>(mask[s / 8] | (1u << (s % 8)));
-        }
-        for (std::size_t b = 0; b < mb; ++b) w.u8(mask[b]);
-        for (std::size_t s = 0; s < slots; ++s) {
-            if (!(mask[s / 8] & (1u << (s % 8)))) continue;
-            w.u8(m.flags[f * slots + s]);
-            w.bytes(std::span<const std::uint8_t>(&m.inputs[(f * slots + s) * n], n));
+            if (same) continue;
+            mask[s / 8] = static_cast<std::uint8_t>(mask[s / 8] | (1u << (s % 8)));
+            *p++ = flag;
+            p = std::copy_n(cur, n, p);
         }
     }
+    out.resize(static_cast<std::size_t>(p - out.data()));
 }
 
 const char* decode(std::span<const std::uint8_t> d, int players, std::size_t input_size, RelayFrames& m) {

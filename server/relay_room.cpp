@@ -83,7 +83,7 @@ int RelayRoom::snapshot_source(int except) const {
 }
 
 void RelayRoom::send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
-                             std::vector<Outgoing>& out) {
+                             Outbox& out) {
     RelayWelcome w;
     w.refusal = r;
     w.players = static_cast<std::uint8_t>(players_);
@@ -100,9 +100,7 @@ void RelayRoom::send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64
         w.snapshot_from = started_ && id_joined_late(id) ? static_cast<std::uint8_t>(snapshot_source(id)) : kNoSlot;
         if (id < players_) w.handoff_frame = slots_[static_cast<std::size_t>(id)].input_from;
     }
-    Outgoing o{c, {}, true};
-    encode(w, o.bytes);
-    out.push_back(std::move(o));
+    encode(w, out.add(c, true).bytes);
 }
 
 bool RelayRoom::id_joined_late(int id) const {
@@ -110,12 +108,12 @@ bool RelayRoom::id_joined_late(int id) const {
     return slots_[static_cast<std::size_t>(id)].late;
 }
 
-void RelayRoom::welcome_again(ConnectionId c, const RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out) {
+void RelayRoom::welcome_again(ConnectionId c, const RelayHello& h, std::uint64_t now_us, Outbox& out) {
     const int id = slot_of(c);
     if (id >= 0) send_welcome(c, id, RelayRefusal::None, h.stamp_us, now_us, out);
 }
 
-RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out,
+RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t now_us, Outbox& out,
                               ConnectionId* replaced) {
     auto refuse = [&](RelayRefusal r) {
         send_welcome(c, -1, r, h.stamp_us, now_us, out);
@@ -232,7 +230,7 @@ void RelayRoom::confirm_one(std::uint64_t now_us) {
     ++confirmed_next_;
 }
 
-void RelayRoom::confirm_ready(std::uint64_t now_us, std::vector<Outgoing>& out) {
+void RelayRoom::confirm_ready(std::uint64_t now_us) {
     const std::uint32_t before = confirmed_next_;
     const std::uint32_t clock = clock_frame(now_us);
     const auto deadline = static_cast<std::uint32_t>(config_.input_deadline);
@@ -250,10 +248,19 @@ void RelayRoom::confirm_ready(std::uint64_t now_us, std::vector<Outgoing>& out) 
         if (!(due || (ready && anyone))) break;
         confirm_one(now_us);
     }
-    if (confirmed_next_ != before) broadcast(now_us, false, out);
+    if (confirmed_next_ != before) {
+        frames_pending_ = true;
+        pending_now_us_ = now_us;
+    }
 }
 
-void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us, std::vector<Outgoing>& out) {
+void RelayRoom::send_pending(Outbox& out) {
+    if (!frames_pending_) return;
+    frames_pending_ = false;
+    broadcast(pending_now_us_, false, out);
+}
+
+void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us, Outbox& out) {
     RelayFrames& m = frames_;
     const std::uint64_t ticks = started_ && now_us >= start_us_ ? (now_us - start_us_) * static_cast<std::uint64_t>(tick_rate_) : 0;
     m.server_frame = static_cast<std::uint32_t>(ticks / 1000000u);
@@ -278,13 +285,11 @@ void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us,
     m.stamp = static_cast<std::uint16_t>(now_us / 100);
     m.echo = cl.has_stamp ? cl.stamp : 0;
     m.hold = cl.has_stamp ? stamp_hold(cl.stamp_at_us, now_us) : 0xFFFF;
-    Outgoing o{cl.connection, {}, false};
-    encode(m, o.bytes);
-    out.push_back(std::move(o));
+    encode(m, out.add(cl.connection, false).bytes);
     cl.last_send_us = now_us;
 }
 
-void RelayRoom::broadcast(std::uint64_t now_us, bool only_if_due, std::vector<Outgoing>& out) {
+void RelayRoom::broadcast(std::uint64_t now_us, bool only_if_due, Outbox& out) {
     for (auto& s : slots_) {
         if (!s.connected) continue;
         if (only_if_due && now_us - s.client.last_send_us < period_us_) continue;
@@ -297,11 +302,12 @@ void RelayRoom::broadcast(std::uint64_t now_us, bool only_if_due, std::vector<Ou
     }
 }
 
-void RelayRoom::tick(std::uint64_t now_us, std::vector<Outgoing>& out) {
+void RelayRoom::tick(std::uint64_t now_us, Outbox& out) {
     if (!started_ || now_us < next_tick_us_) return;
     next_tick_us_ += period_us_;
     if (next_tick_us_ <= now_us) next_tick_us_ = now_us + period_us_;
-    confirm_ready(now_us, out);
+    confirm_ready(now_us);
+    send_pending(out);
     broadcast(now_us, true, out);
     // Checksum rounds whose missing reports are not coming (a client left or lags).
     while (!checks_.empty() &&
@@ -311,13 +317,13 @@ void RelayRoom::tick(std::uint64_t now_us, std::vector<Outgoing>& out) {
     }
 }
 
-void RelayRoom::notify_all(const RelayNotice& n, std::vector<Outgoing>& out) {
+void RelayRoom::notify_all(const RelayNotice& n, Outbox& out) {
     std::vector<std::uint8_t> bytes;
     encode(n, bytes);
     for (auto& s : slots_)
-        if (s.connected) out.push_back({s.client.connection, bytes, true});
+        if (s.connected) out.add(s.client.connection, true).bytes = bytes;
     for (auto& s : spectators_)
-        if (s.connected) out.push_back({s.client.connection, bytes, true});
+        if (s.connected) out.add(s.client.connection, true).bytes = bytes;
 }
 
 void RelayRoom::silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const {
@@ -344,7 +350,7 @@ void RelayRoom::remove(ConnectionId c, std::uint64_t now_us) {
 }
 
 const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us,
-                               std::vector<Outgoing>& out) {
+                               Outbox& out) {
     const int id = slot_of(c);
     Client* cl = client(id);
     if (!cl) return "relay: connection not in this room";
@@ -361,17 +367,13 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
             n.kind = RelayNoticeKind::Snapshot;
             n.slot = static_cast<std::uint8_t>(snapshot_source(id));
             if (n.slot == kNoSlot) return nullptr;
-            Outgoing o{cl->connection, {}, true};
-            encode(n, o.bytes);
-            out.push_back(std::move(o));
+            encode(n, out.add(cl->connection, true).bytes);
             return nullptr;
         }
         RelayForward back;
         back.slot = static_cast<std::uint8_t>(id);
         back.payload = std::move(fwd_.payload);
-        Outgoing o{to->connection, {}, true};
-        encode(back, o.bytes);
-        out.push_back(std::move(o));
+        encode(back, out.add(to->connection, true).bytes);
         return nullptr;
     }
     if (*kind != RelayKind::Input) return "relay: unexpected message kind from a client";
@@ -418,12 +420,12 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
                 return "relay input: checksum of a frame not confirmed or not a checkpoint";
             report_checksum(id, f, in_.checksums[i], now_us, out);
         }
-    confirm_ready(now_us, out);
+    confirm_ready(now_us);
     return problem;
 }
 
 void RelayRoom::report_checksum(int slot, std::uint32_t frame, std::uint64_t value, std::uint64_t now_us,
-                                std::vector<Outgoing>& out) {
+                                Outbox& out) {
     (void)now_us;
     auto it = std::find_if(checks_.begin(), checks_.end(), [&](const Check& c) { return c.frame == frame; });
     if (it == checks_.end()) {
@@ -451,7 +453,7 @@ void RelayRoom::report_checksum(int slot, std::uint32_t frame, std::uint64_t val
     }
 }
 
-void RelayRoom::decide(Check& c, std::vector<Outgoing>& out) {
+void RelayRoom::decide(Check& c, Outbox& out) {
     decided_.push_back(c.frame);
     if (decided_.size() > kMaxPendingChecks) decided_.pop_front();
     // The value most slots report; on a tie, the one of the lowest slot among the tied values.
@@ -484,9 +486,7 @@ void RelayRoom::decide(Check& c, std::vector<Outgoing>& out) {
         n.slot = static_cast<std::uint8_t>(source);
         n.frame = c.frame;
         n.detail = best;
-        Outgoing o{s.client.connection, {}, true};
-        encode(n, o.bytes);
-        out.push_back(std::move(o));
+        encode(n, out.add(s.client.connection, true).bytes);
     }
 }
 

@@ -13,8 +13,9 @@
 //    every client receives exactly the same input set for every frame, its own slot included,
 //    and nobody waits on a slow player past the deadline.
 //  - Broadcast: each connection is sent the frames from its acknowledgement on, delta coded and
-//    as many as fit one datagram, at once when frames are confirmed and at least once per tick
-//    (which also carries the clock and the input acknowledgement). Loss costs latency only.
+//    as many as fit one datagram, as soon as frames are confirmed (once per batch of received
+//    datagrams: send_pending()) and at least once per tick (which also carries the clock and the
+//    input acknowledgement). Loss costs latency only.
 //  - History: confirmed frames are kept for history_s (at least the snapshot window), so a
 //    joiner, a reconnecting player or a spectator that loaded a snapshot of a recent frame gets
 //    every frame after it from the room.
@@ -38,10 +39,10 @@
 
 #include "rollback/relay_messages.h"
 #include "server/frame_history.h"
+#include "server/outbox.h"
 
 namespace lockroll::server {
 
-using ConnectionId = std::uint32_t;
 using rollback::RelayRefusal;
 
 struct RoomConfig {
@@ -54,12 +55,6 @@ struct RoomConfig {
     std::uint64_t silence_drop_us = 5'000'000;   // a slot silent this long has left
     std::uint64_t replace_silent_us = 1'000'000; // a held slot may be taken over after this silence
     int handoff_ticks = 30;                 // a joiner's inputs start this far ahead of the clock
-};
-
-struct Outgoing {
-    ConnectionId to = 0;
-    std::vector<std::uint8_t> bytes;
-    bool reliable = false;  // welcome, notices, forwards: the transport's reliable channel
 };
 
 // Per slot, for tests, the log and reports.
@@ -83,24 +78,33 @@ public:
     // Binds c to a slot (or a spectator place) if the hello may have it; queues the welcome (or
     // the refusal) either way. Returns the refusal (None on success).
     // A held slot taken over from a silent connection names it in *replaced (to be closed).
-    RelayRefusal admit(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out,
+    RelayRefusal admit(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, Outbox& out,
                        ConnectionId* replaced);
     // A bound connection said hello again (its welcome was lost): the same welcome again.
-    void welcome_again(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, std::vector<Outgoing>& out);
+    void welcome_again(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us, Outbox& out);
     // A bound connection's datagram. Returns nullptr, or why it was bad (the caller counts it).
-    const char* receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us, std::vector<Outgoing>& out);
+    const char* receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us, Outbox& out);
     // The connection is gone (closed, kicked or silent).
     void remove(ConnectionId c, std::uint64_t now_us);
-    void tick(std::uint64_t now_us, std::vector<Outgoing>& out);
-    void notify_all(const rollback::RelayNotice& n, std::vector<Outgoing>& out);
+    void tick(std::uint64_t now_us, Outbox& out);
+    // Frames newly confirmed by receive() are broadcast by send_pending() (or the next tick()),
+    // not at once: a pass that confirms several frames of a room (a backlog, both inputs of
+    // two frames) then sends each client one Frames message carrying them all, not one per
+    // frame. The caller calls send_pending() before it sends what the pass queued.
+    bool frames_pending() const { return frames_pending_; }
+    void send_pending(Outbox& out);
+    void notify_all(const rollback::RelayNotice& n, Outbox& out);
     // Connections silent past silence_drop_us, for the server to remove.
     void silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const;
 
     bool started() const { return started_; }
+    // When tick() next has work: the next room tick once started (tick() before it does nothing).
+    std::uint64_t next_tick_us() const { return next_tick_us_; }
     bool empty() const;  // no connection left
     std::uint32_t clock_frame(std::uint64_t now_us) const;
     std::uint32_t confirmed_frames() const { return confirmed_next_; }  // frames [0, this) confirmed
     int players() const { return players_; }
+    int tick_rate() const { return tick_rate_; }
     SlotState slot_state(int slot) const { return slots_[static_cast<std::size_t>(slot)].state; }
     const SlotCounters& slot_counters(int slot) const { return slots_[static_cast<std::size_t>(slot)].counters; }
     // Its id in the room: a slot (< players), players + place for a spectator, -1 if not here.
@@ -147,17 +151,17 @@ private:
     Client* client(int id);  // by slot_of() id; nullptr when nobody is connected there
     void start(std::uint64_t now_us);
     void send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
-                      std::vector<Outgoing>& out);
+                      Outbox& out);
     bool id_joined_late(int id) const;
     bool has_input(const Slot& s, std::uint32_t frame) const;
     const std::uint8_t* input_at(const Slot& s, std::uint32_t frame) const;
     std::uint32_t input_ack(const Slot& s) const;
-    void confirm_ready(std::uint64_t now_us, std::vector<Outgoing>& out);
+    void confirm_ready(std::uint64_t now_us);
     void confirm_one(std::uint64_t now_us);
-    void send_frames(Client& cl, std::uint32_t input_ack, std::uint64_t now_us, std::vector<Outgoing>& out);
-    void broadcast(std::uint64_t now_us, bool only_if_due, std::vector<Outgoing>& out);
-    void report_checksum(int slot, std::uint32_t frame, std::uint64_t value, std::uint64_t now_us, std::vector<Outgoing>& out);
-    void decide(Check& c, std::vector<Outgoing>& out);
+    void send_frames(Client& cl, std::uint32_t input_ack, std::uint64_t now_us, Outbox& out);
+    void broadcast(std::uint64_t now_us, bool only_if_due, Outbox& out);
+    void report_checksum(int slot, std::uint32_t frame, std::uint64_t value, std::uint64_t now_us, Outbox& out);
+    void decide(Check& c, Outbox& out);
     int snapshot_source(int except) const;
     std::uint32_t history_base() const { return confirmed_next_ - static_cast<std::uint32_t>(history_.size()); }
 public:
@@ -178,6 +182,8 @@ private:
     std::uint64_t start_us_ = 0;
     std::uint64_t next_tick_us_ = 0;
     std::uint32_t confirmed_next_ = 0;
+    bool frames_pending_ = false;        // confirmed frames not broadcast yet (send_pending)
+    std::uint64_t pending_now_us_ = 0;   // when they were confirmed: the Frames' clock stamp
     // Confirmed frames, oldest first: players flags then players * input_size inputs each.
     FrameHistory history_;
     std::vector<Slot> slots_;

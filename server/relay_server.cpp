@@ -57,6 +57,7 @@ void RelayServer::on_connect(ConnectionId c, std::uint64_t now_us) {
     conn.tokens = config_.packet_burst;
     conn.refill_us = now_us;
     connections_.emplace(c, conn);
+    unbound_.emplace_back(c, now_us);
     if (connections_.size() > config_.max_connections) kick(c, connections_[c], "server connection limit", now_us);
 }
 
@@ -95,9 +96,7 @@ void RelayServer::refuse(ConnectionId c, RelayRefusal why, const RelayHello& h) 
     RelayWelcome w;
     w.refusal = why;
     w.echo_us = h.stamp_us;
-    Outgoing o{c, {}, true};
-    encode(w, o.bytes);
-    out_.push_back(std::move(o));
+    encode(w, out_.add(c, true).bytes);
 }
 
 void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us) {
@@ -137,12 +136,16 @@ void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::
     }
     const std::size_t verdicts = r->second->desync_verdicts().size();
     const bool was_started = r->second->started();
+    const bool was_pending = r->second->frames_pending();
     if (const char* e = r->second->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
+    if (!was_pending && r->second->frames_pending()) pending_rooms_.push_back(conn.room);
     const auto& v = r->second->desync_verdicts();
     for (std::size_t i = verdicts; i < v.size(); ++i)
         emit({ServerEvent::Kind::Desync, conn.room, v[i].second, v[i].first, c, "checksum in the minority"});
-    if (!was_started && r->second->started())
+    if (!was_started && r->second->started()) {
         emit({ServerEvent::Kind::RoomStarted, conn.room, -1, 0, c, {}});
+        schedule(conn.room, r->second->next_tick_us());
+    }
 }
 
 void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const std::uint8_t> d, std::uint64_t now_us) {
@@ -164,6 +167,7 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     if (created) {
         if (rooms_.size() >= config_.max_rooms) return refused(RelayRefusal::Full);
         it = rooms_.emplace(h.room_id, std::make_unique<RelayRoom>(h.room_id, h, config_.room)).first;
+        schedule(h.room_id, now_us);
         ++counters_.rooms_created;
         emit({ServerEvent::Kind::RoomCreated, h.room_id, -1, 0, c, {}});
     }
@@ -186,7 +190,10 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     conn.room = h.room_id;
     emit({ServerEvent::Kind::Joined, h.room_id, room.slot_of(c), room.confirmed_frames(), c,
           h.role == RelayRole::Spectator ? "spectator" : (h.role == RelayRole::Joiner ? "joiner" : "player")});
-    if (!was_started && room.started()) emit({ServerEvent::Kind::RoomStarted, h.room_id, -1, 0, c, {}});
+    if (!was_started && room.started()) {
+        emit({ServerEvent::Kind::RoomStarted, h.room_id, -1, 0, c, {}});
+        schedule(h.room_id, room.next_tick_us());
+    }
     if (has_replaced) {
         auto old = connections_.find(replaced);
         if (old != connections_.end()) {
@@ -196,27 +203,64 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     }
 }
 
+void RelayServer::send_pending() {
+    for (std::uint64_t id : pending_rooms_)
+        if (auto r = rooms_.find(id); r != rooms_.end()) r->second->send_pending(out_);
+    pending_rooms_.clear();
+}
+
 void RelayServer::tick(std::uint64_t now_us) {
-    std::vector<ConnectionId> silent;
-    for (auto& [c, conn] : connections_)
-        if (!conn.bound && !conn.kicked && now_us - conn.connected_us >= config_.hello_timeout_us)
-            kick(c, conn, "no hello", now_us);
-    std::vector<std::uint64_t> done;
-    for (auto& [id, room] : rooms_) {
-        room->tick(now_us, out_);
-        silent.clear();
-        room->silent_connections(now_us, silent);
-        for (ConnectionId c : silent) {
-            room->remove(c, now_us);
-            auto it = connections_.find(c);
-            if (it != connections_.end()) {
-                it->second.bound = false;
-                kick(c, it->second, "silent", now_us);
-            }
+    send_pending();
+    // Hello timeouts: the oldest unbound connections first; bound, gone or kicked ones leave.
+    while (!unbound_.empty()) {
+        const auto [c, since] = unbound_.front();
+        auto it = connections_.find(c);
+        if (it != connections_.end() && it->second.connected_us == since && !it->second.bound && !it->second.kicked) {
+            if (now_us - since < config_.hello_timeout_us) break;
+            kick(c, it->second, "no hello", now_us);
         }
-        if ((room->started() || draining_) && room->empty()) done.push_back(id);
+        unbound_.pop_front();
     }
-    for (auto id : done) close_room_if_done(id);
+    while (!due_.empty() && due_.top().first <= now_us) {
+        const auto [due, id] = due_.top();
+        due_.pop();
+        service_room(id, due, now_us);
+    }
+}
+
+void RelayServer::schedule(std::uint64_t id, std::uint64_t due_us) {
+    auto [it, fresh] = room_due_.try_emplace(id, due_us);
+    if (!fresh) {
+        if (it->second <= due_us) return;  // already due by then
+        it->second = due_us;
+    }
+    due_.emplace(due_us, id);
+}
+
+void RelayServer::service_room(std::uint64_t id, std::uint64_t due, std::uint64_t now_us) {
+    auto d = room_due_.find(id);
+    if (d == room_due_.end() || d->second != due) return;  // stale entry
+    room_due_.erase(d);
+    auto r = rooms_.find(id);
+    if (r == rooms_.end()) return;
+    RelayRoom& room = *r->second;
+    room.tick(now_us, out_);
+    silent_.clear();
+    room.silent_connections(now_us, silent_);
+    for (ConnectionId c : silent_) {
+        room.remove(c, now_us);
+        auto it = connections_.find(c);
+        if (it != connections_.end()) {
+            it->second.bound = false;
+            kick(c, it->second, "silent", now_us);
+        }
+    }
+    if ((room.started() || draining_) && room.empty()) {
+        close_room_if_done(id);
+        return;
+    }
+    const std::uint64_t period = 1000000u / static_cast<std::uint64_t>(std::max(1, room.tick_rate()));
+    schedule(id, room.started() ? std::max(room.next_tick_us(), now_us + 1) : now_us + period);
 }
 
 void RelayServer::close_room_if_done(std::uint64_t id) {
@@ -226,6 +270,7 @@ void RelayServer::close_room_if_done(std::uint64_t id) {
     emit({ServerEvent::Kind::RoomClosed, id, -1, it->second->confirmed_frames(), 0, {}});
     ++counters_.rooms_closed;
     rooms_.erase(it);
+    room_due_.erase(id);  // its heap entry is now stale
 }
 
 void RelayServer::start_drain(std::uint64_t now_us) {
@@ -242,12 +287,8 @@ void RelayServer::start_drain(std::uint64_t now_us) {
 }
 
 void RelayServer::take_outgoing(std::vector<Outgoing>& out) {
-    for (auto& o : out_) {
-        ++counters_.datagrams_out;
-        counters_.bytes_out += o.bytes.size();
-        out.push_back(std::move(o));
-    }
-    out_.clear();
+    send_pending();
+    send_outgoing([&](Outgoing& o) { out.push_back(std::move(o)); });
 }
 
 bool RelayServer::next_kick(ConnectionId& out) {

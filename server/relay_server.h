@@ -30,6 +30,7 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <queue>
 #include <span>
 #include <string>
 #include <unordered_map>
@@ -95,6 +96,18 @@ public:
     void tick(std::uint64_t now_us);
     // Moves the queued datagrams into out (appending).
     void take_outgoing(std::vector<Outgoing>& out);
+    // Hands each queued datagram to send(Outgoing&) and empties the queue, keeping its buffers
+    // for the next pass (the process's path: no allocation per datagram).
+    template <class Send>
+    void send_outgoing(Send&& send) {
+        send_pending();
+        for (Outgoing& o : out_.items()) {
+            ++counters_.datagrams_out;
+            counters_.bytes_out += o.bytes.size();
+            send(o);
+        }
+        out_.clear();
+    }
     bool next_kick(ConnectionId& out);
     bool next_event(ServerEvent& out);
 
@@ -126,12 +139,29 @@ private:
     void refuse(ConnectionId c, RelayRefusal why, const rollback::RelayHello& h);
     void collect(RelayRoom& room);
     void close_room_if_done(std::uint64_t id);
+    // Broadcasts the frames rooms confirmed since the last call (RelayRoom::send_pending).
+    void send_pending();
+    // Runs room id's periodic work (its tick, silence) if `due` is still its scheduled time.
+    void service_room(std::uint64_t id, std::uint64_t due, std::uint64_t now_us);
+    // Makes room id due by `due_us` at the latest.
+    void schedule(std::uint64_t id, std::uint64_t due_us);
     void emit(ServerEvent e);
 
     ServerConfig config_;
     std::unordered_map<ConnectionId, Connection> connections_;
     std::map<std::uint64_t, std::unique_ptr<RelayRoom>> rooms_;
-    std::vector<Outgoing> out_;
+    // tick() visits only the rooms that are due (a pass of a busy server must not walk a
+    // thousand rooms): each room has one live entry (due, room) in the heap, its time in
+    // room_due_; entries whose time is no longer room_due_'s are stale and skipped. A room is
+    // due at its next tick once started, else one tick period after the last look (silence).
+    using DueEntry = std::pair<std::uint64_t, std::uint64_t>;
+    std::priority_queue<DueEntry, std::vector<DueEntry>, std::greater<DueEntry>> due_;
+    std::unordered_map<std::uint64_t, std::uint64_t> room_due_;
+    // Connections not bound yet, in connection order, for the hello timeout: (id, connected_us).
+    std::deque<std::pair<ConnectionId, std::uint64_t>> unbound_;
+    std::vector<ConnectionId> silent_;
+    std::vector<std::uint64_t> pending_rooms_;  // rooms with confirmed frames not broadcast yet
+    Outbox out_;
     std::deque<ConnectionId> kicks_;
     std::deque<ServerEvent> events_;
     ServerCounters counters_;

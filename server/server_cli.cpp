@@ -39,6 +39,11 @@ void add_server_options(CLI::App& cmd) {
     cmd.add_option("--per-address", o->max_connections_per_address, "Connections one IP address may hold (raise for a load test)")
         ->check(CLI::Range(1, 4095))
         ->capture_default_str();
+    cmd.add_option("--pass-interval-us", o->pass_interval_us,
+                   "Shortest time between two passes of the loop (0: a pass per wake-up). Each pass walks every ENet connection "
+                   "slot three times; a longer interval batches more datagrams per pass, for up to this much more relay delay")
+        ->check(CLI::Range(0, 100000))
+        ->capture_default_str();
     cmd.add_option("--ready-file", o->ready_file, "Write the bound port here once listening");
     cmd.add_option("--status-file", o->status_file, "Rewrite this JSON health/status file every second");
     cmd.add_option("--drain-timeout", o->drain_timeout_s, "Seconds a drain may take before the process gives up (exit 3)")

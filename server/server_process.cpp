@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
+#include <thread>
 
+#include "server/server_pass.h"
 #include "transport/enet_server.h"
 
 namespace lockroll::server {
@@ -101,34 +103,20 @@ int ServerProcess::run() {
     std::printf("ready %u\n", enet.port());
     std::fflush(stdout);
 
-    std::vector<Outgoing> out;
-    transport::ServerDatagram d;
+    ServerPass pass;
     std::uint64_t next_status = 0, drain_started = 0;
+    std::uint64_t last_pass = 0;
     for (;;) {
-        enet.poll(monotonic_us(), 1000);
+        if (options_.pass_interval_us > 0) {
+            const std::uint64_t t = monotonic_us();
+            if (t < last_pass + options_.pass_interval_us)
+                std::this_thread::sleep_for(std::chrono::microseconds(last_pass + options_.pass_interval_us - t));
+        }
+        last_pass = monotonic_us();
+        enet.poll(last_pass, 1000);
         const std::uint64_t now = monotonic_us();
-        for (transport::ServerConnectionEvent e; enet.next_event(e);) {
-            if (e.type == transport::ServerConnectionEvent::Type::Connected) {
-                log->debug("connection {} from {}", e.connection, e.address);
-                server.on_connect(e.connection, now);
-            } else {
-                log->debug("connection {} closed", e.connection);
-                server.on_disconnect(e.connection, now);
-            }
-        }
-        while (enet.receive(d)) server.receive(d.connection, d.bytes, d.time_us);
-        server.tick(now);
-        out.clear();
-        server.take_outgoing(out);
-        for (const auto& o : out) enet.send(o.to, o.bytes, o.reliable);
-        for (ConnectionId k; server.next_kick(k);) enet.disconnect(k);
-        enet.flush();
-        for (ServerEvent e; server.next_event(e);) {
-            const bool bad = e.kind == ServerEvent::Kind::Kicked || e.kind == ServerEvent::Kind::Refused ||
-                             e.kind == ServerEvent::Kind::Desync || e.kind == ServerEvent::Kind::Throttled;
-            log->log(bad ? spdlog::level::warn : spdlog::level::info, "room {:x} {} slot {} frame {} connection {}{}{}",
-                     e.room, server_event_name(e.kind), e.slot, e.frame, e.connection, e.detail.empty() ? "" : ": ", e.detail);
-        }
+        // Polling again at once sends what the pass queued; sleeping first (a pass interval) does not.
+        pass.run(enet, server, now, log.get(), options_.pass_interval_us > 0);
         if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
         if (drain_.load(std::memory_order_relaxed) && !server.draining()) {
             log->info("draining: refusing new hellos; {} rooms play on", server.room_count());
@@ -141,7 +129,6 @@ int ServerProcess::run() {
                 write_atomically(options_.status_file, status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
         }
         if (server.drained()) {
-            out.clear();
             enet.flush();
             if (!options_.status_file.empty())
                 write_atomically(options_.status_file, status_json(server, enet, true, static_cast<double>(now - start) / 1e6));

@@ -32,6 +32,9 @@ struct ServerProcessOptions {
     std::string status_file;   // JSON, rewritten every second
     double drain_timeout_s = 900;
     double run_seconds = 0;    // > 0: drain after this long (tests, soak)
+    // Shortest time between two passes (0: one per wake-up). A pass walks every ENet connection
+    // slot three times whatever it carries; waiting a little batches more datagrams per pass.
+    std::uint32_t pass_interval_us = 0;
     std::string log_level = "info";
 };
 

@@ -52,16 +52,29 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
 }
 
 EnetServer::~EnetServer() {
+    for (auto& r : inbox_) enet_packet_destroy(r.packet);
     for (auto& [id, peer] : by_id_) enet_peer_disconnect_now(peer, 0);
     enet_host_flush(host_);
     enet_host_destroy(host_);
 }
 
+void EnetServer::release_taken() {
+    for (std::size_t i = 0; i < inbox_next_; ++i) enet_packet_destroy(inbox_[i].packet);
+    inbox_.erase(inbox_.begin(), inbox_.begin() + static_cast<std::ptrdiff_t>(inbox_next_));
+    inbox_next_ = 0;
+}
+
 void EnetServer::poll(Micros now, std::uint32_t wait_us) {
+    release_taken();
+    // enet_host_service sends what is queued before it reads, unless it has events left over
+    // from the last poll to hand out first: then flush, or queued sends would wait.
+    if (events_left_) enet_host_flush(host_);
+    events_left_ = false;
     ENetEvent e;
     int errors = 0;
     enet_uint32 wait_ms = (wait_us + 999) / 1000;
-    for (int handled = 0; handled < kMaxEventsPerPoll;) {
+    int handled = 0;
+    while (handled < kMaxEventsPerPoll) {
         // Each enet_host_service call walks every peer slot of the host twice (acks, pings,
         // queued sends) around one read of at most kEnetReceiveBatch datagrams; with thousands
         // of slots those walks are most of the server's cost. So one call reads the socket and
@@ -83,6 +96,7 @@ void EnetServer::poll(Micros now, std::uint32_t wait_us) {
         } while (handled < kMaxEventsPerPoll && enet_host_check_events(host_, &e) > 0);
         if (batch < kEnetReceiveBatch) break;
     }
+    events_left_ = handled >= kMaxEventsPerPoll;
 }
 
 void EnetServer::handle(const _ENetEvent& ev, Micros now) {
@@ -112,18 +126,11 @@ void EnetServer::handle(const _ENetEvent& ev, Micros now) {
             const std::uint32_t id = id_of(e.peer);
             if (e.channelID > kReliableChannel) ++counters_.dropped_bad_channel;
             else if (e.packet->dataLength > kMaxDatagramBytes) ++counters_.dropped_oversized;
-            else if (inbox_.size() >= config_.max_inbox) ++counters_.dropped_inbox_full;
+            else if (inbox_.size() - inbox_next_ >= config_.max_inbox) ++counters_.dropped_inbox_full;
             else if (id != 0) {
-                ServerDatagram d;
-                if (!spare_.empty()) {
-                    d = std::move(spare_.back());
-                    spare_.pop_back();
-                }
-                d.connection = id;
-                d.bytes.assign(e.packet->data, e.packet->data + e.packet->dataLength);
-                d.time_us = now;
-                inbox_.push_back(std::move(d));
+                inbox_.push_back({id, e.packet, now});  // destroyed once taken (release_taken)
                 ++counters_.datagrams_in;
+                break;
             }
             enet_packet_destroy(e.packet);
             break;
@@ -140,10 +147,14 @@ bool EnetServer::next_event(ServerConnectionEvent& out) {
 }
 
 bool EnetServer::receive(ServerDatagram& out) {
-    if (inbox_.empty()) return false;
-    if (spare_.size() < 1024) spare_.push_back(std::move(out));
-    out = std::move(inbox_.front());
-    inbox_.pop_front();
+    if (inbox_next_ == inbox_.size()) {
+        release_taken();
+        return false;
+    }
+    const Received& r = inbox_[inbox_next_++];
+    out.connection = r.connection;
+    out.bytes = {r.packet->data, r.packet->dataLength};
+    out.time_us = r.time_us;
     return true;
 }
 

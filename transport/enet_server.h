@@ -3,7 +3,9 @@
 // it names connections by ids it assigns itself, in order of arrival: nothing a client sends
 // decides who it is. Built for thousands of connections on one host:
 //  - send() queues; flush() sends everything queued in one pass over the host (EnetTransport
-//    flushes on every send, which is a pass over every connection each time);
+//    flushes on every send, which is a pass over every connection each time), and so does the
+//    next poll() before it waits: a loop that polls again at once need not flush (ENet walks
+//    every connection slot on each flush, used or not);
 //  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
 //    no sleep granularity added to the relay delay), then drains what is there, bounded;
 //  - connections are limited in number, per address, in packet size and in waiting data, as
@@ -14,6 +16,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -23,6 +26,7 @@
 struct _ENetHost;
 struct _ENetPeer;
 struct _ENetEvent;
+struct _ENetPacket;
 
 namespace lockroll::transport {
 
@@ -55,9 +59,11 @@ struct ServerConnectionEvent {
     std::string address;  // host:port of the client
 };
 
+// A received datagram, as a view: bytes stay valid until the next receive() or poll() (they are
+// ENet's own packet buffer; copying every datagram was a measurable share of the server's cost).
 struct ServerDatagram {
     std::uint32_t connection = 0;
-    std::vector<std::uint8_t> bytes;
+    std::span<const std::uint8_t> bytes;
     Micros time_us = 0;
 };
 
@@ -82,8 +88,9 @@ public:
     // Waits up to wait_us for traffic, then takes everything ENet has (bounded per call).
     void poll(Micros now, std::uint32_t wait_us);
     bool next_event(ServerConnectionEvent& out);
+    // The next datagram (see ServerDatagram: a view valid until the next receive() or poll()).
     bool receive(ServerDatagram& out);
-    // Queues a datagram (sent by the next flush()); false when the connection is gone.
+    // Queues a datagram (sent by the next flush() or poll()); false when the connection is gone.
     bool send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable);
     void flush();
     // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
@@ -95,6 +102,14 @@ public:
 
 private:
     void handle(const _ENetEvent& e, Micros now);
+    bool events_left_ = false;  // the last poll stopped at its event cap: ENet still holds some
+    void release_taken();
+
+    struct Received {
+        std::uint32_t connection = 0;
+        _ENetPacket* packet = nullptr;
+        Micros time_us = 0;
+    };
 
     EnetServerConfig config_;
     _ENetHost* host_ = nullptr;
@@ -102,8 +117,8 @@ private:
     std::uint32_t next_id_ = 1;
     std::unordered_map<std::uint32_t, _ENetPeer*> by_id_;
     std::deque<ServerConnectionEvent> events_;
-    std::deque<ServerDatagram> inbox_;
-    std::vector<ServerDatagram> spare_;  // reused buffers
+    std::vector<Received> inbox_;  // [inbox_next_, size) not yet taken; taken ones are destroyed
+    std::size_t inbox_next_ = 0;     // by the next receive() or poll()
     EnetServerCounters counters_;
 };
 

@@ -185,7 +185,8 @@ TEST_F(ServerProcessTest, ReadyLineReadyFileAndStatusFile) {
 }
 
 TEST_F(ServerProcessTest, RoomLimitRefusesTheNextRoom) {
-    Server s({"--max-rooms", "1"}, dir.path / "server.log");
+    // With a pass interval (the loop sleeps between passes): the same answers, just batched.
+    Server s({"--max-rooms", "1", "--pass-interval-us", "2000"}, dir.path / "server.log");
     ASSERT_NE(s.port, 0);
     RelayClient a(s.port), b(s.port), c(s.port);
     auto wa = join(a, 1, 0);
@@ -235,7 +236,7 @@ TEST_F(ServerProcessTest, BadFlagsExitTwoBeforeBinding) {
     const std::vector<std::vector<std::string>> bad{
         {"--listen", "nonsense"},     {"--listen", "127.0.0.1:70000"}, {"--max-rooms", "0"},
         {"--input-deadline", "0"},    {"--max-connections", "1"},      {"--per-address", "0"},
-        {"--log-level", "loud"},      {"--no-such-flag"},
+        {"--log-level", "loud"},      {"--no-such-flag"},              {"--pass-interval-us", "-1"},
     };
     for (const auto& flags : bad) {
         std::vector<std::string> argv{LOCKROLL_SERVER_EXE, "--ready-file", ready.string(), "--status-file", status.string()};
