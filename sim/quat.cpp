@@ -5,8 +5,16 @@ namespace lockroll::sim {
 namespace {
 Fixed two_times(Fixed a) { return a * std::int64_t{2}; }
 
-// Round a component to the 2^-30 grid (see renormalised()).
-Fixed to_grid(Fixed f) { return Fixed::from_raw(round_shift(f.raw, 2) * 4); }
+// Round a component to the 2^-30 grid (see renormalised()); saturates (and counts) at the ends
+// of the range rather than overflow.
+Fixed to_grid(Fixed f) {
+    const std::int64_t g = round_shift(f.raw, 2);
+    if (g > INT64_MAX / 4 || g < INT64_MIN / 4) {
+        note_overflow();
+        return g > 0 ? Fixed::max() : Fixed::min();
+    }
+    return Fixed::from_raw(g * 4);
+}
 }  // namespace
 
 Mat3 rotation(const Quat& q) {
@@ -36,8 +44,17 @@ Quat renormalised(const Quat& q) {
 Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
     // a = w dt / 2 (the half angle as a vector); s = |a|^2.
     const Fixed half_dt = Fixed::from_raw(dt.raw / 2);
-    const Vec3 a = w * half_dt;
-    const Fixed s = dot(a, a);
+    Vec3 a = w * half_dt;
+    Fixed s = dot(a, a);
+    // The series below is for small angles. A body spun past any sane rate (a half angle above
+    // 1 rad a step: 120 rad/s at 60 Hz; a fuzzed scene reached it) turns by 2 rad this step
+    // about the same axis, so q stays a rotation instead of growing without bound. Exact
+    // integer square root and division: the same bits everywhere.
+    if (s > Fixed::one()) {
+        const Fixed len = length(a);
+        a = {a.x / len, a.y / len, a.z / len};
+        s = dot(a, a);
+    }
     const Fixed s2 = s * s, s3 = s2 * s;
     // cos|a| = 1 - s/2 + s^2/24 - s^3/720;  sin|a| / |a| = 1 - s/6 + s^2/120 - s^3/5040.
     static const Fixed c24 = Fixed::ratio(1, 24), c720 = Fixed::ratio(1, 720), k6 = Fixed::ratio(1, 6),

@@ -11,7 +11,9 @@
 //    costs 16 bytes per body, not 32 (sim/snapshot.h), and saving loses nothing.
 //  - integrated(q, w, dt) turns q by the angular velocity w (world frame, rad/s) over dt with
 //    the exponential map exp(w dt / 2) q, its sine and cosine from their Taylor series to
-//    a^6 (|w dt| = 1 rad errs by 3e-8 before renormalisation). Exact for a constant w.
+//    a^6 (|w dt| = 1 rad errs by 3e-8 before renormalisation). Exact for a constant w. A turn
+//    of more than 2 rad in one step is capped at 2 rad about the same axis (the series would
+//    diverge); w itself is left as it is.
 //  - No float or double anywhere.
 #pragma once
 
@@ -32,11 +34,16 @@ struct Mat3 {
 
 namespace quat_detail {
 // Exact sum of four Q32.32 products, rounded once (saturating and counting only beyond range).
+// A unit quaternion's products are tiny, but a body spun past any sane rate (a fuzzed scene
+// found one) integrates to components far from 1, so every partial sum is checked: the fourth
+// product could otherwise overflow i128, which is undefined behaviour, not just a wrong result.
 inline Fixed sum4(Fixed a0, Fixed b0, Fixed a1, Fixed b1, Fixed a2, Fixed b2, Fixed a3, Fixed b3) {
-    // Each product is below 2^126 in magnitude and quaternion components are at most ~1, so the
-    // partial sums of a rotation never approach the i128 limit; dot_wide's check covers three.
-    const i128 s = dot_wide({a0, a1, a2}, {b0, b1, b2});
-    return saturate_i128(round_shift(s + mul_wide(a3.raw, b3.raw), Fixed::kFracBits));
+    i128 s, t;
+    if (!dot_wide_checked({a0, a1, a2}, {b0, b1, b2}, &s) || add_overflow(s, mul_wide(a3.raw, b3.raw), &t)) {
+        note_overflow();
+        return s > 0 ? Fixed::max() : Fixed::min();
+    }
+    return saturate_i128(round_shift(t, Fixed::kFracBits));
 }
 }  // namespace quat_detail
 

@@ -60,6 +60,34 @@ TEST(Quat, RotateDiagonalIsRDRt) {
     EXPECT_EQ(m.row[0].y, m.row[1].x);
 }
 
+// Components far from unit length (a body spun past any sane rate) must saturate and count,
+// never overflow the 128-bit sums (undefined behaviour; scene_fuzz found it under UBSan).
+TEST(Quat, ProductOfHugeComponentsSaturatesAndCounts) {
+    const Fixed big = Fixed::max();
+    const Quat a{big, big, big, big};
+    const Quat b{big, -big, -big, -big};  // w component: 4 products of +2^126 each
+    const auto before = overflow_events();
+    const Quat p = a * b;
+    EXPECT_EQ(p.w, Fixed::max());
+    EXPECT_GE(overflow_events() - before, 1u);
+    const Quat n = a * Quat{Fixed::min(), big, big, big};  // w: -2^126 - 3 * 2^126 (rounded)
+    EXPECT_EQ(n.w, Fixed::min());
+}
+
+// A spin far past any sane rate turns by the 2 rad cap, about the right axis, and stays a unit
+// quaternion with no overflow (the small-angle series would otherwise grow without bound).
+TEST(Quat, HugeTurnIsCappedAndStaysUnit) {
+    const auto before = overflow_events();
+    const Quat q = integrated(Quat{}, {Fixed::zero(), Fixed::zero(), fx(1.0e6)}, Fixed::ratio(1, 60));
+    EXPECT_EQ(overflow_events(), before);
+    const double n = d(q.w) * d(q.w) + d(q.x) * d(q.x) + d(q.y) * d(q.y) + d(q.z) * d(q.z);
+    EXPECT_NEAR(n, 1.0, 1e-8);
+    // Half angle 1 rad about z; the series to a^6 errs by ~2e-5 there (renormalised after).
+    EXPECT_NEAR(d(q.w), std::cos(1.0), 1e-4);
+    EXPECT_NEAR(d(q.z), std::sin(1.0), 1e-4);
+    EXPECT_EQ(q.x, Fixed::zero());
+}
+
 TEST(Quat, CrossIsRightHanded) {
     const Vec3 x{Fixed::one(), Fixed::zero(), Fixed::zero()}, y{Fixed::zero(), Fixed::one(), Fixed::zero()};
     EXPECT_EQ(cross(x, y), (Vec3{Fixed::zero(), Fixed::zero(), Fixed::one()}));
