@@ -542,6 +542,7 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
         if (phase_ != SessionPhase::Running) fail(why, now_us);
         return;
     }
+    if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
     if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
     if (m.echo_us <= now_us) {
         const std::uint64_t rtt = now_us - m.echo_us;
@@ -561,6 +562,28 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
     maybe_start(now_us);
+}
+
+// A joiner that loaded its snapshot from one peer may reach another only afterwards (between
+// processes: that peer's connection came up late). Its hellos go on until every running slot
+// has welcomed it; the late welcome makes the link live, so the two exchange inputs from now on
+// (without it each would ignore the other and the peer would drop the slot for silence).
+void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
+    PeerLink& link = links_[from];
+    if (config_.role != Role::Joiner || !is_slot(from) || !slot_running(from) || !m.running || link.welcomed) return;
+    if (m.echo_us <= now_us) {
+        link.add_rtt_sample(now_us - m.echo_us);
+        stats_.peers[from].rtt_us = link.rtt_us();
+    }
+    link.welcomed = true;
+    link.welcomed_epoch = slots_[from].epoch;
+    link.role = Role::Player;
+    link.has_remote_frame = true;
+    link.heard = true;
+    link.last_heard_us = now_us;
+    link.interrupted = false;
+    emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
+    refresh_resend_floor();
 }
 
 // A player starts frame 0 once every slot present at start has answered enough hellos, or, as

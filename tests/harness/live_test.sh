@@ -22,17 +22,12 @@ assert os.path.getsize(os.path.join(sys.argv[1], "rollback", "proxy0.log")) > 0
 
 # 2. Kill slot 2 at frame 200, rejoin it at frame 400: the others drop it, go on, take it back;
 #    a spectator follows throughout.
-#    KNOWN BUG (docs/reliability.md, "Open"): when a surviving player's connection to the joiner
-#    comes up only after the joiner loaded its snapshot, the two never exchange inputs and the
-#    joiner is dropped again 1.5 s later. It depends on when the survivors' reconnect attempts
-#    land, so it shows under load (seen in about half the runs beside a sanitizer build). Until it
-#    is fixed the case gets one more try, and a first-try failure is printed as KNOWN-FLAKE so it
-#    stays visible; a second failure fails the test.
-kill_case() {
-    rm -rf "$tmp/kill"
-    "$lockroll" live --players 3 --frames 600 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@200 \
-        --rejoin 2@400 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
-    check kill "$tmp/kill" rollback '
+#    Under load a survivor's connection to the joiner may come up only after the joiner loaded
+#    its snapshot from another peer; the late welcome must still make them exchange inputs
+#    (Lifecycle.SurvivorReachedOnlyAfterTheJoinerRuns forces that order in virtual time).
+"$lockroll" live --players 3 --frames 600 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@200 \
+    --rejoin 2@400 --spectators 1 --disconnect-timeout 1.5 --out "$tmp/kill" >"$tmp/kill.out" 2>&1 || { fail "kill: exit status $?"; tail -5 "$tmp/kill.out"; }
+check kill "$tmp/kill" rollback '
 assert d["ok"] and d["final_checksums_equal"], d
 assert procs["p2"]["killed_at_frame"] >= 200 and procs["p2"]["outcome"] == "killed"
 assert procs["p2-rejoin"]["role"] == "joiner" and procs["p2-rejoin"]["outcome"] == "completed"
@@ -44,14 +39,6 @@ ev = [e["event"] for e in events("p2-rejoin")]
 assert "snapshot_loaded" in ev and "synchronized" in ev, ev
 assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == procs["p0"]["final_checksum"]
 '
-}
-before=$failures
-kill_case
-if [ "$failures" -ne "$before" ]; then
-    echo "KNOWN-FLAKE: kill failed on the first try (late-connected survivor never handshaken); trying once more"
-    failures=$before
-    kill_case
-fi
 
 # 3. Slot 1 joins at frame 300 (absent before), a spectator joins at frame 150: same checksums
 #    everywhere.

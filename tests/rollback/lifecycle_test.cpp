@@ -172,6 +172,48 @@ TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
 }
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 
+// Between real processes a survivor's connection to the joiner can come up only after the
+// joiner has loaded its snapshot from another peer and runs (the survivor was still timing out
+// its reconnects to the dead process). Until then nothing passes between the two. The joiner's
+// hello reaches the survivor late, and the survivor's welcome reaches a joiner that already
+// runs: the two must still start exchanging inputs, and nobody is dropped.
+TEST(Lifecycle, SurvivorReachedOnlyAfterTheJoinerRuns) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.disconnect_us = 1'500'000;
+    Cluster cluster(scene, cfg, {10000, 2000}, 17);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(400, 60'000'000);
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    bool started = false;
+    // Client 1 and the new slot-2 process cannot hear each other until the joiner runs.
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        const bool pair = (from == 1 && to == 2) || (from == 2 && to == 1);
+        return !(pair && started && cluster.clients[2]->session->phase() != SessionPhase::Running);
+    };
+    Client& joiner = cluster.start(2, scene, again, 999);
+    started = true;
+    cluster.run_frames(1000, 60'000'000);
+    cluster.settle(1000);
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded)[0]->peer, 0u) << "the joiner could only reach slot 0";
+    EXPECT_TRUE(events_of(joiner, Kind::Kicked).empty());
+    // The scene this test is about did happen: slot 1's first welcome came after the load.
+    const auto from_1 = std::find_if(joiner.events.begin(), joiner.events.end(),
+                                     [](const SessionEvent& e) { return e.kind == Kind::Synchronizing && e.peer == 1; });
+    ASSERT_NE(from_1, joiner.events.end());
+    EXPECT_GT(from_1->at_us, events_of(joiner, Kind::SnapshotLoaded)[0]->at_us);
+    for (PlayerId p : {0u, 1u}) {
+        EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running) << "client " << p;
+        EXPECT_EQ(events_of(*cluster.clients[p], Kind::Disconnected).size(), 1u) << "only the kill, client " << p;
+    }
+    expect_equal_at(cluster, 1000);
+}
+
 // The owner itself (slot 0, which writes absent slots' inputs) dies while slot 3 is absent: the
 // next lowest running slot takes both streams over from where the peers agree, and a joiner
 // into slot 0 is served by the new owner.
