@@ -1,9 +1,7 @@
 #include "harness/live_command.h"
 
-#include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -20,6 +18,7 @@
 
 #include "harness/atomic_file.h"
 #include "harness/child_process.h"
+#include "harness/free_ports.h"
 #include "harness/cli_error.h"
 #include "harness/hex.h"
 #include "harness/match.h"
@@ -189,29 +188,6 @@ std::string self_exe() {
     return p.string();
 }
 
-// Distinct free UDP ports on 127.0.0.1: all bound at once (so distinct), then released.
-std::vector<std::uint16_t> free_ports(int n) {
-    std::vector<int> fds;
-    std::vector<std::uint16_t> ports;
-    for (int i = 0; i < n; ++i) {
-        const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-        sockaddr_in a{};
-        a.sin_family = AF_INET;
-        a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-        socklen_t len = sizeof a;
-        if (fd < 0 || ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0 ||
-            ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) != 0) {
-            if (fd >= 0) ::close(fd);
-            for (int f : fds) ::close(f);
-            throw std::runtime_error("cannot find free UDP ports on 127.0.0.1");
-        }
-        fds.push_back(fd);
-        ports.push_back(ntohs(a.sin_port));
-    }
-    for (int f : fds) ::close(f);
-    return ports;
-}
-
 std::string num(double v) {
     std::ostringstream s;
     s << v;
@@ -298,7 +274,7 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
     const std::string exe = self_exe();
     const int n = o.players, ids = n + o.spectators;
     // [0, ids): peers and spectators, [ids, ids + n): proxies, then the relay server's.
-    const auto ports = free_ports(n + ids + 1);
+    const auto ports = free_loopback_ports(n + ids + 1);
     const auto port = [&](int k) { return ports[static_cast<std::size_t>(k)]; };
     const auto front = [&](int k) { return p.proxied ? port(ids + k) : port(k); };
     fs::create_directories(dir);

@@ -164,11 +164,7 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
         extra = std::min(debt_us_, max_extra);
         debt_us_ -= extra;
     }
-    if (extra > 0) {
-        ++stretched_ticks_;
-        stretch_total_us_ += extra;
-    }
-    last_extra_us_ = extra;
+    stretch_.record(extra);
     out_.clear();
     session_.poll(now, out_);
     for (const auto& d : out_) {
@@ -193,7 +189,7 @@ RunOutcome PeerRunner::run() {
         [this](std::uint64_t due) { service_until(due); },
         [this](std::uint64_t now, std::uint64_t due) {
             tick(now, due);
-            return last_extra_us_;
+            return stretch_.last_us;
         },
         [this] {
             return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,

@@ -74,6 +74,18 @@ struct RunnerConfig {
     Clock clock;                                 // this process's time (skewed only in fault tests)
 };
 
+// Time-sync stretches so far: how many ticks were lengthened, by how much in all, and the
+// extra length of the tick just run (what the runner's tick returns to run_ticks).
+struct StretchTally {
+    std::uint64_t ticks = 0, total_us = 0, last_us = 0;
+    void record(std::uint64_t extra_us) {
+        last_us = extra_us;
+        if (extra_us == 0) return;
+        ++ticks;
+        total_us += extra_us;
+    }
+};
+
 enum class RunOutcome {
     Completed,       // every peer confirmed target_frame (as far as this process can know)
     ConnectTimeout,  // not every peer connected in time
@@ -122,8 +134,8 @@ public:
     void request_stop() { stop_.store(true, std::memory_order_relaxed); }
 
     // Ticks that were lengthened for time sync, and the total extra time (µs).
-    std::uint64_t stretched_ticks() const { return stretched_ticks_; }
-    std::uint64_t stretch_total_us() const { return stretch_total_us_; }
+    std::uint64_t stretched_ticks() const { return stretch_.ticks; }
+    std::uint64_t stretch_total_us() const { return stretch_.total_us; }
     // Times the schedule restarted because the process fell too far behind.
     std::uint64_t schedule_resets() const { return schedule_resets_; }
     std::uint64_t started_us() const { return started_us_; }
@@ -151,8 +163,8 @@ private:
     std::uint64_t started_us_ = 0;
     std::uint64_t ticks_ = 0;
     std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
-    std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0;
-    std::uint64_t last_extra_us_ = 0;     // stretch of the tick just run
+    std::uint64_t schedule_resets_ = 0;
+    StretchTally stretch_;
     std::uint64_t last_reconnect_us_ = 0;
 };
 

@@ -66,11 +66,7 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
     const std::uint64_t extra =
         std::min(max_extra, period_us_ * static_cast<std::uint64_t>(std::max(0, report.advance.tick_stretch_ppm)) / 1000000u);
-    if (extra > 0) {
-        ++stretched_ticks_;
-        stretch_total_us_ += extra;
-    }
-    last_extra_us_ = extra;
+    stretch_.record(extra);
     out_.clear();
     session_.poll(now, out_);
     for (const auto& d : out_) {
@@ -94,7 +90,7 @@ RunOutcome RelayRunner::run() {
         [this](std::uint64_t due) { service_until(due); },
         [this](std::uint64_t now, std::uint64_t due) {
             tick(now, due);
-            return last_extra_us_;
+            return stretch_.last_us;
         },
         [&] {
             // Everyone's confirmation is the server's business; ours, and the server holding

@@ -36,8 +36,8 @@ public:
 
     RunOutcome run();
     void request_stop() { stop_.store(true, std::memory_order_relaxed); }
-    std::uint64_t stretched_ticks() const { return stretched_ticks_; }
-    std::uint64_t stretch_total_us() const { return stretch_total_us_; }
+    std::uint64_t stretched_ticks() const { return stretch_.ticks; }
+    std::uint64_t stretch_total_us() const { return stretch_.total_us; }
     std::uint64_t schedule_resets() const { return schedule_resets_; }
     std::uint64_t catch_up_frames() const { return caught_up_; }
 
@@ -60,9 +60,9 @@ private:
     std::uint64_t period_us_ = 0;
     std::uint64_t last_connect_us_ = 0;
     int connections_ = 0;  // to the server so far (a later one is a reconnect)
-    std::uint64_t last_extra_us_ = 0;
     std::uint64_t started_us_ = 0;  // when the session first ran
-    std::uint64_t stretched_ticks_ = 0, stretch_total_us_ = 0, schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
+    StretchTally stretch_;
+    std::uint64_t schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
 };
 
 }  // namespace lockroll::net

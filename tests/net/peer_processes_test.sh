@@ -5,12 +5,7 @@
 set -u
 lockroll=$1
 here=$(cd "$(dirname "$0")" && pwd)
-tmp=$(mktemp -d)
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done; rm -rf "$tmp"; }
-trap cleanup EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "$0")/../process_test_support.sh"
 
 # match NAME PLAYERS MODE FRAMES [extra peer flags...]
 match() {

@@ -11,12 +11,7 @@
 set -u
 server=$1
 sidecar=$2
-tmp=$(mktemp -d)
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done; rm -rf "$tmp"; }
-trap cleanup EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "$0")/../process_test_support.sh"
 command -v curl >/dev/null || { echo "FAIL: curl is not installed (scripts/install-deps.sh installs it)"; exit 1; }
 
 # The status file, as lockroll-server writes it: start one, keep its file, stop it (it drains at

@@ -10,13 +10,8 @@
 set -u
 lockroll=$1
 bad_client=$2
-tmp=$(mktemp -d)
-pids=()
 # KEEP=1 keeps the outputs; ONLY="four kill join desync bad drain" runs a subset (by hand).
-cleanup() { for p in "${pids[@]}"; do kill -9 "$p" 2>/dev/null; done; [ -n "${KEEP:-}" ] && echo "kept $tmp" || rm -rf "$tmp"; }
-trap cleanup EXIT
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+source "$(dirname "$0")/../process_test_support.sh"
 
 free_port() { python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
