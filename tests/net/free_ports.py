@@ -38,6 +38,9 @@ for k in range(span):
     socks.append(s)
 if len(socks) < n:
     sys.exit(f"free_ports: cannot find {n} free UDP ports on 127.0.0.1 below {floor}")
-print(" ".join(str(s.getsockname()[1]) for s in socks))
+# Released before they are printed: a caller reading the line through a pipe (`read < <(...)`)
+# starts binding at once, possibly before this process has exited.
+ports = [s.getsockname()[1] for s in socks]
 for s in socks:
     s.close()
+print(" ".join(str(p) for p in ports), flush=True)

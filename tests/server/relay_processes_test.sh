@@ -48,7 +48,14 @@ def events(name): return [json.loads(l)["event"] for l in open(os.path.join(base
 def log(name): return open(os.path.join(base, name)).read()
 $code
 PY
-    then echo "ok: $name"; else fail "$name"; fi
+    then echo "ok: $name"; else fail "$name"; show_logs "$dir"; fi
+}
+show_logs() {  # the last lines of every process log under DIR, to diagnose a failure from CI output
+    local f
+    for f in $(find "$1" -name 'server.log' -o -name 'peer.log' -o -name '*.stderr.log' | sort); do
+        echo "--- ${f#"$1"/} (last 8 lines)"
+        tail -8 "$f"
+    done
 }
 
 want() { [ -z "${ONLY:-}" ] || [[ " $ONLY " == *" $1 "* ]]; }
