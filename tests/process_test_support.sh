@@ -3,6 +3,8 @@
 #   tmp       scratch directory, removed at exit (KEEP=1 keeps it and says where)
 #   pids      add every background process: it is killed (-9) at exit
 #   fail MSG  prints FAIL: MSG and counts it; `failures` holds the count
+#   show_logs DIR   the last lines of every process log under DIR (server.log, peer.log,
+#                   *.stderr.log), so a failure can be diagnosed from CI's output alone
 tmp=$(mktemp -d)
 pids=()
 failures=0
@@ -12,3 +14,10 @@ process_test_cleanup() {
 }
 trap process_test_cleanup EXIT
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+show_logs() {
+    local f
+    for f in $(find "$1" -name 'server.log' -o -name 'peer.log' -o -name '*.stderr.log' | sort); do
+        echo "--- ${f#"$1"/} (last 8 lines)"
+        tail -8 "$f"
+    done
+}

@@ -1,7 +1,7 @@
-# Shared by live_test.sh and live_faults_test.sh (sourced): fail, and check, which runs Python
-# assertions against one `lockroll live` run's live.json, summary and events.
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
+# Shared by live_test.sh and live_faults_test.sh (sourced): tests/process_test_support.sh (tmp,
+# fail, show_logs), and check, which runs Python assertions against one `lockroll live` run's
+# live.json, summary and events, and shows the processes' logs when they fail.
+source "$(dirname "${BASH_SOURCE[0]}")/../process_test_support.sh"
 
 check() {  # check NAME DIR MODE PYTHON-ASSERTIONS (d: live.json's mode entry, procs by name)
     local name=$1 dir=$2 mode=$3 code=$4
@@ -14,5 +14,5 @@ def events(name):
     return [json.loads(l) for l in open(os.path.join(sys.argv[1], sys.argv[2], name, "events.jsonl"))]
 $code
 PY
-    then echo "ok: $name"; else fail "$name"; fi
+    then echo "ok: $name"; else fail "$name"; show_logs "$dir"; fi
 }

@@ -6,8 +6,6 @@
 # in tests/rollback/replay_cli_test.cpp.
 set -u
 lockroll=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/live_check.sh"
 
 # 1. Clock skew: slot 1's clock runs 1 % fast, slot 2's 5 % slow (6.3 % apart). Time sync must

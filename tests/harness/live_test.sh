@@ -4,8 +4,6 @@
 # late join with a spectator; an injected desync; bad flags. Outcomes only (checksums, events).
 set -u
 lockroll=$1
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 source "$(dirname "$0")/live_check.sh"
 
 # 1. Three players through proxies at 5 % loss: every process completes on the same checksum.

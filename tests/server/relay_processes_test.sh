@@ -50,13 +50,6 @@ $code
 PY
     then echo "ok: $name"; else fail "$name"; show_logs "$dir"; fi
 }
-show_logs() {  # the last lines of every process log under DIR, to diagnose a failure from CI output
-    local f
-    for f in $(find "$1" -name 'server.log' -o -name 'peer.log' -o -name '*.stderr.log' | sort); do
-        echo "--- ${f#"$1"/} (last 8 lines)"
-        tail -8 "$f"
-    done
-}
 
 want() { [ -z "${ONLY:-}" ] || [[ " $ONLY " == *" $1 "* ]]; }
 # Stall bounds (ms) with slack for a loaded 2-core machine; under the sanitizers (ASAN_OPTIONS
