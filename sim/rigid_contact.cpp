@@ -1,5 +1,6 @@
 #include "sim/rigid_contact.h"
 
+#include <algorithm>
 #include <bit>
 #include <utility>
 
@@ -82,6 +83,12 @@ void closest_segments(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3
 }
 
 void round_round(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    // Two spheres: closest_segments() of two points gives the centres themselves (every product
+    // it takes is of zero vectors), so the centres go straight in.
+    if (a.core_half.raw == 0 && b.core_half.raw == 0) {
+        spheres(a.center, a.radius, b.center, b.radius, margin, m);
+        return;
+    }
     Vec3 a0, a1, b0, b1, ca, cb;
     segment(a, a0, a1);
     segment(b, b0, b1);
@@ -464,19 +471,75 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     }
 }
 
+// True when no edge axis can matter: every one of them, computed as box_box does, would come out
+// at most `limit` (so none separates beyond the margin and none beats the best face axis by
+// kEdgeBias). Decided without the square root and divisions of normalising each axis: with
+// c = a_i x b_j unnormalised, sep(c / |c|) = N / |c|, N = |d.c| - sum h_a |a_k.c| - sum h_b |b_k.c|,
+// and N <= limit |c| is compared squared. The slack e covers the rounding of both this bound
+// and box_box's own normalised figures (each within S 2^-24 + 2^-28 of exact, S = |d|max +
+// sum h_a + sum h_b; e is 16 times that), so the answer never differs from box_box's loop; any
+// doubt (large values, an axis near the limit) says false and box_box runs its loop.
+bool edges_cannot_matter(const Vec3 ca[3], const Vec3 cb[3], const Vec3& d, const Vec3& ha, const Vec3& hb,
+                         std::int64_t limit) {
+    constexpr std::int64_t kSmall = std::int64_t{1} << 40;  // 256 m: every product below fits
+    i128 size = 0;
+    for (const Fixed f : {d.x, d.y, d.z}) size = std::max<i128>(size, f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw));
+    for (const Fixed f : {ha.x, ha.y, ha.z, hb.x, hb.y, hb.z}) size += f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw);
+    if (size >= kSmall) return false;
+    const std::int64_t e = static_cast<std::int64_t>(size >> 20) + 64;  // S 2^-20 + 2^-26
+    const std::int64_t t = limit - e;
+    if (t >= kSmall || t <= -kSmall) return false;
+    const u128 t_sq = mul_wide_unsigned(static_cast<std::uint64_t>(t < 0 ? -t : t), static_cast<std::uint64_t>(t < 0 ? -t : t));
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            const Vec3 c = cross(ca[i], cb[j]);
+            const u128 len_sq = length_sq_wide(c);
+            if (len_sq < (u128{1} << 52)) continue;  // box_box skips it too
+            // a_i . c and b_j . c are exactly 0 for the unrounded cross product, so within 2^-32
+            // for c: leaving those two terms out only raises N, which keeps the bound safe.
+            Fixed n = abs(dot(d, c));
+            for (int k = 0; k < 3; ++k) {
+                if (k != i) n = n - comp(ha, k) * abs(dot(ca[k], c));
+                if (k != j) n = n - comp(hb, k) * abs(dot(cb[k], c));
+            }
+            const std::int64_t l = n.raw + e;
+            const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
+            if (t >= 0) {
+                if (l <= 0) continue;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > t_sq * cc) return false;
+            } else {
+                if (l >= 0) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < t_sq * (cc + 1)) return false;
+            }
+        }
+    return true;
+}
+
 void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
     const Vec3 d = b.center - a.center;
+    const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
+    const Vec3 cb[3] = {column(*b.rot, 0), column(*b.rot, 1), column(*b.rot, 2)};
+    // c[i][j] = a_i . b_j, filled row by row by A's face axes and reused by B's (the same dot
+    // products projected_radius() would take: a dot product is symmetric to the bit).
+    Fixed c[3][3];
     // Best face axis (largest separation; ties: A before B, x before y before z).
     Fixed face_sep = Fixed::min();
     int face_box = 0, face_k = 0;
     Vec3 face_n{};
     for (int box = 0; box < 2; ++box) {
-        const OrientedCollider& x = box == 0 ? a : b;
-        const OrientedCollider& y = box == 0 ? b : a;
+        const Vec3& xh = box == 0 ? a.half : b.half;
+        const Vec3& yh = box == 0 ? b.half : a.half;
         for (int k = 0; k < 3; ++k) {
-            const Vec3 axis = column(*x.rot, k);
+            const Vec3& axis = box == 0 ? ca[k] : cb[k];
             const Fixed dist = dot(d, axis);
-            const Fixed sep = abs(dist) - comp(x.half, k) - projected_radius(y, axis);
+            Fixed radius;
+            if (box == 0) {
+                for (int j = 0; j < 3; ++j) c[k][j] = dot(cb[j], axis);
+                radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
+            } else {
+                radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
+            }
+            const Fixed sep = abs(dist) - comp(xh, k) - radius;
             if (sep > margin) return;
             if (sep > face_sep) {
                 face_sep = sep;
@@ -491,27 +554,29 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     Fixed edge_sep = Fixed::min();
     int edge_i = 0, edge_j = 0;
     Vec3 edge_n{};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            const Vec3 c = cross(column(*a.rot, i), column(*b.rot, j));
-            const u128 len_sq = length_sq_wide(c);
-            if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
-            const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
-            Vec3 axis{c.x / len, c.y / len, c.z / len};
-            Fixed dist = dot(d, axis);
-            if (dist.raw < 0) {
-                axis = -axis;
-                dist = -dist;
+    const i128 limit = std::min<i128>(static_cast<i128>(margin.raw), static_cast<i128>(face_sep.raw) + kEdgeBias);
+    if (!edges_cannot_matter(ca, cb, d, a.half, b.half, static_cast<std::int64_t>(limit)))
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                const Vec3 c = cross(ca[i], cb[j]);
+                const u128 len_sq = length_sq_wide(c);
+                if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
+                const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
+                Vec3 axis{c.x / len, c.y / len, c.z / len};
+                Fixed dist = dot(d, axis);
+                if (dist.raw < 0) {
+                    axis = -axis;
+                    dist = -dist;
+                }
+                const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
+                if (sep > margin) return;
+                if (sep > edge_sep) {
+                    edge_sep = sep;
+                    edge_i = i;
+                    edge_j = j;
+                    edge_n = axis;
+                }
             }
-            const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
-            if (sep > margin) return;
-            if (sep > edge_sep) {
-                edge_sep = sep;
-                edge_i = i;
-                edge_j = j;
-                edge_n = axis;
-            }
-        }
     if (edge_sep.raw > face_sep.raw + kEdgeBias) {
         // Edge of A furthest along n against the edge of B furthest along -n.
         Vec3 pa = a.center, pb = b.center;
