@@ -152,7 +152,10 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
     };
     for (std::uint32_t c : occupied_) cell_count_[c] = 0;
     occupied_.clear();
-    if (cell_of_.size() < box_.size()) cell_of_.resize(box_.size());
+    if (cell_of_.size() < box_.size()) {
+        cell_of_.resize(box_.size());
+        slot_of_.resize(box_.size());
+    }
     for (BodyId id : gridded_) {
         const auto c = static_cast<std::uint32_t>(coord(id, 2) * stride_z_ + coord(id, 1) * stride_y_ + coord(id, 0));
         cell_of_[id] = c;
@@ -166,15 +169,20 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
         next += cell_count_[c];
     }
     cell_items_.resize(gridded_.size());
-    for (BodyId id : gridded_) cell_items_[cell_start_[cell_of_[id]]++] = id;
+    for (BodyId id : gridded_) {
+        const std::uint32_t slot = cell_start_[cell_of_[id]]++;
+        cell_items_[slot] = id;
+        slot_of_[id] = slot;
+    }
     for (std::uint32_t c : occupied_) cell_start_[c] -= cell_count_[c];
 
     for (BodyId a : gridded_) {
         const Box& ba = box_[a];
         const std::uint32_t own = cell_of_[a];
-        for (std::uint32_t s = cell_start_[own], e = s + cell_count_[own]; s < e; ++s) {
+        // Own cell: the bodies after a in its ascending run are exactly those with a greater id.
+        for (std::uint32_t s = slot_of_[a] + 1, e = cell_start_[own] + cell_count_[own]; s < e; ++s) {
             const BodyId b = cell_items_[s];
-            if (b > a && overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
+            if (overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
         }
         // Which neighbours a's box can reach at all: a body in the next cell up an axis has its
         // min corner at or above that cell's lower edge (clamping only ever moves bodies down

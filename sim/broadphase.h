@@ -78,6 +78,7 @@ private:
     std::vector<std::uint32_t> occupied_;    // cells with bodies this step, by first body id
     std::vector<BodyId> cell_items_;         // gridded bodies grouped by cell, ascending id within
     std::vector<std::uint32_t> cell_of_;     // linear cell index by body id
+    std::vector<std::uint32_t> slot_of_;     // index in cell_items_ by body id
 };
 
 }  // namespace lockroll::sim

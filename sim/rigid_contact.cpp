@@ -106,6 +106,18 @@ void sphere_box(const Vec3& c, Fixed r, const OrientedCollider& box, Fixed margi
     add(m, n, q, depth, feature);
 }
 
+// axis = x / |x| (len_sq = |x|^2 > 0), turned to point along v; returns v . axis (>= 0).
+Fixed unit_toward(const Vec3& x, u128 len_sq, const Vec3& v, Vec3& axis) {
+    const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
+    axis = {x.x / len, x.y / len, x.z / len};
+    Fixed along = dot(v, axis);
+    if (along.raw < 0) {
+        axis = -axis;
+        along = -along;
+    }
+    return along;
+}
+
 // ---- Capsule against an oriented box, exact ----
 // In the box's frame the core segment is a + d t, t in [0, 1], and the box is |x_k| <= h_k. The
 // capsule touches the box where the segment comes within its radius; the closest point of the
@@ -296,13 +308,8 @@ void capsule_box_sat(const LocalCapsule& c, const OrientedCollider& box, Manifol
         const Vec3 x = k == 0 ? Vec3{zero, c.d.z, -c.d.y} : k == 1 ? Vec3{-c.d.z, zero, c.d.x} : Vec3{c.d.y, -c.d.x, zero};
         const u128 xx = length_sq_wide(x);
         if (xx == 0 || xx < (dd >> 12)) continue;  // within 2^-6 rad of the edge: a face axis covers it
-        const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(xx)));
-        Vec3 u{x.x / len, x.y / len, x.z / len};
-        Fixed s = dot(mid, u);
-        if (s.raw < 0) {
-            u = -u;
-            s = -s;
-        }
+        Vec3 u;
+        const Fixed s = unit_toward(x, xx, mid, u);
         const Fixed pen = h.x * abs(u.x) + h.y * abs(u.y) + h.z * abs(u.z) - s;
         if (pen < edge_pen) { edge_pen = pen; edge_k = k; edge_u = u; }
     }
@@ -561,13 +568,8 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
                 const Vec3 c = cross(ca[i], cb[j]);
                 const u128 len_sq = length_sq_wide(c);
                 if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
-                const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
-                Vec3 axis{c.x / len, c.y / len, c.z / len};
-                Fixed dist = dot(d, axis);
-                if (dist.raw < 0) {
-                    axis = -axis;
-                    dist = -dist;
-                }
+                Vec3 axis;
+                const Fixed dist = unit_toward(c, len_sq, d, axis);
                 const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
                 if (sep > margin) return;
                 if (sep > edge_sep) {

@@ -30,8 +30,9 @@ Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * d
 // m v for a body's world inverse inertia m; `isotropic` when m is diag(s, s, s) (spheres, and
 // static bodies with s = 0): each row's dot product is then its one product rounded once, the
 // same bits as the full product, at a third of the cost.
-Vec3 inertia_times(const Mat3& m, bool isotropic, const Vec3& v) {
-    if (!isotropic) return m * v;
+Vec3 full_times(const Mat3& m, const Vec3& v) { return m * v; }
+inline Vec3 inertia_times(const Mat3& m, bool isotropic, const Vec3& v) {
+    if (!isotropic) return full_times(m, v);  // out of line, so this stays small enough to inline
     const Fixed s = m.row[0].x;
     return {s * v.x, s * v.y, s * v.z};
 }
