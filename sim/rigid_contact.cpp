@@ -128,7 +128,9 @@ Fixed unit_toward(const Vec3& x, u128 len_sq, const Vec3& v, Vec3& axis) {
 //    that face's four side planes, and each end of the clipped part within reach is a point,
 //    with the face normal. The deepest end is the exact closest point (the separation from the
 //    face plane is linear along the clipped part), and a capsule lying along the face gets two.
-//  - On an edge or corner: one point, the exact closest points, normal along their difference.
+//  - On an edge or corner: the exact closest points, normal along their difference; plus, when
+//    within reach, the far end of the segment's part over the face the normal leans to most
+//    (a capsule lying along a face and over its edge keeps both supports as it tilts).
 //  - The segment inside (or within 2^-20 m of) the box: the separating-axis test over the box's
 //    three face normals and the three cross products of the segment with the box's edges (the
 //    face normals of box + segment, so the least overlap is the exact penetration); a face axis
