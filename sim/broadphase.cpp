@@ -89,8 +89,18 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
     const std::int64_t px = dims_[0] + 2, py = dims_[1] + 2, pz = dims_[2] + 2;  // with the border
     stride_y_ = px;
     stride_z_ = px * py;
-    for (int k = 0; k < 13; ++k)
+    for (int k = 0; k < 13; ++k) {
         forward_offset_[k] = kForward[k][0] + kForward[k][1] * stride_y_ + kForward[k][2] * stride_z_;
+        forward_need_[k] = 0;
+        for (int j = 0; j < 3; ++j)
+            if (kForward[k][j] != 0) forward_need_[k] |= static_cast<std::uint8_t>((kForward[k][j] > 0 ? 1u : 8u) << j);
+    }
+    // Widest fattened box of a gridded body on any axis (hi - lo, as make_box builds it).
+    widest_ = 0;
+    for (BodyId id : gridded_) {
+        const Box b = make_box(Vec3{}, extent[id], margin.raw);
+        for (int k = 0; k < 3; ++k) widest_ = std::max(widest_, static_cast<i128>(b.hi[k]) - b.lo[k]);
+    }
     cell_count_.assign(static_cast<std::size_t>(px * py * pz), 0);
     cell_start_.assign(cell_count_.size(), 0);
     occupied_.clear();
@@ -142,7 +152,10 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
     };
     for (std::uint32_t c : occupied_) cell_count_[c] = 0;
     occupied_.clear();
-    if (cell_of_.size() < box_.size()) cell_of_.resize(box_.size());
+    if (cell_of_.size() < box_.size()) {
+        cell_of_.resize(box_.size());
+        slot_of_.resize(box_.size());
+    }
     for (BodyId id : gridded_) {
         const auto c = static_cast<std::uint32_t>(coord(id, 2) * stride_z_ + coord(id, 1) * stride_y_ + coord(id, 0));
         cell_of_[id] = c;
@@ -156,18 +169,36 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
         next += cell_count_[c];
     }
     cell_items_.resize(gridded_.size());
-    for (BodyId id : gridded_) cell_items_[cell_start_[cell_of_[id]]++] = id;
+    for (BodyId id : gridded_) {
+        const std::uint32_t slot = cell_start_[cell_of_[id]]++;
+        cell_items_[slot] = id;
+        slot_of_[id] = slot;
+    }
     for (std::uint32_t c : occupied_) cell_start_[c] -= cell_count_[c];
 
     for (BodyId a : gridded_) {
         const Box& ba = box_[a];
         const std::uint32_t own = cell_of_[a];
-        for (std::uint32_t s = cell_start_[own], e = s + cell_count_[own]; s < e; ++s) {
+        // Own cell: the bodies after a in its ascending run are exactly those with a greater id.
+        for (std::uint32_t s = slot_of_[a] + 1, e = cell_start_[own] + cell_count_[own]; s < e; ++s) {
             const BodyId b = cell_items_[s];
-            if (b > a && overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
+            if (overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
         }
-        for (const std::int64_t off : forward_offset_) {
-            const auto c = static_cast<std::size_t>(static_cast<std::int64_t>(own) + off);
+        // Which neighbours a's box can reach at all: a body in the next cell up an axis has its
+        // min corner at or above that cell's lower edge (clamping only ever moves bodies down
+        // into cell 0 or up into the last cell, never into a next cell), and a body in the cell
+        // below has its max corner under this cell's lower edge plus the widest gridded box.
+        // A neighbour out of reach holds no pair, so skipping it leaves the output as it was.
+        unsigned reach = 0;
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t i = coord(a, k) - 1;  // interior index
+            const i128 lower = static_cast<i128>(origin_[k] + i) << cell_shift_;
+            if (static_cast<i128>(ba.hi[k]) >= lower + (i128{1} << cell_shift_)) reach |= 1u << k;
+            if (static_cast<i128>(ba.lo[k]) < lower + widest_) reach |= 8u << k;
+        }
+        for (int f = 0; f < 13; ++f) {
+            if ((forward_need_[f] & ~reach) != 0) continue;
+            const auto c = static_cast<std::size_t>(static_cast<std::int64_t>(own) + forward_offset_[f]);
             const std::uint32_t n = cell_count_[c];
             if (n == 0) continue;
             for (std::uint32_t s = cell_start_[c], e = s + n; s < e; ++s) {

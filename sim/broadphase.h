@@ -70,11 +70,15 @@ private:
     std::int64_t dims_[3] = {1, 1, 1};    // interior cells per axis (the border comes on top)
     std::int64_t stride_y_ = 0, stride_z_ = 0;
     std::int64_t forward_offset_[13] = {};  // linear offsets of the 13 forward neighbours
+    // Per forward neighbour, the reach it needs: bit k for +1 along axis k, bit 3 + k for -1.
+    std::uint8_t forward_need_[13] = {};
+    i128 widest_ = 0;  // widest fattened box (hi - lo) of a gridded body, any axis
     std::vector<std::uint32_t> cell_count_;  // bodies per cell; zero outside occupied_
     std::vector<std::uint32_t> cell_start_;  // first slot in cell_items_, valid when count > 0
     std::vector<std::uint32_t> occupied_;    // cells with bodies this step, by first body id
     std::vector<BodyId> cell_items_;         // gridded bodies grouped by cell, ascending id within
     std::vector<std::uint32_t> cell_of_;     // linear cell index by body id
+    std::vector<std::uint32_t> slot_of_;     // index in cell_items_ by body id
 };
 
 }  // namespace lockroll::sim

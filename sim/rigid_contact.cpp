@@ -1,5 +1,9 @@
 #include "sim/rigid_contact.h"
 
+#include <algorithm>
+#include <bit>
+#include <utility>
+
 namespace lockroll::sim {
 
 namespace {
@@ -43,13 +47,6 @@ void segment(const OrientedCollider& c, Vec3& p0, Vec3& p1) {
     p1 = c.center + e;
 }
 
-// Parameter in [0, 1] of the point of segment [p, p + d] closest to q.
-Fixed closest_param(const Vec3& p, const Vec3& d, const Vec3& q) {
-    const Fixed dd = dot(d, d);
-    if (dd.raw == 0) return Fixed::zero();
-    return clamp(dot(q - p, d) / dd, Fixed::zero(), Fixed::one());
-}
-
 // Closest points of segments [p1, q1] and [p2, q2] (Ericson, Real-Time Collision Detection 5.1.9).
 void closest_segments(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3& q2, Vec3& c1, Vec3& c2) {
     const Fixed zero = Fixed::zero(), one = Fixed::one();
@@ -86,6 +83,12 @@ void closest_segments(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3
 }
 
 void round_round(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    // Two spheres: closest_segments() of two points gives the centres themselves (every product
+    // it takes is of zero vectors), so the centres go straight in.
+    if (a.core_half.raw == 0 && b.core_half.raw == 0) {
+        spheres(a.center, a.radius, b.center, b.radius, margin, m);
+        return;
+    }
     Vec3 a0, a1, b0, b1, ca, cb;
     segment(a, a0, a1);
     segment(b, b0, b1);
@@ -103,6 +106,236 @@ void sphere_box(const Vec3& c, Fixed r, const OrientedCollider& box, Fixed margi
     add(m, n, q, depth, feature);
 }
 
+// axis = x / |x| (len_sq = |x|^2 > 0), turned to point along v; returns v . axis (>= 0).
+Fixed unit_toward(const Vec3& x, u128 len_sq, const Vec3& v, Vec3& axis) {
+    const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
+    axis = {x.x / len, x.y / len, x.z / len};
+    Fixed along = dot(v, axis);
+    if (along.raw < 0) {
+        axis = -axis;
+        along = -along;
+    }
+    return along;
+}
+
+// ---- Capsule against an oriented box, exact ----
+// In the box's frame the core segment is a + d t, t in [0, 1], and the box is |x_k| <= h_k. The
+// capsule touches the box where the segment comes within its radius; the closest point of the
+// segment to the box is found exactly: the squared distance is convex and piecewise quadratic
+// in t, with breakpoints where a coordinate crosses +-h_k, so its slope is read at the
+// breakpoints in order and the root is solved on the one piece where it changes sign.
+//  - Closest box point on a face (one coordinate outside the box): the segment is clipped to
+//    that face's four side planes, and each end of the clipped part within reach is a point,
+//    with the face normal. The deepest end is the exact closest point (the separation from the
+//    face plane is linear along the clipped part), and a capsule lying along the face gets two.
+//  - On an edge or corner: the exact closest points, normal along their difference; plus, when
+//    within reach, the far end of the segment's part over the face the normal leans to most
+//    (a capsule lying along a face and over its edge keeps both supports as it tilts).
+//  - The segment inside (or within 2^-20 m of) the box: the separating-axis test over the box's
+//    three face normals and the three cross products of the segment with the box's edges (the
+//    face normals of box + segment, so the least overlap is the exact penetration); a face axis
+//    gives the clipped points above, an edge axis (winning by kEdgeBias) one point on that edge.
+// Feature ids: face points 8 f + c, f the face (2 k, +1 for the -x_k face), c the clipped end:
+// 0 or 1 a segment end, 2 + s the side plane s (2 j' + 1 for the - side of the face's j'-th
+// other axis) that cut it; edge and corner points kFeatureEdge + code, code sum over k of
+// 3^k * (0 inside, 1 on +h_k, 2 on -h_k): the box feature touched, the same whether found by
+// closest points or by the separating axis.
+
+constexpr std::int64_t kEdgeBias = Fixed::kOne / 200;  // 5 mm
+
+// x beyond [-h, h], signed; 0 inside.
+Fixed excess(Fixed x, Fixed h) { return x > h ? x - h : x < -h ? x + h : Fixed::zero(); }
+
+// Half the slope of the squared distance from a + d t to the box, in Q64.64 (its sign matters).
+i128 box_slope(const Vec3& a, const Vec3& d, const Vec3& h, Fixed t) {
+    const Vec3 q = a + d * t;
+    return dot_wide(d, {excess(q.x, h.x), excess(q.y, h.y), excess(q.z, h.z)});
+}
+
+// num / den for 0 < num < den (Q64.64 both), as a Fixed in [0, 1]: both shifted down to 62 bits.
+Fixed unit_ratio(i128 num, i128 den) {
+    const auto hi = static_cast<std::uint64_t>(den >> 64), lo = static_cast<std::uint64_t>(den);
+    const int width = hi != 0 ? 64 + std::bit_width(hi) : std::bit_width(lo);
+    const int shift = width > 62 ? width - 62 : 0;
+    return Fixed::ratio(static_cast<std::int64_t>(num >> shift), static_cast<std::int64_t>(den >> shift));
+}
+
+// The segment parameter in [0, 1] of a point of the segment closest to the box (a fixed one
+// where several are: the middle of a flat piece).
+Fixed closest_to_box(const Vec3& a, const Vec3& d, const Vec3& h) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one();
+    Fixed bp[6];
+    int n = 0;
+    for (int k = 0; k < 3; ++k) {
+        const Fixed dk = comp(d, k);
+        if (dk.raw == 0) continue;
+        for (const Fixed bound : {-comp(h, k), comp(h, k)}) {
+            const Fixed num = bound - comp(a, k);
+            // Inside (0, 1) only: no division that could saturate.
+            const bool in = dk.raw > 0 ? num.raw > 0 && num < dk : num.raw < 0 && num > dk;
+            if (!in) continue;
+            Fixed t = num / dk;
+            int i = n++;
+            for (; i > 0 && bp[i - 1] > t; --i) bp[i] = bp[i - 1];
+            bp[i] = t;
+        }
+    }
+    if (box_slope(a, d, h, zero) >= i128{0}) return zero;
+    Fixed lo = zero, hi = one;
+    int i = 0;
+    for (; i < n; ++i) {
+        if (box_slope(a, d, h, bp[i]) >= i128{0}) break;
+        lo = bp[i];
+    }
+    if (i < n) {
+        hi = bp[i];
+    } else if (box_slope(a, d, h, one) <= i128{0}) {
+        return one;
+    }
+    // On [lo, hi] the same coordinates are outside: slope = sum over them of d_k (a_k -+ h_k + d_k t).
+    const Fixed mid = lo + Fixed::from_raw((hi.raw - lo.raw) / 2);
+    const Vec3 q = a + d * mid;
+    Vec3 dn, off;
+    for (int k = 0; k < 3; ++k) {
+        const Fixed qk = comp(q, k), hk = comp(h, k);
+        if (qk > hk || qk < -hk) {
+            comp(dn, k) = comp(d, k);
+            comp(off, k) = qk > hk ? comp(a, k) - hk : comp(a, k) + hk;
+        }
+    }
+    const i128 den = dot_wide(dn, dn);
+    if (den <= i128{0}) return mid;  // flat: the distance is the same all along the piece
+    const i128 num = -dot_wide(dn, off);
+    const Fixed t = num <= i128{0} ? zero : num >= den ? one : unit_ratio(num, den);
+    return clamp(t, lo, hi);
+}
+
+// A capsule in the box's frame: segment a + d t, radius r; writes local normals and points.
+struct LocalCapsule {
+    Vec3 a, d;
+    Fixed r, reach;
+};
+
+// num / d where that is within [-1, 1]; beyond, +-2 (outside the segment either way), so the
+// division never saturates.
+Fixed slab_param(Fixed num, Fixed d) {
+    if (abs(num) <= abs(d)) return num / d;
+    const Fixed two = Fixed::from_raw(2 * Fixed::kOne);
+    return (num.raw < 0) == (d.raw < 0) ? two : -two;
+}
+
+// The part of the segment over face k (between its four side planes): parameters t0 <= t1 and
+// what cut each end (0 / 1 the segment's ends, 2 + s side plane s). False when it misses the face.
+struct FaceClip {
+    Fixed t0, t1;
+    int code0 = 0, code1 = 1;
+};
+bool clip_to_face(const LocalCapsule& c, const Vec3& h, int k, FaceClip& f) {
+    f.t0 = Fixed::zero();
+    f.t1 = Fixed::one();
+    for (int s = 1; s <= 2; ++s) {
+        const int j = (k + s) % 3;
+        const Fixed dj = comp(c.d, j), aj = comp(c.a, j), hj = comp(h, j);
+        const int plus = 2 * s, minus = plus + 1;
+        if (dj.raw == 0) {
+            if (aj > hj || aj < -hj) return false;
+            continue;
+        }
+        // Entering and leaving parameters of the slab |a_j + d_j t| <= h_j.
+        Fixed enter = slab_param(-hj - aj, dj), leave = slab_param(hj - aj, dj);
+        int enter_code = minus, leave_code = plus;
+        if (dj.raw < 0) {
+            std::swap(enter, leave);
+            std::swap(enter_code, leave_code);
+        }
+        if (enter > f.t0) { f.t0 = enter; f.code0 = enter_code; }
+        if (leave < f.t1) { f.t1 = leave; f.code1 = leave_code; }
+    }
+    return f.t0 <= f.t1;
+}
+
+// The segment point at t as a contact on face f = 2 k + negative, when within reach: the point on
+// the face under it, normal -(outward face normal) (capsule toward box).
+void face_point(const LocalCapsule& c, const OrientedCollider& box, int k, bool negative, Fixed t, int code, Manifold& m) {
+    const Fixed hk = comp(box.half, k);
+    Vec3 p = c.a + c.d * t;
+    const Fixed sep = (negative ? -comp(p, k) : comp(p, k)) - hk;
+    if (sep >= c.reach) return;
+    comp(p, k) = negative ? -hk : hk;  // on the face
+    const Vec3 ek = column(*box.rot, k);
+    const int face = 2 * k + (negative ? 1 : 0);
+    add(m, negative ? ek : -ek, box.center + *box.rot * p, c.r - sep, static_cast<std::uint8_t>(8 * face + code));
+}
+
+// Face k as the reference: each end of the segment's part over it within reach.
+void capsule_face(const LocalCapsule& c, const OrientedCollider& box, int k, bool negative, Manifold& m) {
+    FaceClip f;
+    if (!clip_to_face(c, box.half, k, f)) {
+        // Rounding at a grazing corner (the closest point is over this face): the middle.
+        const Fixed t = clamp(f.t0 + Fixed::from_raw((f.t1.raw - f.t0.raw) / 2), Fixed::zero(), Fixed::one());
+        face_point(c, box, k, negative, t, f.code0, m);
+        return;
+    }
+    face_point(c, box, k, negative, f.t0, f.code0, m);
+    if (f.t1 != f.t0) face_point(c, box, k, negative, f.t1, f.code1, m);
+}
+
+std::uint8_t box_feature(const int sign[3]) {
+    int code = 0;
+    for (int k = 2; k >= 0; --k) code = 3 * code + (sign[k] > 0 ? 1 : sign[k] < 0 ? 2 : 0);
+    return static_cast<std::uint8_t>(kFeatureEdge + code);
+}
+
+// The segment inside or touching the box: least overlap over the box's face normals and the
+// segment-edge cross products.
+void capsule_box_sat(const LocalCapsule& c, const OrientedCollider& box, Manifold& m) {
+    const Vec3& h = box.half;
+    const Vec3 b = c.a + c.d;
+    Fixed face_pen = Fixed::max();
+    int face_k = 0;
+    bool face_neg = false;
+    for (int k = 0; k < 3; ++k) {
+        const Fixed lo = min(comp(c.a, k), comp(b, k)), hi = max(comp(c.a, k), comp(b, k));
+        const Fixed up = comp(h, k) - lo, down = hi + comp(h, k);  // push out through +x_k, -x_k
+        if (up < face_pen) { face_pen = up; face_k = k; face_neg = false; }
+        if (down < face_pen) { face_pen = down; face_k = k; face_neg = true; }
+    }
+    Fixed edge_pen = Fixed::max();
+    int edge_k = -1;
+    Vec3 edge_u{};
+    const u128 dd = length_sq_wide(c.d);
+    const Vec3 mid = c.a + c.d * Fixed::from_raw(Fixed::kOne / 2);
+    for (int k = 0; k < 3; ++k) {
+        const Fixed zero = Fixed::zero();
+        const Vec3 x = k == 0 ? Vec3{zero, c.d.z, -c.d.y} : k == 1 ? Vec3{-c.d.z, zero, c.d.x} : Vec3{c.d.y, -c.d.x, zero};
+        const u128 xx = length_sq_wide(x);
+        if (xx == 0 || xx < (dd >> 12)) continue;  // within 2^-6 rad of the edge: a face axis covers it
+        Vec3 u;
+        const Fixed s = unit_toward(x, xx, mid, u);
+        const Fixed pen = h.x * abs(u.x) + h.y * abs(u.y) + h.z * abs(u.z) - s;
+        if (pen < edge_pen) { edge_pen = pen; edge_k = k; edge_u = u; }
+    }
+    if (edge_k < 0 || edge_pen.raw + kEdgeBias >= face_pen.raw) {
+        capsule_face(c, box, face_k, face_neg, m);
+        return;
+    }
+    // The box edge along x_k on the side u points to; one point, the closest points of it and the segment.
+    int sign[3] = {0, 0, 0};
+    Vec3 e0 = {}, e1 = {};
+    for (int j = 0; j < 3; ++j) {
+        if (j == edge_k) {
+            comp(e0, j) = -comp(h, j);
+            comp(e1, j) = comp(h, j);
+            continue;
+        }
+        sign[j] = comp(edge_u, j).raw >= 0 ? 1 : -1;
+        comp(e0, j) = comp(e1, j) = sign[j] > 0 ? comp(h, j) : -comp(h, j);
+    }
+    Vec3 cs, ce;
+    closest_segments(c.a, b, e0, e1, cs, ce);
+    add(m, *box.rot * -edge_u, box.center + *box.rot * ce, edge_pen + c.r, box_feature(sign));
+}
+
 void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed margin, Manifold& m) {
     if (a.core_half.raw == 0) {
         sphere_box(a.center, a.radius, box, margin, m, 0);
@@ -110,11 +343,54 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     }
     Vec3 p0, p1;
     segment(a, p0, p1);
-    sphere_box(p0, a.radius, box, margin, m, 0);
-    sphere_box(p1, a.radius, box, margin, m, 1);
-    // The core point nearest the box centre, when it is not an end: leaning on an edge.
-    const Fixed t = closest_param(p0, p1 - p0, box.center);
-    if (t.raw > 0 && t < Fixed::one()) sphere_box(p0 + (p1 - p0) * t, a.radius, box, margin, m, 2);
+    LocalCapsule c;
+    c.a = transpose_times(*box.rot, p0 - box.center);
+    c.d = transpose_times(*box.rot, p1 - box.center) - c.a;
+    c.r = a.radius;
+    c.reach = a.radius + margin;
+    const Vec3& h = box.half;
+    // Quick reject: the whole segment beyond one face's slab by the reach.
+    const Vec3 b = c.a + c.d;
+    for (int k = 0; k < 3; ++k) {
+        const Fixed lo = min(comp(c.a, k), comp(b, k)), hi = max(comp(c.a, k), comp(b, k));
+        if (lo - comp(h, k) >= c.reach || -hi - comp(h, k) >= c.reach) return;
+    }
+    const Fixed t = closest_to_box(c.a, c.d, h);
+    const Vec3 q = c.a + c.d * t;
+    Vec3 diff;  // closest box point minus q
+    int sign[3], outside = 0, face_k = 0;
+    for (int k = 0; k < 3; ++k) {
+        const Fixed e = excess(comp(q, k), comp(h, k));
+        comp(diff, k) = -e;
+        sign[k] = e.raw > 0 ? 1 : e.raw < 0 ? -1 : 0;
+        if (sign[k] != 0) {
+            ++outside;
+            face_k = k;
+        }
+    }
+    const u128 dist_sq = length_sq_wide(diff);
+    if (dist_sq >= static_cast<u128>(mul_wide(c.reach.raw, c.reach.raw))) return;
+    if (dist_sq < (u128{1} << 24)) {  // within 2^-20 m: the separating axes give the normal
+        capsule_box_sat(c, box, m);
+        return;
+    }
+    if (outside == 1) {
+        capsule_face(c, box, face_k, sign[face_k] < 0, m);
+        return;
+    }
+    const Fixed dist = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dist_sq)));
+    const Vec3 nl{diff.x / dist, diff.y / dist, diff.z / dist};
+    add(m, *box.rot * nl, box.center + *box.rot * (q + diff), a.radius - dist, box_feature(sign));
+    // Over an edge: the far end of the segment's part over the face the normal leans to most is
+    // a second point when within reach. A capsule lying along that face and over its edge then
+    // keeps two supports whichever way it tilts by a hair (the face case gives the same two).
+    int k = 0;
+    for (int j = 1; j < 3; ++j)
+        if (abs(comp(diff, j)) > abs(comp(diff, k))) k = j;
+    FaceClip f;
+    if (!clip_to_face(c, h, k, f) || f.t0 == f.t1) return;
+    const bool far_is_t1 = abs(f.t1 - t) > abs(f.t0 - t);
+    face_point(c, box, k, sign[k] < 0, far_is_t1 ? f.t1 : f.t0, far_is_t1 ? f.code1 : f.code0, m);
 }
 
 // Box-box by the separating-axis test over the 15 axes (3 face normals of each box, 9 edge
@@ -204,21 +480,75 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     }
 }
 
-constexpr std::int64_t kEdgeBias = Fixed::kOne / 200;  // 5 mm
+// True when no edge axis can matter: every one of them, computed as box_box does, would come out
+// at most `limit` (so none separates beyond the margin and none beats the best face axis by
+// kEdgeBias). Decided without the square root and divisions of normalising each axis: with
+// c = a_i x b_j unnormalised, sep(c / |c|) = N / |c|, N = |d.c| - sum h_a |a_k.c| - sum h_b |b_k.c|,
+// and N <= limit |c| is compared squared. The slack e covers the rounding of both this bound
+// and box_box's own normalised figures (each within S 2^-24 + 2^-28 of exact, S = |d|max +
+// sum h_a + sum h_b; e is 16 times that), so the answer never differs from box_box's loop; any
+// doubt (large values, an axis near the limit) says false and box_box runs its loop.
+bool edges_cannot_matter(const Vec3 ca[3], const Vec3 cb[3], const Vec3& d, const Vec3& ha, const Vec3& hb,
+                         std::int64_t limit) {
+    constexpr std::int64_t kSmall = std::int64_t{1} << 40;  // 256 m: every product below fits
+    i128 size = 0;
+    for (const Fixed f : {d.x, d.y, d.z}) size = std::max<i128>(size, f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw));
+    for (const Fixed f : {ha.x, ha.y, ha.z, hb.x, hb.y, hb.z}) size += f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw);
+    if (size >= kSmall) return false;
+    const std::int64_t e = static_cast<std::int64_t>(size >> 20) + 64;  // S 2^-20 + 2^-26
+    const std::int64_t t = limit - e;
+    if (t >= kSmall || t <= -kSmall) return false;
+    const u128 t_sq = mul_wide_unsigned(static_cast<std::uint64_t>(t < 0 ? -t : t), static_cast<std::uint64_t>(t < 0 ? -t : t));
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            const Vec3 c = cross(ca[i], cb[j]);
+            const u128 len_sq = length_sq_wide(c);
+            if (len_sq < (u128{1} << 52)) continue;  // box_box skips it too
+            // a_i . c and b_j . c are exactly 0 for the unrounded cross product, so within 2^-32
+            // for c: leaving those two terms out only raises N, which keeps the bound safe.
+            Fixed n = abs(dot(d, c));
+            for (int k = 0; k < 3; ++k) {
+                if (k != i) n = n - comp(ha, k) * abs(dot(ca[k], c));
+                if (k != j) n = n - comp(hb, k) * abs(dot(cb[k], c));
+            }
+            const std::int64_t l = n.raw + e;
+            const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
+            if (t >= 0) {
+                if (l <= 0) continue;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > t_sq * cc) return false;
+            } else {
+                if (l >= 0) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < t_sq * (cc + 1)) return false;
+            }
+        }
+    return true;
+}
 
 void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
     const Vec3 d = b.center - a.center;
+    const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
+    const Vec3 cb[3] = {column(*b.rot, 0), column(*b.rot, 1), column(*b.rot, 2)};
+    // c[i][j] = a_i . b_j, filled row by row by A's face axes and reused by B's (the same dot
+    // products projected_radius() would take: a dot product is symmetric to the bit).
+    Fixed c[3][3];
     // Best face axis (largest separation; ties: A before B, x before y before z).
     Fixed face_sep = Fixed::min();
     int face_box = 0, face_k = 0;
     Vec3 face_n{};
     for (int box = 0; box < 2; ++box) {
-        const OrientedCollider& x = box == 0 ? a : b;
-        const OrientedCollider& y = box == 0 ? b : a;
+        const Vec3& xh = box == 0 ? a.half : b.half;
+        const Vec3& yh = box == 0 ? b.half : a.half;
         for (int k = 0; k < 3; ++k) {
-            const Vec3 axis = column(*x.rot, k);
+            const Vec3& axis = box == 0 ? ca[k] : cb[k];
             const Fixed dist = dot(d, axis);
-            const Fixed sep = abs(dist) - comp(x.half, k) - projected_radius(y, axis);
+            Fixed radius;
+            if (box == 0) {
+                for (int j = 0; j < 3; ++j) c[k][j] = dot(cb[j], axis);
+                radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
+            } else {
+                radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
+            }
+            const Fixed sep = abs(dist) - comp(xh, k) - radius;
             if (sep > margin) return;
             if (sep > face_sep) {
                 face_sep = sep;
@@ -233,27 +563,24 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     Fixed edge_sep = Fixed::min();
     int edge_i = 0, edge_j = 0;
     Vec3 edge_n{};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            const Vec3 c = cross(column(*a.rot, i), column(*b.rot, j));
-            const u128 len_sq = length_sq_wide(c);
-            if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
-            const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
-            Vec3 axis{c.x / len, c.y / len, c.z / len};
-            Fixed dist = dot(d, axis);
-            if (dist.raw < 0) {
-                axis = -axis;
-                dist = -dist;
+    const i128 limit = std::min<i128>(static_cast<i128>(margin.raw), static_cast<i128>(face_sep.raw) + kEdgeBias);
+    if (!edges_cannot_matter(ca, cb, d, a.half, b.half, static_cast<std::int64_t>(limit)))
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) {
+                const Vec3 c = cross(ca[i], cb[j]);
+                const u128 len_sq = length_sq_wide(c);
+                if (len_sq < (u128{1} << 52)) continue;  // |c| < 2^-6: nearly parallel edges, a face axis covers it
+                Vec3 axis;
+                const Fixed dist = unit_toward(c, len_sq, d, axis);
+                const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
+                if (sep > margin) return;
+                if (sep > edge_sep) {
+                    edge_sep = sep;
+                    edge_i = i;
+                    edge_j = j;
+                    edge_n = axis;
+                }
             }
-            const Fixed sep = dist - projected_radius(a, axis) - projected_radius(b, axis);
-            if (sep > margin) return;
-            if (sep > edge_sep) {
-                edge_sep = sep;
-                edge_i = i;
-                edge_j = j;
-                edge_n = axis;
-            }
-        }
     if (edge_sep.raw > face_sep.raw + kEdgeBias) {
         // Edge of A furthest along n against the edge of B furthest along -n.
         Vec3 pa = a.center, pb = b.center;

@@ -7,9 +7,11 @@
 //    closer than `margin` (speculative contacts: a point may have a negative depth, a gap, so
 //    the solver can stop a body exactly at the surface within the step). Each point carries its
 //    own unit normal from A to B, its world position and its depth (> 0 overlapping).
-//  - Routines: round-round (closest points of two core segments, then spheres); round-box (a
-//    sphere against an oriented box, exact; a capsule as its two end spheres plus the core
-//    point nearest the box centre, enough for lying, standing and leaning capsules); box-box
+//  - Routines: round-round (closest points of two core segments, then spheres); sphere-box
+//    (exact against the oriented box); capsule-box (exact: the core segment's closest point to
+//    the box; touching a face, the segment clipped to that face gives up to two points, so a
+//    capsule lying along a face has one at each end of the part over it; touching an edge or
+//    corner, one point; a segment inside the box by the separating axes); box-box
 //    (separating-axis test over 15 axes; a face axis gives the incident face clipped to the
 //    reference face, up to 8 points, an edge axis one point between the two edges).
 //  - Each point has a feature id (unique in its manifold, stable while the touching features
@@ -25,10 +27,11 @@ namespace lockroll::sim {
 inline constexpr int kMaxManifold = 8;
 
 // Feature ids: what made a point, stable while the geometry is (the solver matches warm-start
-// impulses by them). Round shapes: 0 (a sphere, a capsule's first end), 1 (its second end), 2
-// (its core point nearest a box). Box-box face contacts: 0..35 for the clipped incident face
-// (rigid_contact.cpp), plus kFeatureFlipped when B's face is the reference; edge-edge:
-// kFeatureEdge + 3 i + j for edge i of A and j of B.
+// impulses by them). Round-round and sphere-box: 0. Capsule-box: 8 f + c for a face contact
+// (f the box face 0..5, c the segment end 0/1 or the face's side plane 2..5 that cut the
+// segment there), kFeatureEdge + 0..26 for an edge or corner of the box (rigid_contact.cpp).
+// Box-box face contacts: 0..35 for the clipped incident face, plus kFeatureFlipped when B's
+// face is the reference; edge-edge: kFeatureEdge + 3 i + j for edge i of A and j of B.
 inline constexpr std::uint8_t kFeatureFlipped = 64, kFeatureEdge = 128;
 
 struct ContactPoint {

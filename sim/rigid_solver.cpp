@@ -10,7 +10,9 @@ namespace {
 Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }
 
 Vec3 unit(const Vec3& v) {
-    const Fixed len = sqrt_wide(length_sq_wide(v));
+    const u128 sq = length_sq_wide(v);
+    if (sq == (u128{1} << 64)) return v;  // already unit (an axis-aligned normal): v / 1 is v
+    const Fixed len = sqrt_wide(sq);
     return {v.x / len, v.y / len, v.z / len};
 }
 
@@ -24,6 +26,22 @@ void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
 Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 
 Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * dt); }
+
+// m v for a body's world inverse inertia m; `isotropic` when m is diag(s, s, s) (spheres, and
+// static bodies with s = 0): each row's dot product is then its one product rounded once, the
+// same bits as the full product, at a third of the cost.
+Vec3 full_times(const Mat3& m, const Vec3& v) { return m * v; }
+inline Vec3 inertia_times(const Mat3& m, bool isotropic, const Vec3& v) {
+    if (!isotropic) return full_times(m, v);  // out of line, so this stays small enough to inline
+    const Fixed s = m.row[0].x;
+    return {s * v.x, s * v.y, s * v.z};
+}
+
+// v + w x r; w x r is exactly zero when w is (static bodies, bodies at rest), so it is skipped.
+Vec3 point_velocity(const Vec3& v, const Vec3& w, const Vec3& r) {
+    if (w == Vec3{}) return v;
+    return v + cross(w, r);
+}
 }  // namespace
 
 void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) {
@@ -89,6 +107,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
                 (row == 0 ? e.x : row == 1 ? e.y : e.z) = v;
             }
             extent_[i] = e;
+            isotropic_[i] = 1;  // inverse inertia diag(0, 0, 0): inertia_times() may take the short way
             continue;
         }
         // A dynamic body may turn any way: its bounding sphere.
@@ -123,7 +142,9 @@ void RigidSolver::damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const 
 
 void RigidSolver::update_inertia(const std::vector<Quat>& orient) {
     for (BodyId id : dynamic_) {
-        rot_[id] = rotation(orient[id]);
+        // A sphere's collider never reads its rotation (nor does an isotropic body's inertia or
+        // integration), so it is not built.
+        if (shape_[id] == Shape::Box || core_half_[id].raw != 0) rot_[id] = rotation(orient[id]);
         if (isotropic_[id]) {
             const Fixed s = inv_inertia_[id].x, z = Fixed::zero();
             inv_i_world_[id] = {{{s, z, z}, {z, s, z}, {z, z, s}}};
@@ -156,13 +177,19 @@ void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) co
 }
 
 Fixed RigidSolver::effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const {
-    const Vec3 ca = cross(ra, dir), cb = cross(rb, dir);
-    const Fixed k = inv_mass_[a] + inv_mass_[b] + dot(ca, inv_i_world_[a] * ca) + dot(cb, inv_i_world_[b] * cb);
+    // A static body's term is exactly zero (inverse inertia 0): adding it changes no bits.
+    const auto term = [&](BodyId id, const Vec3& r) {
+        const Vec3 c = cross(r, dir);
+        return dot(c, inertia_times(inv_i_world_[id], isotropic_[id] != 0, c));
+    };
+    Fixed k = inv_mass_[a] + inv_mass_[b];
+    if (!(isotropic_[a] && inv_i_world_[a].row[0].x.raw == 0)) k = k + term(a, ra);
+    if (!(isotropic_[b] && inv_i_world_[b].row[0].x.raw == 0)) k = k + term(b, rb);
     return k.raw > 0 ? reciprocal(k) : Fixed::zero();
 }
 
 Vec3 RigidSolver::relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const {
-    return (vel[p.b] + cross(angvel[p.b], p.rb)) - (vel[p.a] + cross(angvel[p.a], p.ra));
+    return point_velocity(vel[p.b], angvel[p.b], p.rb) - point_velocity(vel[p.a], angvel[p.a], p.ra);
 }
 
 void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
@@ -180,11 +207,11 @@ void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, s
     }
     if (inv_mass_[p.a].raw != 0) {
         vel[p.a] -= j * inv_mass_[p.a];
-        angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
+        angvel[p.a] -= inertia_times(inv_i_world_[p.a], isotropic_[p.a] != 0, cross(p.ra, j));
     }
     if (inv_mass_[p.b].raw != 0) {
         vel[p.b] += j * inv_mass_[p.b];
-        angvel[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
+        angvel[p.b] += inertia_times(inv_i_world_[p.b], isotropic_[p.b] != 0, cross(p.rb, j));
     }
 }
 

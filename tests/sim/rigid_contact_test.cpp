@@ -1,7 +1,9 @@
 // sim/rigid_contact.h: manifolds with points for oriented shapes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include "sim/rigid_contact.h"
 
@@ -130,21 +132,293 @@ TEST(RigidContact, CrossedBoxEdgesMeetEdgeOnEdge) {
     EXPECT_NEAR(d(m.points[0].point.z), 0, 1e-7);
 }
 
-TEST(RigidContact, CapsuleLyingOnFloorHasTwoPoints) {
-    // Local y axis turned onto world x: a quarter turn about z.
-    const double h = std::sqrt(0.5);
-    const Mat3 r = rotation(normalised({fx(h), Fixed::zero(), Fixed::zero(), fx(h)}));
+// ---- Capsule-box, exact ----
+
+Quat quat(double w, double x, double y, double z) {
+    const double n = std::sqrt(w * w + x * x + y * y + z * z);
+    return normalised({fx(w / n), fx(x / n), fx(y / n), fx(z / n)});
+}
+
+struct D3 {
+    double x, y, z;
+};
+D3 dd(const Vec3& v) { return {d(v.x), d(v.y), d(v.z)}; }
+D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+D3 operator*(D3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+double dotd(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+D3 col(const Mat3& r, int k) {
+    return k == 0 ? D3{d(r.row[0].x), d(r.row[1].x), d(r.row[2].x)}
+           : k == 1 ? D3{d(r.row[0].y), d(r.row[1].y), d(r.row[2].y)}
+                    : D3{d(r.row[0].z), d(r.row[1].z), d(r.row[2].z)};
+}
+Vec3 v3(D3 v) { return v3(v.x, v.y, v.z); }
+
+OrientedCollider capsule(const Mat3& r, D3 center, double radius, double core_half) {
     OrientedCollider c;
     c.shape = Shape::Capsule;
-    c.center = v3(0, 0.29, 0);
     c.rot = &r;
-    c.radius = fx(0.3);
-    c.core_half = fx(0.5);
+    c.center = v3(center);
+    c.radius = fx(radius);
+    c.core_half = fx(core_half);
+    return c;
+}
+
+OrientedCollider box(const Mat3& r, D3 center, D3 half) {
+    OrientedCollider c;
+    c.shape = Shape::Box;
+    c.rot = &r;
+    c.center = v3(center);
+    c.half = v3(half);
+    return c;
+}
+
+// Reference distance from the capsule's core segment to the box, in double: the distance is
+// convex along the segment, so a golden-section search finds its minimum.
+double segment_box_distance(const OrientedCollider& c, const OrientedCollider& b) {
+    const D3 axis = col(*c.rot, 1) * d(c.core_half);
+    const D3 p0 = dd(c.center) - axis, p1 = dd(c.center) + axis;
+    const auto dist = [&](double t) {
+        const D3 p = p0 + (p1 - p0) * t - dd(b.center);
+        double s = 0;
+        const double h[3] = {d(b.half.x), d(b.half.y), d(b.half.z)};
+        for (int k = 0; k < 3; ++k) {
+            const double x = dotd(p, col(*b.rot, k));
+            const double e = x > h[k] ? x - h[k] : x < -h[k] ? x + h[k] : 0;
+            s += e * e;
+        }
+        return std::sqrt(s);
+    };
+    double lo = 0, hi = 1;
+    for (int i = 0; i < 200; ++i) {
+        const double m1 = lo + (hi - lo) * 0.382, m2 = lo + (hi - lo) * 0.618;
+        if (dist(m1) < dist(m2)) hi = m2; else lo = m1;
+    }
+    return dist((lo + hi) / 2);
+}
+
+double max_depth(const Manifold& m) {
+    double best = -1e9;
+    for (int i = 0; i < m.count; ++i) best = std::max(best, d(m.points[i].depth));
+    return best;
+}
+
+TEST(RigidContact, CapsuleLyingOnFloorHasTwoPointsAtItsEnds) {
+    // Local y axis turned onto world x: a quarter turn about z.
+    const Mat3 r = rotation(quat(1, 0, 0, 1));
     Manifold m;
-    contact_points(c, floor_box(), fx(0.05), m);
-    ASSERT_EQ(m.count, 3);  // both ends and the core point over the floor's centre
-    for (int i = 0; i < m.count; ++i) EXPECT_NEAR(d(m.points[i].depth), 0.01, 1e-8);
-    EXPECT_NEAR(std::fabs(d(m.points[0].point.x)), 0.5, 1e-8);
+    contact_points(capsule(r, {0, 0.29, 0}, 0.3, 0.5), floor_box(), fx(0.05), m);
+    ASSERT_EQ(m.count, 2);
+    EXPECT_NE(m.points[0].feature, m.points[1].feature);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(m.points[i].normal, v3(0, -1, 0));
+        EXPECT_NEAR(d(m.points[i].depth), 0.01, 1e-8);
+        EXPECT_NEAR(d(m.points[i].point.y), 0, 1e-8);
+        EXPECT_NEAR(std::fabs(d(m.points[i].point.x)), 0.5, 1e-8);
+    }
+    EXPECT_NEAR(d(m.points[0].point.x) + d(m.points[1].point.x), 0, 1e-8);
+}
+
+TEST(RigidContact, CapsuleLyingOnATurnedBoxFaceHasTwoPoints) {
+    // A box at a skew orientation; the capsule lies along a skew direction in the plane of its
+    // +z face, 2 cm deep, with one end hanging over the face's +x side: the points are at the
+    // inner end and where the segment leaves the face.
+    const Mat3 rb = rotation(quat(0.9, 0.2, -0.3, 0.25));
+    const OrientedCollider b = box(rb, {1, 2, -1}, {0.6, 0.4, 0.5});
+    const D3 ex = col(rb, 0), ey = col(rb, 1), ez = col(rb, 2);
+    // Capsule axis (its local y) along 0.8 ex + 0.6 ey: a rotation taking y to that direction.
+    const D3 w = ex * 0.8 + ey * 0.6;
+    const D3 yw{0, 1, 0};
+    const D3 axis{yw.y * w.z - yw.z * w.y, yw.z * w.x - yw.x * w.z, yw.x * w.y - yw.y * w.x};
+    const double c = dotd(yw, w), s = std::sqrt(dotd(axis, axis));
+    const double half_angle = std::atan2(s, c) / 2;
+    const Mat3 rc = rotation(quat(std::cos(half_angle), axis.x / s * std::sin(half_angle), axis.y / s * std::sin(half_angle),
+                                  axis.z / s * std::sin(half_angle)));
+    const double r = 0.2, depth = 0.02;
+    // Centre over the face at local (0.3, 0.1): the segment runs from (-0.1, -0.2) to (0.7, 0.4),
+    // beyond the face's x = 0.6, so the clip ends at (0.6, 0.325).
+    const D3 center = dd(b.center) + ex * 0.3 + ey * 0.1 + ez * (0.5 + r - depth);
+    Manifold m;
+    contact_points(capsule(rc, center, r, 0.5), b, fx(0.01), m);
+    ASSERT_EQ(m.count, 2);
+    // The segment is parallel to the face up to rounding, so whether the point at the face's
+    // edge comes out as a face or an edge contact is rounding's choice; either way the same two.
+    const D3 expect[2] = {dd(b.center) + ex * -0.1 + ey * -0.2 + ez * 0.5, dd(b.center) + ex * 0.6 + ey * 0.325 + ez * 0.5};
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_NEAR(d(m.points[i].depth), depth, 1e-7);
+        EXPECT_NEAR(d(m.points[i].normal.x), -ez.x, 1e-7);
+        EXPECT_NEAR(d(m.points[i].normal.y), -ez.y, 1e-7);
+        EXPECT_NEAR(d(m.points[i].normal.z), -ez.z, 1e-7);
+        const D3 p = dd(m.points[i].point);
+        const D3 e = std::fabs(p.x - expect[0].x) < 1e-3 ? expect[0] : expect[1];
+        EXPECT_NEAR(p.x, e.x, 1e-6);
+        EXPECT_NEAR(p.y, e.y, 1e-6);
+        EXPECT_NEAR(p.z, e.z, 1e-6);
+    }
+    EXPECT_GT(std::fabs(d(m.points[0].point.x) - d(m.points[1].point.x)), 0.1);
+    // Swapping the bodies flips the normals only.
+    Manifold f;
+    contact_points(b, capsule(rc, center, r, 0.5), fx(0.01), f);
+    ASSERT_EQ(f.count, 2);
+    for (int i = 0; i < 2; ++i) EXPECT_EQ(f.points[i].normal, -m.points[i].normal);
+}
+
+TEST(RigidContact, CapsuleOverhangingABoxEdgeKeepsTwoSupportsAsItTilts) {
+    // A capsule lying along x on a box's top face, its +x end hanging 0.4 m over the edge at
+    // x = 0.5, tilted by a hair or a degree either way: always two points, one at the inner end
+    // and one at the edge (a face clip when the inner end dips, the exact edge point when the
+    // overhang dips), and the deepest is r minus the exact distance.
+    const Mat3 rb = rotation(Quat{});
+    const OrientedCollider b = box(rb, {0, 0, 0}, {0.5, 0.5, 0.5});
+    for (const double deg : {-1.0, -0.01, 0.0, 0.01, 1.0}) {
+        const double th = (90 + deg) * M_PI / 180;  // local y to (-cos phi, -sin phi, 0)
+        const Mat3 rc = rotation(quat(std::cos(th / 2), 0, 0, std::sin(th / 2)));
+        const D3 center{0.4, 0.5 + 0.2 - 0.01 + 0.1 * std::sin(deg * M_PI / 180), 0};  // 1 cm deep at the edge
+        const OrientedCollider c = capsule(rc, center, 0.2, 0.5);
+        Manifold m;
+        contact_points(c, b, fx(0.05), m);
+        ASSERT_EQ(m.count, 2) << deg;
+        EXPECT_NEAR(max_depth(m), 0.2 - segment_box_distance(c, b), 1e-7) << deg;
+        const double x0 = d(m.points[0].point.x), x1 = d(m.points[1].point.x);
+        EXPECT_NEAR(std::min(x0, x1), 0.4 - 0.5 * std::cos(deg * M_PI / 180), 1e-6) << deg;
+        EXPECT_NEAR(std::max(x0, x1), 0.5, 1e-6) << deg;
+    }
+}
+
+TEST(RigidContact, TiltedCapsuleTouchesByOneEnd) {
+    // Tilted 30 degrees from upright about z: the lower end sphere is 2 cm into the floor, the
+    // upper one far above it: one point under the lower end.
+    const double a = M_PI / 6;
+    const Mat3 r = rotation(quat(std::cos(a / 2), 0, 0, std::sin(a / 2)));
+    const double core = 0.5, rad = 0.3;
+    // Local y turned by +30 degrees about z points to (-sin a, cos a, 0).
+    const D3 low{core * std::sin(a), rad - 0.02, 0};
+    const D3 center = low + D3{-std::sin(a), std::cos(a), 0} * core;
+    Manifold m;
+    contact_points(capsule(r, center, rad, core), floor_box(), fx(0.05), m);
+    ASSERT_EQ(m.count, 1);
+    EXPECT_EQ(m.points[0].normal, v3(0, -1, 0));
+    EXPECT_NEAR(d(m.points[0].depth), 0.02, 1e-8);
+    EXPECT_NEAR(d(m.points[0].point.x), low.x, 1e-8);
+    EXPECT_NEAR(d(m.points[0].point.y), 0, 1e-8);
+}
+
+TEST(RigidContact, CapsuleCrossingABoxEdgeTouchesTheEdge) {
+    // A long box whose +y/+z edge runs along x at y = z = 0.5 (its centre is off the capsule's
+    // plane, so the core point nearest the centre is not the touching one). The capsule lies
+    // across the edge, perpendicular to it, touching 1.5 cm deep 0.3 m off its own centre.
+    const Mat3 rb = rotation(Quat{});
+    const OrientedCollider b = box(rb, {0, 0, -1}, {2, 0.5, 1.5});
+    const double h = std::sqrt(0.5);
+    const D3 u{0, h, h}, w{0, h, -h};  // out of the edge; the capsule's axis
+    // A turn of -45 degrees about x takes the capsule's local y to w.
+    const Mat3 rw = rotation(quat(std::cos(-M_PI / 8), std::sin(-M_PI / 8), 0, 0));
+    ASSERT_NEAR(col(rw, 1).y, w.y, 1e-8);
+    ASSERT_NEAR(col(rw, 1).z, w.z, 1e-8);
+    const double rad = 0.25, depth = 0.015;
+    const D3 edge{0.7, 0.5, 0.5};
+    const D3 center = edge + u * (rad - depth) + w * 0.3;
+    Manifold m;
+    contact_points(capsule(rw, center, rad, 0.5), b, fx(0.01), m);
+    ASSERT_EQ(m.count, 1);
+    EXPECT_GE(m.points[0].feature, kFeatureEdge);
+    EXPECT_NEAR(d(m.points[0].depth), depth, 1e-8);
+    EXPECT_NEAR(d(m.points[0].normal.x), 0, 1e-8);
+    EXPECT_NEAR(d(m.points[0].normal.y), -h, 1e-8);
+    EXPECT_NEAR(d(m.points[0].normal.z), -h, 1e-8);
+    EXPECT_NEAR(d(m.points[0].point.x), 0.7, 1e-8);
+    EXPECT_NEAR(d(m.points[0].point.y), 0.5, 1e-8);
+    EXPECT_NEAR(d(m.points[0].point.z), 0.5, 1e-8);
+}
+
+TEST(RigidContact, DeepCapsuleLeavesThroughTheNearestFace) {
+    // The core segment itself 0.1 m inside the box below its top face: two points over the
+    // segment's ends, each 0.1 + r deep, pushed out through the top.
+    const Mat3 rb = rotation(Quat{});
+    const Mat3 rc = rotation(quat(1, 0, 0, 1));  // along x
+    Manifold m;
+    contact_points(capsule(rc, {0.2, 0.4, 0.1}, 0.25, 0.3), box(rb, {0, 0, 0}, {1, 0.5, 1}), fx(0.01), m);
+    ASSERT_EQ(m.count, 2);
+    for (int i = 0; i < 2; ++i) {
+        EXPECT_EQ(m.points[i].normal, v3(0, -1, 0));
+        EXPECT_NEAR(d(m.points[i].depth), 0.35, 1e-8);
+        EXPECT_NEAR(d(m.points[i].point.y), 0.5, 1e-8);
+        EXPECT_NEAR(std::fabs(d(m.points[i].point.x) - 0.2), 0.3, 1e-8);
+    }
+    // Upright, its lower core end 0.3 m under the top face: one point (the upper end is far
+    // above), 0.3 + r deep, out through the top.
+    const Mat3 up = rotation(Quat{});
+    contact_points(capsule(up, {0.1, 0.6, -0.2}, 0.25, 0.4), box(rb, {0, 0, 0}, {1, 0.5, 1}), fx(0.01), m);
+    ASSERT_EQ(m.count, 1);
+    EXPECT_EQ(m.points[0].normal, v3(0, -1, 0));
+    EXPECT_NEAR(d(m.points[0].depth), 0.5 - 0.2 + 0.25, 1e-8);
+}
+
+TEST(RigidContact, ZeroLengthCapsuleIsASphere) {
+    const Mat3 rb = rotation(quat(0.9, 0.2, -0.3, 0.25));
+    const Mat3 rc = rotation(quat(0.7, -0.1, 0.5, 0.3));
+    const OrientedCollider b = box(rb, {1, 2, -1}, {0.6, 0.4, 0.5});
+    for (const D3 c : {D3{1.5, 2.6, -0.8}, D3{1.1, 2.1, -0.2}, D3{1.9, 2.5, -1.5}, D3{1.2, 2.0, -1.1}}) {
+        OrientedCollider s = capsule(rc, c, 0.35, 0);
+        s.shape = Shape::Sphere;
+        Manifold ms, mc, mt;
+        contact_points(s, b, fx(0.05), ms);
+        contact_points(capsule(rc, c, 0.35, 0), b, fx(0.05), mc);
+        ASSERT_EQ(mc.count, ms.count);
+        for (int i = 0; i < ms.count; ++i) {
+            EXPECT_EQ(mc.points[i].normal, ms.points[i].normal);
+            EXPECT_EQ(mc.points[i].point, ms.points[i].point);
+            EXPECT_EQ(mc.points[i].depth, ms.points[i].depth);
+        }
+        // Nearly zero length (2^-30 m): the capsule routine itself, within rounding.
+        OrientedCollider t = capsule(rc, c, 0.35, 0);
+        t.core_half = Fixed::from_raw(4);
+        contact_points(t, b, fx(0.05), mt);
+        ASSERT_GE(mt.count, ms.count > 0 ? 1 : 0);
+        if (ms.count == 0) continue;
+        EXPECT_NEAR(max_depth(mt), d(ms.points[0].depth), 1e-8);
+        EXPECT_NEAR(d(mt.points[0].normal.x), d(ms.points[0].normal.x), 1e-7);
+        EXPECT_NEAR(d(mt.points[0].normal.y), d(ms.points[0].normal.y), 1e-7);
+        EXPECT_NEAR(d(mt.points[0].normal.z), d(ms.points[0].normal.z), 1e-7);
+    }
+}
+
+TEST(RigidContact, CapsuleBoxDepthIsExactAtAnyOrientation) {
+    // Random boxes and capsules near each other: the deepest point's depth is r minus the exact
+    // segment-box distance (a golden-section search in double), every normal is unit, and the
+    // points come and go with that distance against the margin.
+    std::uint64_t state = 12345;
+    const auto rnd = [&]() {
+        state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+        return static_cast<double>(state >> 11) / 9007199254740992.0;
+    };
+    int touching = 0;
+    for (int trial = 0; trial < 2000; ++trial) {
+        const Mat3 rb = rotation(quat(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5, rnd() - 0.5));
+        const Mat3 rc = rotation(quat(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5, rnd() - 0.5));
+        const OrientedCollider b = box(rb, {rnd() - 0.5, rnd() - 0.5, rnd() - 0.5}, {0.1 + rnd(), 0.1 + rnd(), 0.1 + rnd()});
+        const double rad = 0.05 + 0.5 * rnd();
+        const OrientedCollider c = capsule(rc, {3 * rnd() - 1.5, 3 * rnd() - 1.5, 3 * rnd() - 1.5}, rad, 0.05 + rnd());
+        const double dist = segment_box_distance(c, b);
+        if (dist < 1e-3) continue;  // the core inside: the separating-axis path (tested above)
+        const double margin = 0.05;
+        Manifold m;
+        contact_points(c, b, fx(margin), m);
+        if (dist > rad + margin + 1e-6) {
+            EXPECT_EQ(m.count, 0) << "trial " << trial;
+            continue;
+        }
+        if (dist > rad + margin - 1e-6) continue;  // at the margin: either
+        ASSERT_GE(m.count, 1) << "trial " << trial;
+        ++touching;
+        EXPECT_NEAR(max_depth(m), rad - dist, 1e-6) << "trial " << trial;
+        for (int i = 0; i < m.count; ++i) {
+            const D3 n = dd(m.points[i].normal);
+            EXPECT_NEAR(dotd(n, n), 1, 1e-7);
+            EXPECT_GE(d(m.points[i].depth), -margin - 1e-9);
+        }
+    }
+    EXPECT_GT(touching, 50);  // the sample really exercises contacts
 }
 
 TEST(RigidContact, CrossedCapsulesMeetAtTheCrossing) {
