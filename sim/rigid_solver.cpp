@@ -238,7 +238,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         contact_points(collider(a, pos), collider(b, pos), margin_, m);
         if (m.count == 0) continue;
         if (reduce_ && shape_[a] == Shape::Box && shape_[b] == Shape::Box && m.points[0].feature < kFeatureEdge) reduce(m);
-        manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+        if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
         const Fixed e = pair_restitution(a, b);
         Fixed mu_k, mu_s;
         pair_friction(a, b, mu_k, mu_s);
@@ -257,13 +257,16 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             p.mass_t2 = effective_mass(a, b, p.ra, p.rb, p.t2);
             p.mu_k = mu_k;
             p.mu_s = mu_s;
-            p.pn = p.pt1 = p.pt2 = p.pb = Fixed::zero();
+            p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
             // Target normal speed (> 0 separates): close a gap within this step and no faster;
             // push out overlap beyond slop at baumgarte per step; bounce fast approaches.
             // With split impulses the push-out is the pseudo velocities' bias instead.
-            const Fixed push = max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
-            Fixed target = c.depth.raw <= 0 ? c.depth * inv_dt_ : split_ ? Fixed::zero() : push;
-            p.bias = split_ ? push : Fixed::zero();
+            Fixed target = c.depth * inv_dt_;
+            if (c.depth.raw > 0) {
+                const Fixed push = max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
+                target = split_ ? Fixed::zero() : push;
+                p.bias = split_ ? push : Fixed::zero();
+            }
             const Fixed vn = dot(relative_velocity(p, vel, angvel), p.n);
             if (e.raw > 0 && -vn > threshold_) {
                 // Only when the approach closes the gap within this step.
@@ -273,7 +276,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             points_.push_back(p);
         }
     }
-    manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+    if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
 }
 
 void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
@@ -455,20 +458,11 @@ void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) 
 }
 
 void RigidSolver::solve_pseudo(Point& p) {
-    const Vec3 dv = (pv_[p.b] + cross(pw_[p.b], p.rb)) - (pv_[p.a] + cross(pw_[p.a], p.ra));
-    const Fixed pb = max(p.pb + p.mass_n * (p.bias - dot(dv, p.n)), Fixed::zero());
+    const Fixed pb = max(p.pb + p.mass_n * (p.bias - dot(relative_velocity(p, pv_, pw_), p.n)), Fixed::zero());
     const Fixed d = pb - p.pb;
     if (d.raw == 0) return;
     p.pb = pb;
-    const Vec3 j = p.n * d;
-    if (inv_mass_[p.a].raw != 0) {
-        pv_[p.a] -= j * inv_mass_[p.a];
-        pw_[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
-    }
-    if (inv_mass_[p.b].raw != 0) {
-        pv_[p.b] += j * inv_mass_[p.b];
-        pw_[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
-    }
+    apply(p, p.n * d, pv_, pw_);
 }
 
 void RigidSolver::split_passes() {

@@ -180,7 +180,8 @@ private:
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
     std::vector<Point> points_;
-    std::vector<std::uint32_t> manifold_start_;  // first point of each manifold, then points_.size()
+    // rigid.block_solver: first point of each manifold, then points_.size() (empty otherwise).
+    std::vector<std::uint32_t> manifold_start_;
     std::vector<Vec3> pv_, pw_;  // split impulses: pseudo velocities, zero outside a step's solve
     // Shock propagation scratch.
     std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;

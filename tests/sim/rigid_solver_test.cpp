@@ -268,6 +268,16 @@ TEST(RigidSolver, WarmStartSnapshotsAreValidatedBeforeLoading) {
 }
 
 
+// A dynamic unit cube of 1 kg centred at (0, y, 0).
+BodyDesc cube(const char* y) {
+    BodyDesc b;
+    b.shape = Shape::Box;
+    b.mass = fx("1");
+    b.half_extents = v3("0.5", "0.5", "0.5");
+    b.position = v3("0", y, "0");
+    return b;
+}
+
 // A unit box on the floor sunk 1 cm into it, or resting on an equal static box yawed by about
 // 1.15 degrees (the two faces clip to an octagon of eight points).
 SceneDesc sunk_box(bool split) {
@@ -276,12 +286,7 @@ SceneDesc sunk_box(bool split) {
     s.iterations = 16;
     s.rigid.baumgarte = Fixed::one();
     s.rigid.slop = Fixed::zero();
-    BodyDesc b;
-    b.shape = Shape::Box;
-    b.mass = fx("1");
-    b.half_extents = v3("0.5", "0.5", "0.5");
-    b.position = v3("0", "0.49", "0");
-    s.bodies.push_back(b);
+    s.bodies.push_back(cube("0.49"));
     return s;
 }
 
@@ -289,14 +294,10 @@ SceneDesc yawed_on_pedestal(bool reduce) {
     SceneDesc s = floor_scene("0.5");
     s.rigid.warm_starting = true;
     s.rigid.reduce_manifold = reduce;
-    BodyDesc base;
-    base.shape = Shape::Box;
-    base.half_extents = v3("0.5", "0.5", "0.5");
-    base.position = v3("0", "0.5", "0");
-    s.bodies.push_back(base);  // static (mass 0)
-    BodyDesc top = base;
-    top.mass = fx("1");
-    top.position = v3("0", "1.5", "0");
+    BodyDesc base = cube("0.5");
+    base.mass = Fixed::zero();  // static
+    s.bodies.push_back(base);
+    BodyDesc top = cube("1.5");
     top.orientation = {fx("0.99995"), Fixed::zero(), fx("0.0099998"), Fixed::zero()};  // about y
     s.bodies.push_back(top);
     return s;
@@ -347,12 +348,7 @@ TEST(RigidSolver, BlockSolverSharesABoxsLoadEvenly) {
         SceneDesc s = floor_scene("0.5");
         s.iterations = 1;
         s.rigid.block_solver = block;
-        BodyDesc b;
-        b.shape = Shape::Box;
-        b.mass = fx("1");
-        b.half_extents = v3("0.5", "0.5", "0.5");
-        b.position = v3("0", "0.5", "0");
-        s.bodies.push_back(b);
+        s.bodies.push_back(cube("0.5"));
         World w(s);
         w.step({});
         const Vec3 av = w.angular_velocity(1);
