@@ -14,10 +14,10 @@ Vec3 unit(const Vec3& v) {
     return {v.x / len, v.y / len, v.z / len};
 }
 
-// A tangent basis of unit n, a fixed function of n.
 // Feature ids of a reduced manifold's points (above every id sim/rigid_contact.h makes).
 constexpr std::uint8_t kFeatureReduced = 240;
 
+// A tangent basis of unit n, a fixed function of n.
 void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
     const Fixed k = Fixed::from_raw(2479700525);  // 1/sqrt(3): one of |n.x|, |n.y|, |n.z| is at least this
     t1 = abs(n.x) >= k ? unit({n.y, -n.x, Fixed::zero()}) : unit({Fixed::zero(), n.z, -n.y});
@@ -204,7 +204,7 @@ void RigidSolver::reduce(Manifold& m) {
     // the boxes wobble, so the id (kFeatureReduced + diagonal) finds last step's impulse.
     Vec3 t1, t2;
     tangents(m.points[0].normal, t1, t2);
-    const Vec3 diag[4] = {t1 + t2, t1 - t2, Vec3{} - t1 - t2, t2 - t1};
+    const Vec3 diag[4] = {t1 + t2, t1 - t2, -(t1 + t2), t2 - t1};
     Manifold out;
     bool taken[kMaxManifold] = {};
     for (int k = 0; k < 4; ++k) {
@@ -470,7 +470,7 @@ void RigidSolver::split_passes() {
     std::fill(pw_.begin(), pw_.end(), Vec3{});
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
-    const std::size_t count = manifold_start_.size() - 1;
+    const std::size_t count = block_ ? manifold_start_.size() - 1 : 0;
     for (int i = 0; i < iterations_; ++i) {
         if (block_)
             for (std::size_t k = 0; k < count; ++k) solve_block(i & 1 ? count - 1 - k : k, pv_, pw_, true);
