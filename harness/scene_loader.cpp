@@ -220,7 +220,8 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
         return;
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
-                     "restitution_threshold", "shock_propagation", "warm_starting"});
+                     "restitution_threshold", "shock_propagation", "warm_starting", "split_impulse",
+                     "reduce_manifold", "block_solver"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -243,6 +244,9 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("restitution_threshold")) rg.restitution_threshold = r.at("restitution_threshold").fixed_in("0", "1000");
     if (r.has("shock_propagation")) rg.shock_propagation = r.at("shock_propagation").boolean();
     if (r.has("warm_starting")) rg.warm_starting = r.at("warm_starting").boolean();
+    if (r.has("split_impulse")) rg.split_impulse = r.at("split_impulse").boolean();
+    if (r.has("reduce_manifold")) rg.reduce_manifold = r.at("reduce_manifold").boolean();
+    if (r.has("block_solver")) rg.block_solver = r.at("block_solver").boolean();
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.

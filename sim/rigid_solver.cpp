@@ -16,6 +16,9 @@ Vec3 unit(const Vec3& v) {
     return {v.x / len, v.y / len, v.z / len};
 }
 
+// Feature ids of a reduced manifold's points (above every id sim/rigid_contact.h makes).
+constexpr std::uint8_t kFeatureReduced = 240;
+
 // A tangent basis of unit n, a fixed function of n.
 void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
     const Fixed k = Fixed::from_raw(2479700525);  // 1/sqrt(3): one of |n.x|, |n.y|, |n.z| is at least this
@@ -50,6 +53,9 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     const RigidDesc& rg = scene.rigid;
     shock_ = rg.shock_propagation;
     warm_ = rg.warm_starting;
+    split_ = rg.split_impulse;
+    reduce_ = rg.reduce_manifold;
+    block_ = rg.block_solver;
     iterations_ = scene.iterations;
     dt_ = k.dt();
     inv_dt_ = Fixed::from_int(scene.tick_rate);
@@ -81,6 +87,10 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     ang_damp_.assign(n, Fixed::one());
     rot_.resize(n);
     inv_i_world_.assign(n, Mat3{});
+    if (split_) {
+        pv_.assign(n, Vec3{});
+        pw_.assign(n, Vec3{});
+    }
     dynamic_ = k.dynamic_ids();
     impulse_capacity_ = warm_ ? kImpulsesPerBody * dynamic_.size() : 0;
     const Fixed neg = -Fixed::one();
@@ -215,9 +225,38 @@ void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, s
     }
 }
 
+void RigidSolver::reduce(Manifold& m) {
+    // The diagonals of the tangent basis (a fixed function of the normal): for a box resting
+    // on a box's face each picks one corner of the touching patch, and keeps picking it while
+    // the boxes wobble, so the id (kFeatureReduced + diagonal) finds last step's impulse.
+    Vec3 t1, t2;
+    tangents(m.points[0].normal, t1, t2);
+    const Vec3 diag[4] = {t1 + t2, t1 - t2, -(t1 + t2), t2 - t1};
+    Manifold out;
+    bool taken[kMaxManifold] = {};
+    for (int k = 0; k < 4; ++k) {
+        int best = 0;
+        Fixed best_d = dot(m.points[0].point, diag[k]);
+        for (int i = 1; i < m.count; ++i) {
+            const Fixed d = dot(m.points[i].point, diag[k]);
+            if (d > best_d) {
+                best = i;
+                best_d = d;
+            }
+        }
+        if (taken[best]) continue;
+        taken[best] = true;
+        out.points[out.count] = m.points[best];
+        out.points[out.count].feature = static_cast<std::uint8_t>(kFeatureReduced + k);
+        ++out.count;
+    }
+    m = out;
+}
+
 void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel) {
     points_.clear();
+    manifold_start_.clear();
     Manifold m;
     for (const BodyPair& pair : pairs_) {
         // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
@@ -225,6 +264,8 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
         contact_points(collider(a, pos), collider(b, pos), margin_, m);
         if (m.count == 0) continue;
+        if (reduce_ && shape_[a] == Shape::Box && shape_[b] == Shape::Box && m.points[0].feature < kFeatureEdge) reduce(m);
+        if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
         const Fixed e = pair_restitution(a, b);
         Fixed mu_k, mu_s;
         pair_friction(a, b, mu_k, mu_s);
@@ -243,10 +284,16 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             p.mass_t2 = effective_mass(a, b, p.ra, p.rb, p.t2);
             p.mu_k = mu_k;
             p.mu_s = mu_s;
-            p.pn = p.pt1 = p.pt2 = Fixed::zero();
+            p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
             // Target normal speed (> 0 separates): close a gap within this step and no faster;
             // push out overlap beyond slop at baumgarte per step; bounce fast approaches.
-            Fixed target = c.depth.raw <= 0 ? c.depth * inv_dt_ : max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
+            // With split impulses the push-out is the pseudo velocities' bias instead.
+            Fixed target = c.depth * inv_dt_;
+            if (c.depth.raw > 0) {
+                const Fixed push = max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
+                target = split_ ? Fixed::zero() : push;
+                p.bias = split_ ? push : Fixed::zero();
+            }
             const Fixed vn = dot(relative_velocity(p, vel, angvel), p.n);
             if (e.raw > 0 && -vn > threshold_) {
                 // Only when the approach closes the gap within this step.
@@ -256,6 +303,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             points_.push_back(p);
         }
     }
+    if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
 }
 
 void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
@@ -351,7 +399,7 @@ void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
 }
 
 void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass) {
-    if (!warm_) {
+    if (!warm_ && !block_) {
         for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
         return;
     }
@@ -365,8 +413,30 @@ void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, 
         else
             for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false, rows);
     };
-    sweep(Rows::Normal);
+    if (block_) {
+        const std::size_t count = manifold_start_.size() - 1;
+        for (std::size_t k = 0; k < count; ++k) solve_block(pass & 1 ? count - 1 - k : k, vel, angvel, false);
+    } else {
+        sweep(Rows::Normal);
+    }
     sweep(Rows::Friction);
+}
+
+void RigidSolver::solve_block(std::size_t m, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, bool pseudo) {
+    const std::uint32_t begin = manifold_start_[m], end = manifold_start_[m + 1];
+    for (int sweep = 0; sweep < kBlockSweeps; ++sweep) {
+        bool changed = false;
+        for (std::uint32_t j = 0; j < end - begin; ++j) {
+            Point& p = points_[sweep & 1 ? end - 1 - j : begin + j];
+            const Fixed before = pseudo ? p.pb : p.pn;
+            if (pseudo)
+                solve_pseudo(p);
+            else
+                solve_point(p, vel, angvel, kEveryBody, false, Rows::Normal);
+            changed = changed || (pseudo ? p.pb : p.pn) != before;
+        }
+        if (!changed || end - begin == 1) return;
+    }
 }
 
 void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
@@ -414,6 +484,30 @@ void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) 
     }
 }
 
+void RigidSolver::solve_pseudo(Point& p) {
+    const Fixed pb = max(p.pb + p.mass_n * (p.bias - dot(relative_velocity(p, pv_, pw_), p.n)), Fixed::zero());
+    const Fixed d = pb - p.pb;
+    if (d.raw == 0) return;
+    p.pb = pb;
+    apply(p, p.n * d, pv_, pw_);
+}
+
+void RigidSolver::split_passes() {
+    std::fill(pv_.begin(), pv_.end(), Vec3{});
+    std::fill(pw_.begin(), pw_.end(), Vec3{});
+    // Nothing overlaps beyond slop: no pseudo motion.
+    if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
+    const std::size_t count = block_ ? manifold_start_.size() - 1 : 0;
+    for (int i = 0; i < iterations_; ++i) {
+        if (block_)
+            for (std::size_t k = 0; k < count; ++k) solve_block(i & 1 ? count - 1 - k : k, pv_, pw_, true);
+        else if (i & 1)
+            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_pseudo(*it);
+        else
+            for (Point& p : points_) solve_pseudo(p);
+    }
+}
+
 Vec3 RigidSolver::omega_from(BodyId id, const Quat& q, const Vec3& l) const {
     const Mat3 r = rotation(q);
     return r * hadamard(inv_inertia_[id], transpose_times(r, l));
@@ -437,6 +531,12 @@ void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel
         const Vec3 w_half = omega_from(id, half, l);
         orient[id] = integrated(orient[id], w_half, dt_);
         angvel[id] = omega_from(id, orient[id], l);
+    }
+    if (!split_) return;
+    // Split impulses: the pseudo motion, after the real one, then dropped.
+    for (BodyId id : dynamic_) {
+        if (pv_[id] != Vec3{}) pos[id] += pv_[id] * dt_;
+        if (pw_[id] != Vec3{}) orient[id] = integrated(orient[id], pw_[id], dt_);
     }
 }
 

@@ -5,6 +5,7 @@
 //  2. world-space inverse inertia R diag(I^-1) R^T of every dynamic body, once.
 //  3. candidate pairs (the world's broadphase, each body's AABB its bounding sphere's);
 //     contact manifolds with points (sim/rigid_contact.h), speculative within contact_margin.
+//  3b. (rigid.reduce_manifold) a box-box face manifold keeps at most its four corner points.
 //  4. per contact point: lever arms, effective masses along the normal and two tangents, the
 //     target normal speed (Baumgarte feedback beyond slop, the gap / dt of a speculative point,
 //     restitution from the approach speed before solving when above the threshold).
@@ -16,6 +17,11 @@
 //     feature id) ended the last step with (ContactImpulse: state, in the snapshot), and
 //     the iterations refine them, so a stack's impulses converge over frames; each pass then
 //     solves every normal row before every friction row, odd passes in reverse order.
+//     With rigid.block_solver (either way, rows ordered as with warm starting) each manifold's
+//     normal rows are swept forward and back until they stop changing before the next manifold.
+//  5a. (rigid.split_impulse) the overlap beyond slop is not in the targets of step 4 (a
+//     pressing point's target is 0): `iterations` passes over the normal rows solve it on
+//     separate pseudo velocities, which move the bodies in step 6 and are then dropped.
 //  5b. (rigid.shock_propagation) one more pass from the ground up, in which each contact moves only
 //     its upper body (the lower one counts as immovable): no contact of a stack is left
 //     approaching, whatever the iteration count (Guendelman, Bridson and Fedkiw 2003).
@@ -86,6 +92,7 @@ public:
         for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel, i);
         if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass(vel, angvel);
+        if (split_) split_passes();
         integrate(pos, vel, orient, angvel);
     }
 
@@ -103,12 +110,18 @@ private:
         Vec3 n, t1, t2, ra, rb;
         Fixed mass_n, mass_t1, mass_t2;
         Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)
+        Fixed bias;          // split impulses: pseudo normal speed pushing overlap out
+        Fixed pb;            // split impulses: accumulated pseudo impulse
         Fixed mu_k, mu_s;
         Fixed pn, pt1, pt2;  // accumulated impulses
     };
 
     void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
     void update_inertia(const std::vector<Quat>& orient);
+    // rigid.reduce_manifold: keeps of a box-box face manifold the point farthest along each of
+    // the four diagonals of the contact plane's tangent basis (a point extreme along two of
+    // them is kept once), renamed kFeatureReduced + diagonal so warm starting finds it again.
+    static void reduce(Manifold& m);
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass);
     // Gives each point its carried impulses and applies them; keep_impulses() stores the
@@ -117,6 +130,16 @@ private:
     void keep_impulses(std::vector<ContactImpulse>& impulses) const;
     ContactImpulse key_of(const Point& p) const;
     void shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    // rigid.split_impulse: `iterations` passes over the normal rows on the pseudo velocities
+    // (pv_, pw_), driving each point's pseudo normal speed to its bias (overlap beyond slop
+    // times baumgarte per step), accumulated >= 0. They move the bodies in integrate() and
+    // are dropped: the real velocities never see the push-out.
+    void split_passes();
+    // rigid.block_solver: manifold m's normal rows (real, or pseudo with split impulses) swept
+    // forward and back until no impulse changes, at most kBlockSweeps times.
+    static constexpr int kBlockSweeps = 8;
+    void solve_block(std::size_t m, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, bool pseudo);
+    void solve_pseudo(Point& p);
     // Solves point p's normal and friction rows once (or only one kind); with `only` set, as if
     // only that body moved.
     enum class Rows : std::uint8_t { Both, Normal, Friction };
@@ -135,7 +158,7 @@ private:
     // w from angular momentum L at orientation q: R (I^-1 (R^T L)).
     Vec3 omega_from(BodyId id, const Quat& q, const Vec3& l) const;
 
-    bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false;
+    bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false, split_ = false, reduce_ = false, block_ = false;
     std::size_t impulse_capacity_ = 0;
     int iterations_ = 4;
     Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_;
@@ -157,6 +180,9 @@ private:
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
     std::vector<Point> points_;
+    // rigid.block_solver: first point of each manifold, then points_.size() (empty otherwise).
+    std::vector<std::uint32_t> manifold_start_;
+    std::vector<Vec3> pv_, pw_;  // split impulses: pseudo velocities, zero outside a step's solve
     // Shock propagation scratch.
     std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
     std::vector<BodyId> queue_;

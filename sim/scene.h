@@ -134,6 +134,18 @@ struct RigidDesc {
     // last step with (matched by the key body a, body b, point index), so tall stacks converge
     // over frames instead of within one. The impulses become state (snapshot layout 2).
     bool warm_starting = false;
+    // Split impulses: the overlap beyond `slop` is pushed out by a second, position-only set
+    // of velocities (solved after the real ones, used for one step's motion and then dropped),
+    // so the Baumgarte push never enters the bodies' velocities and cannot feed a sway.
+    bool split_impulse = false;
+    // Box-box face manifolds reduced to at most four points, the extremes along the diagonals
+    // of the contact plane, each keyed by its diagonal: two nearly equal faces clip to up to
+    // eight points whose ids change from step to step, which starves warm starting.
+    bool reduce_manifold = false;
+    // Each manifold's normal rows solved together, to convergence (repeated sweeps over its
+    // points, both ways) before the next manifold: a box's corners then share its load evenly
+    // whichever corner comes first, so an unconverged step does not tilt the box.
+    bool block_solver = false;
 
     RigidDesc();
 };

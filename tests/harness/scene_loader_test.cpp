@@ -145,7 +145,8 @@ TEST(SceneLoader, SpawnerIsDeterministic) {
 
 TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     const sim::SceneDesc s = parse_scene(R"({"rigid": {"friction": {"sphere-box": 0.3}, "static_friction": 0.6,
-        "angular_damping": 0.1, "shock_propagation": true, "warm_starting": true},
+        "angular_damping": 0.1, "shock_propagation": true, "warm_starting": true, "split_impulse": true,
+        "reduce_manifold": true, "block_solver": true},
         "bodies": [{"shape": "box", "position": [0, 0, 0], "half_extents": [1, 1, 1], "orientation": [0.5, 0.5, 0.5, 0.5]},
                    {"shape": "sphere", "position": [0, 3, 0], "radius": 0.5, "mass": 1, "angular_velocity": [0, 2, 0],
                     "friction": 0.9, "linear_damping": 0.5}]})",
@@ -153,7 +154,12 @@ TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     EXPECT_TRUE(s.rigid.enabled);
     EXPECT_TRUE(s.rigid.shock_propagation);
     EXPECT_TRUE(s.rigid.warm_starting);
+    EXPECT_TRUE(s.rigid.split_impulse);
+    EXPECT_TRUE(s.rigid.reduce_manifold);
+    EXPECT_TRUE(s.rigid.block_solver);
     EXPECT_FALSE(load_scene("paper_rigid").rigid.warm_starting);  // opt-in
+    EXPECT_FALSE(load_scene("paper_rigid").rigid.split_impulse || load_scene("paper_rigid").rigid.reduce_manifold ||
+                 load_scene("paper_rigid").rigid.block_solver);
     EXPECT_EQ(s.rigid.friction[0][1], *sim::Fixed::parse("0.3"));
     EXPECT_EQ(s.rigid.friction[1][0], *sim::Fixed::parse("0.3"));
     EXPECT_EQ(s.rigid.friction[1][1], *sim::Fixed::parse("0.5"));  // the default for pairs not named
