@@ -105,7 +105,11 @@ void UdpProxy::impair(std::uint32_t id, bool to_server, const std::uint8_t* data
     }
 }
 
-void UdpProxy::read_clients(std::uint64_t now) {
+// Each datagram is timed by a clock read after its recvfrom returns, never by one read before
+// the batch: if the process is preempted between a clock read and the recv, a datagram sent in
+// that gap would otherwise be scheduled from a time before it was sent, and delivered early.
+// Read after receipt, the error is only ever lateness.
+void UdpProxy::read_clients() {
     for (int i = 0; i < kReadsPerSocketPerStep; ++i) {
         sockaddr_storage from{};
         socklen_t len = sizeof from;
@@ -114,6 +118,7 @@ void UdpProxy::read_clients(std::uint64_t now) {
             if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) ++counters_.socket_errors;
             return;
         }
+        const std::uint64_t now = now_us();
         ++counters_.received;
         const auto id = find_or_add_client(udp_address_from(from, len), now);
         if (!id) {
@@ -124,7 +129,7 @@ void UdpProxy::read_clients(std::uint64_t now) {
     }
 }
 
-void UdpProxy::read_server(std::uint32_t id, Client& client, std::uint64_t now) {
+void UdpProxy::read_server(std::uint32_t id, Client& client) {
     for (int i = 0; i < kReadsPerSocketPerStep; ++i) {
         const ssize_t n = ::recv(client.upstream_fd, buffer_.data(), buffer_.size(), 0);
         if (n < 0) {
@@ -133,7 +138,7 @@ void UdpProxy::read_server(std::uint32_t id, Client& client, std::uint64_t now) 
             return;
         }
         ++counters_.received;
-        impair(id, false, buffer_.data(), static_cast<std::size_t>(n), now);
+        impair(id, false, buffer_.data(), static_cast<std::size_t>(n), now_us());
     }
 }
 
@@ -187,12 +192,11 @@ void UdpProxy::step(std::uint64_t max_wait_us) {
     const timespec timeout{static_cast<time_t>(wait / 1'000'000), static_cast<long>((wait % 1'000'000) * 1000)};
     const int ready = ::ppoll(fds.data(), fds.size(), &timeout, nullptr);
     if (ready <= 0) return;  // timeout, or EINTR from a signal: the caller checks its stop flag
-    now = now_us();
-    if (fds[0].revents != 0) read_clients(now);
+    if (fds[0].revents != 0) read_clients();
     for (std::size_t i = 1; i < fds.size(); ++i) {
         if (fds[i].revents == 0) continue;
         const auto it = clients_.find(ids[i - 1]);
-        if (it != clients_.end()) read_server(it->first, it->second, now);
+        if (it != clients_.end()) read_server(it->first, it->second);
     }
 }
 

@@ -94,8 +94,8 @@ private:
         }
     };
 
-    void read_clients(std::uint64_t now);
-    void read_server(std::uint32_t id, Client& client, std::uint64_t now);
+    void read_clients();
+    void read_server(std::uint32_t id, Client& client);
     void impair(std::uint32_t id, bool to_server, const std::uint8_t* data, std::size_t size, std::uint64_t now);
     void deliver_due(std::uint64_t now);
     void forget_idle(std::uint64_t now);
