@@ -67,6 +67,17 @@ private:
     int saturated_ = 0;
 };
 
+// a x + b y rounded once (what WideSum gives for two terms, without its bookkeeping). The sum
+// of two products leaves the i128 range only when both have the same sign.
+Fixed mul_add(Fixed a, Fixed x, Fixed b, Fixed y) {
+    i128 s;
+    if (add_overflow(mul_wide(a.raw, x.raw), mul_wide(b.raw, y.raw), &s)) {
+        note_overflow();
+        return (a.raw < 0) == (x.raw < 0) ? Fixed::max() : Fixed::min();
+    }
+    return saturate_i128(round_shift(s, Fixed::kFracBits));
+}
+
 // u0 l0 + u1 l1 + u2 l2, each component rounded once; a zero weight's term is exactly zero
 // and skipped.
 Vec3 combine3(const Vec3& u0, Fixed l0, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2) {
@@ -74,6 +85,9 @@ Vec3 combine3(const Vec3& u0, Fixed l0, const Vec3& u1, Fixed l1, const Vec3& u2
     // is what u * l computes, without the sums.
     if (l1.raw == 0 && l2.raw == 0) return u0 * l0;
     if (l0.raw == 0 && l2.raw == 0) return u1 * l1;
+    if (l0.raw == 0 && l1.raw == 0) return u2 * l2;
+    // Two weights (a friction step): the same sums, term by term.
+    if (l0.raw == 0) return {mul_add(u1.x, l1, u2.x, l2), mul_add(u1.y, l1, u2.y, l2), mul_add(u1.z, l1, u2.z, l2)};
     WideSum x, y, z;
     const auto term = [&](const Vec3& u, Fixed l) {
         if (l.raw == 0) return;
@@ -398,10 +412,11 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
                 target = split_ ? Fixed::zero() : push;
                 p.bias = split_ ? push : Fixed::zero();
             }
-            const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
-            if (e.raw > 0 && -vn > threshold_) {
+            if (e.raw > 0) {
+                const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
                 // Only when the approach closes the gap within this step.
-                if (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()) target = max(target, -(e * vn));
+                if (-vn > threshold_ && (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()))
+                    target = max(target, -(e * vn));
             }
             p.target = target;
         }
