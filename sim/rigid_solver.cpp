@@ -12,8 +12,8 @@ Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt
 Vec3 unit(const Vec3& v) {
     const u128 sq = length_sq_wide(v);
     if (sq == (u128{1} << 64)) return v;  // already unit (an axis-aligned normal): v / 1 is v
-    const Fixed len = sqrt_wide(sq);
-    return {v.x / len, v.y / len, v.z / len};
+    // One division, not three: within 2 ulp of unit length, which a tangent basis tolerates.
+    return v * reciprocal(sqrt_wide(sq));
 }
 
 // Feature ids of a reduced manifold's points (above every id sim/rigid_contact.h makes).
@@ -40,10 +40,65 @@ inline Vec3 inertia_times(const Mat3& m, bool isotropic, const Vec3& v) {
     return {s * v.x, s * v.y, s * v.z};
 }
 
-// v + w x r; w x r is exactly zero when w is (static bodies, bodies at rest), so it is skipped.
-Vec3 point_velocity(const Vec3& v, const Vec3& w, const Vec3& r) {
-    if (w == Vec3{}) return v;
-    return v + cross(w, r);
+// A sum of exact Q64.64 terms rounded once at the end. If a partial sum leaves the i128 range
+// the result saturates with its sign and counts one overflow (the total is then far beyond
+// Fixed's range whatever follows, as in dot_wide_checked).
+class WideSum {
+public:
+    void add(i128 v) {
+        if (saturated_ != 0) return;
+        i128 t;
+        if (add_overflow(sum_, v, &t)) {
+            saturated_ = sum_ > 0 ? 1 : -1;
+            return;
+        }
+        sum_ = t;
+    }
+    Fixed rounded() const {
+        if (saturated_ != 0) {
+            note_overflow();
+            return saturated_ > 0 ? Fixed::max() : Fixed::min();
+        }
+        return saturate_i128(round_shift(sum_, Fixed::kFracBits));
+    }
+
+private:
+    i128 sum_ = 0;
+    int saturated_ = 0;
+};
+
+// a x + b y rounded once (what WideSum gives for two terms, without its bookkeeping). The sum
+// of two products leaves the i128 range only when both have the same sign.
+Fixed mul_add(Fixed a, Fixed x, Fixed b, Fixed y) {
+    i128 s;
+    if (add_overflow(mul_wide(a.raw, x.raw), mul_wide(b.raw, y.raw), &s)) {
+        note_overflow();
+        return (a.raw < 0) == (x.raw < 0) ? Fixed::max() : Fixed::min();
+    }
+    return saturate_i128(round_shift(s, Fixed::kFracBits));
+}
+
+// u0 l0 + u1 l1 + u2 l2, each component rounded once; a zero weight's term is exactly zero
+// and skipped.
+Vec3 combine3(const Vec3& u0, Fixed l0, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2) {
+    // One weight (a normal row's impulse): each component is one product rounded once, which
+    // is what u * l computes, without the sums.
+    if (l1.raw == 0 && l2.raw == 0) return u0 * l0;
+    if (l0.raw == 0 && l2.raw == 0) return u1 * l1;
+    if (l0.raw == 0 && l1.raw == 0) return u2 * l2;
+    // Two weights (a friction step): the same sums, term by term.
+    if (l0.raw == 0) return {mul_add(u1.x, l1, u2.x, l2), mul_add(u1.y, l1, u2.y, l2), mul_add(u1.z, l1, u2.z, l2)};
+    WideSum x, y, z;
+    const auto term = [&](const Vec3& u, Fixed l) {
+        if (l.raw == 0) return;
+        x.add(mul_wide(u.x.raw, l.raw));
+        y.add(mul_wide(u.y.raw, l.raw));
+        z.add(mul_wide(u.z.raw, l.raw));
+    };
+    term(u0, l0);
+    term(u1, l1);
+    term(u2, l2);
+    return {x.rounded(), y.rounded(), z.rounded()};
 }
 }  // namespace
 
@@ -86,10 +141,12 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     lin_damp_.assign(n, Fixed::one());
     ang_damp_.assign(n, Fixed::one());
     rot_.resize(n);
+    slot_.assign(n, kNoSlot);
+    slot_ids_.clear();
+    bodies_.clear();
     inv_i_world_.assign(n, Mat3{});
     if (split_) {
-        pv_.assign(n, Vec3{});
-        pw_.assign(n, Vec3{});
+        pseudo_.reserve(n);
     }
     dynamic_ = k.dynamic_ids();
     impulse_capacity_ = warm_ ? kImpulsesPerBody * dynamic_.size() : 0;
@@ -186,42 +243,91 @@ void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) co
     mu_s = max(mu_k, combine(static_friction_[a], static_friction_[b], stat_[sa][sb]));
 }
 
-Fixed RigidSolver::effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const {
-    // A static body's term is exactly zero (inverse inertia 0): adding it changes no bits.
-    const auto term = [&](BodyId id, const Vec3& r) {
-        const Vec3 c = cross(r, dir);
-        return dot(c, inertia_times(inv_i_world_[id], isotropic_[id] != 0, c));
-    };
-    Fixed k = inv_mass_[a] + inv_mass_[b];
-    if (!(isotropic_[a] && inv_i_world_[a].row[0].x.raw == 0)) k = k + term(a, ra);
-    if (!(isotropic_[b] && inv_i_world_[b].row[0].x.raw == 0)) k = k + term(b, rb);
-    return k.raw > 0 ? reciprocal(k) : Fixed::zero();
-}
-
-Vec3 RigidSolver::relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const {
-    return point_velocity(vel[p.b], angvel[p.b], p.rb) - point_velocity(vel[p.a], angvel[p.a], p.ra);
-}
-
-void RigidSolver::apply(const Point& p, const Vec3& j, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
-                        BodyId only) const {
-    // Static bodies have zero inverse mass and inertia: skipping them changes no bits.
-    if (only != kEveryBody) {
-        if (only == p.a) {
-            vel[p.a] -= j * inv_mass_[p.a];
-            angvel[p.a] -= inv_i_world_[p.a] * cross(p.ra, j);
-        } else {
-            vel[p.b] += j * inv_mass_[p.b];
-            angvel[p.b] += inv_i_world_[p.b] * cross(p.rb, j);
-        }
+void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const {
+    if (shape_[id] == Shape::Sphere) {
+        // A sphere's contact point lies on its normal through the centre: r = L n, so r x n is
+        // exactly zero (its normal impulse never spins it), r x t1 = L t2 and r x t2 = -L t1.
+        // Taken exactly, so rounding does not give the sphere a spurious twist.
+        const Fixed len = dot(r, p.n);
+        c[0] = Vec3{};
+        c[1] = p.t2 * len;
+        c[2] = -(p.t1 * len);
         return;
     }
-    if (inv_mass_[p.a].raw != 0) {
-        vel[p.a] -= j * inv_mass_[p.a];
-        angvel[p.a] -= inertia_times(inv_i_world_[p.a], isotropic_[p.a] != 0, cross(p.ra, j));
+    c[0] = cross(r, p.n);
+    c[1] = cross(r, p.t1);
+    c[2] = cross(r, p.t2);
+}
+
+void RigidSolver::make_row(BodyId a, BodyId b, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass) const {
+    row.ca = ca;
+    row.cb = cb;
+    // A static body has zero inverse inertia, and a zero arm turns nothing: ia (ib) is then
+    // zero and its term is left out of the effective mass (adding an exact zero changes no bits).
+    const auto turns = [&](BodyId id, const Vec3& c) {
+        return c != Vec3{} && !(isotropic_[id] && inv_i_world_[id].row[0].x.raw == 0);
+    };
+    row.ia = turns(a, ca) ? inertia_times(inv_i_world_[a], isotropic_[a] != 0, ca) : Vec3{};
+    row.ib = turns(b, cb) ? inertia_times(inv_i_world_[b], isotropic_[b] != 0, cb) : Vec3{};
+    if (same_mass != nullptr) {
+        row.mass = same_mass->mass;
+        return;
     }
-    if (inv_mass_[p.b].raw != 0) {
-        vel[p.b] += j * inv_mass_[p.b];
-        angvel[p.b] += inertia_times(inv_i_world_[p.b], isotropic_[p.b] != 0, cross(p.rb, j));
+    Fixed k = inv_mass_[a] + inv_mass_[b];
+    if (row.ia != Vec3{}) k = k + dot(ca, row.ia);
+    if (row.ib != Vec3{}) k = k + dot(cb, row.ib);
+    row.mass = k.raw > 0 ? reciprocal(k) : Fixed::zero();
+}
+
+Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
+    const Vec3& d = k == 0 ? p.n : k == 1 ? p.t1 : p.t2;
+    const Row& r = p.row[k];
+    WideSum s;
+    s.add(dot_wide(d, dv));
+    // A body that does not turn (static, or at rest) adds exactly zero: skipped.
+    const Vec3& wa = bodies[p.sa].w;
+    const Vec3& wb = bodies[p.sb].w;
+    if (wb != Vec3{} && r.cb != Vec3{}) s.add(dot_wide(r.cb, wb));
+    if (wa != Vec3{} && r.ca != Vec3{}) s.add(-dot_wide(r.ca, wa));  // |dot_wide| < 2^127: no overflow
+    return s.rounded();
+}
+
+void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
+    // Static bodies have zero inverse mass and inertia: skipping them changes no bits.
+    SolverBody& a = bodies[p.sa];
+    SolverBody& b = bodies[p.sb];
+    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
+    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    // A normal impulse alone does not turn a body whose normal arm is zero (a sphere).
+    const bool tangential = l1.raw != 0 || l2.raw != 0;
+    if (move_a) {
+        const Fixed m = a.inv_mass;
+        a.v -= combine3(p.n, l0 * m, p.t1, l1 * m, p.t2, l2 * m);
+        if (tangential || p.row[0].ia != Vec3{}) a.w -= combine3(p.row[0].ia, l0, p.row[1].ia, l1, p.row[2].ia, l2);
+    }
+    if (move_b) {
+        const Fixed m = b.inv_mass;
+        b.v += combine3(p.n, l0 * m, p.t1, l1 * m, p.t2, l2 * m);
+        if (tangential || p.row[0].ib != Vec3{}) b.w += combine3(p.row[0].ib, l0, p.row[1].ib, l1, p.row[2].ib, l2);
+    }
+}
+
+std::uint32_t RigidSolver::slot_of(BodyId id, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) {
+    std::uint32_t& slot = slot_[id];
+    if (slot == kNoSlot) {
+        slot = static_cast<std::uint32_t>(bodies_.size());
+        bodies_.push_back({vel[id], angvel[id], inv_mass_[id]});
+        slot_ids_.push_back(id);
+    }
+    return slot;
+}
+
+void RigidSolver::scatter(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const {
+    // Only dynamic bodies' velocities change (a static body is never moved by a row).
+    for (std::size_t k = 0; k < bodies_.size(); ++k) {
+        if (bodies_[k].inv_mass.raw == 0) continue;
+        vel[slot_ids_[k]] = bodies_[k].v;
+        angvel[slot_ids_[k]] = bodies_[k].w;
     }
 }
 
@@ -255,6 +361,9 @@ void RigidSolver::reduce(Manifold& m) {
 
 void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel) {
+    for (BodyId id : slot_ids_) slot_[id] = kNoSlot;
+    slot_ids_.clear();
+    bodies_.clear();
     points_.clear();
     manifold_start_.clear();
     Manifold m;
@@ -269,19 +378,28 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         const Fixed e = pair_restitution(a, b);
         Fixed mu_k, mu_s;
         pair_friction(a, b, mu_k, mu_s);
+        const std::uint32_t sa = slot_of(a, vel, angvel), sb = slot_of(b, vel, angvel);
+        const auto sphere_or_static = [&](BodyId id) { return shape_[id] == Shape::Sphere || inv_mass_[id].raw == 0; };
+        const bool sphere_pair = sphere_or_static(a) && sphere_or_static(b);
         for (int i = 0; i < m.count; ++i) {
             const ContactPoint& c = m.points[i];
-            Point p;
+            Point& p = points_.emplace_back();
             p.a = a;
             p.b = b;
+            p.sa = sa;
+            p.sb = sb;
             p.feature = c.feature;
             p.n = c.normal;
             tangents(p.n, p.t1, p.t2);
-            p.ra = c.point - pos[a];
-            p.rb = c.point - pos[b];
-            p.mass_n = effective_mass(a, b, p.ra, p.rb, p.n);
-            p.mass_t1 = effective_mass(a, b, p.ra, p.rb, p.t1);
-            p.mass_t2 = effective_mass(a, b, p.ra, p.rb, p.t2);
+            Vec3 ca[3], cb[3];
+            arms(a, c.point - pos[a], p, ca);
+            arms(b, c.point - pos[b], p, cb);
+            make_row(a, b, ca[0], cb[0], p.row[0]);
+            make_row(a, b, ca[1], cb[1], p.row[1]);
+            // Between spheres (or a sphere and a static body) the two tangent rows' effective
+            // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
+            // one division serves both.
+            make_row(a, b, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
             p.mu_k = mu_k;
             p.mu_s = mu_s;
             p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
@@ -294,56 +412,47 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
                 target = split_ ? Fixed::zero() : push;
                 p.bias = split_ ? push : Fixed::zero();
             }
-            const Fixed vn = dot(relative_velocity(p, vel, angvel), p.n);
-            if (e.raw > 0 && -vn > threshold_) {
+            if (e.raw > 0) {
+                const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
                 // Only when the approach closes the gap within this step.
-                if (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()) target = max(target, -(e * vn));
+                if (-vn > threshold_ && (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()))
+                    target = max(target, -(e * vn));
             }
             p.target = target;
-            points_.push_back(p);
         }
     }
     if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
 }
 
-void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
+void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                               Rows rows) {
     // Effective masses as if only `only` moved (shock pass), else the pair's.
-    Fixed mn = p.mass_n, m1 = p.mass_t1, m2 = p.mass_t2;
+    Fixed mn = p.row[0].mass, m1 = p.row[1].mass, m2 = p.row[2].mass;
     if (only != kEveryBody) {
-        const BodyId still = only == p.a ? p.b : p.a;
-        const Vec3& r = only == p.a ? p.ra : p.rb;
-        const Vec3& rs = only == p.a ? p.rb : p.ra;
-        (void)still;
-        (void)rs;
-        const auto single = [&](const Vec3& dir) {
-            const Vec3 c = cross(r, dir);
-            const Fixed k = inv_mass_[only] + dot(c, inv_i_world_[only] * c);
+        const auto single = [&](const Row& r) {
+            const Fixed k = inv_mass_[only] + (only == p.a ? dot(r.ca, r.ia) : dot(r.cb, r.ib));
             return k.raw > 0 ? reciprocal(k) : Fixed::zero();
         };
-        mn = single(p.n);
-        m1 = single(p.t1);
-        m2 = single(p.t2);
+        mn = single(p.row[0]);
+        m1 = single(p.row[1]);
+        m2 = single(p.row[2]);
     }
     // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
     // adds impulse (it never takes back what the iterations gave).
-    Vec3 dv = relative_velocity(p, vel, angvel);
     if (rows != Rows::Friction) {
-        const Fixed vn = dot(dv, p.n);
+        const Fixed vn = row_speed(p, 0, bodies[p.sb].v - bodies[p.sa].v, bodies);
         const Fixed floor = shock ? p.pn : Fixed::zero();
         const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
         const Fixed dpn = pn - p.pn;
         p.pn = pn;
-        if (dpn.raw != 0) {
-            apply(p, p.n * dpn, vel, angvel, only);
-            dv = relative_velocity(p, vel, angvel);
-        }
+        if (dpn.raw != 0) apply(p, dpn, Fixed::zero(), Fixed::zero(), bodies, only);
     }
     if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
     // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
-    Fixed t1 = p.pt1 - m1 * dot(dv, p.t1);
-    Fixed t2 = p.pt2 - m2 * dot(dv, p.t2);
+    const Vec3 dv = bodies[p.sb].v - bodies[p.sa].v;
+    Fixed t1 = p.pt1 - m1 * row_speed(p, 1, dv, bodies);
+    Fixed t2 = p.pt2 - m2 * row_speed(p, 2, dv, bodies);
     const Fixed limit_s = p.mu_s * p.pn;
     const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
     if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
@@ -355,7 +464,7 @@ void RigidSolver::solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3
     const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
     p.pt1 = t1;
     p.pt2 = t2;
-    if (d1.raw != 0 || d2.raw != 0) apply(p, p.t1 * d1 + p.t2 * d2, vel, angvel, only);
+    if (d1.raw != 0 || d2.raw != 0) apply(p, Fixed::zero(), d1, d2, bodies, only);
 }
 
 ContactImpulse RigidSolver::key_of(const Point& p) const {
@@ -367,8 +476,7 @@ ContactImpulse RigidSolver::key_of(const Point& p) const {
     return k;
 }
 
-void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, std::vector<Vec3>& vel,
-                             std::vector<Vec3>& angvel) {
+void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses) {
     if (impulses.empty()) return;
     for (Point& p : points_) {
         const ContactImpulse k = key_of(p);
@@ -377,7 +485,7 @@ void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, std::v
         p.pn = it->pn;
         p.pt1 = it->pt1;
         p.pt2 = it->pt2;
-        apply(p, p.n * p.pn + p.t1 * p.pt1 + p.t2 * p.pt2, vel, angvel);
+        apply(p, p.pn, p.pt1, p.pt2, bodies_);
     }
 }
 
@@ -398,9 +506,9 @@ void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
     if (impulses.size() > impulse_capacity_) impulses.resize(impulse_capacity_);
 }
 
-void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass) {
+void RigidSolver::solve_pass(Bodies& bodies, int pass) {
     if (!warm_ && !block_) {
-        for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false);
+        for (Point& p : points_) solve_point(p, bodies, kEveryBody, false);
         return;
     }
     // Warm-started scenes: every normal row, then every friction row, odd passes backwards.
@@ -409,20 +517,20 @@ void RigidSolver::solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, 
     // direction spreads a stack's support both ways in one iteration pair.
     const auto sweep = [&](Rows rows) {
         if (pass & 1)
-            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_point(*it, vel, angvel, kEveryBody, false, rows);
+            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_point(*it, bodies, kEveryBody, false, rows);
         else
-            for (Point& p : points_) solve_point(p, vel, angvel, kEveryBody, false, rows);
+            for (Point& p : points_) solve_point(p, bodies, kEveryBody, false, rows);
     };
     if (block_) {
         const std::size_t count = manifold_start_.size() - 1;
-        for (std::size_t k = 0; k < count; ++k) solve_block(pass & 1 ? count - 1 - k : k, vel, angvel, false);
+        for (std::size_t k = 0; k < count; ++k) solve_block(pass & 1 ? count - 1 - k : k, bodies, false);
     } else {
         sweep(Rows::Normal);
     }
     sweep(Rows::Friction);
 }
 
-void RigidSolver::solve_block(std::size_t m, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, bool pseudo) {
+void RigidSolver::solve_block(std::size_t m, Bodies& bodies, bool pseudo) {
     const std::uint32_t begin = manifold_start_[m], end = manifold_start_[m + 1];
     for (int sweep = 0; sweep < kBlockSweeps; ++sweep) {
         bool changed = false;
@@ -432,14 +540,14 @@ void RigidSolver::solve_block(std::size_t m, std::vector<Vec3>& vel, std::vector
             if (pseudo)
                 solve_pseudo(p);
             else
-                solve_point(p, vel, angvel, kEveryBody, false, Rows::Normal);
+                solve_point(p, bodies, kEveryBody, false, Rows::Normal);
             changed = changed || (pseudo ? p.pb : p.pn) != before;
         }
         if (!changed || end - begin == 1) return;
     }
 }
 
-void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) {
+void RigidSolver::shock_pass() {
     // Levels: distance in the contact graph (touching points) from a static body.
     constexpr std::uint32_t kUnreached = ~std::uint32_t{0};
     const std::size_t n = shape_.size();
@@ -480,27 +588,27 @@ void RigidSolver::shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) 
         Point& p = points_[k];
         const std::uint32_t la = level_[p.a], lb = level_[p.b];
         if (la == lb) continue;  // same level (or both unreached): no up and down
-        solve_point(p, vel, angvel, la < lb ? p.b : p.a, true);
+        solve_point(p, bodies_, la < lb ? p.b : p.a, true);
     }
 }
 
 void RigidSolver::solve_pseudo(Point& p) {
-    const Fixed pb = max(p.pb + p.mass_n * (p.bias - dot(relative_velocity(p, pv_, pw_), p.n)), Fixed::zero());
+    const Fixed pb = max(p.pb + p.row[0].mass * (p.bias - row_speed(p, 0, pseudo_[p.sb].v - pseudo_[p.sa].v, pseudo_)), Fixed::zero());
     const Fixed d = pb - p.pb;
     if (d.raw == 0) return;
     p.pb = pb;
-    apply(p, p.n * d, pv_, pw_);
+    apply(p, d, Fixed::zero(), Fixed::zero(), pseudo_);
 }
 
 void RigidSolver::split_passes() {
-    std::fill(pv_.begin(), pv_.end(), Vec3{});
-    std::fill(pw_.begin(), pw_.end(), Vec3{});
+    pseudo_.resize(bodies_.size());
+    for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass};
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
     const std::size_t count = block_ ? manifold_start_.size() - 1 : 0;
     for (int i = 0; i < iterations_; ++i) {
         if (block_)
-            for (std::size_t k = 0; k < count; ++k) solve_block(i & 1 ? count - 1 - k : k, pv_, pw_, true);
+            for (std::size_t k = 0; k < count; ++k) solve_block(i & 1 ? count - 1 - k : k, pseudo_, true);
         else if (i & 1)
             for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_pseudo(*it);
         else
@@ -535,8 +643,10 @@ void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel
     if (!split_) return;
     // Split impulses: the pseudo motion, after the real one, then dropped.
     for (BodyId id : dynamic_) {
-        if (pv_[id] != Vec3{}) pos[id] += pv_[id] * dt_;
-        if (pw_[id] != Vec3{}) orient[id] = integrated(orient[id], pw_[id], dt_);
+        const std::uint32_t k = slot_[id];
+        if (k == kNoSlot) continue;  // no contact: no pseudo motion
+        if (pseudo_[k].v != Vec3{}) pos[id] += pseudo_[k].v * dt_;
+        if (pseudo_[k].w != Vec3{}) orient[id] = integrated(orient[id], pseudo_[k].w, dt_);
     }
 }
 

@@ -6,9 +6,12 @@
 //  3. candidate pairs (the world's broadphase, each body's AABB its bounding sphere's);
 //     contact manifolds with points (sim/rigid_contact.h), speculative within contact_margin.
 //  3b. (rigid.reduce_manifold) a box-box face manifold keeps at most its four corner points.
-//  4. per contact point: lever arms, effective masses along the normal and two tangents, the
-//     target normal speed (Baumgarte feedback beyond slop, the gap / dt of a speculative point,
-//     restitution from the approach speed before solving when above the threshold).
+//  4. per contact point: lever arms (a sphere's taken exactly along the normal, so its normal
+//     impulse never spins it), each row's Jacobian products (Row) and effective mass along the
+//     normal and two tangents, the target normal speed (Baumgarte feedback beyond slop, the gap
+//     / dt of a speculative point, restitution from the approach speed before solving when
+//     above the threshold). The bodies with points are copied into a compact solver array
+//     (SolverBody) in the order the points first name them, and copied back after step 5b.
 //  5. `iterations` passes of sequential impulses over the points in a fixed order: normal
 //     impulse (accumulated, >= 0), then friction (accumulated, on the tangent plane): while the
 //     friction needed stays within mu_s times the normal impulse the contact sticks; beyond it,
@@ -88,10 +91,11 @@ public:
         update_inertia(orient);
         find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
         build_contacts(pos, vel, angvel);
-        if (warm_) warm_start(impulses, vel, angvel);
-        for (int i = 0; i < iterations_; ++i) solve_pass(vel, angvel, i);
+        if (warm_) warm_start(impulses);
+        for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i);
         if (warm_) keep_impulses(impulses);
-        if (shock_) shock_pass(vel, angvel);
+        if (shock_) shock_pass();
+        scatter(vel, angvel);
         if (split_) split_passes();
         integrate(pos, vel, orient, angvel);
     }
@@ -104,11 +108,23 @@ public:
     std::size_t contact_count() const { return points_.size(); }
 
 private:
+    // One contact point's three constraint rows (normal n, tangents t1, t2), each written as
+    // its Jacobian: the row's speed is d.(v_b - v_a) + cb.w_b - ca.w_a with ca = ra x d and
+    // cb = rb x d (ra, rb: the point from each body's centre), and an impulse L on it changes
+    // v_a by -d L / m_a, w_a by -ia L with ia = I_a^-1 ca (and body b the other way). The
+    // products are made once when the point is built (the effective masses need them anyway),
+    // so an iteration costs 9 products per row speed, rounded once, and 3 or 4 per body moved.
+    struct Row {
+        Vec3 ca, cb;  // ra x d, rb x d
+        Vec3 ia, ib;  // world inverse inertia times those (zero for a static body)
+        Fixed mass;   // 1 / (1/m_a + 1/m_b + ca.ia + cb.ib), or 0
+    };
     struct Point {
         BodyId a, b;
+        std::uint32_t sa, sb;  // a's and b's places in bodies_
         std::uint8_t feature;  // ContactPoint::feature
-        Vec3 n, t1, t2, ra, rb;
-        Fixed mass_n, mass_t1, mass_t2;
+        Vec3 n, t1, t2;
+        Row row[3];          // along n, t1, t2
         Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)
         Fixed bias;          // split impulses: pseudo normal speed pushing overlap out
         Fixed pb;            // split impulses: accumulated pseudo impulse
@@ -122,36 +138,56 @@ private:
     // the four diagonals of the contact plane's tangent basis (a point extreme along two of
     // them is kept once), renamed kFeatureReduced + diagonal so warm starting finds it again.
     static void reduce(Manifold& m);
+    // A body as the contact solver sees it: linear and angular velocity and inverse mass in
+    // one cache line, so a contact row touches one line per body. bodies_ holds the bodies that
+    // have a contact point this step, in the order the points first name them (so the points,
+    // which follow the broadphase's cells, walk bodies_ nearly in order instead of jumping
+    // about the whole world); build_contacts() copies them in, scatter() copies the
+    // velocities back before integration. The pseudo velocities of split impulses live in
+    // pseudo_, at the same places.
+    struct alignas(64) SolverBody {
+        Vec3 v, w;
+        Fixed inv_mass;
+    };
+    using Bodies = std::vector<SolverBody>;
+    static constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
+    std::uint32_t slot_of(BodyId id, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
+    void scatter(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
-    void solve_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, int pass);
+    void solve_pass(Bodies& bodies, int pass);
     // Gives each point its carried impulses and applies them; keep_impulses() stores the
     // iterations' result (before the shock pass, which is not a physical impulse).
-    void warm_start(const std::vector<ContactImpulse>& impulses, std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void warm_start(const std::vector<ContactImpulse>& impulses);
     void keep_impulses(std::vector<ContactImpulse>& impulses) const;
     ContactImpulse key_of(const Point& p) const;
-    void shock_pass(std::vector<Vec3>& vel, std::vector<Vec3>& angvel);
+    void shock_pass();
     // rigid.split_impulse: `iterations` passes over the normal rows on the pseudo velocities
-    // (pv_, pw_), driving each point's pseudo normal speed to its bias (overlap beyond slop
+    // (pseudo_), driving each point's pseudo normal speed to its bias (overlap beyond slop
     // times baumgarte per step), accumulated >= 0. They move the bodies in integrate() and
     // are dropped: the real velocities never see the push-out.
     void split_passes();
     // rigid.block_solver: manifold m's normal rows (real, or pseudo with split impulses) swept
     // forward and back until no impulse changes, at most kBlockSweeps times.
     static constexpr int kBlockSweeps = 8;
-    void solve_block(std::size_t m, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, bool pseudo);
+    void solve_block(std::size_t m, Bodies& bodies, bool pseudo);
     void solve_pseudo(Point& p);
     // Solves point p's normal and friction rows once (or only one kind); with `only` set, as if
     // only that body moved.
     enum class Rows : std::uint8_t { Both, Normal, Friction };
-    void solve_point(Point& p, std::vector<Vec3>& vel, std::vector<Vec3>& angvel, BodyId only, bool shock,
+    void solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                      Rows rows = Rows::Both);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel) const;
-    void apply(const Point& p, const Vec3& impulse, std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
-               BodyId only = kEveryBody) const;
     static constexpr BodyId kEveryBody = ~BodyId{0};
-    Vec3 relative_velocity(const Point& p, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) const;
-    Fixed effective_mass(BodyId a, BodyId b, const Vec3& ra, const Vec3& rb, const Vec3& dir) const;
+    // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
+    static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
+    // The speed along row k of p (> 0 separates for the normal), rounded once.
+    static Fixed row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies);
+    // c[k] = r x (p's row k direction) for body id's arm r (exact zeros for a sphere's normal).
+    void arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const;
+    // Fills a row from its arms ca, cb: the inverse inertia products and the effective mass
+    // (same_mass's when given: a row known to have the same one).
+    void make_row(BodyId a, BodyId b, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass = nullptr) const;
     Fixed pair_restitution(BodyId a, BodyId b) const;
     void pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const;
     OrientedCollider collider(BodyId id, const std::vector<Vec3>& pos) const;
@@ -182,7 +218,10 @@ private:
     std::vector<Point> points_;
     // rigid.block_solver: first point of each manifold, then points_.size() (empty otherwise).
     std::vector<std::uint32_t> manifold_start_;
-    std::vector<Vec3> pv_, pw_;  // split impulses: pseudo velocities, zero outside a step's solve
+    Bodies bodies_;
+    std::vector<std::uint32_t> slot_;  // by body id: its place in bodies_, or kNoSlot
+    std::vector<BodyId> slot_ids_;     // by place: the body id
+    Bodies pseudo_;  // split impulses: pseudo velocities, zero outside a step's solve
     // Shock propagation scratch.
     std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
     std::vector<BodyId> queue_;

@@ -108,6 +108,31 @@ TEST(RigidSolver, FreeBoxKeepsAngularMomentum) {
     EXPECT_NE(w.angular_velocity(0), b.angular_velocity);
 }
 
+// A sphere's contact point lies on the normal through its centre, so without friction no
+// contact can turn it. The solver takes that arm exactly; computed as (point - centre) x n it
+// was a rounding residue that set frictionless spheres spinning by ~1e-10 rad/s.
+TEST(RigidSolver, FrictionlessSpheresNeverSpin) {
+    SceneDesc s = floor_scene("0");
+    s.bodies[0].orientation = Quat{fx("0.9659258262890683"), fx("0.2588190451025208"), Fixed::zero(), Fixed::zero()};  // 30 deg about x
+    BodyDesc a = ball("3", "0");
+    a.position = v3("-2", "3", "0.3");
+    a.velocity = v3("3", "-1", "0.4");
+    BodyDesc b = ball("0", "0");
+    b.position = v3("0", "2.9", "0.55");
+    b.velocity = v3("-0.5", "0", "0.1");
+    s.bodies.push_back(a);
+    s.bodies.push_back(b);
+    World w(s);
+    for (int i = 0; i < 180; ++i) {
+        w.step({});
+        ASSERT_EQ(w.angular_velocity(1), Vec3{}) << "frame " << i;
+        ASSERT_EQ(w.angular_velocity(2), Vec3{}) << "frame " << i;
+    }
+    // They did meet each other and the tilted floor (their velocities changed direction).
+    EXPECT_LT(d(w.velocity(1).x), 2.5);
+    EXPECT_GT(d(w.velocity(2).x) - (-0.5), 0.1);
+}
+
 TEST(RigidSolver, DampingSlowsFreeBodies) {
     SceneDesc s;
     s.rigid.enabled = true;
