@@ -158,7 +158,14 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
         kick(c, conn, relay_refusal_name(why), now_us);
     };
     if (h.version != kRelayProtocolVersion) return refused(RelayRefusal::Version);
-    if (draining_) return refused(RelayRefusal::Draining);
+    // Draining refuses new rooms and rooms that have not started, but not a hello into a running
+    // room: that is one of its players (or a restarted process, or a spectator) reconnecting
+    // after ENet dropped its connection, and refusing it would end the match drain promises to
+    // let finish. The room's own admit() still decides whether the slot is its to take.
+    if (draining_) {
+        const auto running = rooms_.find(h.room_id);
+        if (running == rooms_.end() || !running->second->started()) return refused(RelayRefusal::Draining);
+    }
     if (h.players < 1 || h.players > kRelayMaxPlayers || h.input_size < 1 || h.input_size > kRelayMaxInputSize ||
         h.tick_rate < 1 || h.tick_rate > 1000)
         return refused(RelayRefusal::RoomParams);

@@ -19,8 +19,10 @@
 //    room's other connections, or other rooms, receive.
 //  - Kicks are requests: next_kick() hands them to the process, which closes the connection and
 //    then reports on_disconnect().
-//  - Draining (start_drain): every hello not yet bound is refused (Draining), bound clients get
-//    a Draining notice, running rooms go on until their last connection leaves; drained() is then
+//  - Draining (start_drain): a hello that would create a room or join one not yet started is
+//    refused (Draining); a hello into a running room (a player reconnecting after ENet dropped
+//    it, a restarted process) is admitted as ever, so the room can finish. Bound clients get a
+//    Draining notice; running rooms go on until their last connection leaves; drained() is then
 //    true.
 //  - Memory per room is bounded by its history (history_s of confirmed frames), its slots' input
 //    windows and at most kMaxPendingChecks checksum rounds; per connection by constant state.

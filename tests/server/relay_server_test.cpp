@@ -235,6 +235,40 @@ TEST_F(Server, DrainRefusesNewHellosAndEndsWhenRoomsFinish) {
     EXPECT_TRUE(server->drained());
 }
 
+// A drain lets running rooms finish, so a player of one that reconnects (ENet dropped its
+// connection; it says hello again with the same incarnation) must get its slot back. Refused,
+// its client ends the match with exit status 1: the likely cause of a drain-case failure of
+// server_relay_processes_test seen once in CI's sanitizer stage.
+TEST_F(Server, DrainStillResumesAPlayerOfARunningRoom) {
+    start_room(7, 1, 2);  // incarnations 1001 and 1002
+    inputs(1, 0, 1, 4);
+    inputs(2, 0, 2, 4);
+    connect(9);
+    hello(9, 9, 0);  // a room that has not started (slot 1 never came)
+    drain();
+    server->start_drain(now);
+    server->on_disconnect(2, now);  // slot 1's connection drops
+    connect(3);
+    hello(3, 7, 1, RelayRole::Player, 2, 1002);  // and comes back
+    connect(4);
+    hello(4, 9, 1);  // joining the unstarted room: refused
+    connect(5);
+    hello(5, 8, 0);  // a new room: refused
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::None);
+    EXPECT_EQ(server->room(7)->slot_of(3), 1);
+    EXPECT_EQ(last_refusal(4), RelayRefusal::Draining);
+    EXPECT_EQ(last_refusal(5), RelayRefusal::Draining);
+    inputs(1, 4, 1, 2);
+    inputs(3, 4, 2, 2);
+    EXPECT_EQ(server->room(7)->confirmed_frames(), 6u);
+    server->on_disconnect(1, now);
+    server->on_disconnect(3, now);
+    server->on_disconnect(9, now);
+    advance(2000);
+    EXPECT_TRUE(server->drained());
+}
+
 TEST_F(Server, ForwardToAClientThatLeftNamesAnotherSource) {
     connect(1);
     connect(2);
