@@ -80,12 +80,17 @@ std::uint64_t isqrt_floor(u128 n) {
     if (n == 0) return 0;
     // Start at a power of two no smaller than sqrt(n); Newton's iteration from above then
     // decreases monotonically and stops exactly at floor(sqrt(n)).
-    const int bits = bit_length(n);
-    u128 x = u128{1} << ((bits + 1) / 2);
-    for (;;) {
-        const u128 y = (x + n / x) >> 1;
-        if (y >= x) break;
+    // The first step divides by a power of two, a shift; later ones by x < 2^64 with a quotient
+    // n / x <= sqrt(n) < 2^64, one 128/64 division each (divmod_unsigned's fast path). The
+    // iterates are the same integers however the quotients are found.
+    const int shift = (bit_length(n) + 1) / 2;
+    u128 x = u128{1} << shift;
+    u128 y = (x + (n >> shift)) >> 1;
+    while (y < x) {
         x = y;
+        u128 q, r;
+        divmod_unsigned(n, x, q, r);
+        y = (x + q) >> 1;
     }
     return static_cast<std::uint64_t>(x);
 }

@@ -43,7 +43,7 @@ inline Fixed sum4(Fixed a0, Fixed b0, Fixed a1, Fixed b1, Fixed a2, Fixed b2, Fi
         note_overflow();
         return s > 0 ? Fixed::max() : Fixed::min();
     }
-    return saturate_i128(round_shift(t, Fixed::kFracBits));
+    return round_wide(t);
 }
 }  // namespace quat_detail
 
@@ -56,7 +56,7 @@ inline Quat operator*(const Quat& a, const Quat& b) {
 
 inline Vec3 cross(const Vec3& a, const Vec3& b) {
     const auto c = [](Fixed p, Fixed q, Fixed r, Fixed s) {  // p q - r s, rounded once
-        return saturate_i128(round_shift(mul_wide(p.raw, q.raw) - mul_wide(r.raw, s.raw), Fixed::kFracBits));
+        return round_wide(mul_wide(p.raw, q.raw) - mul_wide(r.raw, s.raw));
     };
     return {c(a.y, b.z, a.z, b.y), c(a.z, b.x, a.x, b.z), c(a.x, b.y, a.y, b.x)};
 }

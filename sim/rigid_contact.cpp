@@ -480,57 +480,87 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     }
 }
 
-// True when no edge axis can matter: every one of them, computed as box_box does, would come out
-// at most `limit` (so none separates beyond the margin and none beats the best face axis by
-// kEdgeBias). Decided without the square root and divisions of normalising each axis: with
-// c = a_i x b_j unnormalised, sep(c / |c|) = N / |c|, N = |d.c| - sum h_a |a_k.c| - sum h_b |b_k.c|,
-// and N <= limit |c| is compared squared. The slack e covers the rounding of both this bound
-// and box_box's own normalised figures (each within S 2^-24 + 2^-28 of exact, S = |d|max +
-// sum h_a + sum h_b; e is 16 times that), so the answer never differs from box_box's loop; any
-// doubt (large values, an axis near the limit) says false and box_box runs its loop.
-bool edges_cannot_matter(const Vec3 ca[3], const Vec3 cb[3], const Vec3& d, const Vec3& ha, const Vec3& hb,
-                         std::int64_t limit) {
+// True when no edge axis can matter: every one of them, computed as box_box's loop does, would
+// come out at most `limit` (so none separates beyond the margin and none beats the best face
+// axis by kEdgeBias). Decided from what the face axes already computed, r[i][j] = a_i . b_j,
+// ta[i] = a_i . d and tb[j] = b_j . d, without a cross product, square root or division. For
+// orthonormal right-handed frames the edge axis c = a_i x b_j (i1, i2, j1, j2 the next two axes
+// after i, j) is r[i1][j] a_i2 - r[i2][j] a_i1 in A's frame and r[i][j2] b_j1 - r[i][j1] b_j2 in
+// B's, so with sep(c / |c|) = N / |c|:
+//   d . c     = ta[i2] r[i1][j] - ta[i1] r[i2][j]      = tb[j1] r[i][j2] - tb[j2] r[i][j1]
+//   |c|^2     = r[i1][j]^2 + r[i2][j]^2                = r[i][j1]^2 + r[i][j2]^2
+//   a_i1 . c  = -r[i2][j],  a_i2 . c = r[i1][j],  b_j1 . c = r[i][j2],  b_j2 . c = -r[i][j1]
+// (a_i . c and b_j . c are 0, and leaving them out only raises N). N <= limit |c| is compared
+// squared. The frames are rotation() of unit quaternions (|q|^2 within 2^-27 of 1, as
+// normalised() and integrated() keep it), so their columns are orthonormal within 2^-24, which
+// moves N by at most ~17 * 2^-24 S (S = |d|max + sum h_a + sum h_b) and |c| by a relative
+// 2^-10 where |c| >= 2^-6. A frame whose entries are all 0 or +-1 (a room's walls) is exact:
+// the formulas are taken in it, and only the other box's error remains (~3 * 2^-24 times its
+// half sizes). The slack e (S 2^-16, or the other box's sum h 2^-16, plus 2^-22) covers that at
+// least 8 times over, with the rounding of both this bound and box_box's loop (S 2^-24 +
+// 2^-28); |limit| 2^-9 covers the error in |c|. Axes the loop skips (|c| < 2^-6) are skipped
+// here only where |c|^2 is below 2^-12 by more than its error. Any doubt (large values, an
+// axis near the limit) says false and box_box runs its loop; tests/sim/rigid_contact_test.cpp
+// compares the two on random pairs.
+bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[3], const Vec3& d, const Vec3& ha,
+                         const Vec3& hb, bool exact_a, bool exact_b, std::int64_t limit) {
     constexpr std::int64_t kSmall = std::int64_t{1} << 40;  // 256 m: every product below fits
-    i128 size = 0;
-    for (const Fixed f : {d.x, d.y, d.z}) size = std::max<i128>(size, f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw));
-    for (const Fixed f : {ha.x, ha.y, ha.z, hb.x, hb.y, hb.z}) size += f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw);
-    if (size >= kSmall) return false;
-    const std::int64_t e = static_cast<std::int64_t>(size >> 20) + 64;  // S 2^-20 + 2^-26
-    const std::int64_t t = limit - e;
-    if (t >= kSmall || t <= -kSmall) return false;
-    const u128 t_sq = mul_wide_unsigned(static_cast<std::uint64_t>(t < 0 ? -t : t), static_cast<std::uint64_t>(t < 0 ? -t : t));
-    for (int i = 0; i < 3; ++i)
+    const auto mag = [](Fixed f) { return f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw); };
+    const i128 sum_a = mag(ha.x) + mag(ha.y) + mag(ha.z), sum_b = mag(hb.x) + mag(hb.y) + mag(hb.z);
+    const i128 size = std::max({mag(d.x), mag(d.y), mag(d.z)}) + sum_a + sum_b;
+    if (size >= kSmall || limit >= kSmall || limit <= -kSmall) return false;
+    const bool in_b = !exact_a && exact_b;  // the frame the formulas are taken in
+    const i128 err = exact_a ? sum_b : exact_b ? sum_a : size;
+    const std::int64_t e = static_cast<std::int64_t>(err >> 16) + 1024;
+    const std::int64_t l_abs = limit < 0 ? -limit : limit;
+    const std::int64_t bound = limit - e - (l_abs >> 9);
+    const std::uint64_t b_abs = static_cast<std::uint64_t>(bound < 0 ? -bound : bound);
+    const u128 b_sq = mul_wide_unsigned(b_abs, b_abs);
+    // The loop skips |c|^2 < 2^-12 (2^52 in Q64.64); here |c|^2 may be off by 2^-20.
+    constexpr u128 kSkipBelow = (u128{1} << 52) - (u128{1} << 45);
+    for (int i = 0; i < 3; ++i) {
+        const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
         for (int j = 0; j < 3; ++j) {
-            const Vec3 c = cross(ca[i], cb[j]);
-            const u128 len_sq = length_sq_wide(c);
-            if (len_sq < (u128{1} << 52)) continue;  // box_box skips it too
-            // a_i . c and b_j . c are exactly 0 for the unrounded cross product, so within 2^-32
-            // for c: leaving those two terms out only raises N, which keeps the bound safe.
-            Fixed n = abs(dot(d, c));
-            for (int k = 0; k < 3; ++k) {
-                if (k != i) n = n - comp(ha, k) * abs(dot(ca[k], c));
-                if (k != j) n = n - comp(hb, k) * abs(dot(cb[k], c));
-            }
+            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            // c's two coordinates in the chosen frame, and the distances along those axes.
+            const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
+            const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
+            const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
+            if (len_sq < kSkipBelow) continue;
+            const Fixed n = abs(tp * p - tq * q) - comp(ha, i1) * abs(r[i2][j]) - comp(ha, i2) * abs(r[i1][j]) -
+                            comp(hb, j1) * abs(r[i][j2]) - comp(hb, j2) * abs(r[i][j1]);
             const std::int64_t l = n.raw + e;
             const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
-            if (t >= 0) {
+            if (bound >= 0) {
                 if (l <= 0) continue;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > t_sq * cc) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * cc) return false;
             } else {
                 if (l >= 0) return false;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < t_sq * (cc + 1)) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * (cc + 1)) return false;
             }
         }
+    }
     return true;
 }
 
-void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+// Every entry 0 or +-1: an exact rotation (a signed permutation), as a room's walls have.
+bool axis_aligned(const Mat3& m) {
+    for (const Vec3& row : m.row)
+        for (const Fixed f : {row.x, row.y, row.z})
+            if (f.raw != 0 && f.raw != Fixed::kOne && f.raw != -Fixed::kOne) return false;
+    return true;
+}
+
+// edge_shortcut: edges_cannot_matter() may skip the edge axes' loop (off only in tests, which
+// check that it changes nothing).
+void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m, bool edge_shortcut) {
     const Vec3 d = b.center - a.center;
     const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
     const Vec3 cb[3] = {column(*b.rot, 0), column(*b.rot, 1), column(*b.rot, 2)};
     // c[i][j] = a_i . b_j, filled row by row by A's face axes and reused by B's (the same dot
     // products projected_radius() would take: a dot product is symmetric to the bit).
     Fixed c[3][3];
+    Fixed ta[3], tb[3];  // a_k . d, b_k . d
     // Best face axis (largest separation; ties: A before B, x before y before z).
     Fixed face_sep = Fixed::min();
     int face_box = 0, face_k = 0;
@@ -542,6 +572,7 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
             const Vec3& axis = box == 0 ? ca[k] : cb[k];
             const Fixed dist = dot(d, axis);
             Fixed radius;
+            (box == 0 ? ta : tb)[k] = dist;
             if (box == 0) {
                 for (int j = 0; j < 3; ++j) c[k][j] = dot(cb[j], axis);
                 radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
@@ -564,7 +595,8 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     int edge_i = 0, edge_j = 0;
     Vec3 edge_n{};
     const i128 limit = std::min<i128>(static_cast<i128>(margin.raw), static_cast<i128>(face_sep.raw) + kEdgeBias);
-    if (!edges_cannot_matter(ca, cb, d, a.half, b.half, static_cast<std::int64_t>(limit)))
+    if (!edge_shortcut || !edges_cannot_matter(c, ta, tb, d, a.half, b.half, axis_aligned(*a.rot), axis_aligned(*b.rot),
+                                                 static_cast<std::int64_t>(limit)))
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) {
                 const Vec3 c = cross(ca[i], cb[j]);
@@ -658,8 +690,13 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
         round_box(b, a, margin, m);
         for (int i = 0; i < m.count; ++i) m.points[i].normal = -m.points[i].normal;
     } else {
-        box_box(a, b, margin, m);
+        box_box(a, b, margin, m, true);
     }
+}
+
+void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    m.count = 0;
+    box_box(a, b, margin, m, false);
 }
 
 }  // namespace lockroll::sim

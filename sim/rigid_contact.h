@@ -58,6 +58,11 @@ struct OrientedCollider {
 // Fills m (m.count = 0 when apart). A and B may be any shapes; the normal always points A to B.
 void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
 
+// Two boxes as contact_points() does them, but with every edge axis of the separating-axis
+// test normalised and tested (contact_points() skips them when a cheaper bound shows none can
+// matter). The same manifold, bit for bit: for tests.
+void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
+
 // Point against an oriented box: closest point, unit normal from the point toward the box
 // surface (out of the box through the nearest face when the point is inside), and the signed
 // distance (negative inside). Returns false when the point is farther than `reach`.

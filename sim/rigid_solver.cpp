@@ -30,15 +30,10 @@ Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z 
 
 Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * dt); }
 
-// m v for a body's world inverse inertia m; `isotropic` when m is diag(s, s, s) (spheres, and
-// static bodies with s = 0): each row's dot product is then its one product rounded once, the
-// same bits as the full product, at a third of the cost.
+// m v for a box's world inverse inertia m (an isotropic body's is its scalar times v, each
+// component one product rounded once: the same bits as the full product, at a third of the cost).
+// Out of line, so make_row stays small enough to inline its short path.
 Vec3 full_times(const Mat3& m, const Vec3& v) { return m * v; }
-inline Vec3 inertia_times(const Mat3& m, bool isotropic, const Vec3& v) {
-    if (!isotropic) return full_times(m, v);  // out of line, so this stays small enough to inline
-    const Fixed s = m.row[0].x;
-    return {s * v.x, s * v.y, s * v.z};
-}
 
 // A sum of exact Q64.64 terms rounded once at the end. If a partial sum leaves the i128 range
 // the result saturates with its sign and counts one overflow (the total is then far beyond
@@ -59,7 +54,7 @@ public:
             note_overflow();
             return saturated_ > 0 ? Fixed::max() : Fixed::min();
         }
-        return saturate_i128(round_shift(sum_, Fixed::kFracBits));
+        return round_wide(sum_);
     }
 
 private:
@@ -75,7 +70,7 @@ Fixed mul_add(Fixed a, Fixed x, Fixed b, Fixed y) {
         note_overflow();
         return (a.raw < 0) == (x.raw < 0) ? Fixed::max() : Fixed::min();
     }
-    return saturate_i128(round_shift(s, Fixed::kFracBits));
+    return round_wide(s);
 }
 
 // u0 l0 + u1 l1 + u2 l2, each component rounded once; a zero weight's term is exactly zero
@@ -174,7 +169,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
                 (row == 0 ? e.x : row == 1 ? e.y : e.z) = v;
             }
             extent_[i] = e;
-            isotropic_[i] = 1;  // inverse inertia diag(0, 0, 0): inertia_times() may take the short way
+            isotropic_[i] = 1;  // inverse inertia diag(0, 0, 0): make_row() may take the short way
             continue;
         }
         // A dynamic body may turn any way: its bounding sphere.
@@ -259,21 +254,27 @@ void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) c
     c[2] = cross(r, p.t2);
 }
 
-void RigidSolver::make_row(BodyId a, BodyId b, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass) const {
+void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass) const {
     row.ca = ca;
     row.cb = cb;
+    const SolverBody& a = bodies_[p.sa];
+    const SolverBody& b = bodies_[p.sb];
     // A static body has zero inverse inertia, and a zero arm turns nothing: ia (ib) is then
     // zero and its term is left out of the effective mass (adding an exact zero changes no bits).
-    const auto turns = [&](BodyId id, const Vec3& c) {
-        return c != Vec3{} && !(isotropic_[id] && inv_i_world_[id].row[0].x.raw == 0);
+    // An isotropic body's scalar rides in its SolverBody, so only a box reads its world matrix.
+    const auto inertia_arm = [&](const SolverBody& body, BodyId id, const Vec3& c) {
+        if (c == Vec3{} || body.iso_inv_inertia.raw == 0) return Vec3{};
+        if (body.iso_inv_inertia.raw < 0) return full_times(inv_i_world_[id], c);
+        const Fixed s = body.iso_inv_inertia;
+        return Vec3{s * c.x, s * c.y, s * c.z};
     };
-    row.ia = turns(a, ca) ? inertia_times(inv_i_world_[a], isotropic_[a] != 0, ca) : Vec3{};
-    row.ib = turns(b, cb) ? inertia_times(inv_i_world_[b], isotropic_[b] != 0, cb) : Vec3{};
+    row.ia = inertia_arm(a, p.a, ca);
+    row.ib = inertia_arm(b, p.b, cb);
     if (same_mass != nullptr) {
         row.mass = same_mass->mass;
         return;
     }
-    Fixed k = inv_mass_[a] + inv_mass_[b];
+    Fixed k = a.inv_mass + b.inv_mass;
     if (row.ia != Vec3{}) k = k + dot(ca, row.ia);
     if (row.ib != Vec3{}) k = k + dot(cb, row.ib);
     row.mass = k.raw > 0 ? reciprocal(k) : Fixed::zero();
@@ -312,11 +313,51 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
     }
 }
 
+// The two common cases of apply(), with the same bits: a normal impulse alone (each component
+// one product, as combine3 gives for one weight), and friction alone (two weights: each
+// component a x + b y rounded once, which is also what combine3 gives when one of them is zero).
+void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
+    SolverBody& a = bodies[p.sa];
+    SolverBody& b = bodies[p.sb];
+    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
+    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    if (move_a) {
+        a.v -= p.n * (l * a.inv_mass);
+        if (p.row[0].ia != Vec3{}) a.w -= p.row[0].ia * l;
+    }
+    if (move_b) {
+        b.v += p.n * (l * b.inv_mass);
+        if (p.row[0].ib != Vec3{}) b.w += p.row[0].ib * l;
+    }
+}
+
+void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
+    SolverBody& a = bodies[p.sa];
+    SolverBody& b = bodies[p.sb];
+    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
+    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    const auto sum = [](const Vec3& u, Fixed x, const Vec3& w, Fixed y) {
+        return Vec3{mul_add(u.x, x, w.x, y), mul_add(u.y, x, w.y, y), mul_add(u.z, x, w.z, y)};
+    };
+    if (move_a) {
+        const Fixed m = a.inv_mass;
+        a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
+        a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+    }
+    if (move_b) {
+        const Fixed m = b.inv_mass;
+        b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
+        b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+    }
+}
+
 std::uint32_t RigidSolver::slot_of(BodyId id, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel) {
     std::uint32_t& slot = slot_[id];
     if (slot == kNoSlot) {
         slot = static_cast<std::uint32_t>(bodies_.size());
-        bodies_.push_back({vel[id], angvel[id], inv_mass_[id]});
+        // isotropic_: a sphere's (or a static body's) scalar inverse inertia; -1 marks a full matrix.
+        const Fixed iso = isotropic_[id] ? inv_inertia_[id].x : -Fixed::one();
+        bodies_.push_back({vel[id], angvel[id], inv_mass_[id], iso});
         slot_ids_.push_back(id);
     }
     return slot;
@@ -394,12 +435,12 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             Vec3 ca[3], cb[3];
             arms(a, c.point - pos[a], p, ca);
             arms(b, c.point - pos[b], p, cb);
-            make_row(a, b, ca[0], cb[0], p.row[0]);
-            make_row(a, b, ca[1], cb[1], p.row[1]);
+            make_row(p, ca[0], cb[0], p.row[0]);
+            make_row(p, ca[1], cb[1], p.row[1]);
             // Between spheres (or a sphere and a static body) the two tangent rows' effective
             // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
             // one division serves both.
-            make_row(a, b, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
+            make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
             p.mu_k = mu_k;
             p.mu_s = mu_s;
             p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
@@ -445,7 +486,7 @@ void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
         const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
         const Fixed dpn = pn - p.pn;
         p.pn = pn;
-        if (dpn.raw != 0) apply(p, dpn, Fixed::zero(), Fixed::zero(), bodies, only);
+        if (dpn.raw != 0) apply_normal(p, dpn, bodies, only);
     }
     if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
@@ -464,7 +505,7 @@ void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
     const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
     p.pt1 = t1;
     p.pt2 = t2;
-    if (d1.raw != 0 || d2.raw != 0) apply(p, Fixed::zero(), d1, d2, bodies, only);
+    if (d1.raw != 0 || d2.raw != 0) apply_friction(p, d1, d2, bodies, only);
 }
 
 ContactImpulse RigidSolver::key_of(const Point& p) const {
@@ -597,12 +638,12 @@ void RigidSolver::solve_pseudo(Point& p) {
     const Fixed d = pb - p.pb;
     if (d.raw == 0) return;
     p.pb = pb;
-    apply(p, d, Fixed::zero(), Fixed::zero(), pseudo_);
+    apply_normal(p, d, pseudo_, kEveryBody);
 }
 
 void RigidSolver::split_passes() {
     pseudo_.resize(bodies_.size());
-    for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass};
+    for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass, bodies_[k].iso_inv_inertia};
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
     const std::size_t count = block_ ? manifold_start_.size() - 1 : 0;

@@ -138,8 +138,8 @@ private:
     // the four diagonals of the contact plane's tangent basis (a point extreme along two of
     // them is kept once), renamed kFeatureReduced + diagonal so warm starting finds it again.
     static void reduce(Manifold& m);
-    // A body as the contact solver sees it: linear and angular velocity and inverse mass in
-    // one cache line, so a contact row touches one line per body. bodies_ holds the bodies that
+    // A body as the contact solver sees it: linear and angular velocity, inverse mass and (when
+    // isotropic) inverse inertia in one cache line, so a contact row touches one line per body. bodies_ holds the bodies that
     // have a contact point this step, in the order the points first name them (so the points,
     // which follow the broadphase's cells, walk bodies_ nearly in order instead of jumping
     // about the whole world); build_contacts() copies them in, scatter() copies the
@@ -148,6 +148,7 @@ private:
     struct alignas(64) SolverBody {
         Vec3 v, w;
         Fixed inv_mass;
+        Fixed iso_inv_inertia;  // an isotropic body's scalar inverse inertia (0 static); < 0: not isotropic
     };
     using Bodies = std::vector<SolverBody>;
     static constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
@@ -181,13 +182,16 @@ private:
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
+    // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero).
+    static void apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only);
+    static void apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only);
     // The speed along row k of p (> 0 separates for the normal), rounded once.
     static Fixed row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies);
     // c[k] = r x (p's row k direction) for body id's arm r (exact zeros for a sphere's normal).
     void arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const;
     // Fills a row from its arms ca, cb: the inverse inertia products and the effective mass
     // (same_mass's when given: a row known to have the same one).
-    void make_row(BodyId a, BodyId b, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass = nullptr) const;
+    void make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass = nullptr) const;
     Fixed pair_restitution(BodyId a, BodyId b) const;
     void pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const;
     OrientedCollider collider(BodyId id, const std::vector<Vec3>& pos) const;

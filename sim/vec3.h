@@ -53,7 +53,7 @@ inline Fixed dot(const Vec3& a, const Vec3& b) {
         note_overflow();
         return s > 0 ? Fixed::max() : Fixed::min();
     }
-    return saturate_i128(round_shift(s, Fixed::kFracBits));
+    return round_wide(s);
 }
 
 // |v|^2 in Q64.64 (exact, never overflows: 3 * 2^126 < 2^128).

@@ -79,6 +79,39 @@ TEST(FixedMul, CorrectlyRoundedOnAMillionRandomInputsAndAllEdgePairs) {
     EXPECT_GT(st.saturated, 0) << "the random spread should reach saturation";
 }
 
+// round_wide's fast path (two 64-bit halves) against the generic i128 rounding it stands for:
+// the same result and the same overflow count for every kind of input, the edges of the int64
+// range (where rounding up brings a value just below INT64_MIN back into range) included.
+TEST(FixedMul, RoundWideMatchesTheGenericRounding) {
+    const auto check = [](i128 v) {
+        const auto before = overflow_events();
+        const Fixed fast = round_wide(v);
+        const auto fast_events = overflow_events() - before;
+        const Fixed generic = saturate_i128(round_shift(v, Fixed::kFracBits));
+        const auto generic_events = overflow_events() - before - fast_events;
+        return fast == generic && fast_events == generic_events;
+    };
+    std::vector<i128> edges;
+    for (const i128 base : {i128{0}, static_cast<i128>(INT64_MAX) << 32, static_cast<i128>(INT64_MIN) << 32,
+                            (static_cast<i128>(INT64_MIN) - 1) << 32, (static_cast<i128>(INT64_MAX) + 1) << 32})
+        for (const i128 off : {i128{0}, i128{1}, i128{-1}, i128{1} << 31, (i128{1} << 31) + 1, (i128{1} << 31) - 1,
+                               (i128{3} << 31), -(i128{1} << 31), -(i128{3} << 31), i128{1} << 32, -(i128{1} << 32)})
+            edges.push_back(base + off);
+    edges.push_back(static_cast<i128>(~u128{0} >> 1));
+    edges.push_back(-static_cast<i128>(~u128{0} >> 1) - 1);
+    for (std::size_t i = 0; i < edges.size(); ++i) ASSERT_TRUE(check(edges[i])) << "edge case " << i;
+    std::mt19937_64 g(kSeed + 20);
+    for (int i = 0; i < kRandomCases; ++i) {
+        // Full-width values, and values whose rounded result is near the int64 range's ends.
+        const i128 wide = static_cast<i128>((static_cast<u128>(g()) << 64) | g());
+        const i128 near = (static_cast<i128>(static_cast<std::int64_t>(g())) << 32) + static_cast<i128>(g() & 0xFFFFFFFFu);
+        const int shift = static_cast<int>(g() % 100);
+        ASSERT_TRUE(check(wide)) << i;
+        ASSERT_TRUE(check(near)) << i;
+        ASSERT_TRUE(check(wide >> shift)) << i;
+    }
+}
+
 TEST(FixedMul, ExactHalfUlpTiesGoToEven) {
     auto mul = [](std::int64_t a, std::int64_t b) { return (Fixed::from_raw(a) * Fixed::from_raw(b)).raw; };
     const std::int64_t half = std::int64_t{1} << 31;  // 0.5
