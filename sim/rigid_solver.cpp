@@ -293,12 +293,17 @@ Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies
     return s.rounded();
 }
 
+// Whether an impulse moves this body: every dynamic body, or `only` alone (shock pass). Static
+// bodies have zero inverse mass and inertia: skipping them changes no bits.
+bool RigidSolver::moves(const SolverBody& body, BodyId id, BodyId only) {
+    return only == kEveryBody ? body.inv_mass.raw != 0 : only == id;
+}
+
 void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
-    // Static bodies have zero inverse mass and inertia: skipping them changes no bits.
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
-    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
-    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    const bool move_a = moves(a, p.a, only);
+    const bool move_b = moves(b, p.b, only);
     // A normal impulse alone does not turn a body whose normal arm is zero (a sphere).
     const bool tangential = l1.raw != 0 || l2.raw != 0;
     if (move_a) {
@@ -319,8 +324,8 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
 void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
-    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
-    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    const bool move_a = moves(a, p.a, only);
+    const bool move_b = moves(b, p.b, only);
     if (move_a) {
         a.v -= p.n * (l * a.inv_mass);
         if (p.row[0].ia != Vec3{}) a.w -= p.row[0].ia * l;
@@ -334,8 +339,8 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
 void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
-    const bool move_a = only == kEveryBody ? a.inv_mass.raw != 0 : only == p.a;
-    const bool move_b = only == kEveryBody ? b.inv_mass.raw != 0 : only == p.b;
+    const bool move_a = moves(a, p.a, only);
+    const bool move_b = moves(b, p.b, only);
     const auto sum = [](const Vec3& u, Fixed x, const Vec3& w, Fixed y) {
         return Vec3{mul_add(u.x, x, w.x, y), mul_add(u.y, x, w.y, y), mul_add(u.z, x, w.z, y)};
     };

@@ -182,6 +182,7 @@ private:
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
+    static bool moves(const SolverBody& body, BodyId id, BodyId only);
     // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero).
     static void apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only);
     static void apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only);
