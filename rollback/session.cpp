@@ -789,13 +789,19 @@ void Session::apply_blocks(PlayerId from) {
     }
 }
 
+// Our stream is kept back to the oldest input a live peer has not acknowledged. With no live
+// peer (every other slot dropped or absent, or a one-player match) nothing is owed to anyone:
+// the floor stays "no limit", and only Sync's retain window holds inputs back. It must not be
+// pinned to a frame instead (it was: confirmed_count() at the moment the last peer went): acks
+// stop when nobody else is left, so a pinned floor never moved again and the local queue filled
+// input_capacity frames later -- the lone survivor froze for good (issue 21). A peer that
+// becomes live again (a joiner) counts from its own acks on; floors never move back, and what
+// it lacks from before the floor comes with its snapshot.
 void Session::refresh_resend_floor() {
     if (config_.role == Role::Spectator) return;
     std::uint32_t floor = std::numeric_limits<std::uint32_t>::max();
     for (std::size_t p = 0; p < links_.size(); ++p)
         if (live_peer(static_cast<PlayerId>(p))) floor = std::min(floor, links_[p].remote_ack);
-    const InputQueue& local = sync_->queue(config_.local_player);
-    if (floor == std::numeric_limits<std::uint32_t>::max()) floor = local.confirmed_count();
     sync_->set_keep_from(config_.local_player, floor);
 }
 
@@ -1017,6 +1023,10 @@ AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, s
     confirm_frames();
     sample_time_sync(now_us);
     refresh_keep_floors(now_us);
+    // Every tick, not only on the acks and lifecycle changes that call it: the set of live peers
+    // also changes where no call was made (a spectator timing out), and a floor left on a peer
+    // that is gone would hold our stream until the queue is full -- a stall that never ends.
+    refresh_resend_floor();
     const bool spectator = config_.role == Role::Spectator;
     // The local input goes to frame() + delay whether or not this tick can step: in lockstep
     // both sides wait for each other's input of the same frame, so it must be sent while

@@ -36,6 +36,15 @@ std::vector<const SessionEvent*> events_of(const Client& c, Kind k) {
     return out;
 }
 
+// A new process comes into the match `cfg` describes: a joiner for slot `id`, or a spectator.
+Client& start_newcomer(Cluster& cluster, const sim::SceneDesc& scene, const SessionConfig& cfg, Role role,
+                       PlayerId id, std::uint64_t bot_seed) {
+    SessionConfig c = cfg;
+    c.role = role;
+    c.local_player = id;
+    return cluster.start(id, scene, c, bot_seed);
+}
+
 // Every client that takes part confirmed `frame` with the same checksum.
 void expect_equal_at(const Cluster& cluster, std::uint32_t frame) {
     std::optional<std::uint64_t> first;
@@ -171,6 +180,113 @@ TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
     expect_equal_at(cluster, 600);
 }
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
+
+// Issue 21, "the lone survivor freezes": every other player is killed at frame 200 and the
+// survivor plays on alone. Nothing may stop a match that has one live player: it must keep
+// advancing and confirming frames far beyond input_capacity frames after the drop (the freeze
+// came ~input_capacity frames after it), with no failure and no stall after the timeout.
+// Small queues (when asked) fill quickly, a short timeout ends the stall on the dead quickly.
+SessionConfig lone_config(int players, int window, std::uint32_t input_capacity) {
+    SessionConfig cfg = real_config(players, window);
+    cfg.input_capacity = input_capacity;
+    cfg.disconnect_us = 1'500'000;
+    cfg.interrupt_us = 500'000;
+    return cfg;
+}
+
+void lone_survivor(int players, int window, std::uint32_t input_capacity, std::uint32_t frames) {
+    const auto scene = make_scene(players, 10);
+    const SessionConfig cfg = lone_config(players, window, input_capacity);
+    Cluster cluster(scene, cfg, {20000, 4000}, 23);
+    cluster.run_frames(200);
+    for (int p = 1; p < players; ++p) cluster.kill(static_cast<PlayerId>(p));
+    const std::uint32_t virtual_s = frames / 60 + 30;  // real time plus slack for the timeout
+    cluster.run_frames(frames, std::uint64_t{virtual_s} * 1'000'000);
+    cluster.settle(frames, 5'000'000);
+    const Client& survivor = *cluster.clients[0];
+    ASSERT_EQ(survivor.session->phase(), SessionPhase::Running) << survivor.session->failure();
+    EXPECT_GE(survivor.session->frame(), frames);
+    EXPECT_GE(survivor.session->confirmed_frame(), frames);
+    EXPECT_GE(survivor.forward, frames);
+    EXPECT_EQ(survivor.confirmed.count(frames), 1u);
+    for (int p = 1; p < players; ++p) {
+        EXPECT_EQ(survivor.session->slot_state(static_cast<PlayerId>(p)), SlotState::Disconnected) << "slot " << p;
+    }
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected).size(), static_cast<std::size_t>(players - 1));
+    EXPECT_TRUE(events_of(survivor, Kind::Failed).empty());
+    // Stalled only while the dead waited out their timeout.
+    EXPECT_LT(survivor.session->stats().stall_time_us, cfg.disconnect_us + 1'000'000);
+}
+
+TEST(Lifecycle, LoneSurvivorPlaysOnRollback) { lone_survivor(2, 8, 1024, 3000); }
+TEST(Lifecycle, LoneSurvivorPlaysOnSmallQueues) { lone_survivor(2, 8, 64, 1000); }
+TEST(Lifecycle, LoneSurvivorPlaysOnLockstep) { lone_survivor(2, 0, 64, 1000); }
+TEST(Lifecycle, LoneSurvivorOfThreePlaysOn) { lone_survivor(3, 8, 64, 1000); }
+TEST(Lifecycle, LoneSurvivorOfThreePlaysOnLockstep) { lone_survivor(3, 0, 1024, 3000); }
+
+// Alone from frame 0 (the other slot absent, nobody joins for a long time), then a joiner comes:
+// the owner played on past its queues' capacity, and serves the joiner as usual.
+TEST(Lifecycle, AloneFromTheStartThenAJoinerComes) {
+    const auto scene = make_scene(2, 10);
+    SessionConfig cfg = real_config(2, 8);
+    cfg.input_capacity = 64;
+    cfg.absent_slots = 1u << 1;
+    Cluster cluster(scene, cfg, {10000, 2000}, 31);
+    cluster.kill(1);  // nobody runs slot 1 yet
+    cluster.run_frames(1000, 60'000'000);
+    cluster.settle(1000, 5'000'000);
+    const Client& owner = *cluster.clients[0];
+    ASSERT_EQ(owner.session->phase(), SessionPhase::Running) << owner.session->failure();
+    EXPECT_GE(owner.session->confirmed_frame(), 1000u);
+    Client& joiner = start_newcomer(cluster, scene, cfg, Role::Joiner, 1, 32);
+    cluster.run_frames(1600, 60'000'000);
+    cluster.settle(1600);
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    EXPECT_EQ(owner.session->slot_state(1), SlotState::Running);
+    expect_equal_at(cluster, 1600);
+}
+
+// A spectator follows the survivor; then the spectator goes too (it times out, which is no slot
+// drop): the survivor is alone and plays on.
+TEST(Lifecycle, LoneSurvivorOutlivesItsSpectator) {
+    const auto scene = make_scene(2, 10);
+    SessionConfig cfg = lone_config(2, 8, 64);
+    cfg.max_spectators = 1;
+    Cluster cluster(scene, cfg, {10000, 2000}, 37);
+    cluster.run_frames(100);
+    Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 2, 1);
+    cluster.run_frames(200, 30'000'000);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running);
+    cluster.kill(1);
+    cluster.run_frames(400, 30'000'000);
+    cluster.kill(2);
+    cluster.run_frames(1200, 60'000'000);
+    cluster.settle(1200, 5'000'000);
+    const Client& survivor = *cluster.clients[0];
+    ASSERT_EQ(survivor.session->phase(), SessionPhase::Running) << survivor.session->failure();
+    EXPECT_FALSE(events_of(survivor, Kind::SpectatorJoined).empty());
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected).size(), 2u);  // the slot, then the spectator
+    EXPECT_GE(survivor.session->confirmed_frame(), 1200u);
+}
+
+// The same with the peer alive but unreachable (every datagram between the two is lost from
+// frame 200 on): each drops the other and plays on alone.
+TEST(Lifecycle, BothSidesOfAPartitionPlayOn) {
+    const auto scene = make_scene(2, 10);
+    const SessionConfig cfg = lone_config(2, 8, 64);
+    Cluster cluster(scene, cfg, {20000, 4000}, 29);
+    cluster.run_frames(200);
+    cluster.filter = [](PlayerId, PlayerId, const std::vector<std::uint8_t>&) { return false; };
+    cluster.run_frames(1000, 60'000'000);
+    cluster.settle(1000, 5'000'000);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_GE(c.session->frame(), 1000u) << "client " << p;
+        EXPECT_GE(c.session->confirmed_frame(), 1000u) << "client " << p;
+        EXPECT_EQ(c.session->slot_state(p == 0 ? 1 : 0), SlotState::Disconnected) << "client " << p;
+    }
+}
 
 // Between real processes a survivor's connection to the joiner can come up only after the
 // joiner has loaded its snapshot from another peer and runs (the survivor was still timing out
