@@ -73,20 +73,21 @@ TEST(TimeSync, RecommendsOnlyFromAFullWindowAndAtLeastMinFramesAhead) {
         t.add_sample(-gap, gap);
         return t;
     };
-    const TimeSync exact = with_gap(8);  // D 16: 2.00 frames
-    EXPECT_EQ(exact.frames_ahead_x100(), 200);
-    EXPECT_EQ(exact.recommended_wait(2), 2);  // "at least": exactly min is enough
-    EXPECT_EQ(exact.recommended_wait(3), 0);
-    const TimeSync under = with_gap(7);  // D 14: 1.75 frames, rounded would be 2, but below min
-    EXPECT_EQ(under.frames_ahead_x100(), 175);
-    EXPECT_EQ(under.recommended_wait(2), 0);
-    EXPECT_EQ(under.recommended_wait(1), 2);  // rounded to nearest
-    const TimeSync half = with_gap(10);  // 2.50: rounds up
-    EXPECT_EQ(half.frames_ahead_x100(), 250);
-    EXPECT_EQ(half.recommended_wait(1), 3);
-    const TimeSync below_half = with_gap(9);  // 2.25 (D 18): rounds down
-    EXPECT_EQ(below_half.frames_ahead_x100(), 225);
-    EXPECT_EQ(below_half.recommended_wait(1), 2);
+    struct Case {
+        int gap;
+        std::int32_t ahead_x100;
+        int min_frames, wait;
+    };
+    for (const Case c : {Case{8, 200, 2, 2},    // exactly min is enough ("at least")
+                         Case{8, 200, 3, 0},
+                         Case{7, 175, 2, 0},    // rounds to 2, but the lead is below min
+                         Case{7, 175, 1, 2},    // rounded to nearest
+                         Case{10, 250, 1, 3},   // a half rounds up
+                         Case{9, 225, 1, 2}}) {  // below a half rounds down
+        const TimeSync t = with_gap(c.gap);
+        EXPECT_EQ(t.frames_ahead_x100(), c.ahead_x100) << "gap " << c.gap;
+        EXPECT_EQ(t.recommended_wait(c.min_frames), c.wait) << "gap " << c.gap << ", min " << c.min_frames;
+    }
     // Not full: nothing, however far ahead.
     TimeSync partial(4);
     feed(partial, 3, -50, 50);
@@ -159,17 +160,18 @@ TEST(TimeSync, WindowBelowOneIsOne) {
 // before add_sample (session.cpp; end to end in Lifecycle.ForgedTimeSyncClaimIsBounded), and
 // the wire carries an int8. A core shared by both sessions must keep that clamp.
 TEST(TimeSync, WaitFollowsTheClaimWithinTheWireRange) {
-    TimeSync t(8);
-    feed(t, 8, 0, 127);  // the largest advantage an input message can carry
-    EXPECT_EQ(t.frames_ahead_x100(), 6350);
-    EXPECT_EQ(t.recommended_wait(1), 64);
-    TimeSync both(8);
-    feed(both, 8, -128, 127);
-    EXPECT_EQ(both.frames_ahead_x100(), 12750);
-    EXPECT_EQ(both.recommended_wait(1), 128);
-    TimeSync million(8);  // far outside the wire range, still exact
-    feed(million, 8, 0, 1'000'000);
-    EXPECT_EQ(million.recommended_wait(1), 500'000);
+    struct Claim {
+        std::int32_t local, remote, ahead_x100;
+        int wait;
+    };
+    for (const Claim c : {Claim{0, 127, 6350, 64},         // the largest an input message carries
+                          Claim{-128, 127, 12750, 128},    // both ends of the int8 range
+                          Claim{0, 1'000'000, 50'000'000, 500'000}}) {  // far outside it, still exact
+        TimeSync t(8);
+        feed(t, 8, c.local, c.remote);
+        EXPECT_EQ(t.frames_ahead_x100(), c.ahead_x100) << c.local << ", " << c.remote;
+        EXPECT_EQ(t.recommended_wait(1), c.wait) << c.local << ", " << c.remote;
+    }
 }
 
 // FINDING: frames_ahead_x100() and local_advantage_x100() compute in 64 bits and then cast to
