@@ -80,8 +80,10 @@ void Sync::update_floors() {
 }
 
 std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> state) {
-    if (pending_) pending_.reset();
+    // A refused state changes nothing, a scheduled rollback included: the caller keeps running
+    // on the current frames (and asks again), which still rest on that misprediction.
     if (std::string err = sim_.load(state); !err.empty()) return err;
+    pending_.reset();
     for (InputQueue& q : queues_) q.restart_at(frame);
     std::fill(keep_from_.begin(), keep_from_.end(), std::numeric_limits<std::uint32_t>::max());
     if (!config_.all_streams_remote) keep_from_[config_.local_player] = frame;

@@ -1,6 +1,7 @@
 #include "rollback/time_sync.h"
 
 #include <algorithm>
+#include <limits>
 #include <stdexcept>
 
 namespace lockroll::rollback {
@@ -28,22 +29,31 @@ void TimeSync::clear() {
     sum_local_ = sum_remote_ = 0;
 }
 
+namespace {
+// Sums of int32 claims fit in 64 bits; their x100 averages may not fit in 32, and a claim is a
+// peer's word: saturate rather than wrap, so a larger claim never reads as a smaller one.
+std::int32_t saturate(std::int64_t v) {
+    return static_cast<std::int32_t>(
+        std::clamp<std::int64_t>(v, std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::max()));
+}
+}  // namespace
+
 // ahead = (remote - local) / 2: if we are k frames ahead, local ~ -k and remote ~ +k.
 std::int32_t TimeSync::frames_ahead_x100() const {
     if (count_ == 0) return 0;
-    return static_cast<std::int32_t>((sum_remote_ - sum_local_) * 100 / (2 * static_cast<std::int64_t>(count_)));
+    return saturate((sum_remote_ - sum_local_) * 100 / (2 * static_cast<std::int64_t>(count_)));
 }
 
 std::int32_t TimeSync::local_advantage_x100() const {
     if (count_ == 0) return 0;
-    return static_cast<std::int32_t>(sum_local_ * 100 / static_cast<std::int64_t>(count_));
+    return saturate(sum_local_ * 100 / static_cast<std::int64_t>(count_));
 }
 
 int TimeSync::recommended_wait(int min_frames) const {
     if (!full()) return 0;
     const std::int32_t ahead = frames_ahead_x100();
     if (ahead < 100 * min_frames) return 0;
-    return (ahead + 50) / 100;
+    return static_cast<int>((std::int64_t{ahead} + 50) / 100);
 }
 
 }  // namespace lockroll::rollback

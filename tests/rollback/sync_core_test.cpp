@@ -552,14 +552,11 @@ TEST(SyncCore, RestartAtASnapshotResumesFromIt) {
 }
 
 // Contract: restart_at returns why it failed "and nothing changed".
-// FINDING: Sync::restart_at() resets the pending rollback before sim_.load() can fail, so a
-// refused snapshot (Session::finish_transfer rejects it, asks again and keeps running, as in a
-// desync recovery) silently drops a scheduled rollback: the displayed state keeps resting on a
-// known misprediction, and the frames confirmed from it later carry checksums the peers do not
-// share (a false desync). Fix: reset pending_ only once the load succeeded. Skipped until
-// rollback/sync.cpp is fixed (it passes with that one-line change).
+// A refused snapshot (Session::finish_transfer rejects it, asks again and keeps running, as in a
+// desync recovery) must not drop a scheduled rollback: the displayed state would keep resting on
+// a known misprediction, and the frames confirmed from it would carry checksums the peers do not
+// share (a false desync). Failed before the fix: restart_at reset the rollback before loading.
 TEST(SyncCore, FailedRestartKeepsAPendingRollback) {
-    GTEST_SKIP() << "FINDING: a failed Sync::restart_at drops a pending rollback (see comment)";
     Rig r(config(2, 8));
     for (std::uint32_t f = 0; f < 4; ++f) ASSERT_TRUE(r.tick(kNeutral));
     r.sync.add_remote_input(1, 0, kForward);

@@ -174,15 +174,11 @@ TEST(TimeSync, WaitFollowsTheClaimWithinTheWireRange) {
     }
 }
 
-// FINDING: frames_ahead_x100() and local_advantage_x100() compute in 64 bits and then cast to
-// int32 without saturating, and recommended_wait() adds 50 to an int32 that may be near its
-// maximum (signed overflow, undefined; UBSan reports it). A claim of INT32_MAX frames ahead
-// reads as half a frame *behind* (-50), a claim of 100,000,000 frames as 7,050,327 frames
-// (mod 2^32), and a claim of 42,949,672 as a wait of -21,474,836. Not reachable through Session
-// today (it clamps samples to a few frames, see above), but TimeSync itself accepts any int32
-// and states no range. Fix: saturate (or clamp samples on entry) and round in 64 bits.
+// A peer's claim is any int32. Before the fix the x100 averages were cast to int32 without
+// saturating and recommended_wait() added 50 to a value near INT32_MAX (undefined): a claim of
+// INT32_MAX frames ahead read as half a frame behind (-50), 100,000,000 as 7,050,327 frames and
+// 42,949,672 as a wait of -21,474,836. Session clamps its samples anyway (see above).
 TEST(TimeSync, ExtremeClaimsSaturateInsteadOfWrapping) {
-    GTEST_SKIP() << "FINDING: TimeSync's x100 arithmetic wraps for claims beyond ~21 million frames (see comment)";
     constexpr std::int32_t kMax = std::numeric_limits<std::int32_t>::max();
     constexpr std::int32_t kMin = std::numeric_limits<std::int32_t>::min();
     TimeSync extreme(4);
