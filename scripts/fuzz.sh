@@ -2,7 +2,7 @@
 # Builds the libFuzzer targets (fuzz/, clang with ASan + UBSan, in build-asan as
 # scripts/sanitize.sh configures it) and runs each for a bounded time, starting from the
 # committed seed corpus. Exit 1 when any target finds a crash, a leak, a timeout or an
-# out-of-memory; the input is then in build-asan/fuzz-artifacts/. scripts/test.sh runs it
+# out-of-memory; the input is then in build-asan/fuzz-artifacts/. scripts/test.sh --full runs it
 # with the default 30 s per target; long runs by hand are recorded in docs/reliability.md.
 #
 #   bash scripts/fuzz.sh [--seconds N | --runs N] [TARGET...]   (default: every target)

@@ -6,8 +6,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
-cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j"$(nproc)"
+# Only the program it runs, in the build directory scripts/test.sh then reuses (same flags).
+bash scripts/configure.sh build
+cmake --build build -j"$(nproc)" --target lockroll
 for reading in "rtt57 28.5" "oneway57 57"; do
   set -- $reading
   ./build/harness/lockroll compare --scene paper --players 2 --frames 720 --latency "$2" --jitter 10 \

@@ -4,7 +4,7 @@
 # that scripts/fuzz.sh builds in the same directory). Any sanitizer report fails the test that
 # triggered it. Left out: soaks, the cross check (a gcc/clang/qemu matrix of its own) and the
 # install test (it builds a consumer with the default compiler, which cannot link ASan
-# objects). scripts/test.sh runs this when clang++ is installed; docs/reliability.md.
+# objects). scripts/test.sh --full runs this; docs/testing.md.
 #
 #   bash scripts/sanitize.sh                  configure, build, run the tests
 #   bash scripts/sanitize.sh --configure-only configure build-asan (used by scripts/fuzz.sh)
