@@ -36,6 +36,9 @@ constexpr std::size_t kMaxEvents = 4096;
 constexpr int kMaxChunksPerPoll = 64;
 constexpr std::size_t kMaxOutgoingTransfers = 4;
 constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
+// A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
+// server a whole state packed and sent, so a peer that keeps asking must not multiply that.
+constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
 constexpr std::uint16_t kNoEcho = 0xFFFF;
 }  // namespace
 
@@ -835,10 +838,12 @@ void Session::confirm_frames() {
     }
 }
 
-// A peer's frame now: what it last reported plus the time since then and half a round trip.
+// A peer's frame now: what it last reported plus the time since then and half a round trip. A
+// peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
+// there (unbounded, a stuck peer read as tens of thousands of frames ahead).
 std::int64_t Session::estimated_frame(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t elapsed =
-        (now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0) + link.rtt_us() / 2;
+    const std::uint64_t silent = now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0;
+    const std::uint64_t elapsed = std::min(silent, config_.interrupt_us) + link.rtt_us() / 2;
     return std::int64_t{link.remote_frame} +
            static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
 }
@@ -1225,17 +1230,27 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
         return;
     }
     if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
+    // A recovery is served only to a running player whose confirmed checksums this session has
+    // seen differ from its own, and only when recoveries are on: a request is a claim, and
+    // answering every one would turn a few bytes into a whole snapshot (an amplifier).
+    if (m.reason == TransferReason::Recover &&
+        (config_.max_recoveries == 0 || !is_slot(from) || !slot_running(from) || !detector_->desynced(from)))
+        return void(++stats_.peers[from].ignored_packets);
     // The same peer asking again while its offer is young: send the same offer.
-    // (A recovery wants a fresh frame, so its offer is reused only against duplicates; either way
-    // a peer cannot make us pack more than a few blobs a second.)
+    // (A recovery wants a fresh frame, so its offer is reused only against duplicates, and a new
+    // one is packed at most every kRecoveryIntervalUs.)
     const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
-    for (const OutgoingTransfer& t : outgoing_)
-        if (t.peer == from && t.offer.reason == m.reason && now_us < t.created_us + reuse_us) {
+    for (const OutgoingTransfer& t : outgoing_) {
+        if (t.peer != from || t.offer.reason != m.reason) continue;
+        if (now_us < t.created_us + reuse_us) {
             std::vector<std::uint8_t> b;
             encode(t.offer, b);
             send_control(from, std::move(b));
             return;
         }
+        if (m.reason == TransferReason::Recover && now_us < t.created_us + kRecoveryIntervalUs)
+            return void(++stats_.peers[from].ignored_packets);
+    }
     const std::uint32_t c = sync_->confirmed_frame();
     std::uint32_t handoff = 0;
     switch (m.reason) {
@@ -1281,8 +1296,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
             break;
         case TransferReason::Recover:
-            if (!is_slot(from) || !slot_running(from)) return;
-            break;
+            break;  // checked above
     }
     TransferContents t;
     t.frame = c;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <set>
 
 #include "rollback/session.h"
 #include "tests/rollback/test_support.h"
@@ -436,6 +437,66 @@ TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
     EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
     EXPECT_EQ(cluster.clients[1]->session->recoveries(), 0);
     expect_equal_at(cluster, 600);
+}
+
+// A snapshot request is a claim. "Recover" from a peer whose confirmed checksums agree with
+// ours is not answered (before: every one was, each a whole snapshot for a few bytes, about 90x
+// amplification); during a real desync a flood of requests gets at most one fresh snapshot a
+// second (before: one every 300 ms), and the odd one still recovers.
+TEST(Lifecycle, RecoveryRequestsAreAnsweredOnlyDuringADesync) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.max_recoveries = 1;
+    Cluster cluster(scene, cfg, {20000, 4000}, 6);
+    cluster.run_frames(100);
+    std::vector<std::uint8_t> request;
+    encode(SnapshotRequestMessage{TransferReason::Recover, 0, 0}, request);
+    std::set<std::uint32_t> offers;  // fresh transfers client 0 offered to peer 1
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        SnapshotOfferMessage o;
+        if (from == 0 && to == 1 && decode(b, o) == nullptr) offers.insert(o.transfer_id);
+        return true;
+    };
+    bool flood = true;
+    cluster.before_tick = [&](PlayerId id, Client&) {
+        if (id == 1 && flood) cluster.clients[0]->session->receive(1, request, cluster.now());
+    };
+    cluster.run_frames(400, 60'000'000);
+    EXPECT_TRUE(offers.empty()) << offers.size() << " snapshots offered with no desync open";
+    EXPECT_GE(cluster.clients[0]->session->stats().peers[1].ignored_packets, 250u);
+    expect_equal_at(cluster, 400);
+
+    // Peer 1 really desyncs at frame 450 and keeps flooding for 10 s of play.
+    const std::uint32_t body = cluster.clients[1]->sim.body_id(5);
+    ASSERT_EQ(cluster.clients[1]->session->inject_fault(450, body, 0, 20), "");
+    cluster.run_frames(1000, 60'000'000);
+    flood = false;
+    cluster.run_frames(1200, 60'000'000);
+    cluster.settle(1200);
+    EXPECT_GE(offers.size(), 1u);
+    EXPECT_LE(offers.size(), 12u) << "fresh recovery snapshots for ~10 s of requests";
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::DesyncRecovered).size(), 1u);
+    expect_equal_at(cluster, 1200);
+}
+
+// A peer that falls silent is not assumed to run on for ever: a minute after peer 1 died (never
+// dropped: disconnect_us 0), the survivor's estimate of how far behind it is stays within the
+// interrupt time plus delay and window. Before, it extrapolated the silence: -3,6xx frames here,
+// -53,768 in a long real-process run.
+TEST(Lifecycle, SilentPeerIsNotEstimatedToRunOn) {
+    const auto scene = make_scene(2, 4);
+    SessionConfig cfg = real_config(2, 8);
+    cfg.disconnect_us = 0;
+    Cluster cluster(scene, cfg, {10000}, 9);
+    cluster.run_frames(120);
+    cluster.kill(1);
+    cluster.run([](const Cluster&) { return false; }, 60'000'000);
+    const NetworkStats n = cluster.clients[0]->session->network_stats(1, cluster.now());
+    EXPECT_TRUE(n.interrupted);
+    const int interrupt_frames = static_cast<int>(cfg.interrupt_us * 60 / 1'000'000);
+    const int slack = interrupt_frames + cfg.input_delay + cfg.prediction_window + 2;
+    EXPECT_GE(n.frames_behind, -slack);
+    EXPECT_LE(n.frames_behind, slack);
 }
 
 // One clock 1 % fast, one 5 % slow: time sync holds the fast ones back (they wait, the slow one
