@@ -161,12 +161,24 @@ void RelaySession::handle_welcome(std::uint64_t now_us) {
     }
     if (w.players != config_.players || w.input_size != config_.input_size || w.tick_rate != config_.tick_rate)
         return fail("relay server: the room's players, input size or tick rate differ", now_us);
-    welcomed_ = true;
     if (phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring) {
-        // Welcomed again after a reconnect: the server resumed this client where it was.
+        // Welcomed again after a reconnect. A room this client played in has started, and its
+        // clock runs on where this client's estimate of it says; a room that has not started,
+        // or whose clock is far behind that estimate, is a new room (the server restarted). The
+        // match is gone there, and resuming would only get this client kicked for frames the
+        // room never confirmed, again on every reconnect.
+        const std::int64_t expected = room_clock(now_us).value_or(0) / kFrac;
+        const auto slack = static_cast<std::int64_t>(config_.tick_rate) +
+                           static_cast<std::int64_t>(link_.rtt_us() * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
+        if (!w.started || std::int64_t{w.server_frame} + slack < expected)
+            return fail("relay server: the room restarted (its clock at frame " + std::to_string(w.server_frame) +
+                            ", expected about " + std::to_string(expected) + "): the match cannot resume",
+                        now_us);
+        welcomed_ = true;
         emit(SessionEvent::Kind::Resumed, static_cast<PlayerId>(w.slot), frame(), now_us, "resumed on a new connection");
         return;
     }
+    welcomed_ = true;
     my_id_ = w.slot;
     checksum_interval_ = w.checksum_interval;
     // No round trip from the hello's echo: the hello may have waited for the connection (a

@@ -415,8 +415,10 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
     if (id < players_)
         for (int i = 0; i < in_.checksum_count; ++i) {
             const std::uint32_t f = in_.checksum_frames[i];
+            // Frame f is the state after f steps: confirmed once frames [0, f) are, so f may
+            // equal confirmed_next_ (a client reports it as soon as the frames message arrives).
             if (config_.checksum_interval <= 0 || f % static_cast<std::uint32_t>(config_.checksum_interval) != 0 ||
-                f >= confirmed_next_)
+                f > confirmed_next_)
                 return "relay input: checksum of a frame not confirmed or not a checkpoint";
             report_checksum(id, f, in_.checksums[i], now_us, out);
         }

@@ -45,7 +45,7 @@ struct RelayClient : rollback::SessionObserver {
 
 class RelayCluster {
 public:
-    RelayCluster(sim::SceneDesc scene, ServerConfig sc = {}) : scene_(std::move(scene)), server_(sc) {}
+    RelayCluster(sim::SceneDesc scene, ServerConfig sc = {}) : scene_(std::move(scene)), server_(std::make_unique<RelayServer>(sc)) {}
 
     // Adds a client; returns its index. Connects at the current time.
     int add(rollback::RelaySessionConfig cfg, NetParams link, std::uint64_t seed) {
@@ -53,14 +53,28 @@ public:
         const ConnectionId conn = next_conn_++;
         clients_.push_back(std::make_unique<RelayClient>(scene_, cfg, conn, link, link, seed));
         clients_.back()->next_tick_us = now_;
-        server_.on_connect(conn, now_);
+        server_->on_connect(conn, now_);
         return static_cast<int>(clients_.size()) - 1;
     }
     // The process dies: nothing more is sent or received; the server notices the silence.
     void kill(int i) { clients_[static_cast<std::size_t>(i)]->alive = false; }
+    // The server process dies and a new one starts at once with no rooms: every client's
+    // transport reconnects (a new connection, datagrams in flight lost).
+    void restart_server(ServerConfig sc = {}) {
+        server_ = std::make_unique<RelayServer>(sc);
+        kicked_.clear();
+        for (auto& c : clients_) {
+            const auto lost = [](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>&, std::uint64_t) {};
+            c->up_net.deliver(UINT64_MAX, lost);
+            c->down_net.deliver(UINT64_MAX, lost);
+            c->connection = next_conn_++;
+            server_->on_connect(c->connection, now_);
+            if (c->alive) c->session->transport_reconnected(now_);
+        }
+    }
 
     RelayClient& client(int i) { return *clients_[static_cast<std::size_t>(i)]; }
-    RelayServer& server() { return server_; }
+    RelayServer& server() { return *server_; }
     std::uint64_t now() const { return now_; }
 
     void run_for(std::uint64_t us) {
@@ -93,13 +107,13 @@ private:
         for (auto& c : clients_) {
             RelayClient& cl = *c;
             cl.up_net.deliver(now_, [&](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>& b, std::uint64_t at) {
-                if (cl.alive && !kicked_.count(cl.connection)) server_.receive(cl.connection, b, at);
+                if (cl.alive && !kicked_.count(cl.connection)) server_->receive(cl.connection, b, at);
             });
             cl.down_net.deliver(now_, [&](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>& b, std::uint64_t at) {
                 if (cl.alive && !cl.frozen) cl.session->receive(b, at);
             });
         }
-        server_.tick(now_);
+        server_->tick(now_);
         flush_server();
         for (auto& c : clients_) {
             RelayClient& cl = *c;
@@ -125,19 +139,19 @@ private:
     }
     void flush_server() {
         sent_.clear();
-        server_.take_outgoing(sent_);
+        server_->take_outgoing(sent_);
         for (auto& o : sent_)
             for (auto& c : clients_)
                 if (c->connection == o.to) c->down_net.send(1, 0, std::move(o.bytes), now_);
-        for (ConnectionId k; server_.next_kick(k);) {
+        for (ConnectionId k; server_->next_kick(k);) {
             kicked_[k] = now_;
-            server_.on_disconnect(k, now_);
+            server_->on_disconnect(k, now_);
         }
-        for (ServerEvent e; server_.next_event(e);) server_events.push_back(e);
+        for (ServerEvent e; server_->next_event(e);) server_events.push_back(e);
     }
 
     sim::SceneDesc scene_;
-    RelayServer server_;
+    std::unique_ptr<RelayServer> server_;
     std::vector<std::unique_ptr<RelayClient>> clients_;
     std::uint64_t now_ = 1'000'000;
     ConnectionId next_conn_ = 1;

@@ -61,6 +61,41 @@ TEST(RelayMatch, SlowPlayerIsReplacedPastTheDeadlineAndNobodyWaitsForIt) {
     }
 }
 
+// Two honest clients on a clean link, 1,800 frames (30 s) with the server's default checksum
+// arbitration every 60 frames: nobody is kicked, and both confirm equal checksums to the end.
+// (Between real processes the server kicked both at frame 1,020, 1,260 or 1,560.)
+TEST(RelayMatch, LongMatchKicksNobody) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 30 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(1800, 60'000'000));
+    cl.run_for(2'000'000);
+    for (int s = 0; s < 2; ++s) EXPECT_EQ(cl.kicked(cl.client(s).connection), 0u) << "slot " << s;
+    expect_equal_at(cl, {0, 1}, 1800);
+}
+
+// The server dies and a new one comes up at the same address: the clients' transports
+// reconnect, and the new server knows no room, so the first hellos create the room afresh at
+// frame 0. A client that holds a later frame cannot resume there: it fails at once, saying why,
+// instead of being welcomed, kicked for acknowledging frames the room never confirmed, and
+// reconnecting for ever (seen between real processes).
+TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 40 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(300));
+    cl.restart_server();
+    cl.run_for(3'000'000);
+    for (int s = 0; s < 2; ++s) {
+        const auto& c = cl.client(s);
+        EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "slot " << s;
+        EXPECT_NE(c.session->failure().find("restarted"), std::string::npos) << c.session->failure();
+        EXPECT_EQ(cl.kicked(c.connection), 0u) << "slot " << s;
+    }
+}
+
 TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
     const auto scene = rollback::testing::make_scene(3, 10);
     ServerConfig sc;

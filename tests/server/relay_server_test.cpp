@@ -209,6 +209,42 @@ TEST_F(Server, InputsFarInTheFutureAreDroppedCountedAndKicked) {
     EXPECT_EQ(in[2], 2);
 }
 
+// Frame f is the state after f steps, confirmed once the inputs of frames [0, f) are: a client
+// that reports the checksum of the frame the server has just confirmed is honest. The server
+// counted that report as bad, and a 2-player match through it lasted about 17 s (16 such races,
+// then the kick). A checksum of a frame past the confirmed ones, or of no checkpoint, is bad.
+TEST_F(Server, ChecksumOfTheFrameJustConfirmedIsHonest) {
+    ServerConfig c = config();
+    c.room.checksum_interval = 2;
+    server = std::make_unique<RelayServer>(c);
+    start_room(7, 1, 2);
+    inputs(1, 0, 1, 4);
+    inputs(2, 0, 2, 4);
+    ASSERT_EQ(server->room(7)->confirmed_frames(), 4u);
+    auto report = [&](ConnectionId conn, std::uint32_t frame) {
+        RelayInput m;
+        m.confirmed_ack = 4;
+        m.first_frame = 4;
+        m.checksum_count = 1;
+        m.checksum_frames[0] = frame;
+        m.checksums[0] = 0xABCD;
+        std::vector<std::uint8_t> b;
+        encode(m, 2, b);
+        send(conn, b);
+    };
+    for (int i = 0; i < 2 * c.max_bad_packets; ++i) {
+        report(1, 4);
+        report(2, 4);
+    }
+    drain();
+    EXPECT_FALSE(was_kicked(1));
+    EXPECT_FALSE(was_kicked(2));
+    EXPECT_EQ(server->counters().bad_packets, 0u);
+    report(1, 6);  // not confirmed yet
+    report(1, 3);  // no checkpoint
+    EXPECT_EQ(server->counters().bad_packets, 2u);
+}
+
 TEST_F(Server, FloodIsThrottledThenKicked) {
     start_room(7, 1, 2);
     for (int i = 0; i < 2000; ++i) inputs(1, 0, 1, 1);
