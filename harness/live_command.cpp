@@ -22,6 +22,7 @@
 #include "harness/cli_error.h"
 #include "harness/hex.h"
 #include "harness/match.h"
+#include "harness/partition_flag.h"
 #include "harness/plot_script.h"
 #include "harness/report.h"
 #include "harness/run_command.h"
@@ -59,6 +60,7 @@ struct LiveOptions {
     int recoveries = 0;
     bool prediction_given = false;
     std::vector<std::string> clock_skews;  // SLOT=PPM (fault test)
+    std::vector<std::string> partitions;   // --partition values, passed to every proxy
     int corrupt_snapshot = 0, truncate_snapshot = 0;  // fault tests, on every player from frame 0
 };
 
@@ -118,6 +120,13 @@ LivePlan plan(const LiveOptions& o) {
     c.bot = *parse_bot_kind(o.bot);
     c.record_positions = false;
     validate(c);  // players, frames, rates, network: the same limits and messages as `run`
+    // The same cuts in the virtual-time run (from the match's start) and in the proxies (from
+    // the live run's start, below).
+    c.partitions = parse_partitions(o.partitions, o.players, o.tick_rate);
+    if (!c.partitions.empty() && o.topology != "p2p")
+        throw UsageError("--partition '" + o.partitions.front() +
+                         "': peer to peer only (--topology p2p): through the relay server a client's one link is to "
+                         "the server, not to the other slots");
     for (Mode m : p.modes) {
         if (o.input_delay == "auto") {
             // The conditions are known exactly here: cover the worst one-way time.
@@ -177,7 +186,8 @@ LivePlan plan(const LiveOptions& o) {
     if ((o.corrupt_snapshot > 0 || o.truncate_snapshot > 0) && o.topology != "p2p")
         throw UsageError("--corrupt-snapshot / --truncate-snapshot: peer to peer only (--topology p2p)");
     if (o.truncate_snapshot < 0 || o.truncate_snapshot > 1000) throw UsageError("--truncate-snapshot must be 0..1000");
-    p.proxied = o.latency > 0 || o.jitter > 0 || o.loss > 0 || o.burst > 0 || o.duplicate > 0 || o.reorder > 0;
+    p.proxied = o.latency > 0 || o.jitter > 0 || o.loss > 0 || o.burst > 0 || o.duplicate > 0 || o.reorder > 0 ||
+                !c.partitions.empty();
     return p;
 }
 
@@ -285,14 +295,25 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
 
     std::vector<std::unique_ptr<ChildProcess>> proxies;
     if (p.proxied) {
+        // Frame 0 of --partition for every proxy: the run's start, read once (the monotonic
+        // clock is the same in every process on the machine).
+        const std::uint64_t epoch = net::now_us();
         for (int k = 0; k < n; ++k) {
-            proxies.push_back(std::make_unique<ChildProcess>(
-                std::vector<std::string>{exe, "proxy", "--listen", "127.0.0.1:" + std::to_string(front(k)), "--to",
-                                         "127.0.0.1:" + std::to_string(relay ? relay_server.port : port(k)), "--latency", num(o.latency), "--jitter",
-                                         num(o.jitter), "--loss", num(o.loss), "--burst", num(o.burst), "--duplicate",
-                                         num(o.duplicate), "--reorder", num(o.reorder), "--seed",
-                                         std::to_string(o.seed * 1000 + static_cast<std::uint64_t>(k))},
-                (dir / ("proxy" + std::to_string(k) + ".log")).string(), true));
+            std::vector<std::string> args{exe, "proxy", "--listen", "127.0.0.1:" + std::to_string(front(k)), "--to",
+                                          "127.0.0.1:" + std::to_string(relay ? relay_server.port : port(k)), "--latency", num(o.latency), "--jitter",
+                                          num(o.jitter), "--loss", num(o.loss), "--burst", num(o.burst), "--duplicate",
+                                          num(o.duplicate), "--reorder", num(o.reorder), "--seed",
+                                          std::to_string(o.seed * 1000 + static_cast<std::uint64_t>(k))};
+            // Proxy k stands in front of slot k; its clients are the other players, known by the
+            // port they listen and send on (spectators have no slot and are never cut).
+            if (!relay && !o.partitions.empty()) {
+                args.insert(args.end(), {"--players", std::to_string(n), "--tick-rate", std::to_string(o.tick_rate), "--slot",
+                                         std::to_string(k), "--epoch-us", std::to_string(epoch)});
+                for (int j = 0; j < n; ++j)
+                    if (j != k) args.insert(args.end(), {"--client-slot", std::to_string(j) + "=127.0.0.1:" + std::to_string(port(j))});
+                for (const auto& v : o.partitions) args.insert(args.end(), {"--partition", v});
+            }
+            proxies.push_back(std::make_unique<ChildProcess>(args, (dir / ("proxy" + std::to_string(k) + ".log")).string(), true));
         }
         // Wait (bounded) for every proxy to say it is listening.
         std::vector<bool> ready(static_cast<std::size_t>(n), false);
@@ -878,6 +899,9 @@ void add_live_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
     cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();
+    cmd->add_option("--partition", o->partitions,
+                    "SETS@FROM-UNTIL: the proxies drop datagrams between the slot sets from frame FROM until UNTIL, "
+                    "frames counted in real time from the run's start at --tick-rate (p2p only; repeatable, or ';')");
     cmd->add_option("--clock-skew", o->clock_skews,
                     "SLOT=PPM: fault test, that slot's clock runs PPM parts per million fast (> 0) or slow (< 0) (repeatable)");
     cmd->add_option("--corrupt-snapshot", o->corrupt_snapshot,

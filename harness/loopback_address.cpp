@@ -1,5 +1,7 @@
 #include "harness/loopback_address.h"
 
+#include <cstdlib>
+
 #include "harness/cli_error.h"
 #include "net/udp_address.h"
 
@@ -22,6 +24,15 @@ Endpoint parse_loopback_endpoint(const std::string& text, const std::string& fla
     e.host = s.substr(0, s.rfind(':'));
     if (!e.host.empty() && e.host.front() == '[') e.host = e.host.substr(1, e.host.size() - 2);
     return e;
+}
+
+SlotAddress parse_slot_address(const std::string& text, const std::string& flag, const std::string& shape) {
+    const auto eq = text.find('=');
+    char* end = nullptr;
+    const std::string slot_text = text.substr(0, eq == std::string::npos ? 0 : eq);
+    const long slot = std::strtol(slot_text.c_str(), &end, 10);
+    if (eq == std::string::npos || slot_text.empty() || *end != '\0') throw UsageError(flag + " " + text + ": expected " + shape);
+    return {slot, text.substr(eq + 1)};
 }
 
 }  // namespace lockroll::harness

@@ -20,4 +20,13 @@ struct Endpoint {
 
 Endpoint parse_loopback_endpoint(const std::string& text, const std::string& flag, bool allow_port_zero);
 
+// SLOT=ADDRESS flags (`peer --peer`, `proxy --client-slot`): the slot, a decimal integer (its
+// range is the caller's to check), and the text after '='. Anything else is a UsageError
+// "<flag> <text>: expected <shape>".
+struct SlotAddress {
+    long slot = 0;
+    std::string address;
+};
+SlotAddress parse_slot_address(const std::string& text, const std::string& flag, const std::string& shape);
+
 }  // namespace lockroll::harness

@@ -384,9 +384,10 @@ void Client::tick(std::uint64_t now) {
     session_->poll(now, out_);
     for (const auto& d : out_) {
         const transport::LinkStats& ls = net_->link_stats(static_cast<transport::PeerId>(index_), d.peer);
-        const std::uint64_t lost = ls.lost_random + ls.lost_burst + ls.lost_queue;
+        const std::uint64_t lost = ls.lost_random + ls.lost_burst + ls.lost_queue, cut = ls.lost_partition;
         endpoint_.send(d.peer, d.bytes, now);
         if (ls.lost_random + ls.lost_burst + ls.lost_queue != lost) event("loss", d.peer);
+        if (ls.lost_partition != cut) event("partition", d.peer);
     }
     ++tick_;
 }
@@ -477,6 +478,7 @@ void validate(const RunConfig& c) {
     if (!(c.drift_ppm >= 0 && c.drift_ppm <= 10000)) fail("--drift-ppm must be 0..10000");
     for (const auto& inj : c.injections)
         if (inj.client < 0 || inj.client >= c.players) fail("--inject-desync: client must be 0..players-1");
+    if (const std::string e = c.partitions.check_slots(c.players); !e.empty()) fail("--partition: " + e);
 }
 
 sim::SceneDesc with_players(const sim::SceneDesc& scene, int players) {
@@ -608,6 +610,8 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     // The match starts after the ping phase; clients start within one tick of each other and
     // drift by a seeded amount, so time sync has real work to do.
     const std::uint64_t start = 4000000;
+    // Frame 0 of --partition is the match's start; nothing is cut when none was given.
+    if (!cfg.partitions.empty()) net.set_partitions(cfg.partitions.shifted(start));
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
     s_->shared.reset(new Shared{cfg, {}, cfg.frames, cfg.players, start,
@@ -755,6 +759,11 @@ RunResult Match::finish() {
     res.per_body_max_error = positions.per_body_max();
     res.pair_error = positions.pair_errors();
     res.body_error = positions.body_errors();
+    res.partition_cuts = cfg.partitions.cuts().size();
+    res.partitioned_datagrams = 0;
+    for (int from = 0; from < cfg.players; ++from)
+        for (int to = 0; to < cfg.players; ++to)
+            res.partitioned_datagrams += s_->net.link_stats(static_cast<transport::PeerId>(from), static_cast<transport::PeerId>(to)).lost_partition;
     return std::move(res);
 }
 

@@ -26,6 +26,7 @@
 #include "sim/scene.h"
 #include "sim/world.h"
 #include "transport/link_conditions.h"
+#include "transport/partition_schedule.h"
 
 namespace lockroll::harness {
 
@@ -69,6 +70,10 @@ struct RunConfig {
     int prediction = 8;           // window W in rollback mode (lockstep always uses 0)
     int checksum_interval = 1;
     NetConditions net;
+    // Cuts between sets of slots (--partition), in microseconds since frame 0: the match shifts
+    // them to its start (after the ping phase, which is never cut), so frame F of the flag is
+    // F * 1e6 / tick_rate us into the match. Empty: the run is what it was without partitions.
+    transport::PartitionSchedule partitions;
     std::uint64_t seed = 1;
     BotKind bot = BotKind::Random;
     double drift_ppm = 0;         // each client's clock drifts by a seeded value in [-d, +d]

@@ -110,7 +110,8 @@ struct DesyncRecord {
 };
 
 // Something that happened at a moment of the run, for error_vs_time.png and events.csv:
-// "loss" (a datagram client sent was lost), "stall", "rollback" (value: depth),
+// "loss" (a datagram client sent was lost), "partition" (one was cut by --partition; value:
+// the peer), "stall", "rollback" (value: depth),
 // "correction" (value: jump in m), "time_sync_wait" (value: frames).
 struct RunEvent {
     double time_s = 0;
@@ -145,6 +146,9 @@ struct RunResult {
     std::uint64_t seed = 0;
     double latency_ms = 0, jitter_ms = 0, loss = 0, duplicate = 0, reorder = 0, burst_loss = 0;
     double rtt_p50_ms = 0, rtt_p95_ms = 0;  // measured in the ping phase
+    // --partition: how many cuts, and the datagrams they dropped (all links). Reported only
+    // when there are cuts, so runs without them write what they always wrote.
+    std::uint64_t partition_cuts = 0, partitioned_datagrams = 0;
     double virtual_seconds = 0;
     bool completed = false;  // every client confirmed the last frame before the time limit
 

@@ -148,18 +148,13 @@ PeerPlan plan(const PeerOptions& o) {
     }
     std::set<int> seen;
     for (const auto& text : o.peers) {
-        const auto eq = text.find('=');
-        char* end = nullptr;
-        const std::string slot_text = text.substr(0, eq == std::string::npos ? 0 : eq);
-        const long slot = std::strtol(slot_text.c_str(), &end, 10);
-        if (eq == std::string::npos || slot_text.empty() || *end != '\0')
-            throw UsageError("--peer " + text + ": expected SLOT=HOST:PORT");
+        const auto [slot, address] = parse_slot_address(text, "--peer", "SLOT=HOST:PORT");
         if (slot < 0 || slot >= o.players || slot == o.slot)
             throw UsageError("--peer " + text + ": slot must be 0..players-1 and not --slot");
         if (!seen.insert(static_cast<int>(slot)).second) throw UsageError("--peer " + text + ": slot given twice");
         Endpoint e;
         try {
-            e = parse_loopback_endpoint(text.substr(eq + 1), "--peer", false);
+            e = parse_loopback_endpoint(address, "--peer", false);
         } catch (const UsageError& err) {
             const std::string why = err.what();
             throw UsageError("--peer " + text + why.substr(why.find(": ")));

@@ -135,7 +135,7 @@ json summary_json(const RunResult& r) {
                        {"p99", p.rtt_ms.percentile(99)},
                        {"samples", p.rtt_ms.count}});
     json local = spread_json(r.input_latency_local);
-    return {
+    json summary = {
         {"mode", r.mode},
         {"scene", r.scene},
         {"players", r.players},
@@ -218,6 +218,10 @@ json summary_json(const RunResult& r) {
         {"final_checksums", finals},
         {"clients", clients},
     };
+    // Only with --partition: a run without cuts writes exactly what it wrote before.
+    if (r.partition_cuts > 0)
+        summary["network"]["partition"] = {{"cuts", r.partition_cuts}, {"dropped_datagrams", r.partitioned_datagrams}};
+    return summary;
 }
 
 std::string frames_csv(const RunResult& r) {
@@ -235,6 +239,9 @@ std::string console_summary(const RunResult& r) {
     o << "  network      one-way " << r.latency_ms << " ms +-" << r.jitter_ms << " ms, loss " << r.loss << ", dup "
       << r.duplicate << ", reorder " << r.reorder << "; measured RTT p50 " << fmt("%.1f", r.rtt_p50_ms) << " ms, p95 "
       << fmt("%.1f", r.rtt_p95_ms) << " ms\n";
+    if (r.partition_cuts > 0)
+        o << "  partition    " << r.partition_cuts << (r.partition_cuts == 1 ? " cut" : " cuts") << ", "
+          << r.partitioned_datagrams << " datagrams dropped across them\n";
     o << "  tick rate    " << fmt("%.2f", r.ticks_per_second()) << " ticks/s, stalls " << fmt("%.1f", 100 * r.stall_fraction())
       << " % of ticks; input delay " << r.input_delay << " frames, window " << r.prediction << "\n";
     o << "  input lag    local mean " << fmt("%.1f", r.input_latency_local.mean()) << " ms (max "

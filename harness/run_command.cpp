@@ -16,6 +16,7 @@
 #include "harness/cli_validators.h"
 #include "harness/match.h"
 #include "harness/output_path.h"
+#include "harness/partition_flag.h"
 #include "harness/plot_script.h"
 #include "harness/replay_command.h"
 #include "harness/report.h"
@@ -46,6 +47,7 @@ struct RunOptions {
     bool view = false;
     std::string record;
     std::vector<std::string> injections;
+    std::vector<std::string> partitions;
 };
 
 void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
@@ -68,6 +70,9 @@ void add_common(CLI::App* cmd, RunOptions& o, bool with_mode) {
     cmd->add_option("--burst-loss", o.burst_loss, "Probability per packet of entering a loss burst 0..1")->capture_default_str();
     cmd->add_option("--duplicate", o.duplicate, "Duplication probability 0..1")->capture_default_str();
     cmd->add_option("--reorder", o.reorder, "Reordering probability 0..1")->capture_default_str();
+    cmd->add_option("--partition", o.partitions,
+                    "SETS@FROM-UNTIL: cut the links between slot sets from frame FROM until UNTIL, e.g. "
+                    "0,1/2,3@200-800 (repeatable, or ';' between cuts; unnamed slots keep their links)");
     cmd->add_option("--drift-ppm", o.drift_ppm, "Client clock drift, up to +- this many ppm each")->capture_default_str();
     cmd->add_option("--seed", o.seed, "Seed for the network, clocks and bots")
         ->check(kNonNegativeInteger)
@@ -121,6 +126,8 @@ RunConfig to_config(const RunOptions& o) {
             if (shown >= total) std::fprintf(stderr, "\n");
         };
     validate(c);
+    // After validate: the partition's slots and frames are read against --players and --tick-rate.
+    c.partitions = parse_partitions(o.partitions, c.players, c.tick_rate);
     return c;
 }
 

@@ -33,6 +33,7 @@ std::string errno_text() { return std::strerror(errno); }
 UdpProxy::UdpProxy(const UdpProxyConfig& config) : config_(config), buffer_(kBufferBytes) {
     if (const std::string e = transport::validate(config.link); !e.empty())
         throw std::invalid_argument("proxy: link: " + e);
+    for (const auto& [address, slot] : config.client_slots) client_slots_[address.key()] = slot;
     const std::string where = config.listen.to_string();
     listen_fd_ = udp_socket(config.listen.family());
     if (listen_fd_ < 0) throw std::runtime_error("proxy: cannot create a socket for " + where + ": " + errno_text());
@@ -73,6 +74,7 @@ std::optional<std::uint32_t> UdpProxy::find_or_add_client(const UdpAddress& from
     c.upstream_fd = fd;
     c.up = transport::LinkModel(transport::CounterRng::derive(config_.seed, id + 1, 0), config_.link);
     c.down = transport::LinkModel(transport::CounterRng::derive(config_.seed, 0, id + 1), config_.link);
+    if (const auto slot = client_slots_.find(key); slot != client_slots_.end()) c.slot = slot->second;
     c.last_active_us = now;
     client_ids_[key] = id;
     ++counters_.clients;
@@ -80,11 +82,23 @@ std::optional<std::uint32_t> UdpProxy::find_or_add_client(const UdpAddress& from
     return id;
 }
 
+bool UdpProxy::is_cut(const Client& client, std::uint64_t now) const {
+    if (config_.partitions.empty() || !client.slot || !config_.upstream_slot || now < config_.partition_epoch_us)
+        return false;
+    return config_.partitions.is_cut(*client.slot, *config_.upstream_slot, now - config_.partition_epoch_us);
+}
+
 void UdpProxy::impair(std::uint32_t id, bool to_server, const std::uint8_t* data, std::size_t size,
                       std::uint64_t now) {
     Client& c = clients_.at(id);
     c.last_active_us = now;
-    const transport::PacketFate fate = (to_server ? c.up : c.down).transmit(size, now);
+    transport::LinkModel& link = to_server ? c.up : c.down;
+    if (is_cut(c, now)) {
+        link.cut();
+        ++counters_.partitioned;
+        return;
+    }
+    const transport::PacketFate fate = link.transmit(size, now);
     if (!fate.delivered) {
         ++counters_.dropped;
         return;

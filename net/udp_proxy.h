@@ -13,6 +13,12 @@
 //  - Bounded: at most max_clients clients (others are ignored and counted), at most max_queued
 //    datagrams / max_queued_bytes waiting for their delivery time (the rest dropped, counted),
 //    idle clients (nothing either way for client_idle_us) forgotten with their socket.
+//  - Partitions: with a schedule, the slot of the server (upstream_slot) and the slots of clients
+//    by source address (client_slots), a datagram either way between a client and the server is
+//    dropped while a cut separates their slots, the schedule's time 0 being partition_epoch_us on
+//    net::now_us(). The link model still sees it (LinkModel::cut: same draws for the rest); it
+//    counts as partitioned, not as dropped. A client with no slot, or a proxy with no
+//    upstream_slot, is never cut; before the epoch nothing is.
 //  - Reads the clock (net::now_us) to time deliveries: it lives in the real-time layer.
 //  - Not thread-safe. Socket errors on send/receive are counted, never fatal.
 #pragma once
@@ -24,10 +30,12 @@
 #include <optional>
 #include <queue>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "net/udp_address.h"
 #include "transport/link_model.h"
+#include "transport/partition_schedule.h"
 
 namespace lockroll::net {
 
@@ -40,12 +48,18 @@ struct UdpProxyConfig {
     std::size_t max_queued = 16'384;
     std::size_t max_queued_bytes = 16u << 20;
     std::uint64_t client_idle_us = 60'000'000;
+    // Partitions (see the contract): times in the schedule are microseconds since the epoch.
+    transport::PartitionSchedule partitions;
+    std::uint64_t partition_epoch_us = 0;
+    std::optional<transport::PeerId> upstream_slot;
+    std::vector<std::pair<UdpAddress, transport::PeerId>> client_slots;
 };
 
 struct UdpProxyCounters {
     std::uint64_t received = 0;        // datagrams read, both directions
     std::uint64_t forwarded = 0;       // datagrams written, copies included
     std::uint64_t dropped = 0;         // lost by the link model (loss, bursts, bottleneck)
+    std::uint64_t partitioned = 0;     // cut by a partition (not in dropped)
     std::uint64_t duplicated = 0;      // extra copies made
     std::uint64_t reordered = 0;       // held back by the reorder model
     std::uint64_t queue_full = 0;      // dropped because the delay queue was full
@@ -79,6 +93,7 @@ private:
         UdpAddress address;
         int upstream_fd = -1;
         transport::LinkModel up, down;
+        std::optional<transport::PeerId> slot;  // from config.client_slots
         std::uint64_t last_active_us = 0;
     };
     struct Pending {
@@ -99,6 +114,8 @@ private:
     void impair(std::uint32_t id, bool to_server, const std::uint8_t* data, std::size_t size, std::uint64_t now);
     void deliver_due(std::uint64_t now);
     void forget_idle(std::uint64_t now);
+    // Whether a datagram between this client and the server at `now` crosses an active cut.
+    bool is_cut(const Client& client, std::uint64_t now) const;
     // The client id for a source address, adding it if there is room; nullopt when full.
     std::optional<std::uint32_t> find_or_add_client(const UdpAddress& from, std::uint64_t now);
 
@@ -107,6 +124,7 @@ private:
     std::uint16_t port_ = 0;
     std::map<std::uint32_t, Client> clients_;
     std::map<std::string, std::uint32_t> client_ids_;  // UdpAddress::key() -> id
+    std::map<std::string, transport::PeerId> client_slots_;  // UdpAddress::key() -> slot
     std::uint32_t next_client_ = 0;
     std::priority_queue<Pending, std::vector<Pending>, Later> queue_;
     std::size_t queued_bytes_ = 0;

@@ -59,11 +59,12 @@ std::string validate(const LinkConditions& link);
 
 // Per-link statistics, counted as the network decides each packet's fate at send time.
 struct LinkStats {
-    std::uint64_t sent = 0;          // datagrams offered to the link
+    std::uint64_t sent = 0;          // datagrams offered to the link, cut ones included
     std::uint64_t delivered = 0;     // datagrams scheduled for delivery, copies included
     std::uint64_t lost_random = 0;   // independent loss
     std::uint64_t lost_burst = 0;    // lost in the Gilbert-Elliott Bad state
     std::uint64_t lost_queue = 0;    // drop-tail at the bandwidth bottleneck
+    std::uint64_t lost_partition = 0;  // cut by a partition (transport/partition_schedule.h)
     std::uint64_t duplicated = 0;
     std::uint64_t reordered = 0;     // held back by the reorder model
     std::uint64_t burst_packets = 0; // packets that found the link in the Bad state

@@ -34,19 +34,29 @@ void LinkModel::set_conditions(const LinkConditions& c) {
     reorder_ = Chance::from_probability(c.reorder);
 }
 
-PacketFate LinkModel::transmit(std::size_t payload_bytes, Micros now) {
-    const LinkConditions& c = conditions_;
+std::uint64_t LinkModel::begin_packet() {
     const std::uint64_t base = packets_++ * kSlotsPerPacket;
-    const auto draw = [&](std::uint64_t slot) { return rng_.at(base + slot); };
     ++stats_.sent;
-    PacketFate fate;
-
-    // Gilbert-Elliott: step the chain, then the packet meets the new state.
+    // Gilbert-Elliott: step the chain; the packet then meets the new state.
+    const std::uint64_t transition = rng_.at(base + kSlotBurstTransition);
     if (bad_) {
-        if (burst_exit_.hit(draw(kSlotBurstTransition))) bad_ = false;
-    } else if (burst_enter_.hit(draw(kSlotBurstTransition))) {
+        if (burst_exit_.hit(transition)) bad_ = false;
+    } else if (burst_enter_.hit(transition)) {
         bad_ = true;
     }
+    return base;
+}
+
+void LinkModel::cut() {
+    begin_packet();
+    ++stats_.lost_partition;
+}
+
+PacketFate LinkModel::transmit(std::size_t payload_bytes, Micros now) {
+    const LinkConditions& c = conditions_;
+    const std::uint64_t base = begin_packet();
+    const auto draw = [&](std::uint64_t slot) { return rng_.at(base + slot); };
+    PacketFate fate;
     if (bad_) ++stats_.burst_packets;
 
     // Bottleneck: serialise behind whatever is still being transmitted.

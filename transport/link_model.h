@@ -9,6 +9,10 @@
 //    and the link's carried state: burst state, in-order tail, bottleneck busy time). Never reads
 //    a clock; packet n draws only positions 32n .. 32n+31 of its CounterRng stream.
 //  - Conditions may change between packets; packets already decided keep their fate.
+//  - A datagram a partition cuts (cut()) takes its packet index and steps the burst chain like
+//    any other, so every datagram that is not cut meets the same draws and burst state as it
+//    would without the partition; with no cut ever made, nothing differs from a link without
+//    partitions at all.
 //  - Callers validate conditions first (validate(LinkConditions)); set_conditions trusts them.
 #pragma once
 
@@ -42,9 +46,18 @@ public:
     // Decides the fate of a datagram of `payload_bytes` sent at `now` and counts it in stats().
     PacketFate transmit(std::size_t payload_bytes, Micros now);
 
+    // A datagram cut by a partition before it enters the link (transport/partition_schedule.h):
+    // it owns packet index n and its burst-chain transition, as in transmit(), but never reaches
+    // the bottleneck or the in-order tail. Counted in sent and lost_partition only.
+    void cut();
+
     const LinkStats& stats() const { return stats_; }
 
 private:
+    // Takes the next packet index, steps the Gilbert-Elliott chain with its transition draw and
+    // counts the packet as sent; returns the index's first stream position.
+    std::uint64_t begin_packet();
+
     LinkConditions conditions_;
     Chance loss_, burst_enter_, burst_exit_, burst_loss_, duplicate_, reorder_;
     CounterRng rng_{0};

@@ -58,6 +58,7 @@ SimNetwork::SimNetwork(const SimNetworkConfig& config)
     for (PeerId from = 0; from < n; ++from)
         for (PeerId to = 0; to < n; ++to)
             links_[link_index(from, to)] = LinkModel(CounterRng::derive(seed_, from, to), config.link);
+    set_partitions(config.partitions);
     queues_.resize(n);
     for (PeerId id = 0; id < n; ++id) endpoints_.push_back(std::make_unique<Endpoint>(*this, id));
 }
@@ -93,6 +94,12 @@ void SimNetwork::set_all_links(const LinkConditions& link) {
     for (LinkModel& l : links_) l.set_conditions(link);
 }
 
+void SimNetwork::set_partitions(const PartitionSchedule& partitions) {
+    if (const std::string err = partitions.check_slots(peers_); !err.empty())
+        throw std::invalid_argument("SimNetwork: partition: " + err);
+    partitions_ = partitions;
+}
+
 const LinkConditions& SimNetwork::link(PeerId from, PeerId to) const {
     check_peer(from);
     check_peer(to);
@@ -120,7 +127,12 @@ std::optional<Micros> SimNetwork::next_delivery_time(PeerId to) const {
 }
 
 PacketFate SimNetwork::transmit(PeerId from, PeerId to, std::span<const std::uint8_t> bytes, Micros now) {
-    const PacketFate fate = links_[link_index(from, to)].transmit(bytes.size(), now);
+    LinkModel& link = links_[link_index(from, to)];
+    if (partitions_.is_cut(from, to, now)) {
+        link.cut();
+        return PacketFate{};
+    }
+    const PacketFate fate = link.transmit(bytes.size(), now);
     if (!fate.delivered) return fate;
     const std::vector<std::uint8_t> payload(bytes.begin(), bytes.end());
     queues_[to].push(InFlight{fate.arrive_us, next_sequence_++, from, payload});

@@ -8,6 +8,12 @@
 // or less traffic. Datagrams due at the same microsecond are delivered in send order (a global
 // sequence number breaks the tie; a copy ranks right after its original).
 //
+// Partitions (transport/partition_schedule.h): a datagram sent across a cut while it is active
+// is dropped before its link decides anything else (LinkModel::cut(): it still takes its packet
+// index, so the datagrams that are not cut keep the fates they would have had) and is counted in
+// the link's lost_partition and the sender's dropped. Without a schedule nothing is cut and
+// every run is what it was before partitions existed.
+//
 // Endpoints are owned by the network and refer back to it, so the network is neither copyable
 // nor movable and must outlive every use of its endpoints.
 #pragma once
@@ -21,6 +27,7 @@
 #include "transport/counter_rng.h"
 #include "transport/link_conditions.h"
 #include "transport/link_model.h"
+#include "transport/partition_schedule.h"
 #include "transport/transport.h"
 
 namespace lockroll::transport {
@@ -30,6 +37,7 @@ struct SimNetworkConfig {
     std::uint64_t seed = 1;
     LinkConditions link;      // initial conditions of every directed link
     std::size_t max_datagram_bytes = kMaxDatagramBytes;
+    PartitionSchedule partitions{};  // times on the network's clock (the `now` of sends)
 };
 
 class SimNetwork {
@@ -50,6 +58,11 @@ public:
     void set_link(PeerId from, PeerId to, const LinkConditions& link);
     void set_all_links(const LinkConditions& link);
     const LinkConditions& link(PeerId from, PeerId to) const;
+
+    // Replaces the schedule, for datagrams sent from now on; slots must be peer ids (else
+    // std::invalid_argument naming the slot).
+    void set_partitions(const PartitionSchedule& partitions);
+    const PartitionSchedule& partitions() const { return partitions_; }
     const LinkStats& link_stats(PeerId from, PeerId to) const;
 
     // Earliest time a datagram becomes deliverable (to anyone, or to one peer); nullopt when
@@ -83,6 +96,7 @@ private:
     std::uint64_t seed_;
     std::size_t max_datagram_bytes_;
     std::vector<LinkModel> links_;  // from * peers + to
+    PartitionSchedule partitions_;
     std::vector<std::priority_queue<InFlight, std::vector<InFlight>, Later>> queues_;  // by receiver
     std::vector<std::unique_ptr<Endpoint>> endpoints_;
     std::uint64_t next_sequence_ = 0;

@@ -116,6 +116,34 @@ assert len(d["final_checksums"]) == 2 and len(set(d["final_checksums"])) == 1
 PY
 then echo "FAIL: summary.json keys"; failures=$((failures + 1)); fi
 
+# --partition (issue 21): bad values exit 2 naming the flag and the part, before anything is
+# written; a valid cut runs and is reported (summary.json, events.csv).
+expect 2 "--partition '0,1/2': syntax: expected SETS@FROM-UNTIL" -- "$lockroll" run --players 3 --partition 0,1/2 --out "$tmp/part"
+expect 2 "--partition '0/1@800-200': frames '800-200': FROM must be below UNTIL" -- "$lockroll" run --partition 0/1@800-200 --out "$tmp/part"
+expect 2 "--partition '0,1/1,2@1-5': slot 1: named twice" -- "$lockroll" run --players 3 --partition 0,1/1,2@1-5 --out "$tmp/part"
+expect 2 "--partition '0/3@1-5': slot 3: not in 0..1 \(--players 2\)" -- "$lockroll" run --partition 0/3@1-5 --out "$tmp/part"
+expect 2 "--partition '0/1@1-5;0/1': cut 2 '0/1': syntax" -- "$lockroll" compare --partition "0/1@1-5;0/1" --out "$tmp/part"
+expect 2 "--partition '0/1@1-5': .*peer to peer only" -- "$lockroll" live --topology relay --partition 0/1@1-5 --out "$tmp/part"
+expect 2 "--partition '0/2@1-5': slot 2: not in 0..1" -- "$lockroll" live --partition 0/2@1-5 --out "$tmp/part"
+absent "$tmp/part"
+expect 0 "partition +1 cut, [1-9][0-9]* datagrams dropped" -- \
+    "$lockroll" run --players 3 --frames 240 --partition 0/1,2@60-90 --out "$tmp/part-ok"
+if ! /usr/bin/python3 - "$tmp/part-ok" <<'PY'
+import csv, json, sys
+d = json.load(open(sys.argv[1] + "/summary.json"))
+p = d["network"]["partition"]
+assert p["cuts"] == 1 and p["dropped_datagrams"] > 0, p
+cut = [r for r in csv.DictReader(open(sys.argv[1] + "/events.csv")) if r["kind"] == "partition"]
+assert cut, "no partition events"
+# Frames 60..89 at 60 Hz: 1.0 s to 1.5 s into the match, give or take a client's tick phase.
+assert all(0.95 <= float(r["time_s"]) < 1.55 for r in cut), [r["time_s"] for r in cut][:5]
+assert len(set(d["final_checksums"])) == 1
+PY
+then echo "FAIL: run --partition summary/events"; failures=$((failures + 1)); fi
+# Without --partition the summary says nothing about partitions.
+if ! /usr/bin/python3 -c 'import json, sys; assert "partition" not in json.load(open(sys.argv[1]))["network"]' "$tmp/run/summary.json"
+then echo "FAIL: summary.json mentions partitions without --partition"; failures=$((failures + 1)); fi
+
 # run --record: a replay of a 3-player match (one player body added) verifies; a damaged copy
 # is rejected with exit 2.
 expect 0 "" -- "$lockroll" run --players 3 --frames 180 --latency 40 --jitter 10 --loss 0.1 --record "$tmp/r.lrr" --out "$tmp/rr"

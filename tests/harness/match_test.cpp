@@ -234,6 +234,50 @@ TEST(Match, FourPlayersOverALossyReorderingNetwork) {
     ASSERT_EQ(r.pair_error.size(), 6u);
 }
 
+// --partition whose window comes after the match: the same figures, rows and events as no
+// partition at all (the summary only adds that there was a cut, which dropped nothing).
+TEST(Match, APartitionThatNeverAppliesLeavesTheMatchUnchanged) {
+    RunConfig c = base(Mode::Rollback, 240);
+    c.players = 3;
+    c.net.loss = 0.1;
+    c.net.reorder = 0.05;
+    const RunResult plain = run_match(c);
+    c.partitions.add({{{0}, {1, 2}}, 3'600'000'000, 3'700'000'000});  // an hour in
+    const RunResult late = run_match(c);
+    nlohmann::json with_cut = without_cpu(summary_json(late));
+    EXPECT_EQ(with_cut["network"]["partition"], (nlohmann::json{{"cuts", 1}, {"dropped_datagrams", 0}}));
+    with_cut["network"].erase("partition");
+    EXPECT_EQ(with_cut.dump(), without_cpu(summary_json(plain)).dump());
+    EXPECT_EQ(frames_csv(late), frames_csv(plain));
+    EXPECT_EQ(events_csv(late), events_csv(plain));
+    EXPECT_FALSE(summary_json(plain)["network"].contains("partition"));
+}
+
+// Slot 0 cut off from 1 and 2 for frames 60..89 (1.0 s to 1.5 s into the match): only sends
+// across the cut in that window are dropped, each is an event, and the match ends in agreement.
+TEST(Match, APartitionCutsOnlyAcrossItsSetsInsideItsWindow) {
+    RunConfig c = base(Mode::Rollback, 240);
+    c.players = 3;
+    c.partitions.add({{{0}, {1, 2}}, 1'000'000, 1'500'000});
+    const RunResult r = run_match(c);
+    ASSERT_TRUE(r.completed);
+    EXPECT_EQ(r.desync_count(), 0u);
+    for (const auto& cl : r.clients) EXPECT_EQ(cl.final_checksum, r.clients[0].final_checksum);
+    std::uint64_t events = 0;
+    for (const RunEvent& e : r.events) {
+        if (std::string_view(e.kind) != "partition") continue;
+        ++events;
+        EXPECT_GE(e.time_s, 1.0);
+        EXPECT_LT(e.time_s, 1.5);
+        EXPECT_TRUE((e.client == 0) != (e.value == 0)) << "client " << e.client << " to " << e.value << " is not cut";
+    }
+    EXPECT_EQ(events, r.partitioned_datagrams);
+    // Every client sends to each peer every tick: 30 ticks on 4 directed links, give or take
+    // the ticks of the clients' phase that fall at the edges.
+    EXPECT_GE(r.partitioned_datagrams, 4u * 28);
+    EXPECT_LE(r.partitioned_datagrams, 4u * 32);
+}
+
 // Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set
 // after the row had been reduced), so tick_rate.png said "min 0" on frames that ran at 60.
 TEST(Match, EveryFrameRowCarriesTheTickRate) {

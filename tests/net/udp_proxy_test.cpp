@@ -284,6 +284,101 @@ TEST(UdpProxy, EachClientIsItsOwnSourceAndTheClientLimitHolds) {
     EXPECT_EQ(proxy.counters().dropped, 0u);
 }
 
+// In process: a cut {server slot 0} / {slot 1} from 400 ms to 1200 ms after the epoch. Client A
+// (slot 1) and client B (slot 2, named in no set) each send a datagram every 10 ms for 1.8 s,
+// and the server sends one to each every 10 ms once it knows their proxy address. A's datagrams
+// both ways are dropped inside the window and only there; B's all arrive. Judged by the send
+// times the sender took, with 200 ms of margin at each edge (the proxy reads its clock after
+// receiving, so it can only be late): outcomes, not timings.
+TEST(UdpProxy, ACutDropsBothDirectionsDuringItsWindowOnly) {
+    std::uint16_t server_port = 0, a_port = 0, b_port = 0;
+    const int server = loopback_socket(&server_port);
+    const int clients[2] = {loopback_socket(&a_port), loopback_socket(&b_port)};
+    std::string error;
+    UdpProxyConfig config;
+    config.listen = *parse_udp_address("127.0.0.1:0", &error);
+    config.upstream = *parse_udp_address("127.0.0.1:" + std::to_string(server_port), &error);
+    config.partitions.add({{{0}, {1}}, 400'000, 1'200'000});
+    config.upstream_slot = 0;
+    config.client_slots = {{*parse_udp_address("127.0.0.1:" + std::to_string(a_port), &error), 1},
+                           {*parse_udp_address("127.0.0.1:" + std::to_string(b_port), &error), 2}};
+    const std::uint64_t epoch = now_us();
+    config.partition_epoch_us = epoch;
+    UdpProxy proxy(config);
+    std::atomic<bool> stop{false};
+    std::thread serving([&] { proxy.run(stop, now_us() + 20'000'000); });
+
+    const sockaddr_in to_proxy = loopback(proxy.port());
+    // Per client (0: A, 1: B) and direction (0: up, 1: down): send offsets of what was sent and
+    // of what arrived.
+    std::vector<std::uint64_t> sent[2][2], arrived[2][2];
+    sockaddr_in server_side[2]{};  // the proxy's upstream socket for each client, once seen
+    bool known[2] = {false, false};
+    const auto stamp = [&](std::uint8_t who, std::uint64_t offset, std::uint8_t* b) {
+        b[0] = who;
+        std::memcpy(b + 1, &offset, 8);
+    };
+    std::uint64_t next_send = 0;
+    while (now_us() < epoch + 2'100'000) {
+        const std::uint64_t offset = now_us() - epoch;
+        if (offset >= next_send && offset < 1'800'000) {
+            next_send += 10'000;
+            std::uint8_t b[9];
+            for (std::uint8_t c = 0; c < 2; ++c) {
+                stamp(c, now_us() - epoch, b);
+                std::uint64_t at;
+                std::memcpy(&at, b + 1, 8);
+                sent[c][0].push_back(at);
+                ::sendto(clients[c], b, sizeof b, 0, reinterpret_cast<const sockaddr*>(&to_proxy), sizeof to_proxy);
+                if (!known[c]) continue;
+                stamp(c, now_us() - epoch, b);
+                std::memcpy(&at, b + 1, 8);
+                sent[c][1].push_back(at);
+                ::sendto(server, b, sizeof b, 0, reinterpret_cast<const sockaddr*>(&server_side[c]), sizeof server_side[c]);
+            }
+        }
+        std::uint8_t b[16];
+        sockaddr_in from{};
+        socklen_t len = sizeof from;
+        while (::recvfrom(server, b, sizeof b, 0, reinterpret_cast<sockaddr*>(&from), &len) == 9 && b[0] < 2) {
+            std::uint64_t at;
+            std::memcpy(&at, b + 1, 8);
+            arrived[b[0]][0].push_back(at);
+            server_side[b[0]] = from;
+            known[b[0]] = true;
+        }
+        for (int c = 0; c < 2; ++c)
+            while (::recv(clients[c], b, sizeof b, 0) == 9 && b[0] == c) {
+                std::uint64_t at;
+                std::memcpy(&at, b + 1, 8);
+                arrived[c][1].push_back(at);
+            }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    stop = true;
+    serving.join();
+    for (int fd : clients) ::close(fd);
+    ::close(server);
+
+    const auto count = [](const std::vector<std::uint64_t>& v, std::uint64_t lo, std::uint64_t hi) {
+        return std::count_if(v.begin(), v.end(), [&](std::uint64_t t) { return t >= lo && t < hi; });
+    };
+    for (int dir = 0; dir < 2; ++dir) {
+        const char* way = dir == 0 ? "up" : "down";
+        // A: everything well before and well after the window, nothing well inside it.
+        EXPECT_GT(count(sent[0][dir], 0, 200'000), dir == 0 ? 15 : 5) << way;
+        EXPECT_EQ(count(arrived[0][dir], 0, 200'000), count(sent[0][dir], 0, 200'000)) << way;
+        EXPECT_GT(count(sent[0][dir], 600'000, 1'000'000), 30) << way;
+        EXPECT_EQ(count(arrived[0][dir], 600'000, 1'000'000), 0) << way;
+        EXPECT_GT(count(sent[0][dir], 1'400'000, 1'800'000), 30) << way;
+        EXPECT_EQ(count(arrived[0][dir], 1'400'000, 1'800'000), count(sent[0][dir], 1'400'000, 1'800'000)) << way;
+        // B, in no set of the cut: every datagram, all the time.
+        EXPECT_EQ(arrived[1][dir].size(), sent[1][dir].size()) << way;
+    }
+    EXPECT_GE(proxy.counters().partitioned, 2u * 60);  // ~80 each way for A
+    EXPECT_EQ(proxy.counters().dropped, 0u);
+}
+
 // Runs `lockroll proxy ARGS` (bounded by --duration-s), returns the exit status and output.
 std::pair<int, std::string> run_proxy_command(const std::string& args) {
     const std::string cmd = std::string(LOCKROLL_EXE) + " proxy " + args + " --duration-s 1 2>&1";
@@ -307,6 +402,12 @@ TEST(UdpProxy, RefusesAddressesOutsideLoopbackAndBadFlagsByName) {
         {"--listen 0 --to 127.0.0.1:9 --burst -1", "--burst"},
         {"--listen 0 --to 127.0.0.1:9 --latency -5", "--latency"},
         {"--to 127.0.0.1:9", "--listen"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/1@5-1 --slot 0", "--partition '0/1@5-1': frames '5-1'"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/2@1-5 --slot 0", "--partition '0/2@1-5': slot 2"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/1@1-5", "--partition needs --slot"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/1@1-5 --slot 5", "--slot 5: SLOT must be 0..1"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/1@1-5 --slot 0 --client-slot 1=10.0.0.1:9", "--client-slot"},
+        {"--listen 0 --to 127.0.0.1:9 --partition 0/1@1-5 --slot 0 --client-slot x", "--client-slot x: expected"},
     };
     for (const auto& [args, flag] : cases) {
         const auto [status, out] = run_proxy_command(args);

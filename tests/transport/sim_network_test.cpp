@@ -1,4 +1,5 @@
 #include "transport/sim_network.h"
+#include "transport/partition_schedule.h"
 
 #include <gtest/gtest.h>
 
@@ -63,21 +64,30 @@ LinkConditions rough_link() {
     return c;
 }
 
-// Three peers, 60 Hz, everyone sends to everyone each tick with varying sizes, interleaved with
-// receiving: the shape of the harness's traffic.
-std::vector<Delivery> scripted_run(std::uint64_t seed, const LinkConditions& link) {
-    SimNetwork net({.peers = 3, .seed = seed, .link = link});
+// Up to four peers (three by default), 60 Hz, everyone sends to everyone each tick with varying
+// sizes, interleaved with receiving: the shape of the harness's traffic. Datagram ids are
+// tick * 16 + from * 4 + to (see mesh_send_time, mesh_from, mesh_to).
+constexpr Micros kMeshTickUs = 16'667;
+std::vector<Delivery> scripted_run(const SimNetworkConfig& config) {
+    SimNetwork net(config);
+    const auto peers = static_cast<PeerId>(config.peers);
     std::vector<Delivery> out;
     for (std::uint32_t tick = 0; tick < 600; ++tick) {
-        const Micros now = Micros{tick} * 16'667;
+        const Micros now = Micros{tick} * kMeshTickUs;
         drain(net, now, out);
-        for (PeerId from = 0; from < 3; ++from)
-            for (PeerId to = 0; to < 3; ++to)
+        for (PeerId from = 0; from < peers; ++from)
+            for (PeerId to = 0; to < peers; ++to)
                 if (from != to) net.endpoint(from).send(to, payload(tick * 16 + from * 4 + to, 4 + (tick + from) % 40), now);
     }
     drain(net, ~Micros{0}, out);
     return out;
 }
+std::vector<Delivery> scripted_run(std::uint64_t seed, const LinkConditions& link) {
+    return scripted_run({.peers = 3, .seed = seed, .link = link});
+}
+Micros mesh_send_time(std::uint32_t id) { return Micros{id / 16} * kMeshTickUs; }
+PeerId mesh_from(std::uint32_t id) { return id / 4 % 4; }
+PeerId mesh_to(std::uint32_t id) { return id % 4; }
 
 std::uint64_t trace_hash(const std::vector<Delivery>& trace) {
     // Field by field, little-endian, so the hash means the same thing on every machine.
@@ -444,6 +454,108 @@ TEST(SimNetwork, InvalidConfigurationThrowsNamingTheField) {
     SimNetwork net({.peers = 2, .seed = 1, .link = {}});
     EXPECT_THROW(net.endpoint(2), std::out_of_range);
     EXPECT_THROW(net.set_link(0, 1, bad), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Partitions
+
+// {0,1} / {2} cut from 3 s to 6 s; slot 3 is named in neither set. Against the same run without
+// the partition: links that do not cross the cut are identical to the bit; on the four directed
+// links that cross it, exactly the datagrams sent inside the window are missing, and every other
+// datagram has the same fate (lost or delivered, duplicated or not) as without the cut, since a
+// cut datagram keeps its draws and burst step (LinkModel::cut).
+TEST(SimNetwork, PartitionDropsExactlyTheCutLinksInsideTheWindowAndNothingElse) {
+    constexpr Micros kFrom = 3'000'000, kUntil = 6'000'000;
+    PartitionSchedule schedule;
+    schedule.add({{{0, 1}, {2}}, kFrom, kUntil});
+    const SimNetworkConfig plain{.peers = 4, .seed = 77, .link = rough_link()};
+    SimNetworkConfig cut = plain;
+    cut.partitions = schedule;
+    const auto without = scripted_run(plain);
+    const auto with = scripted_run(cut);
+
+    const auto crosses = [](PeerId a, PeerId b) { return (a < 2 && b == 2) || (a == 2 && b < 2); };
+    std::map<std::uint32_t, int> want_on_cut_links, got_on_cut_links;  // id -> copies delivered
+    std::vector<Delivery> want_elsewhere, got_elsewhere;
+    std::size_t removed = 0;
+    for (const Delivery& d : without) {
+        const std::uint32_t id = id_of(d.bytes);
+        if (!crosses(d.from, d.to)) {
+            want_elsewhere.push_back(d);
+        } else if (mesh_send_time(id) >= kFrom && mesh_send_time(id) < kUntil) {
+            ++removed;
+        } else {
+            ++want_on_cut_links[id];
+        }
+    }
+    for (const Delivery& d : with) {
+        const std::uint32_t id = id_of(d.bytes);
+        ASSERT_EQ(mesh_from(id), d.from);
+        ASSERT_EQ(mesh_to(id), d.to);
+        if (crosses(d.from, d.to)) {
+            const Micros sent = mesh_send_time(id);
+            EXPECT_FALSE(sent >= kFrom && sent < kUntil) << "datagram " << id << " crossed the cut at " << sent;
+            ++got_on_cut_links[id];
+        } else {
+            got_elsewhere.push_back(d);
+        }
+    }
+    EXPECT_GT(removed, 300u);  // ~180 sends per cut link in the window, less random loss
+    EXPECT_EQ(got_elsewhere, want_elsewhere);
+    EXPECT_EQ(got_on_cut_links, want_on_cut_links);
+
+    // Counted as partition losses on the cut links only: 180 ticks of the window on each of the
+    // four directed links (ticks 180..359 are sent at 3.00 s .. 5.98 s).
+    SimNetwork net(cut);
+    for (std::uint32_t tick = 0; tick < 600; ++tick)
+        for (PeerId from = 0; from < 4; ++from)
+            for (PeerId to = 0; to < 4; ++to)
+                if (from != to) net.endpoint(from).send(to, payload(tick), Micros{tick} * kMeshTickUs);
+    for (PeerId from = 0; from < 4; ++from)
+        for (PeerId to = 0; to < 4; ++to) {
+            if (from == to) continue;
+            const LinkStats& ls = net.link_stats(from, to);
+            EXPECT_EQ(ls.lost_partition, crosses(from, to) ? 180u : 0u) << from << "->" << to;
+            EXPECT_EQ(ls.sent, 600u);
+            EXPECT_EQ(ls.sent, ls.delivered - ls.duplicated + ls.lost_random + ls.lost_burst + ls.lost_queue +
+                                   ls.lost_partition);
+        }
+    EXPECT_GE(net.endpoint(2).counters().dropped, 2 * 180u);  // cut ones, plus random loss
+}
+
+// No schedule, an empty one, or one whose window comes after every send: the golden trace, bit
+// for bit (the same hash as SimNetwork.GoldenTrace).
+TEST(SimNetwork, APartitionThatNeverAppliesLeavesTheGoldenTrace) {
+    PartitionSchedule later;
+    later.add({{{0}, {1, 2}}, 600 * kMeshTickUs + 10'000'000, 600 * kMeshTickUs + 20'000'000});
+    for (const PartitionSchedule& s : {PartitionSchedule{}, later}) {
+        SimNetworkConfig c{.peers = 3, .seed = 2024, .link = rough_link()};
+        c.partitions = s;
+        EXPECT_EQ(trace_hash(scripted_run(c)), 0x7bb9050ebbe15b25ull);
+    }
+}
+
+TEST(SimNetwork, PartitionsCanBeReplacedAndRefuseUnknownSlots) {
+    SimNetwork net({.peers = 2, .seed = 1, .link = {}});
+    PartitionSchedule s;
+    s.add({{{0}, {1}}, 100, 200});
+    net.set_partitions(s);
+    EXPECT_TRUE(net.endpoint(0).send(1, payload(0), 150));  // accepted, then cut
+    EXPECT_EQ(net.endpoint(0).counters().dropped, 1u);
+    EXPECT_EQ(net.link_stats(0, 1).lost_partition, 1u);
+    EXPECT_EQ(net.in_flight(), 0u);
+    net.set_partitions({});
+    EXPECT_TRUE(net.endpoint(0).send(1, payload(1), 150));
+    EXPECT_EQ(net.in_flight(), 1u);
+    PartitionSchedule bad;
+    bad.add({{{0}, {5}}, 0, 10});
+    try {
+        net.set_partitions(bad);
+        ADD_FAILURE() << "slot 5 accepted on a 2-peer network";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("slot 5"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(SimNetwork({.peers = 2, .seed = 1, .link = {}, .partitions = bad}), std::invalid_argument);
 }
 
 }  // namespace
