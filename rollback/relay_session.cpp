@@ -130,6 +130,7 @@ void RelaySession::receive_impl(std::span<const std::uint8_t> d, std::uint64_t n
     ++stats_.packets_received;
     stats_.bytes_received += d.size();
     if (phase_ == SessionPhase::Failed) return;
+    last_server_us_ = std::max(last_server_us_, now_us);
     const auto kind = peek_relay_kind(d);
     if (!kind) return malformed("relay: unknown message kind");
     const char* err = nullptr;
@@ -554,6 +555,14 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     if (phase_ == SessionPhase::Failed) {
         pending_out_.clear();
         return;
+    }
+    // A started room sends every tick; before the start it sends nothing, so only then.
+    const bool in_room = phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring;
+    if (in_room && config_.server_timeout_us && last_server_us_ && now_us > last_server_us_ + config_.server_timeout_us) {
+        const std::string why = "the relay server is silent for " + std::to_string((now_us - last_server_us_) / 1000) + " ms";
+        emit(SessionEvent::Kind::Disconnected, kRelayServerPeer, frame(), now_us, why);
+        pending_out_.clear();
+        return fail(why, now_us);
     }
     if (!welcomed_ && (!hello_sent_ || now_us - last_hello_us_ >= config_.hello_resend_us)) {
         RelayHello h;

@@ -72,6 +72,10 @@ struct RelaySessionConfig {
     int transfer_window = 32;
     std::uint32_t max_snapshot_bytes = 64u << 20;
     int max_recoveries = 3;             // reloads after Desync notices before giving up
+    // Once the room runs (the server sends every tick), this long without a datagram from the
+    // server fails the session: "the relay server is silent". 0: wait for ever. A transport
+    // reconnect within it resumes the match.
+    std::uint64_t server_timeout_us = 5'000'000;
     CpuClock cpu_clock;
 };
 
@@ -194,6 +198,7 @@ private:
     std::uint64_t last_hello_us_ = 0;
     bool hello_sent_ = false;
     bool welcomed_ = false;
+    std::uint64_t last_server_us_ = 0;  // the last datagram from the server (0: none yet)
     bool room_started_ = false;
     std::uint64_t started_us_ = 0;
     std::uint64_t last_delay_revision_us_ = 0;

@@ -58,6 +58,8 @@ public:
     }
     // The process dies: nothing more is sent or received; the server notices the silence.
     void kill(int i) { clients_[static_cast<std::size_t>(i)]->alive = false; }
+    // The server process dies and nothing takes its place: it receives, sends and ticks no more.
+    void kill_server() { server_alive_ = false; }
     // The server process dies and a new one starts at once with no rooms: every client's
     // transport reconnects (a new connection, datagrams in flight lost).
     void restart_server(ServerConfig sc = {}) {
@@ -107,14 +109,16 @@ private:
         for (auto& c : clients_) {
             RelayClient& cl = *c;
             cl.up_net.deliver(now_, [&](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>& b, std::uint64_t at) {
-                if (cl.alive && !kicked_.count(cl.connection)) server_->receive(cl.connection, b, at);
+                if (cl.alive && server_alive_ && !kicked_.count(cl.connection)) server_->receive(cl.connection, b, at);
             });
             cl.down_net.deliver(now_, [&](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>& b, std::uint64_t at) {
                 if (cl.alive && !cl.frozen) cl.session->receive(b, at);
             });
         }
-        server_->tick(now_);
-        flush_server();
+        if (server_alive_) {
+            server_->tick(now_);
+            flush_server();
+        }
         for (auto& c : clients_) {
             RelayClient& cl = *c;
             if (!cl.alive || cl.frozen || now_ < cl.next_tick_us) continue;
@@ -152,6 +156,7 @@ private:
 
     sim::SceneDesc scene_;
     std::unique_ptr<RelayServer> server_;
+    bool server_alive_ = true;
     std::vector<std::unique_ptr<RelayClient>> clients_;
     std::uint64_t now_ = 1'000'000;
     ConnectionId next_conn_ = 1;

@@ -96,6 +96,26 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
     }
 }
 
+// The server dies and nothing comes back: each client fails within its server timeout (5 s),
+// saying so, instead of hanging with no error until its run timeout.
+TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 50 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(300));
+    cl.kill_server();
+    cl.run_for(4'000'000);
+    for (int s = 0; s < 2; ++s) EXPECT_NE(cl.client(s).session->phase(), rollback::SessionPhase::Failed);
+    cl.run_for(2'000'000);
+    for (int s = 0; s < 2; ++s) {
+        const auto& c = cl.client(s);
+        EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "slot " << s;
+        EXPECT_NE(c.session->failure().find("silent"), std::string::npos) << c.session->failure();
+        EXPECT_EQ(count(c, Kind::Disconnected), 1) << "slot " << s;
+    }
+}
+
 TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
     const auto scene = rollback::testing::make_scene(3, 10);
     ServerConfig sc;
