@@ -399,6 +399,14 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
                 break;
             }
             const auto frame = static_cast<std::uint32_t>(f);
+            // An honest client resends its inputs from the oldest it has not seen confirmed, which
+            // lags the room by its round trip (seconds under a loss burst), never by a whole
+            // input window: older frames are bad, not resends.
+            if (std::uint64_t{frame} + kWindow < confirmed_next_) {
+                ++s.counters.out_of_window;
+                problem = "relay input: frame far in the past";
+                break;
+            }
             if (frame < low) {
                 if (frame < confirmed_next_ && frame >= history_base() &&
                     (history_.at(frame - history_base())[static_cast<std::size_t>(id)] & kRelayReplaced))

@@ -245,6 +245,29 @@ TEST_F(Server, ChecksumOfTheFrameJustConfirmedIsHonest) {
     EXPECT_EQ(server->counters().bad_packets, 2u);
 }
 
+// Resends from a little before the confirmed frame are honest (a client learns of confirmation a
+// round trip late); inputs for frames more than the 512-frame input window in the past are bad,
+// counted and, past max_bad_packets, kicked (docs/relay.md). Before, they were silently skipped.
+TEST_F(Server, InputsFarInThePastAreBad) {
+    start_room(7, 1, 2);
+    for (std::uint32_t f = 0; f < 600; f += 40) {
+        advance(40 * 16667);
+        inputs(1, f, 1, 40, f);
+        inputs(2, f, 2, 40, f);
+    }
+    const RelayRoom* room = server->room(7);
+    ASSERT_EQ(room->confirmed_frames(), 600u);
+    inputs(1, 560, 1, 40, 600);  // a late resend: fine
+    drain();
+    EXPECT_EQ(server->counters().bad_packets, 0u);
+    for (int i = 0; i <= config().max_bad_packets; ++i) inputs(1, 20, 1, 10, 600);
+    drain();
+    EXPECT_EQ(server->counters().bad_packets, static_cast<std::uint64_t>(config().max_bad_packets) + 1);
+    EXPECT_GT(room->slot_counters(0).out_of_window, 0u);
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_FALSE(was_kicked(2));
+}
+
 TEST_F(Server, FloodIsThrottledThenKicked) {
     start_room(7, 1, 2);
     for (int i = 0; i < 2000; ++i) inputs(1, 0, 1, 1);
