@@ -14,6 +14,11 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
+# <lockroll/version.h>: generated into the build tree's include dir (every target's interface
+# includes it) and installed beside the libraries' header folders.
+configure_file(${PROJECT_SOURCE_DIR}/cmake/version.h.in ${PROJECT_BINARY_DIR}/include/lockroll/version.h @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/include/lockroll/version.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll)
+
 set(lockroll_config_dependencies "")  # lockrollConfig.cmake: finding what the static libraries link
 set(lockroll_pc_requires "")          # lockroll.pc: pkg-config modules they link
 set(lockroll_pc_libs "")              # lockroll.pc: -l flags, dependents first

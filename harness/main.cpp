@@ -6,6 +6,7 @@
 #include <string>
 
 #include <CLI/CLI.hpp>
+#include <lockroll/version.h>
 
 #include "harness/cli_error.h"
 #include "harness/commands.h"
@@ -31,6 +32,7 @@ std::string unknown_subcommand(const CLI::App& app, int argc, char** argv) {
 
 int main(int argc, char** argv) {
     CLI::App app{"lockroll: deterministic fixed-point physics with rollback and lockstep netcode"};
+    app.set_version_flag("--version", "lockroll " LOCKROLL_VERSION_STRING, "Print the version and exit");
     app.require_subcommand(1);
     app.add_option_function<std::size_t>(
            "--max-bodies", [](std::size_t n) { lockroll::harness::set_max_scene_bodies(n); },
@@ -47,6 +49,8 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForHelp& e) {
         return app.exit(e);
     } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
         app.exit(e);
