@@ -321,11 +321,13 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
         if (snap_offer_.size == 0 || snap_offer_.size > config_.max_snapshot_bytes) return malformed("snapshot offer: size out of range");
         incoming_ = std::make_unique<TransferReceiver>(snap_offer_);
         incoming_->started_us = now_us;
+        transfer_progress_us_ = now_us;
         return;
     }
     if (kind == MessageKind::SnapshotChunk) {
         if (const char* e = decode(payload, snap_chunk_)) return malformed(e);
         if (!incoming_ || !incoming_->add(snap_chunk_)) return;
+        transfer_progress_us_ = now_us;
         if (incoming_->complete()) finish_transfer(now_us);
         return;
     }
@@ -333,7 +335,7 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
 }
 
 void RelaySession::begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us) {
-    (void)now_us;
+    transfer_progress_us_ = now_us;
     phase_ = SessionPhase::Transferring;
     transfer_from_ = from;
     transfer_reason_ = reason;
@@ -582,6 +584,10 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         hello_sent_ = true;
         last_hello_us_ = now_us;
     }
+    if (transfer_from_ && config_.transfer_timeout_us && now_us > transfer_progress_us_ + config_.transfer_timeout_us)
+        return fail("snapshot from id " + std::to_string(*transfer_from_) + ": no progress for " +
+                        std::to_string((now_us - transfer_progress_us_) / 1000) + " ms",
+                    now_us);
     if (transfer_from_) {
         const std::uint8_t from = *transfer_from_;
         if (!incoming_) {

@@ -76,6 +76,10 @@ struct RelaySessionConfig {
     // server fails the session: "the relay server is silent". 0: wait for ever. A transport
     // reconnect within it resumes the match.
     std::uint64_t server_timeout_us = 5'000'000;
+    // A snapshot transfer (join, spectate, recovery) that makes no progress this long (no offer,
+    // no new chunk) fails the session, naming the source: a source that is hung, or lies and
+    // never serves, must not hold this client in Transferring for ever. 0: wait for ever.
+    std::uint64_t transfer_timeout_us = 10'000'000;
     CpuClock cpu_clock;
 };
 
@@ -223,6 +227,7 @@ private:
     TransferReason transfer_reason_ = TransferReason::Join;
     std::unique_ptr<TransferReceiver> incoming_;
     std::uint64_t last_offer_request_us_ = 0;
+    std::uint64_t transfer_progress_us_ = 0;  // when the transfer began, or last moved on
     std::uint32_t recover_after_ = 0;    // Desync notices for frames before this are stale
     int recoveries_ = 0;
     // providing side

@@ -138,6 +138,30 @@ TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
     EXPECT_GE(count(cl.client(0), Kind::Disconnected), 1);
 }
 
+// Two players, so the server takes the lower slot as right; slot 1 is told to reload slot 0's
+// state, but slot 0 hangs (or lies and never serves) while keeping its connection. Slot 1 must
+// not wait for ever: with no progress for transfer_timeout_us (10 s) it fails, naming the
+// source. Before, it stayed in Transferring for good with no event.
+TEST(RelayMatch, RecoveryFromASourceThatNeverServesEnds) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    ServerConfig sc;
+    sc.room.silence_drop_us = 120'000'000;  // the hung source keeps its slot
+    RelayCluster cl(scene, sc);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 60 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(100));
+    const std::uint32_t body = cl.client(1).sim.body_id(0);
+    ASSERT_EQ(cl.client(1).session->inject_fault(150, body, 0, 40), "");
+    for (int i = 0; i < 20'000 && cl.client(1).session->phase() != rollback::SessionPhase::Transferring; ++i)
+        cl.run_for(1000);
+    ASSERT_EQ(cl.client(1).session->phase(), rollback::SessionPhase::Transferring);
+    cl.client(0).frozen = true;
+    cl.run_for(30'000'000);
+    const auto& honest = cl.client(1);
+    EXPECT_EQ(honest.session->phase(), rollback::SessionPhase::Failed);
+    EXPECT_NE(honest.session->failure().find("no progress"), std::string::npos) << honest.session->failure();
+}
+
 TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
     const auto scene = rollback::testing::make_scene(3, 20);
     RelayCluster cl(scene);
