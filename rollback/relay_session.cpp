@@ -1,5 +1,7 @@
 #include "rollback/relay_session.h"
 
+#include "rollback/time_sync.h"
+
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
@@ -520,14 +522,16 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
         confirm_frames();
     }
     r.frame = frame();
-    // Pacing: ahead of the target lead, lengthen ticks in proportion (at most 5 %).
+    // Pacing: ahead of the target lead, lengthen ticks in proportion (at most kMaxTickStretchPpm,
+    // as the P2P session: a client clock 8 % fast outran a 5 % cap into its window).
     if (const auto clock = room_clock(now_us)) {
         const std::int64_t lead = static_cast<std::int64_t>(frame()) * kFrac - *clock;
         relay_stats_.lead_x100 = lead * 100 / kFrac;
         relay_stats_.target_lead = target_lead();
         const std::int64_t excess = lead - target_lead() * kFrac;
         if (excess > kFrac / 2)
-            r.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(50000, excess * 1000000 / (kFrac * config_.tick_rate)));
+            r.tick_stretch_ppm = static_cast<int>(
+                std::min<std::int64_t>(kMaxTickStretchPpm, excess * 1000000 / (kFrac * config_.tick_rate)));
     }
     return r;
 }

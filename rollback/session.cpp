@@ -1085,14 +1085,11 @@ AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, s
             next_time_sync_frame_ = result.frame + static_cast<std::uint32_t>(config_.time_sync_window);
         }
     }
-    // The same advice as a gentle slowdown: 2 % per frame ahead, at most 10 %. A proportional
-    // controller settles where the stretch equals the clock-rate difference, so the cap is the
-    // largest difference it can follow without running into the window: 5 % (GGRS's figure) was
-    // too little for one clock 1 % fast against one 5 % slow (6.3 %), whose fast peer then
-    // stalled now and then; at 10 % it settles about 3 frames ahead and never stalls
-    // (tests/harness/live_faults_test.sh). Equal clocks stay within a frame and barely stretch.
+    // The same advice as a gentle slowdown: 2 % per frame ahead, at most kMaxTickStretchPpm
+    // (time_sync.h says why 10 %). Equal clocks stay within a frame and barely stretch.
     const std::int32_t ahead = frames_ahead_x100();
-    if (ahead > 50) result.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(std::int64_t{ahead} * 200, 100000));
+    if (ahead > 50)
+        result.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(std::int64_t{ahead} * 200, kMaxTickStretchPpm));
     return result;
 }
 

@@ -15,6 +15,15 @@
 
 namespace lockroll::rollback {
 
+// The longest a tick may be stretched to slow a client that runs ahead (AdvanceResult's
+// tick_stretch_ppm), for the P2P and relay sessions alike. A proportional controller settles
+// where the stretch equals the clock-rate difference, so the cap is the largest difference it
+// can follow: 5 % (GGRS's figure) was too little for one clock 1 % fast against one 5 % slow
+// (6.3 %), whose fast peer then stalled now and then; at 10 % it settles a few frames ahead and
+// never stalls (Lifecycle.StretchedTicksFollowClocksSixPercentApart,
+// RelayMatch.ClockEightPercentFastKeepsItsLead).
+inline constexpr int kMaxTickStretchPpm = 100'000;
+
 class TimeSync {
 public:
     explicit TimeSync(int window);

@@ -162,6 +162,25 @@ TEST(RelayMatch, RecoveryFromASourceThatNeverServesEnds) {
     EXPECT_NE(honest.session->failure().find("no progress"), std::string::npos) << honest.session->failure();
 }
 
+// A client whose clock runs 8 % fast (beyond the old 5 % cap of the relay client's stretch, within
+// the P2P session's 10 %): its stretched ticks keep it near its target lead on the room clock for
+// three minutes, so it never runs ahead into the server's window, and both clients agree.
+TEST(RelayMatch, ClockEightPercentFastKeepsItsLead) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 70 + static_cast<std::uint64_t>(s));
+    cl.client(1).period_ppm = 925926;  // 1 / 1.08
+    ASSERT_TRUE(cl.run_until_frame(10800, 400'000'000));
+    const auto& fast = cl.client(1).session->relay_stats();
+    // The stretch grows 1.67 % per frame of excess lead, so 8 % settles about 5 frames past the
+    // target; with a 5 % cap the lead ran on to the prediction window (19.5 frames here).
+    EXPECT_LE(fast.lead_x100, (fast.target_lead + 7) * 100) << "frames ahead of the room clock, x100";
+    EXPECT_EQ(cl.kicked(cl.client(1).connection), 0u);
+    cl.run_for(2'000'000);
+    expect_equal_at(cl, {0, 1}, 10800);
+}
+
 TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
     const auto scene = rollback::testing::make_scene(3, 20);
     RelayCluster cl(scene);
