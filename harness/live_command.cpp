@@ -22,6 +22,7 @@
 #include "harness/cli_error.h"
 #include "harness/hex.h"
 #include "harness/match.h"
+#include "harness/match_recorder.h"
 #include "harness/plot_script.h"
 #include "harness/report.h"
 #include "harness/run_command.h"
@@ -469,23 +470,12 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
     return recs;
 }
 
-// For the metrics: per slot, the process that finished it (a rejoined one over the killed one).
-std::vector<const ProcessRecord*> players_of(const std::vector<ProcessRecord>& recs, int players) {
-    std::vector<const ProcessRecord*> out(static_cast<std::size_t>(players), nullptr);
-    for (const auto& r : recs)
-        if (!r.spectator && r.started) out[static_cast<std::size_t>(r.slot)] = &r;
-    return out;
-}
-
-// Merges a Stat from (mean, max, count) as summaries print it.
-void merge(Stat& s, double mean, double max, std::uint64_t count) {
-    s.sum += mean * static_cast<double>(count);
-    s.count += count;
-    s.max = std::max(s.max, max);
-}
-
+// The mode's figures from what its processes wrote: each process's summary.json (session
+// counters), samples.json (MatchRecorder's raw samples), frames.csv and positions.csv. Every
+// percentile and maximum is computed from the samples; a process that wrote nothing (killed
+// on purpose) is named in r.notes and counts in no figure, and a figure no process measured
+// stays empty, to be printed "n/a" with the reason in r.unmeasured.
 RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all, int input_delay) {
-    const auto players = players_of(all, p.o.players);
     const LiveOptions& o = p.o;
     RunResult r;
     r.mode = mode_name(mode);
@@ -502,77 +492,101 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     r.loss = o.loss;
     r.duplicate = o.duplicate;
     r.reorder = o.reorder;
+    r.burst_loss = o.burst;
     r.completed = true;
-    std::vector<double> rtts;
-    const std::size_t bodies = sim::World(with_players(p.base.scene, o.players)).dynamic_count();
+    const sim::World world(with_players(p.base.scene, o.players));
+    const std::size_t bodies = world.dynamic_count();
+    r.body_ids.assign(world.dynamic_ids().begin(), world.dynamic_ids().end());
+    r.body_player.assign(bodies, -1);
+    for (int pl = 0; pl < world.player_count(); ++pl)
+        for (std::size_t b = 0; b < bodies; ++b)
+            if (r.body_ids[b] == world.player_body(pl)) r.body_player[b] = pl;
     PositionErrorTracker tracker(o.players, bodies, false);
-    // Positions of every process: frame -> body positions (exact raw Q32.32 columns).
-    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(players.size());
+    // Positions of every player slot: frame -> body positions (exact raw Q32.32 columns). A
+    // slot's rejoined process adds the frames from its join on.
+    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(static_cast<std::size_t>(o.players));
     std::map<std::uint32_t, double> time_s;
-    for (const ProcessRecord* recp : players) {
-        if (!recp) continue;
-        const ProcessRecord& rec = *recp;
+    const int reference = [&] {  // the lowest slot playing from frame 0 and not killed: its times are the rows'
+        for (const auto& rec : all)
+            if (!rec.spectator && !rec.joiner && !rec.killed && rec.started) return rec.slot;
+        return 0;
+    }();
+    std::vector<RecordedSamples> recorded;
+    std::vector<std::string> checksum_owner;
+    recorded.reserve(all.size());
+    for (const ProcessRecord& rec : all) {
+        if (!rec.started) continue;
+        if (rec.killed) {
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): killed by --kill at frame " +
+                              std::to_string(rec.killed_at_frame) + "; a killed process leaves no figures, so it counts in none");
+            continue;
+        }
         const fs::path pd = dir / rec.name;
         const json& s = rec.summary;
-        ClientResult c;
-        if (s.is_object()) {
-            const json& c0 = s["clients"][0];
-            c.ticks_per_second = c0.value("ticks_per_second", 0.0);
-            c.stall_fraction = c0.value("stall_fraction", 0.0);
-            c.frames = c0.value("frames", 0ull);
-            c.ticks = c0.value("ticks", 0ull);
-            c.stall_ticks = c0.value("stall_ticks", 0ull);
-            c.time_sync_waits = c0.value("time_sync_wait_frames", 0ull);
-            c.rollbacks = c0.value("rollbacks", 0ull);
-            c.resimulated_frames = c0.value("resimulated_frames", 0ull);
-            c.max_rollback_depth = c0.value("max_rollback_depth", 0u);
-            c.mispredictions = c0.value("mispredictions", 0ull);
-            c.bytes_sent = c0.value("bytes_sent", 0ull);
-            c.bytes_received = c0.value("bytes_received", 0ull);
-            c.packets_sent = c0.value("packets_sent", 0ull);
-            c.packets_received = c0.value("packets_received", 0ull);
-            c.malformed_packets = c0.value("malformed_packets", 0ull);
-            c.desyncs = c0.value("desyncs", 0ull);
-            if (s["final_checksum"].is_string()) {
-                c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
-                c.final_confirmed = true;
-            }
-            r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
-            const json& il = s["input_latency_ms"];
-            merge(r.input_latency_local, il.value("mean", 0.0), il.value("max", 0.0), il.value("samples", 0ull));
-            const json& vc = s["visual_corrections"];
-            merge(r.correction_jump, vc.value("mean_jump_m", 0.0), vc.value("max_jump_m", 0.0), vc.value("count", 0ull));
-            const json& cpu = s["cpu_us_per_tick"];
-            merge(r.cpu_us_per_tick, cpu.value("mean", 0.0), 0.0, c.ticks);
-            merge(r.resim_us_per_tick, cpu.value("resim_mean", 0.0), 0.0, c.ticks);
-            const json& rb = s["rollbacks"];
-            merge(r.rollback_depth, rb.value("mean_depth", 0.0), rb.value("max_depth", 0.0), rb.value("count", 0ull));
-            const auto hist = rb.value("depth_histogram", std::vector<std::uint64_t>{});
-            if (r.rollback_depth_histogram.size() < hist.size()) r.rollback_depth_histogram.resize(hist.size());
-            for (std::size_t d = 0; d < hist.size(); ++d) r.rollback_depth_histogram[d] += hist[d];
-            for (const auto& d : s["desync_reports"]) {
-                DesyncRecord dr;
-                dr.client = d.value("client", rec.slot);
-                dr.summary = d.value("summary", "");
-                dr.evidence_file = d.value("evidence_file", "");
-                dr.detected_frame = d.value("detected_frame", 0u);
-                dr.frame = d.value("frame", 0u);
-                dr.body = d.value("body", 0u);
-                dr.field = d.value("field", "");
-                r.desyncs.push_back(dr);
-            }
-            if (s.contains("rtt_ms"))
-                for (const auto& [peer, ms] : s["rtt_ms"].items()) rtts.push_back(ms.get<double>());
+        const json samples = fs::exists(pd / "samples.json") ? json::parse(read_text(pd / "samples.json"), nullptr, false) : json();
+        if (!s.is_object() || !samples.is_object()) {
+            r.completed = false;
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): left no summary (exit status " +
+                              std::to_string(rec.exit_status) + "); it counts in no figure");
+            continue;
         }
-        if (!c.final_confirmed || rec.exit_status != 0) r.completed = false;
+        recorded.push_back(RecordedSamples::from_json(samples));
+        checksum_owner.push_back(rec.name);
+        const RecordedSamples& m = recorded.back();
+        const bool final_confirmed = s["final_checksum"].is_string();
+        if (!final_confirmed || rec.exit_status != 0) r.completed = false;
+        r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
+        if (rec.spectator) continue;  // a spectator confirms (agreement) but plays no frame of its own
+        const json& c0 = s["clients"][0];
+        ClientResult c;
+        c.ticks_per_second = c0.value("ticks_per_second", 0.0);
+        c.stall_fraction = c0.value("stall_fraction", 0.0);
+        c.frames = c0.value("frames", 0ull);
+        c.ticks = c0.value("ticks", 0ull);
+        c.stall_ticks = c0.value("stall_ticks", 0ull);
+        c.time_sync_waits = c0.value("time_sync_wait_frames", 0ull);
+        c.rollbacks = c0.value("rollbacks", 0ull);
+        c.resimulated_frames = c0.value("resimulated_frames", 0ull);
+        c.max_rollback_depth = c0.value("max_rollback_depth", 0u);
+        c.mispredictions = c0.value("mispredictions", 0ull);
+        c.bytes_sent = c0.value("bytes_sent", 0ull);
+        c.bytes_received = c0.value("bytes_received", 0ull);
+        c.packets_sent = c0.value("packets_sent", 0ull);
+        c.packets_received = c0.value("packets_received", 0ull);
+        c.malformed_packets = c0.value("malformed_packets", 0ull);
+        c.desyncs = c0.value("desyncs", 0ull);
+        c.final_confirmed = final_confirmed;
+        if (final_confirmed) c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
+        c.from_start = !rec.joiner;
         r.clients.push_back(c);
+        r.input_latency_local.merge(m.input_latency_local);
+        r.cpu_us_per_tick.merge(m.cpu_us_per_tick);
+        r.resim_us_per_tick.merge(m.resim_us_per_tick);
+        r.physics_step_us.merge(m.physics_step_us);
+        r.rollback_depth.merge(m.rollback_depth);
+        if (r.rollback_depth_histogram.size() < m.rollback_depth_histogram.size())
+            r.rollback_depth_histogram.resize(m.rollback_depth_histogram.size(), 0);
+        for (std::size_t d = 0; d < m.rollback_depth_histogram.size(); ++d) r.rollback_depth_histogram[d] += m.rollback_depth_histogram[d];
+        r.correction_jump.merge(m.correction_jump);
+        r.displayed_vs_confirmed.push_back(m.displayed_vs_confirmed);
+        for (const auto& [peer, ms] : m.rtt_ms) r.rtt.push_back({rec.slot, peer, ms});
+        for (const auto& d : s["desync_reports"]) {
+            DesyncRecord dr;
+            dr.client = d.value("client", rec.slot);
+            dr.summary = d.value("summary", "");
+            dr.evidence_file = d.value("evidence_file", "");
+            dr.detected_frame = d.value("detected_frame", 0u);
+            dr.frame = d.value("frame", 0u);
+            dr.body = d.value("body", 0u);
+            dr.field = d.value("field", "");
+            r.desyncs.push_back(dr);
+        }
         for (const auto& row : read_csv_rows(pd / "frames.csv")) {
             if (row.size() < 6) continue;
             const auto f = static_cast<std::uint32_t>(std::stoul(row[0]));
             const auto depth = static_cast<std::uint32_t>(std::stoul(row[3]));
             if (depth) tracker.note_rollback(f, depth);
-            r.cpu_us_per_tick.samples.push_back(std::stod(row[5]));
-            if (rec.slot == 0) {
+            if (rec.slot == reference && !rec.joiner) {
                 time_s[f] = std::stod(row[1]) / 1000.0;
                 tracker.set_tick_rate(f, std::stod(row[4]));
             }
@@ -588,41 +602,48 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
                          sim::Fixed::from_raw(std::stoll(row[8]))});
         }
     }
+    // Position error: every frame, between every pair of slots that both showed it. Slot order
+    // as the tracker's client index, so the reference slot's time lands on client 0's rows.
     for (std::uint32_t f = 1; f <= static_cast<std::uint32_t>(o.frames); ++f)
         for (std::size_t k = 0; k < shown.size(); ++k)
             if (const auto it = shown[k].find(f); it != shown[k].end() && it->second.size() == bodies)
                 tracker.record(static_cast<int>(k), f, time_s.contains(f) ? time_s[f] : 0.0, it->second);
+    tracker.finish();
     if (!r.positions_csv.empty()) {
         r.positions_csv.insert(0, "frame,client,body_index,x,y,z\n");
-        r.bodies_csv = bodies_csv(sim::World(with_players(p.base.scene, o.players)));
+        r.bodies_csv = bodies_csv(world);
     }
     r.position_error = tracker.error();
     r.rows = tracker.rows();
+    std::sort(r.rows.begin(), r.rows.end(), [](const FrameRow& a, const FrameRow& b) { return a.frame < b.frame; });
     r.per_body_max_error = tracker.per_body_max();
-    // Confirmed-state agreement: every checkpoint (every 60 frames) and the final checksum of
-    // each process against process 0's.
-    std::map<std::uint32_t, std::string> ref;
-    for (const ProcessRecord* rec : players) {
-        if (!rec) continue;
-        const json& s = rec->summary;
-        if (!s.is_object()) continue;
-        std::map<std::uint32_t, std::string> cps;
-        for (const auto& c : s["confirmed_checksums"]) cps[c["frame"].get<std::uint32_t>()] = c["checksum"].get<std::string>();
-        if (ref.empty()) {
-            ref = cps;
-            continue;
-        }
-        for (const auto& [f, c] : cps)
-            if (const auto it = ref.find(f); it != ref.end()) {
+    r.pair_error = tracker.pair_errors();
+    r.body_error = tracker.body_errors();
+    // Confirmed-state agreement: every confirmed checksum every process wrote, against the first
+    // process that confirmed the same frame.
+    std::map<std::uint32_t, std::uint64_t> first;
+    for (const RecordedSamples& m : recorded)
+        for (const auto& [f, c] : m.confirmed)
+            if (const auto [it, fresh] = first.emplace(f, c); !fresh) {
                 ++r.confirmed_compared;
                 if (it->second != c) ++r.confirmed_mismatches;
             }
+    // Remote input latency across processes (one machine: CLOCK_MONOTONIC in every process).
+    std::vector<const RecordedSamples*> players;
+    for (const RecordedSamples& m : recorded)
+        if (m.slot < o.players) players.push_back(&m);
+    r.input_latency_remote = remote_input_latency(players);
+    Stat rtts = Stat::keeping_samples();
+    for (const auto& pr : r.rtt) rtts.merge(pr.rtt_ms);
+    if (rtts.count) {
+        r.rtt_p50_ms = rtts.percentile(50);
+        r.rtt_p95_ms = rtts.percentile(95);
+    } else {
+        r.unmeasured["measured_rtt"] = "no process measured a round trip";
     }
-    if (!rtts.empty()) {
-        std::sort(rtts.begin(), rtts.end());
-        r.rtt_p50_ms = rtts[rtts.size() / 2];
-        r.rtt_p95_ms = rtts[std::min(rtts.size() - 1, rtts.size() * 95 / 100)];
-    }
+    for (const char* field : {"input_latency_local", "input_latency_remote", "rtt", "cpu_us_per_tick", "physics_step_us",
+                              "position_error", "displayed_vs_confirmed"})
+        r.unmeasured[field] = "no process that completed its part measured it";
     return r;
 }
 
@@ -694,6 +715,24 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
             {"final_checksums_equal", equal},
             {"survivors_completed", survivors_ok},
             {"ok", equal && survivors_ok}};
+}
+
+// Outcomes that claim more than happened, one line each (empty: every claim holds): a process
+// that says it completed must have exited 0 having shown and confirmed the last frame with a
+// final checksum; a killed process cannot have completed.
+std::vector<std::string> overclaims(const std::vector<ProcessRecord>& recs, int frames) {
+    std::vector<std::string> out;
+    for (const auto& r : recs) {
+        const json& s = r.summary;
+        if (!r.started || !s.is_object() || s.value("outcome", "") != "completed") continue;
+        const auto why = [&](const std::string& w) { out.push_back(r.name + ": outcome completed, but " + w); };
+        if (r.killed) why("it was killed at frame " + std::to_string(r.killed_at_frame));
+        if (r.exit_status != 0) why("exit status " + std::to_string(r.exit_status));
+        if (!s["final_checksum"].is_string()) why("no final checksum");
+        if (s.value("confirmed_frame", 0) < frames) why("confirmed only frame " + std::to_string(s.value("confirmed_frame", 0)));
+        if (s.value("shown_frame", 0) < frames) why("showed only frame " + std::to_string(s.value("shown_frame", 0)));
+    }
+    return out;
 }
 
 std::string side_by_side(const std::vector<std::pair<std::string, const RunResult*>>& runs) {
@@ -775,6 +814,11 @@ int do_live(const LiveOptions& options) {
                 if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
             }
             json lj = live_json(recs, dir);
+            if (const auto claims = overclaims(recs, p.o.frames); !claims.empty()) {
+                lj["overclaims"] = claims;
+                lj["ok"] = false;
+                for (const auto& c : claims) std::fprintf(stderr, "[live] %s: %s\n", name.c_str(), c.c_str());
+            }
             json extra = json::object();
             if (relay) {
                 std::uint64_t replaced = 0;
@@ -819,6 +863,8 @@ int do_live(const LiveOptions& options) {
         const RunResult& delay0 = by_name.contains("rollback-delay0") ? by_name.at("rollback-delay0") : live.at(Mode::Rollback);
         write_file_atomic(out / "compare.json", compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0).dump(2) + "\n");
         report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0, note);
+    } else {
+        report = run_markdown(live.at(p.modes.front()), std::string(mode_name(p.modes.front())) + ", real processes");
     }
     report += "\n## Real processes beside virtual time\n\nThe same scene, players, frames, seed, input delay and network "
               "conditions: N `lockroll peer` processes over ENet on 127.0.0.1 (through `lockroll proxy` when impaired), "

@@ -43,6 +43,8 @@ bool at_paper_conditions(const RunResult& r);
 
 // rollback_delay0 is the like-for-like run: rollback at input delay 0 (what the paper measured).
 nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0);
+// One run's figures as compare_markdown's table has them (one column), under "# lockroll: TITLE".
+std::string run_markdown(const RunResult& r, const std::string& title);
 std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0,
                              const std::string& plots_note);
 
