@@ -154,9 +154,12 @@ LivePlan plan(const LiveOptions& o) {
     for (const auto& j : p.joins)
         for (const auto& k : p.kills)
             if (k.slot == j.slot) throw UsageError("--join and --kill of the same slot are not supported together");
+    const sim::SceneDesc scene = with_players(c.scene, o.players);
     for (const auto& text : o.injections) {
-        const DesyncInjection d = parse_injection(text);  // passed verbatim to every peer
-        if (d.client >= o.players) throw UsageError("--inject-desync " + text + ": CLIENT must be 0..players-1");
+        // Passed verbatim to every peer; checked here, as the target's session would, so that a
+        // bad one stops live before any process starts.
+        if (const std::string e = injection_error(scene, o.players, parse_injection(text)); !e.empty())
+            throw UsageError("--inject-desync " + text + ": " + e);
         p.injections.push_back(text);
     }
     for (const auto& text : o.clock_skews) {

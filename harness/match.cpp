@@ -463,6 +463,18 @@ void validate(const NetConditions& n) {
     if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
 }
 
+std::string injection_error(const sim::SceneDesc& scene, int players, const DesyncInjection& d) {
+    if (d.client < 0 || d.client >= players) return "CLIENT must be 0..players-1";
+    rollback::WorldSimulation sim(scene, players);
+    rollback::SessionConfig sc;
+    sc.players = players;
+    sc.local_player = static_cast<PlayerId>(d.client);
+    sc.input_size = rollback::kWorldInputSize;
+    sc.tick_rate = scene.tick_rate > 0 ? scene.tick_rate : 60;
+    rollback::Session session(sc, sim);
+    return session.inject_fault(d.frame, d.body, d.field, d.bit);
+}
+
 const char* mode_name(Mode m) { return m == Mode::Lockstep ? "lockstep" : "rollback"; }
 
 void validate(const RunConfig& c) {

@@ -182,6 +182,10 @@ PeerPlan plan(const PeerOptions& o) {
     }
     p.scene.tick_rate = o.tick_rate;
     if (const std::string e = sim::validate(p.scene); !e.empty()) throw UsageError("scene: " + e);
+    for (const auto& d : p.injections)  // refused before a socket is bound or a file written
+        if (const std::string e = injection_error(p.scene, o.players, d); !e.empty())
+            throw UsageError("--inject-desync " + std::to_string(d.client) + ":" + std::to_string(d.frame) + ":" +
+                             std::to_string(d.body) + ": " + e);
     return p;
 }
 
