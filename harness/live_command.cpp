@@ -562,16 +562,7 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
         if (final_confirmed) c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
         c.from_start = !rec.joiner;
         r.clients.push_back(c);
-        r.input_latency_local.merge(m.input_latency_local);
-        r.cpu_us_per_tick.merge(m.cpu_us_per_tick);
-        r.resim_us_per_tick.merge(m.resim_us_per_tick);
-        r.physics_step_us.merge(m.physics_step_us);
-        r.rollback_depth.merge(m.rollback_depth);
-        if (r.rollback_depth_histogram.size() < m.rollback_depth_histogram.size())
-            r.rollback_depth_histogram.resize(m.rollback_depth_histogram.size(), 0);
-        for (std::size_t d = 0; d < m.rollback_depth_histogram.size(); ++d) r.rollback_depth_histogram[d] += m.rollback_depth_histogram[d];
-        r.correction_jump.merge(m.correction_jump);
-        r.displayed_vs_confirmed.push_back(m.displayed_vs_confirmed);
+        add_client_samples(r, m);
         for (const auto& [peer, ms] : m.rtt_ms) r.rtt.push_back({rec.slot, peer, ms});
         for (const auto& d : s["desync_reports"]) {
             DesyncRecord dr;
@@ -622,15 +613,10 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     r.per_body_max_error = tracker.per_body_max();
     r.pair_error = tracker.pair_errors();
     r.body_error = tracker.body_errors();
-    // Confirmed-state agreement: every confirmed checksum every process wrote, against the first
-    // process that confirmed the same frame.
-    std::map<std::uint32_t, std::uint64_t> first;
-    for (const RecordedSamples& m : recorded)
-        for (const auto& [f, c] : m.confirmed)
-            if (const auto [it, fresh] = first.emplace(f, c); !fresh) {
-                ++r.confirmed_compared;
-                if (it->second != c) ++r.confirmed_mismatches;
-            }
+    // Confirmed-state agreement: every confirmed checksum every process wrote (spectators too).
+    std::vector<const RecordedSamples*> confirmers;
+    for (const RecordedSamples& m : recorded) confirmers.push_back(&m);
+    std::tie(r.confirmed_compared, r.confirmed_mismatches) = confirmed_agreement(confirmers);
     // Remote input latency across processes (one machine: CLOCK_MONOTONIC in every process).
     std::vector<const RecordedSamples*> players;
     for (const RecordedSamples& m : recorded)

@@ -13,6 +13,7 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/client_result.h"
+#include "harness/match_recorder.h"
 #include "harness/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -32,19 +33,12 @@ std::uint64_t thread_cpu_ns() {
     return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
-std::vector<sim::Vec3> dynamic_positions(const sim::World& w) {
-    std::vector<sim::Vec3> out;
-    out.reserve(w.dynamic_count());
-    for (sim::BodyId id : w.dynamic_ids()) out.push_back(w.position(id));
-    return out;
-}
-
-// Inputs that changed, waiting to be seen: (player, frame) -> when made and what.
+// Inputs that changed, waiting to be seen by the other clients: (player, frame) -> when made
+// and what (each client's recorder times its own).
 struct PendingInput {
     std::uint64_t made_us = 0;
     std::array<std::uint8_t, rollback::kWorldInputSize> bytes{};
     std::uint64_t remote_seen_mask = 0;  // clients that have shown it
-    bool local_seen = false;
 };
 
 struct Shared;
@@ -99,6 +93,7 @@ public:
     int wait_ticks_ = 0;
     std::uint64_t now_ = 0;
     rollback::WorldSimulation sim_;
+    MatchRecorder rec_;      // what this client measures, as a real process's recorder does
     TimedSimulation timed_;  // what the session steps: sim_, each step timed
     Bot bot_;
     transport::Transport& endpoint_;
@@ -106,17 +101,12 @@ public:
     sim::PlayerInput last_input_{};
     bool have_last_input_ = false;
     std::uint32_t last_input_frame_ = 0;
-    std::vector<sim::Vec3> before_rollback_;
     std::uint64_t reached_target_us_ = 0;
-    std::uint64_t final_checksum_ = 0;
-    bool final_confirmed_ = false;
     std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
     transport::SimNetwork* net_ = nullptr;          // for loss events
-    std::map<std::uint32_t, std::vector<sim::Vec3>> displayed_;  // shown, awaiting confirmation
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
-    std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
     std::vector<double> recent_rtt_ms_;             // adaptive delay: last two seconds, ring
     std::size_t recent_next_ = 0;
     void adapt_delay();
@@ -136,7 +126,6 @@ struct Shared {
     PositionErrorTracker positions;
     RunResult& result;
     std::map<std::pair<int, std::uint32_t>, PendingInput> inputs;  // (player, frame)
-    std::map<std::uint32_t, std::pair<std::uint64_t, int>> confirmed;  // frame -> (checksum, count)
 };
 
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
@@ -149,7 +138,8 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
       drift_ppm_(drift_ppm),
       start_us_(start_us),
       sim_(scene, cfg.players),
-      timed_(sim_, cpu_clock_, shared.result.physics_step_us),
+      rec_(index, cfg.players, static_cast<std::uint32_t>(cfg.frames), sim_, false, false),
+      timed_(sim_, cpu_clock_, rec_.physics_step_us()),
       bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
       endpoint_(endpoint) {
     rollback::SessionConfig sc;
@@ -174,100 +164,61 @@ double Client::seconds(std::uint64_t t) const { return static_cast<double>(t - s
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     const ObserverScope scope(*this);
     Shared& s = shared_;
-    const sim::World& w = sim_.world();
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
-    if (!f.resimulation) {
+    if (const std::vector<sim::Vec3>* shown = rec_.frame_simulated(now_, f)) {
         shown_at_.push_back(now_);
         if (index_ == 0) {
             // Frames shown during the last second of virtual time. Set before record(): when
             // client 0 is the last to show the frame, record() reduces the row at once.
             const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
-            const auto shown = static_cast<double>(shown_at_.end() - first);
+            const auto count = static_cast<double>(shown_at_.end() - first);
             const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
-            s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
+            s.positions.set_tick_rate(f.frame, span > 0 ? (count - 1) / span : 0.0);
         }
-        std::vector<sim::Vec3> shown = dynamic_positions(w);
-        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, shown);
-        displayed_.emplace(f.frame, std::move(shown));
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, *shown);
     }
-    // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
+    // Remote input latency: frame f.frame consumed the inputs of frame f.frame - 1.
     const std::uint32_t input_frame = f.frame - 1;
     for (int p = 0; p < s.clients; ++p) {
+        if (p == index_) continue;
         auto it = s.inputs.find({p, input_frame});
         if (it == s.inputs.end()) continue;
         PendingInput& pi = it->second;
         const auto offset = static_cast<std::size_t>(p) * rollback::kWorldInputSize;
         const bool same = std::equal(pi.bytes.begin(), pi.bytes.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(offset));
         if (!same) continue;
-        const double ms = static_cast<double>(now_ - pi.made_us) / 1000.0;
-        if (p == index_) {
-            if (!pi.local_seen) s.result.input_latency_local.add(ms);
-            pi.local_seen = true;
-        } else if (!(pi.remote_seen_mask >> index_ & 1)) {
+        if (!(pi.remote_seen_mask >> index_ & 1)) {
             pi.remote_seen_mask |= std::uint64_t{1} << index_;
-            s.result.input_latency_remote.add(ms);
+            s.result.input_latency_remote.add(static_cast<double>(now_ - pi.made_us) / 1000.0);
         }
         const std::uint64_t all_remote = ((std::uint64_t{1} << s.clients) - 1) & ~(std::uint64_t{1} << p);
-        if (pi.local_seen && pi.remote_seen_mask == all_remote) s.inputs.erase(it);
+        if (pi.remote_seen_mask == all_remote) s.inputs.erase(it);
     }
 }
 
 void Client::on_rollback_begin(const rollback::RollbackInfo&) {
     in_rollback_ = true;  // inside the session's resimulation timing until on_rollback_end
     const ObserverScope scope(*this);
-    before_rollback_ = dynamic_positions(sim_.world());
+    rec_.rollback_begin();
 }
 
 void Client::on_rollback_end(const rollback::RollbackInfo& r) {
     in_rollback_ = false;
     const ObserverScope scope(*this);
     if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
-    RunResult& res = shared_.result;
-    res.rollback_depth.add(r.depth);
-    if (res.rollback_depth_histogram.size() <= r.depth) res.rollback_depth_histogram.resize(r.depth + 1, 0);
-    ++res.rollback_depth_histogram[r.depth];
+    const std::optional<double> jump = rec_.rollback_end(r);
     shared_.positions.note_rollback(r.displayed_frame, r.depth);
     event("rollback", r.depth);
-    if (!r.displayed_changed()) return;
-    const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
-    double jump = 0;
-    for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_rollback_[b], after[b]));
-    shared_.result.correction_jump.add(jump);
-    event("correction", jump);
+    if (jump) event("correction", *jump);
 }
 
 void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
     const ObserverScope scope(*this);
     if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
-    // What this client showed for the frame against the state it now knows to be final.
-    if (auto shown = displayed_.find(f.frame); shown != displayed_.end()) {
-        if (const auto state = session_->saved_state(f.frame)) {
-            Stat& st = shared_.result.displayed_vs_confirmed[static_cast<std::size_t>(index_)];
-            for (std::uint32_t b = 0; b < shown->second.size(); ++b) {
-                sim::Vec3 confirmed;
-                confirmed.x = sim::Fixed::from_raw(sim_.field_value(*state, b, 0));
-                confirmed.y = sim::Fixed::from_raw(sim_.field_value(*state, b, 1));
-                confirmed.z = sim::Fixed::from_raw(sim_.field_value(*state, b, 2));
-                st.add(distance_m(shown->second[b], confirmed));
-            }
-        }
-        displayed_.erase(displayed_.begin(), std::next(shown));
-    }
-    auto& entry = shared_.confirmed[f.frame];
-    if (entry.second == 0) {
-        entry.first = f.checksum;
-    } else {
-        ++shared_.result.confirmed_compared;
-        if (entry.first != f.checksum) ++shared_.result.confirmed_mismatches;
-    }
-    if (++entry.second == shared_.clients) shared_.confirmed.erase(f.frame);
+    rec_.frame_confirmed(f, session_->saved_state(f.frame));
     if (index_ == 0 && shared_.cfg.record_inputs) {
         shared_.result.confirmed_inputs.emplace_back(f.inputs.begin(), f.inputs.end());
         shared_.result.confirmed_checksums.push_back(f.checksum);
-    }
-    if (f.frame == static_cast<std::uint32_t>(shared_.target)) {
-        final_checksum_ = f.checksum;
-        final_confirmed_ = true;
     }
 }
 
@@ -348,13 +299,14 @@ void Client::tick(std::uint64_t now) {
             const rollback::AdvanceResult r = session_->advance(bytes, now);
             const std::uint64_t spent = cpu_clock_() - t0, observed = observer_ns_ - obs0;
             const std::uint64_t resim_observed = rollback_observer_ns_ - robs0;
-            res.cpu_us_per_tick.add(static_cast<double>(spent - std::min(spent, observed)) / 1000.0);
-            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
+            rec_.tick(static_cast<double>(spent - std::min(spent, observed)) / 1000.0,
+                      static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
             // The session takes the first input offered for each frame, stalled tick or not,
             // and ignores later offers for the same frame.
             const bool taken = !have_last_input_ || input_frame > last_input_frame_;
+            rec_.input_offered(now, input_frame, bytes);  // times it until it shows here
             if (taken && (!have_last_input_ || !(in == last_input_))) {
-                // An input change: measure how long until it shows, here and on every peer.
+                // An input change: measure how long until it shows on every peer.
                 PendingInput& pi = shared_.inputs[{index_, input_frame}];
                 pi.made_us = now;
                 pi.bytes = bytes;
@@ -375,7 +327,7 @@ void Client::tick(std::uint64_t now) {
                 const rollback::SessionStats& st = session_->stats();
                 for (std::size_t p = 0; p < st.peers.size(); ++p)
                     if (static_cast<int>(p) != index_ && st.peers[p].rtt_us > 0)
-                        res.rtt[rtt_slot_[p]].rtt_ms.add(static_cast<double>(st.peers[p].rtt_us) / 1000.0);
+                        rec_.rtt(static_cast<int>(p), static_cast<double>(st.peers[p].rtt_us) / 1000.0);
             }
             if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
         }
@@ -623,7 +575,7 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
     s_->shared.reset(new Shared{cfg, {}, cfg.frames, cfg.players, start,
-                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res, {}, {}});
+                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res, {}});
     Shared& shared = *s_->shared;
     std::vector<std::unique_ptr<Client>>& clients = s_->clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
@@ -644,14 +596,7 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     for (const auto& c : clients) {
         shared.all.push_back(c.get());
         c->net_ = &net;
-        c->rtt_slot_.assign(static_cast<std::size_t>(cfg.players), 0);
-        for (int p = 0; p < cfg.players; ++p) {
-            if (p == c->index_) continue;
-            c->rtt_slot_[static_cast<std::size_t>(p)] = res.rtt.size();
-            res.rtt.push_back(PeerRtt{c->index_, p, Stat::keeping_samples()});
-        }
     }
-    res.displayed_vs_confirmed.resize(static_cast<std::size_t>(cfg.players));
     {
         const sim::World w(scene);
         if (cfg.record_positions) res.bodies_csv = bodies_csv(w);
@@ -680,7 +625,7 @@ Match::~Match() = default;
 bool Match::finished() const {
     if (s_->timed_out) return true;
     for (const auto& c : s_->clients)
-        if (!c->final_confirmed_) return false;
+        if (!c->rec_.final_checksum()) return false;
     return true;
 }
 
@@ -722,7 +667,7 @@ const rollback::SessionStats& Match::stats(int client) const {
 
 std::optional<std::uint64_t> Match::final_checksum(int client) const {
     const Client& c = *s_->clients.at(static_cast<std::size_t>(client));
-    return c.final_confirmed_ ? std::optional<std::uint64_t>(c.final_checksum_) : std::nullopt;
+    return c.rec_.final_checksum();
 }
 
 const std::vector<FrameRow>& Match::rows() const { return s_->shared->positions.rows(); }
@@ -747,12 +692,27 @@ RunResult Match::finish() {
         const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
         // Effective tick rate: frames shown per second of the client's own running time.
         cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
-        cr.final_checksum = c->final_checksum_;
-        cr.final_confirmed = c->final_confirmed_;
-        res.completed = res.completed && c->final_confirmed_;
+        cr.final_checksum = c->rec_.final_checksum().value_or(0);
+        cr.final_confirmed = c->rec_.final_checksum().has_value();
+        res.completed = res.completed && cr.final_confirmed;
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);
     }
+    // The recorders' samples: the same reduction as a real-process run's (add_client_samples).
+    std::vector<const RecordedSamples*> recorded;
+    for (const auto& c : s_->clients) {
+        const RecordedSamples& m = c->rec_.samples();
+        recorded.push_back(&m);
+        add_client_samples(res, m);
+        for (int p = 0; p < cfg.players; ++p) {
+            if (p == c->index_) continue;
+            const auto it = m.rtt_ms.find(p);
+            res.rtt.push_back(PeerRtt{c->index_, p, it != m.rtt_ms.end() ? it->second : Stat::keeping_samples()});
+        }
+    }
+    const auto [compared, mismatches] = confirmed_agreement(recorded);
+    res.confirmed_compared = compared;
+    res.confirmed_mismatches = mismatches;
     res.input_delay_min = static_cast<int>(res.input_delay);
     res.input_delay_max = res.input_delay_min;
     for (const auto& e : res.events)

@@ -120,6 +120,31 @@ Stat remote_input_latency(const std::vector<const RecordedSamples*>& clients) {
     return out;
 }
 
+std::pair<std::uint64_t, std::uint64_t> confirmed_agreement(const std::vector<const RecordedSamples*>& clients) {
+    std::map<std::uint32_t, std::uint64_t> first;
+    std::uint64_t compared = 0, mismatches = 0;
+    for (const RecordedSamples* m : clients)
+        for (const auto& [f, c] : m->confirmed)
+            if (const auto [it, fresh] = first.emplace(f, c); !fresh) {
+                ++compared;
+                if (it->second != c) ++mismatches;
+            }
+    return {compared, mismatches};
+}
+
+void add_client_samples(RunResult& r, const RecordedSamples& m) {
+    r.input_latency_local.merge(m.input_latency_local);
+    r.cpu_us_per_tick.merge(m.cpu_us_per_tick);
+    r.resim_us_per_tick.merge(m.resim_us_per_tick);
+    r.physics_step_us.merge(m.physics_step_us);
+    r.rollback_depth.merge(m.rollback_depth);
+    if (r.rollback_depth_histogram.size() < m.rollback_depth_histogram.size())
+        r.rollback_depth_histogram.resize(m.rollback_depth_histogram.size(), 0);
+    for (std::size_t d = 0; d < m.rollback_depth_histogram.size(); ++d) r.rollback_depth_histogram[d] += m.rollback_depth_histogram[d];
+    r.correction_jump.merge(m.correction_jump);
+    r.displayed_vs_confirmed.push_back(m.displayed_vs_confirmed);
+}
+
 MatchRecorder::MatchRecorder(int slot, int players, std::uint32_t target, const rollback::WorldSimulation& sim,
                              bool record_remote_inputs, bool keep_positions)
     : sim_(sim), players_(players), target_(target), remote_(record_remote_inputs), keep_positions_(keep_positions) {

@@ -83,6 +83,16 @@ struct RecordedSamples {
 // client first simulated a frame with it (clients: every process of a match; times on one clock).
 Stat remote_input_latency(const std::vector<const RecordedSamples*>& clients);
 
+// Confirmed-state agreement over every confirmed checksum the clients recorded: each frame's
+// checksum of every client after the first to confirm it, against the first's. Returns
+// (compared, mismatches).
+std::pair<std::uint64_t, std::uint64_t> confirmed_agreement(const std::vector<const RecordedSamples*>& clients);
+
+// Adds one player's samples to a run's figures (input latency, CPU per tick, resimulation,
+// physics steps, rollbacks and their histogram, corrections, shown against confirmed): the one
+// reduction of a virtual match's clients and of a live run's processes.
+void add_client_samples(RunResult& r, const RecordedSamples& m);
+
 class MatchRecorder {
 public:
     // slot: the player (or spectator id, >= players: no local input). sim: the client's
