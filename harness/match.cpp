@@ -33,14 +33,6 @@ std::uint64_t thread_cpu_ns() {
     return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
-// Inputs that changed, waiting to be seen by the other clients: (player, frame) -> when made
-// and what (each client's recorder times its own).
-struct PendingInput {
-    std::uint64_t made_us = 0;
-    std::array<std::uint8_t, rollback::kWorldInputSize> bytes{};
-    std::uint64_t remote_seen_mask = 0;  // clients that have shown it
-};
-
 struct Shared;
 
 class Client final : public rollback::SessionObserver {
@@ -98,9 +90,6 @@ public:
     Bot bot_;
     transport::Transport& endpoint_;
     std::unique_ptr<rollback::Session> session_;
-    sim::PlayerInput last_input_{};
-    bool have_last_input_ = false;
-    std::uint32_t last_input_frame_ = 0;
     std::uint64_t reached_target_us_ = 0;
     std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
@@ -125,7 +114,6 @@ struct Shared {
     std::uint64_t start_us;
     PositionErrorTracker positions;
     RunResult& result;
-    std::map<std::pair<int, std::uint32_t>, PendingInput> inputs;  // (player, frame)
 };
 
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
@@ -138,7 +126,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
       drift_ppm_(drift_ppm),
       start_us_(start_us),
       sim_(scene, cfg.players),
-      rec_(index, cfg.players, static_cast<std::uint32_t>(cfg.frames), sim_, false, false),
+      rec_(index, cfg.players, static_cast<std::uint32_t>(cfg.frames), sim_, true, false),
       timed_(sim_, cpu_clock_, rec_.physics_step_us()),
       bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
       endpoint_(endpoint) {
@@ -176,23 +164,6 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
             s.positions.set_tick_rate(f.frame, span > 0 ? (count - 1) / span : 0.0);
         }
         s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, *shown);
-    }
-    // Remote input latency: frame f.frame consumed the inputs of frame f.frame - 1.
-    const std::uint32_t input_frame = f.frame - 1;
-    for (int p = 0; p < s.clients; ++p) {
-        if (p == index_) continue;
-        auto it = s.inputs.find({p, input_frame});
-        if (it == s.inputs.end()) continue;
-        PendingInput& pi = it->second;
-        const auto offset = static_cast<std::size_t>(p) * rollback::kWorldInputSize;
-        const bool same = std::equal(pi.bytes.begin(), pi.bytes.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(offset));
-        if (!same) continue;
-        if (!(pi.remote_seen_mask >> index_ & 1)) {
-            pi.remote_seen_mask |= std::uint64_t{1} << index_;
-            s.result.input_latency_remote.add(static_cast<double>(now_ - pi.made_us) / 1000.0);
-        }
-        const std::uint64_t all_remote = ((std::uint64_t{1} << s.clients) - 1) & ~(std::uint64_t{1} << p);
-        if (pi.remote_seen_mask == all_remote) s.inputs.erase(it);
     }
 }
 
@@ -301,21 +272,9 @@ void Client::tick(std::uint64_t now) {
             const std::uint64_t resim_observed = rollback_observer_ns_ - robs0;
             rec_.tick(static_cast<double>(spent - std::min(spent, observed)) / 1000.0,
                       static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
-            // The session takes the first input offered for each frame, stalled tick or not,
-            // and ignores later offers for the same frame.
-            const bool taken = !have_last_input_ || input_frame > last_input_frame_;
-            rec_.input_offered(now, input_frame, bytes);  // times it until it shows here
-            if (taken && (!have_last_input_ || !(in == last_input_))) {
-                // An input change: measure how long until it shows on every peer.
-                PendingInput& pi = shared_.inputs[{index_, input_frame}];
-                pi.made_us = now;
-                pi.bytes = bytes;
-            }
-            if (taken) {
-                last_input_ = in;
-                last_input_frame_ = input_frame;
-                have_last_input_ = true;
-            }
+            // The recorder times input changes until they show, here and (remote_input_latency,
+            // at the end) on every peer.
+            rec_.input_offered(now, input_frame, bytes);
             wait_ticks_ = r.wait_frames;
             if (!r.advanced) event("stall", r.blocking_player);
             res.input_delay_used.add(session_->input_delay());
@@ -575,7 +534,7 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
     s_->shared.reset(new Shared{cfg, {}, cfg.frames, cfg.players, start,
-                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res, {}});
+                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res});
     Shared& shared = *s_->shared;
     std::vector<std::unique_ptr<Client>>& clients = s_->clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
@@ -710,6 +669,7 @@ RunResult Match::finish() {
             res.rtt.push_back(PeerRtt{c->index_, p, it != m.rtt_ms.end() ? it->second : Stat::keeping_samples()});
         }
     }
+    res.input_latency_remote = remote_input_latency(recorded);
     const auto [compared, mismatches] = confirmed_agreement(recorded);
     res.confirmed_compared = compared;
     res.confirmed_mismatches = mismatches;
