@@ -646,11 +646,15 @@ RunResult Match::finish() {
     for (const auto& c : s_->clients) {
         const rollback::SessionStats& st = c->session_->stats();
         ClientResult cr = client_result(st);
-        // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
-        const std::uint64_t end = c->reached_target_us_ ? c->reached_target_us_ : now;
-        const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
-        // Effective tick rate: frames shown per second of the client's own running time.
-        cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
+        // Tick rate and stalls from when frames were shown, as a real process's (tick_figures).
+        // Frame 0 counts as shown one period before frame 1 (the first tick): N frames take N
+        // periods.
+        ShownTimes shown{{0, c->shown_at_.front()}};
+        const ShownTimes& recorded = c->rec_.samples().shown;
+        shown.insert(shown.end(), recorded.begin(), recorded.end());
+        const TickFigures tf = tick_figures(shown, cfg.tick_rate);
+        cr.ticks_per_second = tf.ticks_per_second;
+        cr.stall_fraction = tf.stall_fraction;
         cr.final_checksum = c->rec_.final_checksum().value_or(0);
         cr.final_confirmed = c->rec_.final_checksum().has_value();
         res.completed = res.completed && cr.final_confirmed;
