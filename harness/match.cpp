@@ -91,7 +91,6 @@ public:
     transport::Transport& endpoint_;
     std::unique_ptr<rollback::Session> session_;
     std::uint64_t reached_target_us_ = 0;
-    std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
     transport::SimNetwork* net_ = nullptr;          // for loss events
@@ -140,10 +139,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.checksum_interval = cfg.checksum_interval;
     sc.cpu_clock = cpu_clock_;
     session_ = std::make_unique<rollback::Session>(sc, timed_, this);
-    shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
-    // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
-    // tick rate counts it: N frames take N periods.
-    shown_at_.push_back(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
+    rec_.frame0_shown(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
 }
 
 RunResult& Client::shared_result() { return shared_.result; }
@@ -154,15 +150,9 @@ void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     Shared& s = shared_;
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
     if (const std::vector<sim::Vec3>* shown = rec_.frame_simulated(now_, f)) {
-        shown_at_.push_back(now_);
-        if (index_ == 0) {
-            // Frames shown during the last second of virtual time. Set before record(): when
-            // client 0 is the last to show the frame, record() reduces the row at once.
-            const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
-            const auto count = static_cast<double>(shown_at_.end() - first);
-            const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
-            s.positions.set_tick_rate(f.frame, span > 0 ? (count - 1) / span : 0.0);
-        }
+        // Set before record(): when client 0 is the last to show the frame, record() reduces
+        // the row at once.
+        if (index_ == 0) s.positions.set_tick_rate(f.frame, rec_.recent_tick_rate(tick_rate_));
         s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, *shown);
     }
 }
@@ -204,8 +194,10 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
     rec.field = r.field_name;
     // The diverging frame was first shown by whichever client showed it first.
     std::uint64_t first_shown = now_;
-    for (const Client* c : shared_.all)
-        if (r.frame < c->shown_at_.size()) first_shown = std::min(first_shown, c->shown_at_[r.frame]);
+    for (const Client* c : shared_.all) {
+        const ShownTimes& shown = c->rec_.samples().shown;  // frames 0, 1, 2, ... in order
+        if (r.frame < shown.size()) first_shown = std::min(first_shown, shown[r.frame].second);
+    }
     const auto alert = alert_us_.find(static_cast<int>(r.peer));
     rec.alert_ms = static_cast<double>((alert != alert_us_.end() ? alert->second : now_) - first_shown) / 1000.0;
     rec.report_ms = static_cast<double>(now_ - first_shown) / 1000.0;
@@ -649,10 +641,7 @@ RunResult Match::finish() {
         // Tick rate and stalls from when frames were shown, as a real process's (tick_figures).
         // Frame 0 counts as shown one period before frame 1 (the first tick): N frames take N
         // periods.
-        ShownTimes shown{{0, c->shown_at_.front()}};
-        const ShownTimes& recorded = c->rec_.samples().shown;
-        shown.insert(shown.end(), recorded.begin(), recorded.end());
-        const TickFigures tf = tick_figures(shown, cfg.tick_rate);
+        const TickFigures tf = tick_figures(c->rec_.samples().shown, cfg.tick_rate);
         cr.ticks_per_second = tf.ticks_per_second;
         cr.stall_fraction = tf.stall_fraction;
         cr.final_checksum = c->rec_.final_checksum().value_or(0);

@@ -204,6 +204,24 @@ const std::vector<sim::Vec3>* MatchRecorder::frame_simulated(std::uint64_t now_u
     return &it->second;
 }
 
+void MatchRecorder::frame0_shown(std::uint64_t now_us) { s_.shown.insert(s_.shown.begin(), {0, now_us}); }
+
+double MatchRecorder::recent_tick_rate(int tick_rate) const {
+    if (s_.shown.empty() || tick_rate <= 0) return 0;
+    const bool has_frame0 = s_.shown.front().first == 0;
+    const auto frames = s_.shown.begin() + (has_frame0 ? 1 : 0);  // frame 0 is the origin, not a frame shown
+    if (frames == s_.shown.end()) return 0;
+    const std::uint64_t now = s_.shown.back().second;
+    const double origin = static_cast<double>(s_.shown.front().second) - (has_frame0 ? 0.0 : 1e6 / tick_rate);
+    // The frames shown in the last second, over the time from the frame before them (or the
+    // origin) to the latest: whole intervals, so a steady rate reads itself exactly.
+    const auto first = std::upper_bound(frames, s_.shown.end(), now >= 1000000 ? now - 1000000 : 0,
+                                        [](std::uint64_t t, const auto& e) { return t < e.second; });
+    const double before = first == frames ? origin : static_cast<double>(std::prev(first)->second);
+    const double span = static_cast<double>(now) - before;
+    return span > 0 ? static_cast<double>(s_.shown.end() - first) / span * 1e6 : 0.0;
+}
+
 void MatchRecorder::rollback_begin() { before_rollback_ = positions(); }
 
 std::optional<double> MatchRecorder::rollback_end(const rollback::RollbackInfo& r) {

@@ -117,6 +117,16 @@ public:
     void tick(double cpu_us, double resim_us);
     void rtt(int peer, double ms);
 
+    // A virtual client's frame 0 counts as shown one period before frame 1, its first tick (N
+    // frames take N periods): recorded as frame 0 of shown. A real process starts at its first
+    // frame shown (a joiner or relay client is frames in) and never calls this.
+    void frame0_shown(std::uint64_t now_us);
+    // Frames shown per second over the last second up to the latest frame shown (frames.csv's
+    // ticks_per_second): the frames of that second over the time since the frame before them.
+    // In the first second, since the client started: frame 0, or one period before its first
+    // frame, so one frame just shown reads the nominal rate (not 30000 ticks/s).
+    double recent_tick_rate(int tick_rate) const;
+
     Stat& physics_step_us() { return s_.physics_step_us; }  // for TimedSimulation
     const RecordedSamples& samples() const { return s_; }
     // With keep_positions: first-shown positions of measured frames, in order.

@@ -205,7 +205,6 @@ public:
         events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
         if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
         rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
-        shown_us_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
     }
 
     // What the recorder reads of the session (a P2P Session or a RelaySession).
@@ -248,19 +247,10 @@ public:
     // Session side.
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
         const std::uint64_t now = now_;
-        if (!synced_us) {  // the first frame shown: the match (or this joiner's part) starts
-            synced_us = now;
-            shown_us_.push_back(now);
-        }
+        if (!synced_us) synced_us = now;  // the first frame shown: the match (or this joiner's part) starts
         if (!match.frame_simulated(mono_us(now), f)) return;
-        shown_us_.push_back(now);
-        const auto first = std::lower_bound(shown_us_.begin(), shown_us_.end(), now >= 1000000 ? now - 1000000 : 0);
-        // Frames shown in the last second; in the first second, never more than the nominal
-        // rate (one frame shown a few microseconds after the start is not 30000 ticks/s).
-        const auto intervals = static_cast<double>(shown_us_.end() - first) - 1;
-        const double span = std::max(std::min(1.0, static_cast<double>(now - synced_us) / 1e6), intervals / p_.o.tick_rate);
         rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, view.confirmed_frame(), 0,
-                         span > 0 ? intervals / span : 0.0, 0.0});
+                         match.recent_tick_rate(p_.o.tick_rate), 0.0});
     }
     void on_rollback_begin(const rollback::RollbackInfo&) override { match.rollback_begin(); }
     void on_rollback_end(const rollback::RollbackInfo& r) override {
@@ -403,7 +393,6 @@ private:
     std::uint64_t process_start_us_;
     std::ofstream events_;
     std::vector<Row> rows_;
-    std::vector<std::uint64_t> shown_us_;
     std::uint64_t now_ = 0;
 };
 
