@@ -23,6 +23,7 @@
 #include "harness/hex.h"
 #include "harness/match.h"
 #include "harness/match_recorder.h"
+#include "harness/outcome_claims.h"
 #include "harness/plot_script.h"
 #include "harness/report.h"
 #include "harness/run_command.h"
@@ -706,24 +707,6 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
             {"ok", equal && survivors_ok}};
 }
 
-// Outcomes that claim more than happened, one line each (empty: every claim holds): a process
-// that says it completed must have exited 0 having shown and confirmed the last frame with a
-// final checksum; a killed process cannot have completed.
-std::vector<std::string> overclaims(const std::vector<ProcessRecord>& recs, int frames) {
-    std::vector<std::string> out;
-    for (const auto& r : recs) {
-        const json& s = r.summary;
-        if (!r.started || !s.is_object() || s.value("outcome", "") != "completed") continue;
-        const auto why = [&](const std::string& w) { out.push_back(r.name + ": outcome completed, but " + w); };
-        if (r.killed) why("it was killed at frame " + std::to_string(r.killed_at_frame));
-        if (r.exit_status != 0) why("exit status " + std::to_string(r.exit_status));
-        if (!s["final_checksum"].is_string()) why("no final checksum");
-        if (s.value("confirmed_frame", 0) < frames) why("confirmed only frame " + std::to_string(s.value("confirmed_frame", 0)));
-        if (s.value("shown_frame", 0) < frames) why("showed only frame " + std::to_string(s.value("shown_frame", 0)));
-    }
-    return out;
-}
-
 std::string side_by_side(const std::vector<std::pair<std::string, const RunResult*>>& runs) {
     std::ostringstream o;
     o << "| run | ticks/s | stalls | input delay | mean error (m) | max error (m) | rollbacks | CPU us/tick | payload B/s | "
@@ -803,7 +786,13 @@ int do_live(const LiveOptions& options) {
                 if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
             }
             json lj = live_json(recs, dir);
-            if (const auto claims = overclaims(recs, p.o.frames); !claims.empty()) {
+            std::vector<std::string> claims;
+            for (const auto& rec : recs) {
+                if (!rec.started) continue;
+                const auto c = overclaims({rec.name, rec.summary, rec.killed, rec.killed_at_frame, rec.exit_status}, p.o.frames);
+                claims.insert(claims.end(), c.begin(), c.end());
+            }
+            if (!claims.empty()) {
                 lj["overclaims"] = claims;
                 lj["ok"] = false;
                 for (const auto& c : claims) std::fprintf(stderr, "[live] %s: %s\n", name.c_str(), c.c_str());
