@@ -5,8 +5,10 @@ killed) and compares: a number the report shows must be the one the raw data giv
 must stand exactly where the raw data has no sample. Independent of the C++ code that made the
 report: it reads only the files.
 
-    live_report_check.py RUN_DIR MODE           check RUN_DIR/report.md; exit 1 on a mismatch
-    live_report_check.py RUN_DIR MODE REPORT    check another report file (a doctored one)
+    live_report_check.py RUN_DIR MODE                  check RUN_DIR/report.md; exit 1 on a mismatch
+    live_report_check.py RUN_DIR MODE REPORT           check another report file (a doctored one)
+    live_report_check.py RUN_DIR MODE REPORT COLUMN    the run's column of a several-run table
+                                                       (compare's: 1 lockstep, 2 rollback, 3 rollback-delay0)
 """
 import json
 import math
@@ -168,15 +170,15 @@ def recompute(run_dir, mode):
     return rows
 
 
-def report_rows(text):
-    """The figures table of report.md: row name -> its (single) run's cell."""
+def report_rows(text, column=1):
+    """The figures table of report.md: row name -> the cell of run `column` (1: the first)."""
     rows = {}
     for line in text.splitlines():
         if not line.startswith("| ") or line.startswith("| |") or line.startswith("|---"):
             continue
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) >= 2 and cells[0] not in rows:
-            rows[cells[0]] = cells[1]
+        if len(cells) > column and cells[0] not in rows:
+            rows[cells[0]] = cells[column]
     return rows
 
 
@@ -199,9 +201,9 @@ def same_cell(shown, expected):
     return True
 
 
-def check(report_text, expected):
+def check(report_text, expected, column=1):
     """Mismatches, one line each: rows the report shows differently, or leaves out."""
-    shown = report_rows(report_text)
+    shown = report_rows(report_text, column)
     bad = []
     for name, want in expected.items():
         if name not in shown:
@@ -214,7 +216,8 @@ def check(report_text, expected):
 def main():
     run_dir, mode = sys.argv[1], sys.argv[2]
     report = sys.argv[3] if len(sys.argv) > 3 else os.path.join(run_dir, "report.md")
-    bad = check(open(report).read(), recompute(run_dir, mode))
+    column = int(sys.argv[4]) if len(sys.argv) > 4 else 1
+    bad = check(open(report).read(), recompute(run_dir, mode), column)
     for b in bad:
         print("MISMATCH " + b)
     if not bad:

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # `lockroll live`'s report against its raw data (issue 22): every row of report.md recomputed
 # from the files the processes wrote (live_report_check.py), on a real-process run with a late
-# join, a kill and a rejoin, and a spectator; then on a failed run (an injected desync). The
-# checker must also catch a planted zero or a planted n/a in a doctored copy of the report.
+# join, a kill and a rejoin, and a spectator; then on a failed run (an injected desync) and on
+# compare's three columns (both modes). The checker must also catch a planted zero or a planted
+# n/a in a doctored copy of the report.
 # (live refusing a bad --inject-desync before starting anything: live_test's bad flags.)
 # Real processes on 127.0.0.1 (free ports), bounded by live's own time limit and CTest's
 # timeout; outcomes only, never timings.
@@ -65,6 +66,18 @@ assert summary["position_error"]["samples"] > 0 and summary["confirmed_mismatche
 '
 if /usr/bin/python3 "$checker" "$tmp/failed" rollback >"$tmp/check-failed.out"; then echo "ok: the failed run's report is its raw data's"
 else fail "the failed run's report differs from the raw data"; cat "$tmp/check-failed.out"; fi
+
+# 4. Both modes: compare's three columns (lockstep, rollback, rollback at input delay 0), each
+#    recomputed from its own processes' files.
+"$lockroll" live --players 2 --frames 240 --latency 10 --jitter 3 --mode both --no-virtual \
+    --out "$tmp/both" >"$tmp/both.out" 2>&1 || { fail "both: exit status $?"; tail -20 "$tmp/both.out"; }
+column=1
+for mode in lockstep rollback rollback-delay0; do
+    if /usr/bin/python3 "$checker" "$tmp/both" "$mode" "$tmp/both/report.md" "$column" >"$tmp/check-$mode.out"; then
+        echo "ok: compare's $mode column is its raw data's"
+    else fail "compare's $mode column differs from the raw data"; cat "$tmp/check-$mode.out"; fi
+    column=$((column + 1))
+done
 
 [[ $failures -eq 0 ]] && echo "all passed" || echo "$failures failure(s)"
 exit $((failures > 0))
