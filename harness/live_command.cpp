@@ -713,9 +713,11 @@ std::string side_by_side(const std::vector<std::pair<std::string, const RunResul
          "mismatches | desyncs | completed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     char line[512];
     for (const auto& [name, r] : runs) {
-        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %d | %.3g | %.3g | %llu | %.1f | %.0f | %llu | %llu | %s |\n",
-                      name.c_str(), r->ticks_per_second(), 100 * r->stall_fraction(), r->input_delay, r->position_error.mean(),
-                      r->position_error.max, static_cast<unsigned long long>(r->rollbacks()), r->cpu_us_per_tick.mean(),
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %d | %s | %s | %llu | %s | %.0f | %llu | %llu | %s |\n",
+                      name.c_str(), r->ticks_per_second(), 100 * r->stall_fraction(), r->input_delay,
+                      figure(r->position_error, "%.3g", r->position_error.mean()).c_str(),
+                      figure(r->position_error, "%.3g", r->position_error.max).c_str(),
+                      static_cast<unsigned long long>(r->rollbacks()), figure(r->cpu_us_per_tick, "%.1f", r->cpu_us_per_tick.mean()).c_str(),
                       r->bytes_sent_per_s(), static_cast<unsigned long long>(r->confirmed_mismatches),
                       static_cast<unsigned long long>(r->desync_count()), r->completed ? "yes" : "NO");
         o << line;
@@ -735,9 +737,11 @@ std::string topology_table(const std::vector<std::tuple<std::string, const RunRe
         const double server_bps = relay ? static_cast<double>(extra["server"].value("bytes_in", 0ull) +
                                                               extra["server"].value("bytes_out", 0ull)) / seconds
                                         : 0.0;
-        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %.3g | %llu | %.1f | %.0f | %s | %s | %s |\n", name.c_str(),
-                      r->ticks_per_second(), 100 * r->stall_fraction(), r->position_error.mean(),
-                      static_cast<unsigned long long>(r->rollbacks()), r->input_latency_local.mean(), r->bytes_sent_per_s(),
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %s | %llu | %s | %.0f | %s | %s | %s |\n", name.c_str(),
+                      r->ticks_per_second(), 100 * r->stall_fraction(),
+                      figure(r->position_error, "%.3g", r->position_error.mean()).c_str(),
+                      static_cast<unsigned long long>(r->rollbacks()),
+                      figure(r->input_latency_local, "%.1f", r->input_latency_local.mean()).c_str(), r->bytes_sent_per_s(),
                       relay ? num(server_bps).c_str() : "-",
                       relay ? std::to_string(extra.value("replaced", 0ull)).c_str() : "-", r->completed ? "yes" : "NO");
         o << line;

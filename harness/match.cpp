@@ -673,7 +673,8 @@ RunResult Match::finish() {
             res.input_delay_min = std::min(res.input_delay_min, static_cast<int>(e.value));
             res.input_delay_max = std::max(res.input_delay_max, static_cast<int>(e.value));
         }
-    const PositionErrorTracker& positions = s_->shared->positions;
+    PositionErrorTracker& positions = s_->shared->positions;
+    positions.finish();  // an incomplete run: the frames only some clients showed count too
     res.position_error = positions.error();
     res.rows = positions.rows();
     res.positions_csv = positions.positions_csv();

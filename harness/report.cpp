@@ -79,6 +79,8 @@ std::string rtt_header(const RunResult& r) {
 std::string or_na(const Stat& s, const std::string& text) { return s.count ? text : std::string("n/a"); }
 }  // namespace
 
+std::string figure(const Stat& from, const char* format, double value) { return or_na(from, fmt(format, value)); }
+
 json summary_json(const RunResult& r) {
     json finals = json::array();
     for (const auto& c : r.clients) finals.push_back(c.final_confirmed ? json(hex16(c.final_checksum)) : json(nullptr));

@@ -15,6 +15,10 @@ namespace lockroll::harness {
 inline constexpr double kUdpHeaderBytes = 28;   // IPv4 20 + UDP 8
 inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and unsequenced command
 
+// A figure as printf(format, value) when the Stat it comes from has samples, else "n/a": the one
+// rule every table follows (a number is measured, or n/a; the tables with room say why).
+std::string figure(const Stat& from, const char* format, double value);
+
 nlohmann::json summary_json(const RunResult& r);
 std::string frames_csv(const RunResult& r);
 // time_s,client,frame,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
