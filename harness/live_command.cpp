@@ -516,13 +516,18 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
         return 0;
     }();
     std::vector<RecordedSamples> recorded;
-    std::vector<std::string> checksum_owner;
     recorded.reserve(all.size());
     for (const ProcessRecord& rec : all) {
         if (!rec.started) continue;
         if (rec.killed) {
+            std::string then = "not rejoined";
+            for (const auto& later : all)
+                if (later.slot == rec.slot && later.joiner && later.started && &later != &rec)
+                    then = "rejoined as " + later.name + " (" +
+                           (later.summary.is_object() ? later.summary.value("outcome", "?") : std::string("no summary")) + ")";
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): killed by --kill at frame " +
-                              std::to_string(rec.killed_at_frame) + "; a killed process leaves no figures, so it counts in none");
+                              std::to_string(rec.killed_at_frame) + ", " + then +
+                              "; a killed process leaves no figures, so it counts in none");
             continue;
         }
         const fs::path pd = dir / rec.name;
@@ -535,7 +540,6 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
             continue;
         }
         recorded.push_back(RecordedSamples::from_json(samples));
-        checksum_owner.push_back(rec.name);
         const RecordedSamples& m = recorded.back();
         const bool final_confirmed = s["final_checksum"].is_string();
         if (!final_confirmed || rec.exit_status != 0) r.completed = false;

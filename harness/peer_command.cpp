@@ -226,7 +226,6 @@ public:
     // This process's clock (skewed only for the clock-skew fault tests).
     std::uint64_t now_us() const { return clock_.now_us(); }
     std::uint64_t mono_us(std::uint64_t t) const { return clock_.to_monotonic_us(t); }
-    const PeerPlan& plan() const { return p_; }
     MatchRecorder match;
     std::vector<DesyncRecord> desyncs;
     double longest_stall_ms = 0;
