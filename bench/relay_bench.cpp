@@ -716,15 +716,29 @@ int main(int argc, char** argv) {
                                             static_cast<unsigned long long>(r.disconnects), dir.c_str());
             runs.push_back(r);
         }
+        // Medians of the runs in which every room started: a run that never got its rooms going
+        // measured nothing, and its zeros are no figures (it still counts against "sustained").
+        std::vector<const RunResult*> started;
+        for (const auto& r : runs)
+            if (r.rooms_live == rooms && r.samples > 0) started.push_back(&r);
         auto med = [&](auto field) {
             std::vector<double> v;
-            for (const auto& r : runs) v.push_back(field(r));
+            for (const RunResult* r : started) v.push_back(field(*r));
             return median(v);
         };
         int sustained = 0;
         for (const auto& r : runs) sustained += r.sustained ? 1 : 0;
         const bool ok = sustained * 2 > static_cast<int>(runs.size());
         if (ok) best = std::max(best, rooms);
+        if (started.empty()) {
+            std::printf("median %6d rooms: n/a (no run started every room); sustained in %d of %zu runs\n", rooms, sustained,
+                        runs.size());
+            std::fflush(stdout);
+            continue;
+        }
+        if (started.size() < runs.size())
+            std::printf("median %6d rooms over the %zu of %zu runs that started every room (the others measured nothing):\n",
+                        rooms, started.size(), runs.size());
         std::printf("median %6d rooms: p50 %.0f us, p99 %.0f us, relay in %.0f/s out %.0f/s, server CPU %.0f%% of a core "
                     "(kernel %.0f%%; %.1f us per room-second), RSS %.1f MiB, replaced %.0f; sustained in %d of %zu runs\n",
                     rooms, med([](const RunResult& r) { return r.p50_us; }), med([](const RunResult& r) { return r.p99_us; }),

@@ -1,7 +1,7 @@
 // A client's figures for the reports (metrics.h ClientResult) from its session's own counters,
 // the same for a client of an in-process match and for a real process (`lockroll peer`). The
-// caller adds what the session cannot know: the tick rate over its own running time and the
-// final confirmed checksum.
+// caller adds what the session cannot know: the tick rate and stall fraction from when frames
+// were shown (match_recorder.h tick_figures, one rule for both) and the final confirmed checksum.
 #pragma once
 
 #include "harness/metrics.h"
@@ -15,7 +15,6 @@ inline ClientResult client_result(const rollback::SessionStats& st) {
     cr.ticks = st.ticks;
     cr.stall_ticks = st.stall_ticks;
     cr.time_sync_waits = st.time_sync_wait_frames;
-    cr.stall_fraction = st.ticks ? static_cast<double>(st.stall_ticks) / static_cast<double>(st.ticks) : 0;
     cr.rollbacks = st.rollbacks;
     cr.resimulated_frames = st.resimulated_frames;
     cr.max_rollback_depth = st.max_rollback_depth;

@@ -22,6 +22,8 @@
 #include "harness/cli_error.h"
 #include "harness/hex.h"
 #include "harness/match.h"
+#include "harness/match_recorder.h"
+#include "harness/outcome_claims.h"
 #include "harness/partition_flag.h"
 #include "harness/plot_script.h"
 #include "harness/report.h"
@@ -162,9 +164,12 @@ LivePlan plan(const LiveOptions& o) {
     for (const auto& j : p.joins)
         for (const auto& k : p.kills)
             if (k.slot == j.slot) throw UsageError("--join and --kill of the same slot are not supported together");
+    const sim::SceneDesc scene = with_players(c.scene, o.players);
     for (const auto& text : o.injections) {
-        const DesyncInjection d = parse_injection(text);  // passed verbatim to every peer
-        if (d.client >= o.players) throw UsageError("--inject-desync " + text + ": CLIENT must be 0..players-1");
+        // Passed verbatim to every peer; checked here, as the target's session would, so that a
+        // bad one stops live before any process starts.
+        if (const std::string e = injection_error(scene, o.players, parse_injection(text)); !e.empty())
+            throw UsageError("--inject-desync " + text + ": " + e);
         p.injections.push_back(text);
     }
     for (const auto& text : o.clock_skews) {
@@ -490,23 +495,12 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
     return recs;
 }
 
-// For the metrics: per slot, the process that finished it (a rejoined one over the killed one).
-std::vector<const ProcessRecord*> players_of(const std::vector<ProcessRecord>& recs, int players) {
-    std::vector<const ProcessRecord*> out(static_cast<std::size_t>(players), nullptr);
-    for (const auto& r : recs)
-        if (!r.spectator && r.started) out[static_cast<std::size_t>(r.slot)] = &r;
-    return out;
-}
-
-// Merges a Stat from (mean, max, count) as summaries print it.
-void merge(Stat& s, double mean, double max, std::uint64_t count) {
-    s.sum += mean * static_cast<double>(count);
-    s.count += count;
-    s.max = std::max(s.max, max);
-}
-
+// The mode's figures from what its processes wrote: each process's summary.json (session
+// counters), samples.json (MatchRecorder's raw samples), frames.csv and positions.csv. Every
+// percentile and maximum is computed from the samples; a process that wrote nothing (killed
+// on purpose) is named in r.notes and counts in no figure, and a figure no process measured
+// stays empty, to be printed "n/a" with the reason in r.unmeasured.
 RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::vector<ProcessRecord>& all, int input_delay) {
-    const auto players = players_of(all, p.o.players);
     const LiveOptions& o = p.o;
     RunResult r;
     r.mode = mode_name(mode);
@@ -523,77 +517,96 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
     r.loss = o.loss;
     r.duplicate = o.duplicate;
     r.reorder = o.reorder;
+    r.burst_loss = o.burst;
     r.completed = true;
-    std::vector<double> rtts;
-    const std::size_t bodies = sim::World(with_players(p.base.scene, o.players)).dynamic_count();
+    const sim::World world(with_players(p.base.scene, o.players));
+    const std::size_t bodies = world.dynamic_count();
+    r.body_ids.assign(world.dynamic_ids().begin(), world.dynamic_ids().end());
+    r.body_player.assign(bodies, -1);
+    for (int pl = 0; pl < world.player_count(); ++pl)
+        for (std::size_t b = 0; b < bodies; ++b)
+            if (r.body_ids[b] == world.player_body(pl)) r.body_player[b] = pl;
     PositionErrorTracker tracker(o.players, bodies, false);
-    // Positions of every process: frame -> body positions (exact raw Q32.32 columns).
-    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(players.size());
+    // Positions of every player slot: frame -> body positions (exact raw Q32.32 columns). A
+    // slot's rejoined process adds the frames from its join on.
+    std::vector<std::map<std::uint32_t, std::vector<sim::Vec3>>> shown(static_cast<std::size_t>(o.players));
     std::map<std::uint32_t, double> time_s;
-    for (const ProcessRecord* recp : players) {
-        if (!recp) continue;
-        const ProcessRecord& rec = *recp;
+    const int reference = [&] {  // the lowest slot playing from frame 0 and not killed: its times are the rows'
+        for (const auto& rec : all)
+            if (!rec.spectator && !rec.joiner && !rec.killed && rec.started) return rec.slot;
+        return 0;
+    }();
+    std::vector<RecordedSamples> recorded;
+    recorded.reserve(all.size());
+    for (const ProcessRecord& rec : all) {
+        if (!rec.started) continue;
+        if (rec.killed) {
+            std::string then = "not rejoined";
+            for (const auto& later : all)
+                if (later.slot == rec.slot && later.joiner && later.started && &later != &rec)
+                    then = "rejoined as " + later.name + " (" +
+                           (later.summary.is_object() ? later.summary.value("outcome", "?") : std::string("no summary")) + ")";
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): killed by --kill at frame " +
+                              std::to_string(rec.killed_at_frame) + ", " + then +
+                              "; a killed process leaves no figures, so it counts in none");
+            continue;
+        }
         const fs::path pd = dir / rec.name;
         const json& s = rec.summary;
-        ClientResult c;
-        if (s.is_object()) {
-            const json& c0 = s["clients"][0];
-            c.ticks_per_second = c0.value("ticks_per_second", 0.0);
-            c.stall_fraction = c0.value("stall_fraction", 0.0);
-            c.frames = c0.value("frames", 0ull);
-            c.ticks = c0.value("ticks", 0ull);
-            c.stall_ticks = c0.value("stall_ticks", 0ull);
-            c.time_sync_waits = c0.value("time_sync_wait_frames", 0ull);
-            c.rollbacks = c0.value("rollbacks", 0ull);
-            c.resimulated_frames = c0.value("resimulated_frames", 0ull);
-            c.max_rollback_depth = c0.value("max_rollback_depth", 0u);
-            c.mispredictions = c0.value("mispredictions", 0ull);
-            c.bytes_sent = c0.value("bytes_sent", 0ull);
-            c.bytes_received = c0.value("bytes_received", 0ull);
-            c.packets_sent = c0.value("packets_sent", 0ull);
-            c.packets_received = c0.value("packets_received", 0ull);
-            c.malformed_packets = c0.value("malformed_packets", 0ull);
-            c.desyncs = c0.value("desyncs", 0ull);
-            if (s["final_checksum"].is_string()) {
-                c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
-                c.final_confirmed = true;
-            }
-            r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
-            const json& il = s["input_latency_ms"];
-            merge(r.input_latency_local, il.value("mean", 0.0), il.value("max", 0.0), il.value("samples", 0ull));
-            const json& vc = s["visual_corrections"];
-            merge(r.correction_jump, vc.value("mean_jump_m", 0.0), vc.value("max_jump_m", 0.0), vc.value("count", 0ull));
-            const json& cpu = s["cpu_us_per_tick"];
-            merge(r.cpu_us_per_tick, cpu.value("mean", 0.0), 0.0, c.ticks);
-            merge(r.resim_us_per_tick, cpu.value("resim_mean", 0.0), 0.0, c.ticks);
-            const json& rb = s["rollbacks"];
-            merge(r.rollback_depth, rb.value("mean_depth", 0.0), rb.value("max_depth", 0.0), rb.value("count", 0ull));
-            const auto hist = rb.value("depth_histogram", std::vector<std::uint64_t>{});
-            if (r.rollback_depth_histogram.size() < hist.size()) r.rollback_depth_histogram.resize(hist.size());
-            for (std::size_t d = 0; d < hist.size(); ++d) r.rollback_depth_histogram[d] += hist[d];
-            for (const auto& d : s["desync_reports"]) {
-                DesyncRecord dr;
-                dr.client = d.value("client", rec.slot);
-                dr.summary = d.value("summary", "");
-                dr.evidence_file = d.value("evidence_file", "");
-                dr.detected_frame = d.value("detected_frame", 0u);
-                dr.frame = d.value("frame", 0u);
-                dr.body = d.value("body", 0u);
-                dr.field = d.value("field", "");
-                r.desyncs.push_back(dr);
-            }
-            if (s.contains("rtt_ms"))
-                for (const auto& [peer, ms] : s["rtt_ms"].items()) rtts.push_back(ms.get<double>());
+        const json samples = fs::exists(pd / "samples.json") ? json::parse(read_text(pd / "samples.json"), nullptr, false) : json();
+        if (!s.is_object() || !samples.is_object()) {
+            r.completed = false;
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): left no summary (exit status " +
+                              std::to_string(rec.exit_status) + "); it counts in no figure");
+            continue;
         }
-        if (!c.final_confirmed || rec.exit_status != 0) r.completed = false;
+        recorded.push_back(RecordedSamples::from_json(samples));
+        const RecordedSamples& m = recorded.back();
+        const bool final_confirmed = s["final_checksum"].is_string();
+        if (!final_confirmed || rec.exit_status != 0) r.completed = false;
+        r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
+        if (rec.spectator) continue;  // a spectator confirms (agreement) but plays no frame of its own
+        const json& c0 = s["clients"][0];
+        ClientResult c;
+        c.ticks_per_second = c0.value("ticks_per_second", 0.0);
+        c.stall_fraction = c0.value("stall_fraction", 0.0);
+        c.frames = c0.value("frames", 0ull);
+        c.ticks = c0.value("ticks", 0ull);
+        c.stall_ticks = c0.value("stall_ticks", 0ull);
+        c.time_sync_waits = c0.value("time_sync_wait_frames", 0ull);
+        c.rollbacks = c0.value("rollbacks", 0ull);
+        c.resimulated_frames = c0.value("resimulated_frames", 0ull);
+        c.max_rollback_depth = c0.value("max_rollback_depth", 0u);
+        c.mispredictions = c0.value("mispredictions", 0ull);
+        c.bytes_sent = c0.value("bytes_sent", 0ull);
+        c.bytes_received = c0.value("bytes_received", 0ull);
+        c.packets_sent = c0.value("packets_sent", 0ull);
+        c.packets_received = c0.value("packets_received", 0ull);
+        c.malformed_packets = c0.value("malformed_packets", 0ull);
+        c.desyncs = c0.value("desyncs", 0ull);
+        c.final_confirmed = final_confirmed;
+        if (final_confirmed) c.final_checksum = parse_hex16(s["final_checksum"].get<std::string>()).value_or(0);
+        c.from_start = !rec.joiner;
         r.clients.push_back(c);
+        add_client_samples(r, m);
+        for (const auto& [peer, ms] : m.rtt_ms) r.rtt.push_back({rec.slot, peer, ms});
+        for (const auto& d : s["desync_reports"]) {
+            DesyncRecord dr;
+            dr.client = d.value("client", rec.slot);
+            dr.summary = d.value("summary", "");
+            dr.evidence_file = d.value("evidence_file", "");
+            dr.detected_frame = d.value("detected_frame", 0u);
+            dr.frame = d.value("frame", 0u);
+            dr.body = d.value("body", 0u);
+            dr.field = d.value("field", "");
+            r.desyncs.push_back(dr);
+        }
         for (const auto& row : read_csv_rows(pd / "frames.csv")) {
             if (row.size() < 6) continue;
             const auto f = static_cast<std::uint32_t>(std::stoul(row[0]));
             const auto depth = static_cast<std::uint32_t>(std::stoul(row[3]));
             if (depth) tracker.note_rollback(f, depth);
-            r.cpu_us_per_tick.samples.push_back(std::stod(row[5]));
-            if (rec.slot == 0) {
+            if (rec.slot == reference && !rec.joiner) {
                 time_s[f] = std::stod(row[1]) / 1000.0;
                 tracker.set_tick_rate(f, std::stod(row[4]));
             }
@@ -609,41 +622,43 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
                          sim::Fixed::from_raw(std::stoll(row[8]))});
         }
     }
+    // Position error: every frame, between every pair of slots that both showed it. Slot order
+    // as the tracker's client index, so the reference slot's time lands on client 0's rows.
     for (std::uint32_t f = 1; f <= static_cast<std::uint32_t>(o.frames); ++f)
         for (std::size_t k = 0; k < shown.size(); ++k)
             if (const auto it = shown[k].find(f); it != shown[k].end() && it->second.size() == bodies)
                 tracker.record(static_cast<int>(k), f, time_s.contains(f) ? time_s[f] : 0.0, it->second);
+    tracker.finish();
     if (!r.positions_csv.empty()) {
         r.positions_csv.insert(0, "frame,client,body_index,x,y,z\n");
-        r.bodies_csv = bodies_csv(sim::World(with_players(p.base.scene, o.players)));
+        r.bodies_csv = bodies_csv(world);
     }
     r.position_error = tracker.error();
     r.rows = tracker.rows();
+    std::sort(r.rows.begin(), r.rows.end(), [](const FrameRow& a, const FrameRow& b) { return a.frame < b.frame; });
     r.per_body_max_error = tracker.per_body_max();
-    // Confirmed-state agreement: every checkpoint (every 60 frames) and the final checksum of
-    // each process against process 0's.
-    std::map<std::uint32_t, std::string> ref;
-    for (const ProcessRecord* rec : players) {
-        if (!rec) continue;
-        const json& s = rec->summary;
-        if (!s.is_object()) continue;
-        std::map<std::uint32_t, std::string> cps;
-        for (const auto& c : s["confirmed_checksums"]) cps[c["frame"].get<std::uint32_t>()] = c["checksum"].get<std::string>();
-        if (ref.empty()) {
-            ref = cps;
-            continue;
-        }
-        for (const auto& [f, c] : cps)
-            if (const auto it = ref.find(f); it != ref.end()) {
-                ++r.confirmed_compared;
-                if (it->second != c) ++r.confirmed_mismatches;
-            }
+    r.pair_error = tracker.pair_errors();
+    r.body_error = tracker.body_errors();
+    // Confirmed-state agreement: every confirmed checksum every process wrote (spectators too).
+    std::vector<const RecordedSamples*> confirmers;
+    for (const RecordedSamples& m : recorded) confirmers.push_back(&m);
+    std::tie(r.confirmed_compared, r.confirmed_mismatches) = confirmed_agreement(confirmers);
+    // Remote input latency across processes (one machine: CLOCK_MONOTONIC in every process).
+    std::vector<const RecordedSamples*> players;
+    for (const RecordedSamples& m : recorded)
+        if (m.slot < o.players) players.push_back(&m);
+    r.input_latency_remote = remote_input_latency(players);
+    Stat rtts = Stat::keeping_samples();
+    for (const auto& pr : r.rtt) rtts.merge(pr.rtt_ms);
+    if (rtts.count) {
+        r.rtt_p50_ms = rtts.percentile(50);
+        r.rtt_p95_ms = rtts.percentile(95);
+    } else {
+        r.unmeasured["measured_rtt"] = "no process measured a round trip";
     }
-    if (!rtts.empty()) {
-        std::sort(rtts.begin(), rtts.end());
-        r.rtt_p50_ms = rtts[rtts.size() / 2];
-        r.rtt_p95_ms = rtts[std::min(rtts.size() - 1, rtts.size() * 95 / 100)];
-    }
+    for (const char* field : {"input_latency_local", "input_latency_remote", "rtt", "cpu_us_per_tick", "physics_step_us",
+                              "position_error", "displayed_vs_confirmed"})
+        r.unmeasured[field] = "no process that completed its part measured it";
     return r;
 }
 
@@ -723,9 +738,11 @@ std::string side_by_side(const std::vector<std::pair<std::string, const RunResul
          "mismatches | desyncs | completed |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     char line[512];
     for (const auto& [name, r] : runs) {
-        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %d | %.3g | %.3g | %llu | %.1f | %.0f | %llu | %llu | %s |\n",
-                      name.c_str(), r->ticks_per_second(), 100 * r->stall_fraction(), r->input_delay, r->position_error.mean(),
-                      r->position_error.max, static_cast<unsigned long long>(r->rollbacks()), r->cpu_us_per_tick.mean(),
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %d | %s | %s | %llu | %s | %.0f | %llu | %llu | %s |\n",
+                      name.c_str(), r->ticks_per_second(), 100 * r->stall_fraction(), r->input_delay,
+                      figure(r->position_error, "%.3g", r->position_error.mean()).c_str(),
+                      figure(r->position_error, "%.3g", r->position_error.max).c_str(),
+                      static_cast<unsigned long long>(r->rollbacks()), figure(r->cpu_us_per_tick, "%.1f", r->cpu_us_per_tick.mean()).c_str(),
                       r->bytes_sent_per_s(), static_cast<unsigned long long>(r->confirmed_mismatches),
                       static_cast<unsigned long long>(r->desync_count()), r->completed ? "yes" : "NO");
         o << line;
@@ -745,9 +762,11 @@ std::string topology_table(const std::vector<std::tuple<std::string, const RunRe
         const double server_bps = relay ? static_cast<double>(extra["server"].value("bytes_in", 0ull) +
                                                               extra["server"].value("bytes_out", 0ull)) / seconds
                                         : 0.0;
-        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %.3g | %llu | %.1f | %.0f | %s | %s | %s |\n", name.c_str(),
-                      r->ticks_per_second(), 100 * r->stall_fraction(), r->position_error.mean(),
-                      static_cast<unsigned long long>(r->rollbacks()), r->input_latency_local.mean(), r->bytes_sent_per_s(),
+        std::snprintf(line, sizeof line, "| %s | %.2f | %.1f %% | %s | %llu | %s | %.0f | %s | %s | %s |\n", name.c_str(),
+                      r->ticks_per_second(), 100 * r->stall_fraction(),
+                      figure(r->position_error, "%.3g", r->position_error.mean()).c_str(),
+                      static_cast<unsigned long long>(r->rollbacks()),
+                      figure(r->input_latency_local, "%.1f", r->input_latency_local.mean()).c_str(), r->bytes_sent_per_s(),
                       relay ? num(server_bps).c_str() : "-",
                       relay ? std::to_string(extra.value("replaced", 0ull)).c_str() : "-", r->completed ? "yes" : "NO");
         o << line;
@@ -796,6 +815,17 @@ int do_live(const LiveOptions& options) {
                 if (p.o.view) std::printf("written %s\n", write_view(dir).string().c_str());
             }
             json lj = live_json(recs, dir);
+            std::vector<std::string> claims;
+            for (const auto& rec : recs) {
+                if (!rec.started) continue;
+                const auto c = overclaims({rec.name, rec.summary, rec.killed, rec.killed_at_frame, rec.exit_status}, p.o.frames);
+                claims.insert(claims.end(), c.begin(), c.end());
+            }
+            if (!claims.empty()) {
+                lj["overclaims"] = claims;
+                lj["ok"] = false;
+                for (const auto& c : claims) std::fprintf(stderr, "[live] %s: %s\n", name.c_str(), c.c_str());
+            }
             json extra = json::object();
             if (relay) {
                 std::uint64_t replaced = 0;
@@ -840,6 +870,8 @@ int do_live(const LiveOptions& options) {
         const RunResult& delay0 = by_name.contains("rollback-delay0") ? by_name.at("rollback-delay0") : live.at(Mode::Rollback);
         write_file_atomic(out / "compare.json", compare_json(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0).dump(2) + "\n");
         report = compare_markdown(live.at(Mode::Lockstep), live.at(Mode::Rollback), delay0, note);
+    } else {
+        report = run_markdown(live.at(p.modes.front()), std::string(mode_name(p.modes.front())) + ", real processes");
     }
     report += "\n## Real processes beside virtual time\n\nThe same scene, players, frames, seed, input delay and network "
               "conditions: N `lockroll peer` processes over ENet on 127.0.0.1 (through `lockroll proxy` when impaired), "

@@ -13,6 +13,7 @@
 #include "harness/atomic_file.h"
 #include "harness/cli_error.h"
 #include "harness/client_result.h"
+#include "harness/match_recorder.h"
 #include "harness/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -31,21 +32,6 @@ std::uint64_t thread_cpu_ns() {
     clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
     return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
-
-std::vector<sim::Vec3> dynamic_positions(const sim::World& w) {
-    std::vector<sim::Vec3> out;
-    out.reserve(w.dynamic_count());
-    for (sim::BodyId id : w.dynamic_ids()) out.push_back(w.position(id));
-    return out;
-}
-
-// Inputs that changed, waiting to be seen: (player, frame) -> when made and what.
-struct PendingInput {
-    std::uint64_t made_us = 0;
-    std::array<std::uint8_t, rollback::kWorldInputSize> bytes{};
-    std::uint64_t remote_seen_mask = 0;  // clients that have shown it
-    bool local_seen = false;
-};
 
 struct Shared;
 
@@ -99,24 +85,16 @@ public:
     int wait_ticks_ = 0;
     std::uint64_t now_ = 0;
     rollback::WorldSimulation sim_;
+    MatchRecorder rec_;      // what this client measures, as a real process's recorder does
     TimedSimulation timed_;  // what the session steps: sim_, each step timed
     Bot bot_;
     transport::Transport& endpoint_;
     std::unique_ptr<rollback::Session> session_;
-    sim::PlayerInput last_input_{};
-    bool have_last_input_ = false;
-    std::uint32_t last_input_frame_ = 0;
-    std::vector<sim::Vec3> before_rollback_;
     std::uint64_t reached_target_us_ = 0;
-    std::uint64_t final_checksum_ = 0;
-    bool final_confirmed_ = false;
-    std::vector<std::uint64_t> shown_at_;  // virtual time each frame was first shown (tick rate)
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
     transport::SimNetwork* net_ = nullptr;          // for loss events
-    std::map<std::uint32_t, std::vector<sim::Vec3>> displayed_;  // shown, awaiting confirmation
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
-    std::vector<std::size_t> rtt_slot_;             // peer -> index into RunResult::rtt
     std::vector<double> recent_rtt_ms_;             // adaptive delay: last two seconds, ring
     std::size_t recent_next_ = 0;
     void adapt_delay();
@@ -135,8 +113,6 @@ struct Shared {
     std::uint64_t start_us;
     PositionErrorTracker positions;
     RunResult& result;
-    std::map<std::pair<int, std::uint32_t>, PendingInput> inputs;  // (player, frame)
-    std::map<std::uint32_t, std::pair<std::uint64_t, int>> confirmed;  // frame -> (checksum, count)
 };
 
 Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::SceneDesc& scene, int input_delay,
@@ -149,7 +125,8 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
       drift_ppm_(drift_ppm),
       start_us_(start_us),
       sim_(scene, cfg.players),
-      timed_(sim_, cpu_clock_, shared.result.physics_step_us),
+      rec_(index, cfg.players, static_cast<std::uint32_t>(cfg.frames), sim_, true, false),
+      timed_(sim_, cpu_clock_, rec_.physics_step_us()),
       bot_(BotConfig{cfg.bot, cfg.seed, cfg.tick_rate, 4.0}, index),
       endpoint_(endpoint) {
     rollback::SessionConfig sc;
@@ -162,10 +139,7 @@ Client::Client(Shared& shared, int index, const RunConfig& cfg, const sim::Scene
     sc.checksum_interval = cfg.checksum_interval;
     sc.cpu_clock = cpu_clock_;
     session_ = std::make_unique<rollback::Session>(sc, timed_, this);
-    shown_at_.reserve(static_cast<std::size_t>(cfg.frames) + 1);
-    // Frame 0 counts as shown one period before frame 1 (the first tick), as the summary's
-    // tick rate counts it: N frames take N periods.
-    shown_at_.push_back(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
+    rec_.frame0_shown(start_us - 1000000 / static_cast<std::uint64_t>(cfg.tick_rate));
 }
 
 RunResult& Client::shared_result() { return shared_.result; }
@@ -174,100 +148,38 @@ double Client::seconds(std::uint64_t t) const { return static_cast<double>(t - s
 void Client::on_frame_simulated(const rollback::FrameSimulated& f) {
     const ObserverScope scope(*this);
     Shared& s = shared_;
-    const sim::World& w = sim_.world();
     if (f.frame > static_cast<std::uint32_t>(s.target)) return;
-    if (!f.resimulation) {
-        shown_at_.push_back(now_);
-        if (index_ == 0) {
-            // Frames shown during the last second of virtual time. Set before record(): when
-            // client 0 is the last to show the frame, record() reduces the row at once.
-            const auto first = std::lower_bound(shown_at_.begin(), shown_at_.end(), now_ >= 1000000 ? now_ - 1000000 : 0);
-            const auto shown = static_cast<double>(shown_at_.end() - first);
-            const double span = std::min(1.0, static_cast<double>(now_ - shown_at_.front()) / 1e6);
-            s.positions.set_tick_rate(f.frame, span > 0 ? (shown - 1) / span : 0.0);
-        }
-        std::vector<sim::Vec3> shown = dynamic_positions(w);
-        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, shown);
-        displayed_.emplace(f.frame, std::move(shown));
-    }
-    // Input latency: frame f.frame consumed the inputs of frame f.frame - 1.
-    const std::uint32_t input_frame = f.frame - 1;
-    for (int p = 0; p < s.clients; ++p) {
-        auto it = s.inputs.find({p, input_frame});
-        if (it == s.inputs.end()) continue;
-        PendingInput& pi = it->second;
-        const auto offset = static_cast<std::size_t>(p) * rollback::kWorldInputSize;
-        const bool same = std::equal(pi.bytes.begin(), pi.bytes.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(offset));
-        if (!same) continue;
-        const double ms = static_cast<double>(now_ - pi.made_us) / 1000.0;
-        if (p == index_) {
-            if (!pi.local_seen) s.result.input_latency_local.add(ms);
-            pi.local_seen = true;
-        } else if (!(pi.remote_seen_mask >> index_ & 1)) {
-            pi.remote_seen_mask |= std::uint64_t{1} << index_;
-            s.result.input_latency_remote.add(ms);
-        }
-        const std::uint64_t all_remote = ((std::uint64_t{1} << s.clients) - 1) & ~(std::uint64_t{1} << p);
-        if (pi.local_seen && pi.remote_seen_mask == all_remote) s.inputs.erase(it);
+    if (const std::vector<sim::Vec3>* shown = rec_.frame_simulated(now_, f)) {
+        // Set before record(): when client 0 is the last to show the frame, record() reduces
+        // the row at once.
+        if (index_ == 0) s.positions.set_tick_rate(f.frame, rec_.recent_tick_rate(tick_rate_));
+        s.positions.record(index_, f.frame, static_cast<double>(now_ - s.start_us) / 1e6, *shown);
     }
 }
 
 void Client::on_rollback_begin(const rollback::RollbackInfo&) {
     in_rollback_ = true;  // inside the session's resimulation timing until on_rollback_end
     const ObserverScope scope(*this);
-    before_rollback_ = dynamic_positions(sim_.world());
+    rec_.rollback_begin();
 }
 
 void Client::on_rollback_end(const rollback::RollbackInfo& r) {
     in_rollback_ = false;
     const ObserverScope scope(*this);
     if (r.displayed_frame > static_cast<std::uint32_t>(shared_.target)) return;
-    RunResult& res = shared_.result;
-    res.rollback_depth.add(r.depth);
-    if (res.rollback_depth_histogram.size() <= r.depth) res.rollback_depth_histogram.resize(r.depth + 1, 0);
-    ++res.rollback_depth_histogram[r.depth];
+    const std::optional<double> jump = rec_.rollback_end(r);
     shared_.positions.note_rollback(r.displayed_frame, r.depth);
     event("rollback", r.depth);
-    if (!r.displayed_changed()) return;
-    const std::vector<sim::Vec3> after = dynamic_positions(sim_.world());
-    double jump = 0;
-    for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_rollback_[b], after[b]));
-    shared_.result.correction_jump.add(jump);
-    event("correction", jump);
+    if (jump) event("correction", *jump);
 }
 
 void Client::on_frame_confirmed(const rollback::FrameConfirmed& f) {
     const ObserverScope scope(*this);
     if (f.frame > static_cast<std::uint32_t>(shared_.target)) return;
-    // What this client showed for the frame against the state it now knows to be final.
-    if (auto shown = displayed_.find(f.frame); shown != displayed_.end()) {
-        if (const auto state = session_->saved_state(f.frame)) {
-            Stat& st = shared_.result.displayed_vs_confirmed[static_cast<std::size_t>(index_)];
-            for (std::uint32_t b = 0; b < shown->second.size(); ++b) {
-                sim::Vec3 confirmed;
-                confirmed.x = sim::Fixed::from_raw(sim_.field_value(*state, b, 0));
-                confirmed.y = sim::Fixed::from_raw(sim_.field_value(*state, b, 1));
-                confirmed.z = sim::Fixed::from_raw(sim_.field_value(*state, b, 2));
-                st.add(distance_m(shown->second[b], confirmed));
-            }
-        }
-        displayed_.erase(displayed_.begin(), std::next(shown));
-    }
-    auto& entry = shared_.confirmed[f.frame];
-    if (entry.second == 0) {
-        entry.first = f.checksum;
-    } else {
-        ++shared_.result.confirmed_compared;
-        if (entry.first != f.checksum) ++shared_.result.confirmed_mismatches;
-    }
-    if (++entry.second == shared_.clients) shared_.confirmed.erase(f.frame);
+    rec_.frame_confirmed(f, session_->saved_state(f.frame));
     if (index_ == 0 && shared_.cfg.record_inputs) {
         shared_.result.confirmed_inputs.emplace_back(f.inputs.begin(), f.inputs.end());
         shared_.result.confirmed_checksums.push_back(f.checksum);
-    }
-    if (f.frame == static_cast<std::uint32_t>(shared_.target)) {
-        final_checksum_ = f.checksum;
-        final_confirmed_ = true;
     }
 }
 
@@ -282,8 +194,10 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
     rec.field = r.field_name;
     // The diverging frame was first shown by whichever client showed it first.
     std::uint64_t first_shown = now_;
-    for (const Client* c : shared_.all)
-        if (r.frame < c->shown_at_.size()) first_shown = std::min(first_shown, c->shown_at_[r.frame]);
+    for (const Client* c : shared_.all) {
+        const ShownTimes& shown = c->rec_.samples().shown;  // frames 0, 1, 2, ... in order
+        if (r.frame < shown.size()) first_shown = std::min(first_shown, shown[r.frame].second);
+    }
     const auto alert = alert_us_.find(static_cast<int>(r.peer));
     rec.alert_ms = static_cast<double>((alert != alert_us_.end() ? alert->second : now_) - first_shown) / 1000.0;
     rec.report_ms = static_cast<double>(now_ - first_shown) / 1000.0;
@@ -348,22 +262,11 @@ void Client::tick(std::uint64_t now) {
             const rollback::AdvanceResult r = session_->advance(bytes, now);
             const std::uint64_t spent = cpu_clock_() - t0, observed = observer_ns_ - obs0;
             const std::uint64_t resim_observed = rollback_observer_ns_ - robs0;
-            res.cpu_us_per_tick.add(static_cast<double>(spent - std::min(spent, observed)) / 1000.0);
-            res.resim_us_per_tick.add(static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
-            // The session takes the first input offered for each frame, stalled tick or not,
-            // and ignores later offers for the same frame.
-            const bool taken = !have_last_input_ || input_frame > last_input_frame_;
-            if (taken && (!have_last_input_ || !(in == last_input_))) {
-                // An input change: measure how long until it shows, here and on every peer.
-                PendingInput& pi = shared_.inputs[{index_, input_frame}];
-                pi.made_us = now;
-                pi.bytes = bytes;
-            }
-            if (taken) {
-                last_input_ = in;
-                last_input_frame_ = input_frame;
-                have_last_input_ = true;
-            }
+            rec_.tick(static_cast<double>(spent - std::min(spent, observed)) / 1000.0,
+                      static_cast<double>(r.resim_ns - std::min(r.resim_ns, resim_observed)) / 1000.0);
+            // The recorder times input changes until they show, here and (remote_input_latency,
+            // at the end) on every peer.
+            rec_.input_offered(now, input_frame, bytes);
             wait_ticks_ = r.wait_frames;
             if (!r.advanced) event("stall", r.blocking_player);
             res.input_delay_used.add(session_->input_delay());
@@ -375,7 +278,7 @@ void Client::tick(std::uint64_t now) {
                 const rollback::SessionStats& st = session_->stats();
                 for (std::size_t p = 0; p < st.peers.size(); ++p)
                     if (static_cast<int>(p) != index_ && st.peers[p].rtt_us > 0)
-                        res.rtt[rtt_slot_[p]].rtt_ms.add(static_cast<double>(st.peers[p].rtt_us) / 1000.0);
+                        rec_.rtt(static_cast<int>(p), static_cast<double>(st.peers[p].rtt_us) / 1000.0);
             }
             if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
         }
@@ -462,6 +365,18 @@ void validate(const NetConditions& n) {
         if (!(v >= 0 && v <= 1)) fail(std::string(name) + " must be a probability in [0, 1]");
     if (n.loss >= 1) fail("--loss must be below 1 (nothing would ever arrive)");
     if (const std::string e = transport::validate(link_for(n)); !e.empty()) fail("network: " + e);
+}
+
+std::string injection_error(const sim::SceneDesc& scene, int players, const DesyncInjection& d) {
+    if (d.client < 0 || d.client >= players) return "CLIENT must be 0..players-1";
+    rollback::WorldSimulation sim(scene, players);
+    rollback::SessionConfig sc;
+    sc.players = players;
+    sc.local_player = static_cast<PlayerId>(d.client);
+    sc.input_size = rollback::kWorldInputSize;
+    sc.tick_rate = scene.tick_rate > 0 ? scene.tick_rate : 60;
+    rollback::Session session(sc, sim);
+    return session.inject_fault(d.frame, d.body, d.field, d.bit);
 }
 
 const char* mode_name(Mode m) { return m == Mode::Lockstep ? "lockstep" : "rollback"; }
@@ -615,7 +530,7 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     sim::SplitMix64 rng(cfg.seed ^ 0xC10C4u);
     const std::size_t bodies = sim::World(scene).dynamic_count();
     s_->shared.reset(new Shared{cfg, {}, cfg.frames, cfg.players, start,
-                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res, {}, {}});
+                                PositionErrorTracker(cfg.players, bodies, cfg.record_positions), res});
     Shared& shared = *s_->shared;
     std::vector<std::unique_ptr<Client>>& clients = s_->clients;
     const auto tick_us = static_cast<std::uint64_t>(1000000 / cfg.tick_rate);
@@ -636,14 +551,7 @@ Match::Match(const RunConfig& config) : s_(std::make_unique<State>(config, match
     for (const auto& c : clients) {
         shared.all.push_back(c.get());
         c->net_ = &net;
-        c->rtt_slot_.assign(static_cast<std::size_t>(cfg.players), 0);
-        for (int p = 0; p < cfg.players; ++p) {
-            if (p == c->index_) continue;
-            c->rtt_slot_[static_cast<std::size_t>(p)] = res.rtt.size();
-            res.rtt.push_back(PeerRtt{c->index_, p, Stat::keeping_samples()});
-        }
     }
-    res.displayed_vs_confirmed.resize(static_cast<std::size_t>(cfg.players));
     {
         const sim::World w(scene);
         if (cfg.record_positions) res.bodies_csv = bodies_csv(w);
@@ -672,7 +580,7 @@ Match::~Match() = default;
 bool Match::finished() const {
     if (s_->timed_out) return true;
     for (const auto& c : s_->clients)
-        if (!c->final_confirmed_) return false;
+        if (!c->rec_.final_checksum()) return false;
     return true;
 }
 
@@ -714,7 +622,7 @@ const rollback::SessionStats& Match::stats(int client) const {
 
 std::optional<std::uint64_t> Match::final_checksum(int client) const {
     const Client& c = *s_->clients.at(static_cast<std::size_t>(client));
-    return c.final_confirmed_ ? std::optional<std::uint64_t>(c.final_checksum_) : std::nullopt;
+    return c.rec_.final_checksum();
 }
 
 const std::vector<FrameRow>& Match::rows() const { return s_->shared->positions.rows(); }
@@ -734,17 +642,34 @@ RunResult Match::finish() {
     for (const auto& c : s_->clients) {
         const rollback::SessionStats& st = c->session_->stats();
         ClientResult cr = client_result(st);
-        // Frame 0 is shown at start; frame N after N ticks, so N frames took (N - 1) periods + 1.
-        const std::uint64_t end = c->reached_target_us_ ? c->reached_target_us_ : now;
-        const double seconds = static_cast<double>(end - c->start_us_) / 1e6 + 1.0 / cfg.tick_rate;
-        // Effective tick rate: frames shown per second of the client's own running time.
-        cr.ticks_per_second = seconds > 0 && c->reached_target_us_ ? cfg.frames / seconds : 0;
-        cr.final_checksum = c->final_checksum_;
-        cr.final_confirmed = c->final_confirmed_;
-        res.completed = res.completed && c->final_confirmed_;
+        // Tick rate and stalls from when frames were shown, as a real process's (tick_figures).
+        // Frame 0 counts as shown one period before frame 1 (the first tick): N frames take N
+        // periods.
+        const TickFigures tf = tick_figures(c->rec_.samples().shown, cfg.tick_rate);
+        cr.ticks_per_second = tf.ticks_per_second;
+        cr.stall_fraction = tf.stall_fraction;
+        cr.final_checksum = c->rec_.final_checksum().value_or(0);
+        cr.final_confirmed = c->rec_.final_checksum().has_value();
+        res.completed = res.completed && cr.final_confirmed;
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);
     }
+    // The recorders' samples: the same reduction as a real-process run's (add_client_samples).
+    std::vector<const RecordedSamples*> recorded;
+    for (const auto& c : s_->clients) {
+        const RecordedSamples& m = c->rec_.samples();
+        recorded.push_back(&m);
+        add_client_samples(res, m);
+        for (int p = 0; p < cfg.players; ++p) {
+            if (p == c->index_) continue;
+            const auto it = m.rtt_ms.find(p);
+            res.rtt.push_back(PeerRtt{c->index_, p, it != m.rtt_ms.end() ? it->second : Stat::keeping_samples()});
+        }
+    }
+    res.input_latency_remote = remote_input_latency(recorded);
+    const auto [compared, mismatches] = confirmed_agreement(recorded);
+    res.confirmed_compared = compared;
+    res.confirmed_mismatches = mismatches;
     res.input_delay_min = static_cast<int>(res.input_delay);
     res.input_delay_max = res.input_delay_min;
     for (const auto& e : res.events)
@@ -752,7 +677,8 @@ RunResult Match::finish() {
             res.input_delay_min = std::min(res.input_delay_min, static_cast<int>(e.value));
             res.input_delay_max = std::max(res.input_delay_max, static_cast<int>(e.value));
         }
-    const PositionErrorTracker& positions = s_->shared->positions;
+    PositionErrorTracker& positions = s_->shared->positions;
+    positions.finish();  // an incomplete run: the frames only some clients showed count too
     res.position_error = positions.error();
     res.rows = positions.rows();
     res.positions_csv = positions.positions_csv();

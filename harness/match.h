@@ -57,6 +57,12 @@ struct DesyncInjection {
     int bit = 20;
 };
 
+// Why a session of this scene (players already added) would refuse the injection, "" when it
+// takes it. Asked of a session itself, so the rule stays the session's: a command that starts
+// processes checks its --inject-desync with this before starting any (exit 2 naming the flag)
+// instead of letting the one process that gets it refuse it mid-start.
+std::string injection_error(const sim::SceneDesc& scene, int players, const DesyncInjection& d);
+
 struct RunConfig {
     sim::SceneDesc scene;
     Mode mode = Mode::Rollback;

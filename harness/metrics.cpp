@@ -17,6 +17,17 @@ void Stat::add(double v) {
     if (keep_samples) samples.push_back(v);
 }
 
+void Stat::merge(const Stat& o) {
+    if (keep_samples && o.keep_samples) {
+        for (double v : o.samples) add(v);
+        return;
+    }
+    sum += o.sum;
+    max = std::max(max, o.max);
+    count += o.count;
+    nonzero += o.nonzero;
+}
+
 double Stat::percentile(double p) const {
     if (samples.empty()) return 0.0;
     std::vector<double> s = samples;
@@ -66,6 +77,11 @@ void PositionErrorTracker::note_rollback(std::uint32_t displayed_frame, std::uin
 
 void PositionErrorTracker::set_tick_rate(std::uint32_t frame, double tps) { tick_rate_[frame] = tps; }
 
+void PositionErrorTracker::finish() {
+    for (auto& [frame, p] : pending_) reduce(frame, p);
+    pending_.clear();
+}
+
 void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
     FrameRow row;
     row.frame = frame;
@@ -77,6 +93,7 @@ void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
         for (int c = a + 1; c < clients_; ++c, ++pair) {
             const auto& ref = p.by_client[static_cast<std::size_t>(a)];
             const auto& other = p.by_client[static_cast<std::size_t>(c)];
+            if (ref.size() < bodies_ || other.size() < bodies_) continue;  // one of them never showed it
             for (std::size_t b = 0; b < bodies_; ++b) {
                 const double e = distance_m(ref[b], other[b]);
                 error_.add(e);
@@ -102,7 +119,7 @@ void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
     if (keep_positions_) {
         char line[160];
         for (int c = 0; c < clients_; ++c)
-            for (std::size_t b = 0; b < bodies_; ++b) {
+            for (std::size_t b = 0; b < p.by_client[static_cast<std::size_t>(c)].size(); ++b) {
                 const sim::Vec3& v = p.by_client[static_cast<std::size_t>(c)][b];
                 std::snprintf(line, sizeof line, "%u,%d,%zu,%.9f,%.9f,%.9f\n", frame, c, b, as_double(v.x),
                               as_double(v.y), as_double(v.z));
@@ -111,16 +128,20 @@ void PositionErrorTracker::reduce(std::uint32_t frame, Pending& p) {
     }
 }
 
-double RunResult::ticks_per_second() const {
+namespace {
+// The mean of a client figure over the clients that played from frame 0 (all when none did).
+double match_mean(const std::vector<ClientResult>& clients, double ClientResult::*field) {
+    const bool any = std::any_of(clients.begin(), clients.end(), [](const ClientResult& c) { return c.from_start; });
     double s = 0;
-    for (const auto& c : clients) s += c.ticks_per_second;
-    return clients.empty() ? 0 : s / static_cast<double>(clients.size());
+    std::size_t n = 0;
+    for (const auto& c : clients)
+        if (c.from_start || !any) s += c.*field, ++n;
+    return n ? s / static_cast<double>(n) : 0;
 }
-double RunResult::stall_fraction() const {
-    double s = 0;
-    for (const auto& c : clients) s += c.stall_fraction;
-    return clients.empty() ? 0 : s / static_cast<double>(clients.size());
-}
+}  // namespace
+
+double RunResult::ticks_per_second() const { return match_mean(clients, &ClientResult::ticks_per_second); }
+double RunResult::stall_fraction() const { return match_mean(clients, &ClientResult::stall_fraction); }
 double RunResult::bytes_sent_per_s() const {
     double s = 0;
     for (const auto& c : clients) s += static_cast<double>(c.bytes_sent);

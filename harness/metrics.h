@@ -24,6 +24,8 @@ struct Stat {
     bool keep_samples = false;
 
     void add(double v);
+    // Adds every sample of another Stat (its sums when it kept none): many clients' figures as one.
+    void merge(const Stat& other);
     double mean() const { return count ? sum / static_cast<double>(count) : 0.0; }
     double percentile(double p) const;  // needs keep_samples
     static Stat keeping_samples() {
@@ -53,6 +55,9 @@ public:
     void record(int client, std::uint32_t frame, double time_s, const std::vector<sim::Vec3>& positions);
     void note_rollback(std::uint32_t displayed_frame, std::uint32_t depth);
     void set_tick_rate(std::uint32_t frame, double ticks_per_second);
+    // Reduces the frames not every client showed (a client killed, joined late or failed),
+    // over the pairs of clients that did show them. Call once, after the last record().
+    void finish();
 
     const Stat& error() const { return error_; }
     // Per pair (a, b), a < b, in order (0,1), (0,2), ..., (1,2), ...
@@ -96,6 +101,9 @@ struct ClientResult {
     std::uint64_t desyncs = 0;
     std::uint64_t final_checksum = 0;
     bool final_confirmed = false;
+    // Played from frame 0. A joiner's catch-up shows frames faster than the match runs, so only
+    // these clients make the match's tick rate and stall fraction (RunResult::ticks_per_second).
+    bool from_start = true;
 };
 
 struct DesyncRecord {
@@ -151,6 +159,12 @@ struct RunResult {
     std::uint64_t partition_cuts = 0, partitioned_datagrams = 0;
     double virtual_seconds = 0;
     bool completed = false;  // every client confirmed the last frame before the time limit
+    // What happened to clients outside the figures (a process killed on purpose), one line each;
+    // the console and the report print them.
+    std::vector<std::string> notes;
+    // Why a figure has no sample (key: the summary field, e.g. "input_latency_remote"): the
+    // report prints such a figure as "n/a" with this reason, never as 0.
+    std::map<std::string, std::string> unmeasured;
 
     Stat position_error;
     Stat correction_jump;      // how far a shown body moved when a rollback changed its frame
@@ -187,8 +201,8 @@ struct RunResult {
     std::vector<std::uint64_t> confirmed_checksums;
     std::uint64_t initial_checksum = 0;
 
-    double ticks_per_second() const;   // mean over clients
-    double stall_fraction() const;     // mean over clients
+    double ticks_per_second() const;   // mean over clients that played from frame 0 (all when none did)
+    double stall_fraction() const;     // mean over the same clients
     double bytes_sent_per_s() const;   // mean payload per client
     double bytes_received_per_s() const;
     double packets_sent_per_s() const;

@@ -27,10 +27,12 @@
 #include "harness/client_result.h"
 #include "harness/hex.h"
 #include "harness/loopback_address.h"
+#include "harness/match_recorder.h"
 #include "harness/match.h"
 #include "harness/report.h"
 #include "harness/run_command.h"
 #include "harness/scene_loader.h"
+#include "harness/timed_simulation.h"
 #include "net/clock.h"
 #include "net/peer_runner.h"
 #include "net/relay_runner.h"
@@ -175,46 +177,51 @@ PeerPlan plan(const PeerOptions& o) {
     }
     p.scene.tick_rate = o.tick_rate;
     if (const std::string e = sim::validate(p.scene); !e.empty()) throw UsageError("scene: " + e);
+    for (const auto& d : p.injections)  // refused before a socket is bound or a file written
+        if (const std::string e = injection_error(p.scene, o.players, d); !e.empty())
+            throw UsageError("--inject-desync " + std::to_string(d.client) + ":" + std::to_string(d.frame) + ":" +
+                             std::to_string(d.body) + ": " + e);
     return p;
 }
 
-// Everything one process measures: session observer (frames, rollbacks, confirmations,
-// desyncs) and runner observer (connections, ticks). Output is built in memory and written at
-// the end, except events.jsonl, which is appended and flushed as events happen (a killed
-// process still leaves its events behind).
+// Everything one process measures: the match's figures through MatchRecorder (the same
+// recorder a virtual-time client uses; times on CLOCK_MONOTONIC, comparable across processes),
+// plus what only a real process has: its log, events.jsonl (appended and flushed as events
+// happen, so a killed process still leaves its events behind) and frames.csv's wall-clock rows.
 class PeerRecorder final : public rollback::SessionObserver, public net::RunnerObserver {
 public:
     PeerRecorder(const PeerPlan& p, rollback::WorldSimulation& sim, std::shared_ptr<spdlog::logger> log, const net::Clock& clock)
-        : p_(p), sim_(sim), log_(std::move(log)), clock_(clock), process_start_us_(clock.now_us()) {
+        : match(p.o.slot, p.o.players, static_cast<std::uint32_t>(p.o.frames), sim, true, true),
+          p_(p),
+          sim_(sim),
+          log_(std::move(log)),
+          clock_(clock),
+          process_start_us_(clock.now_us()) {
         events_.open(fs::path(p.o.out) / "events.jsonl", std::ios::out | std::ios::trunc);
         if (!events_) throw std::runtime_error("cannot create " + (fs::path(p.o.out) / "events.jsonl").string());
         rows_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
-        shown_us_.reserve(static_cast<std::size_t>(p.o.frames) + 1);
     }
 
     // What the recorder reads of the session (a P2P Session or a RelaySession).
     struct View {
         std::function<std::uint32_t()> frame, confirmed_frame;
         std::function<int()> input_delay;
+        std::function<std::optional<std::span<const std::uint8_t>>(std::uint32_t)> saved_state;
+        std::function<void(MatchRecorder&)> sample_rtt;  // one RTT sample per measured peer
     };
     template <class S>
     void watch(const S& s) {
         view.frame = [&s] { return s.frame(); };
         view.confirmed_frame = [&s] { return s.confirmed_frame(); };
         view.input_delay = [&s] { return s.input_delay(); };
+        view.saved_state = [&s](std::uint32_t f) { return s.saved_state(f); };
     }
     View view;
     std::uint64_t synced_us = 0, reached_us = 0;
     // This process's clock (skewed only for the clock-skew fault tests).
     std::uint64_t now_us() const { return clock_.now_us(); }
-    bool final_confirmed = false;
-    std::uint64_t final_checksum = 0;
-    std::vector<std::pair<std::uint32_t, std::uint64_t>> checkpoints;  // confirmed, every 60 frames
-    Stat cpu_us = Stat::keeping_samples();
-    Stat resim_us;
-    Stat rollback_depth;
-    Stat correction_jump;
-    Stat input_latency_local;
+    std::uint64_t mono_us(std::uint64_t t) const { return clock_.to_monotonic_us(t); }
+    MatchRecorder match;
     std::vector<DesyncRecord> desyncs;
     double longest_stall_ms = 0;
     std::uint64_t last_advance_us = 0;
@@ -234,55 +241,25 @@ public:
     // Session side.
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
         const std::uint64_t now = now_;
-        if (!synced_us) {  // the first frame shown: the match (or this joiner's part) starts
-            synced_us = now;
-            shown_us_.push_back(now);
-        }
-        if (f.frame <= static_cast<std::uint32_t>(p_.o.frames) && !f.resimulation) {
-            // Copied now (this runs inside advance(), whose CPU time is measured), formatted at the end.
-            shown_positions_.emplace_back(f.frame, positions());
-            shown_us_.push_back(now);
-            const auto first = std::lower_bound(shown_us_.begin(), shown_us_.end(), now >= 1000000 ? now - 1000000 : 0);
-            // Frames shown in the last second; in the first second, never more than the nominal
-            // rate (one frame shown a few microseconds after the start is not 30000 ticks/s).
-            const auto intervals = static_cast<double>(shown_us_.end() - first) - 1;
-            const double span = std::max(std::min(1.0, static_cast<double>(now - synced_us) / 1e6),
-                                         intervals / p_.o.tick_rate);
-            rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, view.confirmed_frame(), 0,
-                             span > 0 ? intervals / span : 0.0, 0.0});
-        }
-        // Local input latency: frame f consumed the inputs of frame f - 1. A spectator's id is
-        // past the players' inputs: it has no local input to time.
-        const auto off = static_cast<std::size_t>(p_.o.slot) * rollback::kWorldInputSize;
-        if (const auto it = pending_.find(f.frame - 1); it != pending_.end() && off + rollback::kWorldInputSize <= f.inputs.size()) {
-            if (std::equal(it->second.second.begin(), it->second.second.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(off))) {
-                input_latency_local.add(static_cast<double>(now - it->second.first) / 1000.0);
-                pending_.erase(it);
-            }
-        }
+        if (!synced_us) synced_us = now;  // the first frame shown: the match (or this joiner's part) starts
+        if (!match.frame_simulated(mono_us(now), f)) return;
+        rows_.push_back({f.frame, static_cast<double>(now - synced_us) / 1000.0, view.confirmed_frame(), 0,
+                         match.recent_tick_rate(p_.o.tick_rate), 0.0});
     }
-    void on_rollback_begin(const rollback::RollbackInfo&) override { before_ = positions(); }
+    void on_rollback_begin(const rollback::RollbackInfo&) override { match.rollback_begin(); }
     void on_rollback_end(const rollback::RollbackInfo& r) override {
+        match.rollback_end(r);
         if (r.displayed_frame > static_cast<std::uint32_t>(p_.o.frames)) return;
-        rollback_depth.add(r.depth);
         for (auto it = rows_.rbegin(); it != rows_.rend(); ++it)
             if (it->frame == r.displayed_frame) {
                 it->depth = std::max(it->depth, r.depth);
                 break;
             }
-        if (!r.displayed_changed()) return;
-        const auto after = positions();
-        double jump = 0;
-        for (std::size_t b = 0; b < after.size(); ++b) jump = std::max(jump, distance_m(before_[b], after[b]));
-        correction_jump.add(jump);
     }
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
-        if (f.frame % 60 == 0 && f.frame <= static_cast<std::uint32_t>(p_.o.frames)) checkpoints.emplace_back(f.frame, f.checksum);
-        if (f.frame == static_cast<std::uint32_t>(p_.o.frames)) {
-            final_checksum = f.checksum;
-            final_confirmed = true;
+        match.frame_confirmed(f, view.saved_state(f.frame));
+        if (f.frame == static_cast<std::uint32_t>(p_.o.frames))
             log_->info("confirmed the last frame {}: checksum {}", f.frame, hex16(f.checksum));
-        }
     }
     void on_desync(const rollback::DesyncEvent& d) override {
         // The session's DesyncDetected event goes to events.jsonl; the checksums to the log.
@@ -344,8 +321,8 @@ public:
     void on_tick(const net::TickReport& t) override {
         const rollback::AdvanceResult& r = t.advance;
         const double cpu = static_cast<double>(r.resim_ns + r.forward_ns) / 1000.0;
-        cpu_us.add(cpu);
-        resim_us.add(static_cast<double>(r.resim_ns) / 1000.0);
+        match.tick(cpu, static_cast<double>(r.resim_ns) / 1000.0);
+        if (view.sample_rtt && r.frame <= static_cast<std::uint32_t>(p_.o.frames)) view.sample_rtt(match);
         if (r.advanced && last_advance_us == 0) last_advance_us = t.now_us;  // the first frame
         if (r.advanced) {
             if (!rows_.empty() && rows_.back().frame == r.frame) rows_.back().cpu_us = cpu;
@@ -369,14 +346,7 @@ public:
     // Called by the input source, just before advance(): the time of this tick, and the input.
     void before_advance(std::uint64_t now, std::uint32_t input_frame, const std::array<std::uint8_t, 3>& bytes) {
         now_ = now;
-        const bool taken = !have_last_ || input_frame > last_frame_;
-        if (taken && (!have_last_ || bytes != last_bytes_)) pending_[input_frame] = {now, bytes};
-        if (taken) {
-            last_bytes_ = bytes;
-            last_frame_ = input_frame;
-            have_last_ = true;
-        }
-        while (pending_.size() > 256) pending_.erase(pending_.begin());
+        match.input_offered(mono_us(now), input_frame, bytes);
     }
 
     std::string frames_csv() const {
@@ -391,7 +361,7 @@ public:
     std::string positions_csv() const {
         std::string out = "frame,client,body_index,x,y,z,x_raw,y_raw,z_raw\n";
         char line[200];
-        for (const auto& [frame, bodies] : shown_positions_)
+        for (const auto& [frame, bodies] : match.shown_positions())
             for (std::size_t b = 0; b < bodies.size(); ++b) {
                 const sim::Vec3& v = bodies[b];
                 std::snprintf(line, sizeof line, "%u,%d,%zu,%.9f,%.9f,%.9f,%lld,%lld,%lld\n", frame, p_.o.slot, b, raw_to_m(v.x),
@@ -409,11 +379,6 @@ private:
         std::uint32_t confirmed = 0, depth = 0;
         double tps = 0, cpu_us = 0;
     };
-    std::vector<sim::Vec3> positions() const {
-        std::vector<sim::Vec3> out;
-        for (sim::BodyId id : sim_.world().dynamic_ids()) out.push_back(sim_.world().position(id));
-        return out;
-    }
 
     const PeerPlan& p_;
     rollback::WorldSimulation& sim_;
@@ -421,15 +386,8 @@ private:
     const net::Clock& clock_;
     std::uint64_t process_start_us_;
     std::ofstream events_;
-    std::vector<std::pair<std::uint32_t, std::vector<sim::Vec3>>> shown_positions_;
     std::vector<Row> rows_;
-    std::vector<std::uint64_t> shown_us_;
-    std::vector<sim::Vec3> before_;
     std::uint64_t now_ = 0;
-    std::map<std::uint32_t, std::pair<std::uint64_t, std::array<std::uint8_t, 3>>> pending_;
-    std::array<std::uint8_t, 3> last_bytes_{};
-    std::uint32_t last_frame_ = 0;
-    bool have_last_ = false;
 };
 
 // --match-id as the session's 64-bit match id (FNV-1a): peers of other matches are refused.
@@ -456,13 +414,15 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
                   transport::EnetTransport& enet, net::RunOutcome outcome, int prediction,
                   const std::shared_ptr<spdlog::logger>& log, json extra) {
     const std::uint64_t end_us = rec.now_us();
-    const bool ok = outcome == net::RunOutcome::Completed && rec.final_confirmed;
-    rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr)}});
+    const std::optional<std::uint64_t> final_checksum = rec.match.final_checksum();
+    const bool ok = outcome == net::RunOutcome::Completed && final_checksum;
+    rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", final_checksum ? json(hex16(*final_checksum)) : json(nullptr)}});
     log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", net::outcome_name(outcome),
              session.frame(), session.confirmed_frame());
 
     // summary.json: run's keys through the same code, for a "match" of this one process.
     const rollback::SessionStats& st = session.stats();
+    const RecordedSamples& m = rec.match.samples();
     RunResult r;
     r.mode = mode_name(p.mode);
     r.scene = p.scene.name;
@@ -476,26 +436,32 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     r.completed = ok;
     const std::uint64_t since = rec.synced_us ? rec.synced_us : end_us;
     r.virtual_seconds = static_cast<double>(end_us - since) / 1e6;  // wall seconds of the match
-    r.cpu_us_per_tick = rec.cpu_us;
-    r.resim_us_per_tick = rec.resim_us;
-    r.rollback_depth = rec.rollback_depth;
-    r.correction_jump = rec.correction_jump;
-    r.input_latency_local = rec.input_latency_local;
-    r.rollback_depth_histogram = st.rollback_depth_histogram;
+    r.cpu_us_per_tick = m.cpu_us_per_tick;
+    r.resim_us_per_tick = m.resim_us_per_tick;
+    r.physics_step_us = m.physics_step_us;
+    r.rollback_depth = m.rollback_depth;
+    r.rollback_depth_histogram = m.rollback_depth_histogram;
+    r.correction_jump = m.correction_jump;
+    r.input_latency_local = m.input_latency_local;
+    r.displayed_vs_confirmed = {m.displayed_vs_confirmed};
+    for (const auto& [peer, ms] : m.rtt_ms) r.rtt.push_back({p.o.slot, peer, ms});
     r.desyncs = rec.desyncs;
     ClientResult cr = client_result(st);
-    const double seconds = rec.reached_us ? static_cast<double>(rec.reached_us - rec.synced_us) / 1e6 + 1.0 / p.o.tick_rate : 0;
-    cr.ticks_per_second = seconds > 0 ? p.o.frames / seconds : 0;
-    cr.final_checksum = rec.final_checksum;
-    cr.final_confirmed = rec.final_confirmed;
+    // Tick rate and stalls from when frames were shown (frames from this process's first one;
+    // a frame late by more than a period is a stall, whether or not a tick ran meanwhile).
+    const TickFigures tf = tick_figures(m.shown, p.o.tick_rate);
+    cr.ticks_per_second = tf.ticks_per_second;
+    cr.stall_fraction = tf.stall_fraction;
+    cr.final_checksum = final_checksum.value_or(0);
+    cr.final_confirmed = final_checksum.has_value();
     r.clients.push_back(cr);
     json s = summary_json(r);
     s["slot"] = p.o.slot;
     s["match_id"] = p.o.match_id;
     s["outcome"] = net::outcome_name(outcome);
-    s["final_checksum"] = rec.final_confirmed ? json(hex16(rec.final_checksum)) : json(nullptr);
+    s["final_checksum"] = final_checksum ? json(hex16(*final_checksum)) : json(nullptr);
     json cps = json::array();
-    for (const auto& [f, c] : rec.checkpoints) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});
+    for (const auto& [f, c] : m.confirmed) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});
     s["confirmed_checksums"] = cps;
     s["shown_frame"] = session.frame();
     s["confirmed_frame"] = session.confirmed_frame();
@@ -514,9 +480,10 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     if (enet.counters().rejected) log->warn("transport refused {} datagrams", enet.counters().rejected);
     write_file_atomic(fs::path(p.o.out) / "frames.csv", rec.frames_csv());
     write_file_atomic(fs::path(p.o.out) / "positions.csv", rec.positions_csv());
+    write_file_atomic(fs::path(p.o.out) / "samples.json", m.to_json().dump() + "\n");
     write_file_atomic(fs::path(p.o.out) / "summary.json", s.dump(2) + "\n");
     std::printf("slot %d: %s, frame %u shown, %u confirmed, final checksum %s\n", p.o.slot, net::outcome_name(outcome),
-                session.frame(), session.confirmed_frame(), rec.final_confirmed ? hex16(rec.final_checksum).c_str() : "none");
+                session.frame(), session.confirmed_frame(), final_checksum ? hex16(*final_checksum).c_str() : "none");
     std::fflush(stdout);
     return ok ? 0 : 1;
 }
@@ -585,8 +552,13 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     // The token a reconnect resumes the slot with: random, so no other client can take it over.
     std::random_device rd;
     rc.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
-    rollback::RelaySession session(rc, sim, &rec);
+    TimedSimulation timed(sim, thread_cpu_ns, rec.match.physics_step_us());
+    rollback::RelaySession session(rc, timed, &rec);
     rec.watch(session);
+    // The relay client's one round trip, to the server (peer -1 in the report).
+    rec.view.sample_rtt = [&session](MatchRecorder& m) {
+        if (session.rtt_us() > 0) m.rtt(-1, static_cast<double>(session.rtt_us()) / 1000.0);
+    };
     inject_faults(p, session);
     // One connection, to the server: ENet's own (long) timeouts, so a lossy link never closes
     // it under a live server (a reconnect resumes, but costs seconds); the session watches the
@@ -649,8 +621,15 @@ int do_peer(const PeerOptions& options) {
     sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
     sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
     sc.max_recoveries = p.o.recoveries;
-    rollback::Session session(sc, sim, &rec);
+    TimedSimulation timed(sim, thread_cpu_ns, rec.match.physics_step_us());
+    rollback::Session session(sc, timed, &rec);
     rec.watch(session);
+    rec.view.sample_rtt = [&session, slot = p.o.slot](MatchRecorder& m) {
+        const rollback::SessionStats& st = session.stats();
+        for (std::size_t peer = 0; peer < st.peers.size(); ++peer)
+            if (static_cast<int>(peer) != slot && st.peers[peer].rtt_us > 0)
+                m.rtt(static_cast<int>(peer), static_cast<double>(st.peers[peer].rtt_us) / 1000.0);
+    };
     inject_faults(p, session);
     if (p.o.corrupt_snapshot > 0) session.damage_outgoing_chunks(p.o.corrupt_snapshot, rollback::ChunkDamage::FlipBit);
     if (p.o.truncate_snapshot > 0) session.damage_outgoing_chunks(p.o.truncate_snapshot, rollback::ChunkDamage::Truncate);

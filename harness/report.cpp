@@ -68,7 +68,18 @@ std::string fmt(const char* f, double v) {
     std::snprintf(b, sizeof b, f, v);
     return b;
 }
+
+// "p50 X ms, p95 Y ms" of the run's measured round trip, or n/a with the reason.
+std::string rtt_header(const RunResult& r) {
+    if (const auto it = r.unmeasured.find("measured_rtt"); it != r.unmeasured.end()) return "n/a: " + it->second;
+    return "p50 " + fmt("%.1f", r.rtt_p50_ms) + " ms, p95 " + fmt("%.1f", r.rtt_p95_ms) + " ms";
+}
+
+// text when the Stat has samples, else "n/a".
+std::string or_na(const Stat& s, const std::string& text) { return s.count ? text : std::string("n/a"); }
 }  // namespace
+
+std::string figure(const Stat& from, const char* format, double value) { return or_na(from, fmt(format, value)); }
 
 json summary_json(const RunResult& r) {
     json finals = json::array();
@@ -236,28 +247,34 @@ std::string console_summary(const RunResult& r) {
     std::ostringstream o;
     o << r.mode << " on " << r.scene << ", " << r.players << " players, " << r.frames << " frames, seed " << r.seed
       << (r.completed ? "" : "  ** INCOMPLETE: not every client confirmed the last frame **") << "\n";
+    for (const auto& n : r.notes) o << "  note         " << n << "\n";
     o << "  network      one-way " << r.latency_ms << " ms +-" << r.jitter_ms << " ms, loss " << r.loss << ", dup "
-      << r.duplicate << ", reorder " << r.reorder << "; measured RTT p50 " << fmt("%.1f", r.rtt_p50_ms) << " ms, p95 "
-      << fmt("%.1f", r.rtt_p95_ms) << " ms\n";
+      << r.duplicate << ", reorder " << r.reorder << "; measured RTT " << rtt_header(r) << "\n";
     if (r.partition_cuts > 0)
         o << "  partition    " << r.partition_cuts << (r.partition_cuts == 1 ? " cut" : " cuts") << ", "
           << r.partitioned_datagrams << " datagrams dropped across them\n";
     o << "  tick rate    " << fmt("%.2f", r.ticks_per_second()) << " ticks/s, stalls " << fmt("%.1f", 100 * r.stall_fraction())
       << " % of ticks; input delay " << r.input_delay << " frames, window " << r.prediction << "\n";
-    o << "  input lag    local mean " << fmt("%.1f", r.input_latency_local.mean()) << " ms (max "
-      << fmt("%.1f", r.input_latency_local.max) << "), remote mean " << fmt("%.1f", r.input_latency_remote.mean()) << " ms\n";
-    o << "  error        mean " << fmt("%.3g", r.position_error.mean()) << " m, max " << fmt("%.3g", r.position_error.max)
-      << " m, non-zero " << r.position_error.nonzero << " of " << r.position_error.count << " samples\n";
+    o << "  input lag    local mean " << or_na(r.input_latency_local, fmt("%.1f", r.input_latency_local.mean()) + " ms") << " (max "
+      << or_na(r.input_latency_local, fmt("%.1f", r.input_latency_local.max)) << "), remote mean "
+      << or_na(r.input_latency_remote, fmt("%.1f", r.input_latency_remote.mean()) + " ms") << "\n";
+    o << "  error        "
+      << or_na(r.position_error, "mean " + fmt("%.3g", r.position_error.mean()) + " m, max " + fmt("%.3g", r.position_error.max) +
+                                     " m, non-zero " + std::to_string(r.position_error.nonzero) + " of " +
+                                     std::to_string(r.position_error.count) + " samples")
+      << "\n";
     o << "  rollbacks    " << r.rollbacks() << " (mean depth " << fmt("%.2f", r.rollback_depth.mean()) << ", max "
       << fmt("%.0f", r.rollback_depth.max) << "), visual corrections " << r.correction_jump.count << " (max jump "
       << fmt("%.3g", r.correction_jump.max) << " m)\n";
-    o << "  cpu          " << fmt("%.1f", r.cpu_us_per_tick.mean()) << " us/tick mean, p99 "
-      << fmt("%.1f", r.cpu_us_per_tick.percentile(99)) << " us (resimulation " << fmt("%.1f", r.resim_us_per_tick.mean())
-      << " us mean)\n";
+    o << "  cpu          "
+      << or_na(r.cpu_us_per_tick, fmt("%.1f", r.cpu_us_per_tick.mean()) + " us/tick mean, p99 " +
+                                      fmt("%.1f", r.cpu_us_per_tick.percentile(99)) + " us (resimulation " +
+                                      fmt("%.1f", r.resim_us_per_tick.mean()) + " us mean)")
+      << "\n";
     o << "  bandwidth    " << fmt("%.0f", r.bytes_sent_per_s()) << " B/s payload sent per client ("
       << fmt("%.0f", r.bytes_sent_per_s() + r.packets_sent_per_s() * kUdpHeaderBytes) << " with UDP headers)\n";
-    o << "  agreement    confirmed mismatches " << r.confirmed_mismatches << " of " << r.confirmed_compared << ", desyncs "
-      << r.desync_count() << "\n";
+    o << "  agreement    confirmed mismatches " << r.confirmed_mismatches << " of " << r.confirmed_compared
+      << " checksums compared, desyncs " << r.desync_count() << "\n";
     for (const auto& d : r.desyncs) o << "  DESYNC       client " << d.client << ": " << d.summary << "\n";
     o << "  final        ";
     for (const auto& c : r.clients) o << (c.final_confirmed ? hex16(c.final_checksum) : std::string("(none)")) << " ";
@@ -311,68 +328,94 @@ json compare_json(const RunResult& ls, const RunResult& rb, const RunResult& rb0
     return j;
 }
 
-std::string compare_markdown(const RunResult& ls, const RunResult& rb, const RunResult& rb0, const std::string& plots_note) {
-    const bool paper = at_paper_conditions(rb);
-    const RunResult* runs[] = {&ls, &rb, &rb0};
+namespace {
+
+// The figures table: a row per figure, a column per run, then the paper's two figures when at
+// its conditions. A figure is measured or printed "n/a [k]", k a footnote with the reason (the
+// run's unmeasured[key], or that nothing was measured): never a 0 nobody measured.
+std::string figures_table(const std::vector<std::pair<std::string, const RunResult*>>& columns, bool paper) {
     std::ostringstream o;
-    // One row: a cell per run from `cell`, then the paper's two figures when at its conditions.
+    std::vector<std::string> footnotes;
+    const RunResult* current = nullptr;  // the run whose cell is being made
+    std::string current_row;
+    auto na = [&](const std::string& key) {
+        const auto it = current->unmeasured.find(key);
+        const std::string note = current_row + ", " + current->mode + ": " +
+                                 (it != current->unmeasured.end() ? it->second : std::string("nothing was measured in this run"));
+        auto at = std::find(footnotes.begin(), footnotes.end(), note);
+        if (at == footnotes.end()) at = footnotes.insert(footnotes.end(), note);
+        return "n/a [" + std::to_string(at - footnotes.begin() + 1) + "]";
+    };
+    // value(stat, key, text): text when the Stat has samples, else n/a with the footnote.
+    auto measured = [&](const Stat& st, const std::string& key, const std::string& text) { return st.count ? text : na(key); };
     auto row = [&](const std::string& name, const std::function<std::string(const RunResult&)>& cell,
                    const std::string& paper_lockstep = "—", const std::string& paper_quantum = "—") {
         o << "| " << name;
-        for (const RunResult* r : runs) o << " | " << cell(*r);
+        current_row = name;
+        for (const auto& [title, r] : columns) {
+            current = r;
+            o << " | " << cell(*r);
+        }
         if (paper) o << " | " << paper_lockstep << " | " << paper_quantum;
         o << " |\n";
     };
     auto count = [](std::uint64_t v) { return std::to_string(v); };
-    o << "# lockroll: lockstep vs rollback\n\n";
-    o << "Scene `" << rb.scene << "`, " << rb.players << " players, " << rb.frames << " frames at " << rb.tick_rate
-      << " Hz, seed " << rb.seed << ", bots `" << rb.bot << "`. Network: one-way latency " << rb.latency_ms << " ms ± "
-      << rb.jitter_ms << " ms jitter, loss " << rb.loss << ", duplication " << rb.duplicate << ", reordering " << rb.reorder
-      << " (measured RTT p50 " << fmt("%.1f", rb.rtt_p50_ms) << " ms, p95 " << fmt("%.1f", rb.rtt_p95_ms) << " ms).\n\n";
-    o << "| | lockroll lockstep | lockroll rollback, input delay " << rb.input_delay
-      << (rb.input_delay == 0 ? "" : " (auto)") << " | lockroll rollback, input delay 0 (like-for-like)";
+    o << "|";
+    for (const auto& [title, r] : columns) o << " | " << title;
     if (paper) o << " | paper: custom lockstep | paper: Photon Quantum";
-    o << " |\n|---|---|---|---" << (paper ? "|---|---" : "") << "|\n";
+    o << " |\n|---";
+    for (std::size_t k = 0; k < columns.size() + (paper ? 2 : 0); ++k) o << "|---";
+    o << "|\n";
     row("ticks per second", [](const RunResult& r) { return fmt("%.2f", r.ticks_per_second()); }, "~7");
     row("stall fraction", [](const RunResult& r) { return fmt("%.3f", r.stall_fraction()); });
     row("input delay (frames)", [](const RunResult& r) { return std::to_string(r.input_delay); });
-    auto spread = [](const Stat& s) {
-        return fmt("%.1f", s.percentile(50)) + " / " + fmt("%.1f", s.percentile(95)) + " / " + fmt("%.1f", s.percentile(99)) +
-               " / " + fmt("%.1f", s.max);
+    auto spread = [&](const Stat& st, const std::string& key) {
+        return measured(st, key,
+                        fmt("%.1f", st.percentile(50)) + " / " + fmt("%.1f", st.percentile(95)) + " / " +
+                            fmt("%.1f", st.percentile(99)) + " / " + fmt("%.1f", st.max));
     };
-    row("input latency, local (ms)", [](const RunResult& r) { return fmt("%.1f", r.input_latency_local.mean()); });
-    row("input latency, remote (ms)", [](const RunResult& r) { return fmt("%.1f", r.input_latency_remote.mean()); });
-    row("local p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_local); });
-    row("remote p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_remote); });
-    row("RTT p50 / p99, worst peer (ms)", [](const RunResult& r) {
+    row("input latency, local (ms)",
+        [&](const RunResult& r) { return measured(r.input_latency_local, "input_latency_local", fmt("%.1f", r.input_latency_local.mean())); });
+    row("input latency, remote (ms)", [&](const RunResult& r) {
+        return measured(r.input_latency_remote, "input_latency_remote", fmt("%.1f", r.input_latency_remote.mean()));
+    });
+    row("local p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_local, "input_latency_local"); });
+    row("remote p50 / p95 / p99 / max (ms)", [&](const RunResult& r) { return spread(r.input_latency_remote, "input_latency_remote"); });
+    row("RTT p50 / p99, worst peer (ms)", [&](const RunResult& r) {
         double p50 = 0, p99 = 0;
+        std::uint64_t samples = 0;
         for (const auto& p : r.rtt) {
+            if (!p.rtt_ms.count) continue;
+            samples += p.rtt_ms.count;
             p50 = std::max(p50, p.rtt_ms.percentile(50));
             p99 = std::max(p99, p.rtt_ms.percentile(99));
         }
-        return fmt("%.1f", p50) + " / " + fmt("%.1f", p99);
+        return samples ? fmt("%.1f", p50) + " / " + fmt("%.1f", p99) : na("rtt");
     });
-    row("mean positional error (m)", [](const RunResult& r) { return fmt("%.3g", r.position_error.mean()); }, "0", "1.79e-4");
-    row("max positional error (m)", [](const RunResult& r) { return fmt("%.3g", r.position_error.max); }, "0", "0.442");
+    row("mean positional error (m)",
+        [&](const RunResult& r) { return measured(r.position_error, "position_error", fmt("%.3g", r.position_error.mean())); }, "0",
+        "1.79e-4");
+    row("max positional error (m)",
+        [&](const RunResult& r) { return measured(r.position_error, "position_error", fmt("%.3g", r.position_error.max)); }, "0", "0.442");
     row("non-zero error samples",
-        [&](const RunResult& r) { return count(r.position_error.nonzero) + " / " + count(r.position_error.count); },
+        [&](const RunResult& r) {
+            return measured(r.position_error, "position_error", count(r.position_error.nonzero) + " / " + count(r.position_error.count));
+        },
         "0 / >30,000", "160 / ~37,000");
-    row("shown vs confirmed state, mean / max (m)", [](const RunResult& r) {
+    row("shown vs confirmed state, mean / max (m)", [&](const RunResult& r) {
         Stat all;
-        for (const Stat& s : r.displayed_vs_confirmed) {
-            all.sum += s.sum;
-            all.count += s.count;
-            all.max = std::max(all.max, s.max);
-        }
-        return fmt("%.3g", all.mean()) + " / " + fmt("%.3g", all.max);
+        for (const Stat& st : r.displayed_vs_confirmed) all.merge(st);
+        return measured(all, "displayed_vs_confirmed", fmt("%.3g", all.mean()) + " / " + fmt("%.3g", all.max));
     });
     row("non-zero samples on player bodies", [&](const RunResult& r) {
         std::uint64_t players = 0;
         for (std::size_t b = 0; b < r.body_error.size(); ++b)
             if (b < r.body_player.size() && r.body_player[b] >= 0) players += r.body_error[b].nonzero;
-        return count(players) + " of " + count(r.position_error.nonzero);
+        return measured(r.position_error, "position_error", count(players) + " of " + count(r.position_error.nonzero));
     }, "—", "107 of 160");
-    row("confirmed-state mismatches", [&](const RunResult& r) { return count(r.confirmed_mismatches); });
+    row("confirmed-state mismatches (of checksums compared)", [&](const RunResult& r) {
+        return r.confirmed_compared ? count(r.confirmed_mismatches) + " of " + count(r.confirmed_compared) : na("confirmed_compared");
+    });
     row("rollbacks (mean / max depth)", [&](const RunResult& r) {
         return r.rollbacks() ? count(r.rollbacks()) + " (" + fmt("%.2f", r.rollback_depth.mean()) + " / " +
                                    fmt("%.0f", r.rollback_depth.max) + ")"
@@ -382,26 +425,32 @@ std::string compare_markdown(const RunResult& ls, const RunResult& rb, const Run
         return r.correction_jump.count ? count(r.correction_jump.count) + " (" + fmt("%.3g", r.correction_jump.max) + ")"
                                        : std::string("0");
     });
-    row("CPU per tick, mean / p99 (µs)", [](const RunResult& r) {
-        return fmt("%.1f", r.cpu_us_per_tick.mean()) + " / " + fmt("%.1f", r.cpu_us_per_tick.percentile(99));
+    row("CPU per tick, mean / p99 (µs)", [&](const RunResult& r) {
+        return measured(r.cpu_us_per_tick, "cpu_us_per_tick",
+                        fmt("%.1f", r.cpu_us_per_tick.mean()) + " / " + fmt("%.1f", r.cpu_us_per_tick.percentile(99)));
     });
-    row("worst / p99 tick vs budget (µs)", [](const RunResult& r) {
-        return fmt("%.0f", r.cpu_us_per_tick.max) + " / " + fmt("%.0f", r.cpu_us_per_tick.percentile(99)) + " of " +
-               fmt("%.0f", r.tick_budget_us());
+    row("worst / p99 tick vs budget (µs)", [&](const RunResult& r) {
+        return measured(r.cpu_us_per_tick, "cpu_us_per_tick",
+                        fmt("%.0f", r.cpu_us_per_tick.max) + " / " + fmt("%.0f", r.cpu_us_per_tick.percentile(99)) + " of " +
+                            fmt("%.0f", r.tick_budget_us()));
     });
     row("resimulated frames per second", [](const RunResult& r) { return fmt("%.1f", r.resim_frames_per_s()); });
-    row("full-window rollback, projected (µs)", [](const RunResult& r) {
-        return r.prediction ? fmt("%.0f", r.full_window_rollback_us()) + " (W=" + std::to_string(r.prediction) + ")"
-                            : std::string("—");
+    row("full-window rollback, projected (µs)", [&](const RunResult& r) {
+        if (!r.prediction) return std::string("—");
+        if (!r.resimulated_frames() && !r.physics_step_us.count) return na("physics_step_us");
+        return fmt("%.0f", r.full_window_rollback_us()) + " (W=" + std::to_string(r.prediction) + ")";
     });
-    row("physics step, median CPU (µs)", [](const RunResult& r) { return fmt("%.2f", r.physics_step_us.percentile(50)); },
+    row("physics step, median CPU (µs)",
+        [&](const RunResult& r) { return measured(r.physics_step_us, "physics_step_us", fmt("%.2f", r.physics_step_us.percentile(50))); },
         "—", "189.8");
     row("payload sent per client (B/s)", [](const RunResult& r) { return fmt("%.0f", r.bytes_sent_per_s()); });
     row("with UDP/IPv4 headers (B/s)", [](const RunResult& r) {
         return fmt("%.0f", r.bytes_sent_per_s() + r.packets_sent_per_s() * kUdpHeaderBytes);
     });
     row("desyncs", [&](const RunResult& r) { return count(r.desync_count()); });
-    if (!rb.desyncs.empty()) {
+    const bool any_desync =
+        std::any_of(columns.begin(), columns.end(), [](const auto& c) { return !c.second->desyncs.empty(); });
+    if (any_desync) {
         row("desync: shown -> alert / -> report (ms)", [](const RunResult& r) {
             double alert = 0, report = 0;
             for (const auto& d : r.desyncs) {
@@ -411,6 +460,38 @@ std::string compare_markdown(const RunResult& ls, const RunResult& rb, const Run
             return r.desyncs.empty() ? std::string("—") : fmt("%.1f", alert) + " / " + fmt("%.1f", report);
         });
     }
+    if (!footnotes.empty()) {
+        o << "\n";
+        for (std::size_t k = 0; k < footnotes.size(); ++k) o << "[" << k + 1 << "] n/a: " << footnotes[k] << "\n";
+    }
+    for (const auto& [title, r] : columns)
+        for (const auto& n : r->notes) o << "\nNote (" << title << "): " << n << "\n";
+    return o.str();
+}
+
+std::string conditions_line(const RunResult& rb) {
+    std::ostringstream o;
+    o << "Scene `" << rb.scene << "`, " << rb.players << " players, " << rb.frames << " frames at " << rb.tick_rate
+      << " Hz, seed " << rb.seed << ", bots `" << rb.bot << "`. Network: one-way latency " << rb.latency_ms << " ms ± "
+      << rb.jitter_ms << " ms jitter, loss " << rb.loss << ", duplication " << rb.duplicate << ", reordering " << rb.reorder
+      << " (measured RTT " << rtt_header(rb) << ").\n\n";
+    return o.str();
+}
+
+}  // namespace
+
+std::string run_markdown(const RunResult& r, const std::string& title) {
+    return "# lockroll: " + title + "\n\n" + conditions_line(r) + figures_table({{"lockroll " + r.mode, &r}}, false);
+}
+
+std::string compare_markdown(const RunResult& ls, const RunResult& rb, const RunResult& rb0, const std::string& plots_note) {
+    const bool paper = at_paper_conditions(rb);
+    std::ostringstream o;
+    o << "# lockroll: lockstep vs rollback\n\n" << conditions_line(rb);
+    o << figures_table({{"lockroll lockstep", &ls},
+                        {"lockroll rollback, input delay " + std::to_string(rb.input_delay) + (rb.input_delay == 0 ? "" : " (auto)"), &rb},
+                        {"lockroll rollback, input delay 0 (like-for-like)", &rb0}},
+                       paper);
     o << "\n";
     if (!paper)
         o << "The paper's figures are not shown: they were measured at 2 players, 57 ms ± 10 ms and no loss, "

@@ -15,6 +15,10 @@ namespace lockroll::harness {
 inline constexpr double kUdpHeaderBytes = 28;   // IPv4 20 + UDP 8
 inline constexpr double kEnetHeaderBytes = 38;  // + ENet protocol header and unsequenced command
 
+// A figure as printf(format, value) when the Stat it comes from has samples, else "n/a": the one
+// rule every table follows (a number is measured, or n/a; the tables with room say why).
+std::string figure(const Stat& from, const char* format, double value);
+
 nlohmann::json summary_json(const RunResult& r);
 std::string frames_csv(const RunResult& r);
 // time_s,client,frame,kind,value: losses, stalls, rollbacks, corrections, time-sync waits.
@@ -43,6 +47,8 @@ bool at_paper_conditions(const RunResult& r);
 
 // rollback_delay0 is the like-for-like run: rollback at input delay 0 (what the paper measured).
 nlohmann::json compare_json(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0);
+// One run's figures as compare_markdown's table has them (one column), under "# lockroll: TITLE".
+std::string run_markdown(const RunResult& r, const std::string& title);
 std::string compare_markdown(const RunResult& lockstep, const RunResult& rollback, const RunResult& rollback_delay0,
                              const std::string& plots_note);
 

@@ -386,6 +386,36 @@ TEST(Report, PaperColumnsOnlyAtThePapersConditionsAndALikeForLikeDelay0Run) {
 
 // The figures a netcode engineer reads, with their relations: every pair of clients, shown
 // against confirmed state, latency and RTT spreads, the tick budget, desync detection times.
+// A figure nobody measured reads "n/a [k]" with its reason in footnote k, never 0: in the table
+// (one run or three) and on the console. A measured 0 stays 0.
+TEST(Report, UnmeasuredFiguresReadNaWithTheirReasonNeverZero) {
+    RunResult r = run_match(base(Mode::Rollback, 120));
+    const std::string measured = run_markdown(r, "measured");
+    EXPECT_EQ(measured.find("n/a"), std::string::npos) << measured;
+    r.input_latency_remote = Stat::keeping_samples();
+    r.physics_step_us = Stat::keeping_samples();
+    r.rtt.clear();
+    r.unmeasured["input_latency_remote"] = "nobody timed it";
+    r.notes.push_back("p2 (slot 2): killed by --kill at frame 50");
+    const std::string md = run_markdown(r, "unmeasured");
+    const auto cell = [&](const std::string& row) {
+        const auto at = md.find("| " + row + " | ");
+        EXPECT_NE(at, std::string::npos) << row;
+        const auto from = at + row.size() + 5;
+        return md.substr(from, md.find(" |", from) - from);
+    };
+    EXPECT_EQ(cell("input latency, remote (ms)"), "n/a [1]");
+    EXPECT_EQ(cell("remote p50 / p95 / p99 / max (ms)"), "n/a [2]");  // a footnote per row
+    EXPECT_EQ(cell("physics step, median CPU (µs)").substr(0, 5), "n/a [");
+    EXPECT_EQ(cell("RTT p50 / p99, worst peer (ms)").substr(0, 5), "n/a [");
+    EXPECT_NE(md.find("[1] n/a: input latency, remote (ms), rollback: nobody timed it"), std::string::npos) << md;
+    EXPECT_NE(md.find("killed by --kill at frame 50"), std::string::npos);
+    EXPECT_EQ(cell("desyncs"), "0");  // measured zero
+    const std::string console = console_summary(r);
+    EXPECT_NE(console.find("remote mean n/a"), std::string::npos) << console;
+    EXPECT_NE(console.find("note         p2 (slot 2): killed"), std::string::npos) << console;
+}
+
 TEST(Report, NetcodeEngineerKeys) {
     RunConfig c = base(Mode::Rollback, 240);
     c.players = 3;

@@ -1,0 +1,25 @@
+// Whether what a process of `lockroll live` says it did holds against what the harness saw it
+// do. A process that says "completed" must have exited 0 having shown and confirmed the last
+// frame with a final checksum, and must not have been killed; live fails on any claim that
+// does not hold, as on differing final checksums.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace lockroll::harness {
+
+struct ProcessSeen {
+    std::string name;            // e.g. "p2-rejoin"
+    nlohmann::json summary;      // its summary.json; null when it left none
+    bool killed = false;
+    int killed_at_frame = -1;
+    int exit_status = -1;
+};
+
+// One line per claim that does not hold (empty: every claim holds).
+std::vector<std::string> overclaims(const ProcessSeen& p, int frames);
+
+}  // namespace lockroll::harness
