@@ -81,11 +81,13 @@ int Membership::gone_votes(PlayerId s) const {
 
 // Strict majority of the running processes; a view of two has none of the other's, and the
 // rule says whether one vote is enough there.
-bool Membership::majority(int votes) const {
+int Membership::majority_size() const {
     const int n = running_voters();
-    if (n == 2 && rule_ == TwoPlayerRule::PlayOnAlone) return votes >= 1;
-    return 2 * votes > n;
+    if (n == 2 && rule_ == TwoPlayerRule::PlayOnAlone) return 1;
+    return n / 2 + 1;
 }
+
+bool Membership::majority(int votes) const { return votes >= majority_size(); }
 
 bool Membership::decided_gone(PlayerId s) const {
     if (s >= slots_.size() || !voter(s)) return false;

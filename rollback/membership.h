@@ -74,6 +74,9 @@ public:
     PlayerId host_of(PlayerId s) const { return hosts_.empty() ? s : hosts_[s]; }
     // Running processes in the view: the denominator of every decision.
     int running_voters() const;
+    // The fewest running processes that are a majority of the view: running_voters() / 2 + 1,
+    // or 1 in a view of two under PlayOnAlone.
+    int majority_size() const;
 
     // A change of the view that no vote decides: the starting table, a snapshot's table, a rejoin
     // handed over by the owner, a process that says it restarted. Forgets the votes about s and

@@ -1,7 +1,9 @@
 #include "rollback/session.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 
@@ -855,8 +857,43 @@ void Session::refresh_keep_floors(std::uint64_t now_us) {
     }
 }
 
+// The newest frame this session may confirm. Frame n is stepped from the inputs of frames
+// before n, and ours among them must be held by a majority of the view (this session included;
+// the others' acks say what they hold). So if that majority drops us while we cannot hear it (a
+// partition), the neutral input it agrees on for our slot starts after every frame we confirmed,
+// and nothing we confirmed can differ from what it confirmed (issue 21). Once we lose the
+// majority, confirmation stops there. A view of two under PlayOnAlone needs nobody else. Never
+// so far back that the state of the next frame to confirm is no longer saved.
+std::uint32_t Session::confirm_limit() const {
+    const std::uint32_t confirmable = sync_->confirmable_frame();
+    const int others = membership_.majority_size() - 1;
+    if (config_.role == Role::Spectator || others <= 0) return confirmable;
+    std::array<std::uint32_t, kMaxPlayers> held{};
+    int n = 0;
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (!live_peer(pid)) continue;
+        const PeerLink& l = links_[pid];
+        std::uint32_t h = l.remote_ack;
+        for (std::size_t i = 1; i < local_slots_.size(); ++i) {
+            const PlayerId g = local_slots_[i];  // our guests travel as blocks: the table's counts
+            h = std::min(h, l.has_count[g] ? l.counts[g] : 0u);
+        }
+        held[static_cast<std::size_t>(n++)] = h;
+    }
+    std::uint32_t majority_holds = 0;
+    if (n >= others) {
+        std::nth_element(held.begin(), held.begin() + (others - 1), held.begin() + n, std::greater<>());
+        majority_holds = held[static_cast<std::size_t>(others - 1)];
+    }
+    const auto span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
+    const std::uint32_t oldest = sync_->frame() > span ? sync_->frame() - span : 0;
+    return std::min(confirmable, std::max(majority_holds, oldest));
+}
+
 void Session::confirm_frames() {
-    while (sync_->confirmed_frame() < sync_->confirmable_frame()) {
+    const std::uint32_t limit = confirm_limit();
+    while (sync_->confirmed_frame() < limit) {
         const FrameConfirmed fc = sync_->confirm_next();
         detector_->add_local(fc.frame, fc.checksum);
         if (observer_) observer_->on_frame_confirmed(fc);

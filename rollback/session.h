@@ -55,7 +55,9 @@
 //    disconnect_player) is this session's vote that the slot is gone, withdrawn when the slot is
 //    heard again; the slot is dropped once a majority votes so. A session whose votes cannot win
 //    (it hears no majority of the view) reports Partitioned once, drops nobody and stalls until
-//    the network heals. Peers that hold more of its inputs relay them to the others; the owner
+//    the network heals. A frame is confirmed only once a majority holds this session's inputs
+//    for it, so a minority never confirms what the majority replays with its neutral input.
+//    Peers that hold more of its inputs relay them to the others; the owner
 //    starts its neutral inputs once every running peer has reported the drop, at the highest
 //    count any of them held, so all agree on the frame without a vote.
 //  - Join / rejoin / spectate: the newcomer pulls a snapshot of a confirmed frame plus the inputs
@@ -366,6 +368,7 @@ private:
     void apply_blocks(PlayerId from);
     void malformed(PlayerId from, const char* why);
     void confirm_frames();
+    std::uint32_t confirm_limit() const;
     void sample_time_sync(std::uint64_t now_us);
     std::int64_t estimated_frame(const PeerLink& link, std::uint64_t now_us) const;
     void refresh_resend_floor();

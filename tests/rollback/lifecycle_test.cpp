@@ -496,6 +496,7 @@ TEST(Lifecycle, RecoveryRequestsAreAnsweredOnlyDuringADesync) {
     cluster.run_frames(400, 60'000'000);
     EXPECT_TRUE(offers.empty()) << offers.size() << " snapshots offered with no desync open";
     EXPECT_GE(cluster.clients[0]->session->stats().peers[1].ignored_packets, 250u);
+    cluster.settle(400);  // a frame is confirmed once a majority holds our inputs for it: a round trip
     expect_equal_at(cluster, 400);
 
     // Peer 1 really desyncs at frame 450 and keeps flooding for 10 s of play.
@@ -663,12 +664,14 @@ void expect_no_disagreement(const Client& a, const Client& b, int& compared) {
 // Issue 21, "split matches": three players, {0, 1} and {2} cannot hear each other for 10 s. The
 // pair is a majority: it drops 2 and plays on. 2 drops nobody, says Partitioned and never
 // confirms a frame the pair confirmed differently. Healed, it hears it was dropped (a majority
-// says so) and is Kicked: rejoining by snapshot is the next step.
-TEST(Lifecycle, SplitTwoOneTheMajorityPlaysOnTheOneDropsNobody) {
+// says so) and is Kicked: rejoining by snapshot is the next step. (window: rollback or lockstep;
+// the one's clock runs drift_ppm fast; the cut comes at cut_frame.)
+void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::uint32_t cut_frame) {
     const auto scene = make_scene(3, 10);
-    const SessionConfig cfg = real_config(3, 8);
-    Cluster cluster(scene, cfg, {15000, 3000}, 43);
-    cluster.run_frames(200);
+    const SessionConfig cfg = real_config(3, window);
+    Cluster cluster(scene, cfg, {15000, 3000}, seed);
+    cluster.clients[2]->drift_ppm = drift_ppm;
+    cluster.run_frames(cut_frame);
     bool cut = true;
     split(cluster, {2}, cut);
     cluster.run([](const Cluster&) { return false; }, 10'000'000);
@@ -698,6 +701,21 @@ TEST(Lifecycle, SplitTwoOneTheMajorityPlaysOnTheOneDropsNobody) {
     int compared = 0;
     expect_no_disagreement(lone, *cluster.clients[0], compared);
     EXPECT_GE(compared, 150);
+}
+
+TEST(Lifecycle, SplitTwoOneTheMajorityPlaysOnTheOneDropsNobody) { split_two_one(8, 43, 0, 200); }
+// The same over seeds, lockstep too, and with the one's clock 2 % slow or fast: cut off while
+// a few frames behind the pair, it held the pair's inputs of frames the pair then played with
+// its neutral input, and confirmed them (a frame is now confirmed only once a majority holds our
+// inputs for it).
+TEST(Lifecycle, SplitTwoOneTheOneNeverConfirmsOtherwiseEvenWhenBehind) {
+    for (std::uint64_t seed = 1; seed <= 6; ++seed)
+        for (int window : {8, 0})
+            for (std::int64_t drift : {0, -20000, 20000}) {
+                SCOPED_TRACE("seed " + std::to_string(seed) + " window " + std::to_string(window) + " drift " +
+                             std::to_string(drift));
+                split_two_one(window, seed, drift, 200 + static_cast<std::uint32_t>(seed * 7));
+            }
 }
 
 // Four players split 2/2 for 10 s: neither side is a majority, so nobody is dropped; all four

@@ -24,6 +24,11 @@ void settle(Membership& m) {
 TEST(Membership, StartsWithEveryoneRunningAndNoVotes) {
     const Membership m(4, 0, TwoPlayerRule::PlayOnAlone);
     EXPECT_EQ(m.running_voters(), 4);
+    EXPECT_EQ(m.majority_size(), 3);
+    EXPECT_EQ(Membership(3, 0, TwoPlayerRule::PlayOnAlone).majority_size(), 2);
+    EXPECT_EQ(Membership(8, 0, TwoPlayerRule::PlayOnAlone).majority_size(), 5);
+    EXPECT_EQ(Membership(2, 0, TwoPlayerRule::PlayOnAlone).majority_size(), 1);
+    EXPECT_EQ(Membership(2, 0, TwoPlayerRule::NoDrop).majority_size(), 2);
     for (PlayerId s = 0; s < 4; ++s) {
         EXPECT_TRUE(m.running(s));
         EXPECT_EQ(m.epoch(s), 0);
