@@ -1,7 +1,9 @@
 #include "rollback/session.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 
@@ -26,12 +28,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
-// Epochs wrap at 256: a is newer than b when it is less than half the circle ahead.
-bool newer_epoch(std::uint8_t a, std::uint8_t b) {
-    const auto d = static_cast<std::int8_t>(static_cast<std::uint8_t>(a - b));
-    return d > 0;
-}
-
 constexpr std::size_t kMaxEvents = 4096;
 constexpr int kMaxChunksPerPoll = 64;
 constexpr std::size_t kMaxOutgoingTransfers = 4;
@@ -51,6 +47,7 @@ const char* event_name(SessionEvent::Kind k) {
         case K::Interrupted: return "interrupted";
         case K::Resumed: return "resumed";
         case K::Disconnected: return "disconnected";
+        case K::Partitioned: return "partitioned";
         case K::NeutralFrom: return "neutral_from";
         case K::Joined: return "joined";
         case K::SpectatorJoined: return "spectator_joined";
@@ -152,6 +149,8 @@ void validate(const SessionConfig& c) {
     require(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
     require(c.max_recoveries >= 0, "max_recoveries must be >= 0");
     require(c.relay_lag >= 0, "relay_lag must be >= 0");
+    require(c.two_player_rule == TwoPlayerRule::PlayOnAlone || c.two_player_rule == TwoPlayerRule::NoDrop,
+            "two_player_rule must be PlayOnAlone or NoDrop");
     if (!c.slot_hosts.empty()) {
         require(c.slot_hosts.size() == static_cast<std::size_t>(c.players), "slot_hosts must have one entry per slot");
         bool guests = false;
@@ -171,8 +170,10 @@ void validate(const SessionConfig& c) {
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
-    : config_(config), sim_(simulation), observer_(observer), input_delay_(config.input_delay) {
+    : config_(config), sim_(simulation), observer_(observer), input_delay_(config.input_delay),
+      membership_(0, 0, config.two_player_rule) {
     validate(config_);
+    membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
     if (!config_.cpu_clock) config_.cpu_clock = steady_ns;
     if (!predictor) {
         default_predictor_ = std::make_unique<RepeatLastPredictor>();
@@ -220,7 +221,7 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
             if (static_cast<PlayerId>(s) == config_.local_player || my_guest(static_cast<PlayerId>(s)))
                 local_slots_.push_back(static_cast<PlayerId>(s));
     for (int s = 0; s < config_.players; ++s)
-        if (config_.absent_slots >> s & 1) slots_[static_cast<std::size_t>(s)].state = SlotState::Absent;
+        if (config_.absent_slots >> s & 1) membership_.set(static_cast<PlayerId>(s), SlotState::Absent, 0);
     if (config_.role != Role::Player) {
         // Everything but what the snapshot will tell: the newcomer knows nothing yet.
         phase_ = SessionPhase::Synchronizing;
@@ -327,13 +328,13 @@ bool Session::live_peer(PlayerId p) const {
 
 std::optional<PlayerId> Session::owner() const {
     for (int s = 0; s < config_.players; ++s)
-        if (slots_[static_cast<std::size_t>(s)].state == SlotState::Running) return static_cast<PlayerId>(s);
+        if (slot_running(static_cast<PlayerId>(s))) return static_cast<PlayerId>(s);
     return std::nullopt;
 }
 
 bool Session::any_slot_not_running() const {
-    for (const SlotView& v : slots_)
-        if (v.state != SlotState::Running) return true;
+    for (int s = 0; s < config_.players; ++s)
+        if (!slot_running(static_cast<PlayerId>(s))) return true;
     return false;
 }
 
@@ -384,6 +385,8 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
         }
         link.heard = true;
         link.last_heard_us = now_us;
+        // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
+        if (is_slot(from) && !slots_[from].kick_vote) membership_.vote_local(from, false);
     }
     switch (*kind) {
         case MessageKind::Hello: return;
@@ -407,16 +410,16 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
     // snapshot is loaded; a player still synchronizing already does (frame 0).
     if (phase_ != SessionPhase::Running && config_.role != Role::Player) return void(++ps.ignored_packets);
-    if (!link.welcomed || (is_slot(from) && slots_[from].state != SlotState::Running)) {
+    if (!link.welcomed || (is_slot(from) && !slot_running(from))) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
-        if (is_slot(from) && slots_[from].state == SlotState::Disconnected &&
+        if (is_slot(from) && slot_state(from) == SlotState::Disconnected &&
             (!link.refusal_sent || now_us >= link.last_refusal_us + 500000)) {
             WelcomeMessage w;
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
             w.scene_checksum = scene_checksum_;
-            w.slot_epoch = slots_[from].epoch;
+            w.slot_epoch = membership_.epoch(from);
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
@@ -460,7 +463,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.scene_checksum = scene_checksum_;
     w.echo_us = m.stamp_us;
     w.running = phase_ == SessionPhase::Running;
-    if (is_slot(from)) w.slot_epoch = slots_[from].epoch;
+    if (is_slot(from)) w.slot_epoch = membership_.epoch(from);
     std::string why;
     if (m.version != kProtocolVersion) {
         w.refusal = Refusal::Version;
@@ -480,7 +483,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
         w.refusal = Refusal::Disconnected;
         why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
     } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
-               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == slots_[from].epoch &&
+               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == membership_.epoch(from) &&
                !slots_[from].handed_off_by_me) {
         // Another process for a slot whose process we know: the old one restarted and is gone.
         // Drop it now; welcome the new one once the drop is agreed. (A slot running in a newer
@@ -496,7 +499,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     if (w.refusal == Refusal::None) {
         const bool fresh = !link.welcomed || link.role != m.role ||
                            (is_slot(from) && m.role == Role::Joiner && !slot_running(from) &&
-                            link.welcomed_epoch != slots_[from].epoch);
+                            link.welcomed_epoch != membership_.epoch(from));
         if (fresh && m.role != Role::Player) {
             // A new process for this id: forget everything about the previous one.
             link.reset_lifecycle(static_cast<std::size_t>(config_.players));
@@ -504,7 +507,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
             detector_->reset_peer(from);
         }
         link.welcomed = true;
-        if (is_slot(from)) link.welcomed_epoch = slots_[from].epoch;
+        if (is_slot(from)) link.welcomed_epoch = membership_.epoch(from);
         link.incarnation = m.incarnation;
         link.role = m.role;
         if (!link.heard) {
@@ -526,12 +529,15 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     PeerLink& link = links_[from];
     if (m.refusal == Refusal::Retry) return;
     if (m.refusal == Refusal::Disconnected) {
-        const bool newer = config_.role == Role::Spectator ||
-                           !newer_epoch(slots_[config_.local_player].epoch, m.slot_epoch);
-        if ((config_.role == Role::Player || phase_ == SessionPhase::Running) && newer) {
+        if (config_.role == Role::Spectator) {
             emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
-                 "peer " + std::to_string(from) + " says this slot was dropped");
+                 "peer " + std::to_string(from) + " says this spectator was dropped");
             fail("dropped from the match by the other peers", now_us);
+        } else if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
+            // The sender's vote that our slot is gone (in the epoch it dropped it into): one
+            // voice, which makes us Kicked only together with a majority.
+            if (is_slot(from)) count_vote(from, config_.local_player, Vote::Gone, m.slot_epoch);
+            settle_membership(now_us);
         }
         return;
     }
@@ -579,7 +585,7 @@ void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std
         stats_.peers[from].rtt_us = link.rtt_us();
     }
     link.welcomed = true;
-    link.welcomed_epoch = slots_[from].epoch;
+    link.welcomed_epoch = membership_.epoch(from);
     link.role = Role::Player;
     link.has_remote_frame = true;
     link.heard = true;
@@ -704,7 +710,13 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
     for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
 }
 
-// The sender's view of every slot: adopt newer epochs, remember its counts (relays, agreement).
+// The sender's table: its counts (relays, agreement), and its vote about every running slot.
+// About a running slot, "disconnected" in a newer epoch is the sender's vote that it is gone and
+// "running" in our epoch its vote that it runs; only a majority of such votes drops the slot
+// (settle_membership). "Running" in a newer epoch is a hand-over to a new process (the owner's
+// word, adopted as before), and so is any newer epoch of a slot that does not run here (a join,
+// or a drop we missed). The sender's entries about itself and its guests say nothing new, and
+// nobody but this session's own process hands over this session's slots.
 void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     for (const SlotEntry& e : in_msg_.slots) {
@@ -716,12 +728,27 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
             link.counts[s] = *count;
             link.has_count[s] = true;
         }
-        if (is_slot(from) && s == from) continue;  // a player's own entry says nothing new
-        if (!is_slot(from)) continue;              // spectators report counts, never decide states
-        SlotView& v = slots_[s];
-        if (newer_epoch(e.epoch, v.epoch)) adopt_slot(e.slot, e, now_us);
+        if (!is_slot(from)) continue;            // spectators report counts, never vote
+        if (host_of(e.slot) == from) continue;   // a player's own entry says nothing new
+        if (config_.role == Role::Spectator) {
+            // A spectator follows the view of the players that serve it (they send it the view,
+            // not their votes).
+            if (newer_epoch(e.epoch, membership_.epoch(e.slot))) adopt_slot(e.slot, e, now_us);
+            continue;
+        }
+        const bool mine = config_.role != Role::Spectator && (e.slot == config_.local_player || my_guest(e.slot));
+        const bool newer = newer_epoch(e.epoch, membership_.epoch(e.slot));
+        if (!slot_running(e.slot)) {
+            if (newer && !mine) adopt_slot(e.slot, e, now_us);
+        } else if (e.state == SlotState::Running && newer) {
+            if (!mine) adopt_slot(e.slot, e, now_us);
+        } else {
+            count_vote(from, e.slot, e.state == SlotState::Running ? Vote::Runs : Vote::Gone, e.epoch);
+        }
         if (phase_ == SessionPhase::Failed) return;
     }
+    settle_membership(now_us);
+    if (phase_ == SessionPhase::Failed) return;
     if (config_.role == Role::Spectator) return;
     // What the sender holds of our stream (a spectator or joiner reports it here).
     const PlayerId me = config_.local_player;
@@ -733,9 +760,9 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
 
 void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
     SlotView& v = slots_[slot];
-    const SlotState before = v.state;
-    v.epoch = e.epoch;
-    v.state = e.state;
+    const SlotState before = slot_state(slot);
+    membership_.set(slot, e.state, e.epoch);
+    v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
@@ -781,7 +808,7 @@ void Session::apply_blocks(PlayerId from) {
             if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
         }
         SlotView& v = slots_[b.slot];
-        if (b.absent && !v.neutral_reported && v.state != SlotState::Running) {
+        if (b.absent && !v.neutral_reported && !slot_running(b.slot)) {
             v.neutral_reported = true;
             // The first absent input of this epoch tells the agreed frame.
             std::uint32_t f = count_of(b.slot);
@@ -830,8 +857,43 @@ void Session::refresh_keep_floors(std::uint64_t now_us) {
     }
 }
 
+// The newest frame this session may confirm. Frame n is stepped from the inputs of frames
+// before n, and ours among them must be held by a majority of the view (this session included;
+// the others' acks say what they hold). So if that majority drops us while we cannot hear it (a
+// partition), the neutral input it agrees on for our slot starts after every frame we confirmed,
+// and nothing we confirmed can differ from what it confirmed (issue 21). Once we lose the
+// majority, confirmation stops there. A view of two under PlayOnAlone needs nobody else. Never
+// so far back that the state of the next frame to confirm is no longer saved.
+std::uint32_t Session::confirm_limit() const {
+    const std::uint32_t confirmable = sync_->confirmable_frame();
+    const int others = membership_.majority_size() - 1;
+    if (config_.role == Role::Spectator || others <= 0) return confirmable;
+    std::array<std::uint32_t, kMaxPlayers> held{};
+    int n = 0;
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (!live_peer(pid)) continue;
+        const PeerLink& l = links_[pid];
+        std::uint32_t h = l.remote_ack;
+        for (std::size_t i = 1; i < local_slots_.size(); ++i) {
+            const PlayerId g = local_slots_[i];  // our guests travel as blocks: the table's counts
+            h = std::min(h, l.has_count[g] ? l.counts[g] : 0u);
+        }
+        held[static_cast<std::size_t>(n++)] = h;
+    }
+    std::uint32_t majority_holds = 0;
+    if (n >= others) {
+        std::nth_element(held.begin(), held.begin() + (others - 1), held.begin() + n, std::greater<>());
+        majority_holds = held[static_cast<std::size_t>(others - 1)];
+    }
+    const auto span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
+    const std::uint32_t oldest = sync_->frame() > span ? sync_->frame() - span : 0;
+    return std::min(confirmable, std::max(majority_holds, oldest));
+}
+
 void Session::confirm_frames() {
-    while (sync_->confirmed_frame() < sync_->confirmable_frame()) {
+    const std::uint32_t limit = confirm_limit();
+    while (sync_->confirmed_frame() < limit) {
         const FrameConfirmed fc = sync_->confirm_next();
         detector_->add_local(fc.frame, fc.checksum);
         if (observer_) observer_->on_frame_confirmed(fc);
@@ -905,9 +967,9 @@ std::uint32_t Session::local_target() const { return sync_->frame() + static_cas
 
 void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
-    if (v.state != SlotState::Running) return;
-    v.state = SlotState::Disconnected;
-    v.epoch = static_cast<std::uint8_t>(v.epoch + 1);
+    if (!slot_running(slot)) return;
+    membership_.leave(slot);
+    v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
@@ -920,10 +982,55 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     refresh_resend_floor();
 }
 
+// A peer's vote (or the local one): counted by Membership, which ignores what does not count.
+void Session::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) {
+    const Tally t = membership_.vote(voter, slot, vote, epoch);
+    if (t == Tally::Counted && vote == Vote::Gone && voter != config_.local_player &&
+        membership_.vote_of(config_.local_player, slot) != Vote::Gone)
+        ++stats_.drop_votes_unheeded;
+}
+
+// Drops every running slot a majority has voted gone (this session's own slot: it was kicked),
+// then notes whether this session is cut off from a majority (Partitioned, once per episode).
+void Session::settle_membership(std::uint64_t now_us) {
+    if (config_.role == Role::Spectator) return;
+    const auto players = static_cast<PlayerId>(config_.players);
+    for (PlayerId s = membership_.next_gone(); s < players; s = membership_.next_gone()) {
+        if (s == config_.local_player) {
+            emit(SessionEvent::Kind::Kicked, s, frame(), now_us,
+                 std::to_string(membership_.gone_votes(s)) + " of " + std::to_string(membership_.running_voters()) +
+                     " players voted this slot gone");
+            fail("dropped from the match by the other peers", now_us);
+            return;
+        }
+        const std::string why = slots_[s].kick_vote ? "kicked" : "timed out";
+        drop_slot(s, now_us, (why + ", by " + std::to_string(membership_.gone_votes(s)) + " of " +
+                              std::to_string(membership_.running_voters()) + " votes").c_str());
+    }
+    const bool cut_off = membership_.partitioned();
+    if (cut_off && !partitioned_) {
+        int heard = 0;
+        for (int s = 0; s < config_.players; ++s) {
+            const auto pid = static_cast<PlayerId>(s);
+            if (membership_.running(pid) && host_of(pid) == pid && membership_.vote_of(config_.local_player, pid) != Vote::Gone)
+                ++heard;
+        }
+        emit(SessionEvent::Kind::Partitioned, config_.local_player, sync_->confirmed_frame(), now_us,
+             "hears " + std::to_string(heard) + " of " + std::to_string(membership_.running_voters()) +
+                 " players: no majority, nobody is dropped");
+    }
+    partitioned_ = cut_off;
+}
+
+// A kick is this session's vote, as if the slot had been silent for disconnect_us; it is not
+// withdrawn by hearing the slot. With three or more players the others must agree.
 void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
     if (!is_slot(slot) || slot == config_.local_player || my_guest(slot))
         throw std::invalid_argument("disconnect_player: not a remote slot");
-    drop_slot(slot, now_us, "kicked");
+    if (membership_.vote_local(slot, true) == Tally::AboutAGuest)
+        throw std::invalid_argument("disconnect_player: a guest goes with its host");
+    slots_[slot].kick_vote = slot_running(slot);
+    settle_membership(now_us);
 }
 
 void Session::check_silence(std::uint64_t now_us) {
@@ -939,13 +1046,14 @@ void Session::check_silence(std::uint64_t now_us) {
         }
         if (config_.disconnect_us != 0 && silent >= config_.disconnect_us) {
             if (is_slot(pid)) {
-                drop_slot(pid, now_us, "timed out");
+                membership_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
             } else {
                 l.welcomed = false;  // a spectator that went away: stop serving it
                 emit(SessionEvent::Kind::Disconnected, pid, frame(), now_us, "spectator timed out");
             }
         }
     }
+    settle_membership(now_us);
 }
 
 // The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot
@@ -962,14 +1070,15 @@ void Session::author_absent_streams(std::uint64_t now_us) {
     for (int s = 0; s < config_.players; ++s) {
         const auto slot = static_cast<PlayerId>(s);
         SlotView& v = slots_[static_cast<std::size_t>(s)];
-        if (v.state == SlotState::Running) continue;
+        if (slot_running(slot)) continue;
         if (!v.authoring) {
             bool ready = true;
             for (std::size_t p = 0; p < links_.size() && ready; ++p) {
                 const auto pid = static_cast<PlayerId>(p);
                 if (!live_peer(pid) || !is_slot(pid)) continue;
                 const PeerLink& l = links_[p];
-                ready = l.table_seen[slot] && l.table[slot].epoch == v.epoch && l.table[slot].state == v.state &&
+                ready = l.table_seen[slot] && l.table[slot].epoch == membership_.epoch(slot) &&
+                        l.table[slot].state == slot_state(slot) &&
                         l.has_count[slot] && l.counts[slot] <= count_of(slot);
             }
             if (!ready) continue;
@@ -1269,8 +1378,8 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
                     InputQueue::Add::Stored)
                     return;  // queue full: not now
             SlotView& v = slots_[from];
-            v.state = SlotState::Running;
-            v.epoch = static_cast<std::uint8_t>(v.epoch + 1);
+            membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
+            v.kick_vote = false;
             v.authoring = false;
             v.neutral_reported = false;
             v.handoff = handoff;
@@ -1278,7 +1387,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             PeerLink& l = links_[from];
             l.reset_lifecycle(static_cast<std::size_t>(config_.players));
             l.welcomed = true;
-            l.welcomed_epoch = v.epoch;
+            l.welcomed_epoch = membership_.epoch(from);
             l.heard = true;
             l.last_heard_us = now_us;
             detector_->reset_peer(from);
@@ -1329,8 +1438,8 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     out.offer.hash = transfer_hash(out.blob);
     out.offer.handoff_frame = handoff;
     for (int s = 0; s < config_.players; ++s)
-        out.offer.slots.push_back({static_cast<std::uint8_t>(s), slots_[static_cast<std::size_t>(s)].state,
-                                   slots_[static_cast<std::size_t>(s)].epoch, 0});
+        out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
+                                   membership_.epoch(static_cast<PlayerId>(s)), 0});
     // Keep what the newcomer will ask us for next: every stream from the snapshot on.
     PeerLink& l = links_[from];
     l.pin_from = c;
@@ -1437,8 +1546,8 @@ void Session::finish_transfer(std::uint64_t now_us) {
     }
     for (const SlotEntry& e : offer.slots) {
         SlotView& v = slots_[e.slot];
-        v.state = e.state;
-        v.epoch = e.epoch;
+        membership_.set(e.slot, e.state, e.epoch);
+        v.kick_vote = false;
         v.authoring = false;
         v.neutral_reported = e.state != SlotState::Running;
     }
@@ -1516,6 +1625,7 @@ bool Session::extension_needed(PlayerId to) const {
     // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
     if (any_guest_) return true;
     if (any_slot_not_running()) return true;
+    if (membership_.votes_any_gone()) return true;  // our votes must reach the voters
     for (const SlotView& v : slots_)
         if (v.handed_off_by_me) return true;
     // Three or more players: counts now and then, so a peer stuck on a gap gets relays.
@@ -1531,8 +1641,12 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
     m.slots.clear();
     m.blocks.clear();
     for (int s = 0; s < config_.players; ++s) {
-        const SlotView& v = slots_[static_cast<std::size_t>(s)];
-        m.slots.push_back({static_cast<std::uint8_t>(s), v.state, v.epoch,
+        // To a player our vote where we cast one ("gone" in the next epoch), else the view; a
+        // spectator, which follows our view, gets the view.
+        const auto slot = static_cast<PlayerId>(s);
+        const bool vote = is_slot(to);
+        m.slots.push_back({static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(slot) : slot_state(slot),
+                           vote ? membership_.advertised_epoch(slot) : membership_.epoch(slot),
                            static_cast<std::uint16_t>(count_of(static_cast<PlayerId>(s)))});
     }
     const std::size_t table_bytes = 2 + m.slots.size() * 5;
@@ -1550,7 +1664,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
         const std::uint32_t mine = q.confirmed_count();
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
-        const bool relay = !is_slot(to) || v.state != SlotState::Running || my_guest(slot) ||
+        const bool relay = !is_slot(to) || !slot_running(slot) || my_guest(slot) ||
                            (v.handed_off_by_me && theirs < v.handoff) ||
                            mine > theirs + static_cast<std::uint32_t>(config_.relay_lag);
         if (!relay) continue;

@@ -40,16 +40,24 @@
 //
 // Lifecycle (docs/sessions.md has the whole story):
 //  - Slots. N player slots are fixed at start; each is Absent, Running or Disconnected in a
-//    table every peer gossips (higher epoch wins), plus Interrupted as a local observation of
-//    silence. Every slot has one input stream; an absent or disconnected slot's stream is the
+//    numbered view (state + epoch per slot, rollback/membership.h), plus Interrupted as a local
+//    observation of silence. A running slot leaves the view only when a strict majority of the
+//    view's running processes votes it gone (two processes: config.two_player_rule); every
+//    peer's slot table is its vote, counted only on that peer's own connection, never a fact
+//    about others. Joins are the owner's hand-over, adopted from its table. Every slot has one input stream; an absent or disconnected slot's stream is the
 //    flagged neutral input written by the slot's owner (the lowest running slot), so every frame
 //    still has exactly one confirmed input per slot and confirmation, checksums and replays need
 //    no special case.
 //  - Handshake (config.handshake): hellos carry protocol version, match id and scene checksum; a
 //    mismatch is refused with a reason on both sides. A few hello/welcome round trips measure the
 //    RTT before frame 0 (and set the input delay when config.auto_input_delay).
-//  - Disconnect: interrupt_us of silence raises Interrupted, disconnect_us drops the slot (as does
-//    disconnect_player). Peers that hold more of its inputs relay them to the others; the owner
+//  - Disconnect: interrupt_us of silence raises Interrupted; disconnect_us of silence (or
+//    disconnect_player) is this session's vote that the slot is gone, withdrawn when the slot is
+//    heard again; the slot is dropped once a majority votes so. A session whose votes cannot win
+//    (it hears no majority of the view) reports Partitioned once, drops nobody and stalls until
+//    the network heals. A frame is confirmed only once a majority holds this session's inputs
+//    for it, so a minority never confirms what the majority replays with its neutral input.
+//    Peers that hold more of its inputs relay them to the others; the owner
 //    starts its neutral inputs once every running peer has reported the drop, at the highest
 //    count any of them held, so all agree on the frame without a vote.
 //  - Join / rejoin / spectate: the newcomer pulls a snapshot of a confirmed frame plus the inputs
@@ -74,6 +82,7 @@
 #include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
+#include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/player_id.h"
 #include "rollback/predictor.h"
@@ -133,6 +142,11 @@ struct SessionConfig {
     std::uint32_t max_snapshot_bytes = 64u << 20;
     int max_recoveries = 0;            // desync recoveries before giving up (0: never recover)
     DesyncKeep two_player_keep = DesyncKeep::LowestSlot;
+    // Two running processes left in the view have no majority of the other: PlayOnAlone (either
+    // one's silence timeout drops the other, and each side plays on alone) or NoDrop (nobody is
+    // dropped: the one that lost the other reports Partitioned and waits for it). Every peer
+    // must pass the same rule. Three or more: a strict majority of the view, always.
+    TwoPlayerRule two_player_rule = TwoPlayerRule::PlayOnAlone;
     int relay_lag = 0;                 // relay a stream to a peer this far behind (0: auto)
     // Names this process in its hellos (0: taken from the first now_us this session sees, which
     // differs between a process and its restarted successor).
@@ -159,6 +173,9 @@ struct SessionEvent {
         Interrupted,     // peer silent for interrupt_us
         Resumed,         // heard again
         Disconnected,    // slot dropped (frame: its inputs held here when dropped)
+        Partitioned,     // this session votes others gone but hears no majority of the view: it
+                         // drops nobody and stops confirming (frame: its confirmed frame); once
+                         // per episode, over when it hears a majority again or a drop is agreed
         NeutralFrom,     // agreed: slot's input is the flagged neutral one from `frame`
         Joined,          // slot (re)joined; frame: the first frame of its own inputs
         SpectatorJoined,
@@ -281,7 +298,11 @@ public:
     SessionPhase phase() const { return phase_; }
     bool running() const { return phase_ == SessionPhase::Running; }
     const std::string& failure() const { return failure_; }
-    SlotState slot_state(PlayerId slot) const { return slots_[slot].state; }
+    SlotState slot_state(PlayerId slot) const { return membership_.state(slot); }
+    // The view and the votes (who plays, who says whom is gone).
+    const Membership& membership() const { return membership_; }
+    // Reported Partitioned and not yet heard a majority again.
+    bool partitioned() const { return partitioned_; }
     // Silent longer than interrupt_us (and not dropped yet).
     bool interrupted(PlayerId peer) const { return links_[peer].interrupted; }
     int recoveries() const { return recoveries_; }
@@ -315,13 +336,13 @@ public:
 
 private:
     class Tap;  // sees the detector's and sync's callbacks first, then forwards them
+    // What this session does about each slot beyond the view (membership_ holds state and epoch).
     struct SlotView {
-        SlotState state = SlotState::Running;
-        std::uint8_t epoch = 0;
         bool authoring = false;           // owner: writing its neutral inputs
         bool neutral_reported = false;    // NeutralFrom event fired for this epoch
         std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
         bool handed_off_by_me = false;
+        bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
     };
     struct OutgoingTransfer {
         std::uint32_t id = 0;
@@ -347,6 +368,7 @@ private:
     void apply_blocks(PlayerId from);
     void malformed(PlayerId from, const char* why);
     void confirm_frames();
+    std::uint32_t confirm_limit() const;
     void sample_time_sync(std::uint64_t now_us);
     std::int64_t estimated_frame(const PeerLink& link, std::uint64_t now_us) const;
     void refresh_resend_floor();
@@ -359,6 +381,8 @@ private:
     void poll_transfer(std::uint64_t now_us);
     void check_silence(std::uint64_t now_us);
     void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
+    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
+    void settle_membership(std::uint64_t now_us);
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void author_absent_streams(std::uint64_t now_us);
     void author_guest_streams(std::span<const std::uint8_t> inputs);
@@ -375,7 +399,7 @@ private:
     bool my_guest(PlayerId p) const {
         return config_.role != Role::Spectator && is_guest(p) && host_of(p) == config_.local_player;
     }
-    bool slot_running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
+    bool slot_running(PlayerId s) const { return membership_.running(s); }
     // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
     bool live_peer(PlayerId p) const;
     std::optional<PlayerId> owner() const;
@@ -409,6 +433,8 @@ private:
     std::unique_ptr<Tap> tap_;
     SessionPhase phase_ = SessionPhase::Running;
     std::string failure_;
+    Membership membership_;
+    bool partitioned_ = false;
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
     bool any_guest_ = false;

@@ -43,6 +43,11 @@ struct SessionStats {
     std::uint64_t bytes_sent = 0, bytes_received = 0, packets_sent = 0, packets_received = 0;
     std::uint64_t malformed_packets = 0;
     std::uint64_t unknown_peer_packets = 0;
+    // A peer voted gone a running slot (this one's included) that this session did not vote
+    // gone itself: counted as that peer's vote, never obeyed alone (issue 21: one forged slot
+    // table dropped any player). An honest vote that comes just before this session's own
+    // timeout is counted here too.
+    std::uint64_t drop_votes_unheeded = 0;
     std::vector<PeerStats> peers;         // by player id; the local slot stays zero
 };
 

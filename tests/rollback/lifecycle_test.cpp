@@ -182,11 +182,14 @@ TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
 }
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 
-// Issue 21, "the lone survivor freezes": every other player is killed at frame 200 and the
+// Issue 21, "the lone survivor freezes": every other player is killed from frame 200 on and the
 // survivor plays on alone. Nothing may stop a match that has one live player: it must keep
 // advancing and confirming frames far beyond input_capacity frames after the drop (the freeze
-// came ~input_capacity frames after it), with no failure and no stall after the timeout.
+// came ~input_capacity frames after it), with no failure and no stall after the timeouts.
 // Small queues (when asked) fill quickly, a short timeout ends the stall on the dead quickly.
+// With three players they die one after another, each once the previous drop is agreed: a
+// majority dying at once looks exactly like being the minority of a partition, where the one
+// left must drop nobody (MajorityKilledAtOnceLeavesTheSurvivorPartitioned).
 SessionConfig lone_config(int players, int window, std::uint32_t input_capacity) {
     SessionConfig cfg = real_config(players, window);
     cfg.input_capacity = input_capacity;
@@ -200,7 +203,14 @@ void lone_survivor(int players, int window, std::uint32_t input_capacity, std::u
     const SessionConfig cfg = lone_config(players, window, input_capacity);
     Cluster cluster(scene, cfg, {20000, 4000}, 23);
     cluster.run_frames(200);
-    for (int p = 1; p < players; ++p) cluster.kill(static_cast<PlayerId>(p));
+    for (int p = 1; p < players; ++p) {
+        const auto victim = static_cast<PlayerId>(p);
+        cluster.kill(victim);
+        if (p + 1 == players) break;
+        cluster.run([victim](const Cluster& c) { return c.clients[0]->session->slot_state(victim) != SlotState::Running; },
+                    30'000'000);
+        ASSERT_EQ(cluster.clients[0]->session->slot_state(victim), SlotState::Disconnected) << "slot " << p;
+    }
     const std::uint32_t virtual_s = frames / 60 + 30;  // real time plus slack for the timeout
     cluster.run_frames(frames, std::uint64_t{virtual_s} * 1'000'000);
     cluster.settle(frames, 5'000'000);
@@ -215,8 +225,9 @@ void lone_survivor(int players, int window, std::uint32_t input_capacity, std::u
     }
     EXPECT_EQ(events_of(survivor, Kind::Disconnected).size(), static_cast<std::size_t>(players - 1));
     EXPECT_TRUE(events_of(survivor, Kind::Failed).empty());
-    // Stalled only while the dead waited out their timeout.
-    EXPECT_LT(survivor.session->stats().stall_time_us, cfg.disconnect_us + 1'000'000);
+    // Stalled only while the dead waited out their timeouts (one after another).
+    EXPECT_LT(survivor.session->stats().stall_time_us,
+              static_cast<std::uint64_t>(players - 1) * cfg.disconnect_us + 1'000'000);
 }
 
 TEST(Lifecycle, LoneSurvivorPlaysOnRollback) { lone_survivor(2, 8, 1024, 3000); }
@@ -224,6 +235,27 @@ TEST(Lifecycle, LoneSurvivorPlaysOnSmallQueues) { lone_survivor(2, 8, 64, 1000);
 TEST(Lifecycle, LoneSurvivorPlaysOnLockstep) { lone_survivor(2, 0, 64, 1000); }
 TEST(Lifecycle, LoneSurvivorOfThreePlaysOn) { lone_survivor(3, 8, 64, 1000); }
 TEST(Lifecycle, LoneSurvivorOfThreePlaysOnLockstep) { lone_survivor(3, 0, 1024, 3000); }
+
+// Two of three die at the same moment. The survivor cannot tell this from being cut off from
+// the other two, who would drop it and play on: it drops nobody, says Partitioned, and confirms
+// nothing it could disagree on (issue 21: split matches). It keeps its session loop running.
+TEST(Lifecycle, MajorityKilledAtOnceLeavesTheSurvivorPartitioned) {
+    const auto scene = make_scene(3, 10);
+    const SessionConfig cfg = lone_config(3, 8, 1024);
+    Cluster cluster(scene, cfg, {20000, 4000}, 23);
+    cluster.run_frames(200);
+    cluster.kill(1);
+    cluster.kill(2);
+    cluster.run([](const Cluster&) { return false; }, 10'000'000);
+    const Client& survivor = *cluster.clients[0];
+    ASSERT_EQ(survivor.session->phase(), SessionPhase::Running) << survivor.session->failure();
+    EXPECT_TRUE(survivor.session->partitioned());
+    ASSERT_EQ(events_of(survivor, Kind::Partitioned).size(), 1u);
+    EXPECT_LE(events_of(survivor, Kind::Partitioned)[0]->frame, survivor.session->confirmed_frame());
+    EXPECT_TRUE(events_of(survivor, Kind::Disconnected).empty());
+    for (PlayerId p : {1u, 2u}) EXPECT_EQ(survivor.session->slot_state(p), SlotState::Running) << "slot " << p;
+    EXPECT_LT(survivor.session->confirmed_frame(), 220u);
+}
 
 // Alone from frame 0 (the other slot absent, nobody joins for a long time), then a joiner comes:
 // the owner played on past its queues' capacity, and serves the joiner as usual.
@@ -464,6 +496,7 @@ TEST(Lifecycle, RecoveryRequestsAreAnsweredOnlyDuringADesync) {
     cluster.run_frames(400, 60'000'000);
     EXPECT_TRUE(offers.empty()) << offers.size() << " snapshots offered with no desync open";
     EXPECT_GE(cluster.clients[0]->session->stats().peers[1].ignored_packets, 250u);
+    cluster.settle(400);  // a frame is confirmed once a majority holds our inputs for it: a round trip
     expect_equal_at(cluster, 400);
 
     // Peer 1 really desyncs at frame 450 and keeps flooding for 10 s of play.
@@ -563,6 +596,168 @@ TEST(Lifecycle, StretchedTicksFollowClocksSixPercentApart) {
     };
     EXPECT_EQ(stalls_with_cap(100000), 0u);
     EXPECT_GT(stalls_with_cap(50000), 0u);  // the control: the old cap is too small
+}
+
+// Issue 21, "any peer's word drops any player": peer 2 rewrites the slot table of its input
+// messages to claim that slot 1, which plays fine, was dropped in a newer epoch. Sent to peer 0
+// alone (and in the variant to both others), it is one vote of three: slot 1 stays everywhere,
+// all three confirm equal checksums, and the receivers count the claim as unheeded.
+void forged_slot_table(bool to_both) {
+    const auto scene = make_scene(3, 10);
+    const SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {15000, 3000}, 41);
+    cluster.run_frames(120);
+    int forged = 0;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (from != 2 || (to != 0 && !(to_both && to == 1)) || b.empty() || (b[0] & 0x0F) != 1) return true;
+        InputMessage m;
+        if (decode(b, cfg.input_size, m) != nullptr || !m.has_extension) return true;
+        for (SlotEntry& e : m.slots) {
+            if (e.slot != 1) continue;
+            e.state = SlotState::Disconnected;
+            e.epoch = static_cast<std::uint8_t>(e.epoch + 3);
+            ++forged;
+        }
+        auto& bytes = const_cast<std::vector<std::uint8_t>&>(b);
+        bytes.clear();
+        encode(m, cfg.input_size, bytes);
+        return true;
+    };
+    cluster.run_frames(900, 60'000'000);  // ten seconds of forgeries, twice the drop timeout
+    cluster.settle(900);
+    EXPECT_GT(forged, 10);
+    for (PlayerId p : {0u, 1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_EQ(c.session->slot_state(1), SlotState::Running) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Disconnected).empty()) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Kicked).empty()) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+    }
+    EXPECT_GT(cluster.clients[0]->session->stats().drop_votes_unheeded, 0u);
+    if (to_both) {
+        EXPECT_GT(cluster.clients[1]->session->stats().drop_votes_unheeded, 0u);
+    }
+    expect_equal_at(cluster, 900);
+}
+
+TEST(Lifecycle, ForgedSlotTableDropsNobody) { forged_slot_table(false); }
+TEST(Lifecycle, ForgedSlotTableToBothOthersDropsNobody) { forged_slot_table(true); }
+
+// Every datagram between `side` and the rest is lost while `cut` is set.
+void split(Cluster& cluster, std::set<PlayerId> side, const bool& cut) {
+    cluster.filter = [side = std::move(side), &cut](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !cut || side.count(from) == side.count(to);
+    };
+}
+
+// For every frame both clients confirmed, the same checksum.
+void expect_no_disagreement(const Client& a, const Client& b, int& compared) {
+    for (const auto& [frame, checksum] : a.confirmed) {
+        const auto it = b.confirmed.find(frame);
+        if (it == b.confirmed.end()) continue;
+        ++compared;
+        ASSERT_EQ(it->second, checksum) << "confirmed frame " << frame;
+    }
+}
+
+// Issue 21, "split matches": three players, {0, 1} and {2} cannot hear each other for 10 s. The
+// pair is a majority: it drops 2 and plays on. 2 drops nobody, says Partitioned and never
+// confirms a frame the pair confirmed differently. Healed, it hears it was dropped (a majority
+// says so) and is Kicked: rejoining by snapshot is the next step. (window: rollback or lockstep;
+// the one's clock runs drift_ppm fast; the cut comes at cut_frame.)
+void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::uint32_t cut_frame) {
+    const auto scene = make_scene(3, 10);
+    const SessionConfig cfg = real_config(3, window);
+    Cluster cluster(scene, cfg, {15000, 3000}, seed);
+    cluster.clients[2]->drift_ppm = drift_ppm;
+    cluster.run_frames(cut_frame);
+    bool cut = true;
+    split(cluster, {2}, cut);
+    cluster.run([](const Cluster&) { return false; }, 10'000'000);
+    const Client& lone = *cluster.clients[2];
+    ASSERT_EQ(lone.session->phase(), SessionPhase::Running) << lone.session->failure();
+    EXPECT_TRUE(lone.session->partitioned());
+    ASSERT_EQ(events_of(lone, Kind::Partitioned).size(), 1u);
+    EXPECT_TRUE(events_of(lone, Kind::Disconnected).empty()) << "the minority drops nobody";
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(lone.session->slot_state(p), SlotState::Running);
+    cut = false;
+    cluster.run_frames(1200, 60'000'000);
+    cluster.settle(1200);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Disconnected) << "client " << p;
+        EXPECT_EQ(events_of(c, Kind::Disconnected).size(), 1u) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+        EXPECT_GE(c.session->confirmed_frame(), 1200u) << "client " << p;
+    }
+    EXPECT_EQ(events_of(*cluster.clients[0], Kind::NeutralFrom)[0]->frame,
+              events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame);
+    expect_equal_at(cluster, 1200);
+    // The lone one learned it was dropped, and never confirmed anything else than the pair.
+    EXPECT_EQ(events_of(lone, Kind::Kicked).size(), 1u);
+    EXPECT_TRUE(events_of(lone, Kind::Disconnected).empty());
+    int compared = 0;
+    expect_no_disagreement(lone, *cluster.clients[0], compared);
+    EXPECT_GE(compared, 150);
+}
+
+TEST(Lifecycle, SplitTwoOneTheMajorityPlaysOnTheOneDropsNobody) { split_two_one(8, 43, 0, 200); }
+// The same over seeds, lockstep too, and with the one's clock 2 % slow or fast: cut off while
+// a few frames behind the pair, it held the pair's inputs of frames the pair then played with
+// its neutral input, and confirmed them (a frame is now confirmed only once a majority holds our
+// inputs for it).
+TEST(Lifecycle, SplitTwoOneTheOneNeverConfirmsOtherwiseEvenWhenBehind) {
+    for (std::uint64_t seed = 1; seed <= 6; ++seed)
+        for (int window : {8, 0})
+            for (std::int64_t drift : {0, -20000, 20000}) {
+                SCOPED_TRACE("seed " + std::to_string(seed) + " window " + std::to_string(window) + " drift " +
+                             std::to_string(drift));
+                split_two_one(window, seed, drift, 200 + static_cast<std::uint32_t>(seed * 7));
+            }
+}
+
+// Four players split 2/2 for 10 s: neither side is a majority, so nobody is dropped; all four
+// say Partitioned, and once healed they all play on and confirm equal checksums.
+void split_evenly(int players, const std::set<PlayerId>& side, const SessionConfig& cfg) {
+    const auto scene = make_scene(players, 10);
+    Cluster cluster(scene, cfg, {15000, 3000}, 47);
+    cluster.run_frames(200);
+    bool cut = true;
+    split(cluster, side, cut);
+    cluster.run([](const Cluster&) { return false; }, 10'000'000);
+    std::uint32_t stalled_at = 0;
+    for (const auto& c : cluster.clients) {
+        ASSERT_EQ(c->session->phase(), SessionPhase::Running) << c->session->failure();
+        EXPECT_TRUE(c->session->partitioned());
+        ASSERT_EQ(events_of(*c, Kind::Partitioned).size(), 1u);
+        stalled_at = std::max(stalled_at, c->session->confirmed_frame());
+    }
+    EXPECT_LT(stalled_at, 230u) << "nobody confirms frames the other side has no inputs for";
+    cut = false;
+    cluster.run_frames(1200, 60'000'000);
+    cluster.settle(1200);
+    for (const auto& c : cluster.clients) {
+        ASSERT_EQ(c->session->phase(), SessionPhase::Running) << c->session->failure();
+        EXPECT_FALSE(c->session->partitioned());
+        EXPECT_TRUE(events_of(*c, Kind::Disconnected).empty());
+        EXPECT_EQ(events_of(*c, Kind::Partitioned).size(), 1u);
+        for (int p = 0; p < players; ++p) EXPECT_EQ(c->session->slot_state(static_cast<PlayerId>(p)), SlotState::Running);
+    }
+    expect_equal_at(cluster, 1200);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+TEST(Lifecycle, SplitTwoTwoDropsNobodyAndHeals) { split_evenly(4, {0, 1}, real_config(4, 8)); }
+TEST(Lifecycle, SplitTwoTwoDropsNobodyAndHealsLockstep) { split_evenly(4, {0, 2}, real_config(4, 0)); }
+
+// The two-player rule NoDrop: two players who lose each other drop nobody and wait (the default,
+// PlayOnAlone, is BothSidesOfAPartitionPlayOn).
+TEST(Lifecycle, TwoPlayersNoDropWaitForEachOther) {
+    SessionConfig cfg = real_config(2, 8);
+    cfg.two_player_rule = TwoPlayerRule::NoDrop;
+    split_evenly(2, {0}, cfg);
 }
 
 TEST(Lifecycle, ForgedTimeSyncClaimIsBounded) {

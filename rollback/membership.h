@@ -1,0 +1,135 @@
+// Who plays: the numbered view of a match (per slot: state and epoch) and every voter's latest
+// word about every slot, and the rule that turns those words into a slot leaving (issue 21).
+//
+// A slot leaves the view only when a strict majority of the view's running players says it is
+// gone. Votes are counted per process: a process that plays several slots (SessionConfig::
+// slot_hosts) is one voter and counts once in the denominator, and its guest slots leave with
+// it. The slot voted on counts in the denominator; the voters are the other running processes,
+// the local one included. So, with one process per slot:
+//
+//   view of   votes needed   e.g.
+//   2         1 / none       TwoPlayerRule: PlayOnAlone (default): either survivor drops the
+//                            other and plays on alone; NoDrop: nobody is ever dropped
+//   3         2              one killed: the two survivors drop it; split 2/1: the two drop the
+//                            one, the one drops nobody
+//   4         3              one killed: dropped; split 2/2: nobody reaches 3, nobody is dropped
+//   8         5              split 5/3: the five drop the three; the three drop nobody
+//
+// Each voter speaks for itself: the caller must pass a peer's vote only when it arrived on that
+// peer's own connection. A peer's slot table is its vote, never a fact about others: a vote
+// from a process that is not running in this view, a process's word about itself (or its own
+// guests), a word about a guest (it follows its host) and a stale vote (cast about an older
+// epoch of the slot) are ignored. A vote stays until its voter changes it ("runs" withdraws it)
+// or the view changes for that slot or voter.
+//
+// A pure value type: no clock, no I/O. Joins are not votes: whoever hands a slot over (the
+// owner) decides them, and the caller records them with set().
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "rollback/player_id.h"
+#include "rollback/protocol.h"
+
+namespace lockroll::rollback {
+
+// A view of two running players has no strict majority of the other voter: what then.
+enum class TwoPlayerRule : std::uint8_t {
+    PlayOnAlone,  // either one's vote drops the other: each survivor plays on alone (the default)
+    NoDrop,       // nobody is dropped: the one that lost the other reports Partitioned and waits
+};
+const char* two_player_rule_name(TwoPlayerRule r);
+
+// Epochs wrap at 256: a is newer than b when it is less than half the circle ahead.
+inline bool newer_epoch(std::uint8_t a, std::uint8_t b) {
+    return static_cast<std::int8_t>(static_cast<std::uint8_t>(a - b)) > 0;
+}
+
+enum class Vote : std::uint8_t { None, Runs, Gone };
+
+// What became of a vote given to Membership::vote.
+enum class Tally : std::uint8_t {
+    Counted,      // the voter's word changed and now counts
+    Repeated,     // the same word as before
+    NotAVoter,    // the voter is not a running process of the view (or out of range)
+    AboutItself,  // a process's word about its own slot or guests says nothing new
+    NotRunning,   // the slot is not running: there is nothing to vote on
+    AboutAGuest,  // a guest slot follows its host; only votes about the host count
+    Stale,        // "gone" at an epoch not newer than the view's, or "runs" at another epoch
+};
+
+class Membership {
+public:
+    // Every slot running in epoch 0. hosts: empty (one process per slot) or one entry per slot,
+    // hosts[s] = the slot whose process plays s (validated by the session's config).
+    Membership(int players, PlayerId local, TwoPlayerRule rule, std::vector<PlayerId> hosts = {});
+
+    int players() const { return static_cast<int>(slots_.size()); }
+    PlayerId local() const { return local_; }
+    TwoPlayerRule rule() const { return rule_; }
+    SlotState state(PlayerId s) const { return slots_[s].state; }
+    std::uint8_t epoch(PlayerId s) const { return slots_[s].epoch; }
+    bool running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
+    PlayerId host_of(PlayerId s) const { return hosts_.empty() ? s : hosts_[s]; }
+    // Running processes in the view: the denominator of every decision.
+    int running_voters() const;
+    // The fewest running processes that are a majority of the view: running_voters() / 2 + 1,
+    // or 1 in a view of two under PlayOnAlone.
+    int majority_size() const;
+
+    // A change of the view that no vote decides: the starting table, a snapshot's table, a rejoin
+    // handed over by the owner, a process that says it restarted. Forgets the votes about s and
+    // the votes s cast (a new process in the slot starts with no word said).
+    void set(PlayerId s, SlotState state, std::uint8_t epoch);
+    // s leaves the view: Disconnected in the next epoch, its votes and those about it forgotten.
+    void leave(PlayerId s);
+
+    // voter's word about slot s: Gone with the epoch s would leave into (newer than the view's),
+    // or Runs in the view's epoch.
+    Tally vote(PlayerId voter, PlayerId s, Vote v, std::uint8_t epoch);
+    // The local process's word: gone (the epoch after the view's) or runs (the view's).
+    Tally vote_local(PlayerId s, bool gone);
+    // voter's word about s as it counts now (None: none, or not counted).
+    Vote vote_of(PlayerId voter, PlayerId s) const;
+    // Voters that say s is gone, among the running processes.
+    int gone_votes(PlayerId s) const;
+    // The votes say running slot s leaves: the caller drops it (and its guests) with leave().
+    bool decided_gone(PlayerId s) const;
+    // The first running host slot the votes say leaves, or players() if none.
+    PlayerId next_gone() const;
+
+    // The entry this process sends about s in its slot table: its vote "gone" (Disconnected in
+    // the epoch s would leave into) when it casts one, else the view's state and epoch.
+    SlotState advertised_state(PlayerId s) const;
+    std::uint8_t advertised_epoch(PlayerId s) const;
+    // The local process votes some running slot gone.
+    bool votes_any_gone() const;
+    // The local process votes others gone and the processes it still hears (itself included)
+    // are no strict majority of the view: no drop it wants can be decided, and it must not drop
+    // anyone on its own (issue 21: split matches).
+    bool partitioned() const;
+
+private:
+    struct Slot {
+        SlotState state = SlotState::Running;
+        std::uint8_t epoch = 0;
+    };
+    struct Word {
+        Vote vote = Vote::None;
+        std::uint8_t epoch = 0;
+    };
+    bool voter(PlayerId p) const { return p < slots_.size() && running(p) && host_of(p) == p; }
+    bool majority(int votes) const;
+    void forget(PlayerId s);
+    Word& word(PlayerId voter, PlayerId s) { return words_[voter * slots_.size() + s]; }
+    const Word& word(PlayerId voter, PlayerId s) const { return words_[voter * slots_.size() + s]; }
+
+    PlayerId local_;
+    TwoPlayerRule rule_;
+    std::vector<PlayerId> hosts_;
+    std::vector<Slot> slots_;
+    std::vector<Word> words_;  // [voter * players + slot]
+};
+
+}  // namespace lockroll::rollback
