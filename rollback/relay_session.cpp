@@ -12,7 +12,6 @@ namespace {
 constexpr std::uint16_t kNoEcho = 0xFFFF;
 constexpr int kChecksumRepeats = 3;
 constexpr std::size_t kMaxReports = 8;
-constexpr std::size_t kMaxEvents = 1024;
 constexpr std::size_t kMaxOutgoingTransfers = 4;
 constexpr std::uint64_t kOutgoingTransferLifeUs = 20'000'000;
 constexpr std::size_t kClockSamples = 32;
@@ -98,16 +97,10 @@ std::optional<std::uint64_t> RelaySession::confirmed_checksum(std::uint32_t fram
 RelaySession::~RelaySession() = default;
 
 void RelaySession::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
-    if (events_.size() >= kMaxEvents) events_.pop_front();
-    events_.push_back({kind, peer, frame, now_us, std::move(detail)});
+    events_.push({kind, peer, frame, now_us, std::move(detail)});
 }
 
-bool RelaySession::next_event(SessionEvent& out) noexcept {
-    if (events_.empty()) return false;
-    out = std::move(events_.front());
-    events_.pop_front();
-    return true;
-}
+bool RelaySession::next_event(SessionEvent& out) noexcept { return events_.pop(out); }
 
 void RelaySession::fail(const std::string& why, std::uint64_t now_us) {
     if (phase_ == SessionPhase::Failed) return;

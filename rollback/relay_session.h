@@ -191,7 +191,7 @@ private:
     PeerLink link_;                      // the server: round trip, stamps
     SessionPhase phase_ = SessionPhase::Synchronizing;
     std::string failure_;
-    std::deque<SessionEvent> events_;
+    EventQueue events_;
     std::vector<Datagram> pending_out_;
     int input_delay_;
     int my_id_ = -1;

@@ -28,7 +28,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
-constexpr std::size_t kMaxEvents = 4096;
 constexpr int kMaxChunksPerPoll = 64;
 constexpr std::size_t kMaxOutgoingTransfers = 4;
 constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
@@ -37,30 +36,6 @@ constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
 constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
 constexpr std::uint16_t kNoEcho = 0xFFFF;
 }  // namespace
-
-const char* event_name(SessionEvent::Kind k) {
-    using K = SessionEvent::Kind;
-    switch (k) {
-        case K::Synchronizing: return "synchronizing";
-        case K::Synchronized: return "synchronized";
-        case K::Refused: return "refused";
-        case K::Interrupted: return "interrupted";
-        case K::Resumed: return "resumed";
-        case K::Disconnected: return "disconnected";
-        case K::Partitioned: return "partitioned";
-        case K::NeutralFrom: return "neutral_from";
-        case K::Joined: return "joined";
-        case K::SpectatorJoined: return "spectator_joined";
-        case K::SnapshotLoaded: return "snapshot_loaded";
-        case K::SnapshotRejected: return "snapshot_rejected";
-        case K::DesyncDetected: return "desync";
-        case K::DesyncRecovered: return "desync_recovered";
-        case K::Kicked: return "kicked";
-        case K::Failed: return "failed";
-        case K::Draining: return "server_draining";
-    }
-    return "unknown";
-}
 
 const char* phase_name(SessionPhase p) {
     switch (p) {
@@ -237,19 +212,10 @@ Session::~Session() = default;
 
 void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
                    std::string detail) {
-    if (events_.size() >= kMaxEvents) {
-        events_.pop_front();
-        ++dropped_events_;
-    }
-    events_.push_back({kind, peer, frame, now_us, std::move(detail)});
+    events_.push({kind, peer, frame, now_us, std::move(detail)});
 }
 
-bool Session::next_event(SessionEvent& out) noexcept {
-    if (events_.empty()) return false;
-    out = std::move(events_.front());
-    events_.pop_front();
-    return true;
-}
+bool Session::next_event(SessionEvent& out) noexcept { return events_.pop(out); }
 
 void Session::fail(const std::string& why, std::uint64_t now_us) {
     if (phase_ == SessionPhase::Failed) return;

@@ -87,6 +87,7 @@
 #include "rollback/player_id.h"
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
+#include "rollback/session_event.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
@@ -164,36 +165,6 @@ struct SessionConfig {
     std::vector<PlayerId> slot_hosts;
 };
 
-// What the session tells its owner (drained with next_event()).
-struct SessionEvent {
-    enum class Kind : std::uint8_t {
-        Synchronizing,   // peer answered a hello (frame: round trips so far)
-        Synchronized,    // this session starts frame 0 (or its snapshot frame)
-        Refused,         // a handshake failed; detail says why
-        Interrupted,     // peer silent for interrupt_us
-        Resumed,         // heard again
-        Disconnected,    // slot dropped (frame: its inputs held here when dropped)
-        Partitioned,     // this session votes others gone but hears no majority of the view: it
-                         // drops nobody and stops confirming (frame: its confirmed frame); once
-                         // per episode, over when it hears a majority again or a drop is agreed
-        NeutralFrom,     // agreed: slot's input is the flagged neutral one from `frame`
-        Joined,          // slot (re)joined; frame: the first frame of its own inputs
-        SpectatorJoined,
-        SnapshotLoaded,  // this session loaded a snapshot of `frame`
-        SnapshotRejected,  // a transfer failed verification; asked again
-        DesyncDetected,  // frame: first mismatching confirmed frame with `peer`
-        DesyncRecovered, // this session reloaded the majority's state at `frame`
-        Kicked,          // the others dropped this session's slot
-        Failed,          // the session cannot go on; detail says why
-        Draining,        // relay: the server is shutting down (the match may finish)
-    };
-    Kind kind = Kind::Synchronizing;
-    PlayerId peer = 0;        // the slot or peer id concerned
-    std::uint32_t frame = 0;
-    std::uint64_t at_us = 0;
-    std::string detail;
-};
-const char* event_name(SessionEvent::Kind k);
 
 // Throws std::invalid_argument naming the field when a config is unusable.
 void validate(const SessionConfig& config);
@@ -439,8 +410,7 @@ private:
     std::vector<PlayerId> local_slots_;
     bool any_guest_ = false;
     std::vector<std::uint8_t> guest_scratch_;
-    std::deque<SessionEvent> events_;
-    std::uint64_t dropped_events_ = 0;
+    EventQueue events_;
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;

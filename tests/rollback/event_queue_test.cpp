@@ -1,0 +1,56 @@
+// EventQueue (rollback/session_event.h): the one bounded event stream both sessions use.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "rollback/session_event.h"
+
+namespace lockroll::rollback {
+namespace {
+
+using Kind = SessionEvent::Kind;
+
+TEST(EventQueue, EventsComeOutInOrderThenNone) {
+    EventQueue q;
+    SessionEvent e;
+    EXPECT_FALSE(q.pop(e));
+    q.push({Kind::Synchronized, 1, 0, 10, "start"});
+    q.push({Kind::Disconnected, 2, 40, 20, "timed out"});
+    ASSERT_TRUE(q.pop(e));
+    EXPECT_EQ(e.kind, Kind::Synchronized);
+    EXPECT_EQ(e.detail, "start");
+    ASSERT_TRUE(q.pop(e));
+    EXPECT_EQ(e.kind, Kind::Disconnected);
+    EXPECT_EQ(e.peer, 2);
+    EXPECT_EQ(e.frame, 40u);
+    EXPECT_EQ(e.at_us, 20u);
+    EXPECT_FALSE(q.pop(e));
+    EXPECT_EQ(q.dropped(), 0u);
+}
+
+// An owner that never drains cannot grow a session without bound; the oldest events go, counted,
+// and the newest (how the session ended) is kept.
+TEST(EventQueue, FullQueueDropsTheOldestAndCountsIt) {
+    EventQueue q;
+    const std::size_t extra = 10;
+    for (std::size_t i = 0; i < EventQueue::kCapacity + extra; ++i)
+        q.push({Kind::Interrupted, 0, static_cast<std::uint32_t>(i), i, ""});
+    q.push({Kind::Failed, 0, 99999, 0, "the end"});
+    EXPECT_EQ(q.size(), EventQueue::kCapacity);
+    EXPECT_EQ(q.dropped(), extra + 1);
+    SessionEvent e;
+    ASSERT_TRUE(q.pop(e));
+    EXPECT_EQ(e.frame, extra + 1);  // the first kept
+    SessionEvent last;
+    while (q.pop(e)) last = e;
+    EXPECT_EQ(last.kind, Kind::Failed);
+    EXPECT_EQ(last.detail, "the end");
+}
+
+TEST(EventQueue, EveryKindHasAName) {
+    for (int k = 0; k <= static_cast<int>(Kind::Draining); ++k)
+        EXPECT_STRNE(event_name(static_cast<Kind>(k)), "unknown") << "kind " << k;
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
