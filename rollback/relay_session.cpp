@@ -276,7 +276,8 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
             t.state.assign(state->begin(), state->end());
             t.streams.resize(static_cast<std::size_t>(config_.players));
             OutgoingTransfer o;
-            o.id = next_transfer_id_++;
+            o.id = next_transfer_id_;
+            next_transfer_id_ = next_transfer_id(next_transfer_id_);
             o.to = from;
             o.blob = pack_transfer(t, config_.input_size);
             o.created_us = now_us;

@@ -1392,8 +1392,8 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
         }
     }
     OutgoingTransfer out;
-    out.id = next_transfer_id_++;
-    if (next_transfer_id_ == 0) next_transfer_id_ = 1;
+    out.id = next_transfer_id_;
+    next_transfer_id_ = next_transfer_id(next_transfer_id_);
     out.peer = from;
     out.blob = pack_transfer(t, n);
     out.created_us = now_us;

@@ -41,6 +41,10 @@ std::string unpack_transfer(std::span<const std::uint8_t> blob, std::size_t stat
 
 std::uint64_t transfer_hash(std::span<const std::uint8_t> blob);
 
+// Transfer ids are never 0, which in a SnapshotRequestMessage means "please offer": the id after
+// `id`, skipping 0 when the count wraps. Both sessions number their offers with it.
+constexpr std::uint32_t next_transfer_id(std::uint32_t id) { return id == UINT32_MAX ? 1 : id + 1; }
+
 class TransferReceiver {
 public:
     // The offer must have size <= the caller's limit (checked by the caller).

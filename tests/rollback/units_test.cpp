@@ -1,9 +1,10 @@
-// Small parts on their own: input queue, snapshot ring, time sync, predictor.
+// Small parts on their own: input queue, snapshot ring, time sync, predictor, transfer ids.
 #include <gtest/gtest.h>
 
 #include "rollback/input_queue.h"
 #include "rollback/predictor.h"
 #include "rollback/snapshot_ring.h"
+#include "rollback/snapshot_transfer.h"
 #include "rollback/time_sync.h"
 
 namespace lockroll::rollback {
@@ -88,6 +89,15 @@ TEST(Predictor, RepeatsLastConfirmedOrNeutral) {
     const auto last = in(3);
     p.predict(1, 5, last, 4, out);
     EXPECT_EQ(out, last);
+}
+
+// Both sessions number their offers so: 0 asks for an offer and is never an id (the relay
+// session's counter used to wrap onto it).
+TEST(TransferIds, CountUpAndSkipZeroWhenTheyWrap) {
+    EXPECT_EQ(next_transfer_id(1), 2u);
+    EXPECT_EQ(next_transfer_id(UINT32_MAX - 1), UINT32_MAX);
+    EXPECT_EQ(next_transfer_id(UINT32_MAX), 1u);
+    EXPECT_NE(next_transfer_id(UINT32_MAX), 0u);
 }
 
 }  // namespace
