@@ -489,8 +489,10 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
         r.frame = frame();
         return r;
     }
+    // A caller's bug, handled as the P2P session does (session.h): counted, and the tick does
+    // nothing; it used to fail the session here.
     if (local_input.size() != config_.input_size) {
-        fail("advance: local input has the wrong size", now_us);
+        ++stats_.bad_local_inputs;
         r.frame = frame();
         return r;
     }

@@ -109,7 +109,8 @@ public:
     // A datagram from the server. Never throws or asserts on its content.
     void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
     // One tick: rolls back if needed, then steps once unless the window is full. local_input
-    // becomes this client's input of frame() + input_delay() (players only).
+    // becomes this client's input of frame() + input_delay() (players only). Input of the wrong
+    // size is a caller's bug, counted in stats().bad_local_inputs, and the tick does nothing.
     AdvanceResult advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept;
     // Appends the datagrams for the server: hellos, one input message per tick, forwards.
     void poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept;

@@ -181,6 +181,27 @@ TEST(RelayMatch, ClockEightPercentFastKeepsItsLead) {
     expect_equal_at(cl, {0, 1}, 10800);
 }
 
+// A wrong-size local input is the caller's bug, handled as the P2P session handles it: counted,
+// the tick does nothing, the match goes on (the relay session used to fail at once).
+TEST(RelayMatch, WrongSizeLocalInputIsCountedAndSkipped) {
+    const auto scene = rollback::testing::make_scene(2, 10);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 80 + static_cast<std::uint64_t>(s));
+    ASSERT_TRUE(cl.run_until_frame(60));
+    auto& c = cl.client(0);
+    const std::uint32_t before = c.session->frame();
+    const std::uint8_t one = 0;
+    const auto r = c.session->advance(std::span(&one, 1), cl.now());
+    EXPECT_FALSE(r.advanced);
+    EXPECT_EQ(r.frame, before);
+    EXPECT_EQ(c.session->stats().bad_local_inputs, 1u);
+    EXPECT_NE(c.session->phase(), rollback::SessionPhase::Failed);
+    ASSERT_TRUE(cl.run_until_frame(300));
+    cl.run_for(1'000'000);
+    expect_equal_at(cl, {0, 1}, 300);
+}
+
 TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
     const auto scene = rollback::testing::make_scene(3, 20);
     RelayCluster cl(scene);
