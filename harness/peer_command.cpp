@@ -98,12 +98,6 @@ struct PeerPlan {
     spdlog::level::level_enum log_level = spdlog::level::info;
 };
 
-std::uint64_t thread_cpu_ns() {
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
-
 double raw_to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
 
 PeerPlan plan(const PeerOptions& o) {
@@ -548,11 +542,11 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     rc.room_id = match_hash(p.o.room);
     for (int a : p.o.absent) rc.absent_slots = static_cast<std::uint16_t>(rc.absent_slots | (1u << a));
     rc.max_recoveries = std::max(p.o.recoveries, 0);
-    rc.cpu_clock = thread_cpu_ns;
+    rc.cpu_clock = net::thread_cpu_ns;
     // The token a reconnect resumes the slot with: random, so no other client can take it over.
     std::random_device rd;
     rc.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
-    TimedSimulation timed(sim, thread_cpu_ns, rec.match.physics_step_us());
+    TimedSimulation timed(sim, net::thread_cpu_ns, rec.match.physics_step_us());
     rollback::RelaySession session(rc, timed, &rec);
     rec.watch(session);
     // The relay client's one round trip, to the server (peer -1 in the report).
@@ -611,7 +605,7 @@ int do_peer(const PeerOptions& options) {
     sc.input_delay = p.o.input_delay;
     sc.prediction_window = p.mode == Mode::Lockstep ? 0 : p.o.prediction;
     sc.checksum_interval = p.o.checksum_interval;
-    sc.cpu_clock = thread_cpu_ns;
+    sc.cpu_clock = net::thread_cpu_ns;
     // Real networks: hello/welcome with match id and scene checksum, an RTT phase before frame 0,
     // agreed disconnects, joins and spectators by snapshot (docs/sessions.md).
     sc.handshake = true;
@@ -621,7 +615,7 @@ int do_peer(const PeerOptions& options) {
     sc.role = p.o.spectate ? rollback::Role::Spectator : p.o.join ? rollback::Role::Joiner : rollback::Role::Player;
     sc.disconnect_us = static_cast<std::uint64_t>(p.o.disconnect_timeout * 1e6);
     sc.max_recoveries = p.o.recoveries;
-    TimedSimulation timed(sim, thread_cpu_ns, rec.match.physics_step_us());
+    TimedSimulation timed(sim, net::thread_cpu_ns, rec.match.physics_step_us());
     rollback::Session session(sc, timed, &rec);
     rec.watch(session);
     rec.view.sample_rtt = [&session, slot = p.o.slot](MatchRecorder& m) {

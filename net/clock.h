@@ -10,7 +10,12 @@
 // skew 0 (the default) is now_us() itself. It exists for the clock-skew fault tests (`lockroll
 // peer --clock-skew-ppm`, docs/reliability.md): everything a PeerRunner times goes through it.
 // Still monotonic (the rate stays >= 0.5), microseconds, exact integer arithmetic.
+//
+// thread_cpu_ns() is the calling thread's CPU time, for telemetry only (the sessions' cpu_clock:
+// CPU per tick, rollback cost); it decides nothing.
 #pragma once
+
+#include <time.h>
 
 #include <chrono>
 #include <cstdint>
@@ -23,6 +28,12 @@ inline std::uint64_t now_us() {
     return static_cast<std::uint64_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
             .count());
+}
+
+inline std::uint64_t thread_cpu_ns() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
 class Clock {

@@ -132,6 +132,7 @@ rollback::RelaySessionConfig SessionBuilder::relay_config() const {
     c.input_size = input_size_;
     c.tick_rate = tick_rate_;
     c.input_delay = input_delay_;
+    c.cpu_clock = thread_cpu_ns;  // the sessions read no clock themselves
     c.auto_input_delay = !input_delay_set_;
     c.prediction_window = prediction_window_set_ ? prediction_window_ : 20;
     c.room_id = match_id_;
@@ -179,6 +180,7 @@ rollback::SessionConfig SessionBuilder::session_config() const {
     c.input_size = input_size_;
     c.tick_rate = tick_rate_;
     c.input_delay = input_delay_;
+    c.cpu_clock = thread_cpu_ns;  // the sessions read no clock themselves
     c.prediction_window = prediction_window_;
     c.handshake = true;
     c.match_id = match_id_;

@@ -80,7 +80,7 @@ struct RelaySessionConfig {
     // no new chunk) fails the session, naming the source: a source that is hung, or lies and
     // never serves, must not hold this client in Transferring for ever. 0: wait for ever.
     std::uint64_t transfer_timeout_us = 10'000'000;
-    CpuClock cpu_clock;
+    CpuClock cpu_clock;                 // telemetry only (CPU per tick, rollback cost); none: 0
 };
 
 // Throws std::invalid_argument naming the field.

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -10,12 +9,6 @@
 namespace lockroll::rollback {
 
 namespace {
-std::uint64_t steady_ns() {
-    return static_cast<std::uint64_t>(
-        std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-            .count());
-}
-
 void require(bool ok, const std::string& what) {
     if (!ok) throw std::invalid_argument("session config: " + what);
 }
@@ -149,7 +142,8 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
       membership_(0, 0, config.two_player_rule) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
-    if (!config_.cpu_clock) config_.cpu_clock = steady_ns;
+    // No clock is read in rollback/: telemetry times come from the caller's clock, or are 0.
+    if (!config_.cpu_clock) config_.cpu_clock = [] { return std::uint64_t{0}; };
     if (!predictor) {
         default_predictor_ = std::make_unique<RepeatLastPredictor>();
         predictor = default_predictor_.get();

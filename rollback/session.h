@@ -122,7 +122,7 @@ struct SessionConfig {
     int time_sync_every = 8;           // time-sync fields ride on every Nth message
     std::uint64_t query_resend_us = 100000;  // desync narrowing: re-ask after this long
     int max_replies_per_poll = 16;     // per peer: answers beyond this are dropped (re-asked)
-    CpuClock cpu_clock;                // telemetry only; default std::chrono::steady_clock
+    CpuClock cpu_clock;                // telemetry only (CPU per tick, rollback cost); none: 0
 
     // ---- lifecycle (docs/sessions.md) ----
     // false: every slot not in absent_slots is running from frame 0 with no handshake (the
