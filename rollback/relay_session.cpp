@@ -503,14 +503,10 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
     revise_input_delay(now_us);
     add_own_input(local_input);
     if (sync_->must_wait(0)) {
-        ++stats_.stall_ticks;
-        if (!stalled_since_) stalled_since_ = now_us;
+        stall_.stalled(now_us, stats_);
         r.blocking_player = sync_->blocking_player();
     } else {
-        if (stalled_since_) {
-            stats_.stall_time_us += now_us - *stalled_since_;
-            stalled_since_.reset();
-        }
+        stall_.stepped(now_us, stats_);
         const std::uint64_t t1 = config_.cpu_clock();
         sync_->step_forward();
         r.forward_ns = config_.cpu_clock() - t1;

@@ -210,7 +210,7 @@ private:
     // Room clock estimate: the largest (room clock - local clock) seen in a window of samples.
     std::deque<std::int64_t> clock_offsets_;
     std::optional<std::int64_t> clock_offset_;
-    std::optional<std::uint64_t> stalled_since_;
+    StallTracker stall_;
     // slot flags of the newest confirmed frame (for Joined / Disconnected events)
     std::vector<std::uint8_t> slot_flags_;
     std::vector<bool> slot_seen_;

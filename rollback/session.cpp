@@ -1121,16 +1121,11 @@ AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, s
     const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
                                 : sync_->must_wait(input_delay_);
     if (wait) {
-        ++stats_.stall_ticks;
-        if (!stalled_since_) stalled_since_ = now_us;
+        stall_.stalled(now_us, stats_);
         result.blocking_player = sync_->blocking_player();
     } else {
-        if (stalled_since_) {
-            stats_.stall_time_us += now_us >= *stalled_since_ ? now_us - *stalled_since_ : 0;
-            stalled_since_.reset();
-        } else if (!input_taken && !spectator && !joining_) {
-            ++stats_.dropped_local_inputs;  // the delay just shrank
-        }
+        const bool ended_stall = stall_.stepped(now_us, stats_);
+        if (!ended_stall && !input_taken && !spectator && !joining_) ++stats_.dropped_local_inputs;  // the delay just shrank
         const std::uint64_t forward_before = stats_.forward_ns;
         sync_->step_forward();
         result.forward_ns = stats_.forward_ns - forward_before;

@@ -281,7 +281,7 @@ public:
     std::uint32_t frame() const { return sync_->frame(); }
     std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
     int input_delay() const { return input_delay_; }
-    bool stalled() const { return stalled_since_.has_value(); }
+    bool stalled() const { return stall_.stalled(); }
     // Checksum of a confirmed frame, while remembered.
     std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const {
         return detector_->local_checksum(frame);
@@ -391,7 +391,7 @@ private:
     std::vector<int> replies_this_poll_;
     std::vector<Datagram> pending_out_;
     int input_delay_;
-    std::optional<std::uint64_t> stalled_since_;
+    StallTracker stall_;
     std::uint32_t next_time_sync_frame_ = 0;
     // decode scratch, reused
     InputMessage in_msg_;

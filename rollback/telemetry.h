@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace lockroll::rollback {
@@ -49,6 +50,28 @@ struct SessionStats {
     // timeout is counted here too.
     std::uint64_t drop_votes_unheeded = 0;
     std::vector<PeerStats> peers;         // by player id; the local slot stays zero
+};
+
+// The stall bookkeeping both sessions share: a tick that cannot step starts or continues a
+// stall, the next step ends it and adds its length to stall_time_us. Time comes from the caller
+// and need not be monotonic: a stall never adds a negative (wrapped) length.
+class StallTracker {
+public:
+    void stalled(std::uint64_t now_us, SessionStats& s) {
+        ++s.stall_ticks;
+        if (!since_) since_ = now_us;
+    }
+    // A step: true when it ended a stall.
+    bool stepped(std::uint64_t now_us, SessionStats& s) {
+        if (!since_) return false;
+        s.stall_time_us += now_us >= *since_ ? now_us - *since_ : 0;
+        since_.reset();
+        return true;
+    }
+    bool stalled() const { return since_.has_value(); }
+
+private:
+    std::optional<std::uint64_t> since_;
 };
 
 }  // namespace lockroll::rollback

@@ -5,6 +5,7 @@
 #include "rollback/predictor.h"
 #include "rollback/snapshot_ring.h"
 #include "rollback/snapshot_transfer.h"
+#include "rollback/telemetry.h"
 #include "rollback/time_sync.h"
 
 namespace lockroll::rollback {
@@ -98,6 +99,25 @@ TEST(TransferIds, CountUpAndSkipZeroWhenTheyWrap) {
     EXPECT_EQ(next_transfer_id(UINT32_MAX - 1), UINT32_MAX);
     EXPECT_EQ(next_transfer_id(UINT32_MAX), 1u);
     EXPECT_NE(next_transfer_id(UINT32_MAX), 0u);
+}
+
+// Both sessions' stall bookkeeping. The relay session subtracted unguarded: a caller whose time
+// stepped back during a stall added about 2^64 microseconds of stall.
+TEST(StallTracker, CountsTicksAndTimeAndNeverWraps) {
+    SessionStats s;
+    StallTracker t;
+    EXPECT_FALSE(t.stepped(100, s));
+    t.stalled(1000, s);
+    t.stalled(1016, s);
+    EXPECT_TRUE(t.stalled());
+    EXPECT_TRUE(t.stepped(1050, s));
+    EXPECT_EQ(s.stall_ticks, 2u);
+    EXPECT_EQ(s.stall_time_us, 50u);
+    EXPECT_FALSE(t.stalled());
+    t.stalled(5000, s);
+    EXPECT_TRUE(t.stepped(4000, s));  // time went back
+    EXPECT_EQ(s.stall_time_us, 50u);
+    EXPECT_EQ(s.stall_ticks, 3u);
 }
 
 }  // namespace
