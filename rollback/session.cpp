@@ -16,9 +16,15 @@ std::uint64_t steady_ns() {
             .count());
 }
 
-void require(bool ok, const std::string& what) {
-    if (!ok) throw std::invalid_argument("session config: " + what);
-}
+[[noreturn]] void config_error(const std::string& what) { throw std::invalid_argument("session config: " + what); }
+// A macro, so that a check's message (a std::string, often with std::to_string in it) is built
+// only when the check fails: validate() runs in every construction, and building its forty-odd
+// messages eagerly was a quarter of the allocations of constructing a session. #undef after
+// validate().
+#define require(ok, what)              \
+    do {                               \
+        if (!(ok)) config_error(what); \
+    } while (false)
 
 std::uint32_t next_pow2(std::uint64_t v) {
     std::uint32_t p = 1;
@@ -142,6 +148,7 @@ void validate(const SessionConfig& c) {
         require(!guests || c.role == Role::Player, "a joiner cannot host other slots yet");
     }
 }
+#undef require
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
