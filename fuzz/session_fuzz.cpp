@@ -11,16 +11,17 @@
 // and narrow it with queries and replies, which the fuzzer then corrupts.
 // Property: no crash, hang or sanitizer report; session 0 keeps a bounded amount of state.
 //
-// Speed (issues 11 and 22: 10 M executions by hand). The cost of an execution is the session's
-// own code, instrumented: every comparison in it calls libFuzzer's trace-cmp hook, and about
-// 2,500 of them run per tick of the three sessions, besides ASan's allocator; libFuzzer's own
-// bookkeeping and building the three sessions come on top of every input (issue 22's profile
-// is in docs/reliability.md). So an input is kept short and each tick lean:
-//  - at most kMaxTicks (16) ticks, and the session's periods scaled to them so that what a long
+// Speed (issues 11 and 22: 10 M executions by hand). What an execution costs is the session's
+// own code, instrumented: every comparison in it calls libFuzzer's trace-cmp hook (about 2,500
+// per tick of the three sessions), besides ASan's allocator, and every input also pays
+// libFuzzer's feature bookkeeping and the construction of three sessions (issue 22's profile is
+// in docs/reliability.md). So an input is short and its ticks lean:
+//  - at most kMaxTicks (12) ticks, with the session's periods scaled to them so that what a long
 //    match reaches is reached within them: a silent peer is interrupted after 2 ticks and
-//    dropped after 6 (then the neutral-input agreement), a time-sync recommendation every 4
-//    ticks, an unanswered desync query re-asked after 2; input queues of the smallest capacity
-//    (64 frames) and 16 evidence frames;
+//    dropped after 5 (then the neutral-input agreement), a time-sync recommendation every 3
+//    ticks, an unanswered desync query re-asked after 2, 2 evidence frames (a snapshot ring of
+//    11, so it wraps); input queues of the smallest capacity (64 frames; they no longer wrap);
+//    the desync at frame 5 is found and narrowed to its field within the 12 ticks;
 //  - the game is a toy (Beads, below): eight bodies of two integer fields, stepped in a few
 //    dozen instructions and left out of the coverage instrumentation (it is not what is fuzzed;
 //    the World's bytes are fuzzed by snapshot_fuzz and scene_fuzz, and the session sees only
@@ -102,7 +103,7 @@ private:
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     constexpr int kPlayers = 3;
-    constexpr int kMaxTicks = 16;
+    constexpr int kMaxTicks = 12;
     constexpr std::uint64_t kTickUs = 16667;
     std::vector<std::unique_ptr<Beads>> sims;
     std::vector<std::unique_ptr<Session>> sessions;
@@ -112,10 +113,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         cfg.local_player = static_cast<PlayerId>(p);
         cfg.max_bad_packets = p == 0 ? 1 << 30 : 8;  // the target never stops listening
         cfg.input_capacity = 64;
-        cfg.evidence_frames = 16;
-        cfg.time_sync_window = 4;
+        cfg.evidence_frames = 2;
+        cfg.time_sync_window = 3;
         cfg.interrupt_us = 2 * kTickUs;
-        cfg.disconnect_us = 6 * kTickUs;
+        cfg.disconnect_us = 5 * kTickUs;
         cfg.query_resend_us = 2 * kTickUs;
         cfg.cpu_clock = [] { return std::uint64_t{0}; };
         sims.push_back(std::make_unique<Beads>());
