@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
 
     // session: scripts of ticks, corrupted ticks, losses and raw datagrams (session_fuzz.cpp),
     // each within its 12 ticks: intact play, the desync and its narrowing, a mix, and peer 1
-    // silent long enough to be dropped (5 ticks) followed by the neutral-input agreement.
+    // silent to session 0 long enough (5 ticks) for session 0 to vote it gone.
     std::vector<std::uint8_t> ticks(1, 0), desync(1, 1), mixed(1, 0), drop(1, 0);
     for (int i = 0; i < 12; ++i) ticks.push_back(1);
     for (int i = 0; i < 12; ++i) desync.push_back(1);

@@ -1,7 +1,7 @@
 // libFuzzer target: a live session fed datagrams from fuzzed peers (rollback/session.h).
 // Session 0 of a 3-player game is the target; sessions 1 and 2 are real peers. The input is a
 // script of operations, so the fuzzer reaches deep states (rollbacks, confirmations, desync
-// narrowing, drops) and then corrupts the traffic that drives them:
+// narrowing, votes on a silent peer) and then corrupts the traffic that drives them:
 //   op % 4 == 0  [from][len][len bytes]  a raw datagram to session 0 (from 3 is out of range)
 //   op % 4 == 1                          one tick of everyone, traffic delivered intact
 //   op % 4 == 2  [at][xor]               one tick; every datagram to session 0 has byte
@@ -17,11 +17,13 @@
 // libFuzzer's feature bookkeeping and the construction of three sessions (issue 22's profile is
 // in docs/reliability.md). So an input is short and its ticks lean:
 //  - at most kMaxTicks (12) ticks, with the session's periods scaled to them so that what a long
-//    match reaches is reached within them: a silent peer is interrupted after 2 ticks and
-//    dropped after 5 (then the neutral-input agreement), a time-sync recommendation every 3
-//    ticks, an unanswered desync query re-asked after 2, 2 evidence frames (a snapshot ring of
-//    11, so it wraps); input queues of the smallest capacity (64 frames; they no longer wrap);
-//    the desync at frame 5 is found and narrowed to its field within the 12 ticks;
+//    match reaches is reached within them: a silent peer is interrupted after 2 ticks and voted
+//    gone after 5 (since issue 21's majority rule, session 0's vote alone drops nobody, and no
+//    op silences a peer to sessions 0 and 2 both: docs/reliability.md), a time-sync
+//    recommendation every 3 ticks, an unanswered desync query re-asked after 2, 2 evidence
+//    frames (a snapshot ring of 11, so it wraps); input queues of the smallest capacity (64
+//    frames; they no longer wrap); the desync at frame 5 is found and narrowed to its field
+//    within the 12 ticks;
 //  - the game is a toy (Beads, below): eight bodies of two integer fields, stepped in a few
 //    dozen instructions and left out of the coverage instrumentation (it is not what is fuzzed;
 //    the World's bytes are fuzzed by snapshot_fuzz and scene_fuzz, and the session sees only
