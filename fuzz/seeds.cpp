@@ -78,22 +78,26 @@ int main(int argc, char** argv) {
         put(root / "protocol", "reply_unavailable" + std::to_string(static_cast<int>(what)), with_size(rb));
     }
 
-    // session: scripts of ticks, corrupted ticks, losses and raw datagrams (session_fuzz.cpp).
-    std::vector<std::uint8_t> ticks(1, 0), desync(1, 1), mixed(1, 0);
-    for (int i = 0; i < 120; ++i) ticks.push_back(1);
-    for (int i = 0; i < 150; ++i) desync.push_back(1);
-    for (int i = 0; i < 60; ++i) {
+    // session: scripts of ticks, corrupted ticks, losses and raw datagrams (session_fuzz.cpp),
+    // each within its 12 ticks: intact play, the desync and its narrowing, a mix, and peer 1
+    // silent to session 0 long enough (5 ticks) for session 0 to vote it gone.
+    std::vector<std::uint8_t> ticks(1, 0), desync(1, 1), mixed(1, 0), drop(1, 0);
+    for (int i = 0; i < 12; ++i) ticks.push_back(1);
+    for (int i = 0; i < 12; ++i) desync.push_back(1);
+    for (int i = 0; i < 12; ++i) {
         mixed.push_back(static_cast<std::uint8_t>(1 + i % 3));
         if (i % 3 == 1) mixed.insert(mixed.end(), {static_cast<std::uint8_t>(i), 0x40});
-        if (i % 10 == 0) {
+        if (i % 4 == 0) {
             const auto d = input_message(3, true, 1);
             mixed.insert(mixed.end(), {0, 1, static_cast<std::uint8_t>(d.size())});
             mixed.insert(mixed.end(), d.begin(), d.end());
         }
     }
+    for (int i = 0; i < 12; ++i) drop.push_back(i >= 1 && i < 7 ? 3 : 1);
     put(root / "session", "ticks", ticks);
     put(root / "session", "desync", desync);
     put(root / "session", "mixed", mixed);
+    put(root / "session", "drop", drop);
 
     // replay: a small synthetic one and a two-block one with a real scene's text.
     for (std::uint32_t frames : {3u, 300u}) {

@@ -26,8 +26,7 @@ DesyncDetector::DesyncDetector(const DesyncConfig& config, int players, PlayerId
       ring_(ring),
       observer_(observer),
       stats_(stats),
-      history_(config.history, 0),
-      history_tag_(config.history, 0),
+      history_(std::make_unique<Remembered[]>(config.history)),
       peers_(static_cast<std::size_t>(players)) {
     if (config.history < 2 || (config.history & (config.history - 1)) != 0)
         throw std::invalid_argument("checksum history must be a power of two >= 2");
@@ -36,8 +35,8 @@ DesyncDetector::DesyncDetector(const DesyncConfig& config, int players, PlayerId
 
 std::optional<std::uint64_t> DesyncDetector::local_checksum(std::uint32_t frame) const {
     const std::size_t i = frame & (config_.history - 1);
-    if (history_tag_[i] != std::uint64_t{frame} + 1) return std::nullopt;
-    return history_[i];
+    if (history_[i].tag != std::uint64_t{frame} + 1) return std::nullopt;
+    return history_[i].checksum;
 }
 
 void DesyncDetector::reset_peer(PlayerId peer) {
@@ -50,7 +49,7 @@ void DesyncDetector::restart_at(std::uint32_t frame, std::uint64_t checksum) {
         ps.last_compared_plus1 = frame + 1;
     }
     pinned_.clear();
-    std::fill(history_tag_.begin(), history_tag_.end(), 0);
+    std::fill_n(history_.get(), config_.history, Remembered{});
     add_local(frame, checksum);
 }
 
@@ -64,8 +63,7 @@ std::optional<std::uint64_t> DesyncDetector::remote_checksum(PlayerId peer, std:
 
 void DesyncDetector::add_local(std::uint32_t frame, std::uint64_t checksum) {
     const std::size_t i = frame & (config_.history - 1);
-    history_[i] = checksum;
-    history_tag_[i] = std::uint64_t{frame} + 1;
+    history_[i] = {checksum, std::uint64_t{frame} + 1};
     newest_local_ = frame;
     any_local_ = true;
     for (std::size_t p = 0; p < peers_.size(); ++p) {

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
@@ -118,8 +119,14 @@ private:
     const SnapshotRing& ring_;
     SessionObserver* observer_;
     SessionStats& stats_;
-    std::vector<std::uint64_t> history_;       // checksum by frame & (history - 1)
-    std::vector<std::uint64_t> history_tag_;   // frame + 1
+    // Confirmed checksums by frame & (history - 1); tag is frame + 1, 0 = empty. One zeroed
+    // block (make_unique<[]> is a memset) rather than vectors filled element by element: a
+    // session builds its detector on construction, with at least 1,024 entries.
+    struct Remembered {
+        std::uint64_t checksum;
+        std::uint64_t tag;
+    };
+    std::unique_ptr<Remembered[]> history_;
     std::uint32_t newest_local_ = 0;
     bool any_local_ = false;
     std::vector<PeerState> peers_;

@@ -91,7 +91,10 @@ bool Membership::majority(int votes) const { return votes >= majority_size(); }
 
 bool Membership::decided_gone(PlayerId s) const {
     if (s >= slots_.size() || !voter(s)) return false;
-    return majority(gone_votes(s));
+    // A majority is at least one vote, so no vote decides nothing; checked first because the
+    // session asks about every slot every tick and majority() walks the whole view.
+    const int votes = gone_votes(s);
+    return votes > 0 && majority(votes);
 }
 
 PlayerId Membership::next_gone() const {

@@ -101,6 +101,14 @@ void encode(const InputMessage& m, std::size_t input_size, std::vector<std::uint
             if (b.frame_count == 0 || b.inputs.size() != std::size_t{b.frame_count} * input_size)
                 throw std::invalid_argument("input message: bad stream block");
     }
+    // One allocation for the whole message instead of a doubling per few bytes (the input
+    // message goes out to every peer every tick): runs take at most 1 + input_size bytes a frame.
+    std::size_t bound = kInputHeaderBytes + std::size_t{m.frame_count} * (1 + input_size) + kTimeSyncBytes + kChecksumBytes;
+    if (m.has_extension) {
+        bound += 2 + m.slots.size() * 5;
+        for (const StreamBlock& b : m.blocks) bound += 5 + std::size_t{b.frame_count} * (1 + input_size);
+    }
+    out.reserve(out.size() + bound);
     ByteWriter w(out);
     std::uint8_t kind = static_cast<std::uint8_t>(MessageKind::Input);
     if (m.has_time_sync) kind |= kFlagTimeSync;

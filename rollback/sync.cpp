@@ -69,13 +69,20 @@ std::uint32_t Sync::all_confirmed_inputs() const {
 
 void Sync::set_keep_from(PlayerId player, std::uint32_t frame) {
     keep_from_[player] = frame;
-    update_floors();
+    // Only this queue's floor can move: another queue's floor depends on the confirmed frame and
+    // its own keep_from, and neither changed since update_floors() or set_keep_from() last set
+    // it. O(1), because the session calls this for every slot several times a tick.
+    queues_[player].discard_before(std::min(retained_floor(), frame));
+}
+
+std::uint32_t Sync::retained_floor() const {
+    return confirmed_frame_ > config_.retain_frames ? confirmed_frame_ - config_.retain_frames : 0;
 }
 
 // Inputs older than the next frame to confirm are never read again (rollback targets are never
 // older than that either), except ones a peer still needs from us (resends and relays).
 void Sync::update_floors() {
-    const std::uint32_t retained = confirmed_frame_ > config_.retain_frames ? confirmed_frame_ - config_.retain_frames : 0;
+    const std::uint32_t retained = retained_floor();
     for (std::size_t p = 0; p < queues_.size(); ++p) queues_[p].discard_before(std::min(retained, keep_from_[p]));
 }
 

@@ -133,6 +133,7 @@ private:
     std::uint32_t all_confirmed_inputs() const;
     std::uint32_t remote_confirmed_inputs() const;
     void update_floors();
+    std::uint32_t retained_floor() const;  // confirmed_frame() - retain_frames, at least 0
 
     struct Fault {
         std::uint32_t frame;
