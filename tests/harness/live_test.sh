@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `lockroll live` with real processes on 127.0.0.1 (free ports, bounded by live's own time limit
 # and CTest's timeout): 3 players through impairment proxies at 5 % loss; a kill and a rejoin; a
-# late join with a spectator; an injected desync; bad flags. Outcomes only (checksums, events).
+# two-player kill (the survivor completes "alone since frame F"); a late join with a spectator; an
+# injected desync; bad flags. Outcomes only (checksums, events). Partitions: live_partition_test.sh.
 set -u
 lockroll=$1
 source "$(dirname "$0")/live_check.sh"
