@@ -152,6 +152,9 @@ void PeerRunner::drain_session_events() {
 // say it came out of a partition. So an episode ends only once the session, no longer cut off,
 // confirms frames again (which a dropped minority never does).
 bool PeerRunner::track_partition() {
+    // The event gives the frame; should it have been lost (a full event queue), the session's
+    // state still opens the episode, at its confirmed frame as the event would have said.
+    if (!partitioned_since_ && session_.partitioned()) partitioned_since_ = session_.confirmed_frame();
     if (!partitioned_since_) return false;
     if (session_.partitioned()) {
         confirmed_while_partitioned_ = std::max(confirmed_while_partitioned_, session_.confirmed_frame());
