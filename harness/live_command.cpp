@@ -562,6 +562,18 @@ RunResult collect(const LivePlan& p, Mode mode, const fs::path& dir, const std::
         }
         recorded.push_back(RecordedSamples::from_json(samples));
         const RecordedSamples& m = recorded.back();
+        // Said as the process said it: a partition is the network's doing, reported truthfully,
+        // and its figures up to the cut count like any other process's.
+        if (s.value("outcome", "") == "partitioned")
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): partitioned since frame " +
+                              s.value("partitioned_since_frame", json(nullptr)).dump() +
+                              " (heard no majority of the match), not completed; its figures count up to then");
+        else if (s.contains("partitioned_since_frame"))
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): " + s.value("outcome_detail", "") +
+                              "; its figures count up to then");
+        if (s.contains("alone_since_frame") && s.value("outcome", "") == "completed")
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): completed alone since frame " +
+                              s["alone_since_frame"].dump() + " (the other player was dropped)");
         const bool final_confirmed = s["final_checksum"].is_string();
         if (!final_confirmed || rec.exit_status != 0) r.completed = false;
         r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
@@ -714,6 +726,9 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"longest_stall_ms", s.is_object() ? s["longest_stall_ms"] : json(nullptr)},
                   {"clock_skew_ppm", s.is_object() ? s.value("clock_skew_ppm", 0) : 0},
                   {"snapshot_chunks_damaged", s.is_object() ? s.value("snapshot_chunks_damaged", 0) : 0},
+                  {"outcome_detail", s.is_object() ? s.value("outcome_detail", "") : ""},
+                  {"partitioned_since_frame", s.is_object() ? s.value("partitioned_since_frame", json(nullptr)) : json(nullptr)},
+                  {"alone_since_frame", s.is_object() ? s.value("alone_since_frame", json(nullptr)) : json(nullptr)},
                   {"killed_at_frame", r.killed ? json(r.killed_at_frame) : json(nullptr)},
                   {"disconnects", disconnects},
                   {"joins", joins},
@@ -722,14 +737,36 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
         if (!r.killed && s.is_object() && s["final_checksum"].is_string()) finals.push_back(s["final_checksum"]);
         procs.push_back(p);
     }
+    // A split run (issue 21): the processes cut off from a majority say "partitioned" and exit 1,
+    // truthfully, or, if the network healed after the majority dropped them, "failed" (kicked)
+    // with the frame they had been partitioned since; that is the network's doing, not a failure
+    // of the match or the harness. The run fails only if a process that was neither killed nor on
+    // the cut-off side did not complete, or two final checksums differ (overclaims are added by
+    // the caller). Every process partitioned (no majority anywhere) is a split with nobody
+    // completed, which is not a failure either.
     bool survivors_ok = true;
-    for (const auto& r : recs)
+    int completed = 0, partitioned = 0;
+    json partitioned_names = json::array();
+    for (const auto& r : recs) {
+        const std::string outcome = r.summary.is_object() ? r.summary.value("outcome", "") : "";
+        const bool cut_off = outcome == "partitioned" || (outcome == "failed" && r.summary.contains("partitioned_since_frame"));
+        if (r.started && !r.killed && cut_off && r.exit_status != 0) {
+            ++partitioned;
+            partitioned_names.push_back(r.name);
+            continue;
+        }
+        if (r.started && !r.killed && outcome == "completed" && r.exit_status == 0) ++completed;
         if (!r.killed && (!r.started || r.exit_status != 0)) survivors_ok = false;
+    }
     const bool equal = !finals.empty() && std::all_of(finals.begin(), finals.end(), [&](const auto& f) { return f == finals[0]; });
+    const bool agreed = finals.empty() ? partitioned > 0 : equal;
     return {{"processes", procs},
             {"final_checksums_equal", equal},
             {"survivors_completed", survivors_ok},
-            {"ok", equal && survivors_ok}};
+            // partitioned: processes on the cut-off side (outcome partitioned, or failed: kicked
+            // out of a partition once it healed).
+            {"split", {{"completed", completed}, {"partitioned", partitioned}, {"partitioned_processes", partitioned_names}}},
+            {"ok", agreed && survivors_ok}};
 }
 
 std::string side_by_side(const std::vector<std::pair<std::string, const RunResult*>>& runs) {
@@ -839,6 +876,12 @@ int do_live(const LiveOptions& options) {
             ok = ok && lj["ok"].get<bool>();
             modes[name] = lj;
             std::printf("real processes, %s", console_summary(r).c_str());
+            if (const json& split = lj["split"]; split["partitioned"].get<int>() > 0)
+                std::printf("  split        %d completed%s, %d partitioned (%s)\n", split["completed"].get<int>(),
+                            split["completed"].get<int>() == 0 ? ""
+                            : lj["final_checksums_equal"].get<bool>() ? " on one final"
+                                                                      : " on DIFFERENT finals",
+                            split["partitioned"].get<int>(), split["partitioned_processes"].dump().c_str());
             if (primary && name == mode_name(m) + std::string()) live.emplace(m, r);
             if (primary && relay && name == "relay-" + std::string(mode_name(m))) live.emplace(m, r);
             topo_extra[name] = extra;

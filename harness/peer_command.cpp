@@ -410,9 +410,28 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     const std::uint64_t end_us = rec.now_us();
     const std::optional<std::uint64_t> final_checksum = rec.match.final_checksum();
     const bool ok = outcome == net::RunOutcome::Completed && final_checksum;
-    rec.event("finished", end_us, {{"outcome", net::outcome_name(outcome)}, {"final_checksum", final_checksum ? json(hex16(*final_checksum)) : json(nullptr)}});
-    log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", net::outcome_name(outcome),
-             session.frame(), session.confirmed_frame());
+    // What the outcome does not say by its name (the P2P runner only; the relay has a server):
+    // a completion played alone (two players, the other dropped), a partition, and why it failed.
+    std::optional<std::uint32_t> partitioned_since, alone_since;
+    if constexpr (requires { runner.partitioned_since(); }) {
+        partitioned_since = runner.partitioned_since();
+        alone_since = runner.alone_since();
+    }
+    std::string detail = net::outcome_name(outcome);
+    if (outcome == net::RunOutcome::Completed && alone_since) detail += " alone since frame " + std::to_string(*alone_since);
+    if (outcome == net::RunOutcome::Partitioned)
+        detail += " since frame " + std::to_string(partitioned_since.value_or(0)) + " (heard no majority of the match; did not complete)";
+    if (outcome == net::RunOutcome::Failed) {
+        detail += ": " + session.failure();
+        if (partitioned_since) detail += "; had been partitioned since frame " + std::to_string(*partitioned_since);
+    }
+    json finished = {{"outcome", net::outcome_name(outcome)}, {"detail", detail},
+                     {"final_checksum", final_checksum ? json(hex16(*final_checksum)) : json(nullptr)}};
+    if (partitioned_since) finished["partitioned_since_frame"] = *partitioned_since;
+    if (alone_since) finished["alone_since_frame"] = *alone_since;
+    rec.event("finished", end_us, finished);
+    log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", detail, session.frame(),
+             session.confirmed_frame());
 
     // summary.json: run's keys through the same code, for a "match" of this one process.
     const rollback::SessionStats& st = session.stats();
@@ -453,6 +472,10 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     s["slot"] = p.o.slot;
     s["match_id"] = p.o.match_id;
     s["outcome"] = net::outcome_name(outcome);
+    s["outcome_detail"] = detail;
+    // Present only when true of this run: a reader can test for the key.
+    if (partitioned_since) s["partitioned_since_frame"] = *partitioned_since;
+    if (alone_since) s["alone_since_frame"] = *alone_since;
     s["final_checksum"] = final_checksum ? json(hex16(*final_checksum)) : json(nullptr);
     json cps = json::array();
     for (const auto& [f, c] : m.confirmed) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});
@@ -476,8 +499,8 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     write_file_atomic(fs::path(p.o.out) / "positions.csv", rec.positions_csv());
     write_file_atomic(fs::path(p.o.out) / "samples.json", m.to_json().dump() + "\n");
     write_file_atomic(fs::path(p.o.out) / "summary.json", s.dump(2) + "\n");
-    std::printf("slot %d: %s, frame %u shown, %u confirmed, final checksum %s\n", p.o.slot, net::outcome_name(outcome),
-                session.frame(), session.confirmed_frame(), final_checksum ? hex16(*final_checksum).c_str() : "none");
+    std::printf("slot %d: %s, frame %u shown, %u confirmed, final checksum %s\n", p.o.slot, detail.c_str(), session.frame(),
+                session.confirmed_frame(), final_checksum ? hex16(*final_checksum).c_str() : "none");
     std::fflush(stdout);
     return ok ? 0 : 1;
 }

@@ -25,6 +25,7 @@ const char* outcome_name(RunOutcome o) {
         case RunOutcome::RunTimeout: return "run_timeout";
         case RunOutcome::Failed: return "failed";
         case RunOutcome::Stopped: return "stopped";
+        case RunOutcome::Partitioned: return "partitioned";
     }
     return "?";
 }
@@ -129,8 +130,41 @@ bool PeerRunner::everyone_confirmed() const {
 }
 
 void PeerRunner::drain_session_events() {
-    for (rollback::SessionEvent e; session_.next_event(e);)
+    using K = rollback::SessionEvent::Kind;
+    const auto& sc = session_.config();
+    for (rollback::SessionEvent e; session_.next_event(e);) {
+        if (e.kind == K::Partitioned) {
+            partitioned_since_ = e.frame;
+            confirmed_while_partitioned_ = session_.confirmed_frame();
+        }
+        // Alone only by the two-player rule: with three or more, every drop was a majority's.
+        if (sc.players == 2 && sc.two_player_rule == rollback::TwoPlayerRule::PlayOnAlone && sc.role != rollback::Role::Spectator) {
+            if (e.kind == K::Disconnected && e.peer < 2 && e.peer != sc.local_player && !alone_since_) alone_since_ = e.frame;
+            if (e.kind == K::Joined && e.peer < 2 && e.peer != sc.local_player) alone_since_.reset();
+        }
         if (observer_) observer_->on_session_event(e);
+    }
+}
+
+// Whether the partition episode is still open after this tick. Not just Session::partitioned():
+// a minority the majority dropped stops being partitioned when it hears the first of them again
+// (its votes withdrawn), a tick or more before their refusals make it kicked; that kick must still
+// say it came out of a partition. So an episode ends only once the session, no longer cut off,
+// confirms frames again (which a dropped minority never does).
+bool PeerRunner::track_partition() {
+    // The event gives the frame; should it have been lost (a full event queue), the session's
+    // state still opens the episode, at its confirmed frame as the event would have said.
+    if (!partitioned_since_ && session_.partitioned()) partitioned_since_ = session_.confirmed_frame();
+    if (!partitioned_since_) return false;
+    if (session_.partitioned()) {
+        confirmed_while_partitioned_ = std::max(confirmed_while_partitioned_, session_.confirmed_frame());
+        return true;
+    }
+    if (session_.phase() != rollback::SessionPhase::Failed && session_.confirmed_frame() > confirmed_while_partitioned_) {
+        partitioned_since_.reset();
+        return false;
+    }
+    return true;
 }
 
 void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
@@ -195,7 +229,8 @@ RunOutcome PeerRunner::run() {
             return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
                               .running = session_.running(),
                               .shown_target = session_.frame() >= config_.target_frame,
-                              .confirmed = everyone_confirmed()};
+                              .confirmed = everyone_confirmed(),
+                              .partitioned = track_partition()};
         });
 }
 

@@ -34,6 +34,9 @@
 //    linger_us more so its last acknowledgements reach the others. Bounded by
 //    finish_timeout_us after showing the target, and by run_timeout_us overall.
 //  - A session that fails (refused handshake, kicked) ends run() with Failed.
+//  - Partitioned: a run that would end (completed, finish or run timeout) while the session is
+//    partitioned and not healed ends Partitioned; a partitioned session waits for the network to
+//    heal only until the match should have been over plus finish_timeout_us (RunEnd).
 //  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
 //  - Every time it reads or passes on (ticks, arrival stamps, timeouts) comes from config.clock:
 //    the monotonic clock, or one running fast or slow for the clock-skew fault tests.
@@ -43,6 +46,7 @@
 #include <deque>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -93,6 +97,9 @@ enum class RunOutcome {
     RunTimeout,      // target never shown within run_timeout_us
     Failed,          // the session failed (refused, kicked): Session::failure() says why
     Stopped,         // request_stop()
+    Partitioned,     // the run ended (timed out, or would have completed) while the session was
+                     // cut off from a majority of the view: PeerRunner::partitioned_since() says
+                     // from which frame. Never "completed": nobody agreed on its end.
 };
 const char* outcome_name(RunOutcome o);
 
@@ -139,10 +146,19 @@ public:
     // Times the schedule restarted because the process fell too far behind.
     std::uint64_t schedule_resets() const { return schedule_resets_; }
     std::uint64_t started_us() const { return started_us_; }
+    // The confirmed frame at which the session reported Partitioned, while that episode has not
+    // healed (healed: the session hears a majority again and confirms frames beyond it). Still
+    // set after a Failed run that was kicked out of a partition (the majority dropped it).
+    std::optional<std::uint32_t> partitioned_since() const { return partitioned_since_; }
+    // Two players under TwoPlayerRule::PlayOnAlone: the frame from which the other slot was
+    // dropped (its inputs held here then) and this process played on alone, unless it rejoined.
+    // Never set with three or more players: there a drop is a majority's decision.
+    std::optional<std::uint32_t> alone_since() const { return alone_since_; }
 
 private:
     bool connect_phase();
     void drain_session_events();
+    bool track_partition();
     void service_until(std::uint64_t deadline_us);
     void track_connections(std::uint64_t now);
     void tick(std::uint64_t now, std::uint64_t scheduled);
@@ -166,6 +182,8 @@ private:
     std::uint64_t schedule_resets_ = 0;
     StretchTally stretch_;
     std::uint64_t last_reconnect_us_ = 0;
+    std::optional<std::uint32_t> partitioned_since_, alone_since_;
+    std::uint32_t confirmed_while_partitioned_ = 0;  // confirmed frame on the last partitioned tick
 };
 
 }  // namespace lockroll::net

@@ -8,7 +8,12 @@
 // RunEnd: after the session started, the run completes once the target frame was shown and
 // everyone confirmed it, plus linger_us (so the last acknowledgements get out); it times out
 // finish_timeout_us after showing the target, or run_timeout_us after starting without showing
-// it.
+// it. A run that ends (any of those three) while its session is partitioned -- cut off from a
+// majority of the view, not healed since -- ends Partitioned instead: the process cannot know
+// the match's end was agreed, so it must not say it completed, nor blame a timeout. A partitioned
+// session also waits for the network to heal only until the match should have been over (the
+// target's time at the tick rate, plus finish_timeout_us, after starting): by then any majority
+// has finished or dropped it, so healing could only get it kicked.
 //
 // run_ticks: the loop both runners run on these two (PeerRunner after its connect phase).
 #pragma once
@@ -53,8 +58,24 @@ class RunEnd {
 public:
     explicit RunEnd(const RunnerConfig& config) : config_(config) {}
     // Called every tick after the session started (at started_us): nullopt while the run goes on.
+    // partitioned: the session is in an unhealed partition episode (the runner's TickStatus).
     std::optional<RunOutcome> check(std::uint64_t now, std::uint64_t started_us, bool shown_target, bool everyone_confirmed,
-                                    RunnerObserver* observer) {
+                                    RunnerObserver* observer, bool partitioned = false) {
+        const std::optional<RunOutcome> end = verdict(now, started_us, shown_target, everyone_confirmed, observer);
+        // The one place a partition changes how a run ends: whatever would have ended it.
+        if (partitioned && (end || now - started_us > partition_wait_us())) return RunOutcome::Partitioned;
+        return end;
+    }
+    bool reached() const { return reached_ != 0; }
+    // How long after starting a partitioned session waits for the network to heal.
+    std::uint64_t partition_wait_us() const {
+        const auto rate = static_cast<std::uint64_t>(config_.tick_rate > 0 ? config_.tick_rate : 1);
+        return static_cast<std::uint64_t>(config_.target_frame) * 1000000u / rate + config_.finish_timeout_us;
+    }
+
+private:
+    std::optional<RunOutcome> verdict(std::uint64_t now, std::uint64_t started_us, bool shown_target, bool everyone_confirmed,
+                                      RunnerObserver* observer) {
         if (!reached_ && shown_target) reached_ = now;
         if (reached_ && !all_confirmed_ && everyone_confirmed) {
             all_confirmed_ = now;
@@ -65,9 +86,6 @@ public:
         if (!reached_ && config_.run_timeout_us && now - started_us > config_.run_timeout_us) return RunOutcome::RunTimeout;
         return std::nullopt;
     }
-    bool reached() const { return reached_ != 0; }
-
-private:
     const RunnerConfig& config_;
     std::uint64_t reached_ = 0, all_confirmed_ = 0;
 };
@@ -78,6 +96,7 @@ struct TickStatus {
     bool running = false;       // the session runs frames (frame 0, or a joiner's snapshot frame)
     bool shown_target = false;  // frame() reached config.target_frame
     bool confirmed = false;     // the runner's own "everyone confirmed the target" condition
+    bool partitioned = false;   // cut off from a majority and not healed since (P2P only)
 };
 
 // The runner's state the loop keeps up to date, so the runner can report it.
@@ -91,7 +110,7 @@ struct TickLoopState {
 // after it (time-sync stretch), then asks status() and ends the run as the contracts say:
 // Stopped at the first wake-up after `stop`, Failed with the session, ConnectTimeout when the
 // session does not run within connect_timeout_us of begin_us, and after it runs, RunEnd's
-// verdict.
+// verdict (Partitioned included).
 template <class ServiceUntil, class Tick, class Status>
 RunOutcome run_ticks(const RunnerConfig& config, std::uint64_t begin_us, const std::atomic<bool>& stop,
                      RunnerObserver* observer, TickLoopState state, ServiceUntil service_until, Tick tick, Status status) {
@@ -115,7 +134,7 @@ RunOutcome run_ticks(const RunnerConfig& config, std::uint64_t begin_us, const s
             }
             continue;
         }
-        if (auto outcome = end.check(now, state.started_us, s.shown_target, s.confirmed, observer)) return *outcome;
+        if (auto outcome = end.check(now, state.started_us, s.shown_target, s.confirmed, observer, s.partitioned)) return *outcome;
     }
 }
 

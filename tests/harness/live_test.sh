@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `lockroll live` with real processes on 127.0.0.1 (free ports, bounded by live's own time limit
 # and CTest's timeout): 3 players through impairment proxies at 5 % loss; a kill and a rejoin; a
-# late join with a spectator; an injected desync; bad flags. Outcomes only (checksums, events).
+# two-player kill (the survivor completes "alone since frame F"); a late join with a spectator; an
+# injected desync; bad flags. Outcomes only (checksums, events). Partitions: live_partition_test.sh.
 set -u
 lockroll=$1
 source "$(dirname "$0")/live_check.sh"
@@ -36,6 +37,22 @@ for k in ("p0", "p1"):
 ev = [e["event"] for e in events("p2-rejoin")]
 assert "snapshot_loaded" in ev and "synchronized" in ev, ev
 assert procs["s0"]["role"] == "spectator" and procs["s0"]["final_checksum"] == procs["p0"]["final_checksum"]
+'
+
+# 2b. Two players, slot 1 killed at frame 100: under the two-player rule (PlayOnAlone) slot 0
+#     drops it on its own vote and completes, and its outcome says it played alone since then.
+"$lockroll" live --players 2 --frames 300 --mode rollback --no-virtual --kill 1@100 --disconnect-timeout 1 \
+    --out "$tmp/alone" >"$tmp/alone.out" 2>&1 || { fail "alone: exit status $?"; tail -5 "$tmp/alone.out"; }
+check alone "$tmp/alone" rollback '
+assert d["ok"], d
+p0 = procs["p0"]
+assert p0["outcome"] == "completed" and p0["outcome_detail"] == "completed alone since frame %d" % p0["alone_since_frame"], p0
+s0 = json.load(open(os.path.join(sys.argv[1], "rollback", "p0", "summary.json")))
+assert 100 <= s0["alone_since_frame"] <= 300 and s0["alone_since_frame"] == p0["disconnects"][0]["frame"], s0
+'
+# ... and with three players (case 2) nobody is ever "alone": every drop was a majority's.
+check kill-not-alone "$tmp/kill" rollback '
+assert all(p["alone_since_frame"] is None for p in procs.values()), procs
 '
 
 # 3. Slot 1 joins at frame 300 (absent before), a spectator joins at frame 150: same checksums

@@ -1,5 +1,6 @@
 // overclaims on its own: a completed outcome holds only with exit 0, the last frame shown and
-// confirmed, a final checksum and no kill; other outcomes claim nothing to check.
+// confirmed, a final checksum and no kill (nor an unhealed partition, nor "alone" beyond two
+// players); a partitioned one names its frame and exits non-zero; others claim nothing to check.
 #include <gtest/gtest.h>
 
 #include "harness/outcome_claims.h"
@@ -51,6 +52,42 @@ TEST(OutcomeClaims, OtherOutcomesAndMissingSummariesClaimNothing) {
     none.name = "p2";
     none.killed = true;
     EXPECT_TRUE(overclaims(none, 300).empty());
+}
+
+// Issue 21: a partitioned or lone process never says "completed" as if all agreed.
+TEST(OutcomeClaims, ACompletionFromAnUnhealedPartitionIsAnOverclaim) {
+    ProcessSeen p = completed(300);
+    p.summary["partitioned_since_frame"] = 200;
+    const auto c = overclaims(p, 300);
+    ASSERT_EQ(c.size(), 1u);
+    EXPECT_EQ(c[0], "p1: outcome completed, but partitioned since frame 200 and not healed");
+}
+
+TEST(OutcomeClaims, AloneIsTheTwoPlayerRuleOnly) {
+    ProcessSeen two = completed(300);
+    two.summary["players"] = 2;
+    two.summary["alone_since_frame"] = 150;
+    EXPECT_TRUE(overclaims(two, 300).empty());
+    ProcessSeen three = two;
+    three.summary["players"] = 3;
+    const auto c = overclaims(three, 300);
+    ASSERT_EQ(c.size(), 1u);
+    EXPECT_EQ(c[0], "p1: outcome completed, but alone since frame 150 in a match of 3 players");
+}
+
+TEST(OutcomeClaims, APartitionedProcessNamesTheFrameAndDoesNotExitZero) {
+    ProcessSeen p;
+    p.name = "p2";
+    p.exit_status = 1;
+    p.summary = {{"outcome", "partitioned"}, {"partitioned_since_frame", 201}, {"confirmed_frame", 201}, {"shown_frame", 209}};
+    EXPECT_TRUE(overclaims(p, 600).empty());
+    ProcessSeen no_frame = p;
+    no_frame.summary.erase("partitioned_since_frame");
+    no_frame.exit_status = 0;
+    const auto c = overclaims(no_frame, 600);
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_EQ(c[0], "p2: outcome partitioned, but no partitioned_since_frame");
+    EXPECT_EQ(c[1], "p2: outcome partitioned, but exit status 0");
 }
 
 }  // namespace
