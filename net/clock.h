@@ -15,8 +15,6 @@
 // CPU per tick, rollback cost); it decides nothing.
 #pragma once
 
-#include <time.h>
-
 #include <chrono>
 #include <cstdint>
 #include <stdexcept>
@@ -30,11 +28,7 @@ inline std::uint64_t now_us() {
             .count());
 }
 
-inline std::uint64_t thread_cpu_ns() {
-    timespec ts{};
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-    return static_cast<std::uint64_t>(ts.tv_sec) * 1000000000ull + static_cast<std::uint64_t>(ts.tv_nsec);
-}
+std::uint64_t thread_cpu_ns();  // net/clock.cpp (POSIX CLOCK_THREAD_CPUTIME_ID)
 
 class Clock {
 public:
