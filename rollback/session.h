@@ -414,14 +414,12 @@ private:
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;
-    bool any_tick_ = false;
     std::uint64_t last_now_us_ = 0;
     // the newcomer's side of a transfer
     std::unique_ptr<TransferReceiver> incoming_;
     PlayerId incoming_from_ = 0;
     std::uint64_t last_offer_request_us_ = 0;
     bool offer_requested_ = false;
-    TransferReason want_reason_ = TransferReason::Join;
     std::optional<PlayerId> recover_from_;
     std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
