@@ -20,6 +20,12 @@ rollback::RelaySessionConfig player(int players, int slot) {
     return c;
 }
 
+// Two players on a clean 10 ms link, slots 0 and 1, bots seeded from `seed`.
+void add_two_players(RelayCluster& cl, std::uint64_t seed) {
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, seed + static_cast<std::uint64_t>(s));
+}
+
 int count(const testing::RelayClient& c, Kind k) {
     int n = 0;
     for (const auto& e : c.events) n += e.kind == k;
@@ -65,10 +71,8 @@ TEST(RelayMatch, SlowPlayerIsReplacedPastTheDeadlineAndNobodyWaitsForIt) {
 // arbitration every 60 frames: nobody is kicked, and both confirm equal checksums to the end.
 // (Between real processes the server kicked both at frame 1,020, 1,260 or 1,560.)
 TEST(RelayMatch, LongMatchKicksNobody) {
-    const auto scene = rollback::testing::make_scene(2, 10);
-    RelayCluster cl(scene);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 30 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 30);
     ASSERT_TRUE(cl.run_until_frame(1800, 60'000'000));
     cl.run_for(2'000'000);
     for (int s = 0; s < 2; ++s) EXPECT_EQ(cl.kicked(cl.client(s).connection), 0u) << "slot " << s;
@@ -81,10 +85,8 @@ TEST(RelayMatch, LongMatchKicksNobody) {
 // instead of being welcomed, kicked for acknowledging frames the room never confirmed, and
 // reconnecting for ever (seen between real processes).
 TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
-    const auto scene = rollback::testing::make_scene(2, 10);
-    RelayCluster cl(scene);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 40 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 40);
     ASSERT_TRUE(cl.run_until_frame(300));
     cl.restart_server();
     cl.run_for(3'000'000);
@@ -99,10 +101,8 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
 // The server dies and nothing comes back: each client fails within its server timeout (5 s),
 // saying so, instead of hanging with no error until its run timeout.
 TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
-    const auto scene = rollback::testing::make_scene(2, 10);
-    RelayCluster cl(scene);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 50 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 50);
     ASSERT_TRUE(cl.run_until_frame(300));
     cl.kill_server();
     cl.run_for(4'000'000);
@@ -143,12 +143,10 @@ TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
 // not wait for ever: with no progress for transfer_timeout_us (10 s) it fails, naming the
 // source. Before, it stayed in Transferring for good with no event.
 TEST(RelayMatch, RecoveryFromASourceThatNeverServesEnds) {
-    const auto scene = rollback::testing::make_scene(2, 10);
     ServerConfig sc;
     sc.room.silence_drop_us = 120'000'000;  // the hung source keeps its slot
-    RelayCluster cl(scene, sc);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 60 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10), sc);
+    add_two_players(cl, 60);
     ASSERT_TRUE(cl.run_until_frame(100));
     const std::uint32_t body = cl.client(1).sim.body_id(0);
     ASSERT_EQ(cl.client(1).session->inject_fault(150, body, 0, 40), "");
@@ -166,10 +164,8 @@ TEST(RelayMatch, RecoveryFromASourceThatNeverServesEnds) {
 // the P2P session's 10 %): its stretched ticks keep it near its target lead on the room clock for
 // three minutes, so it never runs ahead into the server's window, and both clients agree.
 TEST(RelayMatch, ClockEightPercentFastKeepsItsLead) {
-    const auto scene = rollback::testing::make_scene(2, 10);
-    RelayCluster cl(scene);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 70 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 70);
     cl.client(1).period_ppm = 925926;  // 1 / 1.08
     ASSERT_TRUE(cl.run_until_frame(10800, 400'000'000));
     const auto& fast = cl.client(1).session->relay_stats();
@@ -184,10 +180,8 @@ TEST(RelayMatch, ClockEightPercentFastKeepsItsLead) {
 // A wrong-size local input is the caller's bug, handled as the P2P session handles it: counted,
 // the tick does nothing, the match goes on (the relay session used to fail at once).
 TEST(RelayMatch, WrongSizeLocalInputIsCountedAndSkipped) {
-    const auto scene = rollback::testing::make_scene(2, 10);
-    RelayCluster cl(scene);
-    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
-    for (int s = 0; s < 2; ++s) cl.add(player(2, s), link, 80 + static_cast<std::uint64_t>(s));
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 80);
     ASSERT_TRUE(cl.run_until_frame(60));
     auto& c = cl.client(0);
     const std::uint32_t before = c.session->frame();
