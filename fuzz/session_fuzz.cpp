@@ -6,7 +6,9 @@
 //   op % 4 == 1                          one tick of everyone, traffic delivered intact
 //   op % 4 == 2  [at][xor]               one tick; every datagram to session 0 has byte
 //                                        `at % size` xored with `xor`
-//   op % 4 == 3                          one tick; peer 1's datagrams to session 0 are lost
+//   op % 4 == 3                          one tick; peer 1's datagrams to session 0 are lost,
+//                                        and when op & 4 also those to session 2: peer 1 is
+//                                        silent to a majority, which votes it gone (a drop)
 // When the first byte is odd, peer 1 flips a bit of a body at frame 5, so the sessions desync
 // and narrow it with queries and replies, which the fuzzer then corrupts.
 // Property: no crash, hang or sanitizer report; session 0 keeps a bounded amount of state.
@@ -18,8 +20,8 @@
 // in docs/reliability.md). So an input is short and its ticks lean:
 //  - at most kMaxTicks (12) ticks, with the session's periods scaled to them so that what a long
 //    match reaches is reached within them: a silent peer is interrupted after 2 ticks and voted
-//    gone after 5 (since issue 21's majority rule, session 0's vote alone drops nobody, and no
-//    op silences a peer to sessions 0 and 2 both: docs/reliability.md), a time-sync
+//    gone after 5 (since issue 21's majority rule session 0's vote alone drops nobody, so the
+//    silencing op can cut peer 1 off from sessions 0 and 2 both, who then drop it), a time-sync
 //    recommendation every 3 ticks, an unanswered desync query re-asked after 2, 2 evidence
 //    frames (a snapshot ring of 11, so it wraps); input queues of the smallest capacity (64
 //    frames; they no longer wrap); the desync at frame 5 is found and narrowed to its field
@@ -153,8 +155,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             sessions[p]->poll(now, out);
             for (Datagram& d : out) {
                 if (d.peer >= kPlayers) continue;
+                if (op % 4 == 3 && p == 1 && (d.peer == 0 || (op & 4) != 0)) continue;
                 if (d.peer == 0) {
-                    if (op % 4 == 3 && p == 1) continue;
                     if (op % 4 == 2 && !d.bytes.empty()) d.bytes[flip_at % d.bytes.size()] ^= flip;
                 }
                 sessions[d.peer]->receive(static_cast<PlayerId>(p), d.bytes, now);
