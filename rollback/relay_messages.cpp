@@ -42,7 +42,7 @@ const char* relay_refusal_name(RelayRefusal r) {
         case RelayRefusal::Draining: return "server draining: no new rooms or players";
         case RelayRefusal::Spoof: return "connection already holds another slot";
         case RelayRefusal::Ended: return "the room's match is over";
-        case RelayRefusal::TokenMissing: return "this server requires a connect token (--token)";
+        case RelayRefusal::TokenMissing: return "this server requires a connect token";
         case RelayRefusal::TokenInvalid: return "connect token invalid (forged, corrupted or sealed with another key)";
         case RelayRefusal::TokenExpired: return "connect token expired";
         case RelayRefusal::TokenMismatch: return "connect token is for another room, slot, role or room parameters";
