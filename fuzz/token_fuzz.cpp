@@ -4,6 +4,7 @@
 //  - the server admits a hello carrying the token exactly when the codec says so: a token that
 //    does not open, or whose grant refuses the hello (expired, mismatched), creates no room and
 //    its connection is kicked; one that opens and fits binds its connection in the grant's room.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
