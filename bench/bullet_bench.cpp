@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "sim/world.h"
 
 namespace {

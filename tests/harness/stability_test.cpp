@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "harness/cli_error.h"
-#include "harness/reference_world.h"
-#include "harness/scene_loader.h"
-#include "harness/stability_command.h"
+#include "harness/match/cli_error.h"
+#include "harness/validation/reference_world.h"
+#include "harness/match/scene_loader.h"
+#include "harness/validation/stability_command.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
 

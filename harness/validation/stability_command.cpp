@@ -1,4 +1,4 @@
-#include "harness/stability_command.h"
+#include "harness/validation/stability_command.h"
 
 #include <algorithm>
 #include <cinttypes>
@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
-#include "harness/output_path.h"
-#include "harness/scene_loader.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
+#include "harness/report/output_path.h"
+#include "harness/match/scene_loader.h"
 #include "sim/contact.h"
 #include "sim/world.h"
 

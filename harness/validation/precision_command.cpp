@@ -1,4 +1,4 @@
-#include "harness/precision_command.h"
+#include "harness/validation/precision_command.h"
 
 #include <algorithm>
 #include <chrono>
@@ -11,12 +11,12 @@
 #include <string>
 #include <vector>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
-#include "harness/output_path.h"
-#include "harness/plot_script.h"
-#include "harness/reference_world.h"
-#include "harness/scene_loader.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
+#include "harness/report/output_path.h"
+#include "harness/report/plot_script.h"
+#include "harness/validation/reference_world.h"
+#include "harness/match/scene_loader.h"
 #include "sim/world.h"
 
 namespace lockroll::harness {
