@@ -2,7 +2,7 @@
 
 #include "harness/live_command.h"
 #include "harness/peer_command.h"
-#include "harness/validation/precision_command.h"
+#include "harness/precision_command.h"
 #include "harness/proxy_command.h"
 #include "harness/replay_command.h"
 #include "harness/run_command.h"
@@ -11,7 +11,7 @@
 #include "harness/token_command.h"
 #include "harness/view_command.h"
 #include "server/server_cli.h"
-#include "harness/validation/stability_command.h"
+#include "harness/stability_command.h"
 
 namespace lockroll::harness {
 

@@ -1,6 +1,6 @@
 # Stability suite and work-precision sweep (docs/stability.md). Included from CMakeLists.txt.
 lockroll_add_test(stability_test stability_test.cpp)
-target_link_libraries(stability_test PRIVATE lockroll_validation nlohmann_json::nlohmann_json)
+target_link_libraries(stability_test PRIVATE lockroll_harness)
 
 # Every case of `lockroll stability` is its own test, so a failure names the case. The default
 # run (scripts/test.sh: -LE soak) takes a few seconds; the 10,000-body case is labelled soak.

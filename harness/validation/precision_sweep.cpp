@@ -1,4 +1,4 @@
-#include "harness/validation/precision_command.h"
+#include "harness/validation/precision_sweep.h"
 
 #include <algorithm>
 #include <chrono>
@@ -172,14 +172,9 @@ struct Row {
     double us_per_step, error, double_error, rounding, diverge_s;
 };
 
-struct PrecisionOptions {
-    std::string out = "precision";
-    bool quick = false;
-    bool no_plot = false;
-    int reps = 3;
-};
+}  // namespace
 
-void run_precision(const PrecisionOptions& o) {
+void run_precision_sweep(const PrecisionOptions& o) {
     check_output_dir("--out", o.out);
     const std::vector<PrecisionCase> cases = {
         {"ball", "stability/precision_ball", Metric::Trajectory, 3.0},
@@ -268,18 +263,6 @@ void run_precision(const PrecisionOptions& o) {
             throw std::runtime_error(err);
         std::printf("written %s\n", png.string().c_str());
     }
-}
-}  // namespace
-
-void add_precision_command(CLI::App& app) {
-    auto opts = std::make_shared<PrecisionOptions>();
-    CLI::App* cmd = app.add_subcommand(
-        "precision", "Work-precision sweep: error against run time over dt, iterations and substeps (docs/stability.md)");
-    cmd->add_option("--out", opts->out, "Directory for precision.csv and precision.png");
-    cmd->add_flag("--quick", opts->quick, "A small sweep (2 rates x 2 iteration counts x 2 substep counts), for tests");
-    cmd->add_flag("--no-plot", opts->no_plot, "Write the CSV only");
-    cmd->add_option("--reps", opts->reps, "Timed repetitions per setting (the fastest counts)")->check(CLI::Range(1, 100));
-    cmd->callback([opts] { run_precision(*opts); });
 }
 
 }  // namespace lockroll::harness
