@@ -117,12 +117,20 @@ RunResult live_run_result(const LivePlan& p, Mode mode, const fs::path& dir, con
                               "; its figures count up to then");
         if (s.contains("alone_since_frame") && s.value("outcome", "") == "completed")
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): completed alone since frame " +
-                              s["alone_since_frame"].dump() + " (the other player was dropped)");
-        const bool final_confirmed = s["final_checksum"].is_string();
+                              s.value("alone_since_frame", json(nullptr)).dump() + " (the other player was dropped)");
+        // nlohmann's const operator[] on a missing key is undefined behaviour: a summary.json
+        // cut short or written by another version must read as "not collected", never crash.
+        const bool final_confirmed = s.value("final_checksum", json(nullptr)).is_string();
         if (!final_confirmed || rec.exit_status != 0) r.completed = false;
         r.virtual_seconds = std::max(r.virtual_seconds, s.value("wall_seconds", 0.0));
         if (rec.spectator) continue;  // a spectator confirms (agreement) but plays no frame of its own
-        const json& c0 = s["clients"][0];
+        const json clients = s.value("clients", json::array());
+        if (!clients.is_array() || clients.empty() || !clients[0].is_object()) {
+            r.completed = false;
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): summary.json has no client figures");
+            continue;
+        }
+        const json& c0 = clients[0];
         ClientResult c;
         c.ticks_per_second = c0.value("ticks_per_second", 0.0);
         c.stall_fraction = c0.value("stall_fraction", 0.0);
@@ -146,7 +154,7 @@ RunResult live_run_result(const LivePlan& p, Mode mode, const fs::path& dir, con
         r.clients.push_back(c);
         add_client_samples(r, m);
         for (const auto& [peer, ms] : m.rtt_ms) r.rtt.push_back({rec.slot, peer, ms});
-        for (const auto& d : s["desync_reports"]) {
+        for (const auto& d : s.value("desync_reports", json::array())) {
             DesyncRecord dr;
             dr.client = d.value("client", rec.slot);
             dr.summary = d.value("summary", "");
@@ -240,12 +248,12 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"role", r.spectator ? "spectator" : r.joiner ? "joiner" : "player"},
                   {"exit_status", r.exit_status},
                   {"outcome", s.is_object() ? s.value("outcome", "") : (r.killed ? "killed" : "no summary")},
-                  {"final_checksum", s.is_object() ? s["final_checksum"] : json(nullptr)},
+                  {"final_checksum", s.is_object() ? s.value("final_checksum", json(nullptr)) : json(nullptr)},
                   {"frames_shown", s.is_object() ? s.value("shown_frame", 0) : r.last_progress},
                   {"confirmed_frame", s.is_object() ? s.value("confirmed_frame", 0) : 0},
-                  {"ticks_per_second", s.is_object() ? s["ticks_per_second"] : json(0)},
-                  {"stall_fraction", s.is_object() ? s["stall_fraction"] : json(nullptr)},
-                  {"longest_stall_ms", s.is_object() ? s["longest_stall_ms"] : json(nullptr)},
+                  {"ticks_per_second", s.is_object() ? s.value("ticks_per_second", json(nullptr)) : json(0)},
+                  {"stall_fraction", s.is_object() ? s.value("stall_fraction", json(nullptr)) : json(nullptr)},
+                  {"longest_stall_ms", s.is_object() ? s.value("longest_stall_ms", json(nullptr)) : json(nullptr)},
                   {"clock_skew_ppm", s.is_object() ? s.value("clock_skew_ppm", 0) : 0},
                   {"snapshot_chunks_damaged", s.is_object() ? s.value("snapshot_chunks_damaged", 0) : 0},
                   {"outcome_detail", s.is_object() ? s.value("outcome_detail", "") : ""},
@@ -256,7 +264,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"joins", joins},
                   {"longest_stall_after_kill_ms",
                    first_kill && !r.killed && !r.joiner ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
-        if (!r.killed && s.is_object() && s["final_checksum"].is_string()) finals.push_back(s["final_checksum"]);
+        if (!r.killed && s.is_object() && s.value("final_checksum", json(nullptr)).is_string()) finals.push_back(s["final_checksum"]);
         procs.push_back(p);
     }
     // A split run (issue 21): the processes cut off from a majority say "partitioned" and exit 1,

@@ -25,7 +25,8 @@ ProcessRecord player(int slot, const std::string& outcome, const std::string& fi
     r.name += std::to_string(slot);  // (not "p" + ...: GCC 12 -O3 warns -Wrestrict on it, falsely)
     r.started = true;
     r.exit_status = exit_status;
-    // The keys live_json reads as a process's summary.json always has them (it indexes them).
+    // The keys a real process's summary.json has; live_json must not depend on them
+    // (SummaryWithoutItsKeysIsReadAsNotCollected).
     r.summary = {{"outcome", outcome},
                  {"final_checksum", final_checksum.empty() ? json(nullptr) : json(final_checksum)},
                  {"ticks_per_second", 60.0},
@@ -67,6 +68,19 @@ TEST(LiveJson, AKilledProcessCountsInNoVerdict) {
     EXPECT_EQ(j["processes"][1]["killed_at_frame"].get<int>(), 200);
     // The survivor's stall after the kill: no events, so no synchronized time to count from.
     EXPECT_EQ(j["processes"][0]["longest_stall_after_kill_ms"].get<double>(), 0.0);
+}
+
+TEST(LiveJson, ASummaryWithoutItsKeysIsReadAsNotCollected) {
+    // A summary.json cut short (or from another version) once crashed live_json: nlohmann's
+    // const operator[] on a missing key is undefined behaviour.
+    ProcessRecord bare = player(1, "completed", "", 0);
+    bare.summary = {{"outcome", "completed"}};
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), bare}, kNoDir);
+    EXPECT_TRUE(j["processes"][1]["final_checksum"].is_null());
+    EXPECT_TRUE(j["processes"][1]["ticks_per_second"].is_null());
+    EXPECT_TRUE(j["processes"][1]["stall_fraction"].is_null());
+    // (That a "completed" without a final checksum overclaims is outcome_claims' to say.)
+    EXPECT_EQ(j["split"]["completed"].get<int>(), 2);
 }
 
 TEST(LiveJson, ThePartitionedSideIsASplitNotAFailure) {
