@@ -23,7 +23,8 @@
 // `--every` frames, per engine: the kinetic energy of the dynamic bodies (translational +
 // rotational, J), the spheres' share of it, the rotational part, the vertical part (m vy^2 / 2:
 // hopping), the mean height of the centres (m), how many spheres sit above 1.5 radii (on other
-// bodies) and the deepest sphere into the floor (mm, floor at y = 0 as in the shipped rooms):
+// bodies), the deepest sphere into the floor (mm, floor at y = 0 as in the shipped rooms) and,
+// for lockroll, the contact points of the last step (what a step's solver work scales with):
 // whether a pile comes to rest, and how it compares with Bullet's on the same scene
 // (docs/physics.md). `--lockroll-only` leaves Bullet out, for quick what-ifs on scene files.
 #include <btBulletDynamicsCommon.h>
@@ -219,18 +220,19 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
     std::unique_ptr<BulletScene> theirs;
     if (with_bullet) theirs = std::make_unique<BulletScene>(scene);
     const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(ours.player_count()));
-    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s | %10s %10s %10s %10s %8s %6s %7s\n", "scene", "frame",
-                "lockroll J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "bullet J", "spheres",
-                "rotation", "vertical", "height m", "lifted", "sink mm");
+    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s\n", "scene",
+                "frame", "lockroll J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points",
+                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm");
     for (int f = 1; f <= frames; ++f) {
         ours.step(in);
         if (theirs) theirs->step();
         if (f % every != 0 && f != frames) continue;
         const Rest a = rest_of(ours), b = theirs ? rest_of(*theirs, scene) : Rest{};
         std::printf(
-            "%-18s %6d | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f\n",
+            "%-18s %6d | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f %6zu | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu "
+            "%7.2f\n",
             scene.name.c_str(), f, a.ke(), a.ke_spheres, a.ke_rot, a.ke_vertical, a.mean_height(), a.lifted, a.sink * 1e3,
-            b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted, b.sink * 1e3);
+            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted, b.sink * 1e3);
         std::fflush(stdout);
     }
 }
