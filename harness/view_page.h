@@ -44,7 +44,7 @@ position differs between the two clients on this frame are red; player bodies ar
 Corrections (a rollback changing a shown frame) show as jumps between frames, listed under each view.
 The plot is mean (blue) and max (red) error between all clients against run time (frames.csv);
 click or drag it to move to a frame.</p>
-<canvas id="plot" width="1056" height="220"></canvas>
+<canvas id="plot" width="1056" height="230"></canvas><div id="plot-axes" data-xticks="" data-yticks=""></div>
 @DATA@
 <script>
 "use strict";
@@ -109,7 +109,7 @@ function start(D) {
   }
 
   function plot() {
-    const c = $("plot"), g = c.getContext("2d"), W = c.width, H = c.height, L = 50, B = 20;
+    const c = $("plot"), g = c.getContext("2d"), W = c.width, H = c.height, L = 50, B = 30;
     g.clearRect(0, 0, W, H);
     const t0 = D.time[0], t1 = D.time[nf - 1] || 1, top = Math.max(...D.max, 1e-9);
     // Symmetric-log y: 0 at the bottom, 1e-6 .. top logarithmic above it.
@@ -117,8 +117,31 @@ function start(D) {
     const Y = (v) => v <= 0 ? H - B : H - B - 8 - (Math.max(lo, Math.log10(v)) - lo) / Math.max(hi - lo, 1e-9) * (H - B - 16);
     const T = (t) => L + (t - t0) / Math.max(t1 - t0, 1e-9) * (W - L - 10);
     g.strokeStyle = "#999"; g.beginPath(); g.moveTo(L, 4); g.lineTo(L, H - B); g.lineTo(W, H - B); g.stroke();
-    g.fillStyle = "#444"; g.fillText("0", L - 12, H - B + 3); g.fillText(top.toExponential(1) + " m", 2, 12);
-    g.fillText("run time (s)", W - 70, H - 4);
+    g.fillStyle = "#444"; g.fillText("0", L - 12, H - B + 3);
+    g.fillText("error (m)", L + 6, 12); g.fillText("run time (s)", W - 70, 12);
+    // Time ticks at the largest round step (5, 2 or 1 times a power of ten) that puts at least
+    // 5 of them inside the run (so 5 to about 12); error ticks at each decade of the log scale.
+    // Their values are also written to #plot-axes so a test can check them against frames.csv.
+    const inside = (s) => Math.floor(t1 / s + 1e-9) - Math.ceil(t0 / s - 1e-9) + 1;
+    let step = 1e-6;
+    for (let k = Math.floor(Math.log10(Math.max(t1 - t0, 1e-6))); k >= -6 && step === 1e-6; --k)
+      for (const m of [5, 2, 1]) if (inside(m * Math.pow(10, k)) >= 5) { step = m * Math.pow(10, k); break; }
+    const digits = Math.max(0, -Math.floor(Math.log10(step) + 1e-9));
+    const xt = [], yt = [];
+    g.textAlign = "center";
+    for (let t = Math.ceil(t0 / step - 1e-9) * step; t <= t1 + 1e-9; t += step) {
+      g.beginPath(); g.moveTo(T(t), H - B + 8); g.lineTo(T(t), H - B + 13); g.stroke();  // below the rollback marks
+      g.fillText(t.toFixed(digits), T(t), H - B + 24);
+      xt.push(t.toFixed(digits));
+    }
+    g.textAlign = "right";
+    for (let e = Math.ceil(lo) + 1; e <= Math.floor(hi); ++e) {  // 1e-6 is the floor, by "0"
+      g.beginPath(); g.moveTo(L - 4, Y(Math.pow(10, e))); g.lineTo(L, Y(Math.pow(10, e))); g.stroke();
+      g.fillText("1e" + e, L - 6, Y(Math.pow(10, e)) + 3);
+      yt.push("1e" + e);
+    }
+    g.textAlign = "start";
+    $("plot-axes").dataset.xticks = xt.join(","); $("plot-axes").dataset.yticks = yt.join(",");
     for (const [col, series] of [["#1f77b4", D.mean], ["#d62728", D.max]]) {
       g.strokeStyle = col; g.beginPath();
       for (let i = 0; i < nf; ++i) (i ? g.lineTo : g.moveTo).call(g, T(D.time[i]), Y(series[i]));

@@ -2,7 +2,7 @@
 # lockroll view in a real browser (Debian's chromium, headless, driven directly): the page loads
 # from a file with no network, scrubs to a frame with a known error (from the URL hash) and
 # reports for it exactly what frames.csv says; a large run's data is gzipped and still loads.
-# A screenshot is kept in OUT_DIR. Exit 77 (skipped) only when chromium is not installed.
+# The error plot has round time ticks inside the run. A screenshot is kept in OUT_DIR. Exit 77 (skipped) only when chromium is not installed.
 set -u
 lockroll=$1
 out=${2:-$(mktemp -d)}
@@ -37,6 +37,19 @@ print("page:", attrs, "frames.csv:", {k: row[k] for k in ("frame", "mean_error",
 assert attrs.get("frame") == row["frame"], "frame"
 assert float(attrs["mean"]) == float(row["mean_error"]), "mean"
 assert float(attrs["max"]) == float(row["max_error"]), "max"
+PY
+    # The plot's time axis: at least 5 round ticks, increasing, inside the run's time range.
+    /usr/bin/python3 - "$dir/frames.csv" <<PY || fail "$dir: the error plot's time ticks"
+import csv, re, sys
+dom = '''$(grep -o '<div id="plot-axes"[^>]*>' <<<"$dom")'''
+attrs = dict(re.findall(r'data-(\w+)="([^"]*)"', dom))
+times = [float(r["time_s"]) for r in csv.DictReader(open(sys.argv[1]))]
+ticks = [float(t) for t in attrs.get("xticks", "").split(",") if t]
+print("time ticks:", ticks, "run time:", min(times), "..", max(times), "error ticks:", attrs.get("yticks"))
+assert len(ticks) >= 5, "fewer than 5 time ticks"
+assert ticks == sorted(ticks) and len(set(ticks)) == len(ticks), "ticks not increasing"
+assert min(times) - 1e-9 <= ticks[0] and ticks[-1] <= max(times) + 1e-9, "a tick outside the run"
+assert attrs.get("yticks"), "no error ticks"
 PY
 }
 
