@@ -8,8 +8,8 @@
 // from the rules as docs/sessions.md states them (not from Membership's code), and after every
 // step it checks, aborting on the first that breaks:
 //  - Membership answers as the record says: the view (state, epoch, host of every slot), each
-//    vote as it counts, the vote counts, the decisions, what the local process advertises,
-//    Partitioned; and each vote's Tally is Counted or Repeated exactly when the rules take it;
+//    vote as it counts, the vote counts, the decisions, the majority size, what the local process
+//    advertises, Partitioned; and each vote's Tally is Counted or Repeated exactly when the rules take it;
 //  - a running slot leaves only when a strict majority of the view's running processes voted it
 //    gone, each voter counted once (its latest word: the record keeps one per voter); with three
 //    or more voters one voter alone never removes anyone; with two the configured TwoPlayerRule
@@ -169,6 +169,11 @@ PlayerId id(std::uint8_t x, int n) {
 // The local summaries (cheap: O(players) calls each).
 NOT_FUZZED void check_summaries(const Membership& m, const Record& r) {
     CHECK(m.running_voters() == r.voters());
+    // The fewest processes that are a majority (what the session's confirmation waits for).
+    const int size = m.majority_size();
+    CHECK(size >= 1 && r.strict_majority(size) == (r.voters() != 2 || r.rule == TwoPlayerRule::PlayOnAlone));
+    CHECK(size == 1 || !r.strict_majority(size - 1));
+    if (r.voters() == 2 && r.rule == TwoPlayerRule::NoDrop) CHECK(size == 2);  // both, as nobody drops
     int unheard = 0;
     for (int s = 0; s < r.n; ++s) unheard += r.counted(r.local, static_cast<PlayerId>(s)) == Vote::Gone;
     CHECK(m.votes_any_gone() == (unheard > 0));
