@@ -9,7 +9,8 @@
 // step it checks, aborting on the first that breaks:
 //  - Membership answers as the record says: the view (state, epoch, host of every slot), each
 //    vote as it counts, the vote counts, the decisions, the majority size, what the local process
-//    advertises, Partitioned; and each vote's Tally is Counted or Repeated exactly when the rules take it;
+//    advertises, Partitioned; and each vote's Tally is Counted or Repeated exactly when the rules
+//    take it (else one of the reasons that apply);
 //  - a running slot leaves only when a strict majority of the view's running processes voted it
 //    gone, each voter counted once (its latest word: the record keeps one per voter); with three
 //    or more voters one voter alone never removes anyone; with two the configured TwoPlayerRule
@@ -102,7 +103,9 @@ struct Record {
         return k;
     }
     // v's word about s as it counts: only a voter's, only about a running slot.
-    NOT_FUZZED Vote counted(PlayerId v, PlayerId s) const { return voter(v) && running(s) ? word[v][s].vote : Vote::None; }
+    NOT_FUZZED Vote counted(PlayerId v, PlayerId s) const {
+        return voter(v) && running(s) ? word[v][s].vote : Vote::None;
+    }
     NOT_FUZZED int gone(PlayerId s) const {
         int k = 0;
         for (int v = 0; v < n; ++v) k += counted(static_cast<PlayerId>(v), s) == Vote::Gone;
@@ -212,7 +215,10 @@ NOT_FUZZED void check_all(const Membership& m, const Record& r) {
         const auto slot = static_cast<PlayerId>(s);
         check_slot(m, r, slot);
         if (r.decided(slot)) first = slot;
-        for (int v = 0; v < r.n; ++v) CHECK(m.vote_of(static_cast<PlayerId>(v), slot) == r.counted(static_cast<PlayerId>(v), slot));
+        for (int v = 0; v < r.n; ++v) {
+            const auto voter = static_cast<PlayerId>(v);
+            CHECK(m.vote_of(voter, slot) == r.counted(voter, slot));
+        }
         // Out-of-range voters have no word.
         CHECK(m.vote_of(static_cast<PlayerId>(r.n), slot) == Vote::None);
         CHECK(m.vote_of(0xFFFFFFFFu, slot) == Vote::None);
