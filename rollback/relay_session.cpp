@@ -1,5 +1,6 @@
 #include "rollback/relay_session.h"
 
+#include "rollback/input_delay.h"
 #include "rollback/time_sync.h"
 
 #include <algorithm>
@@ -436,13 +437,10 @@ std::int32_t RelaySession::behind(std::uint64_t now_us) const {
 void RelaySession::revise_input_delay(std::uint64_t now_us) {
     if (!config_.auto_input_delay || config_.role == RelayRole::Spectator || !link_.has_rtt()) return;
     if (last_delay_revision_us_ && now_us - last_delay_revision_us_ < kDelayRevisionUs) return;
-    const auto period = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
-    const std::uint64_t rtt = link_.rtt_us(), jitter = link_.rtt_var_us();
-    int want;
-    if (config_.prediction_window == 0)  // lockstep: the whole round trip, so frames arrive confirmed
-        want = std::clamp(static_cast<int>((rtt + 2 * jitter + period - 1) / period) + 1, 1, 30);
-    else
-        want = std::clamp(static_cast<int>((rtt / 4 + 2 * jitter + period - 1) / period), 1, 8);
+    // The one policy (rollback/input_delay.h): an input reaches the others through the server,
+    // so across the whole round trip to it, plus twice its jitter.
+    const int want = std::clamp(auto_input_delay(config_.prediction_window, link_.rtt_us() + 2 * link_.rtt_var_us(), config_.tick_rate),
+                                0, static_cast<int>(config_.input_capacity / 4));
     if (last_delay_revision_us_ == 0) input_delay_ = want;  // the first estimate, before frame 0
     else if (want > input_delay_) ++input_delay_;
     else if (want < input_delay_) --input_delay_;

@@ -13,8 +13,9 @@
 //        lead = ceil((rtt / 2 + 2 * jitter) / tick) + 1 - input_delay   (may be negative)
 //    Ahead of the target: tick_stretch_ppm lengthens ticks; behind it: behind() > 0 and the
 //    caller steps catch_up() frames (the local input of a skipped frame repeats the last one).
-//  - Input delay (auto_input_delay): ceil((rtt / 4 + 2 * jitter) / tick), 1..8 frames, set from
-//    the welcome's round trip and revised every two seconds by at most one frame.
+//  - Input delay (auto_input_delay): rollback/input_delay.h's policy with the whole round trip
+//    to the server plus twice the jitter as the input's reach, set from the welcome's round trip
+//    and revised every two seconds by at most one frame.
 //  - Lifecycle comes from the server: a welcome starts the session (refusals end it with the
 //    reason), the frames' flags say when a slot is absent (its neutral input) or replaced.
 //    Joiners and spectators pull a snapshot of a confirmed frame from the slot the welcome names,

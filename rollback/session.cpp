@@ -1,5 +1,7 @@
 #include "rollback/session.h"
 
+#include "rollback/input_delay.h"
+
 #include <algorithm>
 #include <array>
 #include <functional>
@@ -589,11 +591,8 @@ void Session::start_running(std::uint64_t now_us) {
             l.last_heard_us = now_us;
         }
     if (config_.auto_input_delay && config_.role == Role::Player) {
-        // Lockstep needs the worst one-way time covered, plus a frame for tick phase; rollback
-        // takes half of that (shallower rollbacks for a little latency), as harness auto does.
-        const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
-        const auto lockstep = static_cast<int>((worst / 2 + tick_us - 1) / tick_us) + 1;
-        const int d = config_.prediction_window == 0 ? lockstep : (lockstep + 1) / 2;
+        // The one policy (rollback/input_delay.h); a P2P input reaches its peers in half the worst round trip.
+        const int d = auto_input_delay(config_.prediction_window, worst / 2, config_.tick_rate);
         input_delay_ = std::clamp(d, 0, static_cast<int>(config_.input_capacity / 4));
     }
     emit(SessionEvent::Kind::Synchronized, config_.local_player, frame(), now_us,
