@@ -24,15 +24,7 @@ public:
         : max_bad_packets_(max_bad_packets), time_sync_(time_sync_window) {}
 
     // Counts a malformed datagram; true when this one tipped the peer into the error state.
-    bool note_malformed(const char* why) {
-        last_error_ = why;
-        ++malformed_;
-        if (!error_ && malformed_ >= static_cast<std::uint64_t>(max_bad_packets_)) {
-            error_ = true;
-            return true;
-        }
-        return false;
-    }
+    bool note_malformed(const char* why);
     bool error() const { return error_; }
     // A new process took the peer's place (rejoin): its predecessor's garbage is forgotten.
     void clear_error() {
@@ -100,10 +92,22 @@ public:
     // While a snapshot it pulls is being served: our queues keep inputs from this frame on.
     std::optional<std::uint32_t> pin_from;
     std::uint64_t pin_until_us = 0;
-    // Round trip by echoed stamps (protocol.h): its last stamp, and when it arrived.
+    // Round trip by echoed stamps (protocol.h, relay_messages.h; units of 100 µs, wrapping at
+    // 2^16): its last stamp, and when it arrived.
     bool has_stamp = false;
     std::uint16_t stamp = 0;
     std::uint64_t stamp_at_us = 0;
+    // What an outgoing message to it carries: our stamp (never kNoEcho), and its last stamp
+    // echoed with how long we held it (both kNoEcho until it sent one).
+    struct Stamps {
+        std::uint16_t stamp = 0, echo = kNoEcho, hold = kNoEcho;
+    };
+    static constexpr std::uint16_t kNoEcho = 0xFFFF;
+    Stamps outgoing_stamps(std::uint64_t now_us) const;
+    // An incoming message's stamps: a round-trip sample from its echo of ours (minus the time
+    // it held it; none when it echoes nothing, or the numbers cannot be true), then its stamp
+    // is remembered for our next echo.
+    void take_stamps(std::uint16_t stamp, std::uint16_t echo, std::uint16_t hold, std::uint64_t now_us);
 
     void reset_lifecycle(std::size_t slots) {
         table.assign(slots, SlotEntry{});

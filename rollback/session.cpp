@@ -30,23 +30,10 @@ std::uint32_t next_pow2(std::uint64_t v) {
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
 constexpr int kMaxChunksPerPoll = 64;
-constexpr std::size_t kMaxOutgoingTransfers = 4;
-constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
 // A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
 // server a whole state packed and sent, so a peer that keeps asking must not multiply that.
 constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
-constexpr std::uint16_t kNoEcho = 0xFFFF;
 }  // namespace
-
-const char* phase_name(SessionPhase p) {
-    switch (p) {
-        case SessionPhase::Synchronizing: return "synchronizing";
-        case SessionPhase::Transferring: return "transferring";
-        case SessionPhase::Running: return "running";
-        case SessionPhase::Failed: return "failed";
-    }
-    return "unknown";
-}
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
 class Session::Tap final : public SessionObserver {
@@ -147,32 +134,24 @@ void validate(const SessionConfig& c) {
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
-    : config_(config), sim_(simulation), observer_(observer), input_delay_(config.input_delay),
+    : SessionCore(SessionPhase::Running, config.local_player, config.input_delay, observer),
+      config_(config),
+      sim_(simulation),
       membership_(0, 0, config.two_player_rule) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
-    // No clock is read in rollback/: telemetry times come from the caller's clock, or are 0.
-    if (!config_.cpu_clock) config_.cpu_clock = [] { return std::uint64_t{0}; };
-    if (!predictor) {
-        default_predictor_ = std::make_unique<RepeatLastPredictor>();
-        predictor = default_predictor_.get();
-    }
+    default_to_zero(config_.cpu_clock);
     if (config_.relay_lag == 0) config_.relay_lag = config_.prediction_window + config_.input_delay + 8;
     tap_ = std::make_unique<Tap>(*this, observer_);
     const auto peers = static_cast<std::size_t>(peers_total());
     stats_.peers.resize(peers);
     // A spectator has no slot of its own; its Sync is built as slot 0's, which it never feeds.
-    SyncConfig sc;
-    sc.players = config_.players;
-    sc.local_player = config_.role == Role::Spectator ? 0 : config_.local_player;
-    sc.input_size = config_.input_size;
-    sc.prediction_window = config_.prediction_window;
-    sc.evidence_frames = config_.evidence_frames;
-    sc.input_capacity = config_.input_capacity;
+    SyncConfig sc = sync_config(config_.players, config_.role == Role::Spectator ? 0 : config_.local_player, config_.input_size,
+                                config_.prediction_window, config_.evidence_frames, config_.input_capacity);
     // A quarter of the ring stays behind confirmation: a peer reloading a snapshot of a slightly
     // older frame (a desync recovery) still finds its own and everyone's inputs since then.
     sc.retain_frames = config_.input_capacity / 4;
-    sync_ = std::make_unique<Sync>(sc, sim_, *predictor, tap_.get(), stats_, config_.cpu_clock);
+    sync_ = std::make_unique<Sync>(sc, sim_, predictor_or_default(predictor), tap_.get(), stats_, config_.cpu_clock);
     DesyncConfig dc;
     dc.history = next_pow2(std::max<std::uint64_t>(
         1024, 2 * static_cast<std::uint64_t>(config_.checksum_interval) +
@@ -213,73 +192,21 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
 
 Session::~Session() = default;
 
-void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
-                   std::string detail) {
-    events_.push({kind, peer, frame, now_us, std::move(detail)});
-}
-
-bool Session::next_event(SessionEvent& out) noexcept { return events_.pop(out); }
-
-void Session::fail(const std::string& why, std::uint64_t now_us) {
-    if (phase_ == SessionPhase::Failed) return;
-    phase_ = SessionPhase::Failed;
-    failure_ = why;
-    emit(SessionEvent::Kind::Failed, config_.local_player, frame(), now_us, why);
-}
-
-// Per-tick calls never throw (a game loop has nowhere to catch). What could -- the game's own
-// step/save/load, an allocation, an invariant of ours -- fails the session instead, with the
-// exception's message as the reason. Called from inside a catch handler only.
-void Session::fail_from_exception(const char* where, std::uint64_t now_us) noexcept {
-    try {
-        std::string why;
-        try {
-            throw;
-        } catch (const std::exception& e) {
-            why = e.what();
-        } catch (...) {
-            why = "an exception that is not a std::exception";
-        }
-        fail(std::string(where) + ": " + why, now_us);
-    } catch (...) {
-        phase_ = SessionPhase::Failed;  // not even the message could be built
-    }
-}
-
+// The per-tick calls: SessionCore::guarded turns anything thrown into a failed session.
 void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
-    try {
-        receive_impl(from, datagram, now_us);
-    } catch (...) {
-        fail_from_exception("receive", now_us);
-    }
+    guarded("receive", now_us, [&] { receive_impl(from, datagram, now_us); });
 }
 
 AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
-    try {
-        return advance_impl(local_input, now_us);
-    } catch (...) {
-        fail_from_exception("advance", now_us);
-        AdvanceResult r;
-        r.frame = frame();
-        return r;
-    }
+    return guarded("advance", now_us, [&] { return advance_impl(local_input, now_us); }, [&] { return idle_result(); });
 }
 
 int Session::catch_up(std::uint64_t now_us, int max_frames) noexcept {
-    try {
-        return catch_up_impl(now_us, max_frames);
-    } catch (...) {
-        fail_from_exception("catch_up", now_us);
-        return 0;
-    }
+    return guarded("catch_up", now_us, [&] { return catch_up_impl(now_us, max_frames); }, [] { return 0; });
 }
 
 void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
-    try {
-        poll_impl(now_us, out);
-    } catch (...) {
-        fail_from_exception("poll", now_us);
-    }
+    guarded("poll", now_us, [&] { poll_impl(now_us, out); });
 }
 
 void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
@@ -662,16 +589,7 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         link.remote_frame = *sender_frame;
         link.remote_frame_time_us = now_us;
         link.remote_advantage = clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound));
-        // Round trip from echoed stamps (units of 100 µs, wrapping at 2^16).
-        if (m.echo != kNoEcho && m.hold != kNoEcho) {
-            const auto now_units = static_cast<std::uint16_t>(now_us / 100);
-            const auto elapsed = static_cast<std::uint16_t>(now_units - m.echo);
-            if (elapsed >= m.hold && elapsed - m.hold < 30000)
-                link.add_rtt_sample(static_cast<std::uint64_t>(elapsed - m.hold) * 100);
-        }
-        link.has_stamp = true;
-        link.stamp = m.stamp;
-        link.stamp_at_us = now_us;
+        link.take_stamps(m.stamp, m.echo, m.hold, now_us);
     }
     for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
 }
@@ -1272,28 +1190,20 @@ void Session::poll_transfer(std::uint64_t now_us) {
 
 void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     if (m.transfer_id != 0) {
-        for (const OutgoingTransfer& t : outgoing_) {
-            if (t.id != m.transfer_id || t.peer != from) continue;
-            const std::size_t begin = std::size_t{m.chunk} * kSnapshotChunkBytes;
-            if (begin >= t.blob.size()) return malformed(from, "snapshot request: chunk out of range");
-            if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
-            ++replies_this_poll_[from];
-            SnapshotChunkMessage c;
-            c.transfer_id = t.id;
-            c.chunk = m.chunk;
-            const std::size_t end = std::min(t.blob.size(), begin + kSnapshotChunkBytes);
-            c.bytes.assign(t.blob.begin() + static_cast<std::ptrdiff_t>(begin), t.blob.begin() + static_cast<std::ptrdiff_t>(end));
-            if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
-                if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
-                else c.bytes.pop_back();
-                ++damaged_chunks_;
-            }
-            std::vector<std::uint8_t> b;
-            encode(c, b);
-            send_control(from, std::move(b));
-            return;
+        const TransferSender::Transfer* t = outgoing_.find(m.transfer_id, from);
+        if (!t) return void(++stats_.peers[from].ignored_packets);  // an old transfer, or not ours
+        SnapshotChunkMessage c;
+        if (!TransferSender::chunk(*t, m.chunk, c)) return malformed(from, "snapshot request: chunk out of range");
+        if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
+        ++replies_this_poll_[from];
+        if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
+            if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
+            else c.bytes.pop_back();
+            ++damaged_chunks_;
         }
-        ++stats_.peers[from].ignored_packets;  // an old transfer, or not ours
+        std::vector<std::uint8_t> b;
+        encode(c, b);
+        send_control(from, std::move(b));
         return;
     }
     if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
@@ -1307,7 +1217,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     // (A recovery wants a fresh frame, so its offer is reused only against duplicates, and a new
     // one is packed at most every kRecoveryIntervalUs.)
     const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
-    for (const OutgoingTransfer& t : outgoing_) {
+    for (const TransferSender::Transfer& t : outgoing_.transfers()) {
         if (t.peer != from || t.offer.reason != m.reason) continue;
         if (now_us < t.created_us + reuse_us) {
             std::vector<std::uint8_t> b;
@@ -1386,17 +1296,8 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             st.absent[i] = q.confirmed_absent(c + i) ? 1 : 0;
         }
     }
-    OutgoingTransfer out;
-    out.id = next_transfer_id_;
-    next_transfer_id_ = next_transfer_id(next_transfer_id_);
-    out.peer = from;
-    out.blob = pack_transfer(t, n);
-    out.created_us = now_us;
-    out.offer.reason = m.reason;
-    out.offer.transfer_id = out.id;
-    out.offer.frame = c;
-    out.offer.size = static_cast<std::uint32_t>(out.blob.size());
-    out.offer.hash = transfer_hash(out.blob);
+    // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
+    TransferSender::Transfer& out = outgoing_.offer(from, m.reason, t, n, now_us);
     out.offer.handoff_frame = handoff;
     for (int s = 0; s < config_.players; ++s)
         out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
@@ -1410,10 +1311,6 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     std::vector<std::uint8_t> b;
     encode(out.offer, b);
     send_control(from, std::move(b));
-    // Old transfers go: bounded memory whatever newcomers ask.
-    std::erase_if(outgoing_, [&](const OutgoingTransfer& o) { return o.peer == from || now_us > o.created_us + kTransferLifetimeUs; });
-    if (outgoing_.size() >= kMaxOutgoingTransfers) outgoing_.erase(outgoing_.begin());
-    outgoing_.push_back(std::move(out));
     refresh_resend_floor();
 }
 
@@ -1717,15 +1614,10 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.has_time_sync = link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
         m.sender_frame = static_cast<std::uint16_t>(sync_->frame());
         m.advantage = clamp_i8(local_advantage_[p]);
-        m.stamp = static_cast<std::uint16_t>(now_us / 100);
-        if (m.stamp == kNoEcho) m.stamp = 0;
-        if (link.has_stamp) {
-            m.echo = link.stamp;
-            m.hold = static_cast<std::uint16_t>(std::min<std::uint64_t>((now_us - link.stamp_at_us) / 100, kNoEcho - 1));
-        } else {
-            m.echo = kNoEcho;
-            m.hold = kNoEcho;
-        }
+        const PeerLink::Stamps st = link.outgoing_stamps(now_us);
+        m.stamp = st.stamp;
+        m.echo = st.echo;
+        m.hold = st.hold;
         // Every checkpoint confirmed since the last message (newest three at most), else the
         // newest again until it has ridden checksum_repeats messages. Players only.
         m.checksum_count = 0;
@@ -1774,10 +1666,6 @@ void Session::set_input_delay(int frames) {
     if (frames < 0 || frames > max_delay)
         throw std::invalid_argument("input delay must be 0.." + std::to_string(max_delay));
     input_delay_ = frames;
-}
-
-std::string Session::inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
-    return sync_->add_fault(frame, body_id, field, bit);
 }
 
 void Session::damage_outgoing_chunks(int count, ChunkDamage how) {
