@@ -11,16 +11,6 @@
 namespace lockroll::rollback {
 
 namespace {
-[[noreturn]] void config_error(const std::string& what) { throw std::invalid_argument("session config: " + what); }
-// A macro, so that a check's message (a std::string, often with std::to_string in it) is built
-// only when the check fails: validate() runs in every construction, and building its forty-odd
-// messages eagerly was a quarter of the allocations of constructing a session. #undef after
-// validate().
-#define LOCKROLL_REQUIRE(ok, what)              \
-    do {                               \
-        if (!(ok)) config_error(what); \
-    } while (false)
-
 std::uint32_t next_pow2(std::uint64_t v) {
     std::uint32_t p = 1;
     while (p < v) p <<= 1;
@@ -75,62 +65,6 @@ static std::string oversized_message(const Simulation& sim) {
     return "the simulation saved " + std::to_string(sim.saved_size()) + " bytes, more than its state_size() of " +
            std::to_string(sim.state_size());
 }
-
-void validate(const SessionConfig& c) {
-    LOCKROLL_REQUIRE(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
-    LOCKROLL_REQUIRE(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
-            "max_spectators must be 0.." + std::to_string(255 - c.players));
-    if (c.role == Role::Spectator)
-        LOCKROLL_REQUIRE(c.local_player >= static_cast<PlayerId>(c.players) &&
-                    c.local_player < static_cast<PlayerId>(c.players + c.max_spectators),
-                "a spectator's local id must be players .. players + max_spectators - 1");
-    else
-        LOCKROLL_REQUIRE(c.local_player < static_cast<PlayerId>(c.players), "local_player must be a player slot");
-    LOCKROLL_REQUIRE((c.absent_slots >> c.local_player & 1) == 0 || c.role != Role::Player,
-            "the local slot cannot be absent at frame 0");
-    LOCKROLL_REQUIRE(c.role == Role::Player || c.handshake, "joiners and spectators need the handshake");
-    LOCKROLL_REQUIRE(c.input_size >= 1 && c.input_size <= kMaxInputSize,
-            "input_size must be 1.." + std::to_string(kMaxInputSize));
-    LOCKROLL_REQUIRE(c.tick_rate >= 1 && c.tick_rate <= 10000, "tick_rate must be 1..10000");
-    LOCKROLL_REQUIRE(c.prediction_window >= 0 && c.prediction_window <= 120, "prediction_window must be 0..120");
-    LOCKROLL_REQUIRE(c.input_capacity >= 64 && (c.input_capacity & (c.input_capacity - 1)) == 0,
-            "input_capacity must be a power of two >= 64");
-    const int max_delay = static_cast<int>(c.input_capacity / 4);
-    LOCKROLL_REQUIRE(c.input_delay >= 0 && c.input_delay <= max_delay, "input_delay must be 0.." + std::to_string(max_delay));
-    LOCKROLL_REQUIRE(static_cast<std::uint32_t>(c.prediction_window) < c.input_capacity / 4,
-            "prediction_window must be below input_capacity / 4");
-    LOCKROLL_REQUIRE(c.checksum_interval >= 1 && c.checksum_interval <= 65535, "checksum_interval must be 1..65535");
-    LOCKROLL_REQUIRE(c.checksum_repeats >= 1, "checksum_repeats must be >= 1");
-    LOCKROLL_REQUIRE(c.evidence_frames >= 1 && c.evidence_frames <= 100000, "evidence_frames must be 1..100000");
-    LOCKROLL_REQUIRE(c.max_bad_packets >= 1, "max_bad_packets must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_window >= 1 && c.time_sync_window <= 100000, "time_sync_window must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_min_frames >= 1, "time_sync_min_frames must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_every >= 1, "time_sync_every must be >= 1");
-    LOCKROLL_REQUIRE(c.max_replies_per_poll >= 1, "max_replies_per_poll must be >= 1");
-    LOCKROLL_REQUIRE(c.sync_roundtrips >= 1 && c.sync_roundtrips <= 100, "sync_roundtrips must be 1..100");
-    LOCKROLL_REQUIRE(c.disconnect_us == 0 || c.interrupt_us < c.disconnect_us, "interrupt_us must be below disconnect_us");
-    LOCKROLL_REQUIRE(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
-    LOCKROLL_REQUIRE(c.max_recoveries >= 0, "max_recoveries must be >= 0");
-    LOCKROLL_REQUIRE(c.relay_lag >= 0, "relay_lag must be >= 0");
-    LOCKROLL_REQUIRE(c.two_player_rule == TwoPlayerRule::PlayOnAlone || c.two_player_rule == TwoPlayerRule::NoDrop,
-            "two_player_rule must be PlayOnAlone or NoDrop");
-    if (!c.slot_hosts.empty()) {
-        LOCKROLL_REQUIRE(c.slot_hosts.size() == static_cast<std::size_t>(c.players), "slot_hosts must have one entry per slot");
-        bool guests = false;
-        for (std::size_t s = 0; s < c.slot_hosts.size(); ++s) {
-            const PlayerId h = c.slot_hosts[s];
-            LOCKROLL_REQUIRE(h <= s && c.slot_hosts[h] == h,
-                    "slot_hosts[" + std::to_string(s) + "] must be a slot <= " + std::to_string(s) + " that hosts itself");
-            LOCKROLL_REQUIRE((c.absent_slots >> s & 1) == (c.absent_slots >> h & 1),
-                    "slot " + std::to_string(s) + " must be absent exactly when its host is");
-            if (h != s && h == c.local_player) guests = true;
-        }
-        if (c.role != Role::Spectator)
-            LOCKROLL_REQUIRE(c.slot_hosts[c.local_player] == c.local_player, "local_player must be the lowest slot of its process");
-        LOCKROLL_REQUIRE(!guests || c.role == Role::Player, "a joiner cannot host other slots yet");
-    }
-}
-#undef LOCKROLL_REQUIRE
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
@@ -275,12 +209,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     PeerLink& link = links_[from];
     // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
     if (link.welcomed && (!is_slot(from) || slot_running(from))) {
-        if (link.interrupted) {
-            link.interrupted = false;
-            emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
-        }
-        link.heard = true;
-        link.last_heard_us = now_us;
+        if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
         // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
         if (is_slot(from) && !slots_[from].kick_vote) membership_.vote_local(from, false);
     }
@@ -309,8 +238,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     if (!link.welcomed || (is_slot(from) && !slot_running(from))) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
-        if (is_slot(from) && slot_state(from) == SlotState::Disconnected &&
-            (!link.refusal_sent || now_us >= link.last_refusal_us + 500000)) {
+        if (is_slot(from) && slot_state(from) == SlotState::Disconnected && link.refusal_quiet_for(now_us, 500000)) {
             WelcomeMessage w;
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
@@ -319,8 +247,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
-            link.refusal_sent = true;
-            link.last_refusal_us = now_us;
+            link.mark_refusal(now_us);
         }
         return;
     }
@@ -389,7 +316,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
-        if (!link.refusal_sent || now_us >= link.last_refusal_us + 1000000)
+        if (link.refusal_quiet_for(now_us, 1000000))
             emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + why);
     }
     if (w.refusal == Refusal::None) {
@@ -402,19 +329,11 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
             link.clear_error();
             detector_->reset_peer(from);
         }
-        link.welcomed = true;
-        if (is_slot(from)) link.welcomed_epoch = membership_.epoch(from);
-        link.incarnation = m.incarnation;
-        link.role = m.role;
-        if (!link.heard) {
-            link.heard = true;
-            link.last_heard_us = now_us;
-        }
+        link.accept_hello(m.role, m.incarnation, is_slot(from) ? std::optional(membership_.epoch(from)) : std::nullopt, now_us);
     }
     if (w.refusal != Refusal::None) {
-        if (link.refusal_sent && now_us < link.last_refusal_us + 100000 && w.refusal != Refusal::Retry) return;
-        link.refusal_sent = true;
-        link.last_refusal_us = now_us;
+        if (w.refusal != Refusal::Retry && !link.refusal_quiet_for(now_us, 100000)) return;
+        link.mark_refusal(now_us);
     }
     std::vector<std::uint8_t> b;
     encode(w, b);
@@ -449,20 +368,8 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     }
     if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
     if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
-    if (m.echo_us <= now_us) {
-        const std::uint64_t rtt = now_us - m.echo_us;
-        link.add_rtt_sample(rtt);
-        link.max_sync_rtt_us = std::max(link.max_sync_rtt_us, rtt);
-        stats_.peers[from].rtt_us = link.rtt_us();
-    }
-    if (!link.welcomed) {
-        link.welcomed = true;
-        if (first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
-    }
-    link.heard = true;
-    link.last_heard_us = now_us;
-    if (link.roundtrips < 1000) ++link.roundtrips;
-    link.has_remote_frame = link.has_remote_frame || m.running;
+    if (link.sync_welcome(m.echo_us, m.running, now_us) && first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
+    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
     if (m.running && is_slot(from)) peer_started_ = true;
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
@@ -476,17 +383,8 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
 void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     if (config_.role != Role::Joiner || !is_slot(from) || !slot_running(from) || !m.running || link.welcomed) return;
-    if (m.echo_us <= now_us) {
-        link.add_rtt_sample(now_us - m.echo_us);
-        stats_.peers[from].rtt_us = link.rtt_us();
-    }
-    link.welcomed = true;
-    link.welcomed_epoch = membership_.epoch(from);
-    link.role = Role::Player;
-    link.has_remote_frame = true;
-    link.heard = true;
-    link.last_heard_us = now_us;
-    link.interrupted = false;
+    link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
+    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
     emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
     refresh_resend_floor();
 }
@@ -513,9 +411,7 @@ void Session::start_running(std::uint64_t now_us) {
     for (int p = 0; p < config_.players; ++p)
         if (static_cast<PlayerId>(p) != config_.local_player) {
             worst = std::max(worst, links_[static_cast<std::size_t>(p)].max_sync_rtt_us);
-            PeerLink& l = links_[static_cast<std::size_t>(p)];
-            l.heard = true;
-            l.last_heard_us = now_us;
+            links_[static_cast<std::size_t>(p)].mark_heard(now_us);
         }
     if (config_.auto_input_delay && config_.role == Role::Player) {
         // The one policy (rollback/input_delay.h); a P2P input reaches its peers in half the worst round trip.
@@ -562,10 +458,7 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
     for (const StreamBlock& b : m.blocks)
         if (b.slot >= config_.players) return malformed(from, "input message: stream block slot out of range");
 
-    if (ack && *ack > link.remote_ack) {
-        link.remote_ack = *ack;
-        refresh_resend_floor();
-    }
+    if (ack && link.take_ack(*ack)) refresh_resend_floor();
     if (first) {
         const std::size_t n = config_.input_size;
         for (std::uint32_t k = 0; k < m.frame_count; ++k) {
@@ -585,10 +478,7 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         // the time sync's own slack); a claim beyond that is clipped, so one forged message
         // cannot make us wait thousands of frames.
         const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
-        link.has_remote_frame = true;
-        link.remote_frame = *sender_frame;
-        link.remote_frame_time_us = now_us;
-        link.remote_advantage = clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound));
+        link.note_remote_frame(*sender_frame, clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound)), now_us);
         link.take_stamps(m.stamp, m.echo, m.hold, now_us);
     }
     for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
@@ -663,8 +553,7 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
         link.reset_lifecycle(static_cast<std::size_t>(config_.players));
         link.clear_error();
         detector_->reset_peer(slot);
-        link.heard = true;
-        link.last_heard_us = now_us;
+        link.mark_heard(now_us);
         link.interrupted = false;
         emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
     } else if (e.state != SlotState::Running && before == SlotState::Running) {
@@ -787,13 +676,6 @@ void Session::confirm_frames() {
 // A peer's frame now: what it last reported plus the time since then and half a round trip. A
 // peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
 // there (unbounded, a stuck peer read as tens of thousands of frames ahead).
-std::int64_t Session::estimated_frame(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t silent = now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0;
-    const std::uint64_t elapsed = std::min(silent, config_.interrupt_us) + link.rtt_us() / 2;
-    return std::int64_t{link.remote_frame} +
-           static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
-}
-
 // Local advantage against each peer: (its frame now, estimated) - our frame.
 void Session::sample_time_sync(std::uint64_t now_us) {
     const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
@@ -801,7 +683,7 @@ void Session::sample_time_sync(std::uint64_t now_us) {
         PeerLink& link = links_[p];
         if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame)
             continue;
-        const std::int64_t adv = estimated_frame(link, now_us) - std::int64_t{sync_->frame()};
+        const std::int64_t adv = link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()};
         local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -bound, bound));
         link.time_sync().add_sample(local_advantage_[p], link.remote_advantage);
         stats_.peers[p].frame_advantage_x100 = link.time_sync().local_advantage_x100();
@@ -822,7 +704,7 @@ std::int32_t Session::behind(std::uint64_t now_us) const {
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const PeerLink& link = links_[p];
         if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame) continue;
-        most = std::max(most, estimated_frame(link, now_us) - std::int64_t{sync_->frame()});
+        most = std::max(most, link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()});
     }
     return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
 }
@@ -838,7 +720,7 @@ NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const {
         n.kbps_sent = static_cast<double>(stats_.peers[p].bytes_sent) * 8 / 1000 / seconds;
         n.kbps_received = static_cast<double>(stats_.peers[p].bytes_received) * 8 / 1000 / seconds;
     }
-    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - estimated_frame(l, now_us));
+    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - l.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate));
     if (config_.role != Role::Spectator) {
         const std::uint32_t sent = count_of(config_.local_player);
         n.send_queue = sent > l.remote_ack ? sent - l.remote_ack : 0;
@@ -922,13 +804,10 @@ void Session::check_silence(std::uint64_t now_us) {
         const auto pid = static_cast<PlayerId>(p);
         if (!live_peer(pid)) continue;
         PeerLink& l = links_[p];
-        if (!l.heard) continue;
-        const std::uint64_t silent = now_us > l.last_heard_us ? now_us - l.last_heard_us : 0;
-        if (!l.interrupted && silent >= config_.interrupt_us) {
-            l.interrupted = true;
-            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silent / 1000) + " ms silent");
-        }
-        if (config_.disconnect_us != 0 && silent >= config_.disconnect_us) {
+        const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
+        if (silence.interrupted_now)
+            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silence.silent_us / 1000) + " ms silent");
+        if (silence.timed_out) {
             if (is_slot(pid)) {
                 membership_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
             } else {
@@ -1117,9 +996,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
                                    : phase_ == SessionPhase::Synchronizing;
         if (!want) continue;
         if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
-        if (l.hello_sent && now_us < l.last_hello_us + config_.hello_resend_us) continue;
-        l.hello_sent = true;
-        l.last_hello_us = now_us;
+        if (!l.hello_due(now_us, config_.hello_resend_us)) continue;
         HelloMessage h;
         h.incarnation = incarnation_;
         h.match_id = config_.match_id;
@@ -1259,8 +1136,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             l.reset_lifecycle(static_cast<std::size_t>(config_.players));
             l.welcomed = true;
             l.welcomed_epoch = membership_.epoch(from);
-            l.heard = true;
-            l.last_heard_us = now_us;
+            l.mark_heard(now_us);
             detector_->reset_peer(from);
             emit(SessionEvent::Kind::Joined, from, handoff, now_us, "snapshot of frame " + std::to_string(c));
             break;
@@ -1268,8 +1144,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
         case TransferReason::Spectate:
             if (is_slot(from)) return;
             links_[from].reset_lifecycle(static_cast<std::size_t>(config_.players));
-            links_[from].heard = true;
-            links_[from].last_heard_us = now_us;
+            links_[from].mark_heard(now_us);
             emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
             break;
         case TransferReason::Recover:
@@ -1620,33 +1495,12 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.hold = st.hold;
         // Every checkpoint confirmed since the last message (newest three at most), else the
         // newest again until it has ridden checksum_repeats messages. Players only.
-        m.checksum_count = 0;
-        if (spectator || !is_slot(pid)) {
-            // no checksums to or from spectators: they compare nothing with anyone
-        } else if (!link.any_checksum_sent || cp > link.checksum_frame_sent) {
-            const std::uint32_t k = static_cast<std::uint32_t>(config_.checksum_interval);
-            std::uint32_t oldest = cp;
-            while (oldest >= k && cp - (oldest - k) < k * kMaxChecksumsPerMessage &&
-                   (!link.any_checksum_sent || oldest - k > link.checksum_frame_sent))
-                oldest -= k;
-            for (std::uint32_t f = oldest; f <= cp; f += k) {
-                if (const auto c = detector_->local_checksum(f)) {
-                    m.checksum_frames[m.checksum_count] = static_cast<std::uint16_t>(f);
-                    m.checksums[m.checksum_count] = *c;
-                    ++m.checksum_count;
-                }
-            }
-            link.any_checksum_sent = true;
-            link.checksum_frame_sent = cp;
-            link.checksum_sends = 1;
-        } else if (link.checksum_sends < config_.checksum_repeats) {
-            if (const auto c = detector_->local_checksum(cp)) {
-                ++link.checksum_sends;
-                m.checksum_frames[0] = static_cast<std::uint16_t>(cp);
-                m.checksums[0] = *c;
-                m.checksum_count = 1;
-            }
-        }
+        // Players only: spectators compare nothing with anyone.
+        m.checksum_count = spectator || !is_slot(pid)
+                               ? 0
+                               : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
+                                                     kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
+                                                     m.checksum_frames, m.checksums);
         if (extension_needed(pid)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
             fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0);
