@@ -234,13 +234,8 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
         if (snap_req_.transfer_id == 0) {
             // Offer the newest confirmed frame (every peer that plays holds it).
             if (phase_ != SessionPhase::Running) return;
-            const std::uint32_t f = sync_->confirmed_frame();
-            const auto state = sync_->saved_state(f);
-            if (!state) return;
             TransferContents t;
-            t.frame = f;
-            t.state.assign(state->begin(), state->end());
-            t.streams.resize(static_cast<std::size_t>(config_.players));
+            if (!sync_->transfer_contents(sync_->confirmed_frame(), false, t)) return;
             const TransferSender::Transfer& o = outgoing_.offer(from, snap_req_.reason, t, config_.input_size, now_us);
             scratch_.clear();
             encode(o.offer, scratch_);

@@ -1151,26 +1151,8 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             break;  // checked above
     }
     TransferContents t;
-    t.frame = c;
-    const auto state = sync_->saved_state(c);
-    if (!state) return;
-    t.state.assign(state->begin(), state->end());
-    t.streams.resize(static_cast<std::size_t>(config_.players));
+    if (!sync_->transfer_contents(c, true, t)) return;
     const std::size_t n = config_.input_size;
-    for (int s = 0; s < config_.players; ++s) {
-        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
-        StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
-        const std::uint32_t from_frame = std::max(c, q.floor());
-        if (from_frame != c) return;  // cannot happen: queues hold everything from the confirmed frame on
-        st.count = q.confirmed_count() > c ? q.confirmed_count() - c : 0;
-        st.inputs.resize(std::size_t{st.count} * n);
-        st.absent.resize(st.count);
-        for (std::uint32_t i = 0; i < st.count; ++i) {
-            const auto in = q.confirmed(c + i);
-            std::copy(in.begin(), in.end(), st.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{i} * n));
-            st.absent[i] = q.confirmed_absent(c + i) ? 1 : 0;
-        }
-    }
     // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
     TransferSender::Transfer& out = outgoing_.offer(from, m.reason, t, n, now_us);
     out.offer.handoff_frame = handoff;
@@ -1229,40 +1211,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
         !e.empty())
         return reject(e);
     if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
-    // Inputs we hold beyond what the snapshot brings stay valid (they are confirmed): keep them.
-    struct Held {
-        std::uint32_t first = 0;
-        std::vector<std::uint8_t> inputs, absent;
-    };
-    const std::size_t n = config_.input_size;
-    std::vector<Held> held(static_cast<std::size_t>(config_.players));
-    for (int s = 0; s < config_.players; ++s) {
-        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
-        Held& h = held[static_cast<std::size_t>(s)];
-        h.first = std::max(q.floor(), t.frame);
-        for (std::uint32_t f = h.first; f < q.confirmed_count(); ++f) {
-            const auto in = q.confirmed(f);
-            h.inputs.insert(h.inputs.end(), in.begin(), in.end());
-            h.absent.push_back(q.confirmed_absent(f) ? 1 : 0);
-        }
-    }
-    if (std::string e = sync_->restart_at(t.frame, t.state); !e.empty()) return reject("snapshot transfer: " + e);
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        const StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
-        for (std::uint32_t i = 0; i < st.count; ++i)
-            if (sync_->add_remote_input(slot, t.frame + i, std::span(st.inputs).subspan(std::size_t{i} * n, n),
-                                        st.absent[i] != 0) != InputQueue::Add::Stored)
-                break;
-        const Held& h = held[static_cast<std::size_t>(s)];
-        for (std::size_t i = 0; i < h.absent.size(); ++i) {
-            const std::uint32_t f = h.first + static_cast<std::uint32_t>(i);
-            if (f < count_of(slot)) continue;
-            if (sync_->add_remote_input(slot, f, std::span(h.inputs).subspan(i * n, n), h.absent[i] != 0) !=
-                InputQueue::Add::Stored)
-                break;
-        }
-    }
+    if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     detector_->restart_at(t.frame, sim_.checksum(t.state));
     incoming_.reset();
     offer_requested_ = false;
