@@ -555,16 +555,10 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         RelayInput m;
         m.confirmed_ack = phase_ == SessionPhase::Running ? sync_->inputs_complete() : kRelayNoFrames;
         if (config_.role != RelayRole::Spectator && phase_ == SessionPhase::Running) {
-            const std::uint32_t from = std::max(server_ack_, own_.floor());
-            const std::uint32_t end = own_.confirmed_count();
-            const std::uint32_t count = end > from ? std::min<std::uint32_t>(end - from, relay_max_inputs(config_.input_size)) : 0;
-            m.first_frame = from;
-            m.frame_count = static_cast<std::uint8_t>(count);
-            m.inputs.resize(count * config_.input_size);
-            for (std::uint32_t i = 0; i < count; ++i) {
-                const auto in = own_.confirmed(from + i);
-                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(i * config_.input_size));
-            }
+            // Own inputs the server lacks.
+            const auto run = own_.copy_confirmed(server_ack_, relay_max_inputs(config_.input_size), m.inputs);
+            m.first_frame = run.first;
+            m.frame_count = static_cast<std::uint8_t>(run.count);
         }
         const PeerLink::Stamps st = link_.outgoing_stamps(now_us);
         m.stamp = st.stamp;

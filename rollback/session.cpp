@@ -1422,17 +1422,12 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.blocks.clear();
         m.ack = is_slot(pid) ? static_cast<std::uint16_t>(count_of(pid)) : 0;
         std::uint32_t count = 0;
+        m.inputs.clear();
         if (!spectator) {
-            const InputQueue& local = sync_->queue(config_.local_player);
-            const std::uint32_t from = std::max(link.remote_ack, local.floor());
-            const std::uint32_t to = local.confirmed_count();
-            count = std::min<std::uint32_t>(to > from ? to - from : 0, max_frames_per_message(n));
-            m.first_frame = static_cast<std::uint16_t>(from);
-            m.inputs.resize(std::size_t{count} * n);
-            for (std::uint32_t k = 0; k < count; ++k) {
-                const auto in = local.confirmed(from + k);
-                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(k * n));
-            }
+            // Our inputs it has not acknowledged.
+            const auto run = sync_->queue(config_.local_player).copy_confirmed(link.remote_ack, max_frames_per_message(n), m.inputs);
+            count = run.count;
+            m.first_frame = static_cast<std::uint16_t>(run.first);
         }
         m.frame_count = static_cast<std::uint8_t>(count);
         m.has_time_sync = link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
@@ -1443,8 +1438,8 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.echo = st.echo;
         m.hold = st.hold;
         // Every checkpoint confirmed since the last message (newest three at most), else the
-        // newest again until it has ridden checksum_repeats messages. Players only.
-        // Players only: spectators compare nothing with anyone.
+        // newest again until it has ridden checksum_repeats messages. Players only: spectators
+        // compare nothing with anyone.
         m.checksum_count = spectator || !is_slot(pid)
                                ? 0
                                : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
