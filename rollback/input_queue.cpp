@@ -52,6 +52,18 @@ std::span<const std::uint8_t> InputQueue::confirmed(std::uint32_t frame) const {
 
 std::span<const std::uint8_t> InputQueue::last_confirmed() const { return last_; }
 
+InputQueue::Run InputQueue::copy_confirmed(std::uint32_t from, std::uint32_t max, std::vector<std::uint8_t>& out) const {
+    Run r;
+    r.first = std::max(from, floor_);
+    r.count = confirmed_count_ > r.first ? std::min(confirmed_count_ - r.first, max) : 0;
+    out.resize(std::size_t{r.count} * input_size_);
+    for (std::uint32_t k = 0; k < r.count; ++k) {
+        const auto in = confirmed(r.first + k);
+        std::copy(in.begin(), in.end(), out.begin() + static_cast<std::ptrdiff_t>(std::size_t{k} * input_size_));
+    }
+    return r;
+}
+
 void InputQueue::set_used(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) {
     std::copy(input.begin(), input.end(), used_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
     used_tag_[frame & (capacity_ - 1)] = frame + 1;

@@ -44,6 +44,13 @@ public:
     // floor() <= frame < confirmed_count().
     std::span<const std::uint8_t> confirmed(std::uint32_t frame) const;
     bool confirmed_absent(std::uint32_t frame) const { return absent_[frame & (capacity_ - 1)] != 0; }
+    // The inputs an input message resends (both sessions): up to `max` confirmed inputs from
+    // max(from, floor()) on, copied into out (resized to count * input_size()).
+    struct Run {
+        std::uint32_t first = 0;
+        std::uint32_t count = 0;
+    };
+    Run copy_confirmed(std::uint32_t from, std::uint32_t max, std::vector<std::uint8_t>& out) const;
     // Whether the newest confirmed input was flagged absent.
     bool last_absent() const { return last_absent_; }
 

@@ -1,6 +1,11 @@
-// What a session knows about one remote peer's end of the conversation: how far it has
-// acknowledged our inputs, how long a round trip takes, what frame it reported, what checksum we
-// last told it, and whether it is still worth listening to.
+// One remote peer's end of the conversation, as the session's per-peer endpoint (GGRS's
+// UdpProtocol; the Session delegates each peer to one): the handshake (hellos due, welcomes and
+// the sync-phase round trips, refusals rate-limited), liveness (heard, interrupted, timed out),
+// round trip (smoothed samples, echoed stamps), input exchange (its acks of our inputs, its
+// reported frame and advantage, our estimate of its frame now) and which confirmed checksums ride
+// on the next message to it; and whether it is still worth listening to. The session decides
+// what the answers mean for the match (votes, events, membership); the link holds no session
+// state and reads no clock (time is passed in).
 //
 // Why a sticky error state (as in yojimbo/netcode): a peer that keeps sending garbage is broken
 // or hostile; after max_bad_packets malformed datagrams everything it sends is ignored, so a
@@ -24,15 +29,7 @@ public:
         : max_bad_packets_(max_bad_packets), time_sync_(time_sync_window) {}
 
     // Counts a malformed datagram; true when this one tipped the peer into the error state.
-    bool note_malformed(const char* why) {
-        last_error_ = why;
-        ++malformed_;
-        if (!error_ && malformed_ >= static_cast<std::uint64_t>(max_bad_packets_)) {
-            error_ = true;
-            return true;
-        }
-        return false;
-    }
+    bool note_malformed(const char* why);
     bool error() const { return error_; }
     // A new process took the peer's place (rejoin): its predecessor's garbage is forgotten.
     void clear_error() {
@@ -55,6 +52,70 @@ public:
     bool has_rtt() const { return has_rtt_; }
     std::uint64_t rtt_us() const { return rtt_us_; }
     std::uint64_t rtt_var_us() const { return rtt_var_us_; }
+
+    // ---- liveness ----
+    // Heard now (without ending an interruption).
+    void mark_heard(std::uint64_t now_us) {
+        heard = true;
+        last_heard_us = now_us;
+    }
+    // A datagram that proves it alive: heard now; true when this ended an interruption.
+    bool hear(std::uint64_t now_us);
+    // What its silence says now. Nothing until it was first heard; interrupted_now once per
+    // silence of interrupt_us; timed_out while silent for disconnect_us (0: never).
+    struct Silence {
+        bool interrupted_now = false;
+        bool timed_out = false;
+        std::uint64_t silent_us = 0;
+    };
+    Silence check_silence(std::uint64_t now_us, std::uint64_t interrupt_us, std::uint64_t disconnect_us);
+
+    // ---- handshake ----
+    // A hello is due every resend_us; true marks it said now.
+    bool hello_due(std::uint64_t now_us, std::uint64_t resend_us);
+    // No refusal went to it within gap_us.
+    bool refusal_quiet_for(std::uint64_t now_us, std::uint64_t gap_us) const {
+        return !refusal_sent || now_us >= last_refusal_us + gap_us;
+    }
+    void mark_refusal(std::uint64_t now_us) {
+        refusal_sent = true;
+        last_refusal_us = now_us;
+    }
+    // Its welcome of our hello in the sync phase: a round-trip sample from its echo of the
+    // hello's time (none from an echo in the future), the worst such sample, one more round trip
+    // (counted to 1000), heard now; running: it plays already. True when this was its first.
+    bool sync_welcome(std::uint64_t echo_us, bool running, std::uint64_t now_us);
+    // A late welcome once we run (a joiner's link to a running slot comes up after the load):
+    // the link is live from now on, in the slot's epoch.
+    void late_welcome(std::uint8_t epoch, std::uint64_t echo_us, std::uint64_t now_us);
+    // We welcome its hello: a process of `role`, `incarnation`, welcomed in its slot's epoch
+    // (none for a spectator); heard now unless heard before.
+    void accept_hello(Role r, std::uint64_t process, std::optional<std::uint8_t> epoch, std::uint64_t now_us);
+
+    // ---- input exchange ----
+    // Its ack of our inputs: true when it moved forward.
+    bool take_ack(std::uint32_t ack) {
+        if (ack <= remote_ack) return false;
+        remote_ack = ack;
+        return true;
+    }
+    // Its reported displayed frame and advantage (already clipped by the caller), heard now.
+    void note_remote_frame(std::uint32_t frame, std::int8_t advantage, std::uint64_t now_us) {
+        has_remote_frame = true;
+        remote_frame = frame;
+        remote_frame_time_us = now_us;
+        remote_advantage = advantage;
+    }
+    // Its displayed frame now, estimated: the last one it reported, advanced by the time since
+    // (at most interrupt_us: a silent peer is not running ahead) plus half a round trip.
+    std::int64_t estimated_frame(std::uint64_t now_us, std::uint64_t interrupt_us, int tick_rate) const;
+    // The confirmed checksums for the next message to it (players only): every checkpoint
+    // (multiple of interval) since the last one announced, newest `max` at most, else the newest
+    // again until it rode `repeats` messages. checksum(f) gives our checksum of frame f if we
+    // still hold it. Writes frames and checksums, returns how many.
+    template <class Checksum>
+    int pick_checksums(std::uint32_t checkpoint, std::uint32_t interval, int repeats, std::uint32_t max, Checksum&& checksum,
+                       std::uint16_t* frames, std::uint64_t* sums);
 
     TimeSync& time_sync() { return time_sync_; }
     const TimeSync& time_sync() const { return time_sync_; }
@@ -100,10 +161,22 @@ public:
     // While a snapshot it pulls is being served: our queues keep inputs from this frame on.
     std::optional<std::uint32_t> pin_from;
     std::uint64_t pin_until_us = 0;
-    // Round trip by echoed stamps (protocol.h): its last stamp, and when it arrived.
+    // Round trip by echoed stamps (protocol.h, relay_messages.h; units of 100 µs, wrapping at
+    // 2^16): its last stamp, and when it arrived.
     bool has_stamp = false;
     std::uint16_t stamp = 0;
     std::uint64_t stamp_at_us = 0;
+    // What an outgoing message to it carries: our stamp (never kNoEcho), and its last stamp
+    // echoed with how long we held it (both kNoEcho until it sent one).
+    struct Stamps {
+        std::uint16_t stamp = 0, echo = kNoEcho, hold = kNoEcho;
+    };
+    static constexpr std::uint16_t kNoEcho = 0xFFFF;
+    Stamps outgoing_stamps(std::uint64_t now_us) const;
+    // An incoming message's stamps: a round-trip sample from its echo of ours (minus the time
+    // it held it; none when it echoes nothing, or the numbers cannot be true), then its stamp
+    // is remembered for our next echo.
+    void take_stamps(std::uint16_t stamp, std::uint16_t echo, std::uint16_t hold, std::uint64_t now_us);
 
     void reset_lifecycle(std::size_t slots) {
         table.assign(slots, SlotEntry{});
@@ -129,5 +202,34 @@ private:
     std::uint64_t rtt_var_us_ = 0;
     TimeSync time_sync_;
 };
+
+template <class Checksum>
+int PeerLink::pick_checksums(std::uint32_t cp, std::uint32_t k, int repeats, std::uint32_t max, Checksum&& checksum,
+                             std::uint16_t* frames, std::uint64_t* sums) {
+    int n = 0;
+    if (!any_checksum_sent || cp > checksum_frame_sent) {
+        std::uint32_t oldest = cp;
+        while (oldest >= k && cp - (oldest - k) < k * max && (!any_checksum_sent || oldest - k > checksum_frame_sent))
+            oldest -= k;
+        for (std::uint32_t f = oldest; f <= cp; f += k) {
+            if (const auto c = checksum(f)) {
+                frames[n] = static_cast<std::uint16_t>(f);
+                sums[n] = *c;
+                ++n;
+            }
+        }
+        any_checksum_sent = true;
+        checksum_frame_sent = cp;
+        checksum_sends = 1;
+    } else if (checksum_sends < repeats) {
+        if (const auto c = checksum(cp)) {
+            ++checksum_sends;
+            frames[0] = static_cast<std::uint16_t>(cp);
+            sums[0] = *c;
+            n = 1;
+        }
+    }
+    return n;
+}
 
 }  // namespace lockroll::rollback

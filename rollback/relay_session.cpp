@@ -1,5 +1,6 @@
 #include "rollback/relay_session.h"
 
+#include "rollback/input_delay.h"
 #include "rollback/time_sync.h"
 
 #include <algorithm>
@@ -9,11 +10,8 @@
 namespace lockroll::rollback {
 
 namespace {
-constexpr std::uint16_t kNoEcho = 0xFFFF;
 constexpr int kChecksumRepeats = 3;
 constexpr std::size_t kMaxReports = 8;
-constexpr std::size_t kMaxOutgoingTransfers = 4;
-constexpr std::uint64_t kOutgoingTransferLifeUs = 20'000'000;
 constexpr std::size_t kClockSamples = 32;
 constexpr std::uint64_t kDelayRevisionUs = 2'000'000;
 constexpr std::int64_t kFrac = 65536;  // room clock units per frame
@@ -59,26 +57,16 @@ void validate(const RelaySessionConfig& c) {
 
 RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
                            Predictor* predictor)
-    : config_(config),
+    : SessionCore(SessionPhase::Synchronizing, config.local_slot, config.input_delay, observer),
+      config_(config),
       sim_(simulation),
-      observer_(observer),
       own_(config.input_size, config.input_capacity),
-      link_(1, 60),
-      input_delay_(config.input_delay) {
+      link_(1, 60) {
     validate(config_);
-    if (!config_.cpu_clock) config_.cpu_clock = [] { return std::uint64_t{0}; };
-    if (!predictor) {
-        default_predictor_ = std::make_unique<RepeatLastPredictor>();
-        predictor = default_predictor_.get();
-    }
-    own_predictor_ = std::make_unique<OwnPredictor>(*this, *predictor);
-    SyncConfig sc;
-    sc.players = config_.players;
-    sc.local_player = config_.role == RelayRole::Spectator ? 0 : config_.local_slot;
-    sc.input_size = config_.input_size;
-    sc.prediction_window = config_.prediction_window;
-    sc.evidence_frames = config_.evidence_frames;
-    sc.input_capacity = config_.input_capacity;
+    default_to_zero(config_.cpu_clock);
+    own_predictor_ = std::make_unique<OwnPredictor>(*this, predictor_or_default(predictor));
+    SyncConfig sc = sync_config(config_.players, config_.role == RelayRole::Spectator ? 0 : config_.local_slot, config_.input_size,
+                                config_.prediction_window, config_.evidence_frames, config_.input_capacity);
     sc.all_streams_remote = true;
     stats_.peers.resize(static_cast<std::size_t>(config_.players));
     sync_ = std::make_unique<Sync>(sc, sim_, *own_predictor_, observer_, stats_, config_.cpu_clock);
@@ -97,26 +85,9 @@ std::optional<std::uint64_t> RelaySession::confirmed_checksum(std::uint32_t fram
 
 RelaySession::~RelaySession() = default;
 
-void RelaySession::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
-    events_.push({kind, peer, frame, now_us, std::move(detail)});
-}
-
-bool RelaySession::next_event(SessionEvent& out) noexcept { return events_.pop(out); }
-
-void RelaySession::fail(const std::string& why, std::uint64_t now_us) {
-    if (phase_ == SessionPhase::Failed) return;
-    phase_ = SessionPhase::Failed;
-    failure_ = why;
-    emit(SessionEvent::Kind::Failed, config_.local_slot, frame(), now_us, why);
-}
-
 void RelaySession::malformed(const char* why) {
     ++stats_.malformed_packets;
     link_.note_malformed(why);
-}
-
-std::string RelaySession::inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
-    return sync_->add_fault(frame, body_id, field, bit);
 }
 
 // ---- receiving ----
@@ -205,13 +176,7 @@ void RelaySession::handle_frames(std::uint64_t now_us) {
     if (!welcomed_) return;
     // Round trip from the echoed stamp, then the room clock sample (the freshest of a window wins:
     // a delayed datagram only ever makes the clock look older).
-    if (m.hold != kNoEcho) {
-        const auto elapsed = static_cast<std::uint16_t>(static_cast<std::uint16_t>(now_us / 100) - m.echo);
-        if (elapsed >= m.hold && elapsed - m.hold < 30000) link_.add_rtt_sample(static_cast<std::uint64_t>(elapsed - m.hold) * 100);
-    }
-    link_.has_stamp = true;
-    link_.stamp = m.stamp;
-    link_.stamp_at_us = now_us;
+    link_.take_stamps(m.stamp, m.echo, m.hold, now_us);
     const std::int64_t room = static_cast<std::int64_t>(m.server_frame) * kFrac + m.server_subframe;
     const std::int64_t half_rtt = static_cast<std::int64_t>(link_.rtt_us() / 2 * static_cast<std::uint64_t>(config_.tick_rate)) * kFrac / 1000000;
     const std::int64_t local = static_cast<std::int64_t>(now_us) * config_.tick_rate / 1000000 * kFrac +
@@ -269,41 +234,17 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
         if (snap_req_.transfer_id == 0) {
             // Offer the newest confirmed frame (every peer that plays holds it).
             if (phase_ != SessionPhase::Running) return;
-            const std::uint32_t f = sync_->confirmed_frame();
-            const auto state = sync_->saved_state(f);
-            if (!state) return;
             TransferContents t;
-            t.frame = f;
-            t.state.assign(state->begin(), state->end());
-            t.streams.resize(static_cast<std::size_t>(config_.players));
-            OutgoingTransfer o;
-            o.id = next_transfer_id_;
-            next_transfer_id_ = next_transfer_id(next_transfer_id_);
-            o.to = from;
-            o.blob = pack_transfer(t, config_.input_size);
-            o.created_us = now_us;
-            o.offer.reason = snap_req_.reason;
-            o.offer.transfer_id = o.id;
-            o.offer.frame = f;
-            o.offer.size = static_cast<std::uint32_t>(o.blob.size());
-            o.offer.hash = transfer_hash(o.blob);
-            std::erase_if(outgoing_, [&](const OutgoingTransfer& x) { return x.to == from || now_us - x.created_us > kOutgoingTransferLifeUs; });
-            if (outgoing_.size() >= kMaxOutgoingTransfers) outgoing_.erase(outgoing_.begin());
+            if (!sync_->transfer_contents(sync_->confirmed_frame(), false, t)) return;
+            const TransferSender::Transfer& o = outgoing_.offer(from, snap_req_.reason, t, config_.input_size, now_us);
             scratch_.clear();
             encode(o.offer, scratch_);
             send_forward(from, scratch_);
-            outgoing_.push_back(std::move(o));
             return;
         }
-        for (const auto& o : outgoing_) {
-            if (o.id != snap_req_.transfer_id || o.to != from) continue;
-            const std::size_t begin = static_cast<std::size_t>(snap_req_.chunk) * kSnapshotChunkBytes;
-            if (begin >= o.blob.size()) return malformed("snapshot request: chunk out of range");
+        if (const TransferSender::Transfer* o = outgoing_.find(snap_req_.transfer_id, from)) {
             SnapshotChunkMessage c;
-            c.transfer_id = o.id;
-            c.chunk = snap_req_.chunk;
-            c.bytes.assign(o.blob.begin() + static_cast<std::ptrdiff_t>(begin),
-                           o.blob.begin() + static_cast<std::ptrdiff_t>(std::min(o.blob.size(), begin + kSnapshotChunkBytes)));
+            if (!TransferSender::chunk(*o, snap_req_.chunk, c)) return malformed("snapshot request: chunk out of range");
             scratch_.clear();
             encode(c, scratch_);
             send_forward(from, scratch_);
@@ -436,13 +377,10 @@ std::int32_t RelaySession::behind(std::uint64_t now_us) const {
 void RelaySession::revise_input_delay(std::uint64_t now_us) {
     if (!config_.auto_input_delay || config_.role == RelayRole::Spectator || !link_.has_rtt()) return;
     if (last_delay_revision_us_ && now_us - last_delay_revision_us_ < kDelayRevisionUs) return;
-    const auto period = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
-    const std::uint64_t rtt = link_.rtt_us(), jitter = link_.rtt_var_us();
-    int want;
-    if (config_.prediction_window == 0)  // lockstep: the whole round trip, so frames arrive confirmed
-        want = std::clamp(static_cast<int>((rtt + 2 * jitter + period - 1) / period) + 1, 1, 30);
-    else
-        want = std::clamp(static_cast<int>((rtt / 4 + 2 * jitter + period - 1) / period), 1, 8);
+    // The one policy (rollback/input_delay.h): an input reaches the others through the server,
+    // so across the whole round trip to it, plus twice its jitter.
+    const int want = std::clamp(auto_input_delay(config_.prediction_window, link_.rtt_us() + 2 * link_.rtt_var_us(), config_.tick_rate),
+                                0, static_cast<int>(config_.input_capacity / 4));
     if (last_delay_revision_us_ == 0) input_delay_ = want;  // the first estimate, before frame 0
     else if (want > input_delay_) ++input_delay_;
     else if (want < input_delay_) --input_delay_;
@@ -617,26 +555,15 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         RelayInput m;
         m.confirmed_ack = phase_ == SessionPhase::Running ? sync_->inputs_complete() : kRelayNoFrames;
         if (config_.role != RelayRole::Spectator && phase_ == SessionPhase::Running) {
-            const std::uint32_t from = std::max(server_ack_, own_.floor());
-            const std::uint32_t end = own_.confirmed_count();
-            const std::uint32_t count = end > from ? std::min<std::uint32_t>(end - from, relay_max_inputs(config_.input_size)) : 0;
-            m.first_frame = from;
-            m.frame_count = static_cast<std::uint8_t>(count);
-            m.inputs.resize(count * config_.input_size);
-            for (std::uint32_t i = 0; i < count; ++i) {
-                const auto in = own_.confirmed(from + i);
-                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(i * config_.input_size));
-            }
+            // Own inputs the server lacks.
+            const auto run = own_.copy_confirmed(server_ack_, relay_max_inputs(config_.input_size), m.inputs);
+            m.first_frame = run.first;
+            m.frame_count = static_cast<std::uint8_t>(run.count);
         }
-        m.stamp = static_cast<std::uint16_t>(now_us / 100);
-        if (m.stamp == kNoEcho) m.stamp = 0;
-        if (link_.has_stamp) {
-            m.echo = link_.stamp;
-            m.hold = static_cast<std::uint16_t>(std::min<std::uint64_t>((now_us - link_.stamp_at_us) / 100, kNoEcho - 1));
-        } else {
-            m.echo = kNoEcho;
-            m.hold = kNoEcho;
-        }
+        const PeerLink::Stamps st = link_.outgoing_stamps(now_us);
+        m.stamp = st.stamp;
+        m.echo = st.echo;
+        m.hold = st.hold;
         for (auto& rep : reports_) {
             if (m.checksum_count >= kRelayMaxChecksums) break;
             m.checksum_frames[m.checksum_count] = rep.frame;
@@ -657,49 +584,22 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     pending_out_.clear();
 }
 
-// ---- the per-tick calls: nothing thrown escapes ----
-
-namespace {
-template <class F, class R>
-R guarded(F&& f, R on_error, std::string& why) {
-    try {
-        return f();
-    } catch (const std::exception& e) {
-        why = e.what();
-    } catch (...) {
-        why = "unknown exception";
-    }
-    return on_error;
-}
-}  // namespace
+// ---- the per-tick calls: SessionCore::guarded turns anything thrown into a failed session ----
 
 void RelaySession::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) noexcept {
-    std::string why;
-    if (!guarded([&] { receive_impl(d, now_us); return true; }, false, why)) fail("receive: " + why, now_us);
+    guarded("receive", now_us, [&] { receive_impl(d, now_us); });
 }
 
 AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
-    std::string why;
-    AdvanceResult failed;
-    failed.frame = sync_->frame();
-    std::optional<AdvanceResult> r = guarded([&] { return std::optional<AdvanceResult>(advance_impl(local_input, now_us)); },
-                                             std::optional<AdvanceResult>(), why);
-    if (r) return *r;
-    fail("advance: " + why, now_us);
-    return failed;
+    return guarded("advance", now_us, [&] { return advance_impl(local_input, now_us); }, [&] { return idle_result(); });
 }
 
 void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
-    std::string why;
-    if (!guarded([&] { poll_impl(now_us, out); return true; }, false, why)) fail("poll: " + why, now_us);
+    guarded("poll", now_us, [&] { poll_impl(now_us, out); });
 }
 
 int RelaySession::catch_up(std::uint64_t now_us, int max_frames) noexcept {
-    std::string why;
-    const int n = guarded([&] { return catch_up_impl(now_us, max_frames); }, -1, why);
-    if (n >= 0) return n;
-    fail("catch_up: " + why, now_us);
-    return 0;
+    return guarded("catch_up", now_us, [&] { return catch_up_impl(now_us, max_frames); }, [] { return 0; });
 }
 
 }  // namespace lockroll::rollback

@@ -13,8 +13,9 @@
 //        lead = ceil((rtt / 2 + 2 * jitter) / tick) + 1 - input_delay   (may be negative)
 //    Ahead of the target: tick_stretch_ppm lengthens ticks; behind it: behind() > 0 and the
 //    caller steps catch_up() frames (the local input of a skipped frame repeats the last one).
-//  - Input delay (auto_input_delay): ceil((rtt / 4 + 2 * jitter) / tick), 1..8 frames, set from
-//    the welcome's round trip and revised every two seconds by at most one frame.
+//  - Input delay (auto_input_delay): rollback/input_delay.h's policy with the whole round trip
+//    to the server plus twice the jitter as the input's reach, set from the welcome's round trip
+//    and revised every two seconds by at most one frame.
 //  - Lifecycle comes from the server: a welcome starts the session (refusals end it with the
 //    reason), the frames' flags say when a slot is absent (its neutral input) or replaced.
 //    Joiners and spectators pull a snapshot of a confirmed frame from the slot the welcome names,
@@ -40,6 +41,7 @@
 #include "rollback/predictor.h"
 #include "rollback/relay_messages.h"
 #include "rollback/session.h"
+#include "rollback/session_core.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
@@ -99,15 +101,14 @@ struct RelayStats {
     std::int64_t target_lead = 0;        // frames
 };
 
-class RelaySession {
+class RelaySession : public SessionCore {
 public:
-    // The simulation must be in its initial state and outlive the session, as must the
-    // observer and predictor (nullptr: none / repeat-last). Throws std::invalid_argument.
+    // As Session's: simulation, observer and predictor outlive it, the simulation in its
+    // initial state (nullptr: no observer / the repeat-last predictor). A bad config throws
+    // std::invalid_argument.
     RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer = nullptr,
                  Predictor* predictor = nullptr);
     ~RelaySession();
-    RelaySession(const RelaySession&) = delete;
-    RelaySession& operator=(const RelaySession&) = delete;
 
     // A datagram from the server. Never throws or asserts on its content.
     void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
@@ -121,43 +122,26 @@ public:
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // Frames this client is behind its target (0 when on time or ahead).
     std::int32_t behind(std::uint64_t now_us) const;
-    bool next_event(SessionEvent& out) noexcept;
     // The transport lost the server and connected again: say hello again. The server knows this
     // process by its incarnation and resumes it (same slot, stream and state; no snapshot).
     void transport_reconnected(std::uint64_t now_us);
-    // As Session::inject_fault.
-    std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+    // next_event(), inject_fault(), phase(), failure(), frame(), confirmed_frame(),
+    // input_delay(), stalled(), recoveries(), saved_state(), stats(): SessionCore's.
 
     const RelaySessionConfig& config() const { return config_; }
-    SessionPhase phase() const { return phase_; }
-    bool running() const { return phase_ == SessionPhase::Running; }
-    const std::string& failure() const { return failure_; }
-    std::uint32_t frame() const { return sync_->frame(); }
-    std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
-    int input_delay() const { return input_delay_; }
     // The server holds this client's inputs of every frame before this.
     std::uint32_t server_input_ack() const { return server_ack_; }
     // This client's id in the room (its slot, or players + place for a spectator).
     int room_id_slot() const { return my_id_; }
     std::uint64_t rtt_us() const { return link_.rtt_us(); }
     std::uint64_t jitter_us() const { return link_.rtt_var_us(); }
-    const SessionStats& stats() const { return stats_; }
     const RelayStats& relay_stats() const { return relay_stats_; }
-    int recoveries() const { return recoveries_; }
-    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const { return sync_->saved_state(frame); }
     // Checksum of a confirmed frame among the newest kConfirmedKept.
     std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
     static constexpr std::uint32_t kConfirmedKept = 4096;
 
 private:
     class OwnPredictor;
-    struct OutgoingTransfer {
-        std::uint32_t id = 0;
-        std::uint8_t to = 0;
-        std::vector<std::uint8_t> blob;
-        SnapshotOfferMessage offer;
-        std::uint64_t created_us = 0;
-    };
 
     // The per-tick calls' bodies; the public ones turn anything thrown (the game's step / save /
     // load, an allocation) into a failed session with the reason: nothing per tick throws.
@@ -175,8 +159,6 @@ private:
     void confirm_frames();
     void add_own_input(std::span<const std::uint8_t> input);
     void send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload);
-    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
-    void fail(const std::string& why, std::uint64_t now_us);
     void malformed(const char* why);
     // Estimated room clock now, in 1/65536 frames (nullopt before the first frames message).
     std::optional<std::int64_t> room_clock(std::uint64_t now_us) const;
@@ -185,19 +167,11 @@ private:
 
     RelaySessionConfig config_;
     Simulation& sim_;
-    SessionObserver* observer_;
-    std::unique_ptr<Predictor> default_predictor_;
     std::unique_ptr<OwnPredictor> own_predictor_;
-    SessionStats stats_;
     RelayStats relay_stats_;
-    std::unique_ptr<Sync> sync_;
     InputQueue own_;                     // inputs this client made, from the server's ack on
     PeerLink link_;                      // the server: round trip, stamps
-    SessionPhase phase_ = SessionPhase::Synchronizing;
-    std::string failure_;
-    EventQueue events_;
     std::vector<Datagram> pending_out_;
-    int input_delay_;
     int my_id_ = -1;
     std::uint32_t handoff_ = 0;
     std::uint32_t server_ack_ = 0;
@@ -213,7 +187,6 @@ private:
     // Room clock estimate: the largest (room clock - local clock) seen in a window of samples.
     std::deque<std::int64_t> clock_offsets_;
     std::optional<std::int64_t> clock_offset_;
-    StallTracker stall_;
     // slot flags of the newest confirmed frame (for Joined / Disconnected events)
     std::vector<std::uint8_t> slot_flags_;
     std::vector<bool> slot_seen_;
@@ -233,10 +206,8 @@ private:
     std::uint64_t last_offer_request_us_ = 0;
     std::uint64_t transfer_progress_us_ = 0;  // when the transfer began, or last moved on
     std::uint32_t recover_after_ = 0;    // Desync notices for frames before this are stale
-    int recoveries_ = 0;
     // providing side
-    std::vector<OutgoingTransfer> outgoing_;
-    std::uint32_t next_transfer_id_ = 1;
+    TransferSender outgoing_{20'000'000};  // offers, each kept for this long (us)
     // decode scratch
     RelayWelcome welcome_;
     RelayFrames frames_;

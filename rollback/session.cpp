@@ -1,5 +1,7 @@
 #include "rollback/session.h"
 
+#include "rollback/input_delay.h"
+
 #include <algorithm>
 #include <array>
 #include <functional>
@@ -9,16 +11,6 @@
 namespace lockroll::rollback {
 
 namespace {
-[[noreturn]] void config_error(const std::string& what) { throw std::invalid_argument("session config: " + what); }
-// A macro, so that a check's message (a std::string, often with std::to_string in it) is built
-// only when the check fails: validate() runs in every construction, and building its forty-odd
-// messages eagerly was a quarter of the allocations of constructing a session. #undef after
-// validate().
-#define LOCKROLL_REQUIRE(ok, what)              \
-    do {                               \
-        if (!(ok)) config_error(what); \
-    } while (false)
-
 std::uint32_t next_pow2(std::uint64_t v) {
     std::uint32_t p = 1;
     while (p < v) p <<= 1;
@@ -28,23 +20,10 @@ std::uint32_t next_pow2(std::uint64_t v) {
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
 constexpr int kMaxChunksPerPoll = 64;
-constexpr std::size_t kMaxOutgoingTransfers = 4;
-constexpr std::uint64_t kTransferLifetimeUs = 60'000'000;
 // A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
 // server a whole state packed and sent, so a peer that keeps asking must not multiply that.
 constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
-constexpr std::uint16_t kNoEcho = 0xFFFF;
 }  // namespace
-
-const char* phase_name(SessionPhase p) {
-    switch (p) {
-        case SessionPhase::Synchronizing: return "synchronizing";
-        case SessionPhase::Transferring: return "transferring";
-        case SessionPhase::Running: return "running";
-        case SessionPhase::Failed: return "failed";
-    }
-    return "unknown";
-}
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
 class Session::Tap final : public SessionObserver {
@@ -87,90 +66,26 @@ static std::string oversized_message(const Simulation& sim) {
            std::to_string(sim.state_size());
 }
 
-void validate(const SessionConfig& c) {
-    LOCKROLL_REQUIRE(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
-    LOCKROLL_REQUIRE(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
-            "max_spectators must be 0.." + std::to_string(255 - c.players));
-    if (c.role == Role::Spectator)
-        LOCKROLL_REQUIRE(c.local_player >= static_cast<PlayerId>(c.players) &&
-                    c.local_player < static_cast<PlayerId>(c.players + c.max_spectators),
-                "a spectator's local id must be players .. players + max_spectators - 1");
-    else
-        LOCKROLL_REQUIRE(c.local_player < static_cast<PlayerId>(c.players), "local_player must be a player slot");
-    LOCKROLL_REQUIRE((c.absent_slots >> c.local_player & 1) == 0 || c.role != Role::Player,
-            "the local slot cannot be absent at frame 0");
-    LOCKROLL_REQUIRE(c.role == Role::Player || c.handshake, "joiners and spectators need the handshake");
-    LOCKROLL_REQUIRE(c.input_size >= 1 && c.input_size <= kMaxInputSize,
-            "input_size must be 1.." + std::to_string(kMaxInputSize));
-    LOCKROLL_REQUIRE(c.tick_rate >= 1 && c.tick_rate <= 10000, "tick_rate must be 1..10000");
-    LOCKROLL_REQUIRE(c.prediction_window >= 0 && c.prediction_window <= 120, "prediction_window must be 0..120");
-    LOCKROLL_REQUIRE(c.input_capacity >= 64 && (c.input_capacity & (c.input_capacity - 1)) == 0,
-            "input_capacity must be a power of two >= 64");
-    const int max_delay = static_cast<int>(c.input_capacity / 4);
-    LOCKROLL_REQUIRE(c.input_delay >= 0 && c.input_delay <= max_delay, "input_delay must be 0.." + std::to_string(max_delay));
-    LOCKROLL_REQUIRE(static_cast<std::uint32_t>(c.prediction_window) < c.input_capacity / 4,
-            "prediction_window must be below input_capacity / 4");
-    LOCKROLL_REQUIRE(c.checksum_interval >= 1 && c.checksum_interval <= 65535, "checksum_interval must be 1..65535");
-    LOCKROLL_REQUIRE(c.checksum_repeats >= 1, "checksum_repeats must be >= 1");
-    LOCKROLL_REQUIRE(c.evidence_frames >= 1 && c.evidence_frames <= 100000, "evidence_frames must be 1..100000");
-    LOCKROLL_REQUIRE(c.max_bad_packets >= 1, "max_bad_packets must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_window >= 1 && c.time_sync_window <= 100000, "time_sync_window must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_min_frames >= 1, "time_sync_min_frames must be >= 1");
-    LOCKROLL_REQUIRE(c.time_sync_every >= 1, "time_sync_every must be >= 1");
-    LOCKROLL_REQUIRE(c.max_replies_per_poll >= 1, "max_replies_per_poll must be >= 1");
-    LOCKROLL_REQUIRE(c.sync_roundtrips >= 1 && c.sync_roundtrips <= 100, "sync_roundtrips must be 1..100");
-    LOCKROLL_REQUIRE(c.disconnect_us == 0 || c.interrupt_us < c.disconnect_us, "interrupt_us must be below disconnect_us");
-    LOCKROLL_REQUIRE(c.transfer_window >= 1 && c.transfer_window <= 1024, "transfer_window must be 1..1024");
-    LOCKROLL_REQUIRE(c.max_recoveries >= 0, "max_recoveries must be >= 0");
-    LOCKROLL_REQUIRE(c.relay_lag >= 0, "relay_lag must be >= 0");
-    LOCKROLL_REQUIRE(c.two_player_rule == TwoPlayerRule::PlayOnAlone || c.two_player_rule == TwoPlayerRule::NoDrop,
-            "two_player_rule must be PlayOnAlone or NoDrop");
-    if (!c.slot_hosts.empty()) {
-        LOCKROLL_REQUIRE(c.slot_hosts.size() == static_cast<std::size_t>(c.players), "slot_hosts must have one entry per slot");
-        bool guests = false;
-        for (std::size_t s = 0; s < c.slot_hosts.size(); ++s) {
-            const PlayerId h = c.slot_hosts[s];
-            LOCKROLL_REQUIRE(h <= s && c.slot_hosts[h] == h,
-                    "slot_hosts[" + std::to_string(s) + "] must be a slot <= " + std::to_string(s) + " that hosts itself");
-            LOCKROLL_REQUIRE((c.absent_slots >> s & 1) == (c.absent_slots >> h & 1),
-                    "slot " + std::to_string(s) + " must be absent exactly when its host is");
-            if (h != s && h == c.local_player) guests = true;
-        }
-        if (c.role != Role::Spectator)
-            LOCKROLL_REQUIRE(c.slot_hosts[c.local_player] == c.local_player, "local_player must be the lowest slot of its process");
-        LOCKROLL_REQUIRE(!guests || c.role == Role::Player, "a joiner cannot host other slots yet");
-    }
-}
-#undef LOCKROLL_REQUIRE
-
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
-    : config_(config), sim_(simulation), observer_(observer), input_delay_(config.input_delay),
+    : SessionCore(SessionPhase::Running, config.local_player, config.input_delay, observer),
+      config_(config),
+      sim_(simulation),
       membership_(0, 0, config.two_player_rule) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
-    // No clock is read in rollback/: telemetry times come from the caller's clock, or are 0.
-    if (!config_.cpu_clock) config_.cpu_clock = [] { return std::uint64_t{0}; };
-    if (!predictor) {
-        default_predictor_ = std::make_unique<RepeatLastPredictor>();
-        predictor = default_predictor_.get();
-    }
+    default_to_zero(config_.cpu_clock);
     if (config_.relay_lag == 0) config_.relay_lag = config_.prediction_window + config_.input_delay + 8;
     tap_ = std::make_unique<Tap>(*this, observer_);
     const auto peers = static_cast<std::size_t>(peers_total());
     stats_.peers.resize(peers);
     // A spectator has no slot of its own; its Sync is built as slot 0's, which it never feeds.
-    SyncConfig sc;
-    sc.players = config_.players;
-    sc.local_player = config_.role == Role::Spectator ? 0 : config_.local_player;
-    sc.input_size = config_.input_size;
-    sc.prediction_window = config_.prediction_window;
-    sc.evidence_frames = config_.evidence_frames;
-    sc.input_capacity = config_.input_capacity;
+    SyncConfig sc = sync_config(config_.players, config_.role == Role::Spectator ? 0 : config_.local_player, config_.input_size,
+                                config_.prediction_window, config_.evidence_frames, config_.input_capacity);
     // A quarter of the ring stays behind confirmation: a peer reloading a snapshot of a slightly
     // older frame (a desync recovery) still finds its own and everyone's inputs since then.
     sc.retain_frames = config_.input_capacity / 4;
-    sync_ = std::make_unique<Sync>(sc, sim_, *predictor, tap_.get(), stats_, config_.cpu_clock);
+    sync_ = std::make_unique<Sync>(sc, sim_, predictor_or_default(predictor), tap_.get(), stats_, config_.cpu_clock);
     DesyncConfig dc;
     dc.history = next_pow2(std::max<std::uint64_t>(
         1024, 2 * static_cast<std::uint64_t>(config_.checksum_interval) +
@@ -211,73 +126,21 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
 
 Session::~Session() = default;
 
-void Session::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
-                   std::string detail) {
-    events_.push({kind, peer, frame, now_us, std::move(detail)});
-}
-
-bool Session::next_event(SessionEvent& out) noexcept { return events_.pop(out); }
-
-void Session::fail(const std::string& why, std::uint64_t now_us) {
-    if (phase_ == SessionPhase::Failed) return;
-    phase_ = SessionPhase::Failed;
-    failure_ = why;
-    emit(SessionEvent::Kind::Failed, config_.local_player, frame(), now_us, why);
-}
-
-// Per-tick calls never throw (a game loop has nowhere to catch). What could -- the game's own
-// step/save/load, an allocation, an invariant of ours -- fails the session instead, with the
-// exception's message as the reason. Called from inside a catch handler only.
-void Session::fail_from_exception(const char* where, std::uint64_t now_us) noexcept {
-    try {
-        std::string why;
-        try {
-            throw;
-        } catch (const std::exception& e) {
-            why = e.what();
-        } catch (...) {
-            why = "an exception that is not a std::exception";
-        }
-        fail(std::string(where) + ": " + why, now_us);
-    } catch (...) {
-        phase_ = SessionPhase::Failed;  // not even the message could be built
-    }
-}
-
+// The per-tick calls: SessionCore::guarded turns anything thrown into a failed session.
 void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
-    try {
-        receive_impl(from, datagram, now_us);
-    } catch (...) {
-        fail_from_exception("receive", now_us);
-    }
+    guarded("receive", now_us, [&] { receive_impl(from, datagram, now_us); });
 }
 
 AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
-    try {
-        return advance_impl(local_input, now_us);
-    } catch (...) {
-        fail_from_exception("advance", now_us);
-        AdvanceResult r;
-        r.frame = frame();
-        return r;
-    }
+    return guarded("advance", now_us, [&] { return advance_impl(local_input, now_us); }, [&] { return idle_result(); });
 }
 
 int Session::catch_up(std::uint64_t now_us, int max_frames) noexcept {
-    try {
-        return catch_up_impl(now_us, max_frames);
-    } catch (...) {
-        fail_from_exception("catch_up", now_us);
-        return 0;
-    }
+    return guarded("catch_up", now_us, [&] { return catch_up_impl(now_us, max_frames); }, [] { return 0; });
 }
 
 void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
-    try {
-        poll_impl(now_us, out);
-    } catch (...) {
-        fail_from_exception("poll", now_us);
-    }
+    guarded("poll", now_us, [&] { poll_impl(now_us, out); });
 }
 
 void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
@@ -346,12 +209,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     PeerLink& link = links_[from];
     // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
     if (link.welcomed && (!is_slot(from) || slot_running(from))) {
-        if (link.interrupted) {
-            link.interrupted = false;
-            emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
-        }
-        link.heard = true;
-        link.last_heard_us = now_us;
+        if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
         // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
         if (is_slot(from) && !slots_[from].kick_vote) membership_.vote_local(from, false);
     }
@@ -380,8 +238,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     if (!link.welcomed || (is_slot(from) && !slot_running(from))) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
-        if (is_slot(from) && slot_state(from) == SlotState::Disconnected &&
-            (!link.refusal_sent || now_us >= link.last_refusal_us + 500000)) {
+        if (is_slot(from) && slot_state(from) == SlotState::Disconnected && link.refusal_quiet_for(now_us, 500000)) {
             WelcomeMessage w;
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
@@ -390,8 +247,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
-            link.refusal_sent = true;
-            link.last_refusal_us = now_us;
+            link.mark_refusal(now_us);
         }
         return;
     }
@@ -460,7 +316,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
-        if (!link.refusal_sent || now_us >= link.last_refusal_us + 1000000)
+        if (link.refusal_quiet_for(now_us, 1000000))
             emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + why);
     }
     if (w.refusal == Refusal::None) {
@@ -473,19 +329,11 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
             link.clear_error();
             detector_->reset_peer(from);
         }
-        link.welcomed = true;
-        if (is_slot(from)) link.welcomed_epoch = membership_.epoch(from);
-        link.incarnation = m.incarnation;
-        link.role = m.role;
-        if (!link.heard) {
-            link.heard = true;
-            link.last_heard_us = now_us;
-        }
+        link.accept_hello(m.role, m.incarnation, is_slot(from) ? std::optional(membership_.epoch(from)) : std::nullopt, now_us);
     }
     if (w.refusal != Refusal::None) {
-        if (link.refusal_sent && now_us < link.last_refusal_us + 100000 && w.refusal != Refusal::Retry) return;
-        link.refusal_sent = true;
-        link.last_refusal_us = now_us;
+        if (w.refusal != Refusal::Retry && !link.refusal_quiet_for(now_us, 100000)) return;
+        link.mark_refusal(now_us);
     }
     std::vector<std::uint8_t> b;
     encode(w, b);
@@ -520,20 +368,8 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
     }
     if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
     if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
-    if (m.echo_us <= now_us) {
-        const std::uint64_t rtt = now_us - m.echo_us;
-        link.add_rtt_sample(rtt);
-        link.max_sync_rtt_us = std::max(link.max_sync_rtt_us, rtt);
-        stats_.peers[from].rtt_us = link.rtt_us();
-    }
-    if (!link.welcomed) {
-        link.welcomed = true;
-        if (first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
-    }
-    link.heard = true;
-    link.last_heard_us = now_us;
-    if (link.roundtrips < 1000) ++link.roundtrips;
-    link.has_remote_frame = link.has_remote_frame || m.running;
+    if (link.sync_welcome(m.echo_us, m.running, now_us) && first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
+    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
     if (m.running && is_slot(from)) peer_started_ = true;
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
@@ -547,17 +383,8 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
 void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     if (config_.role != Role::Joiner || !is_slot(from) || !slot_running(from) || !m.running || link.welcomed) return;
-    if (m.echo_us <= now_us) {
-        link.add_rtt_sample(now_us - m.echo_us);
-        stats_.peers[from].rtt_us = link.rtt_us();
-    }
-    link.welcomed = true;
-    link.welcomed_epoch = membership_.epoch(from);
-    link.role = Role::Player;
-    link.has_remote_frame = true;
-    link.heard = true;
-    link.last_heard_us = now_us;
-    link.interrupted = false;
+    link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
+    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
     emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
     refresh_resend_floor();
 }
@@ -584,16 +411,11 @@ void Session::start_running(std::uint64_t now_us) {
     for (int p = 0; p < config_.players; ++p)
         if (static_cast<PlayerId>(p) != config_.local_player) {
             worst = std::max(worst, links_[static_cast<std::size_t>(p)].max_sync_rtt_us);
-            PeerLink& l = links_[static_cast<std::size_t>(p)];
-            l.heard = true;
-            l.last_heard_us = now_us;
+            links_[static_cast<std::size_t>(p)].mark_heard(now_us);
         }
     if (config_.auto_input_delay && config_.role == Role::Player) {
-        // Lockstep needs the worst one-way time covered, plus a frame for tick phase; rollback
-        // takes half of that (shallower rollbacks for a little latency), as harness auto does.
-        const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
-        const auto lockstep = static_cast<int>((worst / 2 + tick_us - 1) / tick_us) + 1;
-        const int d = config_.prediction_window == 0 ? lockstep : (lockstep + 1) / 2;
+        // The one policy (rollback/input_delay.h); a P2P input reaches its peers in half the worst round trip.
+        const int d = auto_input_delay(config_.prediction_window, worst / 2, config_.tick_rate);
         input_delay_ = std::clamp(d, 0, static_cast<int>(config_.input_capacity / 4));
     }
     emit(SessionEvent::Kind::Synchronized, config_.local_player, frame(), now_us,
@@ -636,10 +458,7 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
     for (const StreamBlock& b : m.blocks)
         if (b.slot >= config_.players) return malformed(from, "input message: stream block slot out of range");
 
-    if (ack && *ack > link.remote_ack) {
-        link.remote_ack = *ack;
-        refresh_resend_floor();
-    }
+    if (ack && link.take_ack(*ack)) refresh_resend_floor();
     if (first) {
         const std::size_t n = config_.input_size;
         for (std::uint32_t k = 0; k < m.frame_count; ++k) {
@@ -659,20 +478,8 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         // the time sync's own slack); a claim beyond that is clipped, so one forged message
         // cannot make us wait thousands of frames.
         const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
-        link.has_remote_frame = true;
-        link.remote_frame = *sender_frame;
-        link.remote_frame_time_us = now_us;
-        link.remote_advantage = clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound));
-        // Round trip from echoed stamps (units of 100 µs, wrapping at 2^16).
-        if (m.echo != kNoEcho && m.hold != kNoEcho) {
-            const auto now_units = static_cast<std::uint16_t>(now_us / 100);
-            const auto elapsed = static_cast<std::uint16_t>(now_units - m.echo);
-            if (elapsed >= m.hold && elapsed - m.hold < 30000)
-                link.add_rtt_sample(static_cast<std::uint64_t>(elapsed - m.hold) * 100);
-        }
-        link.has_stamp = true;
-        link.stamp = m.stamp;
-        link.stamp_at_us = now_us;
+        link.note_remote_frame(*sender_frame, clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound)), now_us);
+        link.take_stamps(m.stamp, m.echo, m.hold, now_us);
     }
     for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
 }
@@ -746,8 +553,7 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
         link.reset_lifecycle(static_cast<std::size_t>(config_.players));
         link.clear_error();
         detector_->reset_peer(slot);
-        link.heard = true;
-        link.last_heard_us = now_us;
+        link.mark_heard(now_us);
         link.interrupted = false;
         emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
     } else if (e.state != SlotState::Running && before == SlotState::Running) {
@@ -870,13 +676,6 @@ void Session::confirm_frames() {
 // A peer's frame now: what it last reported plus the time since then and half a round trip. A
 // peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
 // there (unbounded, a stuck peer read as tens of thousands of frames ahead).
-std::int64_t Session::estimated_frame(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t silent = now_us >= link.remote_frame_time_us ? now_us - link.remote_frame_time_us : 0;
-    const std::uint64_t elapsed = std::min(silent, config_.interrupt_us) + link.rtt_us() / 2;
-    return std::int64_t{link.remote_frame} +
-           static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
-}
-
 // Local advantage against each peer: (its frame now, estimated) - our frame.
 void Session::sample_time_sync(std::uint64_t now_us) {
     const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
@@ -884,7 +683,7 @@ void Session::sample_time_sync(std::uint64_t now_us) {
         PeerLink& link = links_[p];
         if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame)
             continue;
-        const std::int64_t adv = estimated_frame(link, now_us) - std::int64_t{sync_->frame()};
+        const std::int64_t adv = link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()};
         local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -bound, bound));
         link.time_sync().add_sample(local_advantage_[p], link.remote_advantage);
         stats_.peers[p].frame_advantage_x100 = link.time_sync().local_advantage_x100();
@@ -905,7 +704,7 @@ std::int32_t Session::behind(std::uint64_t now_us) const {
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const PeerLink& link = links_[p];
         if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame) continue;
-        most = std::max(most, estimated_frame(link, now_us) - std::int64_t{sync_->frame()});
+        most = std::max(most, link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()});
     }
     return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
 }
@@ -921,7 +720,7 @@ NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const {
         n.kbps_sent = static_cast<double>(stats_.peers[p].bytes_sent) * 8 / 1000 / seconds;
         n.kbps_received = static_cast<double>(stats_.peers[p].bytes_received) * 8 / 1000 / seconds;
     }
-    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - estimated_frame(l, now_us));
+    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - l.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate));
     if (config_.role != Role::Spectator) {
         const std::uint32_t sent = count_of(config_.local_player);
         n.send_queue = sent > l.remote_ack ? sent - l.remote_ack : 0;
@@ -1005,13 +804,10 @@ void Session::check_silence(std::uint64_t now_us) {
         const auto pid = static_cast<PlayerId>(p);
         if (!live_peer(pid)) continue;
         PeerLink& l = links_[p];
-        if (!l.heard) continue;
-        const std::uint64_t silent = now_us > l.last_heard_us ? now_us - l.last_heard_us : 0;
-        if (!l.interrupted && silent >= config_.interrupt_us) {
-            l.interrupted = true;
-            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silent / 1000) + " ms silent");
-        }
-        if (config_.disconnect_us != 0 && silent >= config_.disconnect_us) {
+        const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
+        if (silence.interrupted_now)
+            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silence.silent_us / 1000) + " ms silent");
+        if (silence.timed_out) {
             if (is_slot(pid)) {
                 membership_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
             } else {
@@ -1200,9 +996,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
                                    : phase_ == SessionPhase::Synchronizing;
         if (!want) continue;
         if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
-        if (l.hello_sent && now_us < l.last_hello_us + config_.hello_resend_us) continue;
-        l.hello_sent = true;
-        l.last_hello_us = now_us;
+        if (!l.hello_due(now_us, config_.hello_resend_us)) continue;
         HelloMessage h;
         h.incarnation = incarnation_;
         h.match_id = config_.match_id;
@@ -1273,28 +1067,20 @@ void Session::poll_transfer(std::uint64_t now_us) {
 
 void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     if (m.transfer_id != 0) {
-        for (const OutgoingTransfer& t : outgoing_) {
-            if (t.id != m.transfer_id || t.peer != from) continue;
-            const std::size_t begin = std::size_t{m.chunk} * kSnapshotChunkBytes;
-            if (begin >= t.blob.size()) return malformed(from, "snapshot request: chunk out of range");
-            if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
-            ++replies_this_poll_[from];
-            SnapshotChunkMessage c;
-            c.transfer_id = t.id;
-            c.chunk = m.chunk;
-            const std::size_t end = std::min(t.blob.size(), begin + kSnapshotChunkBytes);
-            c.bytes.assign(t.blob.begin() + static_cast<std::ptrdiff_t>(begin), t.blob.begin() + static_cast<std::ptrdiff_t>(end));
-            if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
-                if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
-                else c.bytes.pop_back();
-                ++damaged_chunks_;
-            }
-            std::vector<std::uint8_t> b;
-            encode(c, b);
-            send_control(from, std::move(b));
-            return;
+        const TransferSender::Transfer* t = outgoing_.find(m.transfer_id, from);
+        if (!t) return void(++stats_.peers[from].ignored_packets);  // an old transfer, or not ours
+        SnapshotChunkMessage c;
+        if (!TransferSender::chunk(*t, m.chunk, c)) return malformed(from, "snapshot request: chunk out of range");
+        if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
+        ++replies_this_poll_[from];
+        if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
+            if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
+            else c.bytes.pop_back();
+            ++damaged_chunks_;
         }
-        ++stats_.peers[from].ignored_packets;  // an old transfer, or not ours
+        std::vector<std::uint8_t> b;
+        encode(c, b);
+        send_control(from, std::move(b));
         return;
     }
     if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
@@ -1308,7 +1094,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     // (A recovery wants a fresh frame, so its offer is reused only against duplicates, and a new
     // one is packed at most every kRecoveryIntervalUs.)
     const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
-    for (const OutgoingTransfer& t : outgoing_) {
+    for (const TransferSender::Transfer& t : outgoing_.transfers()) {
         if (t.peer != from || t.offer.reason != m.reason) continue;
         if (now_us < t.created_us + reuse_us) {
             std::vector<std::uint8_t> b;
@@ -1350,8 +1136,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
             l.reset_lifecycle(static_cast<std::size_t>(config_.players));
             l.welcomed = true;
             l.welcomed_epoch = membership_.epoch(from);
-            l.heard = true;
-            l.last_heard_us = now_us;
+            l.mark_heard(now_us);
             detector_->reset_peer(from);
             emit(SessionEvent::Kind::Joined, from, handoff, now_us, "snapshot of frame " + std::to_string(c));
             break;
@@ -1359,45 +1144,17 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
         case TransferReason::Spectate:
             if (is_slot(from)) return;
             links_[from].reset_lifecycle(static_cast<std::size_t>(config_.players));
-            links_[from].heard = true;
-            links_[from].last_heard_us = now_us;
+            links_[from].mark_heard(now_us);
             emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
             break;
         case TransferReason::Recover:
             break;  // checked above
     }
     TransferContents t;
-    t.frame = c;
-    const auto state = sync_->saved_state(c);
-    if (!state) return;
-    t.state.assign(state->begin(), state->end());
-    t.streams.resize(static_cast<std::size_t>(config_.players));
+    if (!sync_->transfer_contents(c, true, t)) return;
     const std::size_t n = config_.input_size;
-    for (int s = 0; s < config_.players; ++s) {
-        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
-        StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
-        const std::uint32_t from_frame = std::max(c, q.floor());
-        if (from_frame != c) return;  // cannot happen: queues hold everything from the confirmed frame on
-        st.count = q.confirmed_count() > c ? q.confirmed_count() - c : 0;
-        st.inputs.resize(std::size_t{st.count} * n);
-        st.absent.resize(st.count);
-        for (std::uint32_t i = 0; i < st.count; ++i) {
-            const auto in = q.confirmed(c + i);
-            std::copy(in.begin(), in.end(), st.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{i} * n));
-            st.absent[i] = q.confirmed_absent(c + i) ? 1 : 0;
-        }
-    }
-    OutgoingTransfer out;
-    out.id = next_transfer_id_;
-    next_transfer_id_ = next_transfer_id(next_transfer_id_);
-    out.peer = from;
-    out.blob = pack_transfer(t, n);
-    out.created_us = now_us;
-    out.offer.reason = m.reason;
-    out.offer.transfer_id = out.id;
-    out.offer.frame = c;
-    out.offer.size = static_cast<std::uint32_t>(out.blob.size());
-    out.offer.hash = transfer_hash(out.blob);
+    // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
+    TransferSender::Transfer& out = outgoing_.offer(from, m.reason, t, n, now_us);
     out.offer.handoff_frame = handoff;
     for (int s = 0; s < config_.players; ++s)
         out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
@@ -1411,10 +1168,6 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     std::vector<std::uint8_t> b;
     encode(out.offer, b);
     send_control(from, std::move(b));
-    // Old transfers go: bounded memory whatever newcomers ask.
-    std::erase_if(outgoing_, [&](const OutgoingTransfer& o) { return o.peer == from || now_us > o.created_us + kTransferLifetimeUs; });
-    if (outgoing_.size() >= kMaxOutgoingTransfers) outgoing_.erase(outgoing_.begin());
-    outgoing_.push_back(std::move(out));
     refresh_resend_floor();
 }
 
@@ -1458,40 +1211,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
         !e.empty())
         return reject(e);
     if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
-    // Inputs we hold beyond what the snapshot brings stay valid (they are confirmed): keep them.
-    struct Held {
-        std::uint32_t first = 0;
-        std::vector<std::uint8_t> inputs, absent;
-    };
-    const std::size_t n = config_.input_size;
-    std::vector<Held> held(static_cast<std::size_t>(config_.players));
-    for (int s = 0; s < config_.players; ++s) {
-        const InputQueue& q = sync_->queue(static_cast<PlayerId>(s));
-        Held& h = held[static_cast<std::size_t>(s)];
-        h.first = std::max(q.floor(), t.frame);
-        for (std::uint32_t f = h.first; f < q.confirmed_count(); ++f) {
-            const auto in = q.confirmed(f);
-            h.inputs.insert(h.inputs.end(), in.begin(), in.end());
-            h.absent.push_back(q.confirmed_absent(f) ? 1 : 0);
-        }
-    }
-    if (std::string e = sync_->restart_at(t.frame, t.state); !e.empty()) return reject("snapshot transfer: " + e);
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        const StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
-        for (std::uint32_t i = 0; i < st.count; ++i)
-            if (sync_->add_remote_input(slot, t.frame + i, std::span(st.inputs).subspan(std::size_t{i} * n, n),
-                                        st.absent[i] != 0) != InputQueue::Add::Stored)
-                break;
-        const Held& h = held[static_cast<std::size_t>(s)];
-        for (std::size_t i = 0; i < h.absent.size(); ++i) {
-            const std::uint32_t f = h.first + static_cast<std::uint32_t>(i);
-            if (f < count_of(slot)) continue;
-            if (sync_->add_remote_input(slot, f, std::span(h.inputs).subspan(i * n, n), h.absent[i] != 0) !=
-                InputQueue::Add::Stored)
-                break;
-        }
-    }
+    if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     detector_->restart_at(t.frame, sim_.checksum(t.state));
     incoming_.reset();
     offer_requested_ = false;
@@ -1702,60 +1422,29 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.blocks.clear();
         m.ack = is_slot(pid) ? static_cast<std::uint16_t>(count_of(pid)) : 0;
         std::uint32_t count = 0;
+        m.inputs.clear();
         if (!spectator) {
-            const InputQueue& local = sync_->queue(config_.local_player);
-            const std::uint32_t from = std::max(link.remote_ack, local.floor());
-            const std::uint32_t to = local.confirmed_count();
-            count = std::min<std::uint32_t>(to > from ? to - from : 0, max_frames_per_message(n));
-            m.first_frame = static_cast<std::uint16_t>(from);
-            m.inputs.resize(std::size_t{count} * n);
-            for (std::uint32_t k = 0; k < count; ++k) {
-                const auto in = local.confirmed(from + k);
-                std::copy(in.begin(), in.end(), m.inputs.begin() + static_cast<std::ptrdiff_t>(k * n));
-            }
+            // Our inputs it has not acknowledged.
+            const auto run = sync_->queue(config_.local_player).copy_confirmed(link.remote_ack, max_frames_per_message(n), m.inputs);
+            count = run.count;
+            m.first_frame = static_cast<std::uint16_t>(run.first);
         }
         m.frame_count = static_cast<std::uint8_t>(count);
         m.has_time_sync = link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
         m.sender_frame = static_cast<std::uint16_t>(sync_->frame());
         m.advantage = clamp_i8(local_advantage_[p]);
-        m.stamp = static_cast<std::uint16_t>(now_us / 100);
-        if (m.stamp == kNoEcho) m.stamp = 0;
-        if (link.has_stamp) {
-            m.echo = link.stamp;
-            m.hold = static_cast<std::uint16_t>(std::min<std::uint64_t>((now_us - link.stamp_at_us) / 100, kNoEcho - 1));
-        } else {
-            m.echo = kNoEcho;
-            m.hold = kNoEcho;
-        }
+        const PeerLink::Stamps st = link.outgoing_stamps(now_us);
+        m.stamp = st.stamp;
+        m.echo = st.echo;
+        m.hold = st.hold;
         // Every checkpoint confirmed since the last message (newest three at most), else the
-        // newest again until it has ridden checksum_repeats messages. Players only.
-        m.checksum_count = 0;
-        if (spectator || !is_slot(pid)) {
-            // no checksums to or from spectators: they compare nothing with anyone
-        } else if (!link.any_checksum_sent || cp > link.checksum_frame_sent) {
-            const std::uint32_t k = static_cast<std::uint32_t>(config_.checksum_interval);
-            std::uint32_t oldest = cp;
-            while (oldest >= k && cp - (oldest - k) < k * kMaxChecksumsPerMessage &&
-                   (!link.any_checksum_sent || oldest - k > link.checksum_frame_sent))
-                oldest -= k;
-            for (std::uint32_t f = oldest; f <= cp; f += k) {
-                if (const auto c = detector_->local_checksum(f)) {
-                    m.checksum_frames[m.checksum_count] = static_cast<std::uint16_t>(f);
-                    m.checksums[m.checksum_count] = *c;
-                    ++m.checksum_count;
-                }
-            }
-            link.any_checksum_sent = true;
-            link.checksum_frame_sent = cp;
-            link.checksum_sends = 1;
-        } else if (link.checksum_sends < config_.checksum_repeats) {
-            if (const auto c = detector_->local_checksum(cp)) {
-                ++link.checksum_sends;
-                m.checksum_frames[0] = static_cast<std::uint16_t>(cp);
-                m.checksums[0] = *c;
-                m.checksum_count = 1;
-            }
-        }
+        // newest again until it has ridden checksum_repeats messages. Players only: spectators
+        // compare nothing with anyone.
+        m.checksum_count = spectator || !is_slot(pid)
+                               ? 0
+                               : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
+                                                     kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
+                                                     m.checksum_frames, m.checksums);
         if (extension_needed(pid)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
             fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0);
@@ -1775,10 +1464,6 @@ void Session::set_input_delay(int frames) {
     if (frames < 0 || frames > max_delay)
         throw std::invalid_argument("input delay must be 0.." + std::to_string(max_delay));
     input_delay_ = frames;
-}
-
-std::string Session::inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit) {
-    return sync_->add_fault(frame, body_id, field, bit);
 }
 
 void Session::damage_outgoing_chunks(int count, ChunkDamage how) {

@@ -87,6 +87,8 @@
 #include "rollback/player_id.h"
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
+#include "rollback/session_config.h"
+#include "rollback/session_core.h"
 #include "rollback/session_event.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
@@ -95,9 +97,6 @@
 
 namespace lockroll::rollback {
 
-// Two peers disagree and neither is a majority: whose state survives.
-enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
-
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
     FlipBit,   // one bit of the chunk's last byte: the right length, so the receiver's hash check
@@ -105,69 +104,6 @@ enum class ChunkDamage : std::uint8_t {
     Truncate,  // the last byte dropped: the receiver's assembler must refuse the chunk and re-ask
 };
 
-struct SessionConfig {
-    int players = 2;                   // 1..kMaxPlayers
-    PlayerId local_player = 0;
-    std::size_t input_size = 3;        // bytes per player-frame, 1..kMaxInputSize
-    int tick_rate = 60;                // Hz; converts times to frames for time sync
-    int input_delay = 2;               // frames; set_input_delay() changes it mid-game
-    int prediction_window = 8;         // W; 0 = lockstep
-    int checksum_interval = 1;         // K: frames whose number is a multiple of K are compared
-    int checksum_repeats = 2;          // the newest checksum rides on this many messages
-    int evidence_frames = 64;          // confirmed states kept beyond the rollback window
-    int max_bad_packets = 8;           // malformed datagrams before a peer is ignored for good
-    std::uint32_t input_capacity = 1024;  // frames per input queue (power of two)
-    int time_sync_window = 60;         // ticks averaged per recommendation
-    int time_sync_min_frames = 2;      // recommend waiting only when this many frames ahead
-    int time_sync_every = 8;           // time-sync fields ride on every Nth message
-    std::uint64_t query_resend_us = 100000;  // desync narrowing: re-ask after this long
-    int max_replies_per_poll = 16;     // per peer: answers beyond this are dropped (re-asked)
-    CpuClock cpu_clock;                // telemetry only (CPU per tick, rollback cost); none: 0
-
-    // ---- lifecycle (docs/sessions.md) ----
-    // false: every slot not in absent_slots is running from frame 0 with no handshake (the
-    // in-process harness); true: hello/welcome and an RTT sync phase come first (real networks).
-    bool handshake = false;
-    Role role = Role::Player;          // Joiner / Spectator: start from a peer's snapshot
-    std::uint64_t match_id = 0;
-    std::uint64_t scene_checksum = 0;  // 0: the simulation's initial-state checksum
-    std::uint64_t absent_slots = 0;    // bit s: nobody plays slot s at frame 0
-    int max_spectators = 0;            // peer ids players .. players + max_spectators - 1
-    int sync_roundtrips = 5;           // hello/welcome round trips before frame 0
-    bool auto_input_delay = false;     // input delay from the sync phase's RTT
-    std::uint64_t hello_resend_us = 50000;
-    std::uint64_t interrupt_us = 750000;     // silence before a peer is reported interrupted
-    std::uint64_t disconnect_us = 5000000;   // silence before it is dropped (0: never)
-    std::uint64_t transfer_resend_us = 250000;  // snapshot offers and chunks re-asked after this
-    int transfer_window = 32;          // chunks in flight per transfer
-    std::uint32_t max_snapshot_bytes = 64u << 20;
-    int max_recoveries = 0;            // desync recoveries before giving up (0: never recover)
-    DesyncKeep two_player_keep = DesyncKeep::LowestSlot;
-    // Two running processes left in the view have no majority of the other: PlayOnAlone (either
-    // one's silence timeout drops the other, and each side plays on alone) or NoDrop (nobody is
-    // dropped: the one that lost the other reports Partitioned and waits for it). Every peer
-    // must pass the same rule. Three or more: a strict majority of the view, always.
-    TwoPlayerRule two_player_rule = TwoPlayerRule::PlayOnAlone;
-    int relay_lag = 0;                 // relay a stream to a peer this far behind (0: auto)
-    // Names this process in its hellos (0: taken from the first now_us this session sees, which
-    // differs between a process and its restarted successor).
-    std::uint64_t incarnation = 0;
-
-    // ---- several local players per process (couch + online) ----
-    // Empty: every slot is its own process (peer id == slot). Otherwise one entry per slot:
-    // slot_hosts[s] is the slot whose process plays s, always the lowest slot of that process
-    // (slot_hosts[s] <= s, and a host hosts itself). Every peer passes the same table. A hosted
-    // slot (a "guest": slot_hosts[s] != s) has no peer id or connection of its own: its host's
-    // session authors its stream (confirmed at once, sent to everyone as stream blocks, like the
-    // owner's neutral inputs for absent slots), and it is dropped together with its host. This
-    // session plays local_player plus every slot whose host is local_player (local_slots()).
-    // Joiners cannot host guests yet.
-    std::vector<PlayerId> slot_hosts;
-};
-
-
-// Throws std::invalid_argument naming the field when a config is unusable.
-void validate(const SessionConfig& config);
 
 struct Datagram {
     PlayerId peer = 0;
@@ -177,19 +113,6 @@ struct Datagram {
     bool reliable = false;
 };
 
-struct AdvanceResult {
-    bool advanced = false;             // false: stalled (window full, or lockstep waiting)
-    std::uint32_t frame = 0;           // the displayed frame after this call
-    std::uint32_t rollback_depth = 0;  // frames resimulated first (0: no rollback)
-    int wait_frames = 0;               // time sync: skip this many ticks to let peers catch up
-    int blocking_player = -1;          // when stalled: the remote player whose input is missing
-    std::uint64_t resim_ns = 0;        // cpu time of the rollback, if any
-    std::uint64_t forward_ns = 0;      // cpu time of the forward step, if any
-    // Time sync for real-time loops: lengthen the next tick by this many parts per million
-    // (0..100,000: 2 % per frame ahead) so peers behind catch up without a visible skip. wait_frames is the same advice
-    // as whole ticks, for virtual-time loops.
-    int tick_stretch_ppm = 0;
-};
 
 // One peer's link as a game's network overlay shows it (GGPO's GGPONetworkStats).
 struct NetworkStats {
@@ -202,10 +125,7 @@ struct NetworkStats {
     bool interrupted = false;
 };
 
-enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
-const char* phase_name(SessionPhase p);
-
-class Session {
+class Session : public SessionCore {
 public:
     // The simulation must be in its initial state and outlive the session, as must the
     // observer and predictor (nullptr: none / repeat-last). Throws std::invalid_argument for a
@@ -213,8 +133,6 @@ public:
     Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer = nullptr,
             Predictor* predictor = nullptr);
     ~Session();
-    Session(const Session&) = delete;
-    Session& operator=(const Session&) = delete;
 
     // A datagram from player `from`. Never throws or asserts on its content.
     void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
@@ -244,12 +162,7 @@ public:
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // Frames the most advanced running peer is estimated to be ahead of this session.
     std::int32_t behind(std::uint64_t now_us) const;
-    // Lifecycle events in order; false when none is left.
-    bool next_event(SessionEvent& out) noexcept;
-    // Fault injection: every time frame `frame` is produced by a step on this client, flip
-    // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
-    // already simulated, or the simulation has no such body/field).
-    std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+    // next_event(), inject_fault(): SessionCore's (rollback/session_core.h).
     // Fault injection (a test hook; `lockroll peer --corrupt-snapshot / --truncate-snapshot`):
     // the next `count` snapshot chunks this session sends, as provider of a join, spectate or
     // recovery transfer, are damaged as `how` says, after any still pending. Its own state and
@@ -266,9 +179,6 @@ public:
     PlayerId host_of(PlayerId slot) const {
         return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
     }
-    SessionPhase phase() const { return phase_; }
-    bool running() const { return phase_ == SessionPhase::Running; }
-    const std::string& failure() const { return failure_; }
     SlotState slot_state(PlayerId slot) const { return membership_.state(slot); }
     // The view and the votes (who plays, who says whom is gone).
     const Membership& membership() const { return membership_; }
@@ -276,23 +186,14 @@ public:
     bool partitioned() const { return partitioned_; }
     // Silent longer than interrupt_us (and not dropped yet).
     bool interrupted(PlayerId peer) const { return links_[peer].interrupted; }
-    int recoveries() const { return recoveries_; }
     std::uint64_t foreign_packets() const { return foreign_packets_; }  // other match or version
-    std::uint32_t frame() const { return sync_->frame(); }
-    std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
-    int input_delay() const { return input_delay_; }
-    bool stalled() const { return stall_.stalled(); }
+    // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
+    // saved_state(), stats(): SessionCore's.
     // Checksum of a confirmed frame, while remembered.
     std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const {
         return detector_->local_checksum(frame);
     }
-    // Saved state of a frame while the ring holds it (confirmed frames are final).
-    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const {
-        return sync_->saved_state(frame);
-    }
-    // Stats are updated in place; peers[p].rtt_us / frame_advantage_x100 are refreshed by
-    // advance().
-    const SessionStats& stats() const { return stats_; }
+    // stats().peers[p].rtt_us / frame_advantage_x100 are refreshed by advance().
     bool peer_error(PlayerId p) const { return links_[p].error(); }
     // Smoothed round trip to a peer (µs; 0 until measured).
     std::uint64_t rtt_us(PlayerId p) const { return links_[p].rtt_us(); }
@@ -315,19 +216,11 @@ private:
         bool handed_off_by_me = false;
         bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
     };
-    struct OutgoingTransfer {
-        std::uint32_t id = 0;
-        PlayerId peer = 0;
-        std::vector<std::uint8_t> blob;
-        SnapshotOfferMessage offer;
-        std::uint64_t created_us = 0;
-    };
 
     void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
     AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
     int catch_up_impl(std::uint64_t now_us, int max_frames);
-    void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
     void handle_input(PlayerId from, std::uint64_t now_us);
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
@@ -341,12 +234,9 @@ private:
     void confirm_frames();
     std::uint32_t confirm_limit() const;
     void sample_time_sync(std::uint64_t now_us);
-    std::int64_t estimated_frame(const PeerLink& link, std::uint64_t now_us) const;
     void refresh_resend_floor();
     void refresh_keep_floors(std::uint64_t now_us);
     std::uint32_t checkpoint() const;
-    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
-    void fail(const std::string& why, std::uint64_t now_us);
     void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
     void poll_handshake(std::uint64_t now_us);
     void poll_transfer(std::uint64_t now_us);
@@ -381,17 +271,11 @@ private:
 
     SessionConfig config_;
     Simulation& sim_;
-    SessionObserver* observer_;
-    std::unique_ptr<Predictor> default_predictor_;
-    SessionStats stats_;
-    std::unique_ptr<Sync> sync_;
     std::unique_ptr<DesyncDetector> detector_;
     std::vector<PeerLink> links_;
     std::vector<std::int32_t> local_advantage_;   // per peer, latest estimate (frames)
     std::vector<int> replies_this_poll_;
     std::vector<Datagram> pending_out_;
-    int input_delay_;
-    StallTracker stall_;
     std::uint32_t next_time_sync_frame_ = 0;
     // decode scratch, reused
     InputMessage in_msg_;
@@ -402,15 +286,12 @@ private:
 
     // lifecycle
     std::unique_ptr<Tap> tap_;
-    SessionPhase phase_ = SessionPhase::Running;
-    std::string failure_;
     Membership membership_;
     bool partitioned_ = false;
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
     bool any_guest_ = false;
     std::vector<std::uint8_t> guest_scratch_;
-    EventQueue events_;
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;
@@ -424,12 +305,10 @@ private:
     std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
     // the provider's side
-    std::vector<OutgoingTransfer> outgoing_;
-    std::uint32_t next_transfer_id_ = 1;
+    TransferSender outgoing_{60'000'000};  // offers, each kept for this long (us)
     // desync recovery
     std::optional<std::uint32_t> mismatch_frame_;
     std::uint64_t mismatch_since_us_ = 0;
-    int recoveries_ = 0;
     std::uint64_t incarnation_ = 0;
     bool peer_started_ = false;  // another player has started frame 0 (sync phase ends early)
     HelloMessage hello_msg_;

@@ -1,5 +1,7 @@
 #include "rollback/snapshot_transfer.h"
 
+#include <algorithm>
+
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
@@ -68,6 +70,42 @@ std::string unpack_transfer(std::span<const std::uint8_t> blob, std::size_t stat
     if (!r.ok()) return "snapshot transfer: truncated";
     if (!r.at_end()) return "snapshot transfer: trailing bytes";
     return {};
+}
+
+TransferSender::Transfer& TransferSender::offer(PlayerId peer, TransferReason reason, const TransferContents& t,
+                                                std::size_t input_size, std::uint64_t now_us) {
+    Transfer out;
+    out.peer = peer;
+    out.blob = pack_transfer(t, input_size);
+    out.created_us = now_us;
+    out.offer.reason = reason;
+    out.offer.transfer_id = next_id_;
+    next_id_ = next_transfer_id(next_id_);
+    out.offer.frame = t.frame;
+    out.offer.size = static_cast<std::uint32_t>(out.blob.size());
+    out.offer.hash = transfer_hash(out.blob);
+    // Old transfers go: bounded memory whatever newcomers ask. (A caller's time that steps back
+    // expires nothing.)
+    std::erase_if(transfers_, [&](const Transfer& o) { return o.peer == peer || now_us > o.created_us + lifetime_us_; });
+    if (transfers_.size() >= kMaxTransfers) transfers_.erase(transfers_.begin());
+    transfers_.push_back(std::move(out));
+    return transfers_.back();
+}
+
+const TransferSender::Transfer* TransferSender::find(std::uint32_t id, PlayerId peer) const {
+    for (const Transfer& t : transfers_)
+        if (t.offer.transfer_id == id && t.peer == peer) return &t;
+    return nullptr;
+}
+
+bool TransferSender::chunk(const Transfer& t, std::uint32_t index, SnapshotChunkMessage& out) {
+    const std::size_t begin = std::size_t{index} * kSnapshotChunkBytes;
+    if (begin >= t.blob.size()) return false;
+    const std::size_t end = std::min(t.blob.size(), begin + kSnapshotChunkBytes);
+    out.transfer_id = t.offer.transfer_id;
+    out.chunk = index;
+    out.bytes.assign(t.blob.begin() + static_cast<std::ptrdiff_t>(begin), t.blob.begin() + static_cast<std::ptrdiff_t>(end));
+    return true;
 }
 
 TransferReceiver::TransferReceiver(const SnapshotOfferMessage& offer)

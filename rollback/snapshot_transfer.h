@@ -10,6 +10,9 @@
 //    the caller has checked against its limit), ignores chunks of other offers and repeats, and
 //    verifies the whole blob's XXH3-64 before handing it out: a corrupted or truncated transfer
 //    is rejected, and the caller asks again.
+//  - TransferSender is the providing side both sessions share: the blobs it offered, bounded
+//    whatever newcomers ask (one per peer, at most kMaxTransfers, none older than its lifetime
+//    once a new one is offered), numbered by next_transfer_id.
 #pragma once
 
 #include <cstdint>
@@ -19,6 +22,7 @@
 #include <vector>
 
 #include "rollback/control_messages.h"
+#include "rollback/player_id.h"
 
 namespace lockroll::rollback {
 
@@ -44,6 +48,33 @@ std::uint64_t transfer_hash(std::span<const std::uint8_t> blob);
 // Transfer ids are never 0, which in a SnapshotRequestMessage means "please offer": the id after
 // `id`, skipping 0 when the count wraps. Both sessions number their offers with it.
 constexpr std::uint32_t next_transfer_id(std::uint32_t id) { return id == UINT32_MAX ? 1 : id + 1; }
+
+class TransferSender {
+public:
+    static constexpr std::size_t kMaxTransfers = 4;
+    struct Transfer {
+        PlayerId peer = 0;
+        std::vector<std::uint8_t> blob;
+        SnapshotOfferMessage offer;
+        std::uint64_t created_us = 0;
+    };
+    explicit TransferSender(std::uint64_t lifetime_us) : lifetime_us_(lifetime_us) {}
+
+    // Packs t as a new transfer for `peer`, replacing its previous one, and fills the offer's
+    // id, reason, frame, size and hash; the caller may add to the offer before sending it (the
+    // reference holds until the next offer()).
+    Transfer& offer(PlayerId peer, TransferReason reason, const TransferContents& t, std::size_t input_size, std::uint64_t now_us);
+    // The transfer `id` offered to `peer`; nullptr when it expired or is not theirs.
+    const Transfer* find(std::uint32_t id, PlayerId peer) const;
+    // Chunk `index` of t; false when the index is past the blob.
+    static bool chunk(const Transfer& t, std::uint32_t index, SnapshotChunkMessage& out);
+    const std::vector<Transfer>& transfers() const { return transfers_; }
+
+private:
+    std::uint64_t lifetime_us_;
+    std::vector<Transfer> transfers_;
+    std::uint32_t next_id_ = 1;
+};
 
 class TransferReceiver {
 public:

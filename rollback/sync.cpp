@@ -101,6 +101,69 @@ std::string Sync::restart_at(std::uint32_t frame, std::span<const std::uint8_t> 
     return {};
 }
 
+bool Sync::transfer_contents(std::uint32_t frame, bool with_streams, TransferContents& t) const {
+    const auto state = saved_state(frame);
+    if (!state) return false;
+    t.frame = frame;
+    t.state.assign(state->begin(), state->end());
+    t.streams.assign(static_cast<std::size_t>(config_.players), StreamInputs{});
+    if (!with_streams) return true;
+    const std::size_t n = config_.input_size;
+    for (int s = 0; s < config_.players; ++s) {
+        const InputQueue& q = queues_[static_cast<std::size_t>(s)];
+        StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
+        if (q.floor() > frame) return false;  // queues keep everything from the confirmed frame on
+        st.count = q.confirmed_count() > frame ? q.confirmed_count() - frame : 0;
+        st.inputs.resize(std::size_t{st.count} * n);
+        st.absent.resize(st.count);
+        for (std::uint32_t i = 0; i < st.count; ++i) {
+            const auto in = q.confirmed(frame + i);
+            std::copy(in.begin(), in.end(), st.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{i} * n));
+            st.absent[i] = q.confirmed_absent(frame + i) ? 1 : 0;
+        }
+    }
+    return true;
+}
+
+std::string Sync::load_transfer(const TransferContents& t) {
+    // Inputs held beyond what the snapshot brings stay valid (they are confirmed): keep them.
+    struct Held {
+        std::uint32_t first = 0;
+        std::vector<std::uint8_t> inputs, absent;
+    };
+    const std::size_t n = config_.input_size;
+    std::vector<Held> held(static_cast<std::size_t>(config_.players));
+    for (int s = 0; s < config_.players; ++s) {
+        const InputQueue& q = queues_[static_cast<std::size_t>(s)];
+        Held& h = held[static_cast<std::size_t>(s)];
+        h.first = std::max(q.floor(), t.frame);
+        for (std::uint32_t f = h.first; f < q.confirmed_count(); ++f) {
+            const auto in = q.confirmed(f);
+            h.inputs.insert(h.inputs.end(), in.begin(), in.end());
+            h.absent.push_back(q.confirmed_absent(f) ? 1 : 0);
+        }
+    }
+    if (std::string e = restart_at(t.frame, t.state); !e.empty()) return e;
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        if (static_cast<std::size_t>(s) < t.streams.size()) {
+            const StreamInputs& st = t.streams[static_cast<std::size_t>(s)];
+            for (std::uint32_t i = 0; i < st.count; ++i)
+                if (add_remote_input(slot, t.frame + i, std::span(st.inputs).subspan(std::size_t{i} * n, n), st.absent[i] != 0) !=
+                    InputQueue::Add::Stored)
+                    break;
+        }
+        const Held& h = held[static_cast<std::size_t>(s)];
+        for (std::size_t i = 0; i < h.absent.size(); ++i) {
+            const std::uint32_t f = h.first + static_cast<std::uint32_t>(i);
+            if (f < queues_[slot].confirmed_count()) continue;
+            if (add_remote_input(slot, f, std::span(h.inputs).subspan(i * n, n), h.absent[i] != 0) != InputQueue::Add::Stored)
+                break;
+        }
+    }
+    return {};
+}
+
 bool Sync::add_local_input(std::span<const std::uint8_t> input, int delay, std::uint32_t min_frame) {
     if (input.size() != config_.input_size) throw std::invalid_argument("local input has the wrong size");
     if (config_.all_streams_remote) throw std::logic_error("add_local_input: every stream is remote");

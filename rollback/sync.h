@@ -35,6 +35,7 @@
 #include "rollback/predictor.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_ring.h"
+#include "rollback/snapshot_transfer.h"
 #include "rollback/telemetry.h"
 
 namespace lockroll::rollback {
@@ -98,6 +99,14 @@ public:
     // and confirmed. Empty string on success; otherwise why (and nothing changed).
     std::string restart_at(std::uint32_t frame, std::span<const std::uint8_t> state);
     InputQueue& mutable_queue(PlayerId p) { return queues_[p]; }
+    // Snapshot exchange (rollback/snapshot_transfer.h), the provider's side: what a transfer of
+    // confirmed frame `frame` carries, its saved state and (with_streams) every input each queue
+    // holds from `frame` on. False when the ring or a queue no longer holds that frame.
+    bool transfer_contents(std::uint32_t frame, bool with_streams, TransferContents& out) const;
+    // The newcomer's side: restart_at(t.frame, t.state), then every queue refilled with the
+    // transfer's inputs and, after them, the confirmed inputs this Sync already held past them
+    // (confirmed, so still valid). Empty string on success; otherwise why (nothing changed).
+    std::string load_transfer(const TransferContents& t);
 
     // True when frame() may not advance: the window is full (in lockstep: an input of frame()
     // is missing), or the local queue cannot hold frame() + delay yet.

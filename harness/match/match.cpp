@@ -15,6 +15,7 @@
 #include "harness/match/client_result.h"
 #include "harness/match/match_recorder.h"
 #include "harness/match/timed_simulation.h"
+#include "rollback/input_delay.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"
@@ -422,17 +423,18 @@ sim::SceneDesc with_players(const sim::SceneDesc& scene, int players) {
     return s;
 }
 
+// Both delays are rollback/input_delay.h's policy; the harness only turns its round-trip
+// percentile (ms) into the one-way reach (us) the policy takes.
+static std::uint64_t one_way_reach_us(double rtt_ms) { return static_cast<std::uint64_t>(std::llround(std::max(0.0, rtt_ms) * 500.0)); }
+
 int auto_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate) {
     (void)rtt_p50_ms;
-    const double frame_ms = 1000.0 / tick_rate;
-    const int lockstep = static_cast<int>(std::ceil(rtt_p95_ms / 2.0 / frame_ms)) + 1;
-    return mode == Mode::Lockstep ? lockstep : (lockstep + 1) / 2;
+    return rollback::auto_input_delay(mode == Mode::Lockstep ? 0 : 1, one_way_reach_us(rtt_p95_ms), tick_rate);
 }
 
 int adaptive_input_delay(Mode mode, double rtt_p50_ms, double rtt_p95_ms, int tick_rate, int window) {
-    const int lockstep = auto_input_delay(Mode::Lockstep, rtt_p50_ms, rtt_p95_ms, tick_rate);
-    if (mode == Mode::Lockstep) return std::min(60, lockstep);
-    return std::min(60, std::max(auto_input_delay(Mode::Rollback, rtt_p50_ms, rtt_p95_ms, tick_rate), lockstep - window + 1));
+    (void)rtt_p50_ms;
+    return rollback::adaptive_input_delay(mode == Mode::Lockstep ? 0 : std::max(window, 1), one_way_reach_us(rtt_p95_ms), tick_rate);
 }
 
 int auto_prediction_window(int configured, int lockstep_delay, int rollback_delay) {

@@ -253,5 +253,31 @@ TEST(InputQueue, RestartBeginsANewStreamAtTheSnapshotFrame) {
     EXPECT_EQ(q.add_confirmed(20, input_of(20)), Add::TooFarAhead);
 }
 
+// What an input message resends (both sessions): the unacknowledged confirmed inputs from the
+// ack (never below the floor), at most `max`.
+TEST(InputQueue, CopyConfirmedGivesTheUnackedRun) {
+    InputQueue q(2, 16);
+    confirm_range(q, 0, 10);
+    Bytes out{9, 9, 9};
+    auto r = q.copy_confirmed(4, 3, out);
+    EXPECT_EQ(r.first, 4u);
+    EXPECT_EQ(r.count, 3u);
+    ASSERT_EQ(out.size(), 6u);
+    EXPECT_EQ(Bytes(out.begin(), out.begin() + 2), input_of(4));
+    EXPECT_EQ(Bytes(out.begin() + 4, out.end()), input_of(6));
+    r = q.copy_confirmed(8, 50, out);  // the rest only
+    EXPECT_EQ(r.count, 2u);
+    EXPECT_EQ(Bytes(out.begin() + 2, out.end()), input_of(9));
+    q.discard_before(6);
+    r = q.copy_confirmed(2, 50, out);  // an old ack starts at the floor
+    EXPECT_EQ(r.first, 6u);
+    EXPECT_EQ(r.count, 4u);
+    r = q.copy_confirmed(10, 50, out);  // all acknowledged
+    EXPECT_EQ(r.count, 0u);
+    EXPECT_TRUE(out.empty());
+    r = q.copy_confirmed(30, 50, out);  // an ack beyond what was sent copies nothing
+    EXPECT_EQ(r.count, 0u);
+}
+
 }  // namespace
 }  // namespace lockroll::rollback

@@ -551,6 +551,50 @@ TEST(SyncCore, RestartAtASnapshotResumesFromIt) {
     for (const auto& c : r.confirmed) EXPECT_EQ(c.checksum, reference[c.frame]) << "frame " << c.frame;
 }
 
+// Snapshot exchange through Sync: the provider's contents of a confirmed frame (state plus every
+// input held from it), loaded by a newcomer that keeps the confirmed inputs it already held past
+// them; from there both confirm the straight-line run's checksums.
+TEST(SyncCore, TransferContentsLoadIntoAnotherSync) {
+    const Script script(2, 50, 9);
+    const auto reference = straight_line(script, 2, 45);
+    Rig provider(config(2, 8));
+    for (std::uint32_t f = 0; f < 30; ++f) {
+        provider.sync.add_remote_input(1, f, script.at(1, f));
+        ASSERT_TRUE(provider.tick(script.at(0, f)));
+    }
+    for (std::uint32_t f = 30; f < 35; ++f) provider.sync.add_remote_input(1, f, script.at(1, f));
+    ASSERT_EQ(provider.sync.confirmed_frame(), 30u);
+    TransferContents t;
+    EXPECT_FALSE(provider.sync.transfer_contents(1, true, t));  // the ring no longer holds it
+    ASSERT_TRUE(provider.sync.transfer_contents(30, true, t));
+    EXPECT_EQ(t.frame, 30u);
+    ASSERT_EQ(t.streams.size(), 2u);
+    EXPECT_EQ(t.streams[0].count, 0u);
+    EXPECT_EQ(t.streams[1].count, 5u);
+    EXPECT_EQ(Bytes(t.streams[1].inputs.begin(), t.streams[1].inputs.begin() + 3), script.at(1, 30));
+    TransferContents state_only;
+    ASSERT_TRUE(provider.sync.transfer_contents(30, false, state_only));
+    EXPECT_EQ(state_only.state, t.state);
+    EXPECT_EQ(state_only.streams[1].count, 0u);
+
+    Rig newcomer(config(2, 8));
+    for (std::uint32_t f = 0; f < 3; ++f) ASSERT_TRUE(newcomer.tick(kForward));
+    for (std::uint32_t f = 0; f < 40; ++f) newcomer.sync.add_remote_input(1, f, script.at(1, f));  // held past the transfer
+    TransferContents bad = t;
+    bad.state = {1, 2, 3};
+    EXPECT_FALSE(newcomer.sync.load_transfer(bad).empty());  // refused: nothing changed
+    EXPECT_EQ(newcomer.sync.frame(), 3u);
+    ASSERT_EQ(newcomer.sync.load_transfer(t), "");
+    EXPECT_EQ(newcomer.sync.frame(), 30u);
+    EXPECT_EQ(newcomer.sync.queue(0).confirmed_count(), 30u);
+    EXPECT_EQ(newcomer.sync.queue(1).confirmed_count(), 40u);  // 30..34 from the transfer, 35..39 kept
+    EXPECT_EQ(live_checksum(newcomer.sim), reference[30]);
+    for (std::uint32_t f = 30; f < 40; ++f) ASSERT_TRUE(newcomer.tick(script.at(0, f)));
+    ASSERT_EQ(newcomer.confirmed.size(), 10u);
+    EXPECT_EQ(newcomer.confirmed.front().frame, 31u);
+    for (const auto& c : newcomer.confirmed) EXPECT_EQ(c.checksum, reference[c.frame]) << "frame " << c.frame;
+}
+
 // Contract: restart_at returns why it failed "and nothing changed".
 // A refused snapshot (Session::finish_transfer rejects it, asks again and keeps running, as in a
 // desync recovery) must not drop a scheduled rollback: the displayed state would keep resting on

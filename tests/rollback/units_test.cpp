@@ -1,4 +1,5 @@
-// Small parts on their own: input queue, snapshot ring, time sync, predictor, transfer ids.
+// Small parts on their own: input queue, snapshot ring, time sync, predictor, transfer ids and
+// the transfer sender.
 #include <gtest/gtest.h>
 
 #include "rollback/input_queue.h"
@@ -99,6 +100,48 @@ TEST(TransferIds, CountUpAndSkipZeroWhenTheyWrap) {
     EXPECT_EQ(next_transfer_id(UINT32_MAX - 1), UINT32_MAX);
     EXPECT_EQ(next_transfer_id(UINT32_MAX), 1u);
     EXPECT_NE(next_transfer_id(UINT32_MAX), 0u);
+}
+
+// The providing side both sessions share: one offer per peer, at most kMaxTransfers, expired by
+// age (never by a caller's time stepping back: the relay session's unguarded subtraction expired
+// every offer then), chunks cut from the blob, the offer describing the packed blob.
+TEST(TransferSender, BoundsOffersAndServesTheirChunks) {
+    TransferSender s(1000);
+    TransferContents t;
+    t.frame = 7;
+    t.state.assign(kSnapshotChunkBytes + 10, 0xAB);
+    t.streams.resize(2);
+    const auto& a = s.offer(3, TransferReason::Join, t, 2, 100);
+    EXPECT_EQ(a.offer.transfer_id, 1u);
+    EXPECT_EQ(a.offer.frame, 7u);
+    EXPECT_EQ(a.offer.reason, TransferReason::Join);
+    EXPECT_EQ(a.offer.size, a.blob.size());
+    EXPECT_EQ(a.offer.hash, transfer_hash(a.blob));
+    TransferContents back;
+    EXPECT_EQ(unpack_transfer(a.blob, t.state.size(), 2, 2, 64, back), "");
+    EXPECT_EQ(back.state, t.state);
+    // A new offer to the same peer replaces its last.
+    s.offer(3, TransferReason::Recover, t, 2, 200);
+    ASSERT_EQ(s.transfers().size(), 1u);
+    EXPECT_EQ(s.find(1, 3), nullptr);
+    const TransferSender::Transfer* b = s.find(2, 3);
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(s.find(2, 4), nullptr);  // not theirs
+    SnapshotChunkMessage c;
+    ASSERT_TRUE(TransferSender::chunk(*b, 1, c));
+    EXPECT_EQ(c.transfer_id, 2u);
+    EXPECT_EQ(c.chunk, 1u);
+    EXPECT_EQ(c.bytes.size(), b->blob.size() - kSnapshotChunkBytes);
+    EXPECT_FALSE(TransferSender::chunk(*b, 2, c));
+    // Time stepping back expires nothing; at most kMaxTransfers, the oldest going first.
+    for (PlayerId p = 10; p < 10 + TransferSender::kMaxTransfers; ++p) s.offer(p, TransferReason::Spectate, t, 2, 50);
+    EXPECT_EQ(s.transfers().size(), TransferSender::kMaxTransfers);
+    EXPECT_EQ(s.find(2, 3), nullptr);
+    EXPECT_NE(s.find(3, 10), nullptr);
+    // Older than the lifetime when the next offer is made: gone.
+    s.offer(20, TransferReason::Join, t, 2, 5000);
+    EXPECT_EQ(s.transfers().size(), 1u);
+    EXPECT_EQ(s.transfers()[0].peer, 20u);
 }
 
 // Both sessions' stall bookkeeping. The relay session subtracted unguarded: a caller whose time

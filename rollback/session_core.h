@@ -1,0 +1,132 @@
+// SessionCore: what the peer-to-peer Session and the RelaySession share (issue 21, "one core
+// under both sessions"). Each session derives from it and adds only its protocol; the core holds
+// the frame loop's Sync, the phase, the sticky failure, the one event queue, the stats, the
+// stall bookkeeping and the input delay, and answers the queries both sessions answer alike.
+//
+// Contract:
+//  - Sans-IO like the sessions: no clock (time comes in as now_us), no socket.
+//  - Failure is sticky: fail() sets phase() to Failed once, keeps the first reason in failure()
+//    and emits one `failed` event naming this session's own id; later calls change nothing.
+//  - Nothing thrown inside a per-tick call escapes: guarded() runs the call's body and turns any
+//    exception (the game's step / save / load, an allocation, an invariant) into a failed
+//    session "WHERE: WHY", and returns the caller's fallback; should even that message not be
+//    built, the phase still becomes Failed.
+//  - Events go to one bounded queue (rollback/session_event.h); next_event() pops them in order.
+//  - sync_ is built by the derived session's constructor; every query here needs it built.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <utility>
+
+#include "rollback/events.h"
+#include "rollback/player_id.h"
+#include "rollback/predictor.h"
+#include "rollback/session_event.h"
+#include "rollback/sync.h"
+#include "rollback/telemetry.h"
+
+namespace lockroll::rollback {
+
+enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
+const char* phase_name(SessionPhase p);
+
+struct AdvanceResult {
+    bool advanced = false;             // false: stalled (window full, or lockstep waiting)
+    std::uint32_t frame = 0;           // the displayed frame after this call
+    std::uint32_t rollback_depth = 0;  // frames resimulated first (0: no rollback)
+    int wait_frames = 0;               // time sync: skip this many ticks to let peers catch up
+    int blocking_player = -1;          // when stalled: the remote player whose input is missing
+    std::uint64_t resim_ns = 0;        // cpu time of the rollback, if any
+    std::uint64_t forward_ns = 0;      // cpu time of the forward step, if any
+    // Time sync for real-time loops: lengthen the next tick by this many parts per million
+    // (0..100,000: 2 % per frame ahead) so peers behind catch up without a visible skip. wait_frames is the same advice
+    // as whole ticks, for virtual-time loops.
+    int tick_stretch_ppm = 0;
+};
+
+class SessionCore {
+public:
+    SessionCore(const SessionCore&) = delete;
+    SessionCore& operator=(const SessionCore&) = delete;
+
+    SessionPhase phase() const { return phase_; }
+    bool running() const { return phase_ == SessionPhase::Running; }
+    const std::string& failure() const { return failure_; }
+    std::uint32_t frame() const { return sync_->frame(); }
+    std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
+    int input_delay() const { return input_delay_; }
+    bool stalled() const { return stall_.stalled(); }
+    // Snapshot reloads after a desync so far.
+    int recoveries() const { return recoveries_; }
+    // Updated in place as the session runs.
+    const SessionStats& stats() const { return stats_; }
+    // Saved state of a frame while the ring holds it (confirmed frames are final).
+    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const {
+        return sync_->saved_state(frame);
+    }
+    // Lifecycle events in order; false when none is left.
+    bool next_event(SessionEvent& out) noexcept { return events_.pop(out); }
+    // Fault injection: every time frame `frame` is produced by a step on this client, flip
+    // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
+    // already simulated, or the simulation has no such body/field).
+    std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+
+protected:
+    // self: the id the `failed` event names (the local slot). observer may be nullptr.
+    SessionCore(SessionPhase initial, PlayerId self, int input_delay, SessionObserver* observer);
+    ~SessionCore();
+
+    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
+    void fail(const std::string& why, std::uint64_t now_us);
+    // The frame loop's config from the fields both sessions' configs share (a spectator passes
+    // local 0: its Sync is built as slot 0's, which it never feeds).
+    static SyncConfig sync_config(int players, PlayerId local, std::size_t input_size, int prediction_window,
+                                  int evidence_frames, std::uint32_t input_capacity);
+    // No clock is read in rollback/: telemetry times come from the caller's clock, or are 0.
+    static void default_to_zero(CpuClock& clock);
+    // The predictor to use: the caller's, or a repeat-last one this core owns.
+    Predictor& predictor_or_default(Predictor* predictor);
+    // What a tick that did nothing returns: the shown frame, not advanced.
+    AdvanceResult idle_result() const {
+        AdvanceResult r;
+        r.frame = frame();
+        return r;
+    }
+    // Runs body(); anything it throws fails the session as "where: why" and fallback() answers.
+    template <class Body, class Fallback>
+    auto guarded(const char* where, std::uint64_t now_us, Body&& body, Fallback&& fallback) noexcept -> decltype(body()) {
+        try {
+            return body();
+        } catch (...) {
+            fail_from_exception(where, now_us);
+        }
+        return fallback();
+    }
+    template <class Body>
+    void guarded(const char* where, std::uint64_t now_us, Body&& body) noexcept {
+        guarded(where, now_us, std::forward<Body>(body), [] {});
+    }
+
+    SessionObserver* observer_;
+    SessionStats stats_;
+    std::unique_ptr<Sync> sync_;
+    SessionPhase phase_;
+    std::string failure_;
+    int input_delay_;
+    int recoveries_ = 0;
+    StallTracker stall_;
+
+private:
+    // Called from inside a catch handler only.
+    void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
+
+    PlayerId self_;
+    EventQueue events_;
+    std::unique_ptr<Predictor> default_predictor_;
+};
+
+}  // namespace lockroll::rollback
