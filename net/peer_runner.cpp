@@ -1,9 +1,7 @@
 #include "net/peer_runner.h"
 
 #include <algorithm>
-#include <chrono>
 #include <stdexcept>
-#include <thread>
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
@@ -32,7 +30,8 @@ const char* outcome_name(RunOutcome o) {
 
 PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
                        InputSource input, RunnerObserver* observer)
-    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer) {
+    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer),
+      loop_(std::make_unique<TickLoop>(config_)) {
     const auto& sc = session_.config();
     if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
     if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5))
@@ -41,6 +40,9 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     if (config_.catch_up_frames < 0) throw std::invalid_argument("RunnerConfig: catch_up_frames must be >= 0");
     if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    if (transport_.local_id() != sc.local_player)
+        throw std::invalid_argument("PeerRunner: the transport's local_id() is " + std::to_string(transport_.local_id()) +
+                                    ", the session's local player is " + std::to_string(sc.local_player));
     const auto ids = static_cast<std::size_t>(sc.players + sc.max_spectators);
     for (const auto& p : config_.peers)
         if (p.slot >= ids || session_.host_of(p.slot) == sc.local_player || session_.host_of(p.slot) != p.slot)
@@ -52,6 +54,11 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
 }
+
+PeerRunner::~PeerRunner() = default;
+
+std::uint64_t PeerRunner::schedule_resets() const { return loop_->schedule_resets(); }
+std::uint64_t PeerRunner::started_us() const { return loop_->started_us(); }
 
 void PeerRunner::track_connections(std::uint64_t now) {
     for (transport::TransportEvent e; transport_.next_event(e);) {
@@ -69,46 +76,31 @@ void PeerRunner::track_connections(std::uint64_t now) {
     }
 }
 
-void PeerRunner::service_until(std::uint64_t deadline_us) {
-    for (;;) {
-        const std::uint64_t now = config_.clock.now_us();
-        transport_.poll(now);
-        track_connections(now);
-        if (now - last_reconnect_us_ >= kReconnectEveryUs) {
-            last_reconnect_us_ = now;
-            // The lower id connects, one connection per pair: no crossed connects, also when a
-            // killed slot comes back (the lower survivors keep retrying it, it retries the higher
-            // ones). Spectators have the highest ids but nobody knows their addresses: they
-            // connect to everyone. connect() refuses harmlessly while a connection exists or is
-            // pending.
-            const auto& sc = session_.config();
-            const bool spectator = sc.role == rollback::Role::Spectator;
-            for (const auto& p : config_.peers)
-                if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
-                    transport_.connect(p.slot, p.host, p.port);
-        }
-        if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
-        std::this_thread::sleep_for(std::chrono::microseconds(
-            std::min(config_.clock.monotonic_span_us(deadline_us - now), config_.service_interval_us)));
-    }
+void PeerRunner::service(std::uint64_t now) {
+    transport_.poll(now);
+    track_connections(now);
+    if (now - last_reconnect_us_ < kReconnectEveryUs) return;
+    last_reconnect_us_ = now;
+    // The lower id connects, one connection per pair: no crossed connects, also when a killed
+    // slot comes back (the lower survivors keep retrying it, it retries the higher ones).
+    // Spectators have the highest ids but nobody knows their addresses: they connect to everyone.
+    // connect() refuses harmlessly while a connection exists or is pending.
+    const auto& sc = session_.config();
+    const bool spectator = sc.role == rollback::Role::Spectator;
+    for (const auto& p : config_.peers)
+        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot)) transport_.connect(p.slot, p.host, p.port);
 }
 
-bool PeerRunner::connect_phase() {
-    // A handshaking session waits for its peers itself (hellos are resent until answered).
-    if (session_.config().handshake) return true;
-    const std::uint64_t begin = config_.clock.now_us();
+// Without a handshake the runner is the start barrier: every remote process connected.
+bool PeerRunner::all_connected() const {
     const auto& sc = session_.config();
-    for (;;) {
-        service_until(config_.clock.now_us() + 5 * config_.service_interval_us);
-        bool all = true;
-        for (int p = 0; p < sc.players; ++p) {
-            const auto id = static_cast<rollback::PlayerId>(p);
-            // Slots played by another slot's process have no connection of their own.
-            if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) all = false;
-        }
-        if (all) return true;
-        if (stop_.load(std::memory_order_relaxed) || config_.clock.now_us() - begin > config_.connect_timeout_us) return false;
+    if (sc.handshake) return true;  // the session waits for its peers itself (hellos resent)
+    for (int p = 0; p < sc.players; ++p) {
+        const auto id = static_cast<rollback::PlayerId>(p);
+        // Slots played by another slot's process have no connection of their own.
+        if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) return false;
     }
+    return true;
 }
 
 bool PeerRunner::everyone_confirmed() const {
@@ -142,6 +134,7 @@ void PeerRunner::drain_session_events() {
             if (e.kind == K::Disconnected && e.peer < 2 && e.peer != sc.local_player && !alone_since_) alone_since_ = e.frame;
             if (e.kind == K::Joined && e.peer < 2 && e.peer != sc.local_player) alone_since_.reset();
         }
+        events_.push_back(e);
         if (observer_) observer_->on_session_event(e);
     }
 }
@@ -167,7 +160,7 @@ bool PeerRunner::track_partition() {
     return true;
 }
 
-void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
+std::uint32_t PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     while (transport_.receive(in_, now)) {
         if (in_.from >= connected_.size()) continue;
         session_.receive(static_cast<rollback::PlayerId>(in_.from), in_.bytes, in_.time_us);
@@ -213,17 +206,20 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);
     ++ticks_;
+    return report.advance.rollback_depth;
 }
 
-RunOutcome PeerRunner::run() {
-    const std::uint64_t begin = config_.clock.now_us();
-    if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    return run_ticks(
-        config_, begin, stop_, observer_, {started_us_, schedule_resets_},
-        [this](std::uint64_t due) { service_until(due); },
+UpdateResult PeerRunner::update() {
+    events_.clear();
+    UpdateResult r = loop_->update(
+        [this] { return config_.clock.now_us(); }, stop_, observer_,
+        [this](std::uint64_t now) {
+            service(now);
+            return all_connected();
+        },
         [this](std::uint64_t now, std::uint64_t due) {
-            tick(now, due);
-            return stretch_.last_us;
+            const std::uint32_t depth = tick(now, due);
+            return TickDone{stretch_.last_us, depth};
         },
         [this] {
             return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
@@ -232,6 +228,14 @@ RunOutcome PeerRunner::run() {
                               .confirmed = everyone_confirmed(),
                               .partitioned = track_partition()};
         });
+    r.events = events_;
+    return r;
+}
+
+void PeerRunner::wait() const { wait_for_tick(config_, *loop_); }
+
+RunOutcome PeerRunner::run() {
+    return run_until_over([this] { return update(); }, [this] { wait(); });
 }
 
 }  // namespace lockroll::net

@@ -1,6 +1,7 @@
 #include "net/session_builder.h"
 
 #include "net/clock.h"
+#include "net/tick_schedule.h"
 
 #include <algorithm>
 #include <limits>
@@ -21,13 +22,27 @@ constexpr std::size_t kMaxQueuedEvents = 1024;
 
 NetSession::~NetSession() = default;
 
-RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
-    if (!input) return RunOutcome::Failed;  // nothing to play with (a caller's bug; never throws)
+UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observer) {
+    if (!input) {  // nothing to play with (a caller's bug; never throws)
+        UpdateResult r;
+        r.outcome = RunOutcome::Failed;
+        return r;
+    }
     observer_ = observer;
-    input_ = std::move(input);
-    const RunOutcome outcome = relay_runner_ ? relay_runner_->run() : runner_->run();
+    input_ = &input;
+    UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
+    input_ = nullptr;
     observer_ = nullptr;
-    return outcome;
+    return r;
+}
+
+void NetSession::wait() const {
+    if (relay_runner_) relay_runner_->wait();
+    else runner_->wait();
+}
+
+RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
+    return run_until_over([&] { return update(input, observer); }, [this] { wait(); });
 }
 
 void NetSession::request_stop() {
@@ -230,7 +245,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         RunnerObserver* as_observer = raw;
         s->relay_runner_ = std::make_unique<RelayRunner>(
             rc, server_->first, server_->second, *s->relay_session_, *s->transport_,
-            [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+            [raw](std::uint32_t frame, std::span<std::uint8_t> out) { (*raw->input_)(frame, out); }, as_observer);
         return s;
     }
     rollback::SessionConfig sc = session_config();
@@ -247,7 +262,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     RunnerObserver* as_observer = raw;  // a private base: converted here, where it is accessible
     s->runner_ = std::make_unique<PeerRunner>(
         rc, *s->session_, *s->transport_,
-        [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+        [raw](std::uint32_t frame, std::span<std::uint8_t> out) { (*raw->input_)(frame, out); }, as_observer);
     return s;
 }
 

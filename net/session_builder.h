@@ -56,17 +56,31 @@ public:
     NetSession& operator=(const NetSession&) = delete;
     ~NetSession() override;
 
-    // Plays until the configured frames are confirmed everywhere (Completed), request_stop()
-    // (Stopped), the session fails, or a timeout; see RunOutcome. Blocks; `input` is called once
-    // per tick for input_size bytes per local slot (local_slots() order). `observer` (optional)
-    // sees every tick, session and transport event as they happen. lockroll throws nothing
-    // from here; an exception thrown by your own callbacks passes through unchanged.
+    // One frame of the game's own loop (GGRS's advance_frame, GGPO's ggpo_idle): never blocks.
+    // Reads the runner's clock, receives, runs as many ticks as are due (none when the game's
+    // frames are shorter than a tick, several when longer), sends, and returns what happened:
+    // frames run, the deepest rollback, the interpolation fraction for drawing between ticks,
+    // this call's events, and once the run is over its outcome (see RunOutcome and run()).
+    // `input` is called once per tick run, as in run(). Call it at any rate, but often: arrivals
+    // are stamped, and pings answered, only while it runs (every frame of a 30 Hz loop adds up to
+    // 33 ms to the measured round trip). An empty `input` is a caller's bug: outcome Failed,
+    // nothing done. lockroll throws nothing from here; your callbacks' exceptions pass through.
+    UpdateResult update(const InputSource& input, RunnerObserver* observer = nullptr);
+    // Sleeps until the next tick is due, at most RunnerConfig::service_interval_us: for a loop
+    // with nothing else to do between updates.
+    void wait() const;
+    // update() and wait() until the run is over: plays until the configured frames are
+    // confirmed everywhere (Completed), request_stop() (Stopped), the session fails, or a
+    // timeout; see RunOutcome. Blocks; `input` is called once per tick for input_size bytes per
+    // local slot (local_slots() order). `observer` (optional) sees every tick, session and
+    // transport event as they happen. lockroll throws nothing from here; an exception thrown by
+    // your own callbacks passes through unchanged.
     RunOutcome run(InputSource input, RunnerObserver* observer = nullptr);
     // Thread- and signal-safe; also fine from inside the callbacks and before run().
     void request_stop();
 
     // Lifecycle events of the session (SessionEvent), in order, also while run() is going (from
-    // its callbacks). The newest 1024 are kept.
+    // its callbacks); the same events update() returns. The newest 1024 are kept.
     bool next_event(rollback::SessionEvent& out);
 
     std::uint16_t port() const { return transport_->port(); }
@@ -103,7 +117,7 @@ private:
     std::unique_ptr<RelayRunner> relay_runner_;
     std::vector<rollback::PlayerId> relay_slots_;
     RunnerObserver* observer_ = nullptr;
-    InputSource input_;
+    const InputSource* input_ = nullptr;  // the current update()'s
     std::deque<rollback::SessionEvent> events_;
 };
 
