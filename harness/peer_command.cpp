@@ -39,6 +39,7 @@
 #include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
+#include "transport/enet_transport.h"
 
 namespace lockroll::harness {
 

@@ -28,7 +28,7 @@ const char* outcome_name(RunOutcome o) {
     return "?";
 }
 
-PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                        InputSource input, RunnerObserver* observer)
     : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer),
       loop_(std::make_unique<TickLoop>(config_)) {

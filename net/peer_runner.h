@@ -58,7 +58,7 @@
 
 #include "net/clock.h"
 #include "rollback/session.h"
-#include "transport/enet_transport.h"
+#include "transport/transport.h"
 
 namespace lockroll::net {
 
@@ -160,7 +160,7 @@ public:
     // Session, transport and observer must outlive the runner. Throws std::invalid_argument for
     // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one, a
     // transport whose local_id() is not the session's local player).
-    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                InputSource input, RunnerObserver* observer = nullptr);
     ~PeerRunner();
     PeerRunner(const PeerRunner&) = delete;
@@ -204,7 +204,7 @@ private:
 
     RunnerConfig config_;
     rollback::Session& session_;
-    transport::EnetTransport& transport_;
+    transport::Transport& transport_;
     InputSource input_;
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};

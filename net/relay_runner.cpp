@@ -14,7 +14,7 @@ constexpr std::size_t kMaxHeld = 256;
 }  // namespace
 
 RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
-                         rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                         rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                          RunnerObserver* observer)
     : config_(config), host_(std::move(server_host)), port_(server_port), session_(session), transport_(transport),
       input_(std::move(input)), observer_(observer), loop_(std::make_unique<TickLoop>(config_)) {

@@ -1,4 +1,6 @@
-// RelayRunner: one RelaySession bound to ENet and the clock, talking to the relay server. The
+// RelayRunner: one RelaySession bound to a transport (ENet through the builder, or the game's
+// own: transport/transport.h) and the clock, talking to the relay server (peer id
+// rollback::kRelayServerPeer, reached by connect(kRelayServerPeer, server_host, server_port)). The
 // relay twin of PeerRunner (peer_runner.h, whose RunnerConfig, observer and outcomes it shares):
 //  - Connection: one, to the server, retried every half second while not connected, for the
 //    whole run. A connection ENet dropped is made again and the session says hello again: the
@@ -24,7 +26,7 @@
 
 #include "net/peer_runner.h"
 #include "rollback/relay_session.h"
-#include "transport/enet_transport.h"
+#include "transport/transport.h"
 
 namespace lockroll::net {
 
@@ -33,7 +35,7 @@ public:
     // config.peers is unused; the server is at server_host:server_port. Throws
     // std::invalid_argument for a bad config.
     RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
-                rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                 RunnerObserver* observer = nullptr);
 
     ~RelayRunner();
@@ -59,7 +61,7 @@ private:
     std::string host_;
     std::uint16_t port_;
     rollback::RelaySession& session_;
-    transport::EnetTransport& transport_;
+    transport::Transport& transport_;
     InputSource input_;
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};

@@ -1,11 +1,12 @@
 // A game that owns its loop: one player of a 2-player match, drawing at its own rate and calling
 // NetSession::update() once per drawn frame (never run()). For tests/net/game_loop_test.sh.
 //
-//   game_loop_peer SLOT MY_PORT PEER_PORT FRAMES RENDER_HZ
+//   game_loop_peer SLOT MY_PORT PEER_PORT FRAMES RENDER_HZ [enet|udp]
 //
-// The game is a counter mixed with both players' scripted inputs. At the end it prints one line:
+// enet (the default) is the builder's own ENet transport; udp is the test's UdpSocketTransport
+// (plain UDP sockets), handed to the builder with transport(). The game is a counter mixed with both players' scripted inputs. At the end it prints one line:
 //   slot S outcome O final CHECKSUM updates U ticks T most_per_update M idle_updates I
-//        interpolation_ok B
+//        interpolation_ok B transport T sent N
 // (the confirmed checksum of frame FRAMES; updates that ran no tick; whether every update's
 // interpolation fraction was in [0, 1)). Exit 0 when the run completed with a checksum, 1 when
 // not, 2 for bad arguments (before anything is bound).
@@ -23,6 +24,7 @@
 
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
+#include "udp_socket_transport.h"
 
 namespace {
 
@@ -50,7 +52,7 @@ private:
 };
 
 int usage(const std::string& why) {
-    std::fprintf(stderr, "game_loop_peer: %s\nusage: game_loop_peer SLOT(0|1) MY_PORT PEER_PORT FRAMES RENDER_HZ\n", why.c_str());
+    std::fprintf(stderr, "game_loop_peer: %s\nusage: game_loop_peer SLOT(0|1) MY_PORT PEER_PORT FRAMES RENDER_HZ [enet|udp]\n", why.c_str());
     return 2;
 }
 
@@ -65,7 +67,9 @@ long number(const char* arg, const char* what, long lo, long hi) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 6) return usage("expected 5 arguments");
+    if (argc != 6 && argc != 7) return usage("expected 5 or 6 arguments");
+    const std::string kind = argc == 7 ? argv[6] : "enet";
+    if (kind != "enet" && kind != "udp") return usage("transport " + kind + ": must be enet or udp");
     long slot = 0, my_port = 0, peer_port = 0, frames = 0, hz = 0;
     try {
         slot = number(argv[1], "SLOT", 0, 1);
@@ -81,15 +85,18 @@ int main(int argc, char** argv) {
     Counter game;
     std::unique_ptr<lockroll::net::NetSession> net;
     try {
-        net = lockroll::net::SessionBuilder()
-                  .players(2)
-                  .input_size(1)
-                  .local_player(me)
-                  .remote_player(static_cast<PlayerId>(1 - slot), "127.0.0.1", static_cast<std::uint16_t>(peer_port))
-                  .listen("127.0.0.1", static_cast<std::uint16_t>(my_port))
-                  .match_id(0x6a3e100)
-                  .frames(static_cast<std::uint32_t>(frames))
-                  .start(game);
+        lockroll::net::SessionBuilder b;
+        b.players(2)
+            .input_size(1)
+            .local_player(me)
+            .remote_player(static_cast<PlayerId>(1 - slot), "127.0.0.1", static_cast<std::uint16_t>(peer_port))
+            .match_id(0x6a3e100)
+            .frames(static_cast<std::uint32_t>(frames));
+        if (kind == "udp")
+            b.transport(std::make_unique<lockroll::test::UdpSocketTransport>(me, static_cast<std::uint16_t>(my_port), 2));
+        else
+            b.listen("127.0.0.1", static_cast<std::uint16_t>(my_port));
+        net = b.start(game);
     } catch (const std::exception& e) {
         return usage(e.what());
     }
@@ -123,8 +130,10 @@ int main(int argc, char** argv) {
         std::this_thread::sleep_until(next);
     }
     const auto checksum = net->confirmed_checksum(static_cast<std::uint32_t>(frames));
-    std::printf("slot %ld outcome %s final %016llx updates %ld ticks %ld most_per_update %d idle_updates %ld interpolation_ok %d\n",
+    std::printf("slot %ld outcome %s final %016llx updates %ld ticks %ld most_per_update %d idle_updates %ld interpolation_ok %d "
+                "transport %s sent %llu\n",
                 slot, lockroll::net::outcome_name(outcome), checksum ? static_cast<unsigned long long>(*checksum) : 0ull, updates,
-                ticks, most, idle, interpolation_ok ? 1 : 0);
+                ticks, most, idle, interpolation_ok ? 1 : 0, kind.c_str(),
+                static_cast<unsigned long long>(net->transport().counters().datagrams_sent));
     return outcome == lockroll::net::RunOutcome::Completed && checksum ? 0 : 1;
 }

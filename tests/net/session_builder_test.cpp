@@ -15,6 +15,7 @@
 #include "harness/child_process.h"
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
+#include "udp_socket_transport.h"
 
 namespace lockroll::net {
 namespace {
@@ -69,6 +70,28 @@ TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
                   .find("exclude each other"),
               std::string::npos);
     EXPECT_NE(error_of([&] { base().local_player(0).local_player(1).server("127.0.0.1", 9).start(sim); }).find("exactly one local_player"),
+              std::string::npos);
+}
+
+// The game's own transport: its id must be this process's slot, and it is bound already.
+TEST(SessionBuilder, OwnTransportErrorsNameTheSetting) {
+    Counters sim;
+    const auto base = [] { return SessionBuilder().players(2).input_size(1).local_player(0).remote_player(1, "127.0.0.1", 9); };
+    test::UdpSocketTransport wrong_id(1, 0, 2), right(0, 0, 2);
+    EXPECT_NE(error_of([&] { base().transport(wrong_id).start(sim); }).find("its local_id() is 1, this process's slot is 0"),
+              std::string::npos);
+    EXPECT_NE(error_of([&] { base().transport(right).listen("127.0.0.1", 7000).start(sim); }).find("exclude each other"),
+              std::string::npos);
+    auto owning = base().transport(std::make_unique<test::UdpSocketTransport>(0, 0, 2));
+    const auto first = owning.start(sim);
+    EXPECT_EQ(first->port(), 0);  // not ENet's
+    EXPECT_EQ(first->transport().local_id(), 0u);
+    Counters sim2;
+    EXPECT_NE(error_of([&] { owning.start(sim2); }).find("already in use"), std::string::npos);
+    // Through a server too.
+    EXPECT_NE(error_of([&] {
+                  SessionBuilder().players(2).input_size(1).local_player(0).server("127.0.0.1", 9).transport(wrong_id).start(sim);
+              }).find("local_id() is 1"),
               std::string::npos);
 }
 
