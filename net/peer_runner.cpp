@@ -53,6 +53,9 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     // One input per local slot (several players on one machine: SessionConfig::slot_hosts).
     input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+    // A run of target_frame frames shows frame target_frame last: while it lingers for the last
+    // confirmations and acknowledgements, the session rolls back and confirms but steps no further.
+    session_.set_last_frame(config_.target_frame);
 }
 
 PeerRunner::~PeerRunner() = default;

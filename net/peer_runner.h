@@ -30,8 +30,9 @@
 //    answer pings and stamp arrivals. A tick that is late runs at once; more than max_catch_up
 //    ticks behind, the schedule restarts from now (a frozen process does not then fast-forward
 //    in a burst).
-//  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
-//    resends and corrections still flow) until it has confirmed target_frame and every running,
+//  - Finishing: target_frame is the last frame simulated (Session::set_last_frame): after
+//    showing it it keeps ticking (receiving, advancing without stepping, polling, so resends and
+//    corrections still flow) until it has confirmed target_frame and every running,
 //    connected player slot has acknowledged its inputs up to target_frame (so it can confirm it
 //    too); dropped slots, disconnected peers and spectators are not waited for (spectators send
 //    no inputs and get the last ones from the resends while the players linger). Then it lingers

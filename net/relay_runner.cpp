@@ -25,6 +25,7 @@ RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, st
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
     input_bytes_.assign(session_.config().input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+    session_.set_last_frame(config_.target_frame);  // a run of target_frame frames ends on it
 }
 
 RelayRunner::~RelayRunner() = default;

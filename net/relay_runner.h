@@ -12,7 +12,8 @@
 //  - The game's loop or the runner's: update() / wait() / run() as PeerRunner's.
 //  - Pacing: tick_stretch_ppm lengthens the next tick (at most max_stretch); the schedule is
 //    PeerRunner's (late ticks run at once; max_catch_up ticks behind, it restarts from now).
-//  - Finishing: after showing target_frame it keeps ticking until it has confirmed target_frame
+//  - Finishing: target_frame is the last frame simulated (RelaySession::set_last_frame); after
+//    showing it it keeps ticking until it has confirmed target_frame
 //    and the server holds its inputs up to target_frame (so nobody's frame before the target
 //    needs a replacement of its input), then lingers linger_us. A spectator only needs the
 //    confirmation. Bounded by finish_timeout_us and run_timeout_us.

@@ -6,7 +6,7 @@
 // enet (the default) is the builder's own ENet transport; udp is the test's UdpSocketTransport
 // (plain UDP sockets), handed to the builder with transport(). The game is a counter mixed with both players' scripted inputs. At the end it prints one line:
 //   slot S outcome O final CHECKSUM updates U ticks T most_per_update M idle_updates I
-//        interpolation_ok B transport T sent N
+//        interpolation_ok B transport T sent N shown F
 // (the confirmed checksum of frame FRAMES; updates that ran no tick; whether every update's
 // interpolation fraction was in [0, 1)). Exit 0 when the run completed with a checksum, 1 when
 // not, 2 for bad arguments (before anything is bound).
@@ -131,9 +131,9 @@ int main(int argc, char** argv) {
     }
     const auto checksum = net->confirmed_checksum(static_cast<std::uint32_t>(frames));
     std::printf("slot %ld outcome %s final %016llx updates %ld ticks %ld most_per_update %d idle_updates %ld interpolation_ok %d "
-                "transport %s sent %llu\n",
+                "transport %s sent %llu shown %u\n",
                 slot, lockroll::net::outcome_name(outcome), checksum ? static_cast<unsigned long long>(*checksum) : 0ull, updates,
                 ticks, most, idle, interpolation_ok ? 1 : 0, kind.c_str(),
-                static_cast<unsigned long long>(net->transport().counters().datagrams_sent));
+                static_cast<unsigned long long>(net->transport().counters().datagrams_sent), net->session().frame());
     return outcome == lockroll::net::RunOutcome::Completed && checksum ? 0 : 1;
 }

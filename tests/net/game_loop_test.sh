@@ -36,6 +36,8 @@ for k in 0 1; do
     [[ $(field "$tmp/rates-p$k.out" outcome) == completed ]] || fail "rates: slot $k did not complete"
     [[ $(field "$tmp/rates-p$k.out" interpolation_ok) == 1 ]] || fail "rates: slot $k had an interpolation outside [0, 1)"
     (($(field "$tmp/rates-p$k.out" ticks) >= frames)) || fail "rates: slot $k ran fewer ticks than frames"
+    # frames(N) plays N frames: lingering for the last confirmations steps no further.
+    [[ $(field "$tmp/rates-p$k.out" shown) == "$frames" ]] || fail "rates: slot $k showed frame $(field "$tmp/rates-p$k.out" shown), not $frames"
 done
 # The 144 Hz game had frames with no tick due; the 30 Hz game ran several ticks in one update.
 (($(field "$tmp/rates-p0.out" idle_updates) > 0)) || fail "rates: the 144 Hz game never had an update without a tick"

@@ -138,6 +138,9 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     tb.join();
     ASSERT_EQ(oa, RunOutcome::Completed) << sa->session().failure();
     ASSERT_EQ(ob, RunOutcome::Completed) << sb->session().failure();
+    // frames(N) plays N frames: the linger after confirming it does not step on (issue 21).
+    EXPECT_EQ(sa->session().frame(), kFrames);
+    EXPECT_EQ(sb->session().frame(), kFrames);
     for (std::uint32_t f = 1; f <= kFrames; ++f) {
         const auto ca = sa->session().confirmed_checksum(f), cb = sb->session().confirmed_checksum(f);
         ASSERT_TRUE(ca && cb) << f;
@@ -180,6 +183,8 @@ TEST(SessionBuilder, TwoPlayersThroughTheRelayServer) {
     tb.join();
     ASSERT_EQ(oa, RunOutcome::Completed) << sa->relay_session().failure();
     ASSERT_EQ(ob, RunOutcome::Completed) << sb->relay_session().failure();
+    EXPECT_EQ(sa->relay_session().frame(), kFrames);
+    EXPECT_EQ(sb->relay_session().frame(), kFrames);
     for (std::uint32_t f = 1; f <= kFrames; ++f) {
         const auto ca = sa->confirmed_checksum(f), cb = sb->confirmed_checksum(f);
         ASSERT_TRUE(ca && cb) << f;
