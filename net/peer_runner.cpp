@@ -5,6 +5,7 @@
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
+#include "rollback/protocol.h"
 
 namespace lockroll::net {
 
@@ -68,8 +69,8 @@ void PeerRunner::track_connections(std::uint64_t now) {
         if (e.peer < connected_.size()) {
             if (e.type == transport::TransportEvent::Type::Connected) {
                 connected_[e.peer] = true;
-                // Control messages the session sent before the connection existed (a joiner's
-                // hello to a peer it reaches after its snapshot): deliver them now, in order.
+                // Control messages the session sent before the connection existed (snapshot
+                // requests and chunks; never hellos, see tick()): deliver them now, in order.
                 for (const auto& bytes : held_[e.peer]) transport_.send_reliable(e.peer, bytes, now);
                 held_[e.peer].clear();
             }
@@ -200,7 +201,11 @@ std::uint32_t PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     for (const auto& d : out_) {
         if (!d.reliable) {
             transport_.send(d.peer, d.bytes, now);
-        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size()) {
+        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size() &&
+                   rollback::peek_kind(d.bytes) != rollback::MessageKind::Hello) {
+            // Not a hello: it carries its send time for the round trip, so one held until the
+            // connection is up would count the wait as network time (seconds, for a peer that
+            // starts late); the session says hello again every hello_resend_us until welcomed.
             auto& held = held_[d.peer];
             if (held.size() >= kMaxHeldPerPeer) held.pop_front();
             held.push_back(d.bytes);

@@ -17,8 +17,9 @@
 //    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
 //    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
 //    send (send_reliable for datagrams the session marks reliable; those for a peer not yet
-//    connected -- a joiner's hello to a peer it reaches after its snapshot -- are held, the
-//    newest 64 per peer, and sent in order once it connects).
+//    connected -- snapshot requests and chunks -- are held, the newest 64 per peer, and sent in
+//    order once it connects; hellos are not: they carry their send time for the round trip, and
+//    the session resends them until welcomed, so the start-up RTT is the network's).
 //  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
 //    max_stretch); a session that only says wait_frames has that many frames of time repaid by
 //    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a

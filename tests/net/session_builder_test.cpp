@@ -154,6 +154,40 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     EXPECT_EQ(sb->session().slot_state(1), rollback::SlotState::Running);
 }
 
+// The start-up round trip is the network's, not how long hellos waited for the connection
+// (issue 21: 17-525 ms on loopback, an auto input delay of 9 frames once). Slot 1 never connects
+// (the lower slot does), so its hellos wait until slot 0 starts, 1.5 s later here. Held and sent
+// once connected, they went out with their old stamps and the sync phase measured seconds.
+TEST(SessionBuilder, StartUpRoundTripDoesNotCountHellosHeldBeforeTheConnection) {
+    constexpr std::uint32_t kFrames = 60;
+    Counters sim_a, sim_b;
+    const auto base = [](rollback::PlayerId me) {
+        return SessionBuilder().players(2).input_size(1).local_player(me).frames(kFrames).configure(
+            [](rollback::SessionConfig& c, RunnerConfig&) { c.auto_input_delay = true; });
+    };
+    const std::uint16_t port_b = base(1).remote_player(0, "127.0.0.1", 1).start(sim_b)->port();
+    std::unique_ptr<NetSession> sa = base(0).remote_player(1, "127.0.0.1", port_b).start(sim_a);
+    std::unique_ptr<NetSession> sb = base(1).listen("127.0.0.1", port_b).remote_player(0, "127.0.0.1", sa->port()).start(sim_b);
+    const auto input = [](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f); };
+    RunOutcome oa{}, ob{};
+    std::thread tb([&] { ob = sb->run(input); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    std::thread ta([&] { oa = sa->run(input); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << sa->session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << sb->session().failure();
+    std::string detail;
+    for (rollback::SessionEvent e; sb->next_event(e);)
+        if (e.kind == rollback::SessionEvent::Kind::Synchronized) detail = e.detail;
+    const auto at = detail.find("worst sync rtt ");
+    ASSERT_NE(at, std::string::npos) << detail;
+    const long worst_ms = std::stol(detail.substr(at + 15));
+    // Loopback: milliseconds, even on a loaded machine; a held hello would say about 1,500.
+    EXPECT_LT(worst_ms, 300) << detail;
+    EXPECT_LE(sb->session().input_delay(), 5) << detail;
+}
+
 // Two processes' sessions through a real `lockroll-server` on 127.0.0.1: the builder's server().
 TEST(SessionBuilder, TwoPlayersThroughTheRelayServer) {
     constexpr std::uint32_t kFrames = 180;
