@@ -1,6 +1,6 @@
 // Writes seed corpora for the fuzz targets from the real encoders, so every target starts from
 // valid inputs and mutates its way outward: fuzz_seeds DIR writes DIR/{protocol,session,replay,
-// snapshot,relay}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
+// snapshot,relay,token}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fuzz/relay_fuzz.h"
+#include "fuzz/token_fuzz.h"
 #include "rollback/protocol.h"
 #include "rollback/relay_messages.h"
 #include "rollback/replay.h"
@@ -179,6 +180,25 @@ int main(int argc, char** argv) {
         relay_op(late, kDatagram, 0, hello(1, RelayRole::Player));
         relay_op(late, kTake, 0);
         put(root / "relay", "late_and_spoof", late);
+    }
+    // token: grants sealed with the fuzzer's key (a player, a spectator of a 3-player room with
+    // an absent slot, one expired at the fuzzer's clock), and a token of another key.
+    {
+        using namespace lockroll::server;
+        ConnectGrant g;
+        g.room_id = 7;
+        g.client_id = 11;
+        g.expires_unix_s = lockroll::fuzz::kFuzzUnixS + 600;
+        put(root / "token", "player", seal_token(g, lockroll::fuzz::kFuzzTokenKey));
+        ConnectGrant s = g;
+        s.role = RelayRole::Spectator;
+        s.players = 3;
+        s.absent_slots = 0x4;
+        put(root / "token", "spectator", seal_token(s, lockroll::fuzz::kFuzzTokenKey));
+        ConnectGrant old = g;
+        old.expires_unix_s = lockroll::fuzz::kFuzzUnixS - 1;
+        put(root / "token", "expired", seal_token(old, lockroll::fuzz::kFuzzTokenKey));
+        put(root / "token", "other_key", seal_token(g, new_token_key()));
     }
     return 0;
 }

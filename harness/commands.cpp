@@ -8,6 +8,7 @@
 #include "harness/run_command.h"
 #include "harness/sim_command.h"
 #include "harness/synctest_command.h"
+#include "harness/token_command.h"
 #include "harness/view_command.h"
 #include "server/server_cli.h"
 #include "harness/stability_command.h"
@@ -28,6 +29,7 @@ void add_all_commands(CLI::App& app) {
     // The relay server (server/): the same options as the standalone lockroll-server.
     server::add_server_options(*app.add_subcommand(
         "server", "The relay server: rooms that collect, confirm and broadcast inputs (runs no simulation)"));
+    add_token_command(app);
     add_proxy_command(app);
     add_view_command(app);
 }

@@ -39,6 +39,7 @@
 #include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
+#include "server/connect_token.h"
 #include "transport/enet_transport.h"
 
 namespace lockroll::harness {
@@ -79,6 +80,7 @@ struct PeerOptions {
     bool relay = false;
     std::string connect;
     std::string room;
+    std::string token_file;         // --token: the connect token a keyed server needs
     bool fixed_delay = false;       // --input-delay given: no adaptive delay
     bool prediction_given = false;
     int clock_skew_ppm = 0;      // fault test: this process's clock runs fast (> 0) or slow
@@ -94,6 +96,7 @@ struct PeerPlan {
     sim::SceneDesc scene;
     Endpoint listen;
     Endpoint server;  // relay: the server's address
+    std::vector<std::uint8_t> token;  // relay: the connect token (empty: none)
     std::vector<net::PeerAddress> peers;
     std::vector<DesyncInjection> injections;  // client field = this slot
     spdlog::level::level_enum log_level = spdlog::level::info;
@@ -140,6 +143,13 @@ PeerPlan plan(const PeerOptions& o) {
         p.server = parse_loopback_endpoint(o.connect, "--connect", false);
         if (o.room.empty()) throw UsageError("--room is required");
         if (o.players > rollback::kRelayMaxPlayers) throw UsageError("--players must be 2..16");
+        if (!o.token_file.empty()) {
+            try {
+                p.token = server::read_token_file(o.token_file);
+            } catch (const std::invalid_argument& e) {
+                throw UsageError(std::string("--token: ") + e.what());
+            }
+        }
     } else {
         p.listen = parse_loopback_endpoint(o.listen, "--listen", true);
     }
@@ -165,13 +175,7 @@ PeerPlan plan(const PeerOptions& o) {
     // Same syntax as run's; only this process's CLIENT applies (live passes every one to all).
     for (const auto& text : o.injections)
         if (const DesyncInjection d = parse_injection(text); d.client == o.slot) p.injections.push_back(d);
-    try {
-        p.scene = with_players(load_scene(o.scene), o.players);
-    } catch (const SceneError& e) {
-        throw UsageError(e.what());
-    }
-    p.scene.tick_rate = o.tick_rate;
-    if (const std::string e = sim::validate(p.scene); !e.empty()) throw UsageError("scene: " + e);
+    p.scene = client_scene(o.scene, o.players, o.tick_rate);
     for (const auto& d : p.injections)  // refused before a socket is bound or a file written
         if (const std::string e = injection_error(p.scene, o.players, d); !e.empty())
             throw UsageError("--inject-desync " + std::to_string(d.client) + ":" + std::to_string(d.frame) + ":" +
@@ -385,13 +389,6 @@ private:
     std::uint64_t now_ = 0;
 };
 
-// --match-id as the session's 64-bit match id (FNV-1a): peers of other matches are refused.
-std::uint64_t match_hash(const std::string& id) {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    for (unsigned char c : id) h = (h ^ c) * 0x100000001b3ull;
-    return h;
-}
-
 std::shared_ptr<spdlog::logger> make_logger(const PeerPlan& p) {
     auto file = std::make_shared<spdlog::sinks::basic_file_sink_mt>((fs::path(p.o.out) / "peer.log").string(), true);
     auto err = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
@@ -564,6 +561,7 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     rc.auto_input_delay = !p.o.fixed_delay;
     rc.prediction_window = p.mode == Mode::Lockstep ? 0 : (p.o.prediction_given ? p.o.prediction : 20);
     rc.room_id = match_hash(p.o.room);
+    rc.connect_token = p.token;
     for (int a : p.o.absent) rc.absent_slots = static_cast<std::uint16_t>(rc.absent_slots | (1u << a));
     rc.max_recoveries = std::max(p.o.recoveries, 0);
     rc.cpu_clock = net::thread_cpu_ns;
@@ -709,6 +707,24 @@ void add_player_options(CLI::App* cmd, const std::shared_ptr<PeerOptions>& o) {
 }
 }  // namespace
 
+std::uint64_t match_hash(const std::string& id) {
+    std::uint64_t h = 0xcbf29ce484222325ull;
+    for (unsigned char c : id) h = (h ^ c) * 0x100000001b3ull;
+    return h;
+}
+
+sim::SceneDesc client_scene(const std::string& scene, int players, int tick_rate) {
+    sim::SceneDesc d;
+    try {
+        d = with_players(load_scene(scene), players);
+    } catch (const SceneError& e) {
+        throw UsageError(e.what());
+    }
+    d.tick_rate = tick_rate;
+    if (const std::string e = sim::validate(d); !e.empty()) throw UsageError("scene: " + e);
+    return d;
+}
+
 void add_peer_command(CLI::App& app) {
     auto o = std::make_shared<PeerOptions>();
     CLI::App* cmd = app.add_subcommand("peer", "One player of a P2P match as a real process over ENet on loopback; write DIR/summary.json");
@@ -737,6 +753,9 @@ void add_peer_command(CLI::App& app) {
         "client", "One player (or spectator) of a match through the relay server (lockroll server), as a real process; write DIR/summary.json");
     add_player_options(client, c);
     client->add_option("--connect", c->connect, "HOST:PORT of the relay server (loopback only)")->required();
+    client->add_option("--token", c->token_file,
+                       "FILE with the connect token a server started with --key needs (lockroll token writes one)")
+        ->type_name("FILE");
     client->add_option("--room", c->room, "Room to join (created by its first player; every client of a match names the same)")->required();
     client->callback([c, client] {
         // Without --input-delay the delay adapts to the round trip and jitter; without

@@ -22,8 +22,19 @@
 
 #include <CLI/CLI.hpp>
 
+#include <cstdint>
+#include <string>
+
+#include "sim/scene.h"
+
 namespace lockroll::harness {
 
 void add_peer_command(CLI::App& app);
+
+// A --match-id or --room name as its 64-bit id (FNV-1a): what peers and the relay server match on
+// (`lockroll token` grants the same id).
+std::uint64_t match_hash(const std::string& id);
+// The scene a client plays: --scene with --players and --tick-rate, validated (UsageError).
+sim::SceneDesc client_scene(const std::string& scene, int players, int tick_rate);
 
 }  // namespace lockroll::harness

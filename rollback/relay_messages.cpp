@@ -42,6 +42,12 @@ const char* relay_refusal_name(RelayRefusal r) {
         case RelayRefusal::Draining: return "server draining: no new rooms or players";
         case RelayRefusal::Spoof: return "connection already holds another slot";
         case RelayRefusal::Ended: return "the room's match is over";
+        case RelayRefusal::TokenMissing: return "this server requires a connect token";
+        case RelayRefusal::TokenInvalid: return "connect token invalid (forged, corrupted or sealed with another key)";
+        case RelayRefusal::TokenExpired: return "connect token expired";
+        case RelayRefusal::TokenMismatch: return "connect token is for another room, slot, role or room parameters";
+        case RelayRefusal::TokenInUse: return "connect token already in use by a live connection (replay)";
+        case RelayRefusal::SlotOwned: return "slot belongs to another client (only its token's holder takes it back)";
     }
     return "unknown refusal";
 }
@@ -76,6 +82,9 @@ void encode(const RelayHello& m, std::vector<std::uint8_t>& out) {
     w.u16(m.absent_slots);
     w.u64(m.incarnation);
     w.u64(m.stamp_us);
+    if (m.token.size() > kRelayMaxTokenBytes) throw std::invalid_argument("RelayHello: token too long");
+    w.u16(static_cast<std::uint16_t>(m.token.size()));
+    w.bytes(m.token);
 }
 
 const char* decode(std::span<const std::uint8_t> d, RelayHello& m) {
@@ -92,7 +101,12 @@ const char* decode(std::span<const std::uint8_t> d, RelayHello& m) {
     m.absent_slots = r.u16();
     m.incarnation = r.u64();
     m.stamp_us = r.u64();
-    if (const char* e = finish(r, "relay hello: truncated")) return e;
+    const std::uint16_t token_bytes = r.u16();
+    if (!r.ok()) return "relay hello: truncated";
+    if (token_bytes > kRelayMaxTokenBytes) return "relay hello: token too long";
+    const auto token = r.bytes(token_bytes);
+    if (const char* e = finish(r, "relay hello: truncated token")) return e;
+    m.token.assign(token.begin(), token.end());
     if (role > kLastRelayRole) return "relay hello: unknown role";
     m.role = static_cast<RelayRole>(role);
     return nullptr;

@@ -22,12 +22,14 @@
 
 namespace lockroll::rollback {
 
-inline constexpr std::uint16_t kRelayProtocolVersion = 1;
+// 2: the hello carries a connect token (server/connect_token.h), refusals 9..14.
+inline constexpr std::uint16_t kRelayProtocolVersion = 2;
 inline constexpr std::size_t kRelayMaxDatagramBytes = 1200;
 inline constexpr int kRelayMaxPlayers = 16;
 inline constexpr std::size_t kRelayMaxInputSize = 64;
 inline constexpr int kRelayMaxChecksums = 4;
 inline constexpr std::size_t kRelayMaxForwardBytes = 1100;
+inline constexpr std::size_t kRelayMaxTokenBytes = 256;
 
 // Kind bytes, disjoint from the peer-to-peer kinds (1..8 in protocol.h).
 enum class RelayKind : std::uint8_t {
@@ -54,8 +56,15 @@ enum class RelayRefusal : std::uint8_t {
     Draining = 6,     // the server is shutting down and takes no new hellos
     Spoof = 7,        // this connection already holds another slot
     Ended = 8,        // the room's match is over
+    // A server started with a key (connect tokens, server/connect_token.h):
+    TokenMissing = 9,   // the hello carries no token
+    TokenInvalid = 10,  // the token does not open under the server's key (forged, corrupted, another key)
+    TokenExpired = 11,  // the token's expiry has passed
+    TokenMismatch = 12, // the token is for another room, slot, role or room parameters
+    TokenInUse = 13,    // a live connection of another process holds the slot with this token (a replay)
+    SlotOwned = 14,     // the slot belongs to another client id: only its token's holder takes it back
 };
-inline constexpr std::uint8_t kLastRelayRefusal = 8;
+inline constexpr std::uint8_t kLastRelayRefusal = 14;
 const char* relay_refusal_name(RelayRefusal r);
 
 struct RelayHello {
@@ -70,6 +79,7 @@ struct RelayHello {
     std::uint16_t absent_slots = 0;   // bit s: nobody plays slot s at frame 0 (the first hello sets it)
     std::uint64_t incarnation = 0;    // a restarted process says so (its old connection is replaced)
     std::uint64_t stamp_us = 0;       // echoed in the welcome: the first round trip
+    std::vector<std::uint8_t> token;  // connect token, opaque to the client (0..kRelayMaxTokenBytes)
 };
 
 struct RelayWelcome {

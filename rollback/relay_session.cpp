@@ -54,6 +54,7 @@ void validate(const RelaySessionConfig& c) {
     need(c.transfer_window >= 1 && c.transfer_window <= 256, "relay session: transfer window must be 1..256");
     need(c.max_recoveries >= 0, "relay session: max recoveries must be >= 0");
     need(c.hello_resend_us > 0 && c.transfer_resend_us > 0, "relay session: resend intervals must be positive");
+    need(c.connect_token.size() <= kRelayMaxTokenBytes, "relay session: connect token longer than 256 bytes");
 }
 
 RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
@@ -576,6 +577,7 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         h.absent_slots = config_.absent_slots;
         h.incarnation = incarnation_;
         h.stamp_us = now_us;
+        h.token = config_.connect_token;
         Datagram d{kRelayServerPeer, {}, true};
         encode(h, d.bytes);
         pending_out_.push_back(std::move(d));

@@ -67,6 +67,9 @@ struct RelaySessionConfig {
     // Names this process to the server; a reconnect with the same value resumes its slot, so
     // make it unguessable (random). 0: taken from the first now_us (tests).
     std::uint64_t incarnation = 0;
+    // The connect token a backend issued for this slot (server/connect_token.h), sent opaquely
+    // in every hello; empty: none (a server without a key). At most kRelayMaxTokenBytes.
+    std::vector<std::uint8_t> connect_token;
     std::uint64_t hello_resend_us = 250000;
     std::uint64_t transfer_resend_us = 250000;
     int transfer_window = 32;

@@ -8,6 +8,7 @@ set -euo pipefail
 packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
           libbenchmark-dev python3 python3-matplotlib zlib1g-dev
+          libsodium-dev  # the relay server's connect tokens (server/connect_token.h)
           libbullet-dev  # the optional bench/bullet_bench comparison (docs/performance.md)
           chromium  # the headless browser test of lockroll view
           curl)     # the Agones sidecar script (server/agones) and its test

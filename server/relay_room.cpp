@@ -55,6 +55,20 @@ int RelayRoom::slot_of(ConnectionId c) const {
     return -1;
 }
 
+bool RelayRoom::holder(int slot, ConnectionId& c) const {
+    if (slot < 0 || slot >= players_ || !slots_[static_cast<std::size_t>(slot)].connected) return false;
+    c = slots_[static_cast<std::size_t>(slot)].client.connection;
+    return true;
+}
+
+bool RelayRoom::live(ConnectionId c, std::uint64_t now_us) const {
+    const int id = slot_of(c);
+    if (id < 0) return false;
+    const Client& cl = id < players_ ? slots_[static_cast<std::size_t>(id)].client
+                                     : spectators_[static_cast<std::size_t>(id - players_)].client;
+    return now_us - cl.last_heard_us < config_.replace_silent_us;
+}
+
 RelayRoom::Client* RelayRoom::client(int id) {
     if (id < 0) return nullptr;
     if (id < players_) {

@@ -109,6 +109,10 @@ public:
     const SlotCounters& slot_counters(int slot) const { return slots_[static_cast<std::size_t>(slot)].counters; }
     // Its id in the room: a slot (< players), players + place for a spectator, -1 if not here.
     int slot_of(ConnectionId c) const;
+    // The connection holding player slot s; false when nobody does.
+    bool holder(int slot, ConnectionId& c) const;
+    // Connection c is here and was heard within replace_silent_us: nobody may take its place.
+    bool live(ConnectionId c, std::uint64_t now_us) const;
     std::size_t history_frames() const { return history_.size(); }
     // Verdicts so far: (frame, odd slot).
     const std::vector<std::pair<std::uint32_t, int>>& desync_verdicts() const { return verdicts_; }

@@ -7,6 +7,14 @@ namespace lockroll::server {
 
 using namespace lockroll::rollback;
 
+namespace {
+std::uint64_t tag_key(const TokenTag& t) {
+    std::uint64_t k = 0;
+    for (int i = 0; i < 8; ++i) k |= static_cast<std::uint64_t>(t[static_cast<std::size_t>(i)]) << (8 * i);
+    return k;
+}
+}  // namespace
+
 const char* server_event_name(ServerEvent::Kind k) {
     switch (k) {
         case ServerEvent::Kind::RoomCreated: return "room_created";
@@ -66,6 +74,9 @@ void RelayServer::on_disconnect(ConnectionId c, std::uint64_t now_us) {
     if (it == connections_.end()) return;
     const Connection conn = it->second;
     connections_.erase(it);
+    if (config_.token_key)
+        if (auto t = tokens_in_use_.find(tag_key(conn.token_tag)); t != tokens_in_use_.end() && t->second == c)
+            tokens_in_use_.erase(t);
     if (!conn.bound) return;
     auto r = rooms_.find(conn.room);
     if (r == rooms_.end()) return;
@@ -158,6 +169,12 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
         kick(c, conn, relay_refusal_name(why), now_us);
     };
     if (h.version != kRelayProtocolVersion) return refused(RelayRefusal::Version);
+    if (config_.token_key) {
+        if (const RelayRefusal why = check_token(c, h, now_us); why != RelayRefusal::None) {
+            ++(why == RelayRefusal::TokenInUse ? counters_.token_replays : counters_.tokens_refused);
+            return refused(why);
+        }
+    }
     // Draining refuses new rooms and rooms that have not started, but not a hello into a running
     // room: that is one of its players (or a restarted process, or a spectator) reconnecting
     // after ENet dropped its connection, and refusing it would end the match drain promises to
@@ -195,6 +212,12 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     has_replaced = replaced != 0 && replaced != c;
     conn.bound = true;
     conn.room = h.room_id;
+    if (config_.token_key) {
+        conn.client_id = grant_.client_id;
+        conn.incarnation = h.incarnation;
+        conn.token_tag = tag_;
+        tokens_in_use_[tag_key(tag_)] = c;
+    }
     emit({ServerEvent::Kind::Joined, h.room_id, room.slot_of(c), room.confirmed_frames(), c,
           h.role == RelayRole::Spectator ? "spectator" : (h.role == RelayRole::Joiner ? "joiner" : "player")});
     if (!was_started && room.started()) {
@@ -208,6 +231,38 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
             kick(replaced, old->second, "replaced by a restarted process", now_us);
         }
     }
+}
+
+RelayRefusal RelayServer::check_token(ConnectionId c, const RelayHello& h, std::uint64_t now_us) {
+    if (h.token.empty()) return RelayRefusal::TokenMissing;
+    if (open_token(h.token, *config_.token_key, grant_, tag_)) return RelayRefusal::TokenInvalid;
+    if (const RelayRefusal why = check_grant(grant_, h, unix_s(now_us)); why != RelayRefusal::None) return why;
+    const auto room = rooms_.find(h.room_id);
+    if (room == rooms_.end()) return RelayRefusal::None;  // a new room, from this token's parameters
+    // A replay: the token is held by a live connection of another process (the same process on
+    // a new connection shows its incarnation, and resumes).
+    if (const auto u = tokens_in_use_.find(tag_key(tag_)); u != tokens_in_use_.end() && u->second != c) {
+        const auto holder = connections_.find(u->second);
+        if (holder != connections_.end() && holder->second.bound && !holder->second.kicked &&
+            holder->second.token_tag == tag_ && holder->second.incarnation != h.incarnation &&
+            room->second->live(u->second, now_us))
+            return RelayRefusal::TokenInUse;
+    }
+    // A held slot (its connection live or silent) goes back only to its client id.
+    ConnectionId held = 0;
+    if (h.role != RelayRole::Spectator && room->second->holder(h.slot, held) && held != c)
+        if (const auto hc = connections_.find(held); hc != connections_.end() && hc->second.client_id != grant_.client_id)
+            return RelayRefusal::SlotOwned;
+    return RelayRefusal::None;
+}
+
+void RelayServer::set_wall_clock(std::uint64_t unix_us, std::uint64_t now_us) {
+    wall_offset_us_ = static_cast<std::int64_t>(unix_us) - static_cast<std::int64_t>(now_us);
+}
+
+std::uint64_t RelayServer::unix_s(std::uint64_t now_us) const {
+    const std::int64_t t = static_cast<std::int64_t>(now_us) + wall_offset_us_;
+    return t <= 0 ? 0 : static_cast<std::uint64_t>(t) / 1000000u;
 }
 
 void RelayServer::send_pending() {

@@ -19,6 +19,15 @@
 //    room's other connections, or other rooms, receive.
 //  - Kicks are requests: next_kick() hands them to the process, which closes the connection and
 //    then reports on_disconnect().
+//  - Connect tokens (server/connect_token.h), when config.token_key is set: a hello is admitted
+//    only with a token that opens under the key, has not expired by the wall clock
+//    (set_wall_clock) and grants this room, slot (or a spectator place) and room parameters:
+//    the room is created with the token's parameters, never with a hello's own. A slot whose
+//    connection is there (live or silent) is taken over only by a token of the same client id
+//    (a reconnect), else SlotOwned. A token held by a live connection (heard within
+//    replace_silent_us) is refused to any other connection of another process (TokenInUse,
+//    counted in token_replays): a copied token cannot take the slot while its holder plays.
+//    Every refusal names its reason to the client. Without a key: the open behaviour above.
 //  - Draining (start_drain): a hello that would create a room or join one not yet started is
 //    refused (Draining); a hello into a running room (a player reconnecting after ENet dropped
 //    it, a restarted process) is admitted as ever, so the room can finish. Bound clients get a
@@ -32,12 +41,14 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <optional>
 #include <queue>
 #include <span>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "server/connect_token.h"
 #include "server/relay_room.h"
 
 namespace lockroll::server {
@@ -51,6 +62,7 @@ struct ServerConfig {
     double packet_burst = 240;
     std::uint64_t flood_kick_after = 480;     // throttled datagrams before the kick
     std::uint64_t hello_timeout_us = 5'000'000;  // a connection that never says hello is kicked
+    std::optional<TokenKey> token_key;        // set: every hello needs a connect token sealed with it
 };
 
 // Throws std::invalid_argument naming the field.
@@ -60,6 +72,8 @@ struct ServerCounters {
     std::uint64_t rooms_created = 0;
     std::uint64_t rooms_closed = 0;
     std::uint64_t hellos_refused = 0;
+    std::uint64_t tokens_refused = 0;    // hellos refused for their token: missing, invalid, expired, mismatched, slot owned
+    std::uint64_t token_replays = 0;     // hellos refused for a token a live connection holds
     std::uint64_t bad_packets = 0;       // malformed, out of window, before hello, spoofed
     std::uint64_t throttled = 0;         // dropped by a token bucket
     std::uint64_t kicks = 0;
@@ -113,6 +127,11 @@ public:
     bool next_kick(ConnectionId& out);
     bool next_event(ServerEvent& out);
 
+    // The wall clock (Unix microseconds) at now_us: token expiry is judged on it. The process
+    // sets it at start and every second; until then it is now_us itself.
+    void set_wall_clock(std::uint64_t unix_us, std::uint64_t now_us);
+    std::uint64_t unix_s(std::uint64_t now_us) const;
+
     void start_drain(std::uint64_t now_us);
     bool draining() const { return draining_; }
     bool drained() const { return draining_ && rooms_.empty(); }
@@ -134,8 +153,14 @@ private:
         std::uint64_t bad = 0;
         std::uint64_t throttled = 0;
         bool kicked = false;
+        // With a key: what its token granted (a reconnect must show the same client id).
+        std::uint64_t client_id = 0;
+        std::uint64_t incarnation = 0;
+        TokenTag token_tag{};
     };
     void handle_hello(ConnectionId c, Connection& conn, std::span<const std::uint8_t> d, std::uint64_t now_us);
+    // None, or why the hello's connect token does not admit it (fills grant_, tag_).
+    RelayRefusal check_token(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us);
     void bad(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
     void kick(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
     void refuse(ConnectionId c, RelayRefusal why, const rollback::RelayHello& h);
@@ -169,6 +194,11 @@ private:
     ServerCounters counters_;
     bool draining_ = false;
     rollback::RelayHello hello_;
+    // Tokens of bound connections (by the first 8 bytes of their tag), for replays.
+    std::unordered_map<std::uint64_t, ConnectionId> tokens_in_use_;
+    std::int64_t wall_offset_us_ = 0;
+    ConnectGrant grant_;
+    TokenTag tag_{};
     std::vector<std::uint8_t> scratch_;
 };
 

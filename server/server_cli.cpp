@@ -3,6 +3,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "server/connect_token.h"
 #include "server/server_process.h"
 
 namespace lockroll::server {
@@ -44,6 +45,20 @@ void add_server_options(CLI::App& cmd) {
                    "slot three times; a longer interval batches more datagrams per pass, for up to this much more relay delay")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
+    // Read here, while parsing: a missing or malformed key file exits 2 before anything binds.
+    cmd.add_option_function<std::string>(
+           "--key",
+           [o](const std::string& path) {
+               try {
+                   o->server.token_key = read_token_key(path);
+                   o->key_file = path;
+               } catch (const std::invalid_argument& e) {
+                   throw CLI::ValidationError("--key", e.what());
+               }
+           },
+           "FILE with the 64-hex-digit key shared with the backend (lockroll token --new-key): admit only hellos with a "
+           "valid connect token sealed with it. Without it anyone who names a room may create it or take a free slot")
+        ->type_name("FILE");
     cmd.add_option("--ready-file", o->ready_file, "Write the bound port here once listening");
     cmd.add_option("--status-file", o->status_file, "Rewrite this JSON health/status file every second");
     cmd.add_option("--drain-timeout", o->drain_timeout_s, "Seconds a drain may take before the process gives up (exit 3)")

@@ -28,6 +28,12 @@ std::uint64_t monotonic_us() {
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
 }
 
+// The wall clock, for connect tokens' expiry only (Unix microseconds).
+std::uint64_t unix_us() {
+    return static_cast<std::uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
+}
+
 // Written to a temporary name and renamed: a probe never reads half a file.
 void write_atomically(const std::string& path, const std::string& text) {
     const std::string tmp = path + ".tmp";
@@ -46,11 +52,12 @@ std::string status_json(const RelayServer& s, const transport::EnetServer& enet,
     char buf[1200];
     std::snprintf(buf, sizeof buf,
                   "{\"state\": \"%s\", \"port\": %u, \"uptime_s\": %.1f, \"rooms\": %zu, \"connections\": %zu, "
-                  "\"rooms_created\": %llu, \"rooms_closed\": %llu, \"hellos_refused\": %llu, \"bad_packets\": %llu, "
+                  "\"rooms_created\": %llu, \"rooms_closed\": %llu, \"hellos_refused\": %llu, \"tokens_refused\": %llu, "
+                  "\"token_replays\": %llu, \"bad_packets\": %llu, "
                   "\"throttled\": %llu, \"kicks\": %llu, \"datagrams_in\": %llu, \"datagrams_out\": %llu, "
                   "\"bytes_in\": %llu, \"bytes_out\": %llu, \"wire_bytes_in\": %llu, \"wire_bytes_out\": %llu}\n",
                   draining ? "draining" : "ready", enet.port(), uptime_s, s.room_count(), s.connection_count(), u(c.rooms_created),
-                  u(c.rooms_closed), u(c.hellos_refused), u(c.bad_packets), u(c.throttled), u(c.kicks), u(c.datagrams_in),
+                  u(c.rooms_closed), u(c.hellos_refused), u(c.tokens_refused), u(c.token_replays), u(c.bad_packets), u(c.throttled), u(c.kicks), u(c.datagrams_in),
                   u(c.datagrams_out), u(c.bytes_in), u(c.bytes_out), u(enet.wire_bytes_received()), u(enet.wire_bytes_sent()));
     return buf;
 }
@@ -96,6 +103,11 @@ int ServerProcess::run() {
     transport::EnetServer enet(ec);
     RelayServer server(options_.server);
     const std::uint64_t start = monotonic_us();
+    server.set_wall_clock(unix_us(), start);
+    if (options_.server.token_key)
+        log->info("connect tokens required: a hello needs a valid, unexpired token sealed with the key in {}", options_.key_file);
+    else
+        log->warn("no --key: connect tokens off, rooms are open (anyone who names a room may create it or take a free slot)");
     log->info("listening on {}:{} (room limit {}, input deadline {} ticks, checksum interval {}, history {} s)", host,
               enet.port(), options_.server.max_rooms, options_.server.room.input_deadline,
               options_.server.room.checksum_interval, options_.server.room.history_s);
@@ -125,6 +137,7 @@ int ServerProcess::run() {
         }
         if (now >= next_status) {
             next_status = now + 1000000;
+            server.set_wall_clock(unix_us(), now);  // follows wall-clock steps within a second
             if (!options_.status_file.empty())
                 write_atomically(options_.status_file, status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
         }

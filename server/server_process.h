@@ -36,6 +36,7 @@ struct ServerProcessOptions {
     // slot three times whatever it carries; waiting a little batches more datagrams per pass.
     std::uint32_t pass_interval_us = 0;
     std::string log_level = "info";
+    std::string key_file;      // where server.token_key came from (for the log)
 };
 
 // HOST:PORT or [V6]:PORT; throws std::invalid_argument naming the text.

@@ -10,7 +10,12 @@ namespace {
 TEST(RelayMessages, SizesAreTheDocumentedOnes) {
     std::vector<std::uint8_t> b;
     encode(RelayHello{}, b);
-    EXPECT_EQ(b.size(), 43u);
+    EXPECT_EQ(b.size(), 45u);  // version 2: a u16 token length, here 0
+    b.clear();
+    RelayHello with_token;
+    with_token.token.assign(82, 7);
+    encode(with_token, b);
+    EXPECT_EQ(b.size(), 45u + 82u);
     b.clear();
     encode(RelayWelcome{}, b);
     EXPECT_EQ(b.size(), 30u);
@@ -37,11 +42,13 @@ TEST(RelayMessages, HelloAndWelcomeRoundTrip) {
     h.absent_slots = 0x8;
     h.incarnation = 777;
     h.stamp_us = 123456;
+    h.token = {1, 2, 3, 250};
     std::vector<std::uint8_t> b;
     encode(h, b);
     RelayHello g;
     ASSERT_EQ(decode(b, g), nullptr);
     EXPECT_EQ(g.room_id, h.room_id);
+    EXPECT_EQ(g.token, h.token);
     EXPECT_EQ(g.role, RelayRole::Joiner);
     EXPECT_EQ(g.absent_slots, 0x8);
     EXPECT_EQ(g.incarnation, 777u);
@@ -49,8 +56,19 @@ TEST(RelayMessages, HelloAndWelcomeRoundTrip) {
     b.push_back(0);
     EXPECT_NE(decode(b, g), nullptr);  // trailing byte
     b.pop_back();
+    b.pop_back();
+    EXPECT_NE(decode(b, g), nullptr);  // token shorter than its length says
+    b.push_back(250);
     b[24 - 1] = 9;                     // role byte out of range
     EXPECT_NE(decode(b, g), nullptr);
+    b[24 - 1] = 1;
+    b[43] = 0x01;                      // token length 257: over kRelayMaxTokenBytes
+    b[44] = 0x01;
+    EXPECT_NE(decode(b, g), nullptr);
+    RelayHello too_long;
+    too_long.token.assign(kRelayMaxTokenBytes + 1, 0);
+    std::vector<std::uint8_t> c;
+    EXPECT_THROW(encode(too_long, c), std::invalid_argument);
 }
 
 TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
