@@ -4,16 +4,19 @@
 //   counter SLOT MY_PORT PEER_PORT [FRAMES]     e.g.  counter 0 7000 7001  &  counter 1 7001 7000
 //
 // Both processes play FRAMES frames (default 300) on 127.0.0.1 and print the confirmed checksum
-// of the last frame, which must be the same on both.
+// of the last frame, which must be the same on both. The game owns its loop: it calls
+// NetSession::update() once per frame of its own (100 a second), never run().
 #include <lockroll/net/session_builder.h>
 #include <lockroll/rollback/simulation.h>
 
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <span>
 #include <string>
+#include <thread>
 
 namespace {
 
@@ -76,12 +79,23 @@ int main(int argc, char** argv) {
     }
 
     // A scripted player: presses now and then, differently per slot.
-    const auto outcome = session->run([&](std::uint32_t frame, std::span<std::uint8_t> input) {
-        input[0] = static_cast<std::uint8_t>((frame / 7 + static_cast<std::uint32_t>(slot)) % 3 == 0 ? 1 : 0);
-    });
-    for (lockroll::rollback::SessionEvent e; session->next_event(e);)
-        std::fprintf(stderr, "event %s peer %d frame %u %s\n", lockroll::rollback::event_name(e.kind), static_cast<int>(e.peer), e.frame,
-                     e.detail.c_str());
+    const lockroll::net::InputSource input = [&](std::uint32_t frame, std::span<std::uint8_t> in) {
+        in[0] = static_cast<std::uint8_t>((frame / 7 + static_cast<std::uint32_t>(slot)) % 3 == 0 ? 1 : 0);
+    };
+    // The game's own loop, 100 frames a second against the match's 60 ticks: one update() a
+    // frame (it never blocks), then the rest of the frame is the game's (here: sleeping).
+    lockroll::net::RunOutcome outcome{};
+    for (;;) {
+        const lockroll::net::UpdateResult r = session->update(input);
+        for (const auto& e : r.events)
+            std::fprintf(stderr, "event %s peer %d frame %u %s\n", lockroll::rollback::event_name(e.kind), static_cast<int>(e.peer),
+                         e.frame, e.detail.c_str());
+        if (r.outcome) {
+            outcome = *r.outcome;
+            break;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
 
     const auto checksum = session->session().confirmed_checksum(static_cast<std::uint32_t>(frames));
     std::printf("slot %d %s frame %ld checksum %016llx\n", slot, lockroll::net::outcome_name(outcome), frames,
