@@ -2,7 +2,7 @@
 // (net/peer_runner.h, net/relay_runner.h) use to move bytes, so the same code runs over the
 // in-process simulated network (virtual time, reproducible), over real UDP (ENet, the default),
 // and over a game's own transport (Steam networking sockets, WebRTC data channels, plain UDP:
-// docs/guide.md maps them; tests/net/udp_socket_transport.h is one in a test).
+// docs/guide.md maps them; examples/counter/udp_socket_transport.h is one over plain UDP).
 //
 // Contract
 //  - Peers and connections: a peer is a value id (the session's slot or spectator id). The

@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
             .match_id(0x6a3e100)
             .frames(static_cast<std::uint32_t>(frames));
         if (kind == "udp")
-            b.transport(std::make_unique<lockroll::test::UdpSocketTransport>(me, static_cast<std::uint16_t>(my_port), 2));
+            b.transport(std::make_unique<example::UdpSocketTransport>(me, static_cast<std::uint16_t>(my_port), 2));
         else
             b.listen("127.0.0.1", static_cast<std::uint16_t>(my_port));
         net = b.start(game);

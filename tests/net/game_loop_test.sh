@@ -3,8 +3,8 @@
 # NetSession::update() once per drawn frame at its own rate, unlike the 60 Hz tick rate: one
 # draws at 144 Hz (updates that run no tick, an interpolation fraction between them), the other
 # at 30 Hz (two ticks per update). Both must complete on the same confirmed checksum. Then the
-# same over a transport written in the test (tests/net/udp_socket_transport.h: plain UDP sockets,
-# no ENet), handed to the builder with transport().
+# same over a transport of the game's own (examples/counter/udp_socket_transport.h: plain UDP
+# sockets, no ENet), handed to the builder with transport().
 #   game_loop_test.sh GAME_LOOP_PEER
 set -u
 exe=$1

@@ -77,12 +77,12 @@ TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
 TEST(SessionBuilder, OwnTransportErrorsNameTheSetting) {
     Counters sim;
     const auto base = [] { return SessionBuilder().players(2).input_size(1).local_player(0).remote_player(1, "127.0.0.1", 9); };
-    test::UdpSocketTransport wrong_id(1, 0, 2), right(0, 0, 2);
+    example::UdpSocketTransport wrong_id(1, 0, 2), right(0, 0, 2);
     EXPECT_NE(error_of([&] { base().transport(wrong_id).start(sim); }).find("its local_id() is 1, this process's slot is 0"),
               std::string::npos);
     EXPECT_NE(error_of([&] { base().transport(right).listen("127.0.0.1", 7000).start(sim); }).find("exclude each other"),
               std::string::npos);
-    auto owning = base().transport(std::make_unique<test::UdpSocketTransport>(0, 0, 2));
+    auto owning = base().transport(std::make_unique<example::UdpSocketTransport>(0, 0, 2));
     const auto first = owning.start(sim);
     EXPECT_EQ(first->port(), 0);  // not ENet's
     EXPECT_EQ(first->transport().local_id(), 0u);

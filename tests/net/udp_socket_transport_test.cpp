@@ -1,4 +1,4 @@
-// UdpSocketTransport (the test's own transport over plain UDP sockets): a connect() makes a peer
+// UdpSocketTransport (examples/counter's own transport over plain UDP sockets): a connect() makes a peer
 // reachable at once, the other side learns it from its first datagram, and an id is taken only
 // from the address it was first heard from (spoofs, our own id, short datagrams: dropped).
 #include <gtest/gtest.h>
@@ -12,8 +12,10 @@
 
 #include "udp_socket_transport.h"
 
-namespace lockroll::test {
+namespace example {
 namespace {
+
+namespace transport = lockroll::transport;
 
 using transport::Datagram;
 using transport::TransportEvent;
@@ -93,4 +95,4 @@ TEST(UdpSocketTransport, OversizedSendsAreRefused) {
 }
 
 }  // namespace
-}  // namespace lockroll::test
+}  // namespace example

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace lockroll::test {
+namespace example {
 
 namespace {
 constexpr std::size_t kIdBytes = 4;
@@ -18,8 +18,8 @@ bool same(const sockaddr_in& a, const sockaddr_in& b) {
 }
 }  // namespace
 
-UdpSocketTransport::UdpSocketTransport(transport::PeerId local_id, std::uint16_t port, transport::PeerId max_peers)
-    : local_id_(local_id), peers_(max_peers), buffer_(kIdBytes + transport::kMaxDatagramBytes + 1) {
+UdpSocketTransport::UdpSocketTransport(lockroll::transport::PeerId local_id, std::uint16_t port, lockroll::transport::PeerId max_peers)
+    : local_id_(local_id), peers_(max_peers), buffer_(kIdBytes + lockroll::transport::kMaxDatagramBytes + 1) {
     fd_ = ::socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
     sockaddr_in a{};
     a.sin_family = AF_INET;
@@ -37,12 +37,12 @@ UdpSocketTransport::UdpSocketTransport(transport::PeerId local_id, std::uint16_t
 
 UdpSocketTransport::~UdpSocketTransport() { ::close(fd_); }
 
-void UdpSocketTransport::bind_peer(transport::PeerId id, const sockaddr_in& address) {
+void UdpSocketTransport::bind_peer(lockroll::transport::PeerId id, const sockaddr_in& address) {
     peers_[id] = address;
-    events_.push_back({transport::TransportEvent::Type::Connected, id, {}});
+    events_.push_back({lockroll::transport::TransportEvent::Type::Connected, id, {}});
 }
 
-bool UdpSocketTransport::connect(transport::PeerId remote, const std::string& host, std::uint16_t port, std::string* error) {
+bool UdpSocketTransport::connect(lockroll::transport::PeerId remote, const std::string& host, std::uint16_t port, std::string* error) {
     const auto refuse = [&](const std::string& why) {
         if (error) *error = why;
         return false;
@@ -57,10 +57,10 @@ bool UdpSocketTransport::connect(transport::PeerId remote, const std::string& ho
     return true;
 }
 
-bool UdpSocketTransport::is_connected(transport::PeerId remote) const { return remote < peers_.size() && peers_[remote]; }
+bool UdpSocketTransport::is_connected(lockroll::transport::PeerId remote) const { return remote < peers_.size() && peers_[remote]; }
 
-bool UdpSocketTransport::send(transport::PeerId to, std::span<const std::uint8_t> bytes, transport::Micros) {
-    if (!is_connected(to) || bytes.size() > transport::kMaxDatagramBytes) {
+bool UdpSocketTransport::send(lockroll::transport::PeerId to, std::span<const std::uint8_t> bytes, lockroll::transport::Micros) {
+    if (!is_connected(to) || bytes.size() > lockroll::transport::kMaxDatagramBytes) {
         ++counters_.rejected;
         return false;
     }
@@ -74,7 +74,7 @@ bool UdpSocketTransport::send(transport::PeerId to, std::span<const std::uint8_t
     return true;
 }
 
-bool UdpSocketTransport::receive(transport::Datagram& out, transport::Micros now) {
+bool UdpSocketTransport::receive(lockroll::transport::Datagram& out, lockroll::transport::Micros now) {
     for (;;) {
         sockaddr_in from{};
         socklen_t len = sizeof from;
@@ -82,12 +82,12 @@ bool UdpSocketTransport::receive(transport::Datagram& out, transport::Micros now
             ::recvfrom(fd_, buffer_.data(), buffer_.size(), 0, reinterpret_cast<sockaddr*>(&from), &len);
         if (n < 0) return false;  // EAGAIN: nothing more now (errors: the same, tried again next call)
         const auto size = static_cast<std::size_t>(n);
-        if (size < kIdBytes || size > kIdBytes + transport::kMaxDatagramBytes) {
+        if (size < kIdBytes || size > kIdBytes + lockroll::transport::kMaxDatagramBytes) {
             ++counters_.rejected;
             continue;
         }
-        transport::PeerId id = 0;
-        for (std::size_t i = 0; i < kIdBytes; ++i) id |= transport::PeerId{buffer_[i]} << (8 * i);
+        lockroll::transport::PeerId id = 0;
+        for (std::size_t i = 0; i < kIdBytes; ++i) id |= lockroll::transport::PeerId{buffer_[i]} << (8 * i);
         if (id >= peers_.size() || id == local_id_ || (peers_[id] && !same(*peers_[id], from))) {
             ++counters_.rejected;
             continue;
@@ -103,11 +103,11 @@ bool UdpSocketTransport::receive(transport::Datagram& out, transport::Micros now
     }
 }
 
-bool UdpSocketTransport::next_event(transport::TransportEvent& out) {
+bool UdpSocketTransport::next_event(lockroll::transport::TransportEvent& out) {
     if (events_.empty()) return false;
     out = std::move(events_.front());
     events_.pop_front();
     return true;
 }
 
-}  // namespace lockroll::test
+}  // namespace example

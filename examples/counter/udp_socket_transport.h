@@ -1,7 +1,9 @@
-// A transport::Transport written in the test, over plain UDP sockets (non-blocking sendto and
-// recvfrom on 127.0.0.1), so a match proves the runner and the builder need nothing of ENet.
+// A game's own lockroll::transport::Transport, over plain UDP sockets (non-blocking sendto and
+// recvfrom on 127.0.0.1): `counter ... udp` plays over it, built only against the installed
+// package, and tests/net plays and unit-tests it too, so a match proves the runner and the
+// builder need nothing of ENet.
 //
-// Contract (transport/transport.h's, for a connectionless socket):
+// Contract (<lockroll/transport/transport.h>'s, for a connectionless socket):
 //  - Wire: each datagram is the sender's peer id (u32, little-endian) and the payload, at most
 //    kMaxDatagramBytes. No handshake, no reliability: send_reliable() is send(), and the
 //    session re-requests what is lost.
@@ -23,38 +25,38 @@
 #include <string>
 #include <vector>
 
-#include "transport/transport.h"
+#include <lockroll/transport/transport.h>
 
-namespace lockroll::test {
+namespace example {
 
-class UdpSocketTransport final : public transport::Transport {
+class UdpSocketTransport final : public lockroll::transport::Transport {
 public:
     // Binds 127.0.0.1:port (0: one the kernel picks, see port()); ids 0..max_peers-1. Throws
     // std::runtime_error naming the port when the socket cannot be bound.
-    UdpSocketTransport(transport::PeerId local_id, std::uint16_t port, transport::PeerId max_peers);
+    UdpSocketTransport(lockroll::transport::PeerId local_id, std::uint16_t port, lockroll::transport::PeerId max_peers);
     ~UdpSocketTransport() override;
     UdpSocketTransport(const UdpSocketTransport&) = delete;
     UdpSocketTransport& operator=(const UdpSocketTransport&) = delete;
 
     std::uint16_t port() const { return port_; }
-    transport::PeerId local_id() const override { return local_id_; }
-    bool send(transport::PeerId to, std::span<const std::uint8_t> bytes, transport::Micros now) override;
-    bool receive(transport::Datagram& out, transport::Micros now) override;
-    const transport::TransportCounters& counters() const override { return counters_; }
-    bool next_event(transport::TransportEvent& out) override;
-    bool connect(transport::PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr) override;
-    bool is_connected(transport::PeerId remote) const override;
+    lockroll::transport::PeerId local_id() const override { return local_id_; }
+    bool send(lockroll::transport::PeerId to, std::span<const std::uint8_t> bytes, lockroll::transport::Micros now) override;
+    bool receive(lockroll::transport::Datagram& out, lockroll::transport::Micros now) override;
+    const lockroll::transport::TransportCounters& counters() const override { return counters_; }
+    bool next_event(lockroll::transport::TransportEvent& out) override;
+    bool connect(lockroll::transport::PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr) override;
+    bool is_connected(lockroll::transport::PeerId remote) const override;
 
 private:
-    void bind_peer(transport::PeerId id, const sockaddr_in& address);
+    void bind_peer(lockroll::transport::PeerId id, const sockaddr_in& address);
 
     int fd_ = -1;
     std::uint16_t port_ = 0;
-    transport::PeerId local_id_;
+    lockroll::transport::PeerId local_id_;
     std::vector<std::optional<sockaddr_in>> peers_;  // by id: where it is, once known
-    std::deque<transport::TransportEvent> events_;
-    transport::TransportCounters counters_;
+    std::deque<lockroll::transport::TransportEvent> events_;
+    lockroll::transport::TransportCounters counters_;
     std::vector<std::uint8_t> buffer_;
 };
 
-}  // namespace lockroll::test
+}  // namespace example
