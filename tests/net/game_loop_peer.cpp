@@ -3,8 +3,9 @@
 //
 //   game_loop_peer SLOT MY_PORT PEER_PORT FRAMES RENDER_HZ [enet|udp]
 //
-// enet (the default) is the builder's own ENet transport; udp is the test's UdpSocketTransport
-// (plain UDP sockets), handed to the builder with transport(). The game is a counter mixed with both players' scripted inputs. At the end it prints one line:
+// enet (the default) is the builder's own ENet transport; udp is examples/counter's
+// UdpSocketTransport (plain UDP sockets), handed to the builder with transport(). The game is a
+// counter mixed with both players' scripted inputs. At the end it prints one line:
 //   slot S outcome O final CHECKSUM updates U ticks T most_per_update M idle_updates I
 //        interpolation_ok B transport T sent N shown F
 // (the confirmed checksum of frame FRAMES; updates that ran no tick; whether every update's

@@ -43,7 +43,7 @@ done
 (($(field "$tmp/rates-p0.out" idle_updates) > 0)) || fail "rates: the 144 Hz game never had an update without a tick"
 (($(field "$tmp/rates-p1.out" most_per_update) >= 2)) || fail "rates: the 30 Hz game never ran two ticks in one update"
 
-# Over plain UDP sockets of the test's own: the same outcome, and no ENet anywhere.
+# Over plain UDP sockets of the game's own: the same outcome, and no ENet anywhere.
 pair udp "$frames" 60 50 udp
 u0=$(field "$tmp/udp-p0.out" final) u1=$(field "$tmp/udp-p1.out" final)
 [[ -n $u0 && $u0 != 0000000000000000 ]] || fail "udp: no final checksum from slot 0"
@@ -52,8 +52,8 @@ u0=$(field "$tmp/udp-p0.out" final) u1=$(field "$tmp/udp-p1.out" final)
 [[ $u0 == "$c0" ]] || fail "udp: final checksum $u0 differs from ENet's $c0"
 for k in 0 1; do
     [[ $(field "$tmp/udp-p$k.out" outcome) == completed ]] || fail "udp: slot $k did not complete"
-    [[ $(field "$tmp/udp-p$k.out" transport) == udp ]] || fail "udp: slot $k did not use the test's transport"
-    (($(field "$tmp/udp-p$k.out" sent) > frames / 2)) || fail "udp: slot $k sent too few datagrams through the test's transport"
+    [[ $(field "$tmp/udp-p$k.out" transport) == udp ]] || fail "udp: slot $k did not use the game's own transport"
+    (($(field "$tmp/udp-p$k.out" sent) > frames / 2)) || fail "udp: slot $k sent too few datagrams through the game's own transport"
 done
 
 # Bad arguments: exit 2 naming the argument, before anything is bound.
