@@ -40,6 +40,7 @@
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "server/connect_token.h"
+#include "transport/enet_transport.h"
 
 namespace lockroll::harness {
 

@@ -1,12 +1,11 @@
 #include "net/peer_runner.h"
 
 #include <algorithm>
-#include <chrono>
 #include <stdexcept>
-#include <thread>
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
+#include "rollback/protocol.h"
 
 namespace lockroll::net {
 
@@ -30,9 +29,10 @@ const char* outcome_name(RunOutcome o) {
     return "?";
 }
 
-PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                        InputSource input, RunnerObserver* observer)
-    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer) {
+    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer),
+      loop_(std::make_unique<TickLoop>(config_)) {
     const auto& sc = session_.config();
     if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
     if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5))
@@ -41,6 +41,9 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     if (config_.catch_up_frames < 0) throw std::invalid_argument("RunnerConfig: catch_up_frames must be >= 0");
     if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    if (transport_.local_id() != sc.local_player)
+        throw std::invalid_argument("PeerRunner: the transport's local_id() is " + std::to_string(transport_.local_id()) +
+                                    ", the session's local player is " + std::to_string(sc.local_player));
     const auto ids = static_cast<std::size_t>(sc.players + sc.max_spectators);
     for (const auto& p : config_.peers)
         if (p.slot >= ids || session_.host_of(p.slot) == sc.local_player || session_.host_of(p.slot) != p.slot)
@@ -51,15 +54,23 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     // One input per local slot (several players on one machine: SessionConfig::slot_hosts).
     input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+    // A run of target_frame frames shows frame target_frame last: while it lingers for the last
+    // confirmations and acknowledgements, the session rolls back and confirms but steps no further.
+    session_.set_last_frame(config_.target_frame);
 }
+
+PeerRunner::~PeerRunner() = default;
+
+std::uint64_t PeerRunner::schedule_resets() const { return loop_->schedule_resets(); }
+std::uint64_t PeerRunner::started_us() const { return loop_->started_us(); }
 
 void PeerRunner::track_connections(std::uint64_t now) {
     for (transport::TransportEvent e; transport_.next_event(e);) {
         if (e.peer < connected_.size()) {
             if (e.type == transport::TransportEvent::Type::Connected) {
                 connected_[e.peer] = true;
-                // Control messages the session sent before the connection existed (a joiner's
-                // hello to a peer it reaches after its snapshot): deliver them now, in order.
+                // Control messages the session sent before the connection existed (snapshot
+                // requests and chunks; never hellos, see tick()): deliver them now, in order.
                 for (const auto& bytes : held_[e.peer]) transport_.send_reliable(e.peer, bytes, now);
                 held_[e.peer].clear();
             }
@@ -69,46 +80,31 @@ void PeerRunner::track_connections(std::uint64_t now) {
     }
 }
 
-void PeerRunner::service_until(std::uint64_t deadline_us) {
-    for (;;) {
-        const std::uint64_t now = config_.clock.now_us();
-        transport_.poll(now);
-        track_connections(now);
-        if (now - last_reconnect_us_ >= kReconnectEveryUs) {
-            last_reconnect_us_ = now;
-            // The lower id connects, one connection per pair: no crossed connects, also when a
-            // killed slot comes back (the lower survivors keep retrying it, it retries the higher
-            // ones). Spectators have the highest ids but nobody knows their addresses: they
-            // connect to everyone. connect() refuses harmlessly while a connection exists or is
-            // pending.
-            const auto& sc = session_.config();
-            const bool spectator = sc.role == rollback::Role::Spectator;
-            for (const auto& p : config_.peers)
-                if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
-                    transport_.connect(p.slot, p.host, p.port);
-        }
-        if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
-        std::this_thread::sleep_for(std::chrono::microseconds(
-            std::min(config_.clock.monotonic_span_us(deadline_us - now), config_.service_interval_us)));
-    }
+void PeerRunner::service(std::uint64_t now) {
+    transport_.poll(now);
+    track_connections(now);
+    if (now - last_reconnect_us_ < kReconnectEveryUs) return;
+    last_reconnect_us_ = now;
+    // The lower id connects, one connection per pair: no crossed connects, also when a killed
+    // slot comes back (the lower survivors keep retrying it, it retries the higher ones).
+    // Spectators have the highest ids but nobody knows their addresses: they connect to everyone.
+    // connect() refuses harmlessly while a connection exists or is pending.
+    const auto& sc = session_.config();
+    const bool spectator = sc.role == rollback::Role::Spectator;
+    for (const auto& p : config_.peers)
+        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot)) transport_.connect(p.slot, p.host, p.port);
 }
 
-bool PeerRunner::connect_phase() {
-    // A handshaking session waits for its peers itself (hellos are resent until answered).
-    if (session_.config().handshake) return true;
-    const std::uint64_t begin = config_.clock.now_us();
+// Without a handshake the runner is the start barrier: every remote process connected.
+bool PeerRunner::all_connected() const {
     const auto& sc = session_.config();
-    for (;;) {
-        service_until(config_.clock.now_us() + 5 * config_.service_interval_us);
-        bool all = true;
-        for (int p = 0; p < sc.players; ++p) {
-            const auto id = static_cast<rollback::PlayerId>(p);
-            // Slots played by another slot's process have no connection of their own.
-            if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) all = false;
-        }
-        if (all) return true;
-        if (stop_.load(std::memory_order_relaxed) || config_.clock.now_us() - begin > config_.connect_timeout_us) return false;
+    if (sc.handshake) return true;  // the session waits for its peers itself (hellos resent)
+    for (int p = 0; p < sc.players; ++p) {
+        const auto id = static_cast<rollback::PlayerId>(p);
+        // Slots played by another slot's process have no connection of their own.
+        if (id != sc.local_player && session_.host_of(id) == id && !connected_[static_cast<std::size_t>(p)]) return false;
     }
+    return true;
 }
 
 bool PeerRunner::everyone_confirmed() const {
@@ -142,6 +138,7 @@ void PeerRunner::drain_session_events() {
             if (e.kind == K::Disconnected && e.peer < 2 && e.peer != sc.local_player && !alone_since_) alone_since_ = e.frame;
             if (e.kind == K::Joined && e.peer < 2 && e.peer != sc.local_player) alone_since_.reset();
         }
+        events_.push_back(e);
         if (observer_) observer_->on_session_event(e);
     }
 }
@@ -167,7 +164,7 @@ bool PeerRunner::track_partition() {
     return true;
 }
 
-void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
+std::uint32_t PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     while (transport_.receive(in_, now)) {
         if (in_.from >= connected_.size()) continue;
         session_.receive(static_cast<rollback::PlayerId>(in_.from), in_.bytes, in_.time_us);
@@ -204,7 +201,11 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     for (const auto& d : out_) {
         if (!d.reliable) {
             transport_.send(d.peer, d.bytes, now);
-        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size()) {
+        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size() &&
+                   rollback::peek_kind(d.bytes) != rollback::MessageKind::Hello) {
+            // Not a hello: it carries its send time for the round trip, so one held until the
+            // connection is up would count the wait as network time (seconds, for a peer that
+            // starts late); the session says hello again every hello_resend_us until welcomed.
             auto& held = held_[d.peer];
             if (held.size() >= kMaxHeldPerPeer) held.pop_front();
             held.push_back(d.bytes);
@@ -213,17 +214,20 @@ void PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);
     ++ticks_;
+    return report.advance.rollback_depth;
 }
 
-RunOutcome PeerRunner::run() {
-    const std::uint64_t begin = config_.clock.now_us();
-    if (!connect_phase()) return stop_.load() ? RunOutcome::Stopped : RunOutcome::ConnectTimeout;
-    return run_ticks(
-        config_, begin, stop_, observer_, {started_us_, schedule_resets_},
-        [this](std::uint64_t due) { service_until(due); },
+UpdateResult PeerRunner::update() {
+    events_.clear();
+    UpdateResult r = loop_->update(
+        [this] { return config_.clock.now_us(); }, stop_, observer_,
+        [this](std::uint64_t now) {
+            service(now);
+            return all_connected();
+        },
         [this](std::uint64_t now, std::uint64_t due) {
-            tick(now, due);
-            return stretch_.last_us;
+            const std::uint32_t depth = tick(now, due);
+            return TickDone{stretch_.last_us, depth};
         },
         [this] {
             return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
@@ -232,6 +236,14 @@ RunOutcome PeerRunner::run() {
                               .confirmed = everyone_confirmed(),
                               .partitioned = track_partition()};
         });
+    r.events = events_;
+    return r;
+}
+
+void PeerRunner::wait() const { wait_for_tick(config_, *loop_); }
+
+RunOutcome PeerRunner::run() {
+    return run_until_over([this] { return update(); }, [this] { wait(); });
 }
 
 }  // namespace lockroll::net

@@ -1,5 +1,6 @@
-// PeerRunner: one sans-IO rollback::Session bound to a real transport (ENet over UDP) and to the
-// monotonic clock, run at the tick rate. This is the real-time twin of harness/match (which runs
+// PeerRunner: one sans-IO rollback::Session bound to a real transport (any transport::Transport:
+// ENet over UDP by default through the builder, or the game's own) and to the monotonic clock,
+// run at the tick rate. This is the real-time twin of harness/match (which runs
 // N sessions in one process in virtual time); it knows nothing of sim/ or harness/: the game is
 // whatever Simulation the caller built the Session on, and local input comes from a callback.
 //
@@ -16,18 +17,23 @@
 //    input for frame() + input_delay() -> Session::advance -> catch_up() while behind() (a
 //    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
 //    send (send_reliable for datagrams the session marks reliable; those for a peer not yet
-//    connected -- a joiner's hello to a peer it reaches after its snapshot -- are held, the
-//    newest 64 per peer, and sent in order once it connects).
+//    connected -- snapshot requests and chunks -- are held, the newest 64 per peer, and sent in
+//    order once it connects; hellos are not: they carry their send time for the round trip, and
+//    the session resends them until welcomed, so the start-up RTT is the network's).
 //  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
 //    max_stretch); a session that only says wait_frames has that many frames of time repaid by
 //    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a
 //    visible freeze). A newer wait recommendation replaces the unpaid rest.
-//  - Never busy-spins: between ticks it sleeps, waking every service_interval_us to let the
-//    transport answer pings and stamp arrivals. A tick that is late runs at once; more than
-//    max_catch_up ticks behind, the schedule restarts from now (a frozen process does not then
-//    fast-forward in a burst).
-//  - Finishing: after showing target_frame it keeps ticking (receiving, advancing, polling, so
-//    resends and corrections still flow) until it has confirmed target_frame and every running,
+//  - The game's loop or the runner's: update() is one non-blocking step (service the transport,
+//    run the ticks that are due, report them), for a game that owns its loop and calls it once
+//    per frame at any rate; run() is update() and wait() until the run is over. run() never
+//    busy-spins: between ticks it sleeps, waking every service_interval_us to let the transport
+//    answer pings and stamp arrivals. A tick that is late runs at once; more than max_catch_up
+//    ticks behind, the schedule restarts from now (a frozen process does not then fast-forward
+//    in a burst).
+//  - Finishing: target_frame is the last frame simulated (Session::set_last_frame): after
+//    showing it it keeps ticking (receiving, advancing without stepping, polling, so resends and
+//    corrections still flow) until it has confirmed target_frame and every running,
 //    connected player slot has acknowledged its inputs up to target_frame (so it can confirm it
 //    too); dropped slots, disconnected peers and spectators are not waited for (spectators send
 //    no inputs and get the last ones from the resends while the players linger). Then it lingers
@@ -46,6 +52,7 @@
 #include <deque>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -53,7 +60,7 @@
 
 #include "net/clock.h"
 #include "rollback/session.h"
-#include "transport/enet_transport.h"
+#include "transport/transport.h"
 
 namespace lockroll::net {
 
@@ -79,7 +86,7 @@ struct RunnerConfig {
 };
 
 // Time-sync stretches so far: how many ticks were lengthened, by how much in all, and the
-// extra length of the tick just run (what the runner's tick returns to run_ticks).
+// extra length of the tick just run (what the runner's tick returns to TickLoop).
 struct StretchTally {
     std::uint64_t ticks = 0, total_us = 0, last_us = 0;
     void record(std::uint64_t extra_us) {
@@ -126,6 +133,26 @@ public:
     virtual void on_all_confirmed(std::uint64_t /*now_us*/) {}
 };
 
+// What one update() did (PeerRunner, RelayRunner and NetSession return it): the game calls
+// update() once per frame of its own loop, at its own rate, and draws from this.
+struct UpdateResult {
+    int frames = 0;                   // ticks run by this call (0 while none was due; several when
+                                      // the game's frame was longer than a tick)
+    std::uint32_t rollback_depth = 0; // the deepest rollback among them (frames resimulated)
+    // Where this call's clock reading lies between the last tick and the next, in [0, 1): a game
+    // that draws between ticks blends the previous frame's state with the current one by it.
+    // 0 until the first tick.
+    double interpolation = 0.0;
+    // The session events these ticks drained, in order; valid until the next update(). (NetSession
+    // also queues them for next_event().)
+    std::span<const rollback::SessionEvent> events;
+    // Set once the run is over, by the call that ended it and every call after it (which then
+    // does nothing more).
+    std::optional<RunOutcome> outcome;
+};
+
+class TickLoop;  // net/tick_schedule.h
+
 // Writes the local input for `frame`: input_size bytes per local slot, in the order of
 // Session::local_slots() (one slot unless SessionConfig::slot_hosts gives this process several).
 using InputSource = std::function<void(std::uint32_t frame, std::span<std::uint8_t> out)>;
@@ -133,10 +160,23 @@ using InputSource = std::function<void(std::uint32_t frame, std::span<std::uint8
 class PeerRunner {
 public:
     // Session, transport and observer must outlive the runner. Throws std::invalid_argument for
-    // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one).
-    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::EnetTransport& transport,
+    // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one, a
+    // transport whose local_id() is not the session's local player).
+    PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                InputSource input, RunnerObserver* observer = nullptr);
+    ~PeerRunner();
+    PeerRunner(const PeerRunner&) = delete;
+    PeerRunner& operator=(const PeerRunner&) = delete;
 
+    // One frame of the game's loop, never blocking: reads config.clock, services the transport
+    // (connections, arrivals), runs every tick that is due (at most max_catch_up + 1), and says
+    // what happened (UpdateResult). The first call starts the run (the connect timeout counts
+    // from it). Call it often: arrivals are stamped, and pings answered, only when it runs.
+    UpdateResult update();
+    // Sleeps until the next tick is due, at most service_interval_us (for a loop with nothing else
+    // to do between updates: run()).
+    void wait() const;
+    // update() and wait() until the run is over.
     RunOutcome run();
     void request_stop() { stop_.store(true, std::memory_order_relaxed); }
 
@@ -144,8 +184,8 @@ public:
     std::uint64_t stretched_ticks() const { return stretch_.ticks; }
     std::uint64_t stretch_total_us() const { return stretch_.total_us; }
     // Times the schedule restarted because the process fell too far behind.
-    std::uint64_t schedule_resets() const { return schedule_resets_; }
-    std::uint64_t started_us() const { return started_us_; }
+    std::uint64_t schedule_resets() const;
+    std::uint64_t started_us() const;
     // The confirmed frame at which the session reported Partitioned, while that episode has not
     // healed (healed: the session hears a majority again and confirms frames beyond it). Still
     // set after a Failed run that was kicked out of a partition (the majority dropped it).
@@ -156,30 +196,30 @@ public:
     std::optional<std::uint32_t> alone_since() const { return alone_since_; }
 
 private:
-    bool connect_phase();
+    bool all_connected() const;
     void drain_session_events();
     bool track_partition();
-    void service_until(std::uint64_t deadline_us);
+    void service(std::uint64_t now);
     void track_connections(std::uint64_t now);
-    void tick(std::uint64_t now, std::uint64_t scheduled);
+    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled);
     bool everyone_confirmed() const;
 
     RunnerConfig config_;
     rollback::Session& session_;
-    transport::EnetTransport& transport_;
+    transport::Transport& transport_;
     InputSource input_;
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};
+    std::unique_ptr<TickLoop> loop_;
     std::vector<bool> connected_;      // by peer id (slots, then spectators)
     std::vector<std::deque<std::vector<std::uint8_t>>> held_;  // reliable sends before connecting
     std::vector<std::uint8_t> input_bytes_;
     std::vector<rollback::Datagram> out_;
+    std::vector<rollback::SessionEvent> events_;  // drained by the current update()
     transport::Datagram in_;
     std::uint64_t period_us_ = 0;
-    std::uint64_t started_us_ = 0;
     std::uint64_t ticks_ = 0;
     std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
-    std::uint64_t schedule_resets_ = 0;
     StretchTally stretch_;
     std::uint64_t last_reconnect_us_ = 0;
     std::optional<std::uint32_t> partitioned_since_, alone_since_;

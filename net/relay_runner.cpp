@@ -1,9 +1,7 @@
 #include "net/relay_runner.h"
 
 #include <algorithm>
-#include <chrono>
 #include <stdexcept>
-#include <thread>
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
@@ -16,10 +14,10 @@ constexpr std::size_t kMaxHeld = 256;
 }  // namespace
 
 RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
-                         rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                         rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                          RunnerObserver* observer)
     : config_(config), host_(std::move(server_host)), port_(server_port), session_(session), transport_(transport),
-      input_(std::move(input)), observer_(observer) {
+      input_(std::move(input)), observer_(observer), loop_(std::make_unique<TickLoop>(config_)) {
     if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
     if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5)) throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
     if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
@@ -27,30 +25,30 @@ RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, st
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
     input_bytes_.assign(session_.config().input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
+    session_.set_last_frame(config_.target_frame);  // a run of target_frame frames ends on it
 }
 
-void RelayRunner::service_until(std::uint64_t deadline_us) {
-    for (;;) {
-        const std::uint64_t now = config_.clock.now_us();
-        transport_.poll(now);
-        for (transport::TransportEvent e; transport_.next_event(e);) {
-            if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
-                if (connections_++ > 0) session_.transport_reconnected(now);  // a new connection: hello again
-                for (const auto& bytes : held_) transport_.send_reliable(e.peer, bytes, now);
-                held_.clear();
-            }
-            if (observer_) observer_->on_transport_event(e, now);
+RelayRunner::~RelayRunner() = default;
+
+std::uint64_t RelayRunner::schedule_resets() const { return loop_->schedule_resets(); }
+
+void RelayRunner::service(std::uint64_t now) {
+    transport_.poll(now);
+    for (transport::TransportEvent e; transport_.next_event(e);) {
+        if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
+            if (connections_++ > 0) session_.transport_reconnected(now);  // a new connection: hello again
+            for (const auto& bytes : held_) transport_.send_reliable(e.peer, bytes, now);
+            held_.clear();
         }
-        if (now - last_connect_us_ >= kReconnectEveryUs) {
-            last_connect_us_ = now;
-            if (!transport_.is_connected(rollback::kRelayServerPeer)) transport_.connect(rollback::kRelayServerPeer, host_, port_);
-        }
-        if (now >= deadline_us || stop_.load(std::memory_order_relaxed)) return;
-        std::this_thread::sleep_for(std::chrono::microseconds(std::min(deadline_us - now, config_.service_interval_us)));
+        if (observer_) observer_->on_transport_event(e, now);
+    }
+    if (now - last_connect_us_ >= kReconnectEveryUs) {
+        last_connect_us_ = now;
+        if (!transport_.is_connected(rollback::kRelayServerPeer)) transport_.connect(rollback::kRelayServerPeer, host_, port_);
     }
 }
 
-void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
+std::uint32_t RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     while (transport_.receive(in_, now))
         if (in_.from == rollback::kRelayServerPeer) session_.receive(in_.bytes, in_.time_us);
     input_(session_.frame() + static_cast<std::uint32_t>(session_.input_delay()), input_bytes_);
@@ -61,8 +59,10 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.advance = session_.advance(input_bytes_, now);
     if (config_.catch_up_frames > 0 && session_.running() && session_.behind(now) > 0)
         caught_up_ += static_cast<std::uint64_t>(session_.catch_up(now, config_.catch_up_frames));
-    for (rollback::SessionEvent e; session_.next_event(e);)
+    for (rollback::SessionEvent e; session_.next_event(e);) {
+        events_.push_back(e);
         if (observer_) observer_->on_session_event(e);
+    }
     const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
     const std::uint64_t extra =
         std::min(max_extra, period_us_ * static_cast<std::uint64_t>(std::max(0, report.advance.tick_stretch_ppm)) / 1000000u);
@@ -80,17 +80,22 @@ void RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);
     ++ticks_;
+    return report.advance.rollback_depth;
 }
 
-RunOutcome RelayRunner::run() {
+UpdateResult RelayRunner::update() {
+    events_.clear();
     const bool spectator = session_.config().role == rollback::RelayRole::Spectator;
     const std::uint32_t target = config_.target_frame;
-    return run_ticks(
-        config_, config_.clock.now_us(), stop_, observer_, {started_us_, schedule_resets_},
-        [this](std::uint64_t due) { service_until(due); },
+    UpdateResult r = loop_->update(
+        [this] { return config_.clock.now_us(); }, stop_, observer_,
+        [this](std::uint64_t now) {
+            service(now);
+            return true;  // the session's hello to the server is the start barrier
+        },
         [this](std::uint64_t now, std::uint64_t due) {
-            tick(now, due);
-            return stretch_.last_us;
+            const std::uint32_t depth = tick(now, due);
+            return TickDone{stretch_.last_us, depth};
         },
         [&] {
             // Everyone's confirmation is the server's business; ours, and the server holding
@@ -101,6 +106,14 @@ RunOutcome RelayRunner::run() {
                               .confirmed = session_.confirmed_frame() >= target &&
                                            (spectator || session_.server_input_ack() >= target)};
         });
+    r.events = events_;
+    return r;
+}
+
+void RelayRunner::wait() const { wait_for_tick(config_, *loop_); }
+
+RunOutcome RelayRunner::run() {
+    return run_until_over([this] { return update(); }, [this] { wait(); });
 }
 
 }  // namespace lockroll::net

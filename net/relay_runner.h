@@ -1,4 +1,6 @@
-// RelayRunner: one RelaySession bound to ENet and the clock, talking to the relay server. The
+// RelayRunner: one RelaySession bound to a transport (ENet through the builder, or the game's
+// own: transport/transport.h) and the clock, talking to the relay server (peer id
+// rollback::kRelayServerPeer, reached by connect(kRelayServerPeer, server_host, server_port)). The
 // relay twin of PeerRunner (peer_runner.h, whose RunnerConfig, observer and outcomes it shares):
 //  - Connection: one, to the server, retried every half second while not connected, for the
 //    whole run. A connection ENet dropped is made again and the session says hello again: the
@@ -7,9 +9,11 @@
 //    input_delay() -> advance -> catch_up() while behind() (a late start, a joiner, a clock
 //    running slow: the session says how far it is behind the room clock) -> events -> poll ->
 //    send (reliable for what the session marks so).
+//  - The game's loop or the runner's: update() / wait() / run() as PeerRunner's.
 //  - Pacing: tick_stretch_ppm lengthens the next tick (at most max_stretch); the schedule is
 //    PeerRunner's (late ticks run at once; max_catch_up ticks behind, it restarts from now).
-//  - Finishing: after showing target_frame it keeps ticking until it has confirmed target_frame
+//  - Finishing: target_frame is the last frame simulated (RelaySession::set_last_frame); after
+//    showing it it keeps ticking until it has confirmed target_frame
 //    and the server holds its inputs up to target_frame (so nobody's frame before the target
 //    needs a replacement of its input), then lingers linger_us. A spectator only needs the
 //    confirmation. Bounded by finish_timeout_us and run_timeout_us.
@@ -17,12 +21,13 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "net/peer_runner.h"
 #include "rollback/relay_session.h"
-#include "transport/enet_transport.h"
+#include "transport/transport.h"
 
 namespace lockroll::net {
 
@@ -31,38 +36,47 @@ public:
     // config.peers is unused; the server is at server_host:server_port. Throws
     // std::invalid_argument for a bad config.
     RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
-                rollback::RelaySession& session, transport::EnetTransport& transport, InputSource input,
+                rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                 RunnerObserver* observer = nullptr);
 
+    ~RelayRunner();
+    RelayRunner(const RelayRunner&) = delete;
+    RelayRunner& operator=(const RelayRunner&) = delete;
+
+    // As PeerRunner's: one non-blocking step of the game's loop; sleep until the next tick; both
+    // until the run is over.
+    UpdateResult update();
+    void wait() const;
     RunOutcome run();
     void request_stop() { stop_.store(true, std::memory_order_relaxed); }
     std::uint64_t stretched_ticks() const { return stretch_.ticks; }
     std::uint64_t stretch_total_us() const { return stretch_.total_us; }
-    std::uint64_t schedule_resets() const { return schedule_resets_; }
+    std::uint64_t schedule_resets() const;
     std::uint64_t catch_up_frames() const { return caught_up_; }
 
 private:
-    void service_until(std::uint64_t deadline_us);
-    void tick(std::uint64_t now, std::uint64_t scheduled);
+    void service(std::uint64_t now);
+    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled);
 
     RunnerConfig config_;
     std::string host_;
     std::uint16_t port_;
     rollback::RelaySession& session_;
-    transport::EnetTransport& transport_;
+    transport::Transport& transport_;
     InputSource input_;
     RunnerObserver* observer_;
     std::atomic<bool> stop_{false};
+    std::unique_ptr<TickLoop> loop_;
     std::vector<std::uint8_t> input_bytes_;
+    std::vector<rollback::SessionEvent> events_;  // drained by the current update()
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
     std::vector<std::vector<std::uint8_t>> held_;  // reliable sends before the connection is up
     std::uint64_t period_us_ = 0;
     std::uint64_t last_connect_us_ = 0;
     int connections_ = 0;  // to the server so far (a later one is a reconnect)
-    std::uint64_t started_us_ = 0;  // when the session first ran
     StretchTally stretch_;
-    std::uint64_t schedule_resets_ = 0, caught_up_ = 0, ticks_ = 0;
+    std::uint64_t caught_up_ = 0, ticks_ = 0;
 };
 
 }  // namespace lockroll::net

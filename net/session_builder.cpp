@@ -1,6 +1,7 @@
 #include "net/session_builder.h"
 
 #include "net/clock.h"
+#include "net/tick_schedule.h"
 
 #include <algorithm>
 #include <limits>
@@ -21,13 +22,27 @@ constexpr std::size_t kMaxQueuedEvents = 1024;
 
 NetSession::~NetSession() = default;
 
-RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
-    if (!input) return RunOutcome::Failed;  // nothing to play with (a caller's bug; never throws)
+UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observer) {
+    if (!input) {  // nothing to play with (a caller's bug; never throws)
+        UpdateResult r;
+        r.outcome = RunOutcome::Failed;
+        return r;
+    }
     observer_ = observer;
-    input_ = std::move(input);
-    const RunOutcome outcome = relay_runner_ ? relay_runner_->run() : runner_->run();
+    input_ = &input;
+    UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
+    input_ = nullptr;
     observer_ = nullptr;
-    return outcome;
+    return r;
+}
+
+void NetSession::wait() const {
+    if (relay_runner_) relay_runner_->wait();
+    else runner_->wait();
+}
+
+RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
+    return run_until_over([&] { return update(input, observer); }, [this] { wait(); });
 }
 
 void NetSession::request_stop() {
@@ -99,7 +114,36 @@ SessionBuilder& SessionBuilder::server(std::string host, std::uint16_t port) {
 SessionBuilder& SessionBuilder::listen(std::string host, std::uint16_t port) {
     listen_host_ = std::move(host);
     listen_port_ = port;
+    listen_set_ = true;
     return *this;
+}
+SessionBuilder& SessionBuilder::transport(transport::Transport& t) {
+    transport_ = &t;
+    owned_transport_.reset();
+    return *this;
+}
+SessionBuilder& SessionBuilder::transport(std::unique_ptr<transport::Transport> t) {
+    transport_ = nullptr;
+    owned_transport_ = std::move(t);
+    return *this;
+}
+
+void SessionBuilder::attach_transport(NetSession& s, rollback::PlayerId id, const transport::EnetConfig& enet) const {
+    if (transport_ || owned_transport_) {
+        if (listen_set_) bad("listen() and transport() exclude each other: your transport is bound already");
+        // Owned by one NetSession: a second start() from this builder would share it.
+        if (owned_transport_ && owned_transport_.use_count() > 1) bad("transport(unique_ptr): already in use by a started session");
+        transport::Transport& t = transport_ ? *transport_ : *owned_transport_;
+        if (t.local_id() != id)
+            bad("transport(): its local_id() is " + std::to_string(t.local_id()) + ", this process's slot is " + std::to_string(id));
+        s.owned_ = owned_transport_;
+        s.transport_ = &t;
+        return;
+    }
+    auto e = std::make_shared<transport::EnetTransport>(enet);
+    s.enet_ = e.get();
+    s.transport_ = e.get();
+    s.owned_ = std::move(e);
 }
 SessionBuilder& SessionBuilder::tick_rate(int hz) { tick_rate_ = hz; return *this; }
 SessionBuilder& SessionBuilder::input_delay(int frames) {
@@ -218,19 +262,19 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         s->runner_config_ = rc;
         s->relay_slots_ = {rs.local_slot};
         // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
-        s->transport_ = std::make_unique<transport::EnetTransport>(
-            transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
-                                  .bind_host = listen_host_,
-                                  .port = listen_port_,
-                                  .timeout_limit = 32,
-                                  .timeout_min_ms = 5000,
-                                  .timeout_max_ms = 30000});
+        attach_transport(*s, rs.local_slot,
+                         transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
+                                               .bind_host = listen_host_,
+                                               .port = listen_port_,
+                                               .timeout_limit = 32,
+                                               .timeout_min_ms = 5000,
+                                               .timeout_max_ms = 30000});
         s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation);
         NetSession* raw = s.get();
         RunnerObserver* as_observer = raw;
         s->relay_runner_ = std::make_unique<RelayRunner>(
             rc, server_->first, server_->second, *s->relay_session_, *s->transport_,
-            [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+            [raw](std::uint32_t frame, std::span<std::uint8_t> out) { (*raw->input_)(frame, out); }, as_observer);
         return s;
     }
     rollback::SessionConfig sc = session_config();
@@ -239,15 +283,17 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     rollback::validate(sc);  // names the field, before anything is bound
     std::unique_ptr<NetSession> s(new NetSession());
     s->runner_config_ = rc;
-    s->transport_ = std::make_unique<transport::EnetTransport>(transport::EnetConfig{
-        .local_id = static_cast<transport::PeerId>(sc.local_player), .bind_host = listen_host_, .port = listen_port_});
+    attach_transport(*s, sc.local_player,
+                     transport::EnetConfig{.local_id = static_cast<transport::PeerId>(sc.local_player),
+                                           .bind_host = listen_host_,
+                                           .port = listen_port_});
     s->session_ = std::make_unique<rollback::Session>(sc, simulation);
     // The runner checks its own config (tick rate, peers) here, not on the first run().
     NetSession* raw = s.get();
     RunnerObserver* as_observer = raw;  // a private base: converted here, where it is accessible
     s->runner_ = std::make_unique<PeerRunner>(
         rc, *s->session_, *s->transport_,
-        [raw](std::uint32_t frame, std::span<std::uint8_t> out) { raw->input_(frame, out); }, as_observer);
+        [raw](std::uint32_t frame, std::span<std::uint8_t> out) { (*raw->input_)(frame, out); }, as_observer);
     return s;
 }
 

@@ -1,7 +1,8 @@
 // SessionBuilder: the high-level entry point for the common case, in the spirit of GGRS's
 // SessionBuilder. A game states its slots (which are local, where the others listen), its
-// Simulation and its input size, and gets back a NetSession: a rollback::Session on ENet at the
-// tick rate (net::PeerRunner) with its events. The sans-IO rollback::Session stays available
+// Simulation and its input size, and gets back a NetSession: a rollback::Session on ENet (or the
+// game's own transport::Transport) at the tick rate (net::PeerRunner) with its events, driven by
+// the game's loop (update()) or by its own (run()). The sans-IO rollback::Session stays available
 // underneath (NetSession::session()) and on its own for engines with their own sockets.
 //
 // Contract
@@ -28,6 +29,13 @@
 //    0, agreed drops), input delay 2, prediction window 8 (0 = lockstep), 60 Hz, run until
 //    request_stop() (frames(N): until N frames are confirmed everywhere). configure() reaches
 //    every SessionConfig and RunnerConfig field the builder does not name.
+//  - transport(t): the game's own transport::Transport instead of ENet (any that keeps
+//    transport/transport.h's contract: Steam networking sockets, WebRTC, plain UDP). Its
+//    local_id() must be this process's lowest local slot (through a server: the local slot),
+//    else start() throws naming both; listen() then does not apply (start() throws if both are
+//    given: your transport is bound already). remote_player()'s and server()'s host and port
+//    reach it through Transport::connect(). The reference form must outlive the NetSession; the
+//    unique_ptr form is owned by the NetSession (a builder holding one starts one session).
 #pragma once
 
 #include <atomic>
@@ -56,20 +64,35 @@ public:
     NetSession& operator=(const NetSession&) = delete;
     ~NetSession() override;
 
-    // Plays until the configured frames are confirmed everywhere (Completed), request_stop()
-    // (Stopped), the session fails, or a timeout; see RunOutcome. Blocks; `input` is called once
-    // per tick for input_size bytes per local slot (local_slots() order). `observer` (optional)
-    // sees every tick, session and transport event as they happen. lockroll throws nothing
-    // from here; an exception thrown by your own callbacks passes through unchanged.
+    // One frame of the game's own loop (GGRS's advance_frame, GGPO's ggpo_idle): never blocks.
+    // Reads the runner's clock, receives, runs as many ticks as are due (none when the game's
+    // frames are shorter than a tick, several when longer), sends, and returns what happened:
+    // frames run, the deepest rollback, the interpolation fraction for drawing between ticks,
+    // this call's events, and once the run is over its outcome (see RunOutcome and run()).
+    // `input` is called once per tick run, as in run(). Call it at any rate, but often: arrivals
+    // are stamped, and pings answered, only while it runs (every frame of a 30 Hz loop adds up to
+    // 33 ms to the measured round trip). An empty `input` is a caller's bug: outcome Failed,
+    // nothing done. lockroll throws nothing from here; your callbacks' exceptions pass through.
+    UpdateResult update(const InputSource& input, RunnerObserver* observer = nullptr);
+    // Sleeps until the next tick is due, at most RunnerConfig::service_interval_us: for a loop
+    // with nothing else to do between updates.
+    void wait() const;
+    // update() and wait() until the run is over: plays until the configured frames are
+    // confirmed everywhere (Completed), request_stop() (Stopped), the session fails, or a
+    // timeout; see RunOutcome. Blocks; `input` is called once per tick for input_size bytes per
+    // local slot (local_slots() order). `observer` (optional) sees every tick, session and
+    // transport event as they happen. lockroll throws nothing from here; an exception thrown by
+    // your own callbacks passes through unchanged.
     RunOutcome run(InputSource input, RunnerObserver* observer = nullptr);
     // Thread- and signal-safe; also fine from inside the callbacks and before run().
     void request_stop();
 
     // Lifecycle events of the session (SessionEvent), in order, also while run() is going (from
-    // its callbacks). The newest 1024 are kept.
+    // its callbacks); the same events update() returns. The newest 1024 are kept.
     bool next_event(rollback::SessionEvent& out);
 
-    std::uint16_t port() const { return transport_->port(); }
+    // The UDP port ENet bound; 0 with your own transport (transport()).
+    std::uint16_t port() const { return enet_ ? enet_->port() : 0; }
     std::span<const rollback::PlayerId> local_slots() const;
     // Overlay figures for a remote process (its lowest slot); through a server: the server's
     // link, whatever `peer` says.
@@ -83,7 +106,7 @@ public:
     const rollback::Session& session() const { return *session_; }
     rollback::RelaySession& relay_session() { return *relay_session_; }
     const rollback::RelaySession& relay_session() const { return *relay_session_; }
-    transport::EnetTransport& transport() { return *transport_; }
+    transport::Transport& transport() { return *transport_; }
     const RunnerConfig& runner_config() const { return runner_config_; }
 
 private:
@@ -96,14 +119,16 @@ private:
     void on_all_confirmed(std::uint64_t now_us) override;
 
     RunnerConfig runner_config_;
-    std::unique_ptr<transport::EnetTransport> transport_;
+    std::shared_ptr<transport::Transport> owned_;  // ENet, or a transport handed over by unique_ptr
+    transport::Transport* transport_ = nullptr;     // the one in use
+    transport::EnetTransport* enet_ = nullptr;      // when it is the builder's ENet
     std::unique_ptr<rollback::Session> session_;
     std::unique_ptr<PeerRunner> runner_;
     std::unique_ptr<rollback::RelaySession> relay_session_;
     std::unique_ptr<RelayRunner> relay_runner_;
     std::vector<rollback::PlayerId> relay_slots_;
     RunnerObserver* observer_ = nullptr;
-    InputSource input_;
+    const InputSource* input_ = nullptr;  // the current update()'s
     std::deque<rollback::SessionEvent> events_;
 };
 
@@ -119,6 +144,9 @@ public:
     // Reach the others through a relay server instead (see the contract).
     SessionBuilder& server(std::string host, std::uint16_t port);
     SessionBuilder& listen(std::string host, std::uint16_t port);
+    // The game's own transport instead of ENet (see the contract).
+    SessionBuilder& transport(transport::Transport& t);
+    SessionBuilder& transport(std::unique_ptr<transport::Transport> t);
     SessionBuilder& tick_rate(int hz);
     SessionBuilder& input_delay(int frames);
     SessionBuilder& prediction_window(int frames);  // 0: lockstep
@@ -140,6 +168,9 @@ public:
     RunnerConfig runner_config() const;
 
 private:
+    // Gives `s` its transport: the game's (its local_id() must be `id`), else ENet as `enet` says.
+    void attach_transport(NetSession& s, rollback::PlayerId id, const transport::EnetConfig& enet) const;
+
     struct Remote {
         rollback::PlayerId slot;
         std::string host;
@@ -152,6 +183,9 @@ private:
     std::optional<std::pair<std::string, std::uint16_t>> server_;
     std::string listen_host_ = "127.0.0.1";
     std::uint16_t listen_port_ = 0;
+    bool listen_set_ = false;
+    transport::Transport* transport_ = nullptr;            // transport(t&)
+    std::shared_ptr<transport::Transport> owned_transport_;  // transport(unique_ptr)
     int tick_rate_ = 60;
     int input_delay_ = 2;
     bool input_delay_set_ = false;

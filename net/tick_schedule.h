@@ -15,13 +15,17 @@
 // target's time at the tick rate, plus finish_timeout_us, after starting): by then any majority
 // has finished or dropped it, so healing could only get it kicked.
 //
-// run_ticks: the loop both runners run on these two (PeerRunner after its connect phase).
+// TickLoop: the loop both runners run on these two, one update() per call of the game's loop.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <optional>
+#include <thread>
 
+#include "net/clock.h"
 #include "net/peer_runner.h"
 
 namespace lockroll::net {
@@ -90,7 +94,7 @@ private:
     std::uint64_t reached_ = 0, all_confirmed_ = 0;
 };
 
-// What a runner reports after each tick, for run_ticks to judge.
+// What a runner reports after each tick, for TickLoop to judge.
 struct TickStatus {
     bool failed = false;        // the session failed (refused, kicked)
     bool running = false;       // the session runs frames (frame 0, or a joiner's snapshot frame)
@@ -99,43 +103,142 @@ struct TickStatus {
     bool partitioned = false;   // cut off from a majority and not healed since (P2P only)
 };
 
-// The runner's state the loop keeps up to date, so the runner can report it.
-struct TickLoopState {
-    std::uint64_t& started_us;       // when the session first ran (0 until then)
-    std::uint64_t& schedule_resets;  // TickSchedule::resets()
+// What a runner's tick tells the loop: how much longer the tick after it is (time-sync
+// stretch), and how deep this tick rolled back.
+struct TickDone {
+    std::uint64_t extra_us = 0;
+    std::uint32_t rollback_depth = 0;
 };
 
-// Ticks until the run is over: sleeps in service_until(due_us) (servicing the transport) until
-// the next tick is due, runs tick(now_us, due_us), which returns the extra length of the tick
-// after it (time-sync stretch), then asks status() and ends the run as the contracts say:
-// Stopped at the first wake-up after `stop`, Failed with the session, ConnectTimeout when the
-// session does not run within connect_timeout_us of begin_us, and after it runs, RunEnd's
-// verdict (Partitioned included).
-template <class ServiceUntil, class Tick, class Status>
-RunOutcome run_ticks(const RunnerConfig& config, std::uint64_t begin_us, const std::atomic<bool>& stop,
-                     RunnerObserver* observer, TickLoopState state, ServiceUntil service_until, Tick tick, Status status) {
-    TickSchedule schedule(config.clock.now_us(), config.tick_rate, config.max_catch_up);
-    RunEnd end(config);
-    for (;;) {
-        service_until(schedule.due());
-        if (stop.load(std::memory_order_relaxed)) return RunOutcome::Stopped;
-        const std::uint64_t now = config.clock.now_us();
-        const std::uint64_t extra_us = tick(now, schedule.start_tick(now));
-        state.schedule_resets = schedule.resets();
-        schedule.finish_tick(extra_us);
-        const TickStatus s = status();
-        if (s.failed) return RunOutcome::Failed;
-        if (!state.started_us) {
-            if (s.running) {
-                state.started_us = now;
-                if (observer) observer->on_synchronized(now);
-            } else if (now - begin_us > config.connect_timeout_us) {
-                return RunOutcome::ConnectTimeout;
-            }
-            continue;
+// The loop both runners run on TickSchedule and RunEnd, one update() at a time: a game calls it
+// once per frame of its own loop (NetSession::update), or run_until_over() calls it in a loop and
+// sleeps in between (the runners' run()).
+//
+// update(now, stop, observer, service, tick, status):
+//  - the first call begins the run (connect timeout from then); after the run is over every call
+//    returns its outcome and does nothing more;
+//  - service(now) services the transport and returns whether ticking may start (a runner that
+//    waits for its connections first says false until they are up; ConnectTimeout past
+//    connect_timeout_us); the schedule starts at the first call that may tick;
+//  - then every tick that is due runs, each as tick(now, due) (re-reading now() and servicing the
+//    transport between them, as run() always did), at most max_catch_up + 1 per call; status()
+//    after each judges the run as the contracts say: Stopped at the first call after `stop`,
+//    Failed with the session, ConnectTimeout when the session does not run within
+//    connect_timeout_us of the start, and after it runs, RunEnd's verdict (Partitioned included);
+//  - the result's interpolation is where the last clock reading lies between the last tick's due
+//    time and the next's, in [0, 1).
+// Every time comes from now(): the loop reads no clock of its own, so tests drive it in virtual
+// microseconds.
+class TickLoop {
+public:
+    explicit TickLoop(const RunnerConfig& config) : config_(config), end_(config) {}
+
+    template <class Now, class Service, class Tick, class Status>
+    UpdateResult update(Now now_fn, const std::atomic<bool>& stop, RunnerObserver* observer, Service service, Tick tick,
+                        Status status) {
+        UpdateResult r;
+        if (outcome_) {
+            r.outcome = outcome_;
+            return r;
         }
-        if (auto outcome = end.check(now, state.started_us, s.shown_target, s.confirmed, observer, s.partitioned)) return *outcome;
+        std::uint64_t now = now_fn();
+        if (!begun_) {
+            begin_us_ = now;
+            begun_ = true;
+        }
+        const bool may_tick = service(now);
+        if (stop.load(std::memory_order_relaxed)) return over(r, RunOutcome::Stopped);
+        if (!scheduled_) {
+            if (!may_tick) {
+                if (now - begin_us_ > config_.connect_timeout_us) return over(r, RunOutcome::ConnectTimeout);
+                return r;
+            }
+            schedule_ = TickSchedule(now, config_.tick_rate, config_.max_catch_up);
+            scheduled_ = true;
+        }
+        const int most = config_.max_catch_up + 1;
+        while (r.frames < most && schedule_.due() <= now) {
+            last_due_ = schedule_.start_tick(now);
+            ticked_ = true;
+            const TickDone done = tick(now, last_due_);
+            schedule_.finish_tick(done.extra_us);
+            ++r.frames;
+            r.rollback_depth = std::max(r.rollback_depth, done.rollback_depth);
+            const TickStatus s = status();
+            if (s.failed) return over(r, RunOutcome::Failed);
+            if (!started_us_) {
+                if (s.running) {
+                    started_us_ = now;
+                    if (observer) observer->on_synchronized(now);
+                } else if (now - begin_us_ > config_.connect_timeout_us) {
+                    return over(r, RunOutcome::ConnectTimeout);
+                }
+            } else if (auto outcome = end_.check(now, started_us_, s.shown_target, s.confirmed, observer, s.partitioned)) {
+                return over(r, *outcome);
+            }
+            now = now_fn();
+            service(now);
+            if (stop.load(std::memory_order_relaxed)) return over(r, RunOutcome::Stopped);
+        }
+        r.interpolation = fraction(now);
+        return r;
     }
+
+    // When the next tick is due (the loop's time); nullopt before the schedule started or after
+    // the run is over.
+    std::optional<std::uint64_t> next_due() const {
+        if (!scheduled_ || outcome_) return std::nullopt;
+        return schedule_.due();
+    }
+    std::optional<RunOutcome> outcome() const { return outcome_; }
+    std::uint64_t started_us() const { return started_us_; }  // when the session first ran; 0 until then
+    std::uint64_t schedule_resets() const { return schedule_.resets(); }
+
+private:
+    UpdateResult& over(UpdateResult& r, RunOutcome o) {
+        outcome_ = o;
+        r.outcome = o;
+        return r;
+    }
+    double fraction(std::uint64_t now) const {
+        if (!ticked_) return 0.0;
+        const std::uint64_t last = last_due_, next = schedule_.due();
+        if (now <= last || next <= last) return 0.0;
+        if (now >= next) return kBelowOne;
+        return std::min(kBelowOne, static_cast<double>(now - last) / static_cast<double>(next - last));
+    }
+
+    static constexpr double kBelowOne = 1.0 - 1.0 / 65536.0;  // the largest fraction reported
+    const RunnerConfig& config_;
+    RunEnd end_;
+    TickSchedule schedule_{0, 1, 1};  // replaced when ticking may start
+    bool scheduled_ = false;
+    std::optional<RunOutcome> outcome_;
+    bool begun_ = false;
+    std::uint64_t begin_us_ = 0, started_us_ = 0;
+    bool ticked_ = false;
+    std::uint64_t last_due_ = 0;  // when the last tick was due
+};
+
+// The runners' run(): update() until the run is over, sleeping in between as wait() says.
+template <class Update, class Wait>
+RunOutcome run_until_over(Update update, Wait wait) {
+    for (;;) {
+        const UpdateResult r = update();
+        if (r.outcome) return *r.outcome;
+        wait();
+    }
+}
+
+// A runner's wait(): sleeps until the loop's next tick is due in config.clock's time, at most
+// config.service_interval_us (a whole interval when no tick is scheduled yet).
+inline void wait_for_tick(const RunnerConfig& config, const TickLoop& loop) {
+    std::uint64_t us = config.service_interval_us;
+    if (const std::optional<std::uint64_t> due = loop.next_due()) {
+        const std::uint64_t now = config.clock.now_us();
+        us = std::min(*due > now ? config.clock.monotonic_span_us(*due - now) : 0, us);
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(us));
 }
 
 }  // namespace lockroll::net

@@ -440,8 +440,10 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
     if (r.rollback_depth) r.resim_ns = config_.cpu_clock() - t0;
     confirm_frames();
     revise_input_delay(now_us);
-    add_own_input(local_input);
-    if (sync_->must_wait(0)) {
+    const bool held = frame() >= last_frame_;  // set_last_frame(): rollbacks and confirmations go on
+    if (!held) add_own_input(local_input);
+    if (held) {
+    } else if (sync_->must_wait(0)) {
         stall_.stalled(now_us, stats_);
         r.blocking_player = sync_->blocking_player();
     } else {
@@ -472,7 +474,7 @@ int RelaySession::catch_up_impl(std::uint64_t now_us, int max_frames) {
     const int want = std::min(max_frames, static_cast<int>(behind(now_us)));
     while (stepped < want && phase_ == SessionPhase::Running) {
         if (sync_->rollback_pending()) sync_->rollback_if_needed();
-        if (sync_->must_wait(0)) break;
+        if (sync_->must_wait(0) || frame() >= last_frame_) break;
         if (config_.role != RelayRole::Spectator) {
             // The skipped tick's input repeats the last one.
             scratch_.assign(config_.input_size, 0);

@@ -120,6 +120,9 @@ public:
     void poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept;
     // Behind the target lead (a late start, a joiner, a slow clock): step up to max_frames now.
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
+    // As Session::set_last_frame: no step beyond `frame`, and no own input past it, while
+    // rollbacks and confirmations go on. Default: no limit.
+    void set_last_frame(std::uint32_t frame) { last_frame_ = frame; }
     // Frames this client is behind its target (0 when on time or ahead).
     std::int32_t behind(std::uint64_t now_us) const;
     // The transport lost the server and connected again: say hello again. The server knows this
@@ -183,6 +186,7 @@ private:
     std::uint64_t last_server_us_ = 0;  // the last datagram from the server (0: none yet)
     bool room_started_ = false;
     std::uint64_t started_us_ = 0;
+    std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
     std::uint64_t last_delay_revision_us_ = 0;
     // Room clock estimate: the largest (room clock - local clock) seen in a window of samples.
     std::deque<std::int64_t> clock_offsets_;

@@ -923,7 +923,9 @@ AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, s
     }
     const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
                                 : sync_->must_wait(input_delay_);
-    if (wait) {
+    if (sync_->frame() >= last_frame_) {
+        // Held at the last frame (set_last_frame): inputs, rollbacks and confirmations go on.
+    } else if (wait) {
         stall_.stalled(now_us, stats_);
         result.blocking_player = sync_->blocking_player();
     } else {
@@ -969,6 +971,7 @@ int Session::catch_up_impl(std::uint64_t now_us, int max_frames) {
         confirm_frames();
         if (spectator ? sync_->frame() >= sync_->inputs_complete() : sync_->must_wait(input_delay_)) break;
         if (!spectator && sync_->frame() >= count_of(config_.local_player)) break;  // our own input is due first
+        if (sync_->frame() >= last_frame_) break;
         sync_->step_forward();
         confirm_frames();
         ++stepped;

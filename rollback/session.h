@@ -160,6 +160,10 @@ public:
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
     // input (call after advance() while behind() > 0). Returns the frames stepped.
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
+    // The last frame this session simulates (a run of N frames ends on frame N, not beyond):
+    // once frame() reaches it, advance() and catch_up() still take inputs, roll back and confirm,
+    // but step no further, and a held tick is not a stall. Default: no limit.
+    void set_last_frame(std::uint32_t frame) { last_frame_ = frame; }
     // Frames the most advanced running peer is estimated to be ahead of this session.
     std::int32_t behind(std::uint64_t now_us) const;
     // next_event(), inject_fault(): SessionCore's (rollback/session_core.h).
@@ -296,6 +300,7 @@ private:
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;
     std::uint64_t last_now_us_ = 0;
+    std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
     // the newcomer's side of a transfer
     std::unique_ptr<TransferReceiver> incoming_;
     PlayerId incoming_from_ = 0;

@@ -113,14 +113,14 @@ public:
     // one is replaced), the host does not resolve, or no connection slot is free. The
     // connection completes during later poll() or receive() calls; is_connected() and a
     // Connected event tell when.
-    bool connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr);
-    bool is_connected(PeerId remote) const;
+    bool connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr) override;
+    bool is_connected(PeerId remote) const override;
     std::vector<PeerId> connected_peers() const;
 
     // Lets ENet send and receive without blocking: completes handshakes, answers pings, queues
     // arrived datagrams (stamped with `now`) and events. receive() calls it when its queue is
     // empty; call it every tick anyway.
-    void poll(Micros now);
+    void poll(Micros now) override;
 
     PeerId local_id() const override { return local_id_; }
     // Unreliable unsequenced, channel 0. Sends at once (flushes the host): one send, one datagram.

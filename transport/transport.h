@@ -1,8 +1,26 @@
-// A datagram transport with time passed in: the one interface sessions use to move bytes, so
-// the same session code runs over the in-process simulated network (virtual time, reproducible)
-// and over real UDP (ENet).
+// A datagram transport with time passed in: the one interface sessions and the real-time runners
+// (net/peer_runner.h, net/relay_runner.h) use to move bytes, so the same code runs over the
+// in-process simulated network (virtual time, reproducible), over real UDP (ENet, the default),
+// and over a game's own transport (Steam networking sockets, WebRTC data channels, plain UDP:
+// docs/guide.md maps them; examples/counter/udp_socket_transport.h is one over plain UDP).
 //
 // Contract
+//  - Peers and connections: a peer is a value id (the session's slot or spectator id). The
+//    runner tells the transport where a peer is only through connect(id, host, port), whose
+//    host and port mean whatever the transport's addressing is (ENet and UDP: a host and a UDP
+//    port; Steam: a SteamID as text and a virtual port; WebRTC: a signalling id). The runner
+//    calls connect() for a peer it is not connected to, every half second for the whole run (so
+//    a restarted peer is reached again), and only from one side of each pair (the lower id; a
+//    spectator to everyone): the other side learns the peer from its incoming connection. A
+//    transport reports a connection that comes up (either side's) as a Connected event and
+//    is_connected() true; one that goes away as Disconnected. A connectionless transport keeps
+//    the defaults: every peer reachable, connect() false, no events.
+//  - Identity: a received datagram's `from` is the id the transport bound to its connection or
+//    sender (ENet: the id claimed at connect, one live connection per id), never a field a
+//    datagram may set freely on each send.
+//  - poll(now) is called on every runner wake-up (about every millisecond under run(), once per
+//    NetSession::update() in a game's loop): a transport with a handshake, keep-alives or
+//    acknowledgements does that work there. It never blocks.
 //  - Unreliable datagrams: a send may be lost, duplicated or reordered; a datagram that arrives
 //    arrives whole. Reliability (resending inputs until acknowledged) is the session's job.
 //    send_reliable() asks for more where the transport has it (ENet: a reliable, ordered
@@ -91,6 +109,20 @@ public:
     // Moves the oldest connection event into `out`; false when there is none. Transports
     // without connections (SimNetwork) never have any.
     virtual bool next_event(TransportEvent& /*out*/) { return false; }
+
+    // Starts reaching peer `remote` at host:port (see the contract). Returns false, with a
+    // reason in *error if given, when it cannot even try: our own id, a connection for it exists
+    // or is pending, an address the transport cannot use, no room. The connection completes
+    // later (a Connected event). Default, for connectionless transports: false.
+    virtual bool connect(PeerId /*remote*/, const std::string& /*host*/, std::uint16_t /*port*/,
+                         std::string* /*error*/ = nullptr) {
+        return false;
+    }
+    // Whether `remote` can be sent to now. Default (connectionless): true.
+    virtual bool is_connected(PeerId /*remote*/) const { return true; }
+    // Does the transport's own work without blocking (handshakes, keep-alives, queuing
+    // arrivals stamped with `now`). Default: nothing to do.
+    virtual void poll(Micros /*now*/) {}
 };
 
 }  // namespace lockroll::transport

@@ -1,8 +1,13 @@
 // The seed paper's scene as a playable program: a closed room, two player boxes and 50 balls,
 // seen from above (like the paper's Figure 7), two players over ENet.
 //
-//   room SLOT MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--bot]
+//   room SLOT MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--fps F] [--bot]
 //        [--screenshot FILE --shot-frame F]
+//
+// The game owns its loop: it draws at its own rate (--fps, default 144; the match ticks at 60 Hz)
+// and calls NetSession::update() once per drawn frame. Between ticks it draws the moving bodies
+// blended between the last two ticks' positions by the update's interpolation fraction, so a
+// 144 Hz window moves smoothly on a 60 Hz simulation.
 //
 // Keys: arrows or WASD move, space lifts, L toggles this client between rollback (runs ahead on
 // predictions, up to --window frames) and lockstep (prediction window 0: a frame runs once its
@@ -19,11 +24,14 @@
 #include <lockroll/sim/world.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
+#include <vector>
 
 namespace {
 
@@ -105,12 +113,33 @@ void disc(SDL_Renderer* r, int cx, int cy, int rad) {
     }
 }
 
-void draw_world(SDL_Renderer* r, const lockroll::sim::SceneDesc& scene, const lockroll::sim::World& w) {
+// The moving bodies' positions after each of the last two ticks, for drawing between them.
+struct TickPositions {
+    std::vector<Vec3> previous, current;
+    void record(const lockroll::sim::World& w) {
+        previous.swap(current);
+        current.resize(w.body_count());
+        for (lockroll::sim::BodyId id = 0; id < w.body_count(); ++id) current[id] = w.position(id);
+        if (previous.size() != current.size()) previous = current;
+    }
+};
+
+// a + (b - a) * t, for drawing only (the simulation never sees it).
+Fixed blend(Fixed a, Fixed b, double t) {
+    return Fixed::from_raw(a.raw + static_cast<std::int64_t>(static_cast<double>(b.raw - a.raw) * t));
+}
+
+void draw_world(SDL_Renderer* r, const lockroll::sim::SceneDesc& scene, const lockroll::sim::World& w, const TickPositions& ticks,
+                double interpolation) {
     SDL_SetRenderDrawColor(r, 28, 30, 40, 255);
     SDL_RenderClear(r);
     for (lockroll::sim::BodyId id = 0; id < w.body_count() && id < scene.bodies.size(); ++id) {
         const auto& d = scene.bodies[id];
-        const Vec3& p = w.position(id);
+        Vec3 p = w.position(id);
+        if (!w.is_static(id) && id < ticks.current.size()) {
+            const Vec3 &a = ticks.previous[id], &b = ticks.current[id];
+            p = {blend(a.x, b.x, interpolation), blend(a.y, b.y, interpolation), blend(a.z, b.z, interpolation)};
+        }
         if (d.shape == lockroll::sim::Shape::Sphere) {
             SDL_SetRenderDrawColor(r, 240, 200, 40, 255);
             disc(r, px(p.x), py(p.z), static_cast<int>((d.radius.raw * kScale) >> 32));
@@ -128,7 +157,7 @@ void draw_world(SDL_Renderer* r, const lockroll::sim::SceneDesc& scene, const lo
 }
 
 int usage(const char* why) {
-    std::fprintf(stderr, "room: %s\nusage: room SLOT(0|1) MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--bot] "
+    std::fprintf(stderr, "room: %s\nusage: room SLOT(0|1) MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--fps F] [--bot] "
                          "[--screenshot FILE --shot-frame F]\n", why);
     return 2;
 }
@@ -139,7 +168,7 @@ int main(int argc, char** argv) {
     if (argc < 4) return usage("missing arguments");
     const int slot = std::atoi(argv[1]);
     const long my_port = std::atol(argv[2]), peer_port = std::atol(argv[3]);
-    long frames = 0, delay = 2, window = 8, shot_frame = -1;
+    long frames = 0, delay = 2, window = 8, shot_frame = -1, fps = 144;
     bool bot = false;
     std::string shot;
     for (int i = 4; i < argc; ++i) {
@@ -149,6 +178,7 @@ int main(int argc, char** argv) {
         else if (a == "--frames" && has) frames = std::atol(argv[++i]);
         else if (a == "--delay" && has) delay = std::atol(argv[++i]);
         else if (a == "--window" && has) window = std::atol(argv[++i]);
+        else if (a == "--fps" && has) fps = std::atol(argv[++i]);
         else if (a == "--screenshot" && has) shot = argv[++i];
         else if (a == "--shot-frame" && has) shot_frame = std::atol(argv[++i]);
         else return usage(("unknown or incomplete option " + a).c_str());
@@ -156,6 +186,7 @@ int main(int argc, char** argv) {
     if ((slot != 0 && slot != 1) || my_port < 1 || my_port > 65535 || peer_port < 1 || peer_port > 65535 || frames < 0)
         return usage("bad slot, port or frame count");
     if (!shot.empty() && shot_frame < 0) return usage("--screenshot needs --shot-frame");
+    if (fps < 1 || fps > 1000) return usage(("--fps " + std::to_string(fps) + ": must be 1..1000").c_str());
 
     const lockroll::sim::SceneDesc scene = paper_scene();
     lockroll::rollback::WorldSimulation game(scene, 2);
@@ -183,63 +214,79 @@ int main(int argc, char** argv) {
     SDL_Renderer* ren = win ? SDL_CreateRenderer(win, -1, SDL_RENDERER_SOFTWARE) : nullptr;
     if (!ren) return std::fprintf(stderr, "room: SDL window: %s\n", SDL_GetError()), 1;
 
-    struct Overlay : lockroll::net::RunnerObserver {
+    // Sees every tick run inside update(): the rollback depth for the overlay, and the moving
+    // bodies' positions for drawing between ticks.
+    struct Ticks : lockroll::net::RunnerObserver {
+        explicit Ticks(const lockroll::rollback::WorldSimulation& g) : game(g) { positions.record(g.world()); }
         void on_tick(const lockroll::net::TickReport& t) override {
             if (t.advance.rollback_depth > 0) depth = t.advance.rollback_depth;
-            ticked = true;
+            positions.record(game.world());
         }
+        const lockroll::rollback::WorldSimulation& game;
+        TickPositions positions;
         long depth = 0;
-        bool ticked = false;
-    } overlay;
+    } ticks(game);
     bool lockstep_view = false, shot_taken = false;
     const auto other = static_cast<lockroll::rollback::PlayerId>(1 - slot);
-    const auto outcome = net->run(
-        [&](std::uint32_t frame, std::span<std::uint8_t> out) {
-            // Draw what the last tick showed, then read the keys for this one.
-            const auto& s = net->session();
-            const lockroll::sim::World* shown = &game.world();
-            draw_world(ren, scene, *shown);
-            const auto st = net->network_stats(other);
-            gauge(ren, 10, "P", static_cast<long>(st.ping_us / 1000), 200);
-            gauge(ren, 180, "D", s.input_delay(), 10);
-            gauge(ren, 350, "RB", overlay.depth, std::max(window, 1L));
-            gauge(ren, 520, "B", st.frames_behind, 10);
-            SDL_SetRenderDrawColor(ren, 255, 255, 255, 255);
-            text(ren, kSize - 30, 10, lockstep_view ? "L" : "R", 5);
-            if (!shot.empty() && !shot_taken && s.frame() >= static_cast<std::uint32_t>(shot_frame)) {
-                shot_taken = true;  // read back before presenting: the back buffer is then undefined
-                if (SDL_Surface* img = SDL_CreateRGBSurfaceWithFormat(0, kSize, kTop + kSize, 32, SDL_PIXELFORMAT_ARGB8888)) {
-                    SDL_RenderReadPixels(ren, nullptr, SDL_PIXELFORMAT_ARGB8888, img->pixels, img->pitch);
-                    SDL_SaveBMP(img, shot.c_str());
-                    SDL_FreeSurface(img);
-                }
+    // Called once per tick inside update(): this tick's input, from the keys SDL last pumped.
+    const lockroll::net::InputSource input = [&](std::uint32_t frame, std::span<std::uint8_t> out) {
+        lockroll::sim::PlayerInput in;
+        if (bot) {  // circles the room, a different way per slot
+            const int phase = static_cast<int>(frame / 45 + static_cast<std::uint32_t>(slot) * 2) % 4;
+            in.forward = static_cast<std::int8_t>(phase == 0 ? 127 : phase == 2 ? -127 : 0);
+            in.right = static_cast<std::int8_t>(phase == 1 ? 127 : phase == 3 ? -127 : 0);
+        } else {
+            const Uint8* k = SDL_GetKeyboardState(nullptr);
+            in.forward = static_cast<std::int8_t>((k[SDL_SCANCODE_UP] || k[SDL_SCANCODE_W] ? 127 : 0) -
+                                                  (k[SDL_SCANCODE_DOWN] || k[SDL_SCANCODE_S] ? 127 : 0));
+            in.right = static_cast<std::int8_t>((k[SDL_SCANCODE_RIGHT] || k[SDL_SCANCODE_D] ? 127 : 0) -
+                                                (k[SDL_SCANCODE_LEFT] || k[SDL_SCANCODE_A] ? 127 : 0));
+            in.up = static_cast<std::int8_t>(k[SDL_SCANCODE_SPACE] ? 127 : 0);
+        }
+        const auto bytes = lockroll::rollback::encode_input(in);
+        std::copy(bytes.begin(), bytes.end(), out.begin());
+    };
+    // The game's loop: events, one update(), draw, then sleep until the next frame is due.
+    const auto frame_time = std::chrono::microseconds(1000000 / fps);
+    auto next = std::chrono::steady_clock::now();
+    lockroll::net::RunOutcome outcome{};
+    for (;;) {
+        for (SDL_Event e; SDL_PollEvent(&e);) {
+            if (e.type == SDL_QUIT || (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_ESCAPE)) net->request_stop();
+            if (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_l && !e.key.repeat) {
+                // A real switch: this client stops running on guesses (window 0) or resumes.
+                lockstep_view = !lockstep_view;
+                net->session().set_prediction_window(lockstep_view ? 0 : static_cast<int>(window));
             }
-            SDL_RenderPresent(ren);
-            for (SDL_Event e; SDL_PollEvent(&e);) {
-                if (e.type == SDL_QUIT || (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_ESCAPE)) net->request_stop();
-                if (e.type == SDL_KEYDOWN && e.key.keysym.sym == SDLK_l && !e.key.repeat) {
-                    // A real switch: this client stops running on guesses (window 0) or resumes.
-                    lockstep_view = !lockstep_view;
-                    net->session().set_prediction_window(lockstep_view ? 0 : static_cast<int>(window));
-                }
+        }
+        const lockroll::net::UpdateResult r = net->update(input, &ticks);
+        if (r.outcome) {
+            outcome = *r.outcome;
+            break;
+        }
+        const auto& s = net->session();
+        draw_world(ren, scene, game.world(), ticks.positions, r.interpolation);
+        const auto st = net->network_stats(other);
+        gauge(ren, 10, "P", static_cast<long>(st.ping_us / 1000), 200);
+        gauge(ren, 180, "D", s.input_delay(), 10);
+        gauge(ren, 350, "RB", ticks.depth, std::max(window, 1L));
+        gauge(ren, 520, "B", st.frames_behind, 10);
+        SDL_SetRenderDrawColor(ren, 255, 255, 255, 255);
+        text(ren, kSize - 30, 10, lockstep_view ? "L" : "R", 5);
+        if (!shot.empty() && !shot_taken && s.frame() >= static_cast<std::uint32_t>(shot_frame)) {
+            shot_taken = true;  // read back before presenting: the back buffer is then undefined
+            if (SDL_Surface* img = SDL_CreateRGBSurfaceWithFormat(0, kSize, kTop + kSize, 32, SDL_PIXELFORMAT_ARGB8888)) {
+                SDL_RenderReadPixels(ren, nullptr, SDL_PIXELFORMAT_ARGB8888, img->pixels, img->pitch);
+                SDL_SaveBMP(img, shot.c_str());
+                SDL_FreeSurface(img);
             }
-            lockroll::sim::PlayerInput in;
-            if (bot) {  // circles the room, a different way per slot
-                const int phase = static_cast<int>(frame / 45 + static_cast<std::uint32_t>(slot) * 2) % 4;
-                in.forward = static_cast<std::int8_t>(phase == 0 ? 127 : phase == 2 ? -127 : 0);
-                in.right = static_cast<std::int8_t>(phase == 1 ? 127 : phase == 3 ? -127 : 0);
-            } else {
-                const Uint8* k = SDL_GetKeyboardState(nullptr);
-                in.forward = static_cast<std::int8_t>((k[SDL_SCANCODE_UP] || k[SDL_SCANCODE_W] ? 127 : 0) -
-                                                      (k[SDL_SCANCODE_DOWN] || k[SDL_SCANCODE_S] ? 127 : 0));
-                in.right = static_cast<std::int8_t>((k[SDL_SCANCODE_RIGHT] || k[SDL_SCANCODE_D] ? 127 : 0) -
-                                                    (k[SDL_SCANCODE_LEFT] || k[SDL_SCANCODE_A] ? 127 : 0));
-                in.up = static_cast<std::int8_t>(k[SDL_SCANCODE_SPACE] ? 127 : 0);
-            }
-            const auto bytes = lockroll::rollback::encode_input(in);
-            std::copy(bytes.begin(), bytes.end(), out.begin());
-        },
-        &overlay);
+        }
+        SDL_RenderPresent(ren);
+        next += frame_time;
+        const auto now = std::chrono::steady_clock::now();
+        if (next < now) next = now;  // a slow frame is not made up in a burst
+        std::this_thread::sleep_until(next);
+    }
     SDL_DestroyRenderer(ren);
     SDL_DestroyWindow(win);
     SDL_Quit();

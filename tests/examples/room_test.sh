@@ -2,7 +2,9 @@
 # examples/room, built against a fresh install prefix: two windows under Xvfb play each other
 # through `lockroll proxy` (30 ms each way) to the same confirmed checksum, and each window's
 # screenshot at frame 240 shows the room's walls, the balls and both players (pixels counted by
-# check_room_shot.py). Skipped (exit 77) when SDL2 or Xvfb is missing, naming the package.
+# check_room_shot.py). Each window draws in its own loop: slot 0 at 144 Hz, slot 1 at 45 Hz
+# (several ticks per update), both on the 60 Hz match. Skipped (exit 77) when SDL2 or Xvfb is
+# missing, naming the package.
 #   room_test.sh BUILD_DIR SOURCE_DIR WORK_DIR CXX GENERATOR LOCKROLL_EXE
 set -euo pipefail
 build=$1 src=$2 work=$3 cxx=$4 gen=$5 lockroll=$6
@@ -20,7 +22,7 @@ trap 'kill $proxy 2>/dev/null || true' EXIT
 rc=0
 timeout 150 xvfb-run -a -s "-screen 0 1600x900x24" bash -c "
   '$exe' 0 $p0 $px --frames $frames --bot --screenshot '$work/shot0.bmp' --shot-frame 240 > '$work/out0' 2> '$work/err0' & a=\$!
-  '$exe' 1 $p1 $p0 --frames $frames --bot --screenshot '$work/shot1.bmp' --shot-frame 240 > '$work/out1' 2> '$work/err1' & b=\$!
+  '$exe' 1 $p1 $p0 --frames $frames --fps 45 --bot --screenshot '$work/shot1.bmp' --shot-frame 240 > '$work/out1' 2> '$work/err1' & b=\$!
   ra=0; rb=0; wait \$a || ra=\$?; wait \$b || rb=\$?; exit \$((ra + rb))" || rc=$?
 cat "$work/out0" "$work/out1"
 if [ "$rc" != 0 ]; then echo "room processes failed ($rc)" >&2; cat "$work/err0" "$work/err1" >&2; exit 1; fi

@@ -15,6 +15,7 @@
 #include "harness/live/child_process.h"
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
+#include "udp_socket_transport.h"
 
 namespace lockroll::net {
 namespace {
@@ -72,6 +73,28 @@ TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
               std::string::npos);
 }
 
+// The game's own transport: its id must be this process's slot, and it is bound already.
+TEST(SessionBuilder, OwnTransportErrorsNameTheSetting) {
+    Counters sim;
+    const auto base = [] { return SessionBuilder().players(2).input_size(1).local_player(0).remote_player(1, "127.0.0.1", 9); };
+    example::UdpSocketTransport wrong_id(1, 0, 2), right(0, 0, 2);
+    EXPECT_NE(error_of([&] { base().transport(wrong_id).start(sim); }).find("its local_id() is 1, this process's slot is 0"),
+              std::string::npos);
+    EXPECT_NE(error_of([&] { base().transport(right).listen("127.0.0.1", 7000).start(sim); }).find("exclude each other"),
+              std::string::npos);
+    auto owning = base().transport(std::make_unique<example::UdpSocketTransport>(0, 0, 2));
+    const auto first = owning.start(sim);
+    EXPECT_EQ(first->port(), 0);  // not ENet's
+    EXPECT_EQ(first->transport().local_id(), 0u);
+    Counters sim2;
+    EXPECT_NE(error_of([&] { owning.start(sim2); }).find("already in use"), std::string::npos);
+    // Through a server too.
+    EXPECT_NE(error_of([&] {
+                  SessionBuilder().players(2).input_size(1).local_player(0).server("127.0.0.1", 9).transport(wrong_id).start(sim);
+              }).find("local_id() is 1"),
+              std::string::npos);
+}
+
 TEST(SessionBuilder, SlotsAtOneAddressAreOneProcess) {
     const auto b = SessionBuilder().players(4).input_size(2).local_player(1).local_player(3)
                        .remote_player(2, "127.0.0.1", 7002).remote_player(0, "127.0.0.1", 7002);
@@ -115,6 +138,9 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     tb.join();
     ASSERT_EQ(oa, RunOutcome::Completed) << sa->session().failure();
     ASSERT_EQ(ob, RunOutcome::Completed) << sb->session().failure();
+    // frames(N) plays N frames: the linger after confirming it does not step on (issue 21).
+    EXPECT_EQ(sa->session().frame(), kFrames);
+    EXPECT_EQ(sb->session().frame(), kFrames);
     for (std::uint32_t f = 1; f <= kFrames; ++f) {
         const auto ca = sa->session().confirmed_checksum(f), cb = sb->session().confirmed_checksum(f);
         ASSERT_TRUE(ca && cb) << f;
@@ -126,6 +152,40 @@ TEST(SessionBuilder, CouchOfTwoPlusOneOnlineOverEnet) {
     EXPECT_TRUE(synchronized);
     // B heard slot 1 only through A: nothing about it is "remote" to predict forever.
     EXPECT_EQ(sb->session().slot_state(1), rollback::SlotState::Running);
+}
+
+// The start-up round trip is the network's, not how long hellos waited for the connection
+// (issue 21: 17-525 ms on loopback, an auto input delay of 9 frames once). Slot 1 never connects
+// (the lower slot does), so its hellos wait until slot 0 starts, 1.5 s later here. Held and sent
+// once connected, they went out with their old stamps and the sync phase measured seconds.
+TEST(SessionBuilder, StartUpRoundTripDoesNotCountHellosHeldBeforeTheConnection) {
+    constexpr std::uint32_t kFrames = 60;
+    Counters sim_a, sim_b;
+    const auto base = [](rollback::PlayerId me) {
+        return SessionBuilder().players(2).input_size(1).local_player(me).frames(kFrames).configure(
+            [](rollback::SessionConfig& c, RunnerConfig&) { c.auto_input_delay = true; });
+    };
+    const std::uint16_t port_b = base(1).remote_player(0, "127.0.0.1", 1).start(sim_b)->port();
+    std::unique_ptr<NetSession> sa = base(0).remote_player(1, "127.0.0.1", port_b).start(sim_a);
+    std::unique_ptr<NetSession> sb = base(1).listen("127.0.0.1", port_b).remote_player(0, "127.0.0.1", sa->port()).start(sim_b);
+    const auto input = [](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f); };
+    RunOutcome oa{}, ob{};
+    std::thread tb([&] { ob = sb->run(input); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    std::thread ta([&] { oa = sa->run(input); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << sa->session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << sb->session().failure();
+    std::string detail;
+    for (rollback::SessionEvent e; sb->next_event(e);)
+        if (e.kind == rollback::SessionEvent::Kind::Synchronized) detail = e.detail;
+    const auto at = detail.find("worst sync rtt ");
+    ASSERT_NE(at, std::string::npos) << detail;
+    const long worst_ms = std::stol(detail.substr(at + 15));
+    // Loopback: milliseconds, even on a loaded machine; a held hello would say about 1,500.
+    EXPECT_LT(worst_ms, 300) << detail;
+    EXPECT_LE(sb->session().input_delay(), 5) << detail;
 }
 
 // Two processes' sessions through a real `lockroll-server` on 127.0.0.1: the builder's server().
@@ -157,6 +217,8 @@ TEST(SessionBuilder, TwoPlayersThroughTheRelayServer) {
     tb.join();
     ASSERT_EQ(oa, RunOutcome::Completed) << sa->relay_session().failure();
     ASSERT_EQ(ob, RunOutcome::Completed) << sb->relay_session().failure();
+    EXPECT_EQ(sa->relay_session().frame(), kFrames);
+    EXPECT_EQ(sb->relay_session().frame(), kFrames);
     for (std::uint32_t f = 1; f <= kFrames; ++f) {
         const auto ca = sa->confirmed_checksum(f), cb = sb->confirmed_checksum(f);
         ASSERT_TRUE(ca && cb) << f;

@@ -1,7 +1,12 @@
-// RunEnd: how a real-time run ends, as both runners' loop (run_ticks) asks it every tick. Virtual
+// RunEnd: how a real-time run ends, as both runners' loop (TickLoop) asks it every tick. Virtual
 // microseconds only: no clock, no socket. Issue 21: a run that ends while its session is cut off
-// from a majority ends Partitioned, never Completed or a timeout.
+// from a majority ends Partitioned, never Completed or a timeout. TickLoop: the game's own loop
+// calling update() at its own rate gets the ticks that are due, and an interpolation fraction.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <vector>
 
 #include "net/tick_schedule.h"
 
@@ -87,6 +92,128 @@ TEST(RunEnd, AHealedPartitionCompletesAsUsual) {
 TEST(RunEnd, EveryOutcomeHasAName) {
     EXPECT_STREQ(outcome_name(RunOutcome::Partitioned), "partitioned");
     EXPECT_STREQ(outcome_name(RunOutcome::Completed), "completed");
+}
+
+// A game loop of `hz` frames a second driving a TickLoop at 60 ticks a second, in virtual time:
+// what each update() returned, and the ticks' due times as the loop passed them.
+struct Driven {
+    std::vector<UpdateResult> updates;
+    std::vector<std::uint64_t> tick_due;
+};
+Driven drive(const RunnerConfig& c, int hz, std::uint64_t seconds, bool may_tick = true, std::uint64_t stop_at = 0) {
+    TickLoop loop(c);
+    Driven d;
+    std::uint64_t now = kStart;
+    std::atomic<bool> stop{false};
+    const std::uint64_t frame_us = 1000000u / static_cast<std::uint64_t>(hz);
+    for (std::uint64_t t = kStart; t < kStart + seconds * 1000000u; t += frame_us) {
+        now = t;
+        if (stop_at && t >= stop_at) stop.store(true);
+        d.updates.push_back(loop.update(
+            [&] { return now; }, stop, nullptr, [&](std::uint64_t) { return may_tick; },
+            [&](std::uint64_t, std::uint64_t due) {
+                d.tick_due.push_back(due);
+                return TickDone{0, 0};
+            },
+            [] { return TickStatus{.running = true}; }));
+        if (d.updates.back().outcome) break;
+    }
+    return d;
+}
+
+int most_frames(const Driven& d) {
+    int m = 0;
+    for (const auto& u : d.updates) m = std::max(m, u.frames);
+    return m;
+}
+
+TEST(TickLoop, AGameSlowerThanTheTickRateGetsSeveralTicksPerUpdate) {
+    const Driven d = drive(config(), 30, 2);
+    std::size_t ticks = 0;
+    for (const auto& u : d.updates) ticks += static_cast<std::size_t>(u.frames);
+    EXPECT_EQ(ticks, d.tick_due.size());
+    EXPECT_NEAR(static_cast<double>(ticks), 120.0, 2.0);  // 2 s at 60 Hz, whatever the game's rate
+    EXPECT_EQ(most_frames(d), 2);
+    // Ticks run at their due times' pace: 60 a second.
+    EXPECT_EQ(d.tick_due[60] - d.tick_due[0], 1000000u);
+}
+
+TEST(TickLoop, AGameFasterThanTheTickRateGetsNoneOrOneAndAnInterpolationBetweenThem) {
+    const Driven d = drive(config(), 144, 2);
+    std::size_t ticks = 0, none = 0;
+    for (const auto& u : d.updates) {
+        ticks += static_cast<std::size_t>(u.frames);
+        none += u.frames == 0;
+        EXPECT_GE(u.interpolation, 0.0);
+        EXPECT_LT(u.interpolation, 1.0);
+    }
+    EXPECT_NEAR(static_cast<double>(ticks), 120.0, 2.0);
+    EXPECT_EQ(most_frames(d), 1);
+    EXPECT_GT(none, d.updates.size() / 3);  // 144 frames for 60 ticks a second
+    // Between two ticks the fraction grows; at a tick it starts again near 0.
+    bool grew = false;
+    for (std::size_t i = 1; i < d.updates.size(); ++i)
+        if (d.updates[i].frames == 0 && d.updates[i - 1].frames == 0) {
+            EXPECT_GT(d.updates[i].interpolation, d.updates[i - 1].interpolation) << i;
+            grew = true;
+        }
+    EXPECT_TRUE(grew);
+}
+
+TEST(TickLoop, AFrozenGameDoesNotFastForwardInABurst) {
+    RunnerConfig c = config();
+    TickLoop loop(c);
+    std::atomic<bool> stop{false};
+    std::uint64_t now = kStart;
+    const auto update = [&] {
+        return loop.update([&] { return now; }, stop, nullptr, [](std::uint64_t) { return true; },
+                           [](std::uint64_t, std::uint64_t) { return TickDone{0, 3}; }, [] { return TickStatus{.running = true}; });
+    };
+    EXPECT_EQ(update().frames, 1);
+    now += 5000000;  // the game froze for 5 s
+    const UpdateResult r = update();
+    EXPECT_LE(r.frames, c.max_catch_up + 1);
+    EXPECT_EQ(r.rollback_depth, 3u);
+    EXPECT_EQ(loop.schedule_resets(), 1u);
+}
+
+TEST(TickLoop, StopAndConnectTimeoutEndTheRunOnce) {
+    const Driven stopped = drive(config(), 60, 5, true, kStart + 1000000);
+    ASSERT_TRUE(stopped.updates.back().outcome);
+    EXPECT_EQ(*stopped.updates.back().outcome, RunOutcome::Stopped);
+    RunnerConfig c = config();
+    c.connect_timeout_us = 2000000;
+    const Driven waiting = drive(c, 60, 5, false);  // the runner's connections never come up
+    EXPECT_TRUE(waiting.tick_due.empty());
+    ASSERT_TRUE(waiting.updates.back().outcome);
+    EXPECT_EQ(*waiting.updates.back().outcome, RunOutcome::ConnectTimeout);
+    EXPECT_NEAR(static_cast<double>(waiting.updates.size()) / 60.0, 2.0, 0.1);
+}
+
+TEST(TickLoop, ARunThatIsOverStaysOver) {
+    RunnerConfig c = config();
+    c.target_frame = 10;
+    TickLoop loop(c);
+    std::atomic<bool> stop{false};
+    std::uint64_t now = kStart;
+    int ticks = 0;
+    std::optional<RunOutcome> first;
+    for (int i = 0; i < 200 && !first; ++i, now += kTick)
+        first = loop.update([&] { return now; }, stop, nullptr, [](std::uint64_t) { return true; },
+                            [&](std::uint64_t, std::uint64_t) { return ++ticks, TickDone{}; },
+                            [&] { return TickStatus{.running = true, .shown_target = ticks >= 10, .confirmed = ticks >= 10}; })
+                    .outcome;
+    ASSERT_TRUE(first);
+    EXPECT_EQ(*first, RunOutcome::Completed);
+    const int at_end = ticks;
+    now += 1000000;
+    const UpdateResult again = loop.update([&] { return now; }, stop, nullptr, [](std::uint64_t) { return true; },
+                                           [&](std::uint64_t, std::uint64_t) { return ++ticks, TickDone{}; },
+                                           [] { return TickStatus{}; });
+    EXPECT_EQ(again.outcome, first);
+    EXPECT_EQ(again.frames, 0);
+    EXPECT_EQ(ticks, at_end);
+    EXPECT_FALSE(loop.next_due());
 }
 
 }  // namespace
