@@ -175,8 +175,8 @@ lockroll_status address_ok(const char* where, const char* host, std::uint16_t po
 
 struct lockroll_builder {
     net::SessionBuilder builder;
+    std::int32_t players = 2;  // the builder's default
     std::size_t input_size = 0;
-    std::size_t local_players = 0;
     std::uint32_t frames = 0;
     std::uint64_t connect_us = 0, finish_us = 0, run_us = 0, interrupt_us = 0, disconnect_us = 0;
 };
@@ -231,10 +231,13 @@ const char* lockroll_outcome_name(lockroll_outcome outcome) {
 }
 
 const char* lockroll_event_name(lockroll_event_kind kind) {
-    using K = rollback::SessionEvent::Kind;
-    if (kind > LOCKROLL_EVENT_SERVER_DRAINING) return "other";
-    // The C enumerators follow SessionEvent::Kind's order (checked by tests/capi).
-    return rollback::event_name(static_cast<K>(kind));
+    // Through to_c(), so the C values need not follow SessionEvent::Kind's order.
+    if (kind != LOCKROLL_EVENT_OTHER)
+        for (int i = 0; i <= 0xff; ++i) {
+            const auto k = static_cast<rollback::SessionEvent::Kind>(i);
+            if (to_c(k) == kind) return rollback::event_name(k);
+        }
+    return "other";
 }
 
 lockroll_builder* lockroll_builder_new(void) {
@@ -249,7 +252,10 @@ lockroll_builder* lockroll_builder_new(void) {
 void lockroll_builder_free(lockroll_builder* builder) { delete builder; }
 
 lockroll_status lockroll_builder_players(lockroll_builder* b, std::int32_t players) {
-    return with_builder(b, "lockroll_builder_players", [&] { b->builder.players(players); });
+    return with_builder(b, "lockroll_builder_players", [&] {
+        b->builder.players(players);
+        b->players = players;
+    });
 }
 
 lockroll_status lockroll_builder_input_size(lockroll_builder* b, std::uint32_t bytes) {
@@ -262,10 +268,7 @@ lockroll_status lockroll_builder_input_size(lockroll_builder* b, std::uint32_t b
 lockroll_status lockroll_builder_local_player(lockroll_builder* b, std::int32_t slot) {
     constexpr const char* where = "lockroll_builder_local_player";
     if (slot_ok(where, slot) != LOCKROLL_OK) return LOCKROLL_INVALID_ARGUMENT;
-    return with_builder(b, where, [&] {
-        b->builder.local_player(static_cast<rollback::PlayerId>(slot));
-        ++b->local_players;
-    });
+    return with_builder(b, where, [&] { b->builder.local_player(static_cast<rollback::PlayerId>(slot)); });
 }
 
 lockroll_status lockroll_builder_remote_player(lockroll_builder* b, std::int32_t slot, const char* host, std::uint16_t port) {
@@ -362,7 +365,7 @@ lockroll_session* lockroll_builder_start(const lockroll_builder* b, const lockro
                 runner_timeouts(r);
                 if (c.disconnect_us) rc.server_timeout_us = c.disconnect_us;
             });
-            s->game->set_players(static_cast<std::uint32_t>(builder.session_config().players));
+            s->game->set_players(static_cast<std::uint32_t>(std::max(b->players, 0)));
             s->net = builder.start(*s->game);
             s->frames = b->frames;
             s->input_bytes = b->input_size * s->net->local_slots().size();
