@@ -37,9 +37,13 @@ static class CsharpCounter {
 
     static int Main(string[] args) {
         if (args.Length != 4) return Fail("usage: CsharpCounter.exe SLOT MY_PORT PEER_PORT FRAMES");
-        int slot = int.Parse(args[0]);
-        ushort myPort = ushort.Parse(args[1]), peerPort = ushort.Parse(args[2]);
-        uint frames = uint.Parse(args[3]);
+        int slot;
+        ushort myPort, peerPort;
+        uint frames;
+        if (!int.TryParse(args[0], out slot)) return Fail("SLOT must be an integer, got " + args[0]);
+        if (!ushort.TryParse(args[1], out myPort)) return Fail("MY_PORT must be 0..65535, got " + args[1]);
+        if (!ushort.TryParse(args[2], out peerPort)) return Fail("PEER_PORT must be 0..65535, got " + args[2]);
+        if (!uint.TryParse(args[3], out frames)) return Fail("FRAMES must be a non-negative integer, got " + args[3]);
         var game = new Game {
             struct_size = (UIntPtr)Marshal.SizeOf(typeof(Game)), state_size = (UIntPtr)8,
             save = Marshal.GetFunctionPointerForDelegate(save), load = Marshal.GetFunctionPointerForDelegate(load),

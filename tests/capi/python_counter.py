@@ -42,8 +42,16 @@ def main():
     if len(sys.argv) not in (5, 6):
         print("usage: python_counter.py SLOT MY_PORT PEER_PORT FRAMES [DELAY]", file=sys.stderr)
         return 2
-    slot, my_port, peer_port, frames = (int(a) for a in sys.argv[1:5])
-    delay = int(sys.argv[5]) if len(sys.argv) == 6 else 2
+    names = ["SLOT", "MY_PORT", "PEER_PORT", "FRAMES", "DELAY"]
+    values = []
+    for name, text in zip(names, sys.argv[1:]):
+        try:
+            values.append(int(text))
+        except ValueError:
+            print(f"python_counter: {name} must be an integer, got {text!r}", file=sys.stderr)
+            return 2
+    slot, my_port, peer_port, frames = values[:4]
+    delay = values[4] if len(values) == 5 else 2
     game = Counter()
     try:
         session = (lockroll.Builder().players(2).input_size(1).local_player(slot)
