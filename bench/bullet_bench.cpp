@@ -14,6 +14,19 @@
 // machine is shared: wall time would count other jobs). Prints the median CPU time per step of
 // each engine and the ratio Bullet / lockroll (> 1: lockroll faster). Not a test: results go to
 // docs/performance.md.
+//
+// Bullet keeps its own solver defaults (btContactSolverInfo): warm starting (factor 0.85),
+// Baumgarte erp 0.2, split impulses for overlaps deeper than 4 cm, restitution only above a
+// 0.2 m/s approach, measured from the velocity before this step's gravity.
+//
+// `--settle N` instead steps each scene N frames in both engines (no timing) and prints, every
+// `--every` frames, per engine: the kinetic energy of the dynamic bodies (translational +
+// rotational, J), the spheres' share of it, the rotational part, the vertical part (m vy^2 / 2:
+// hopping), the mean height of the centres (m), how many spheres sit above 1.5 radii (on other
+// bodies), the deepest sphere into the floor (mm, floor at y = 0 as in the shipped rooms) and,
+// for lockroll, the contact points of the last step (what a step's solver work scales with):
+// whether a pile comes to rest, and how it compares with Bullet's on the same scene
+// (docs/physics.md). `--lockroll-only` leaves Bullet out, for quick what-ifs on scene files.
 #include <btBulletDynamicsCommon.h>
 
 #include <CLI/CLI.hpp>
@@ -25,7 +38,8 @@
 #include <string>
 #include <vector>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
+#include "sim/inertia.h"
 #include "sim/world.h"
 
 namespace {
@@ -115,6 +129,7 @@ public:
     BulletScene& operator=(const BulletScene&) = delete;
 
     void step() { world_.stepSimulation(static_cast<btScalar>(dt_), 0); }
+    const std::vector<std::unique_ptr<btRigidBody>>& bodies() const { return bodies_; }
 
 private:
     btDefaultCollisionConfiguration config_;
@@ -143,6 +158,85 @@ double time_bullet(const sim::SceneDesc& scene, int frames) {
     return (thread_seconds() - t0) / frames;
 }
 
+// What --settle reports of one world at one frame.
+struct Rest {
+    double ke_spheres = 0, ke_others = 0, ke_rot = 0, ke_vertical = 0, height_sum = 0;
+    std::size_t count = 0, lifted = 0;  // lifted: spheres whose centre is above 1.5 radii (on others)
+    double sink = 0;  // deepest sphere into the floor (radius - height; the shipped rooms' floor is y = 0)
+    double ke() const { return ke_spheres + ke_others; }
+    double mean_height() const { return count ? height_sum / static_cast<double>(count) : 0; }
+    void add(bool sphere, double mass, double radius, const double v[3], const double w_body[3], const double inertia[3],
+             double y) {
+        ke_vertical += 0.5 * mass * v[1] * v[1];
+        if (sphere && y > 1.5 * radius) ++lifted;
+        if (sphere) sink = std::max(sink, radius - y);
+        const double lin = 0.5 * mass * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        const double rot = 0.5 * (inertia[0] * w_body[0] * w_body[0] + inertia[1] * w_body[1] * w_body[1] +
+                                  inertia[2] * w_body[2] * w_body[2]);
+        (sphere ? ke_spheres : ke_others) += lin + rot;
+        ke_rot += rot;
+        height_sum += y;
+        ++count;
+    }
+};
+
+Rest rest_of(const sim::World& w) {
+    Rest r;
+    const sim::SceneDesc& scene = w.scene();
+    for (sim::BodyId id : w.dynamic_ids()) {
+        const sim::BodyDesc& b = scene.bodies[id];
+        const sim::Vec3 vi = w.velocity(id), wi = w.angular_velocity(id);
+        const double v[3] = {num(vi.x), num(vi.y), num(vi.z)};
+        // Angular velocity into the body frame: R^T w, R from the unit quaternion.
+        const sim::Quat& q = w.orientation(id);
+        const btMatrix3x3 rot(btQuaternion(num(q.x), num(q.y), num(q.z), num(q.w)));
+        const btVector3 wb = rot.transpose() * btVector3(num(wi.x), num(wi.y), num(wi.z));
+        const double w_body[3] = {wb.x(), wb.y(), wb.z()};
+        const sim::Vec3 in = sim::inertia(b.shape, b.radius, b.half_extents, b.half_height, b.mass);
+        const double inertia[3] = {num(in.x), num(in.y), num(in.z)};
+        r.add(b.shape == sim::Shape::Sphere, num(b.mass), num(b.radius), v, w_body, inertia, num(w.position(id).y));
+    }
+    return r;
+}
+Rest rest_of(const BulletScene& w, const sim::SceneDesc& scene) {
+    Rest r;
+    for (const auto& body : w.bodies()) {
+        if (body->getInvMass() == 0) continue;
+        const sim::BodyDesc& b = scene.bodies[static_cast<std::size_t>(body->getUserIndex())];
+        const btVector3 vi = body->getLinearVelocity();
+        const btVector3 wb = body->getWorldTransform().getBasis().transpose() * body->getAngularVelocity();
+        const btVector3 in = body->getLocalInertia();
+        const double v[3] = {vi.x(), vi.y(), vi.z()}, w_body[3] = {wb.x(), wb.y(), wb.z()};
+        const double inertia[3] = {in.x(), in.y(), in.z()};
+        r.add(b.shape == sim::Shape::Sphere, 1 / body->getInvMass(), num(b.radius), v, w_body, inertia,
+              body->getWorldTransform().getOrigin().y());
+    }
+    return r;
+}
+
+// --settle: both engines side by side, every `every` frames up to `frames`.
+void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet) {
+    sim::World ours(scene);
+    std::unique_ptr<BulletScene> theirs;
+    if (with_bullet) theirs = std::make_unique<BulletScene>(scene);
+    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(ours.player_count()));
+    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s\n", "scene",
+                "frame", "lockroll J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points",
+                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm");
+    for (int f = 1; f <= frames; ++f) {
+        ours.step(in);
+        if (theirs) theirs->step();
+        if (f % every != 0 && f != frames) continue;
+        const Rest a = rest_of(ours), b = theirs ? rest_of(*theirs, scene) : Rest{};
+        std::printf(
+            "%-18s %6d | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f %6zu | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu "
+            "%7.2f\n",
+            scene.name.c_str(), f, a.ke(), a.ke_spheres, a.ke_rot, a.ke_vertical, a.mean_height(), a.lifted, a.sink * 1e3,
+            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted, b.sink * 1e3);
+        std::fflush(stdout);
+    }
+}
+
 double median(std::vector<double> v) {
     std::sort(v.begin(), v.end());
     const std::size_t n = v.size();
@@ -155,11 +249,27 @@ int main(int argc, char** argv) {
     std::vector<std::string> scenes{"paper_rigid", "bodies_10k_rigid"};
     std::vector<int> frames{720, 60};
     int reps = 7;
+    int settle_frames = 0, every = 60;
+    bool lockroll_only = false;
     app.add_option("--scenes", scenes, "Scene names or files (rigid scenes)");
     app.add_option("--frames", frames, "Frames per round, one per scene (default 720 for paper_rigid, 60 for 10k)");
     app.add_option("--reps", reps, "Rounds per scene (median over them)")->check(CLI::Range(1, 1000));
-    CLI11_PARSE(app, argc, argv);
-    if (frames.size() != scenes.size()) {
+    app.add_option("--settle", settle_frames,
+                   "Instead of timing: step each scene this many frames in both engines and print kinetic "
+                   "energy and mean height")
+        ->check(CLI::Range(1, 1000000));
+    app.add_option("--every", every, "With --settle: print every this many frames")->check(CLI::Range(1, 1000000));
+    app.add_flag("--lockroll-only", lockroll_only, "With --settle: leave Bullet out (quick what-ifs on scene files)");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        // Bad flags: CLI11's message names the flag and value; exit 2 before any work.
+        std::fprintf(stderr, "bullet_bench: %s\n", e.what());
+        return 2;
+    }
+    if (settle_frames == 0 && frames.size() != scenes.size()) {
         std::fprintf(stderr, "bullet_bench: --frames needs one value per scene (%zu scenes, %zu values)\n",
                      scenes.size(), frames.size());
         return 2;
@@ -171,12 +281,19 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "bullet_bench: scene %s is not rigid (no \"rigid\")\n", scenes[s].c_str());
             return 2;
         }
-        if (frames[s] < 1) {
+        if (settle_frames == 0 && frames[s] < 1) {
             std::fprintf(stderr, "bullet_bench: --frames must be >= 1\n");
             return 2;
         }
     }
     gContactAddedCallback = material_callback;
+    if (settle_frames > 0) {
+        for (const sim::SceneDesc& scene : loaded) {
+            g_materials.scene = &scene;
+            settle(scene, settle_frames, every, !lockroll_only);
+        }
+        return 0;
+    }
     std::printf("%-18s %7s %6s %4s %16s %16s %8s\n", "scene", "bodies", "frames", "reps", "lockroll us/step",
                 "bullet us/step", "ratio");
     for (std::size_t s = 0; s < loaded.size(); ++s) {

@@ -4,7 +4,7 @@
 
 #include <vector>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
 

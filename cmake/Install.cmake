@@ -32,7 +32,13 @@ foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
   list(APPEND lockroll_installed ${name})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} POSITION_INDEPENDENT_CODE ON)
   lockroll_public_headers(${name} header_dir headers)  # cmake/PublicHeaders.cmake
-  file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/include/lockroll)
+  # A header dir may be nested (lockroll::match: harness/match): its parent is a real directory
+  # here; an older build tree may still hold a link to the whole source folder in its place.
+  get_filename_component(link_parent ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir} DIRECTORY)
+  if(IS_SYMLINK ${link_parent})
+    file(REMOVE ${link_parent})
+  endif()
+  file(MAKE_DIRECTORY ${link_parent})
   file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${header_dir} ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir} SYMBOLIC)
   target_include_directories(${target} INTERFACE
     $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>

@@ -1,4 +1,4 @@
-// libFuzzer target: arbitrary text as a scene file (harness/scene_loader.h). Property: the
+// libFuzzer target: arbitrary text as a scene file (harness/match/scene_loader.h). Property: the
 // loader either returns a scene or throws SceneError (anything else escaping is a bug), within
 // the body limit; an accepted scene builds a World that steps without a crash or undefined
 // behaviour. Run with -dict=fuzz/scene.dict.
@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "sim/world.h"
 
 using namespace lockroll;

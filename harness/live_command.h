@@ -24,6 +24,10 @@
 // --spectators K adds K `peer --spectate` processes. docs/sessions.md has the details.
 // Exit status: 0 when every process that was not killed completed and all final confirmed
 // checksums agree; 1 otherwise; 2 bad flags (checked before any process starts).
+//
+// Where it lives: this file turns the flags into a checked plan (harness/live/live_plan.h) and
+// writes the run's files; the processes are run by harness/live/live_processes.h and every
+// figure of the report is built from their raw files by harness/live/live_report.h.
 #pragma once
 
 #include <CLI/CLI.hpp>

@@ -8,9 +8,9 @@
 #include <CLI/CLI.hpp>
 #include <lockroll/version.h>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 #include "harness/commands.h"
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 
 namespace {
 // CLI11 answers an unknown first word with "A subcommand is required"; name it instead.

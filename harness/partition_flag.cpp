@@ -5,7 +5,7 @@
 #include <optional>
 #include <string_view>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 
 namespace lockroll::harness {
 

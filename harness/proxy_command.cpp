@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 #include "harness/cli_validators.h"
-#include "harness/loopback_address.h"
-#include "harness/match.h"
+#include "harness/live/loopback_address.h"
+#include "harness/match/match.h"
 #include "harness/partition_flag.h"
 #include "net/clock.h"
 #include "net/udp_proxy.h"

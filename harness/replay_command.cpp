@@ -7,11 +7,11 @@
 #include <stdexcept>
 #include <vector>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
-#include "harness/hex.h"
-#include "harness/match.h"
-#include "harness/scene_loader.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
+#include "harness/match/hex.h"
+#include "harness/match/match.h"
+#include "harness/match/scene_loader.h"
 #include "rollback/world_simulation.h"
 
 namespace lockroll::harness {

@@ -18,7 +18,7 @@ void add_replay_command(CLI::App& app);
 // bytes, so the replay verifies even after the file changes. Throws UsageError if unreadable.
 std::string scene_text_for_replay(const std::string& name_or_path);
 
-// Writes a replay atomically (harness/atomic_file.h).
+// Writes a replay atomically (harness/match/atomic_file.h).
 void write_replay_file(const std::filesystem::path& path, const rollback::Replay& replay);
 
 // Replay files are read whole; larger ones are refused before reading (--max-mib raises it).

@@ -11,16 +11,16 @@
 #include <memory>
 #include <sstream>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
 #include "harness/cli_validators.h"
-#include "harness/match.h"
-#include "harness/output_path.h"
+#include "harness/match/match.h"
+#include "harness/report/output_path.h"
 #include "harness/partition_flag.h"
-#include "harness/plot_script.h"
+#include "harness/report/plot_script.h"
 #include "harness/replay_command.h"
-#include "harness/report.h"
-#include "harness/scene_loader.h"
+#include "harness/report/report.h"
+#include "harness/match/scene_loader.h"
 #include "harness/view_command.h"
 #include "rollback/world_simulation.h"
 #include "sim/world.h"

@@ -4,7 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "harness/match.h"
+#include "harness/match/match.h"
 #include "sim/scene.h"
 
 namespace lockroll::harness {

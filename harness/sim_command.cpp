@@ -6,11 +6,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
-#include "harness/hex.h"
-#include "harness/output_path.h"
-#include "harness/scene_loader.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
+#include "harness/match/hex.h"
+#include "harness/report/output_path.h"
+#include "harness/match/scene_loader.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
 

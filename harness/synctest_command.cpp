@@ -7,13 +7,13 @@
 #include <string>
 #include <vector>
 
-#include "harness/bots.h"
-#include "harness/cli_error.h"
+#include "harness/match/bots.h"
+#include "harness/match/cli_error.h"
 #include "harness/cli_validators.h"
-#include "harness/hex.h"
-#include "harness/output_path.h"
+#include "harness/match/hex.h"
+#include "harness/report/output_path.h"
 #include "harness/replay_command.h"
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "rollback/replay.h"
 #include "rollback/sync_test.h"
 #include "rollback/world_simulation.h"

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "harness/cli_error.h"
-#include "harness/output_path.h"
+#include "harness/match/cli_error.h"
+#include "harness/report/output_path.h"
 #include "harness/peer_command.h"
 #include "rollback/relay_session.h"
 #include "rollback/world_simulation.h"

@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
 #include "harness/view_page.h"
 
 namespace lockroll::harness {

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Cross-compiler / cross-architecture determinism check.
 #
-# Builds the golden runner (tests/golden/golden_main.cpp + sim/*.cpp + harness/scene_loader.cpp)
+# Builds the golden runner (tests/golden/golden_main.cpp + sim/*.cpp + harness/match/scene_loader.cpp)
 # with every compiler, optimisation level and CPU below and compares its output, line by line,
 # with tests/golden/checksums.txt. Any difference is a determinism bug: the simulation must give
 # the same bits everywhere.
@@ -159,7 +159,7 @@ if [[ $keep -eq 1 ]]; then echo "cross-check: work directory $work"; else trap '
 mkdir -p "$work/include"
 for h in "${headers[@]}"; do ln -s "$h" "$work/include/$(basename "$h")"; done
 
-sources=("$root"/sim/*.cpp "$root/harness/scene_loader.cpp" "$root/tests/golden/golden_main.cpp")
+sources=("$root"/sim/*.cpp "$root/harness/match/scene_loader.cpp" "$root/tests/golden/golden_main.cpp")
 common=(-std=c++20 -ffp-contract=off -fno-fast-math -w -I"$root" -I"$work/include")
 
 now() { date +%s.%N; }

@@ -3,7 +3,7 @@
 // The physics is written once, as templates over a number type N, so that exactly the same
 // algorithm can run on Q32.32 (the simulation: this header's Fixed specialization, the only one
 // sim/ ever instantiates) and on a wide floating type in the harness, which uses it as the
-// reference for the work-precision sweep (harness/reference_world.h). sim/ never names a
+// reference for the work-precision sweep (harness/validation/reference_world.h). sim/ never names a
 // floating type; the harness supplies that specialization itself.
 //
 // Besides + - * / unary minus and comparisons on N, a specialization provides:

@@ -460,9 +460,17 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             }
             if (e.raw > 0) {
                 const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
-                // Only when the approach closes the gap within this step.
-                if (-vn > threshold_ && (c.depth.raw > 0 || vn * dt_ + c.depth < Fixed::zero()))
-                    target = max(target, -(e * vn));
+                // The bounce is e times the approach speed the bodies came in with, before this
+                // step's gravity (as Box2D and Bullet measure it): bouncing the g dt added this
+                // step too gave every bounce e g dt more than it brought, so a ball on e = 0.8
+                // kept hopping at ~0.9 m/s, above the threshold, forever (docs/physics.md).
+                const Fixed vn_before = vn - dot(p.n, gravity_dv_[b] - gravity_dv_[a]);
+                // Only when the approach closes the gap within this step: the gap is -depth, so
+                // it closes when -vn dt >= -depth, i.e. vn dt <= depth. (This read vn dt + depth
+                // < 0, true for every approaching gap: a ball bounced off the floor up to the
+                // whole contact margin above it.)
+                if (-vn_before > threshold_ && (c.depth.raw > 0 || vn * dt_ <= c.depth))
+                    target = max(target, -(e * vn_before));
             }
             p.target = target;
         }

@@ -9,8 +9,9 @@
 //  4. per contact point: lever arms (a sphere's taken exactly along the normal, so its normal
 //     impulse never spins it), each row's Jacobian products (Row) and effective mass along the
 //     normal and two tangents, the target normal speed (Baumgarte feedback beyond slop, the gap
-//     / dt of a speculative point, restitution from the approach speed before solving when
-//     above the threshold). The bodies with points are copied into a compact solver array
+//     / dt of a speculative point, restitution: e times the approach speed before this step's
+//     gravity, when that is above the threshold and the point touches or its gap closes
+//     within the step). The bodies with points are copied into a compact solver array
 //     (SolverBody) in the order the points first name them, and copied back after step 5b.
 //  5. `iterations` passes of sequential impulses over the points in a fixed order: normal
 //     impulse (accumulated, >= 0), then friction (accumulated, on the tangent plane): while the

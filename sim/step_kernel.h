@@ -2,7 +2,7 @@
 //
 // World (sim/world.h) instantiates it with Fixed and owns the state that snapshots store; the
 // harness instantiates it with a floating type as the work-precision reference
-// (harness/reference_world.h). Both therefore run the same algorithm, operation for operation.
+// (harness/validation/reference_world.h). Both therefore run the same algorithm, operation for operation.
 //
 // The default step is the seed paper's solver: semi-implicit Euler (gravity into velocity,
 // player input, velocity into position), candidate pairs once per step, then `iterations`

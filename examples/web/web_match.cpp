@@ -18,8 +18,8 @@
 #include <string>
 #include <utility>
 
-#include <lockroll/harness/match.h>
-#include <lockroll/harness/scene_loader.h>
+#include <lockroll/harness/match/match.h>
+#include <lockroll/harness/match/scene_loader.h>
 
 namespace {
 

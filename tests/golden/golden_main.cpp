@@ -3,7 +3,7 @@
 // level and CPU in scripts/cross-check.sh, must print exactly tests/golden/checksums.txt;
 // the CTest test `golden_checksums` holds the normal build to the same file.
 //
-// It compiles from sim/*.cpp, harness/scene_loader.cpp and this file alone, with header-only
+// It compiles from sim/*.cpp, harness/match/scene_loader.cpp and this file alone, with header-only
 // nlohmann-json, xxHash and CLI11, so cross compilers need no libraries.
 #include <CLI/CLI.hpp>
 
@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "harness/hex.h"
-#include "harness/scene_loader.h"
+#include "harness/match/hex.h"
+#include "harness/match/scene_loader.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
 

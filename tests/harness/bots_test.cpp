@@ -1,11 +1,11 @@
-#include "harness/bots.h"
+#include "harness/match/bots.h"
 
 #include <gtest/gtest.h>
 
 #include <stdexcept>
 #include <vector>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "sim/scene.h"
 #include "sim/world.h"
 

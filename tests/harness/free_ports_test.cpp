@@ -1,5 +1,5 @@
-// harness/free_ports.h: distinct ports below the ephemeral range, each free when returned.
-#include "harness/free_ports.h"
+// harness/live/free_ports.h: distinct ports below the ephemeral range, each free when returned.
+#include "harness/live/free_ports.h"
 
 #include <gtest/gtest.h>
 #include <netinet/in.h>

@@ -4,9 +4,9 @@
 // callbacks feeding it.
 #include <gtest/gtest.h>
 
-#include "harness/match.h"
-#include "harness/match_recorder.h"
-#include "harness/scene_loader.h"
+#include "harness/match/match.h"
+#include "harness/match/match_recorder.h"
+#include "harness/match/scene_loader.h"
 #include "rollback/session.h"
 
 namespace lockroll::harness {

@@ -2,10 +2,10 @@
 // named to body and field, many players over a bad network.
 #include <gtest/gtest.h>
 
-#include "harness/cli_error.h"
-#include "harness/match.h"
-#include "harness/report.h"
-#include "harness/scene_loader.h"
+#include "harness/match/cli_error.h"
+#include "harness/match/match.h"
+#include "harness/report/report.h"
+#include "harness/match/scene_loader.h"
 #include "sim/snapshot.h"
 
 namespace lockroll::harness {

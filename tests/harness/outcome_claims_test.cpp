@@ -3,7 +3,7 @@
 // players); a partitioned one names its frame and exits non-zero; others claim nothing to check.
 #include <gtest/gtest.h>
 
-#include "harness/outcome_claims.h"
+#include "harness/live/outcome_claims.h"
 
 namespace lockroll::harness {
 namespace {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 
 namespace lockroll::harness {
 namespace {

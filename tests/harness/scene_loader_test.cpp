@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "sim/world.h"
 
 namespace lockroll::harness {

@@ -1,20 +1,26 @@
-// The stability suite's command and the opt-in solver features it relies on (docs/stability.md).
+// The stability suite (its cases as a library, its command), the precision sweep's checks before
+// work, and the opt-in solver features they rely on (docs/stability.md).
 // The suite's cases themselves run as CTest tests of `lockroll stability --case NAME`
 // (tests/harness/stability.cmake); these tests pin down what the cases cannot see.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
-#include "harness/cli_error.h"
-#include "harness/reference_world.h"
-#include "harness/scene_loader.h"
+#include "harness/match/cli_error.h"
+#include "harness/match/scene_loader.h"
 #include "harness/stability_command.h"
+#include "harness/validation/precision_sweep.h"
+#include "harness/validation/reference_world.h"
+#include "harness/validation/stability_cases.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
 
@@ -221,6 +227,33 @@ TEST(StabilityCommand, WritesTheFiguresAsJson) {
     EXPECT_TRUE(j[0]["checks"][0].contains("figure"));
     EXPECT_EQ(j[1]["case"], "far_origin");
     std::filesystem::remove(path);
+}
+
+// The suite as a library (harness/validation/stability_cases.h), without the command: names
+// unique (the command finds a case by name), and a case run directly gives checked criteria.
+TEST(StabilityCases, NamesAreUniqueAndACaseRunsWithoutTheCommand) {
+    const auto cases = harness::stability::all_cases();
+    std::set<std::string> names;
+    for (const auto& c : cases) EXPECT_TRUE(names.insert(c.name).second) << c.name;
+    EXPECT_EQ(cases.front().name, "free_fall");
+    const auto head_on = std::find_if(cases.begin(), cases.end(), [](const auto& c) { return c.name == "head_on"; });
+    ASSERT_NE(head_on, cases.end());
+    const harness::stability::Outcome r = head_on->run();
+    EXPECT_TRUE(r.pass());
+    EXPECT_TRUE(std::any_of(r.checks.begin(), r.checks.end(), [](const auto& k) { return !k.criterion.empty(); }));
+}
+
+// The sweep checks its output directory before any work: one below a regular file cannot be.
+TEST(PrecisionSweep, AnUnusableOutDirIsAUsageErrorBeforeAnyWork) {
+    const auto file = std::filesystem::temp_directory_path() / "lockroll_precision_sweep_test_file";
+    std::ofstream(file) << "not a directory\n";
+    harness::PrecisionOptions o;
+    o.out = (file / "out").string();
+    o.quick = true;
+    o.no_plot = true;
+    EXPECT_THROW(harness::run_precision_sweep(o), harness::UsageError);
+    EXPECT_FALSE(std::filesystem::exists(file / "out"));
+    std::filesystem::remove(file);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Prints N distinct free UDP ports on 127.0.0.1 (bound together, then released).
 
-Chosen below the kernel's ephemeral range from a random start, as harness/free_ports.h explains:
+Chosen below the kernel's ephemeral range from a random start, as harness/live/free_ports.h explains:
 a port from that range can be handed to another process's unbound socket before our child binds
 it; ports below it are never handed out by the kernel on its own.
 """

@@ -12,7 +12,7 @@
 #include <string>
 #include <thread>
 
-#include "harness/child_process.h"
+#include "harness/live/child_process.h"
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
 #include "udp_socket_transport.h"

@@ -2,7 +2,7 @@
 // simulation that does not save all of its state.
 #include <gtest/gtest.h>
 
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 #include "rollback/sync_test.h"
 #include "rollback/world_simulation.h"
 #include "tests/rollback/test_support.h"

@@ -15,8 +15,8 @@
 #include <CLI/CLI.hpp>
 
 #include "rollback/relay_messages.h"
-#include "harness/match.h"
-#include "harness/scene_loader.h"
+#include "harness/match/match.h"
+#include "harness/match/scene_loader.h"
 #include "rollback/relay_session.h"
 #include "rollback/world_simulation.h"
 #include "transport/enet_transport.h"

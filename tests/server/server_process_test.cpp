@@ -2,7 +2,7 @@
 // process on 127.0.0.1: the ready line and ready file, the status file (ready, then draining on
 // SIGTERM), exit 0 once drained, the room limit, bad flags refused with exit 2 before binding.
 // A small ENet client speaks the relay protocol directly (rollback/relay_messages.h). Every wait
-// is bounded; children are stopped by their pid (harness/child_process.h).
+// is bounded; children are stopped by their pid (harness/live/child_process.h).
 #include <enet/enet.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -16,7 +16,7 @@
 #include <thread>
 #include <vector>
 
-#include "harness/child_process.h"
+#include "harness/live/child_process.h"
 #include "rollback/relay_messages.h"
 
 namespace {

@@ -133,6 +133,65 @@ TEST(RigidSolver, FrictionlessSpheresNeverSpin) {
     EXPECT_GT(d(w.velocity(2).x) - (-0.5), 0.1);
 }
 
+// Restitution (the default table: sphere-box e = 0.8, threshold 0.5 m/s). These three failed
+// before the 2026-12-03 fix, which let a 10k pile hop forever (docs/physics.md, "Piles that
+// come to rest").
+
+// A bounce is e times the approach speed the ball came in with, not counting the g dt this
+// step adds: 0.8 * 2 = 1.6 m/s, where bouncing gravity too gave 0.8 * (2 + 9.81/60) = 1.73.
+TEST(RigidSolver, BounceIsEOfTheApproachBeforeThisStepsGravity) {
+    SceneDesc s = floor_scene("0.3");
+    BodyDesc b = ball("0", "0");
+    b.velocity = v3("0", "-2", "0");  // touching the floor (gap 0), falling at 2 m/s
+    s.bodies.push_back(b);
+    World w(s);
+    w.step({});
+    EXPECT_NEAR(d(w.velocity(1).y), 0.8 * 2, 1e-6);
+}
+
+// A speculative point (a gap within the contact margin) bounces only if the approach closes
+// the gap within this step: 4 cm above the floor at 1.16 m/s it still falls freely.
+TEST(RigidSolver, SpeculativePointBouncesOnlyWhenTheGapCloses) {
+    SceneDesc s = floor_scene("0.3");
+    BodyDesc b = ball("0", "0");
+    b.position = v3("0", "0.54", "0");
+    b.velocity = v3("0", "-1", "0");
+    s.bodies.push_back(b);
+    World w(s);
+    w.step({});
+    const double v = -1 - 9.81 / 60;
+    EXPECT_NEAR(d(w.velocity(1).y), v, 1e-6);
+    EXPECT_NEAR(d(w.position(1).y), 0.54 + v / 60, 1e-6);
+    ASSERT_EQ(w.rigid_solver().contact_count(), 1u);  // the point was there: it just did not bounce
+}
+
+// Dropped from 30 cm on e = 0.8, a ball's rebound speeds fall by e each bounce until they are
+// below the threshold, and then it rests. (Before the fix each bounce gained e g dt and the
+// ball settled into a hop of about 0.9 m/s, above the threshold, that never ended.)
+TEST(RigidSolver, BallOnABouncyFloorComesToRest) {
+    SceneDesc s = floor_scene("0.3");
+    BodyDesc b = ball("0", "0");
+    b.position = v3("0", "0.8", "0");
+    s.bodies.push_back(b);
+    World w(s);
+    std::vector<double> rebounds;
+    double prev = 0;
+    for (int f = 0; f < 240; ++f) {
+        w.step({});
+        const double vy = d(w.velocity(1).y);
+        if (prev < 0 && vy > 0) rebounds.push_back(vy);
+        prev = vy;
+    }
+    ASSERT_GE(rebounds.size(), 4u);
+    // The frame grid: a ball comes back to the floor with its rebound speed give or take up to
+    // g dt (which frame the contact falls on), and bounces e times that.
+    for (std::size_t i = 1; i < rebounds.size(); ++i)
+        EXPECT_LE(rebounds[i], 0.8 * (rebounds[i - 1] + 9.81 / 60)) << "bounce " << i;
+    EXPECT_LT(rebounds.back(), 0.8);  // the last bounce was near the threshold
+    EXPECT_LT(std::abs(d(w.velocity(1).y)), 0.01);
+    EXPECT_NEAR(d(w.position(1).y), 0.5, 0.006);  // resting on the floor within slop
+}
+
 TEST(RigidSolver, DampingSlowsFreeBodies) {
     SceneDesc s;
     s.rigid.enabled = true;

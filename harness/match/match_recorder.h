@@ -1,5 +1,5 @@
 // What one client measures of its own match, the same code for a client of an in-process match
-// (virtual time, harness/match.cpp) and for a real process (`lockroll peer` / `lockroll client`,
+// (virtual time, harness/match/match.cpp) and for a real process (`lockroll peer` / `lockroll client`,
 // harness/peer_command.cpp): when it first showed each frame and what it showed, its rollbacks
 // and visual corrections, how long its own input changes took to show, CPU per tick and per
 // physics step, the round trip it measured to each peer, what it showed against the state later
@@ -26,7 +26,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "harness/metrics.h"
+#include "harness/match/metrics.h"
 #include "rollback/events.h"
 #include "rollback/simulation.h"
 #include "rollback/world_simulation.h"

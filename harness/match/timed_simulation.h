@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <functional>
 
-#include "harness/metrics.h"
+#include "harness/match/metrics.h"
 #include "rollback/simulation.h"
 
 namespace lockroll::harness {

@@ -1,4 +1,4 @@
-#include "harness/free_ports.h"
+#include "harness/live/free_ports.h"
 
 #include <netinet/in.h>
 #include <sys/socket.h>

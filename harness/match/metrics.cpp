@@ -1,4 +1,4 @@
-#include "harness/metrics.h"
+#include "harness/match/metrics.h"
 
 #include <algorithm>
 #include <cmath>

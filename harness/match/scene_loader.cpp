@@ -1,4 +1,4 @@
-#include "harness/scene_loader.h"
+#include "harness/match/scene_loader.h"
 
 #include <cstdlib>
 #include <fstream>

@@ -1,4 +1,4 @@
-#include "harness/bots.h"
+#include "harness/match/bots.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "harness/output_path.h"
+#include "harness/report/output_path.h"
 
 #include <cerrno>
 #include <cstring>
@@ -7,7 +7,7 @@
 
 #include <unistd.h>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 
 namespace lockroll::harness {
 

@@ -1,4 +1,4 @@
-#include "harness/reference_world.h"
+#include "harness/validation/reference_world.h"
 
 #include <cmath>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "harness/atomic_file.h"
+#include "harness/match/atomic_file.h"
 
 #include <cstdio>
 #include <stdexcept>

@@ -1,9 +1,9 @@
-#include "harness/match_recorder.h"
+#include "harness/match/match_recorder.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "harness/hex.h"
+#include "harness/match/hex.h"
 #include "rollback/world_simulation.h"
 
 namespace lockroll::harness {

@@ -4,7 +4,7 @@
 // were shown (match_recorder.h tick_figures, one rule for both) and the final confirmed checksum.
 #pragma once
 
-#include "harness/metrics.h"
+#include "harness/match/metrics.h"
 #include "rollback/telemetry.h"
 
 namespace lockroll::harness {

@@ -1,8 +1,8 @@
-#include "harness/loopback_address.h"
+#include "harness/live/loopback_address.h"
 
 #include <cstdlib>
 
-#include "harness/cli_error.h"
+#include "harness/match/cli_error.h"
 #include "net/udp_address.h"
 
 namespace lockroll::harness {

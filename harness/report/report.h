@@ -7,7 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "harness/metrics.h"
+#include "harness/match/metrics.h"
 
 namespace lockroll::harness {
 

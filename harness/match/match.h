@@ -20,8 +20,8 @@
 #include <string>
 #include <vector>
 
-#include "harness/bots.h"
-#include "harness/metrics.h"
+#include "harness/match/bots.h"
+#include "harness/match/metrics.h"
 #include "rollback/telemetry.h"
 #include "sim/scene.h"
 #include "sim/world.h"

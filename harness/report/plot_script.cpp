@@ -1,4 +1,4 @@
-#include "harness/plot_script.h"
+#include "harness/report/plot_script.h"
 
 #include <cstdlib>
 #include <filesystem>

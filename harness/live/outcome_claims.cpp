@@ -1,4 +1,4 @@
-#include "harness/outcome_claims.h"
+#include "harness/live/outcome_claims.h"
 
 namespace lockroll::harness {
 

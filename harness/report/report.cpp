@@ -1,12 +1,12 @@
-#include "harness/report.h"
+#include "harness/report/report.h"
 
 #include <algorithm>
 #include <cstdio>
 #include <functional>
 #include <sstream>
 
-#include "harness/atomic_file.h"
-#include "harness/hex.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/hex.h"
 
 namespace lockroll::harness {
 

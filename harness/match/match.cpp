@@ -1,4 +1,4 @@
-#include "harness/match.h"
+#include "harness/match/match.h"
 
 #include <algorithm>
 #include <array>
@@ -10,11 +10,11 @@
 #include <memory>
 #include <string_view>
 
-#include "harness/atomic_file.h"
-#include "harness/cli_error.h"
-#include "harness/client_result.h"
-#include "harness/match_recorder.h"
-#include "harness/timed_simulation.h"
+#include "harness/match/atomic_file.h"
+#include "harness/match/cli_error.h"
+#include "harness/match/client_result.h"
+#include "harness/match/match_recorder.h"
+#include "harness/match/timed_simulation.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"

@@ -1,0 +1,130 @@
+// harness/live/live_report.h on hand-made process records: live.json's verdict (equal finals,
+// survivors, a kill, a partition's cut-off side), a mode's figures when processes left nothing
+// (named in the notes, counted in no figure, every figure n/a with its reason), and the
+// topology table's relay-only cells. The whole report from real processes is
+// tests/harness/live_report_test.sh.
+#include "harness/live/live_report.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "harness/match/scene_loader.h"
+
+namespace lockroll::harness {
+namespace {
+
+using nlohmann::json;
+
+ProcessRecord player(int slot, const std::string& outcome, const std::string& final_checksum, int exit_status) {
+    ProcessRecord r;
+    r.slot = slot;
+    r.name = "p";
+    r.name += std::to_string(slot);  // (not "p" + ...: GCC 12 -O3 warns -Wrestrict on it, falsely)
+    r.started = true;
+    r.exit_status = exit_status;
+    // The keys a real process's summary.json has; live_json must not depend on them
+    // (SummaryWithoutItsKeysIsReadAsNotCollected).
+    r.summary = {{"outcome", outcome},
+                 {"final_checksum", final_checksum.empty() ? json(nullptr) : json(final_checksum)},
+                 {"ticks_per_second", 60.0},
+                 {"stall_fraction", 0.0},
+                 {"longest_stall_ms", 16.7}};
+    return r;
+}
+
+const std::filesystem::path kNoDir = std::filesystem::temp_directory_path() / "lockroll_live_report_test_none";
+
+TEST(LiveJson, EqualFinalsAndCompletedSurvivorsAreOk) {
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000aa", 0)}, kNoDir);
+    EXPECT_TRUE(j["final_checksums_equal"].get<bool>());
+    EXPECT_TRUE(j["survivors_completed"].get<bool>());
+    EXPECT_TRUE(j["ok"].get<bool>());
+    EXPECT_EQ(j["split"]["completed"].get<int>(), 2);
+    ASSERT_EQ(j["processes"].size(), 2u);
+    EXPECT_EQ(j["processes"][1]["role"], "player");
+}
+
+TEST(LiveJson, DifferentFinalsOrAFailedSurvivorAreNotOk) {
+    const json differ = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000bb", 0)}, kNoDir);
+    EXPECT_FALSE(differ["final_checksums_equal"].get<bool>());
+    EXPECT_FALSE(differ["ok"].get<bool>());
+    const json failed = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "failed", "", 1)}, kNoDir);
+    EXPECT_FALSE(failed["survivors_completed"].get<bool>());
+    EXPECT_FALSE(failed["ok"].get<bool>());
+}
+
+TEST(LiveJson, AKilledProcessCountsInNoVerdict) {
+    ProcessRecord killed = player(1, "", "", 137);
+    killed.summary = json();  // a SIGKILLed process leaves no summary
+    killed.killed = true;
+    killed.killed_at_frame = 200;
+    killed.killed_mono_us = 1000;
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), killed}, kNoDir);
+    EXPECT_TRUE(j["ok"].get<bool>());
+    EXPECT_EQ(j["processes"][1]["outcome"], "killed");
+    EXPECT_EQ(j["processes"][1]["killed_at_frame"].get<int>(), 200);
+    // The survivor's stall after the kill: no events, so no synchronized time to count from.
+    EXPECT_EQ(j["processes"][0]["longest_stall_after_kill_ms"].get<double>(), 0.0);
+}
+
+TEST(LiveJson, ASummaryWithoutItsKeysIsReadAsNotCollected) {
+    // A summary.json cut short (or from another version) once crashed live_json: nlohmann's
+    // const operator[] on a missing key is undefined behaviour.
+    ProcessRecord bare = player(1, "completed", "", 0);
+    bare.summary = {{"outcome", "completed"}};
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), bare}, kNoDir);
+    EXPECT_TRUE(j["processes"][1]["final_checksum"].is_null());
+    EXPECT_TRUE(j["processes"][1]["ticks_per_second"].is_null());
+    EXPECT_TRUE(j["processes"][1]["stall_fraction"].is_null());
+    // (That a "completed" without a final checksum overclaims is outcome_claims' to say.)
+    EXPECT_EQ(j["split"]["completed"].get<int>(), 2);
+}
+
+TEST(LiveJson, ThePartitionedSideIsASplitNotAFailure) {
+    ProcessRecord cut = player(2, "partitioned", "", 1);
+    cut.summary["partitioned_since_frame"] = 240;
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000aa", 0), cut}, kNoDir);
+    EXPECT_EQ(j["split"]["partitioned"].get<int>(), 1);
+    EXPECT_EQ(j["split"]["partitioned_processes"], json::array({"p2"}));
+    EXPECT_TRUE(j["ok"].get<bool>());
+}
+
+TEST(LiveRunResult, ProcessesThatLeftNothingAreNamedAndEveryFigureIsNa) {
+    LivePlan p;
+    p.o.players = 2;
+    p.o.frames = 60;
+    p.base.scene = load_scene("paper");
+    ProcessRecord killed = player(0, "", "", 137);
+    killed.summary = json();
+    killed.killed = true;
+    killed.killed_at_frame = 30;
+    ProcessRecord silent = player(1, "", "", 1);
+    silent.summary = json();  // exited without a summary
+    const RunResult r = live_run_result(p, Mode::Rollback, kNoDir, {killed, silent}, 2);
+    EXPECT_FALSE(r.completed);
+    EXPECT_TRUE(r.clients.empty());
+    ASSERT_EQ(r.notes.size(), 2u);
+    EXPECT_NE(r.notes[0].find("killed by --kill at frame 30, not rejoined"), std::string::npos) << r.notes[0];
+    EXPECT_NE(r.notes[1].find("left no summary (exit status 1)"), std::string::npos) << r.notes[1];
+    EXPECT_EQ(r.input_delay, 2);
+    EXPECT_EQ(r.position_error.count, 0u);
+    for (const char* field : {"position_error", "input_latency_local", "input_latency_remote", "measured_rtt"})
+        EXPECT_TRUE(r.unmeasured.contains(field)) << field;
+}
+
+TEST(TopologyTable, ServerCellsOnlyForRelayRuns) {
+    RunResult mesh, relay;
+    const std::string t = topology_table({{"rollback", &mesh, json::object()},
+                                          {"relay-rollback", &relay, {{"server", {{"bytes_in", 600}, {"bytes_out", 600}}}, {"replaced", 3}}}},
+                                         120, 60);
+    EXPECT_NE(t.find("| rollback |"), std::string::npos);
+    // 1,200 bytes over 2 s of match: 600 B/s; 3 replaced inputs.
+    EXPECT_NE(t.find("| 600 | 3 |"), std::string::npos) << t;
+    EXPECT_NE(t.find("| - | - |"), std::string::npos) << t;
+}
+
+}  // namespace
+}  // namespace lockroll::harness
