@@ -118,6 +118,15 @@ string(REPLACE ";" " " LOCKROLL_PC_LIBS "${lockroll_pc_libs};${lockroll_pc_threa
 configure_file(${PROJECT_SOURCE_DIR}/cmake/lockroll.pc.in ${PROJECT_BINARY_DIR}/lockroll.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/lockroll.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
 
+# The C ABI (capi/): liblockroll.so as lockroll::c, <lockroll/lockroll.h>, and lockroll-c.pc
+# (-llockroll). Shared, so nothing it links is the consumer's to find.
+if(TARGET lockroll_c)
+  install(TARGETS lockroll_c EXPORT lockrollTargets LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  install(FILES ${PROJECT_SOURCE_DIR}/capi/lockroll.h DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/lockroll-c.pc.in ${PROJECT_BINARY_DIR}/lockroll-c.pc @ONLY)
+  install(FILES ${PROJECT_BINARY_DIR}/lockroll-c.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+endif()
+
 if(TARGET lockroll_match)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/harness/scenes/ DESTINATION ${LOCKROLL_SCENE_DIR})
 endif()

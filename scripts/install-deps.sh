@@ -11,6 +11,7 @@ packages=(g++ cmake ninja-build pkg-config
           libsodium-dev  # the relay server's connect tokens (server/connect_token.h)
           libbullet-dev  # the optional bench/bullet_bench comparison (docs/performance.md)
           chromium  # the headless browser test of lockroll view
+          mono-mcs mono-runtime  # the C# P/Invoke sample over the C ABI (tests/capi)
           curl)     # the Agones sidecar script (server/agones) and its test
 if [[ "${1:-}" == "--cross" ]]; then
   packages+=(clang libclang-rt-14-dev g++-aarch64-linux-gnu g++-s390x-linux-gnu g++-i686-linux-gnu

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# liblockroll.so exports the C ABI and nothing else: every defined dynamic symbol starts with
+# lockroll_ (no C++ of lockroll's or of the standard library's templates, which would clash with
+# a host program's), and every function <lockroll/lockroll.h> declares is exported.
+#   exported_symbols_test.sh LIBLOCKROLL_SO LOCKROLL_H
+set -euo pipefail
+lib=$1 header=$2
+syms=$(nm -D --defined-only "$lib" | awk '{print $NF}')
+[ -n "$syms" ] || { echo "nm found no dynamic symbols in $lib" >&2; exit 1; }
+others=$(grep -v '^lockroll_' <<<"$syms" || true)
+if [ -n "$others" ]; then
+  echo "$lib exports symbols that are not lockroll_*:" >&2
+  head -20 <<<"$others" >&2
+  exit 1
+fi
+declared=$(grep -o 'LOCKROLL_API [^(]*(' "$header" | grep -o 'lockroll_[a-z_]*($' | tr -d '(' | sort -u)
+[ -n "$declared" ] || { echo "no LOCKROLL_API functions found in $header" >&2; exit 1; }
+missing=$(comm -23 <(echo "$declared") <(sort -u <<<"$syms"))
+[ -z "$missing" ] || { echo "declared in $header but not exported: $missing" >&2; exit 1; }
+echo "liblockroll.so: $(wc -l <<<"$syms") symbols, all lockroll_*, all $(wc -l <<<"$declared") declared ones exported"
