@@ -262,8 +262,8 @@ public:
     }
     void on_desync(const rollback::DesyncEvent& d) override {
         // The session's DesyncDetected event goes to events.jsonl; the checksums to the log.
-        log_->error("desync with slot {} at confirmed frame {}: local {} remote {}", d.peer, d.frame,
-                    hex16(d.local_checksum), hex16(d.remote_checksum));
+        log_->error("desync with slot {} at confirmed frame {}: local {} remote {:08x} (low 32 bits, as input messages carry it)",
+                    d.peer, d.frame, hex16(d.local_checksum), static_cast<std::uint32_t>(d.remote_checksum));
     }
     void on_desync_report(const rollback::DesyncReport& r) override {
         log_->error("desync report: {}", r.summary);

@@ -184,6 +184,7 @@ void DesyncDetector::advance(PlayerId peer) {
                         ps.report.frame = f;
                         ps.report.local_checksum = local.value_or(0);
                         ps.report.remote_checksum = c.values[k];
+                        ps.report.remote_checksum_full = true;  // a reply carries all 64 bits
                         return begin_body_hashes(peer);
                     }
                 }
@@ -238,10 +239,17 @@ void DesyncDetector::finish(PlayerId peer, NarrowOutcome outcome) {
     r.outcome = outcome;
     if (const auto s = evidence(r.frame)) r.local_state.assign(s->begin(), s->end());
     char buf[512];
+    // The peer's checksum as far as it is known: printing a 32-bit value in 16 digits would
+    // claim a checksum whose high half is zero.
+    char peer_sum[48];
+    if (r.remote_checksum_full)
+        std::snprintf(peer_sum, sizeof peer_sum, "%016" PRIx64, r.remote_checksum);
+    else
+        std::snprintf(peer_sum, sizeof peer_sum, "%08" PRIx32 " (low 32 bits)", static_cast<std::uint32_t>(r.remote_checksum));
     int len = std::snprintf(buf, sizeof buf,
                             "desync between player %u and peer %u detected at frame %" PRIu32
-                            "; first differing frame %" PRIu32 " (local %016" PRIx64 ", peer %016" PRIx64 "): ",
-                            local_, peer, r.detected_frame, r.frame, r.local_checksum, r.remote_checksum);
+                            "; first differing frame %" PRIu32 " (local %016" PRIx64 ", peer %s): ",
+                            local_, peer, r.detected_frame, r.frame, r.local_checksum, peer_sum);
     std::string s(buf, static_cast<std::size_t>(std::max(len, 0)));
     switch (outcome) {
         case NarrowOutcome::BodyNamed:

@@ -49,7 +49,7 @@ struct DesyncEvent {
     PlayerId peer = 0;
     std::uint32_t frame = 0;
     std::uint64_t local_checksum = 0;
-    std::uint64_t remote_checksum = 0;
+    std::uint64_t remote_checksum = 0;  // the peer's low 32 bits: all an input message carries
 };
 
 // Where narrowing ended. BodyNamed is the goal; the others say why it could not get there.
@@ -69,6 +69,10 @@ struct DesyncReport {
     std::uint32_t frame = 0;           // first frame found to differ (<= detected_frame)
     std::uint64_t local_checksum = 0;  // at `frame`
     std::uint64_t remote_checksum = 0;
+    // Whether remote_checksum is the peer's whole XXH3-64 (from its reply to a frame-checksums
+    // query) or only its low 32 bits (from an input message: the detected frame itself, or a
+    // peer that never answered). The summary prints only the bits it has.
+    bool remote_checksum_full = false;
     NarrowOutcome outcome = NarrowOutcome::Unsupported;
     std::uint32_t body_id = 0;         // BodyNamed: the first diverging body (lowest index)
     int field = -1;                    // BodyNamed: its first differing field, -1 if none found

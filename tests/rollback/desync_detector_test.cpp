@@ -6,7 +6,9 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "rollback/desync_detector.h"
@@ -341,6 +343,11 @@ TEST(DesyncDetector, NarrowsToTheFirstFrameBodyAndField) {
     EXPECT_EQ(r.local_state, std::vector<std::uint8_t>(state.begin(), state.end()));
     EXPECT_NE(r.summary.find("first differing frame 20"), std::string::npos) << r.summary;
     EXPECT_NE(r.summary.find("body " + std::to_string(body)), std::string::npos) << r.summary;
+    // The peer's whole checksum came in its reply, and the summary prints all 16 digits of it.
+    EXPECT_TRUE(r.remote_checksum_full);
+    char full[17];
+    std::snprintf(full, sizeof full, "%016llx", static_cast<unsigned long long>(b.checksum(kFlipFrame)));
+    EXPECT_NE(r.summary.find(std::string("peer ") + full), std::string::npos) << r.summary;
     // Nothing more is asked once the report is out.
     std::vector<std::pair<PlayerId, QueryMessage>> out;
     a.detector.collect_queries(now + 1'000'000, out);
@@ -376,6 +383,13 @@ TEST(DesyncDetector, UnansweredQueriesAreResentThenGiveUp) {
     ASSERT_EQ(a.recorder.reports.size(), 1u);
     EXPECT_EQ(a.recorder.reports[0].outcome, NarrowOutcome::NoReply);
     EXPECT_EQ(a.recorder.reports[0].frame, 5u);
+    // Only an input message's 32 bits of the peer's checksum are known, and that is all the
+    // summary claims (it once printed them as a 16-digit checksum with a zero high half).
+    const DesyncReport& r = a.recorder.reports[0];
+    EXPECT_FALSE(r.remote_checksum_full);
+    char low[9];
+    std::snprintf(low, sizeof low, "%08x", static_cast<unsigned>(static_cast<std::uint32_t>(r.remote_checksum)));
+    EXPECT_NE(r.summary.find(std::string("peer ") + low + " (low 32 bits)"), std::string::npos) << r.summary;
 }
 
 TEST(DesyncDetector, InvestigationEndsWhenThePeerFailsOrLacksEvidence) {
