@@ -13,7 +13,8 @@
 // predictions, up to --window frames) and lockstep (prediction window 0: a frame runs once its
 // inputs are confirmed; set_prediction_window), Esc quits.
 // The overlay says in words, each over a bar: "ping 62 ms", "input delay 2", "rollback 3 frames"
-// (the newest rollback's depth), "frames behind 0" (the peer's estimate), and the mode. Its text
+// (the newest rollback's depth), "frames behind 0" (how far the peer's frame is estimated
+// behind this one's: NetworkStats::frames_behind), and the mode. Its text
 // is SDL2_ttf with DejaVu Sans (Debian fonts-dejavu-core, found at its Debian path, or --font
 // FILE); without that font the overlay says so once on stderr and keeps its bars.
 // --bot plays by itself (tests); --screenshot saves the window as BMP once frame F is shown and
