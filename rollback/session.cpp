@@ -1378,9 +1378,13 @@ bool Session::lags_on_a_stream() const {
     return false;
 }
 
-// Its counts are recent (it sent a table within two time-sync periods).
+// Its counts are recent: it sent a table within a time-sync period (and a tick), as often as a
+// peer that lags sends one. Counts are read bare, as they always were: a peer stuck on a gap
+// shows a lag of the frames since its table on top of its own, which is what lets relays start
+// before relay_lag is reached for real -- everyone stalls on the stuck peer's inputs first. But
+// counts of seconds ago (the refresh, a lag that ended) would show a lag of seconds.
 bool Session::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t window = 2 * static_cast<std::uint64_t>(config_.time_sync_every) * 1'000'000 /
+    const std::uint64_t window = (static_cast<std::uint64_t>(config_.time_sync_every) + 1) * 1'000'000 /
                                  static_cast<std::uint64_t>(config_.tick_rate);
     return now_us <= link.counts_at_us + window;
 }
