@@ -1,6 +1,7 @@
 #include "rollback/session.h"
 
 #include "rollback/input_delay.h"
+#include "rollback/session_admission.h"
 
 #include <algorithm>
 #include <array>
@@ -305,33 +306,25 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.echo_us = m.stamp_us;
     w.running = phase_ == SessionPhase::Running;
     if (is_slot(from)) w.slot_epoch = membership_.epoch(from);
-    std::string why;
-    if (m.version != kProtocolVersion) {
-        w.refusal = Refusal::Version;
-        why = "protocol version " + std::to_string(m.version) + ", ours " + std::to_string(kProtocolVersion);
-    } else if (m.match_id != config_.match_id) {
-        w.refusal = Refusal::MatchId;
-        why = "match id " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id);
-    } else if (m.scene_checksum != scene_checksum_) {
-        w.refusal = Refusal::Scene;
-        why = "scene checksum " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum_);
-    } else if ((m.role == Role::Spectator) == is_slot(from)) {
-        w.refusal = Refusal::BadRole;
-        why = "role does not fit peer id " + std::to_string(from);
-    } else if (phase_ != SessionPhase::Running && m.role != Role::Player) {
-        w.refusal = Refusal::Retry;  // we cannot serve a snapshot before we run ourselves
-    } else if (m.role == Role::Player && phase_ == SessionPhase::Running && link.welcomed && !slot_running(from)) {
-        w.refusal = Refusal::Disconnected;
-        why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
-    } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
-               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == membership_.epoch(from) &&
-               !slots_[from].handed_off_by_me) {
-        // Another process for a slot whose process we know: the old one restarted and is gone.
-        // Drop it now; welcome the new one once the drop is agreed. (A slot running in a newer
-        // epoch than we welcomed it in is the joiner itself, handed over by the owner.)
-        drop_slot(from, now_us, "rejoining");
-        w.refusal = Refusal::Retry;
+    HelloContext c;
+    c.match_id = config_.match_id;
+    c.scene_checksum = scene_checksum_;
+    c.from = from;
+    c.from_slot = is_slot(from);
+    c.running = phase_ == SessionPhase::Running;
+    c.welcomed = link.welcomed;
+    c.incarnation = link.incarnation;
+    if (c.from_slot) {
+        c.slot_running = slot_running(from);
+        c.welcomed_in_this_epoch = link.welcomed_epoch == membership_.epoch(from);
+        c.handed_off_by_me = slots_[from].handed_off_by_me;
     }
+    const HelloAdmission a = admit_hello(m, c);
+    w.refusal = a.refusal;
+    const std::string& why = a.why;
+    // Another process for a slot whose process we know: the old one restarted and is gone.
+    // Drop it now; welcome the new one once the drop is agreed.
+    if (a.restarted) drop_slot(from, now_us, "rejoining");
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
         if (link.refusal_quiet_for(now_us, 1000000))
