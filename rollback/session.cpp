@@ -1317,7 +1317,8 @@ void Session::consider_recovery(std::uint64_t now_us) {
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
 
-bool Session::extension_needed(PlayerId to, std::uint64_t now_us, bool lagging) const {
+bool Session::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
+                               bool lagging) const {
     if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
     // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
     if (any_guest_) return true;
@@ -1327,7 +1328,7 @@ bool Session::extension_needed(PlayerId to, std::uint64_t now_us, bool lagging) 
         if (v.handed_off_by_me) return true;
     // Every slot simply runs: the table when what we tell this peer changed, and the refresh.
     const PeerLink& link = links_[to];
-    if (link.table_due(table_entries_, now_us, table_refresh_us())) return true;
+    if (link.table_due(entries, now_us, table_refresh_us())) return true;
     // Three or more players: a peer stuck on a gap gets relays. Our counts go now and then while
     // we lag on some stream (they ask for relays), and the relays to a peer whose counts say it
     // lags.
@@ -1419,8 +1420,8 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, s
         const std::uint32_t mine = q.confirmed_count();
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
-        // A lag only by counts it sent lately: from a table of seconds ago (the refresh) every
-        // stream would look far behind.
+        // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
+        // refresh) every stream would look far behind.
         const bool relay = !is_slot(to) || !slot_running(slot) || my_guest(slot) ||
                            (v.handed_off_by_me && theirs < v.handoff) ||
                            (mine > theirs + static_cast<std::uint32_t>(config_.relay_lag) && counts_fresh(link, now_us));
@@ -1522,7 +1523,7 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
                                                      kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
                                                      m.checksum_frames, m.checksums);
         table_entries_for(pid, table_entries_);
-        if (extension_needed(pid, now_us, lagging)) {
+        if (extension_needed(pid, table_entries_, now_us, lagging)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
             fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
             link.table_sent(table_entries_, now_us, kTableCopies);

@@ -255,7 +255,8 @@ private:
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
     void consider_recovery(std::uint64_t now_us);
-    bool extension_needed(PlayerId to, std::uint64_t now_us, bool lagging) const;
+    // entries: our table's entries to `to` now (table_entries_for); lagging: lags_on_a_stream().
+    bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us, bool lagging) const;
     void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us);
     std::uint64_t table_refresh_us() const;
     SlotEntry table_entry(PlayerId to, PlayerId s) const;
