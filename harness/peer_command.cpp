@@ -36,6 +36,7 @@
 #include "net/clock.h"
 #include "net/peer_runner.h"
 #include "net/relay_runner.h"
+#include "rollback/desync_evidence.h"
 #include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -275,9 +276,8 @@ public:
         rec.body = r.body_id;
         rec.field = r.field_name;
         if (!r.local_state.empty()) {
-            const auto path = fs::path(p_.o.out) / ("desync-client" + std::to_string(p_.o.slot) + "-peer" +
-                                                    std::to_string(r.peer) + "-frame" + std::to_string(r.frame) + ".txt");
-            write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
+            const auto path = fs::path(p_.o.out) / rollback::desync_evidence_file_name(static_cast<PlayerId>(p_.o.slot), r);
+            write_file_atomic(path, rollback::desync_evidence_text(r, sim_));
             rec.evidence_file = path.string();
         }
         event("desync_report", clock_.now_us(),

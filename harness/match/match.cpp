@@ -15,6 +15,7 @@
 #include "harness/match/client_result.h"
 #include "harness/match/match_recorder.h"
 #include "harness/match/timed_simulation.h"
+#include "rollback/desync_evidence.h"
 #include "rollback/input_delay.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -204,10 +205,9 @@ void Client::on_desync_report(const rollback::DesyncReport& r) {
     rec.report_ms = static_cast<double>(now_ - first_shown) / 1000.0;
     if (!shared_.cfg.evidence_dir.empty() && !r.local_state.empty()) {
         const auto path = std::filesystem::path(shared_.cfg.evidence_dir) /
-                          ("desync-client" + std::to_string(index_) + "-peer" + std::to_string(r.peer) + "-frame" +
-                           std::to_string(r.frame) + ".txt");
+                          rollback::desync_evidence_file_name(static_cast<rollback::PlayerId>(index_), r);
         std::filesystem::create_directories(path.parent_path());  // only now: no empty dir after a clean run
-        write_file_atomic(path, r.summary + "\n" + sim_.describe_state(r.local_state));
+        write_file_atomic(path, rollback::desync_evidence_text(r, sim_));
         rec.evidence_file = path.string();
     }
     shared_.result.desyncs.push_back(rec);
