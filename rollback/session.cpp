@@ -323,8 +323,12 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.refusal = a.refusal;
     const std::string& why = a.why;
     // Another process for a slot whose process we know: the old one restarted and is gone.
-    // Drop it now; welcome the new one once the drop is agreed.
-    if (a.restarted) drop_slot(from, now_us, "rejoining");
+    // Drop it now; welcome a joiner once the drop is agreed. A player is refused as dropped in
+    // the drop's epoch (newer than its view's, so its vote counts there and it rejoins).
+    if (a.restarted) {
+        drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
+        w.slot_epoch = membership_.epoch(from);
+    }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
         if (link.refusal_quiet_for(now_us, 1000000))

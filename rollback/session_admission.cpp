@@ -25,6 +25,15 @@ HelloAdmission admit_hello(const HelloMessage& m, const HelloContext& c) {
                c.welcomed_in_this_epoch && !c.handed_off_by_me) {
         a.refusal = Refusal::Retry;
         a.restarted = true;
+    } else if (m.role == Role::Player && c.slot_running && c.running && c.welcomed && c.incarnation != 0 &&
+               c.incarnation != m.incarnation) {
+        // A player hello from another process than the one welcomed: it restarted with its usual
+        // settings. It cannot start at frame 0 of a running match: refused as dropped, it rejoins
+        // by snapshot (net::NetSession restarts its session as a joiner). Incarnation 0: we only
+        // ever heard its welcomes, never its hello, and cannot tell the processes apart.
+        a.refusal = Refusal::Disconnected;
+        a.why = "slot " + std::to_string(c.from) + " restarted; rejoin as a joiner";
+        a.restarted = true;
     }
     return a;
 }

@@ -13,7 +13,10 @@
 //    for a slot still running in the epoch it was welcomed in (the old process restarted: the
 //    session drops it and welcomes the new one once that is agreed). A slot running in a newer
 //    epoch than it was welcomed in is the joiner itself, handed over by its owner, and so is a
-//    slot this session handed over: both are welcomed.
+//    slot this session handed over: both are welcomed. Last, "disconnected" with `restarted`
+//    for a player hello from another process than the one welcomed (a nonzero incarnation) for
+//    a slot still running: it restarted with its usual settings and must rejoin as a joiner
+//    (the session drops the old process first and sends the drop's epoch).
 #pragma once
 
 #include <cstdint>

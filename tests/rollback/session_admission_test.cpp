@@ -117,3 +117,19 @@ TEST(SessionAdmission, AJoinerFromAnotherProcessOfARunningSlotMeansItRestarted) 
     syncing.running = false;
     EXPECT_FALSE(admit_hello(hello(Role::Joiner, 78), syncing).restarted);
 }
+
+TEST(SessionAdmission, APlayerFromAnotherProcessOfARunningSlotMustRejoinAsAJoiner) {
+    const HelloAdmission a = admit_hello(hello(Role::Player, 78), running_context());
+    EXPECT_EQ(a.refusal, Refusal::Disconnected);  // it cannot start at frame 0 of a running match
+    EXPECT_TRUE(a.restarted);                     // the old process is dropped first
+    EXPECT_EQ(a.why, "slot 1 restarted; rejoin as a joiner");
+    // Only ever heard its welcomes (incarnation unknown): cannot tell, welcomed as before.
+    HelloContext unknown = running_context();
+    unknown.incarnation = 0;
+    EXPECT_EQ(admit_hello(hello(Role::Player, 78), unknown).refusal, Refusal::None);
+    // Before this session runs, a player's hello is the handshake itself.
+    HelloContext syncing = running_context();
+    syncing.running = false;
+    EXPECT_EQ(admit_hello(hello(Role::Player, 78), syncing).refusal, Refusal::None);
+    EXPECT_FALSE(admit_hello(hello(Role::Player, 78), syncing).restarted);
+}
