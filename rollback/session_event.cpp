@@ -24,6 +24,7 @@ const char* event_name(SessionEvent::Kind k) {
         case K::Kicked: return "kicked";
         case K::Failed: return "failed";
         case K::Draining: return "server_draining";
+        case K::DesyncReport: return "desync_report";
     }
     return "unknown";
 }

@@ -37,6 +37,9 @@ struct SessionEvent {
         Kicked,          // the others dropped this session's slot
         Failed,          // the session cannot go on; detail says why
         Draining,        // relay: the server is shutting down (the match may finish)
+        DesyncReport,    // net::NetSession only (the builder): narrowing ended; peer, frame: the
+                         // first differing frame; detail: the summary (body and field when found)
+                         // and the evidence file written (desync_report_dir), if any
     };
     Kind kind = Kind::Synchronizing;
     PlayerId peer = 0;        // the slot or peer id concerned

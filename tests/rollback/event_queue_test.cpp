@@ -48,7 +48,7 @@ TEST(EventQueue, FullQueueDropsTheOldestAndCountsIt) {
 }
 
 TEST(EventQueue, EveryKindHasAName) {
-    for (int k = 0; k <= static_cast<int>(Kind::Draining); ++k)
+    for (int k = 0; k <= static_cast<int>(Kind::DesyncReport); ++k)
         EXPECT_STRNE(event_name(static_cast<Kind>(k)), "unknown") << "kind " << k;
 }
 
