@@ -2,8 +2,12 @@
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
+#include "rollback/desync_evidence.h"
+#include "rollback/replay.h"
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <random>
@@ -16,11 +20,148 @@ namespace {
 constexpr std::size_t kMaxQueuedEvents = 1024;
 
 [[noreturn]] void bad(const std::string& what) { throw std::invalid_argument("SessionBuilder: " + what); }
+
+// Writes `bytes` to `path` whole: a temporary file beside it, then renamed over it. Throws
+// std::runtime_error naming the path.
+void write_whole_file(const std::filesystem::path& path, std::string_view bytes) {
+    const std::filesystem::path tmp = path.string() + ".tmp";
+    {
+        std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+        out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+        out.flush();
+        if (!out) throw std::runtime_error(path.string() + ": cannot write");
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::filesystem::remove(tmp, ec);
+        throw std::runtime_error(path.string() + ": cannot replace: " + ec.message());
+    }
+}
 }  // namespace
+
+// ---- NetSession::Engine: what the builder adds around the session ----
+
+// The session's observer: forwards every callback to the game's, records the replay, writes the
+// desync evidence, and decides an automatic rejoin (see the contract in session_builder.h).
+struct NetSession::Engine final : rollback::SessionObserver {
+    Engine(NetSession& o, rollback::Simulation& s) : owner(o), sim(s) {}
+
+    NetSession& owner;
+    rollback::Simulation& sim;
+    rollback::SessionObserver* user = nullptr;
+    rollback::PlayerId me = 0;                // this process's id, in evidence file names
+    std::filesystem::path evidence_dir;       // empty: no files
+    std::optional<rollback::ReplayRecorder> replay;
+    std::filesystem::path replay_path;
+    bool replay_written = false;
+    std::string output_error;
+    // A P2P player that may be told it restarted: the config to rejoin with, until it runs.
+    std::optional<rollback::SessionConfig> rejoin_config;
+    bool ran = false;
+    bool rejoining = false;
+
+    void failed_output(const std::string& why) {
+        if (output_error.empty()) output_error = why;
+    }
+    void write_replay() {
+        if (!replay || replay_written) return;
+        replay_written = true;
+        try {
+            const std::vector<std::uint8_t> bytes = rollback::encode_replay(replay->replay());
+            write_whole_file(replay_path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+        } catch (const std::exception& e) {
+            failed_output(std::string("record_replay: ") + e.what());
+        }
+    }
+    // True for the events an automatic rejoin swallows: the refusal as dropped (kicked) of a
+    // player that never ran, and the failure that follows it.
+    bool hold_back(const rollback::SessionEvent& e) {
+        using K = rollback::SessionEvent::Kind;
+        if (e.kind == K::Synchronized) ran = true;
+        if (rejoin_config && !ran && e.kind == K::Kicked) rejoining = true;
+        return rejoining && (e.kind == K::Kicked || e.kind == K::Failed);
+    }
+
+    void on_frame_simulated(const rollback::FrameSimulated& f) override {
+        if (user) user->on_frame_simulated(f);
+    }
+    void on_rollback_begin(const rollback::RollbackInfo& r) override {
+        if (user) user->on_rollback_begin(r);
+    }
+    void on_rollback_end(const rollback::RollbackInfo& r) override {
+        if (user) user->on_rollback_end(r);
+    }
+    void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
+        if (replay && !replay_written) {
+            if (f.frame == replay->replay().frames() + 1) {
+                replay->add(f);
+            } else {  // frames are confirmed once each, in order: only a reload can skip
+                failed_output("record_replay: frame " + std::to_string(f.frame) + " confirmed after " +
+                              std::to_string(replay->replay().frames()) + "; the replay stops there");
+                write_replay();
+            }
+        }
+        if (user) user->on_frame_confirmed(f);
+    }
+    void on_desync(const rollback::DesyncEvent& d) override {
+        if (user) user->on_desync(d);
+    }
+    void on_desync_report(const rollback::DesyncReport& r) override {
+        std::string detail = r.summary;
+        if (!evidence_dir.empty()) {
+            const std::string text = rollback::desync_evidence_text(r, sim);
+            if (!text.empty()) {
+                const std::filesystem::path path = evidence_dir / rollback::desync_evidence_file_name(me, r);
+                try {
+                    write_whole_file(path, text);
+                    detail += "; evidence " + path.string();
+                } catch (const std::exception& e) {
+                    failed_output(std::string("desync_report_dir: ") + e.what());
+                }
+            }
+        }
+        // Into the event stream like the session's own (update()'s, next_event(), the observer).
+        owner.on_session_event({rollback::SessionEvent::Kind::DesyncReport, r.peer, r.frame,
+                                owner.runner_config_.clock.now_us(), std::move(detail)});
+        if (user) user->on_desync_report(r);
+    }
+    void on_peer_error(rollback::PlayerId peer, const std::string& why) override {
+        if (user) user->on_peer_error(peer, why);
+    }
+};
 
 // ---- NetSession ----
 
-NetSession::~NetSession() = default;
+NetSession::NetSession() = default;
+
+NetSession::~NetSession() {
+    if (engine_) engine_->write_replay();  // a run that never ended still leaves its replay
+}
+
+std::string NetSession::output_error() const { return engine_ ? engine_->output_error : std::string(); }
+
+void NetSession::queue_event(rollback::SessionEvent e) {
+    if (events_.size() >= kMaxQueuedEvents) events_.pop_front();
+    events_.push_back(std::move(e));
+}
+
+// The automatic rejoin: the same session, now a joiner, on the same transport and simulation
+// (still in its initial state: the player never ran a frame).
+void NetSession::restart_as_joiner() {
+    rollback::SessionConfig sc = *engine_->rejoin_config;
+    sc.role = rollback::Role::Joiner;
+    engine_->rejoin_config.reset();
+    engine_->rejoining = false;
+    engine_->replay.reset();  // its frames start at the snapshot: no replay from frame 1
+    runner_.reset();
+    session_.reset();
+    session_ = std::make_unique<rollback::Session>(sc, engine_->sim, engine_.get());
+    RunnerObserver* as_observer = this;
+    runner_ = std::make_unique<PeerRunner>(
+        runner_config_, *session_, *transport_,
+        [this](std::uint32_t frame, std::span<std::uint8_t> out) { (*input_)(frame, out); }, as_observer);
+}
 
 UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observer) {
     if (!input) {  // nothing to play with (a caller's bug; never throws)
@@ -31,8 +172,14 @@ UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observ
     observer_ = observer;
     input_ = &input;
     UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
+    if (engine_->rejoining) {
+        // Told this slot's process restarted: not an end, a rejoin by snapshot.
+        restart_as_joiner();
+        r = UpdateResult{};
+    }
     input_ = nullptr;
     observer_ = nullptr;
+    if (r.outcome) engine_->write_replay();
     return r;
 }
 
@@ -84,8 +231,8 @@ void NetSession::on_transport_event(const transport::TransportEvent& e, std::uin
     if (observer_) observer_->on_transport_event(e, now_us);
 }
 void NetSession::on_session_event(const rollback::SessionEvent& e) {
-    if (events_.size() >= kMaxQueuedEvents) events_.pop_front();
-    events_.push_back(e);
+    if (engine_->hold_back(e)) return;
+    queue_event(e);
     if (observer_) observer_->on_session_event(e);
 }
 void NetSession::on_synchronized(std::uint64_t now_us) {
@@ -156,6 +303,37 @@ SessionBuilder& SessionBuilder::prediction_window(int frames) {
     prediction_window_set_ = true;
     return *this;
 }
+SessionBuilder& SessionBuilder::spectator(std::string host, std::uint16_t port, int index) {
+    engine_.spectate = Remote{static_cast<rollback::PlayerId>(std::max(index, 0)), std::move(host), port};
+    if (index < 0) engine_.spectate->slot = std::numeric_limits<rollback::PlayerId>::max();  // refused at start()
+    return *this;
+}
+SessionBuilder& SessionBuilder::spectators(int n) { engine_.spectators = n; return *this; }
+SessionBuilder& SessionBuilder::join() { engine_.join = true; return *this; }
+SessionBuilder& SessionBuilder::observer(rollback::SessionObserver* o) { engine_.observer = o; return *this; }
+SessionBuilder& SessionBuilder::desync_report_dir(std::string path) { engine_.desync_report_dir = std::move(path); return *this; }
+SessionBuilder& SessionBuilder::record_replay(std::string path, std::string scene_text) {
+    engine_.replay_path = std::move(path);
+    engine_.replay_scene = std::move(scene_text);
+    return *this;
+}
+SessionBuilder& SessionBuilder::interrupt_timeout(std::uint64_t ms) { engine_.interrupt_ms = ms; return *this; }
+SessionBuilder& SessionBuilder::disconnect_timeout(std::uint64_t ms) { engine_.disconnect_ms = ms; return *this; }
+
+// The engine settings' own rules, for both kinds of session.
+void SessionBuilder::check_engine_settings() const {
+    constexpr std::uint64_t kMaxMs = 3'600'000;  // an hour
+    if (engine_.interrupt_ms && (*engine_.interrupt_ms < 1 || *engine_.interrupt_ms > kMaxMs))
+        bad("interrupt_timeout(" + std::to_string(*engine_.interrupt_ms) + "): must be 1..3600000 ms");
+    if (engine_.disconnect_ms && *engine_.disconnect_ms > kMaxMs)
+        bad("disconnect_timeout(" + std::to_string(*engine_.disconnect_ms) + "): must be 0..3600000 ms (0: never)");
+    if (engine_.spectators < 0) bad("spectators(" + std::to_string(engine_.spectators) + "): must be >= 0");
+    if (engine_.join && engine_.spectate) bad("spectator() and join() exclude each other");
+    if (!engine_.replay_path.empty() && (engine_.join || engine_.spectate))
+        bad(std::string("record_replay() with ") + (engine_.join ? "join()" : "spectator()") +
+            ": it starts from a snapshot, so it has no frames from 1 on to record");
+}
+
 SessionBuilder& SessionBuilder::configure_relay(std::function<void(rollback::RelaySessionConfig&, RunnerConfig&)> f) {
     configure_relay_ = std::move(f);
     return *this;
@@ -165,11 +343,15 @@ rollback::RelaySessionConfig SessionBuilder::relay_config() const {
     if (!server_) bad("relay_config() without server()");
     if (server_->first.empty() || server_->second == 0) bad("server(): needs a host and a port");
     if (!remote_.empty()) bad("server() and remote_player() exclude each other: through a server, nobody's address is needed");
+    if (engine_.spectate) bad("spectator() is peer to peer only for now (through a server: configure_relay()'s role)");
     if (players_ < 1 || players_ > rollback::kRelayMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kRelayMaxPlayers) + " through a server");
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
     if (local_.size() != 1) bad("through a server, exactly one local_player() (several local players need a mesh for now)");
     if (input_delay_ < 0 || input_delay_ > 60) bad("input_delay must be 0..60");
+    check_engine_settings();
     rollback::RelaySessionConfig c;
+    if (engine_.join) c.role = rollback::RelayRole::Joiner;
+    if (engine_.disconnect_ms.value_or(0) != 0) c.server_timeout_us = *engine_.disconnect_ms * 1000;
     c.players = players_;
     c.local_slot = local_.front();
     if (c.local_slot >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(c.local_slot) + "): slot out of range");
@@ -193,6 +375,34 @@ rollback::SessionConfig SessionBuilder::session_config() const {
     if (server_) bad("session_config() with server(): through a server the session is a RelaySession (relay_config())");
     if (players_ < 1 || players_ > rollback::kMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kMaxPlayers));
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
+    check_engine_settings();
+    rollback::SessionConfig c;
+    c.players = players_;
+    c.input_size = input_size_;
+    c.tick_rate = tick_rate_;
+    c.input_delay = input_delay_;
+    c.cpu_clock = thread_cpu_ns;  // the sessions read no clock themselves
+    c.prediction_window = prediction_window_;
+    c.handshake = true;
+    c.match_id = match_id_;
+    c.max_spectators = engine_.spectators;
+    if (engine_.interrupt_ms) c.interrupt_us = *engine_.interrupt_ms * 1000;
+    if (engine_.disconnect_ms) c.disconnect_us = *engine_.disconnect_ms * 1000;
+    if (engine_.spectate) {
+        // No slot of its own: an id above the players', served by slot 0's process.
+        if (!local_.empty()) bad("spectator() and local_player() exclude each other: a spectator plays no slot");
+        if (!remote_.empty())
+            bad("spectator() and remote_player() exclude each other: a spectator watches through slot 0's process");
+        const Remote& h = *engine_.spectate;
+        if (h.host.empty() || h.port == 0) bad("spectator(): needs a host and a port");
+        if (h.slot >= static_cast<rollback::PlayerId>(engine_.spectators))
+            bad("spectator(): the index must be 0..spectators()-1, and spectators(" + std::to_string(engine_.spectators) +
+                ") admits " + (engine_.spectators == 0 ? std::string("none") : std::to_string(engine_.spectators)) +
+                " (every process passes the same spectators(n))");
+        c.role = rollback::Role::Spectator;
+        c.local_player = static_cast<rollback::PlayerId>(players_ + static_cast<int>(h.slot));
+        return c;
+    }
     if (local_.empty()) bad("no local_player(): name the slot(s) this machine plays");
     const auto n = static_cast<std::size_t>(players_);
     // Every slot named exactly once; the host of a group is its lowest slot.
@@ -218,16 +428,8 @@ rollback::SessionConfig SessionBuilder::session_config() const {
     }
     for (std::size_t s = 0; s < n; ++s)
         if (host[s] == -1) bad("slot " + std::to_string(s) + " is neither local_player() nor remote_player()");
-    rollback::SessionConfig c;
-    c.players = players_;
     c.local_player = me;
-    c.input_size = input_size_;
-    c.tick_rate = tick_rate_;
-    c.input_delay = input_delay_;
-    c.cpu_clock = thread_cpu_ns;  // the sessions read no clock themselves
-    c.prediction_window = prediction_window_;
-    c.handshake = true;
-    c.match_id = match_id_;
+    if (engine_.join) c.role = rollback::Role::Joiner;
     bool shared = false;
     for (std::size_t s = 0; s < n; ++s) shared = shared || static_cast<std::size_t>(host[s]) != s;
     if (shared)  // several slots in one process; otherwise every slot is its own peer
@@ -240,6 +442,7 @@ RunnerConfig SessionBuilder::runner_config() const {
     rc.tick_rate = tick_rate_;
     // 0 frames: no end but request_stop() (frame numbers never get near 2^32 in a session).
     rc.target_frame = frames_ != 0 ? frames_ : std::numeric_limits<std::uint32_t>::max();
+    if (engine_.spectate) rc.peers.push_back({0, engine_.spectate->host, engine_.spectate->port});
     for (const Remote& r : remote_) {
         bool first = true;
         for (const Remote& o : remote_)
@@ -247,6 +450,42 @@ RunnerConfig SessionBuilder::runner_config() const {
         if (first) rc.peers.push_back({r.slot, r.host, r.port});
     }
     return rc;
+}
+
+// The engine around the session: observer, evidence directory, replay recorder (each checked
+// here, before anything is bound).
+std::unique_ptr<NetSession::Engine> SessionBuilder::make_engine(NetSession& s, rollback::Simulation& simulation,
+                                                                rollback::PlayerId me, int players) const {
+    auto e = std::make_unique<NetSession::Engine>(s, simulation);
+    e->user = engine_.observer;
+    e->me = me;
+    if (!engine_.desync_report_dir.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(engine_.desync_report_dir, ec);
+        if (ec || !std::filesystem::is_directory(engine_.desync_report_dir))
+            bad("desync_report_dir(" + engine_.desync_report_dir + "): not a directory that can be created" +
+                (ec ? ": " + ec.message() : std::string()));
+        e->evidence_dir = engine_.desync_report_dir;
+    }
+    if (!engine_.replay_path.empty()) {
+        // Tried now, so a path that cannot be written fails start(), not the end of the match.
+        const std::filesystem::path path = engine_.replay_path;
+        const bool existed = std::filesystem::exists(path);
+        if (std::filesystem::is_directory(path)) bad("record_replay(" + engine_.replay_path + "): is a directory");
+        if (!std::ofstream(path, std::ios::binary | std::ios::app)) bad("record_replay(" + engine_.replay_path + "): cannot be written");
+        if (!existed) std::filesystem::remove(path);
+        rollback::Replay header;
+        header.players = static_cast<std::uint32_t>(players);
+        header.input_size = static_cast<std::uint32_t>(input_size_);
+        header.tick_rate = static_cast<std::uint32_t>(tick_rate_);
+        std::vector<std::uint8_t> state(simulation.state_size());
+        header.initial_checksum = simulation.checksum(simulation.save_to(state));
+        header.scene_name = path.filename().string();
+        header.scene_text = engine_.replay_scene;
+        e->replay.emplace(std::move(header));
+        e->replay_path = path;
+    }
+    return e;
 }
 
 std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulation) const {
@@ -261,6 +500,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         std::unique_ptr<NetSession> s(new NetSession());
         s->runner_config_ = rc;
         s->relay_slots_ = {rs.local_slot};
+        s->engine_ = make_engine(*s, simulation, rs.local_slot, rs.players);
         // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
         attach_transport(*s, rs.local_slot,
                          transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
@@ -269,7 +509,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
                                                .timeout_limit = 32,
                                                .timeout_min_ms = 5000,
                                                .timeout_max_ms = 30000});
-        s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation);
+        s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation, s->engine_.get());
         NetSession* raw = s.get();
         RunnerObserver* as_observer = raw;
         s->relay_runner_ = std::make_unique<RelayRunner>(
@@ -283,11 +523,14 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     rollback::validate(sc);  // names the field, before anything is bound
     std::unique_ptr<NetSession> s(new NetSession());
     s->runner_config_ = rc;
+    s->engine_ = make_engine(*s, simulation, sc.local_player, sc.players);
+    // A player from frame 0 may learn it is a restarted process: it then rejoins with this config.
+    if (sc.role == rollback::Role::Player) s->engine_->rejoin_config = sc;
     attach_transport(*s, sc.local_player,
                      transport::EnetConfig{.local_id = static_cast<transport::PeerId>(sc.local_player),
                                            .bind_host = listen_host_,
                                            .port = listen_port_});
-    s->session_ = std::make_unique<rollback::Session>(sc, simulation);
+    s->session_ = std::make_unique<rollback::Session>(sc, simulation, s->engine_.get());
     // The runner checks its own config (tick rate, peers) here, not on the first run().
     NetSession* raw = s.get();
     RunnerObserver* as_observer = raw;  // a private base: converted here, where it is accessible

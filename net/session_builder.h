@@ -10,7 +10,8 @@
 //    named twice or never, no local slot, a bad delay, ...), std::runtime_error when the UDP port
 //    cannot be bound, std::logic_error for server() (see below). Nothing NetSession does per
 //    tick throws: failures come back as RunOutcome values and events.
-//  - Slots: every slot 0..players-1 is named exactly once, by local_player() or remote_player().
+//  - Slots: every slot 0..players-1 is named exactly once, by local_player() or remote_player()
+//    (a spectator names none: spectator() below).
 //    Several local slots are several players on this machine (couch + online); remote slots
 //    that share an address are one remote process. Each process is known by its lowest slot
 //    (its ENet peer id); the others' streams are authored by it (SessionConfig::slot_hosts).
@@ -36,6 +37,38 @@
 //    given: your transport is bound already). remote_player()'s and server()'s host and port
 //    reach it through Transport::connect(). The reference form must outlive the NetSession; the
 //    unique_ptr form is owned by the NetSession (a builder holding one starts one session).
+//  - spectator(host, port): watch a peer-to-peer match without playing: no local_player() or
+//    remote_player() (start() throws naming them); the player of slot 0 listens at host:port and
+//    serves the snapshot and every stream. The spectator's id is players + index, so it needs
+//    spectators(n) with n > index, and every player of the match passes the same spectators(n).
+//    A spectator of a match with several local players per process is not supported yet.
+//  - join(): enter a running match by snapshot in this process's slot (a late join into a slot
+//    the others start absent: configure()'s absent_slots on every process). Automatic rejoin:
+//    a player process restarted with its usual settings (no join()) says hello as a player; the
+//    running peers recognise the new process for a known slot, drop the old one and refuse it
+//    as dropped; a NetSession that has not yet run a frame then restarts its session as a joiner
+//    (rollback::Session's join path, the same as `lockroll peer --join`) and rejoins by snapshot.
+//    The refusal and the failure it causes are not passed on: the game sees snapshot_loaded and
+//    synchronized. Peer to peer only; through a server join() sets RelayRole::Joiner.
+//  - observer(o): the game's rollback::SessionObserver sees every frame, rollback, confirmation
+//    and desync callback of the session (either kind), as the CLI's recorder does.
+//  - desync_report_dir(path): created at start() (throws naming it if it cannot be); once
+//    narrowing ends, the evidence file (rollback/desync_evidence.h: the one format `lockroll
+//    live` writes) goes there and a DesyncReport event names the peer, the first differing
+//    frame, the body and field and the file. Without it the event comes all the same.
+//  - record_replay(path, scene_text): the replay (docs/replay-format.md) of every confirmed
+//    frame from 1 on, written when the run ends (update()'s outcome) and, if it never ended, when
+//    the NetSession is destroyed. scene_text is what the simulation is rebuilt from (for the
+//    World: the scene JSON, which `lockroll replay` reads). The path is tried at start() (opened
+//    for writing, no file left behind: throws naming it if it cannot be). A joiner or spectator starts from a
+//    snapshot: record_replay() with join() or spectator() throws, and a restarted process that
+//    rejoined writes none.
+//  - interrupt_timeout(ms) / disconnect_timeout(ms): a peer's silence before it is reported
+//    interrupted (750 ms) and before this process votes it gone (5000 ms; 0: never);
+//    SessionConfig's interrupt_us / disconnect_us. Through a server disconnect_timeout is the
+//    server's silence that fails the session (RelaySessionConfig::server_timeout_us, 0: keep).
+//  - Writing the evidence or the replay never throws from update(): the first failure is kept
+//    (NetSession::output_error()).
 #pragma once
 
 #include <atomic>
@@ -108,10 +141,15 @@ public:
     const rollback::RelaySession& relay_session() const { return *relay_session_; }
     transport::Transport& transport() { return *transport_; }
     const RunnerConfig& runner_config() const { return runner_config_; }
+    // The first failure writing a desync evidence file or the replay (path and why); empty: none.
+    std::string output_error() const;
 
 private:
+    struct Engine;  // observer, evidence, replay, automatic rejoin (session_builder.cpp)
     friend class SessionBuilder;
-    NetSession() = default;
+    NetSession();
+    void queue_event(rollback::SessionEvent e);
+    void restart_as_joiner();
     void on_transport_event(const transport::TransportEvent& e, std::uint64_t now_us) override;
     void on_session_event(const rollback::SessionEvent& e) override;
     void on_synchronized(std::uint64_t now_us) override;
@@ -130,6 +168,7 @@ private:
     RunnerObserver* observer_ = nullptr;
     const InputSource* input_ = nullptr;  // the current update()'s
     std::deque<rollback::SessionEvent> events_;
+    std::unique_ptr<Engine> engine_;
 };
 
 class SessionBuilder {
@@ -153,6 +192,21 @@ public:
     SessionBuilder& match_id(std::uint64_t id);
     // run() completes once frame n is confirmed by everyone; 0 (default): runs until stopped.
     SessionBuilder& frames(std::uint32_t n);
+    // Watch a match without playing, served by the player of slot 0 at host:port; spectator id
+    // players + index (see the contract).
+    SessionBuilder& spectator(std::string host, std::uint16_t port, int index = 0);
+    // Spectator ids the match admits (players .. players + n - 1); the same on every process.
+    SessionBuilder& spectators(int n);
+    // Enter a running match by snapshot (see the contract; a restart rejoins without it).
+    SessionBuilder& join();
+    // The game's own session callbacks (must outlive the NetSession).
+    SessionBuilder& observer(rollback::SessionObserver* o);
+    // Where desync evidence files go (see the contract).
+    SessionBuilder& desync_report_dir(std::string path);
+    // Record the confirmed inputs to a replay file (see the contract).
+    SessionBuilder& record_replay(std::string path, std::string scene_text = {});
+    SessionBuilder& interrupt_timeout(std::uint64_t ms);
+    SessionBuilder& disconnect_timeout(std::uint64_t ms);  // 0: never drop for silence
     // Last word on every field (called after the builder has filled both configs).
     SessionBuilder& configure(std::function<void(rollback::SessionConfig&, RunnerConfig&)> f);
     // The same, through a server.
@@ -168,6 +222,9 @@ public:
     RunnerConfig runner_config() const;
 
 private:
+    void check_engine_settings() const;
+    std::unique_ptr<NetSession::Engine> make_engine(NetSession& s, rollback::Simulation& simulation, rollback::PlayerId me,
+                                                    int players) const;
     // Gives `s` its transport: the game's (its local_id() must be `id`), else ENet as `enet` says.
     void attach_transport(NetSession& s, rollback::PlayerId id, const transport::EnetConfig& enet) const;
 
@@ -195,6 +252,17 @@ private:
     std::uint32_t frames_ = 0;
     std::function<void(rollback::SessionConfig&, RunnerConfig&)> configure_;
     std::function<void(rollback::RelaySessionConfig&, RunnerConfig&)> configure_relay_;
+    // The engine's settings beyond slots and addresses, grouped.
+    struct EngineSettings {
+        std::optional<Remote> spectate;  // spectator(): slot 0's address; .slot holds the index
+        int spectators = 0;
+        bool join = false;
+        rollback::SessionObserver* observer = nullptr;
+        std::string desync_report_dir;
+        std::string replay_path, replay_scene;
+        std::optional<std::uint64_t> interrupt_ms, disconnect_ms;
+    };
+    EngineSettings engine_;
 };
 
 }  // namespace lockroll::net
