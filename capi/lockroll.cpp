@@ -153,6 +153,7 @@ lockroll_event_kind to_c(rollback::SessionEvent::Kind k) {
         case K::Kicked: return LOCKROLL_EVENT_KICKED;
         case K::Failed: return LOCKROLL_EVENT_FAILED;
         case K::Draining: return LOCKROLL_EVENT_SERVER_DRAINING;
+        case K::DesyncReport: return LOCKROLL_EVENT_DESYNC_REPORT;
         default: return LOCKROLL_EVENT_OTHER;  // a kind newer than the C header
     }
 }
@@ -178,7 +179,7 @@ struct lockroll_builder {
     std::int32_t players = 2;  // the builder's default
     std::size_t input_size = 0;
     std::uint32_t frames = 0;
-    std::uint64_t connect_us = 0, finish_us = 0, run_us = 0, interrupt_us = 0, disconnect_us = 0;
+    std::uint64_t connect_us = 0, finish_us = 0, run_us = 0;
 };
 
 struct lockroll_session {
@@ -189,6 +190,7 @@ struct lockroll_session {
     std::vector<std::uint8_t> input;          // this update()'s local input
     net::InputSource source;
     std::string detail;                       // the last event's, handed out as a C string
+    mutable std::string output_error;         // lockroll_output_error()'s, handed out likewise
 };
 
 namespace {
@@ -324,10 +326,41 @@ lockroll_status lockroll_builder_timeouts(lockroll_builder* b, std::uint64_t con
 
 lockroll_status lockroll_builder_disconnect_timeouts(lockroll_builder* b, std::uint64_t interrupt_us,
                                                      std::uint64_t disconnect_us) {
+    // The builder's own settings (whole milliseconds, rounded up): one path for C and C++.
+    const auto ms = [](std::uint64_t us) { return us / 1000 + (us % 1000 != 0 ? 1 : 0); };
     return with_builder(b, "lockroll_builder_disconnect_timeouts", [&] {
-        b->interrupt_us = interrupt_us;
-        b->disconnect_us = disconnect_us;
+        if (interrupt_us) b->builder.interrupt_timeout(ms(interrupt_us));
+        if (disconnect_us) b->builder.disconnect_timeout(ms(disconnect_us));
     });
+}
+
+lockroll_status lockroll_builder_spectator(lockroll_builder* b, const char* host, std::uint16_t port, std::int32_t index) {
+    constexpr const char* where = "lockroll_builder_spectator";
+    if (address_ok(where, host, port, false) != LOCKROLL_OK) return LOCKROLL_INVALID_ARGUMENT;
+    if (index < 0) return fail(LOCKROLL_INVALID_ARGUMENT, where, "index " + std::to_string(index) + " must be >= 0");
+    return with_builder(b, where, [&] { b->builder.spectator(host, port, index); });
+}
+
+lockroll_status lockroll_builder_spectators(lockroll_builder* b, std::int32_t count) {
+    constexpr const char* where = "lockroll_builder_spectators";
+    if (count < 0) return fail(LOCKROLL_INVALID_ARGUMENT, where, "count " + std::to_string(count) + " must be >= 0");
+    return with_builder(b, where, [&] { b->builder.spectators(count); });
+}
+
+lockroll_status lockroll_builder_join(lockroll_builder* b) {
+    return with_builder(b, "lockroll_builder_join", [&] { b->builder.join(); });
+}
+
+lockroll_status lockroll_builder_record_replay(lockroll_builder* b, const char* path, const char* scene_text) {
+    constexpr const char* where = "lockroll_builder_record_replay";
+    if (path == nullptr || *path == 0) return fail(LOCKROLL_INVALID_ARGUMENT, where, "path is NULL or empty");
+    return with_builder(b, where, [&] { b->builder.record_replay(path, scene_text ? scene_text : ""); });
+}
+
+lockroll_status lockroll_builder_desync_report_dir(lockroll_builder* b, const char* path) {
+    constexpr const char* where = "lockroll_builder_desync_report_dir";
+    if (path == nullptr || *path == 0) return fail(LOCKROLL_INVALID_ARGUMENT, where, "path is NULL or empty");
+    return with_builder(b, where, [&] { b->builder.desync_report_dir(path); });
 }
 
 lockroll_session* lockroll_builder_start(const lockroll_builder* b, const lockroll_game* game, void* user) {
@@ -355,16 +388,8 @@ lockroll_session* lockroll_builder_start(const lockroll_builder* b, const lockro
                 if (c.finish_us) r.finish_timeout_us = c.finish_us;
                 if (c.run_us) r.run_timeout_us = c.run_us;
             };
-            builder.configure([c, runner_timeouts](rollback::SessionConfig& sc, net::RunnerConfig& r) {
-                runner_timeouts(r);
-                if (c.interrupt_us) sc.interrupt_us = c.interrupt_us;
-                if (c.disconnect_us) sc.disconnect_us = c.disconnect_us;
-            });
-            // Through a server the only silence that matters is the server's.
-            builder.configure_relay([c, runner_timeouts](rollback::RelaySessionConfig& rc, net::RunnerConfig& r) {
-                runner_timeouts(r);
-                if (c.disconnect_us) rc.server_timeout_us = c.disconnect_us;
-            });
+            builder.configure([runner_timeouts](rollback::SessionConfig&, net::RunnerConfig& r) { runner_timeouts(r); });
+            builder.configure_relay([runner_timeouts](rollback::RelaySessionConfig&, net::RunnerConfig& r) { runner_timeouts(r); });
             s->game->set_players(static_cast<std::uint32_t>(std::max(b->players, 0)));
             s->net = builder.start(*s->game);
             s->frames = b->frames;
@@ -504,5 +529,15 @@ std::uint32_t lockroll_confirmed_frame(const lockroll_session* s) {
 }
 
 std::uint16_t lockroll_port(const lockroll_session* s) { return s ? s->net->port() : 0; }
+
+const char* lockroll_output_error(const lockroll_session* s) {
+    if (s == nullptr) return "";
+    try {
+        s->output_error = s->net->output_error();
+    } catch (...) {  // out of memory copying a message: say nothing rather than throw
+        return "";
+    }
+    return s->output_error.c_str();
+}
 
 }  // extern "C"

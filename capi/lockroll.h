@@ -99,6 +99,8 @@ typedef enum lockroll_event_kind {
     LOCKROLL_EVENT_KICKED = 14,
     LOCKROLL_EVENT_FAILED = 15,           /* the session cannot go on; detail says why */
     LOCKROLL_EVENT_SERVER_DRAINING = 16,
+    LOCKROLL_EVENT_DESYNC_REPORT = 17,    /* narrowing ended: frame: first differing frame; detail
+                                             names body, field and the evidence file */
     LOCKROLL_EVENT_OTHER = 255            /* a kind newer than this header; detail names it */
 } lockroll_event_kind;
 
@@ -194,9 +196,28 @@ LOCKROLL_API lockroll_status lockroll_builder_frames(lockroll_builder* builder, 
 LOCKROLL_API lockroll_status lockroll_builder_timeouts(lockroll_builder* builder, uint64_t connect_us, uint64_t finish_us,
                                                        uint64_t run_us);
 /* Microseconds of silence before a peer is reported interrupted (0.75 s) and dropped (5 s);
- * 0 keeps a default. Through a server: the server's silence that fails the session (5 s). */
+ * 0 keeps a default. Rounded up to whole milliseconds (the builder's interrupt_timeout and
+ * disconnect_timeout). Through a server: the server's silence that fails the session (5 s). */
 LOCKROLL_API lockroll_status lockroll_builder_disconnect_timeouts(lockroll_builder* builder, uint64_t interrupt_us,
                                                                   uint64_t disconnect_us);
+/* Watch a peer-to-peer match without playing: no local or remote players; the player of slot 0
+ * listens at host:port. This process is spectator `index` (0..count-1 of
+ * lockroll_builder_spectators, which every process of the match sets the same). */
+LOCKROLL_API lockroll_status lockroll_builder_spectator(lockroll_builder* builder, const char* host, uint16_t port,
+                                                        int32_t index);
+/* Spectators the match admits (default 0); the same on every process. */
+LOCKROLL_API lockroll_status lockroll_builder_spectators(lockroll_builder* builder, int32_t count);
+/* Enter a running match in the local slot by snapshot. Not needed after a restart: a player
+ * process started again with its usual settings rejoins by snapshot by itself. */
+LOCKROLL_API lockroll_status lockroll_builder_join(lockroll_builder* builder);
+/* Write every confirmed frame's inputs and checksum to a replay file (docs/replay-format.md)
+ * when the run ends; scene_text (may be NULL) is what the game is rebuilt from. The path is
+ * tried at start (LOCKROLL_START_FAILED naming it); not with join or spectator. */
+LOCKROLL_API lockroll_status lockroll_builder_record_replay(lockroll_builder* builder, const char* path,
+                                                            const char* scene_text);
+/* On a desync, write the evidence file (names body and field) into this directory, created at
+ * start; a LOCKROLL_EVENT_DESYNC_REPORT event names it either way. */
+LOCKROLL_API lockroll_status lockroll_builder_desync_report_dir(lockroll_builder* builder, const char* path);
 /* Binds the port and builds the session on `game` (in its initial state) with `user`. NULL on a
  * configuration error (lockroll_last_error() names the setting). The builder stays usable. */
 LOCKROLL_API lockroll_session* lockroll_builder_start(const lockroll_builder* builder, const lockroll_game* game,
@@ -228,6 +249,9 @@ LOCKROLL_API uint32_t lockroll_frame(const lockroll_session* session);
 LOCKROLL_API uint32_t lockroll_confirmed_frame(const lockroll_session* session);
 /* The UDP port this process listens on. */
 LOCKROLL_API uint16_t lockroll_port(const lockroll_session* session);
+/* The first failure writing the replay or a desync evidence file ("" when none, or for NULL).
+ * Valid until the next lockroll_output_error() or lockroll_session_free() on that session. */
+LOCKROLL_API const char* lockroll_output_error(const lockroll_session* session);
 
 #ifdef __cplusplus
 }

@@ -67,6 +67,11 @@ public static class Native {
     [DllImport(Lib)] public static extern Status lockroll_builder_frames(IntPtr b, uint frames);
     [DllImport(Lib)] public static extern Status lockroll_builder_timeouts(IntPtr b, ulong connectUs, ulong finishUs, ulong runUs);
     [DllImport(Lib)] public static extern Status lockroll_builder_disconnect_timeouts(IntPtr b, ulong interruptUs, ulong disconnectUs);
+    [DllImport(Lib)] public static extern Status lockroll_builder_spectator(IntPtr b, string host, ushort port, int index);
+    [DllImport(Lib)] public static extern Status lockroll_builder_spectators(IntPtr b, int count);
+    [DllImport(Lib)] public static extern Status lockroll_builder_join(IntPtr b);
+    [DllImport(Lib)] public static extern Status lockroll_builder_record_replay(IntPtr b, string path, string sceneText);
+    [DllImport(Lib)] public static extern Status lockroll_builder_desync_report_dir(IntPtr b, string path);
     [DllImport(Lib)] public static extern IntPtr lockroll_builder_start(IntPtr b, ref Game game, IntPtr user);
     [DllImport(Lib)] public static extern void lockroll_session_free(IntPtr s);
     [DllImport(Lib)] public static extern Status lockroll_update(IntPtr s, byte[] input, UIntPtr size, out UpdateResult result);
@@ -78,6 +83,7 @@ public static class Native {
     [DllImport(Lib)] public static extern uint lockroll_frame(IntPtr s);
     [DllImport(Lib)] public static extern uint lockroll_confirmed_frame(IntPtr s);
     [DllImport(Lib)] public static extern ushort lockroll_port(IntPtr s);
+    [DllImport(Lib)] public static extern IntPtr lockroll_output_error(IntPtr s);
 
     public static string LastError() { return Marshal.PtrToStringAnsi(lockroll_last_error()); }
     public static string Text(IntPtr p) { return p == IntPtr.Zero ? "" : Marshal.PtrToStringAnsi(p); }

@@ -96,6 +96,11 @@ def _load_library():
         "lockroll_builder_frames": (ctypes.c_int, [P, ctypes.c_uint32]),
         "lockroll_builder_timeouts": (ctypes.c_int, [P, ctypes.c_uint64, ctypes.c_uint64, ctypes.c_uint64]),
         "lockroll_builder_disconnect_timeouts": (ctypes.c_int, [P, ctypes.c_uint64, ctypes.c_uint64]),
+        "lockroll_builder_spectator": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_uint16, ctypes.c_int32]),
+        "lockroll_builder_spectators": (ctypes.c_int, [P, ctypes.c_int32]),
+        "lockroll_builder_join": (ctypes.c_int, [P]),
+        "lockroll_builder_record_replay": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
+        "lockroll_builder_desync_report_dir": (ctypes.c_int, [P, ctypes.c_char_p]),
         "lockroll_builder_start": (P, [P, ctypes.POINTER(_Game), P]),
         "lockroll_session_free": (None, [P]),
         "lockroll_update": (ctypes.c_int, [P, u8p, ctypes.c_size_t, ctypes.POINTER(_UpdateResult)]),
@@ -108,6 +113,7 @@ def _load_library():
         "lockroll_frame": (ctypes.c_uint32, [P]),
         "lockroll_confirmed_frame": (ctypes.c_uint32, [P]),
         "lockroll_port": (ctypes.c_uint16, [P]),
+        "lockroll_output_error": (ctypes.c_char_p, [P]),
     }
     for name, (restype, argtypes) in sig.items():
         f = getattr(lib, name)
@@ -195,6 +201,12 @@ class Builder:
     def timeouts(self, connect_us=0, finish_us=0, run_us=0): return self._set("timeouts", connect_us, finish_us, run_us)
     def disconnect_timeouts(self, interrupt_us=0, disconnect_us=0):
         return self._set("disconnect_timeouts", interrupt_us, disconnect_us)
+    def spectator(self, host, port, index=0): return self._set("spectator", host.encode(), port, index)
+    def spectators(self, n): return self._set("spectators", n)
+    def join(self): return self._set("join")
+    def record_replay(self, path, scene_text=None):
+        return self._set("record_replay", path.encode(), None if scene_text is None else scene_text.encode())
+    def desync_report_dir(self, path): return self._set("desync_report_dir", path.encode())
 
     def start(self, game, state_size):
         """Starts a session on `game` (save/load/advance, see the module doc); state_size: the
@@ -312,3 +324,7 @@ class Session:
 
     def port(self):
         return self._lib.lockroll_port(self._s)
+
+    def output_error(self):
+        """The first failure writing the replay or a desync evidence file; "" when none."""
+        return self._lib.lockroll_output_error(self._s).decode()

@@ -10,8 +10,12 @@
 #include <chrono>
 #include <cstdint>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace {
 
@@ -114,6 +118,7 @@ TEST(CApi, EventNamesFollowTheEnumerators) {
     EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_DESYNC_DETECTED), "desync");
     EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_FAILED), "failed");
     EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_SERVER_DRAINING), "server_draining");
+    EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_DESYNC_REPORT), "desync_report");
     EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_OTHER), "other");
     EXPECT_STREQ(lockroll_outcome_name(LOCKROLL_COMPLETED), "completed");
     EXPECT_STREQ(lockroll_outcome_name(LOCKROLL_RUNNING), "running");
@@ -203,3 +208,91 @@ TEST(CApi, TheGamesChecksumCallbackIsUsed) {
 }
 
 }  // namespace
+
+namespace {
+
+// Runs a session to its end (bounded), with the one local player pressing 1.
+lockroll_outcome run_to_end(lockroll_session* s) {
+    lockroll_update_result r{};
+    const std::uint8_t press = 1;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (r.outcome == LOCKROLL_RUNNING && std::chrono::steady_clock::now() < deadline) {
+        if (lockroll_update(s, &press, 1, &r) != LOCKROLL_OK) return LOCKROLL_FAILED;
+        lockroll_wait(s);
+    }
+    return r.outcome;
+}
+
+}  // namespace
+
+// The builder's engine settings (spectator, join, replay, desync reports, timeouts): bad values
+// are statuses naming the setting; settings that do not fit together fail the start naming them.
+TEST(CApi, EngineSettingsAreCheckedNamingTheSetting) {
+    lockroll_builder* b = lockroll_builder_new();
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(lockroll_builder_spectator(b, nullptr, 7000, 0), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("lockroll_builder_spectator"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_spectator(b, "127.0.0.1", 7000, -1), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("index -1"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_spectators(b, -2), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("count -2"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_record_replay(b, nullptr, nullptr), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("lockroll_builder_record_replay: path"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_desync_report_dir(b, ""), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("lockroll_builder_desync_report_dir: path"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_join(nullptr), LOCKROLL_INVALID_ARGUMENT);
+    lockroll_builder_free(b);
+
+    Game g;
+    const lockroll_game c = callbacks();
+    // A spectator of a match that admits none.
+    b = lockroll_builder_new();
+    ASSERT_EQ(lockroll_builder_input_size(b, 1), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_spectator(b, "127.0.0.1", 7000, 0), LOCKROLL_OK);
+    EXPECT_EQ(lockroll_builder_start(b, &c, &g), nullptr);
+    EXPECT_NE(error().find("spectators(0) admits none"), std::string::npos) << error();
+    lockroll_builder_free(b);
+    // A joiner has no frames from 1 on to record.
+    b = one_player(20);
+    ASSERT_EQ(lockroll_builder_join(b), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_record_replay(b, "x.lrr", nullptr), LOCKROLL_OK);
+    EXPECT_EQ(lockroll_builder_start(b, &c, &g), nullptr);
+    EXPECT_NE(error().find("record_replay() with join()"), std::string::npos) << error();
+    lockroll_builder_free(b);
+    // The timeouts reach the builder's own settings and their check.
+    b = one_player(20);
+    ASSERT_EQ(lockroll_builder_disconnect_timeouts(b, 2000000, 1000000), LOCKROLL_OK);
+    EXPECT_EQ(lockroll_builder_start(b, &c, &g), nullptr);
+    EXPECT_NE(error().find("interrupt_us must be below disconnect_us"), std::string::npos) << error();
+    lockroll_builder_free(b);
+    EXPECT_EQ(g.advances, 0);
+}
+
+// record_replay through the C ABI: the file is written when the run ends, a replay file
+// (docs/replay-format.md: "LRRP" first) with every frame; desync_report_dir is created at start.
+TEST(CApi, RecordReplayWritesTheReplayWhenTheRunEnds) {
+    const std::filesystem::path dir = std::filesystem::path(::testing::TempDir()) / "capi-engine";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    const std::string path = (dir / "one.lrr").string();
+    const std::string reports = (dir / "reports").string();
+    lockroll_builder* b = one_player(20);
+    ASSERT_EQ(lockroll_builder_record_replay(b, path.c_str(), "{\"game\": \"counter\"}"), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_desync_report_dir(b, reports.c_str()), LOCKROLL_OK);
+    Game g;
+    const lockroll_game c = callbacks();
+    lockroll_session* s = lockroll_builder_start(b, &c, &g);
+    lockroll_builder_free(b);
+    ASSERT_NE(s, nullptr) << error();
+    EXPECT_TRUE(std::filesystem::is_directory(reports));
+    EXPECT_FALSE(std::filesystem::exists(path)) << "written before the run ended";
+    ASSERT_EQ(run_to_end(s), LOCKROLL_COMPLETED);
+    EXPECT_STREQ(lockroll_output_error(s), "");
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GT(bytes.size(), 20u * 9u) << "20 frames of 1 input byte and an 8-byte checksum each, at least";
+    EXPECT_EQ(std::string(bytes.data(), 4), "LRRP");
+    EXPECT_EQ(std::string(bytes.begin(), bytes.end()).find("{\"game\": \"counter\"}") != std::string::npos, true);
+    lockroll_session_free(s);
+    EXPECT_STREQ(lockroll_output_error(nullptr), "");
+}
