@@ -181,6 +181,42 @@ TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
     EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
     expect_equal_at(cluster, 600);
 }
+// A process restarted with its usual settings says hello as a player, not as a joiner: its peer
+// drops the old process at once and refuses the new one as dropped, so it is kicked before it
+// runs a frame (it used to be welcomed and start at frame 0 of a running match). Started again
+// as a joiner (what net::NetSession does on that kick) it rejoins by snapshot.
+TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) {
+    const auto scene = make_scene(2, 10);
+    const SessionConfig cfg = real_config(2, 8);
+    Cluster cluster(scene, cfg, {15000}, 12);
+    cluster.run_frames(200);
+    cluster.kill(1);
+    cluster.run([](const Cluster&) { return false; }, 300'000);
+    SessionConfig same = cfg;
+    same.local_player = 1;  // role Player: the settings it started with
+    const std::uint64_t restarted_at = cluster.now();
+    Client& player = cluster.start(1, scene, same, 31);
+    cluster.run([&](const Cluster&) { return player.session->phase() == SessionPhase::Failed; }, 3'000'000);
+    cluster.run([](const Cluster&) { return false; }, 100'000);  // its events drained by its next ticks
+    const Client& survivor = *cluster.clients[0];
+    ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u);
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, "restarted");
+    EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000);  // not the 5 s timeout
+    ASSERT_EQ(player.session->phase(), SessionPhase::Failed) << "the restarted player was let in at frame 0";
+    EXPECT_EQ(events_of(player, Kind::Kicked).size(), 1u);
+    EXPECT_TRUE(events_of(player, Kind::Synchronized).empty());
+    EXPECT_EQ(player.session->frame(), 0u);
+    cluster.kill(1);
+    SessionConfig again = same;
+    again.role = Role::Joiner;
+    Client& joiner = cluster.start(1, scene, again, 31);
+    cluster.run_frames(600, 20'000'000);
+    cluster.settle(600);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    expect_equal_at(cluster, 600);
+}
+
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 
 // Issue 21, "the lone survivor freezes": every other player is killed from frame 200 on and the
