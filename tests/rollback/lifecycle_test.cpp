@@ -157,65 +157,50 @@ void kill_and_rejoin(int window) {
 
 TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
 
-// A process restarted within a second of dying says hello with a new incarnation: its peers drop
-// the old one at once instead of waiting out disconnect_us, and the game barely stalls.
-TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
+// Slot 1 of two dies at frame 200 and a new process for it says hello `down_us` later, in a new
+// incarnation, as `role`. Its peer drops the old process at once instead of waiting out
+// disconnect_us (detail `drop_detail`), and the game barely stalls. As a joiner it rejoins by
+// snapshot. As a player (restarted with its usual settings) it is refused as dropped, so it is
+// kicked before it runs a frame (it used to be welcomed and start at frame 0 of a running
+// match); started again as a joiner (what net::NetSession does on that kick) it rejoins.
+void restart_after(Role role, std::uint64_t down_us, const char* drop_detail) {
     const auto scene = make_scene(2, 10);
     const SessionConfig cfg = real_config(2, 8);
     Cluster cluster(scene, cfg, {15000}, 12);
     cluster.run_frames(200);
     cluster.kill(1);
-    cluster.run([](const Cluster&) { return false; }, 1'000'000);
+    cluster.run([](const Cluster&) { return false; }, down_us);
     SessionConfig again = cfg;
     again.local_player = 1;
-    again.role = Role::Joiner;
+    again.role = role;
     const std::uint64_t restarted_at = cluster.now();
-    Client& joiner = cluster.start(1, scene, again, 31);
+    Client* joiner = &cluster.start(1, scene, again, 31);
+    if (role == Role::Player) {
+        const Client& player = *joiner;
+        cluster.run([&](const Cluster&) { return player.session->phase() == SessionPhase::Failed; }, 3'000'000);
+        cluster.run([](const Cluster&) { return false; }, 100'000);  // its events drained by its next ticks
+        ASSERT_EQ(player.session->phase(), SessionPhase::Failed) << "the restarted player was let in at frame 0";
+        EXPECT_EQ(events_of(player, Kind::Kicked).size(), 1u);
+        EXPECT_TRUE(events_of(player, Kind::Synchronized).empty());
+        EXPECT_EQ(player.session->frame(), 0u);
+        cluster.kill(1);
+        again.role = Role::Joiner;
+        joiner = &cluster.start(1, scene, again, 31);
+    }
     cluster.run_frames(600, 20'000'000);
     cluster.settle(600);
     const Client& survivor = *cluster.clients[0];
     ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u);
-    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, "rejoining");
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, drop_detail);
     EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000);
     EXPECT_LT(survivor.session->stats().stall_time_us, 3'000'000u);
-    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    EXPECT_EQ(joiner->session->phase(), SessionPhase::Running);
+    EXPECT_EQ(events_of(*joiner, Kind::SnapshotLoaded).size(), 1u);
     expect_equal_at(cluster, 600);
 }
-// A process restarted with its usual settings says hello as a player, not as a joiner: its peer
-// drops the old process at once and refuses the new one as dropped, so it is kicked before it
-// runs a frame (it used to be welcomed and start at frame 0 of a running match). Started again
-// as a joiner (what net::NetSession does on that kick) it rejoins by snapshot.
-TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) {
-    const auto scene = make_scene(2, 10);
-    const SessionConfig cfg = real_config(2, 8);
-    Cluster cluster(scene, cfg, {15000}, 12);
-    cluster.run_frames(200);
-    cluster.kill(1);
-    cluster.run([](const Cluster&) { return false; }, 300'000);
-    SessionConfig same = cfg;
-    same.local_player = 1;  // role Player: the settings it started with
-    const std::uint64_t restarted_at = cluster.now();
-    Client& player = cluster.start(1, scene, same, 31);
-    cluster.run([&](const Cluster&) { return player.session->phase() == SessionPhase::Failed; }, 3'000'000);
-    cluster.run([](const Cluster&) { return false; }, 100'000);  // its events drained by its next ticks
-    const Client& survivor = *cluster.clients[0];
-    ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u);
-    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, "restarted");
-    EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000);  // not the 5 s timeout
-    ASSERT_EQ(player.session->phase(), SessionPhase::Failed) << "the restarted player was let in at frame 0";
-    EXPECT_EQ(events_of(player, Kind::Kicked).size(), 1u);
-    EXPECT_TRUE(events_of(player, Kind::Synchronized).empty());
-    EXPECT_EQ(player.session->frame(), 0u);
-    cluster.kill(1);
-    SessionConfig again = same;
-    again.role = Role::Joiner;
-    Client& joiner = cluster.start(1, scene, again, 31);
-    cluster.run_frames(600, 20'000'000);
-    cluster.settle(600);
-    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
-    ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
-    expect_equal_at(cluster, 600);
-}
+
+TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) { restart_after(Role::Joiner, 1'000'000, "rejoining"); }
+TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) { restart_after(Role::Player, 300'000, "restarted"); }
 
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 
