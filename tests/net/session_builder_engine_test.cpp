@@ -3,7 +3,8 @@
 // each over ENet on 127.0.0.1 with NetSessions on threads: a spectator follows a match to the
 // players' checksums, a planted desync writes both evidence files naming body and field, a
 // recorded replay plays back to the final checksum, and a player process restarted with its
-// usual settings rejoins by snapshot (before and after the survivor dropped it).
+// usual settings rejoins by snapshot (before and after the survivor dropped it). A World match
+// recorded through the builder plays back in `lockroll replay`.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -19,9 +21,12 @@
 #include <thread>
 #include <vector>
 
+#include "harness/match/match.h"
+#include "harness/match/scene_loader.h"
 #include "net/session_builder.h"
 #include "rollback/replay.h"
 #include "rollback/simulation.h"
+#include "rollback/world_simulation.h"
 
 namespace lockroll::net {
 namespace {
@@ -371,6 +376,60 @@ TEST(SessionBuilderEngine, RecordedReplayPlaysBackToTheFinalChecksum) {
             EXPECT_EQ(replay.inputs_of(f)[1], y[0]) << f;
         }
     }
+}
+
+// The paper scene's World through the builder, recorded with its scene JSON: `lockroll replay`
+// (the real program) rebuilds the World from the file alone and finds every checksum again,
+// the last one the match's.
+TEST(SessionBuilderEngine, LockrollReplayPlaysTheRecordedWorldBack) {
+    constexpr std::uint32_t kFrames = 120;
+    std::ifstream scene_file(std::string(LOCKROLL_SOURCE_DIR) + "/harness/scenes/paper.json", std::ios::binary);
+    const std::string scene_text((std::istreambuf_iterator<char>(scene_file)), std::istreambuf_iterator<char>());
+    ASSERT_FALSE(scene_text.empty());
+    sim::SceneDesc scene = harness::with_players(harness::parse_scene(scene_text, "paper.json"), 2);
+    scene.tick_rate = 60;
+    rollback::WorldSimulation sim_a(scene, 2), sim_b(scene, 2);
+    const fs::path dir = scratch("world-replay");
+    fs::create_directories(dir);
+    const fs::path path = dir / "paper.lrr";
+    const auto base =
+        bounded(SessionBuilder().players(2).input_size(rollback::kWorldInputSize).frames(kFrames).input_delay(1));
+    Pair p = start_pair(base, sim_a, sim_b, [&](SessionBuilder& a) { a.record_replay(path.string(), scene_text); });
+    // Each player steers: forward and right from the frame number, so bodies move.
+    const auto steer = [](rollback::PlayerId slot) {
+        return [slot](std::uint32_t f, std::span<std::uint8_t> o) {
+            const auto in = rollback::encode_input({static_cast<std::int8_t>(f % 3 == 0 ? 1 : -1),
+                                                    static_cast<std::int8_t>(slot == 0 ? 1 : (f / 30) % 2), 0});
+            std::copy(in.begin(), in.end(), o.begin());
+        };
+    };
+    RunOutcome oa{}, ob{};
+    std::thread ta([&] { oa = p.a->run(steer(0)); });
+    std::thread tb([&] { ob = p.b->run(steer(1)); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << p.a->session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << p.b->session().failure();
+    ASSERT_EQ(p.a->output_error(), "");
+    const std::string command = std::string(LOCKROLL_EXE) + " replay " + path.string() + " 2>&1";
+    FILE* out = ::popen(command.c_str(), "r");
+    ASSERT_NE(out, nullptr);
+    std::string printed;
+    std::array<char, 512> buf{};
+    while (std::fgets(buf.data(), buf.size(), out)) printed += buf.data();
+    const int status = ::pclose(out);
+    ASSERT_EQ(status, 0) << printed;
+    const auto at = printed.find(" frames: every checksum matches; final ");
+    ASSERT_NE(at, std::string::npos) << printed;
+    const auto frames_at = printed.rfind(' ', at - 1);
+    const auto frames = static_cast<std::uint32_t>(std::stoul(printed.substr(frames_at + 1, at - frames_at - 1)));
+    ASSERT_GE(frames, kFrames) << printed;
+    const auto last = p.a->confirmed_checksum(frames);
+    ASSERT_TRUE(last) << frames;
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(*last));
+    EXPECT_NE(printed.find(std::string("final ") + hex), std::string::npos) << printed;
+    EXPECT_EQ(p.b->confirmed_checksum(kFrames), p.a->confirmed_checksum(kFrames));
 }
 
 // Slot 1's process is "killed" (destroyed mid-match) and started again with exactly the same
