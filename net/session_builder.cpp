@@ -137,6 +137,11 @@ NetSession::NetSession() = default;
 
 NetSession::~NetSession() {
     if (engine_) engine_->write_replay();  // a run that never ended still leaves its replay
+    // The sessions hold the engine as their observer: they go first, runners before sessions.
+    relay_runner_.reset();
+    relay_session_.reset();
+    runner_.reset();
+    session_.reset();
 }
 
 std::string NetSession::output_error() const { return engine_ ? engine_->output_error : std::string(); }

@@ -49,7 +49,9 @@
 //    as dropped; a NetSession that has not yet run a frame then restarts its session as a joiner
 //    (rollback::Session's join path, the same as `lockroll peer --join`) and rejoins by snapshot.
 //    The refusal and the failure it causes are not passed on: the game sees snapshot_loaded and
-//    synchronized. Peer to peer only; through a server join() sets RelayRole::Joiner.
+//    synchronized. The rejoin builds a new rollback::Session: a reference from session() taken
+//    before it is stale afterwards (take it again after update()). Peer to peer only; through a
+//    server join() sets RelayRole::Joiner.
 //  - observer(o): the game's rollback::SessionObserver sees every frame, rollback, confirmation
 //    and desync callback of the session (either kind), as the CLI's recorder does.
 //  - desync_report_dir(path): created at start() (throws naming it if it cannot be); once
@@ -59,14 +61,15 @@
 //  - record_replay(path, scene_text): the replay (docs/replay-format.md) of every confirmed
 //    frame from 1 on, written when the run ends (update()'s outcome) and, if it never ended, when
 //    the NetSession is destroyed. scene_text is what the simulation is rebuilt from (for the
-//    World: the scene JSON, which `lockroll replay` reads). The path is tried at start() (opened
-//    for writing, no file left behind: throws naming it if it cannot be). A joiner or spectator starts from a
-//    snapshot: record_replay() with join() or spectator() throws, and a restarted process that
-//    rejoined writes none.
+//    World: the scene JSON, which `lockroll replay` reads). The path is tried at start()
+//    (opened for writing, no file left behind: throws naming it if it cannot be). A joiner or
+//    spectator starts from a snapshot: record_replay() with join() or spectator() throws, and a
+//    restarted process that rejoined writes none.
 //  - interrupt_timeout(ms) / disconnect_timeout(ms): a peer's silence before it is reported
 //    interrupted (750 ms) and before this process votes it gone (5000 ms; 0: never);
 //    SessionConfig's interrupt_us / disconnect_us. Through a server disconnect_timeout is the
-//    server's silence that fails the session (RelaySessionConfig::server_timeout_us, 0: keep).
+//    server's silence that fails the session (RelaySessionConfig::server_timeout_us, 0: keep);
+//    interrupt_timeout does not apply there.
 //  - Writing the evidence or the replay never throws from update(): the first failure is kept
 //    (NetSession::output_error()).
 #pragma once
