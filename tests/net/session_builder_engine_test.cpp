@@ -228,8 +228,10 @@ TEST(SessionBuilderEngine, SpectatorFollowsToThePlayersChecksums) {
     Tally sim_a, sim_b, sim_s;
     const auto base = bounded(SessionBuilder().players(2).input_size(1).spectators(1).frames(kFrames).input_delay(1));
     Pair p = start_pair(base, sim_a, sim_b);
-    std::unique_ptr<NetSession> spectator =
-        bounded(SessionBuilder().players(2).input_size(1).spectators(1).frames(kFrames).spectator("127.0.0.1", p.a->port())).start(sim_s);
+    // Watch the match: no local slot; slot 0's process serves the snapshot and every stream.
+    SessionBuilder watch = SessionBuilder().players(2).input_size(1).spectators(1).frames(kFrames);
+    watch.spectator("127.0.0.1", p.a->port());
+    std::unique_ptr<NetSession> spectator = bounded(watch).start(sim_s);
     EXPECT_TRUE(spectator->local_slots().empty());
     RunOutcome oa{}, ob{}, os{};
     std::thread ta([&] { oa = p.a->run([](std::uint32_t f, std::span<std::uint8_t> o) { input_of(0, f, o); }); });
@@ -288,8 +290,10 @@ TEST(SessionBuilderEngine, PlantedDesyncWritesTheEvidenceNamingBodyAndField) {
     const auto base = bounded(SessionBuilder().players(2).input_size(1).frames(kFrames).input_delay(1));
     Tally probe;
     const std::uint16_t port_b = SessionBuilder(base).local_player(1).remote_player(0, "127.0.0.1", 1).start(probe)->port();
-    auto a = SessionBuilder(base).local_player(0).remote_player(1, "127.0.0.1", port_b).desync_report_dir(dir_a.string())
-                 .observer(&seen_a).start(sim_a);
+    SessionBuilder builder_a = SessionBuilder(base).local_player(0).remote_player(1, "127.0.0.1", port_b);
+    builder_a.desync_report_dir(dir_a.string());  // the evidence file goes here
+    builder_a.observer(&seen_a);                  // the game's own SessionObserver
+    std::unique_ptr<NetSession> a = builder_a.start(sim_a);
     auto b = SessionBuilder(base).local_player(1).listen("127.0.0.1", port_b).remote_player(0, "127.0.0.1", a->port())
                  .desync_report_dir(dir_b.string()).observer(&seen_b).start(sim_b);
     std::thread ta([&] { a->run([](std::uint32_t f, std::span<std::uint8_t> o) { input_of(0, f, o); }); });
@@ -316,8 +320,8 @@ TEST(SessionBuilderEngine, PlantedDesyncWritesTheEvidenceNamingBodyAndField) {
         const std::string rest((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
         EXPECT_FALSE(rest.empty()) << "the state is missing from the evidence";
         bool reported = false;
-        for (const auto& e : drain(side.s))
-            if (e.kind == Kind::DesyncReport) {
+        for (rollback::SessionEvent e; side.s.next_event(e);)
+            if (e.kind == rollback::SessionEvent::Kind::DesyncReport) {  // e.detail: body, field, file
                 reported = true;
                 EXPECT_EQ(e.peer, side.peer);
                 EXPECT_EQ(e.frame, 50u);
@@ -394,7 +398,10 @@ TEST(SessionBuilderEngine, LockrollReplayPlaysTheRecordedWorldBack) {
     const fs::path path = dir / "paper.lrr";
     const auto base =
         bounded(SessionBuilder().players(2).input_size(rollback::kWorldInputSize).frames(kFrames).input_delay(1));
-    Pair p = start_pair(base, sim_a, sim_b, [&](SessionBuilder& a) { a.record_replay(path.string(), scene_text); });
+    const auto record = [&](SessionBuilder& a) {
+        a.record_replay(path.string(), scene_text);  // written when the run ends
+    };
+    Pair p = start_pair(base, sim_a, sim_b, record);
     // Each player steers: forward and right from the frame number, so bodies move.
     const auto steer = [](rollback::PlayerId slot) {
         return [slot](std::uint32_t f, std::span<std::uint8_t> o) {
