@@ -141,12 +141,13 @@ int main(int argc, char** argv) {
             encode(h, b);
             return b;
         };
-        auto inputs = [](std::uint32_t first, int count, std::uint32_t ack) {
+        auto inputs = [](std::uint32_t first, int count, std::uint32_t ack, std::uint16_t slots) {
             RelayInput m;
             m.confirmed_ack = ack;
             m.first_frame = first;
             m.frame_count = static_cast<std::uint8_t>(count);
-            m.inputs.assign(static_cast<std::size_t>(count) * 3, 0x42);
+            m.slots = slots;
+            m.inputs.assign(static_cast<std::size_t>(count) * 3 * static_cast<std::size_t>(relay_slot_count(slots)), 0x42);
             std::vector<std::uint8_t> b;
             encode(m, 3, b);
             return b;
@@ -157,8 +158,8 @@ int main(int argc, char** argv) {
         relay_op(play, kDatagram, 0, hello(0, RelayRole::Player));
         relay_op(play, kDatagram, 1, hello(1, RelayRole::Player));
         for (std::uint32_t f = 0; f < 6; f += 2) {
-            relay_op(play, kDatagram, 0, inputs(f, 2, f));
-            relay_op(play, kDatagram, 1, inputs(f, 2, f));
+            relay_op(play, kDatagram, 0, inputs(f, 2, f, 0x1));
+            relay_op(play, kDatagram, 1, inputs(f, 2, f, 0x2));
             relay_op(play, kTime, 0, {17});
             relay_op(play, kTake, 0);
         }
@@ -177,7 +178,7 @@ int main(int argc, char** argv) {
         put(root / "relay", "spectator_forward", watch);
         std::vector<std::uint8_t> late = play;
         relay_op(late, kTime, 0, {255});
-        relay_op(late, kDatagram, 1, inputs(10000, 3, 0));
+        relay_op(late, kDatagram, 1, inputs(10000, 3, 0, 0x2));
         relay_op(late, kDatagram, 0, hello(1, RelayRole::Player));
         relay_op(late, kTake, 0);
         put(root / "relay", "late_and_spoof", late);

@@ -28,6 +28,7 @@ protected:
         server->set_wall_clock(kUnixStart * 1'000'000, now);
     }
 
+    std::map<ConnectionId, std::uint16_t> plays;  // by hello()
     ConnectGrant grant(int slot, std::uint64_t client_id, std::uint64_t expires_in_s = 600) const {
         ConnectGrant g;
         g.room_id = kRoom;
@@ -55,6 +56,7 @@ protected:
         h.tick_rate = 60;
         h.scene_checksum = 5;
         h.slot = static_cast<std::uint8_t>(slot);
+        plays[c] = static_cast<std::uint16_t>(1u << slot);
         h.incarnation = incarnation ? incarnation : 1000 + c;
         h.token = tok;
         std::vector<std::uint8_t> b;
@@ -66,6 +68,7 @@ protected:
         RelayInput m;
         m.first_frame = first;
         m.frame_count = static_cast<std::uint8_t>(count);
+        m.slots = plays[c];  // the slot this connection said hello for
         m.inputs.assign(static_cast<std::size_t>(count) * 2, 1);
         std::vector<std::uint8_t> b;
         encode(m, 2, b);
