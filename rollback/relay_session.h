@@ -31,6 +31,7 @@
 //    the server like any other.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -143,9 +144,9 @@ public:
 
     const RelaySessionConfig& config() const { return config_; }
     // The slots this client plays, ascending (empty for a spectator), and the bytes advance()
-    // takes: input_size per local slot, in that order.
+    // takes: input_size per local slot, in that order (a spectator: one input_size, ignored).
     const std::vector<PlayerId>& local_slots() const { return local_slots_; }
-    std::size_t local_input_size() const { return config_.input_size * local_slots_.size(); }
+    std::size_t local_input_size() const { return config_.input_size * std::max<std::size_t>(1, local_slots_.size()); }
     // The server holds this client's inputs of every frame before this.
     std::uint32_t server_input_ack() const { return server_ack_; }
     // This client's id in the room (its slot, or players + place for a spectator).

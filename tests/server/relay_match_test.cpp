@@ -219,6 +219,9 @@ TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
     expect_equal_at(cl, {0, 1, j, w}, 700);
     EXPECT_EQ(count(cl.client(j), Kind::SnapshotLoaded), 1);
     EXPECT_EQ(count(cl.client(w), Kind::SnapshotLoaded), 1);
+    // A spectator's advance() takes one (ignored) input of input_size bytes, as a player's.
+    EXPECT_EQ(cl.client(w).session->local_input_size(), 3u);
+    EXPECT_EQ(cl.client(w).session->stats().bad_local_inputs, 0u);
     EXPECT_GE(count(cl.client(0), Kind::Joined), 1);  // slot 2's inputs start: seen by the others
     // The joiner's own inputs count from its handoff on.
     const RelayRoom* room = cl.server().room(42);
