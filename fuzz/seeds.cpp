@@ -182,6 +182,40 @@ int main(int argc, char** argv) {
         relay_op(late, kDatagram, 0, hello(1, RelayRole::Player));
         relay_op(late, kTake, 0);
         put(root / "relay", "late_and_spoof", late);
+        // Several local players (wire v3): a couch on connection 0 plays slots 0 and 1 of a
+        // 3-player room, connection 1 plays slot 2; both send records; slot 2's connection then
+        // sends records naming slot 0 (bad, ignored), and a version-2 hello is refused.
+        auto couch_hello = [](int slot, std::uint16_t also) {
+            RelayHello h;
+            h.room_id = 8;
+            h.players = 3;
+            h.input_size = 3;
+            h.slot = static_cast<std::uint8_t>(slot);
+            h.also_slots = also;
+            h.incarnation = 200 + static_cast<std::uint64_t>(slot);
+            std::vector<std::uint8_t> b;
+            encode(h, b);
+            return b;
+        };
+        std::vector<std::uint8_t> couch;
+        relay_op(couch, kOpen, 0);
+        relay_op(couch, kOpen, 1);
+        relay_op(couch, kDatagram, 0, couch_hello(0, 0x2));
+        relay_op(couch, kDatagram, 1, couch_hello(2, 0));
+        for (std::uint32_t f = 0; f < 6; f += 2) {
+            relay_op(couch, kDatagram, 0, inputs(f, 2, f, 0x3));
+            relay_op(couch, kDatagram, 1, inputs(f, 2, f, 0x4));
+            relay_op(couch, kTime, 0, {17});
+            relay_op(couch, kTake, 0);
+        }
+        relay_op(couch, kDatagram, 1, inputs(6, 2, 6, 0x1));
+        std::vector<std::uint8_t> v2 = couch_hello(1, 0);
+        v2[1] = 2;
+        v2.erase(v2.begin() + 25, v2.begin() + 27);  // the v2 layout: no also_slots
+        relay_op(couch, kOpen, 2);
+        relay_op(couch, kDatagram, 2, v2);
+        relay_op(couch, kTake, 0);
+        put(root / "relay", "couch_and_online", couch);
     }
     // token: grants sealed with the fuzzer's key (a player, a spectator of a 3-player room with
     // an absent slot, one expired at the fuzzer's clock), and a token of another key.
@@ -201,6 +235,9 @@ int main(int argc, char** argv) {
         old.expires_unix_s = lockroll::fuzz::kFuzzUnixS - 1;
         put(root / "token", "expired", seal_token(old, lockroll::fuzz::kFuzzTokenKey));
         put(root / "token", "other_key", seal_token(g, new_token_key()));
+        ConnectGrant couch = g;  // one connection, slots 0 and 1 (several local players)
+        couch.also_slots = 0x2;
+        put(root / "token", "couch", seal_token(couch, lockroll::fuzz::kFuzzTokenKey));
     }
     // membership: the cases of docs/sessions.md's Drop section as scripts (fuzz/membership_fuzz.h).
     {
