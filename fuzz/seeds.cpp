@@ -129,14 +129,16 @@ int main(int argc, char** argv) {
     // relay: two players start a room and play a few frames; a spectator; a bad hello.
     {
         using namespace lockroll::fuzz;
-        auto hello = [](int slot, RelayRole role) {
+        // Room 7 of 2 players by default; a couch's hello names its further slots (also).
+        auto hello = [](int slot, RelayRole role, std::uint64_t room = 7, int players = 2, std::uint16_t also = 0) {
             RelayHello h;
-            h.room_id = 7;
-            h.players = 2;
+            h.room_id = room;
+            h.players = static_cast<std::uint8_t>(players);
             h.input_size = 3;
             h.slot = static_cast<std::uint8_t>(slot);
+            h.also_slots = also;
             h.role = role;
-            h.incarnation = 100 + static_cast<std::uint64_t>(slot);
+            h.incarnation = (room == 7 ? 100 : 200) + static_cast<std::uint64_t>(slot);
             std::vector<std::uint8_t> b;
             encode(h, b);
             return b;
@@ -185,18 +187,7 @@ int main(int argc, char** argv) {
         // Several local players (wire v3): a couch on connection 0 plays slots 0 and 1 of a
         // 3-player room, connection 1 plays slot 2; both send records; slot 2's connection then
         // sends records naming slot 0 (bad, ignored), and a version-2 hello is refused.
-        auto couch_hello = [](int slot, std::uint16_t also) {
-            RelayHello h;
-            h.room_id = 8;
-            h.players = 3;
-            h.input_size = 3;
-            h.slot = static_cast<std::uint8_t>(slot);
-            h.also_slots = also;
-            h.incarnation = 200 + static_cast<std::uint64_t>(slot);
-            std::vector<std::uint8_t> b;
-            encode(h, b);
-            return b;
-        };
+        auto couch_hello = [&](int slot, std::uint16_t also) { return hello(slot, RelayRole::Player, 8, 3, also); };
         std::vector<std::uint8_t> couch;
         relay_op(couch, kOpen, 0);
         relay_op(couch, kOpen, 1);
