@@ -336,6 +336,24 @@ TEST_F(Server, SameProcessOnANewConnectionResumesItsSlotOthersAreRefused) {
     EXPECT_EQ(server->room(7)->confirmed_frames(), 6u);
 }
 
+// A client of relay wire version 2 (no also_slots: a 45-byte hello) is told why it is refused
+// (the version), not counted as sending garbage.
+TEST_F(Server, AHelloOfAnOlderVersionIsRefusedNamingTheVersion) {
+    connect(1);
+    RelayHello h;
+    h.room_id = 7;
+    std::vector<std::uint8_t> b;
+    encode(h, b);
+    b.erase(b.begin() + 25, b.begin() + 27);  // the version-2 layout
+    b[1] = 2;
+    send(1, b);
+    drain();
+    EXPECT_EQ(last_refusal(1), RelayRefusal::Version);
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_EQ(server->counters().bad_packets, 0u);
+    EXPECT_EQ(server->room_count(), 0u);
+}
+
 TEST_F(Server, BoundConnectionClaimingAnotherSlotIsKicked) {
     start_room(7, 1, 2);
     for (int i = 0; i < 5; ++i) hello(1, 7, 1);
