@@ -53,6 +53,8 @@ LivePlan plan(const LiveOptions& o) {
     if (p.topologies.empty()) throw UsageError("--topology " + o.topology + ": expected p2p, relay or both");
     if (o.spectators < 0 || o.spectators > 8) throw UsageError("--spectators must be 0..8");
     if (!(o.disconnect_timeout >= 0.5 && o.disconnect_timeout <= 600)) throw UsageError("--disconnect-timeout must be 0.5..600 s");
+    // The same bound as `lockroll peer` and `client` check, here before any process starts.
+    if (!(o.finish_timeout > 0 && o.finish_timeout <= 3600)) throw UsageError("--finish-timeout must be 0..3600 s");
     if (o.recoveries < 0 || o.recoveries > 100) throw UsageError("--recoveries must be 0..100");
     p.modes = o.mode == "both"       ? std::vector<Mode>{Mode::Lockstep, Mode::Rollback}
               : o.mode == "lockstep" ? std::vector<Mode>{Mode::Lockstep}
@@ -306,6 +308,10 @@ void add_live_command(CLI::App& app) {
     cmd->add_option("--recoveries", o->recoveries, "Desync recoveries per process (the minority reloads the majority's state)")
         ->capture_default_str();
     cmd->add_option("--disconnect-timeout", o->disconnect_timeout, "Seconds of silence before a slot is dropped")
+        ->capture_default_str();
+    cmd->add_option("--finish-timeout", o->finish_timeout,
+                    "Seconds after the last frame each process waits for every peer to confirm it (also how long a "
+                    "partitioned process waits for healing past the match's end)")
         ->capture_default_str();
     cmd->add_option("--inject-desync", o->injections, "CLIENT:FRAME:BODY[:FIELD:BIT] flip one bit on one process (repeatable)");
     cmd->add_option("--log-level", o->log_level, "Log level of the peer processes")->capture_default_str();

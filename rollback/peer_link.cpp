@@ -78,6 +78,36 @@ std::int64_t PeerLink::estimated_frame(std::uint64_t now_us, std::uint64_t inter
     return std::int64_t{remote_frame} + static_cast<std::int64_t>(elapsed * static_cast<std::uint64_t>(tick_rate) / 1000000);
 }
 
+bool PeerLink::table_due(const std::vector<std::uint16_t>& entries, std::uint64_t now_us, std::uint64_t refresh_us) const {
+    if (entries != table_entries_sent_) return true;
+    if (table_copies_ < table_copies_wanted_) {
+        // After k copies (k >= 1), the next goes 2^(k-1) messages after the change.
+        const std::uint64_t gap = std::uint64_t{1} << std::clamp(table_copies_ - 1, 0, 62);
+        if (messages_sent >= table_change_message_ + gap) return true;
+    }
+    return table_changed_ && refresh_us != 0 && now_us >= table_sent_us_ + refresh_us;
+}
+
+void PeerLink::table_sent(const std::vector<std::uint16_t>& entries, std::uint64_t now_us, int copies) {
+    if (entries != table_entries_sent_) {
+        table_entries_sent_ = entries;
+        table_copies_ = 0;
+        table_copies_wanted_ = copies;
+        table_change_message_ = messages_sent;
+        table_changed_ = true;
+    }
+    ++table_copies_;
+    table_sent_us_ = now_us;
+}
+
+void PeerLink::table_assumed(const std::vector<std::uint16_t>& entries, std::uint64_t now_us) {
+    table_entries_sent_ = entries;
+    table_copies_ = 0;
+    table_copies_wanted_ = 0;
+    table_changed_ = false;
+    table_sent_us_ = now_us;
+}
+
 PeerLink::Stamps PeerLink::outgoing_stamps(std::uint64_t now_us) const {
     Stamps s;
     s.stamp = static_cast<std::uint16_t>(now_us / 100);

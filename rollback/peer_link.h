@@ -2,8 +2,9 @@
 // UdpProtocol; the Session delegates each peer to one): the handshake (hellos due, welcomes and
 // the sync-phase round trips, refusals rate-limited), liveness (heard, interrupted, timed out),
 // round trip (smoothed samples, echoed stamps), input exchange (its acks of our inputs, its
-// reported frame and advantage, our estimate of its frame now) and which confirmed checksums ride
-// on the next message to it; and whether it is still worth listening to. The session decides
+// reported frame and advantage, our estimate of its frame now), which confirmed checksums ride
+// on the next message to it and when our slot table does; and whether it is still worth
+// listening to. The session decides
 // what the answers mean for the match (votes, events, membership); the link holds no session
 // state and reads no clock (time is passed in).
 //
@@ -138,6 +139,28 @@ public:
 
     std::uint64_t messages_sent = 0;
 
+    // ---- our slot table to it (issue 21: sent when it changes, plus a slow refresh) ----
+    // The table's entries as they would go to it now, one per slot (state << 8 | epoch: our vote
+    // or view), decide when it rides. When they differ from the ones last sent, it rides on the
+    // next message and then again 1, 2, 4, ... messages after the change, `copies` times in all:
+    // a vote is one datagram, and copies spread over about 2^(copies-2) messages survive a loss
+    // burst as well as independent loss (all 8 copies lost at 30 % loss: 7e-5). Otherwise, once
+    // its entries changed at least once, it rides when refresh_us have passed since it last did
+    // (0: never), which repairs a change all of whose copies were lost. A table that never
+    // changed has nothing to repair: the peer already holds what it says (table_assumed). The
+    // caller sends it for reasons of its own too (a slot not simply running, relays): every copy
+    // that went counts (table_sent).
+    bool table_due(const std::vector<std::uint16_t>& entries, std::uint64_t now_us, std::uint64_t refresh_us) const;
+    // The table went on the message about to be counted in messages_sent, now, with these
+    // entries; copies: how many copies a change of entries gets.
+    void table_sent(const std::vector<std::uint16_t>& entries, std::uint64_t now_us, int copies);
+    // The peer holds these entries without our sending them (the starting view, from the config
+    // both share): they are no change, and nothing needs a refresh yet.
+    void table_assumed(const std::vector<std::uint16_t>& entries, std::uint64_t now_us);
+    // When its last table arrived: its counts are what relays are decided from, and counts
+    // older than a few tables say nothing about a lag now.
+    std::uint64_t counts_at_us = 0;
+
     // ---- lifecycle (docs/sessions.md) ----
     bool welcomed = false;            // handshake done: its traffic is listened to
     std::uint8_t welcomed_epoch = 0;  // its slot's epoch when it was welcomed
@@ -190,6 +213,11 @@ public:
         has_remote_frame = false;
         any_checksum_sent = false;
         checksum_sends = 0;
+        counts_at_us = 0;
+        // A new process there has heard nothing from us: our table is a change to it.
+        table_entries_sent_.clear();
+        table_copies_ = 0;
+        table_changed_ = false;
     }
 
 private:
@@ -201,6 +229,12 @@ private:
     std::uint64_t rtt_us_ = 0;
     std::uint64_t rtt_var_us_ = 0;
     TimeSync time_sync_;
+    std::vector<std::uint16_t> table_entries_sent_;  // empty: none sent, any table is a change
+    int table_copies_ = 0;                           // copies of them sent since they changed
+    int table_copies_wanted_ = 0;
+    std::uint64_t table_change_message_ = 0;         // messages_sent when they changed
+    std::uint64_t table_sent_us_ = 0;
+    bool table_changed_ = false;                     // entries it got from us, not assumed
 };
 
 template <class Checksum>

@@ -1,6 +1,7 @@
 #include "rollback/session.h"
 
 #include "rollback/input_delay.h"
+#include "rollback/session_admission.h"
 
 #include <algorithm>
 #include <array>
@@ -23,6 +24,19 @@ constexpr int kMaxChunksPerPoll = 64;
 // A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
 // server a whole state packed and sent, so a peer that keeps asking must not multiply that.
 constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
+// The slot table's schedule once every slot simply runs (issue 21: it had ridden every 8th
+// message, 22 bytes at 4 players, though it never changed). A change of what we tell a peer
+// goes in kTableCopies copies spread over ~1 s (PeerLink::table_due): a vote then survives 30 %
+// loss or a short burst. Once it changed, a refresh every kTableRefreshUs (at most half the
+// disconnect timeout) repairs a change all of whose copies were lost: the one that matters is
+// a withdrawn "gone" vote (a healed partition), which is then back at every peer before another
+// voter's silence timer, started when the change was made, could complete a majority with the
+// stale one. A table that never changed needs no refresh: it says "runs" in the view's epoch
+// about every slot, which counts for no more than saying nothing (only "gone" votes drop), and
+// the peer's relays ask for themselves (lags_on_a_stream). Two players need no refresh either:
+// there one vote is a majority or nothing (TwoPlayerRule).
+constexpr int kTableCopies = 8;
+constexpr std::uint64_t kTableRefreshUs = 2'000'000;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -120,6 +134,11 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
         phase_ = SessionPhase::Synchronizing;
     } else {
         for (std::size_t p = 0; p < static_cast<std::size_t>(config_.players); ++p) links_[p].welcomed = true;
+    }
+    // The starting view is every peer's (the same config): it is no change to anyone.
+    for (std::size_t p = 0; p < peers; ++p) {
+        table_entries_for(static_cast<PlayerId>(p), table_entries_);
+        links_[p].table_assumed(table_entries_, 0);
     }
     refresh_resend_floor();
 }
@@ -287,33 +306,25 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     w.echo_us = m.stamp_us;
     w.running = phase_ == SessionPhase::Running;
     if (is_slot(from)) w.slot_epoch = membership_.epoch(from);
-    std::string why;
-    if (m.version != kProtocolVersion) {
-        w.refusal = Refusal::Version;
-        why = "protocol version " + std::to_string(m.version) + ", ours " + std::to_string(kProtocolVersion);
-    } else if (m.match_id != config_.match_id) {
-        w.refusal = Refusal::MatchId;
-        why = "match id " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id);
-    } else if (m.scene_checksum != scene_checksum_) {
-        w.refusal = Refusal::Scene;
-        why = "scene checksum " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum_);
-    } else if ((m.role == Role::Spectator) == is_slot(from)) {
-        w.refusal = Refusal::BadRole;
-        why = "role does not fit peer id " + std::to_string(from);
-    } else if (phase_ != SessionPhase::Running && m.role != Role::Player) {
-        w.refusal = Refusal::Retry;  // we cannot serve a snapshot before we run ourselves
-    } else if (m.role == Role::Player && phase_ == SessionPhase::Running && link.welcomed && !slot_running(from)) {
-        w.refusal = Refusal::Disconnected;
-        why = "slot " + std::to_string(from) + " was dropped; rejoin as a joiner";
-    } else if (m.role == Role::Joiner && slot_running(from) && phase_ == SessionPhase::Running &&
-               link.welcomed && link.incarnation != m.incarnation && link.welcomed_epoch == membership_.epoch(from) &&
-               !slots_[from].handed_off_by_me) {
-        // Another process for a slot whose process we know: the old one restarted and is gone.
-        // Drop it now; welcome the new one once the drop is agreed. (A slot running in a newer
-        // epoch than we welcomed it in is the joiner itself, handed over by the owner.)
-        drop_slot(from, now_us, "rejoining");
-        w.refusal = Refusal::Retry;
+    HelloContext c;
+    c.match_id = config_.match_id;
+    c.scene_checksum = scene_checksum_;
+    c.from = from;
+    c.from_slot = is_slot(from);
+    c.running = phase_ == SessionPhase::Running;
+    c.welcomed = link.welcomed;
+    c.incarnation = link.incarnation;
+    if (c.from_slot) {
+        c.slot_running = slot_running(from);
+        c.welcomed_in_this_epoch = link.welcomed_epoch == membership_.epoch(from);
+        c.handed_off_by_me = slots_[from].handed_off_by_me;
     }
+    const HelloAdmission a = admit_hello(m, c);
+    w.refusal = a.refusal;
+    const std::string& why = a.why;
+    // Another process for a slot whose process we know: the old one restarted and is gone.
+    // Drop it now; welcome the new one once the drop is agreed.
+    if (a.restarted) drop_slot(from, now_us, "rejoining");
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
         if (link.refusal_quiet_for(now_us, 1000000))
@@ -498,6 +509,7 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
         const auto count = unwrap_frame(e.count, count_of(e.slot));
         link.table[s] = e;
         link.table_seen[s] = true;
+        link.counts_at_us = now_us;
         if (count) {
             link.counts[s] = *count;
             link.has_count[s] = true;
@@ -1305,7 +1317,8 @@ void Session::consider_recovery(std::uint64_t now_us) {
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
 
-bool Session::extension_needed(PlayerId to) const {
+bool Session::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
+                               bool lagging) const {
     if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
     // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
     if (any_guest_) return true;
@@ -1313,27 +1326,85 @@ bool Session::extension_needed(PlayerId to) const {
     if (membership_.votes_any_gone()) return true;  // our votes must reach the voters
     for (const SlotView& v : slots_)
         if (v.handed_off_by_me) return true;
-    // Three or more players: counts now and then, so a peer stuck on a gap gets relays.
-    return config_.players >= 3 && links_[to].messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) == 0;
+    // Every slot simply runs: the table when what we tell this peer changed, and the refresh.
+    const PeerLink& link = links_[to];
+    if (link.table_due(entries, now_us, table_refresh_us())) return true;
+    // Three or more players: a peer stuck on a gap gets relays. Our counts go now and then while
+    // we lag on some stream (they ask for relays), and the relays to a peer whose counts say it
+    // lags.
+    if (config_.players < 3 || link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) != 0) return false;
+    return lagging || relay_wanted(to, now_us);
+}
+
+std::uint64_t Session::table_refresh_us() const {
+    if (config_.players < 3) return 0;
+    return config_.disconnect_us == 0 ? kTableRefreshUs : std::min(kTableRefreshUs, config_.disconnect_us / 2);
+}
+
+// What our table says about slot s to peer `to`: to a player our vote where we cast one ("gone"
+// in the next epoch), else the view; a spectator, which follows our view, gets the view.
+SlotEntry Session::table_entry(PlayerId to, PlayerId s) const {
+    const bool vote = is_slot(to);
+    return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
+            vote ? membership_.advertised_epoch(s) : membership_.epoch(s), static_cast<std::uint16_t>(count_of(s))};
+}
+
+void Session::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
+    out.clear();
+    for (int s = 0; s < config_.players; ++s) {
+        const SlotEntry e = table_entry(to, static_cast<PlayerId>(s));
+        out.push_back(static_cast<std::uint16_t>(static_cast<unsigned>(e.state) << 8 | e.epoch));
+    }
+}
+
+// We lag on a running stream by about as much as lets us predict no further (or half the relay
+// lag, if less): our counts should reach the peers, which relay what they hold.
+bool Session::lags_on_a_stream() const {
+    if (config_.role != Role::Player || config_.players < 3) return false;
+    const std::uint32_t mine = count_of(config_.local_player);
+    const auto lag = static_cast<std::uint32_t>(
+        std::max(1, std::min(config_.relay_lag / 2, config_.prediction_window + input_delay_)));
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        if (slot == config_.local_player || my_guest(slot) || !slot_running(slot)) continue;
+        if (count_of(slot) + lag <= mine) return true;
+    }
+    return false;
+}
+
+// Its counts are recent: it sent a table within a time-sync period (and a tick), as often as a
+// peer that lags sends one. Counts are read bare, as they always were: a peer stuck on a gap
+// shows a lag of the frames since its table on top of its own, which is what lets relays start
+// before relay_lag is reached for real -- everyone stalls on the stuck peer's inputs first. But
+// counts of seconds ago (the refresh, a lag that ended) would show a lag of seconds.
+bool Session::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
+    const std::uint64_t window = (static_cast<std::uint64_t>(config_.time_sync_every) + 1) * 1'000'000 /
+                                 static_cast<std::uint64_t>(config_.tick_rate);
+    return now_us <= link.counts_at_us + window;
+}
+
+// A running stream on which `to`'s recent counts say it lags by more than relay_lag (what
+// fill_extension relays to a player when every slot simply runs).
+bool Session::relay_wanted(PlayerId to, std::uint64_t now_us) const {
+    const PeerLink& link = links_[to];
+    if (!counts_fresh(link, now_us)) return false;
+    for (int s = 0; s < config_.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        if (slot == config_.local_player || slot == to || !link.has_count[slot]) continue;
+        if (count_of(slot) > link.counts[slot] + static_cast<std::uint32_t>(config_.relay_lag)) return true;
+    }
+    return false;
 }
 
 // The slot table with our counts, and blocks of streams the receiver lacks and will not get
 // from anyone else soon: non-running slots (the owner's neutral inputs, or a dropped player's
 // last inputs some peers missed), a joiner's stream up to its handoff, everything for a
 // spectator, and any stream on which it lags by more than relay_lag.
-void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
+void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) {
     m.has_extension = true;
     m.slots.clear();
     m.blocks.clear();
-    for (int s = 0; s < config_.players; ++s) {
-        // To a player our vote where we cast one ("gone" in the next epoch), else the view; a
-        // spectator, which follows our view, gets the view.
-        const auto slot = static_cast<PlayerId>(s);
-        const bool vote = is_slot(to);
-        m.slots.push_back({static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(slot) : slot_state(slot),
-                           vote ? membership_.advertised_epoch(slot) : membership_.epoch(slot),
-                           static_cast<std::uint16_t>(count_of(static_cast<PlayerId>(s)))});
-    }
+    for (int s = 0; s < config_.players; ++s) m.slots.push_back(table_entry(to, static_cast<PlayerId>(s)));
     const std::size_t table_bytes = 2 + m.slots.size() * 5;
     if (budget <= table_bytes) return;
     budget -= table_bytes;
@@ -1349,9 +1420,11 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget) {
         const std::uint32_t mine = q.confirmed_count();
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
+        // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
+        // refresh) every stream would look far behind.
         const bool relay = !is_slot(to) || !slot_running(slot) || my_guest(slot) ||
                            (v.handed_off_by_me && theirs < v.handoff) ||
-                           mine > theirs + static_cast<std::uint32_t>(config_.relay_lag);
+                           (mine > theirs + static_cast<std::uint32_t>(config_.relay_lag) && counts_fresh(link, now_us));
         if (!relay) continue;
         const std::uint32_t from = std::max(theirs, q.floor());
         if (from >= mine) continue;
@@ -1414,6 +1487,7 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     const bool spectator = config_.role == Role::Spectator;
     const std::size_t n = config_.input_size;
     const std::uint32_t cp = checkpoint();
+    const bool lagging = lags_on_a_stream();
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
         PeerLink& link = links_[p];
@@ -1448,9 +1522,11 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
                                : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
                                                      kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
                                                      m.checksum_frames, m.checksums);
-        if (extension_needed(pid)) {
+        table_entries_for(pid, table_entries_);
+        if (extension_needed(pid, table_entries_, now_us, lagging)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
-            fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0);
+            fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
+            link.table_sent(table_entries_, now_us, kTableCopies);
         }
         ++link.messages_sent;
         Datagram d{pid, {}, false};

@@ -255,8 +255,15 @@ private:
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
     void consider_recovery(std::uint64_t now_us);
-    bool extension_needed(PlayerId to) const;
-    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget);
+    // entries: our table's entries to `to` now (table_entries_for); lagging: lags_on_a_stream().
+    bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us, bool lagging) const;
+    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us);
+    std::uint64_t table_refresh_us() const;
+    SlotEntry table_entry(PlayerId to, PlayerId s) const;
+    void table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const;
+    bool lags_on_a_stream() const;
+    bool counts_fresh(const PeerLink& link, std::uint64_t now_us) const;
+    bool relay_wanted(PlayerId to, std::uint64_t now_us) const;
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     // A slot played by another slot's process: no peer id, no link of its own.
     bool is_guest(PlayerId p) const { return host_of(p) != p; }
@@ -286,6 +293,7 @@ private:
     QueryMessage query_msg_;
     ReplyMessage reply_msg_;
     InputMessage out_msg_;
+    std::vector<std::uint16_t> table_entries_;  // our table's entries to one peer (poll scratch)
     std::vector<std::pair<PlayerId, QueryMessage>> queries_;
 
     // lifecycle

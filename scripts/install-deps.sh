@@ -11,6 +11,8 @@ packages=(g++ cmake ninja-build pkg-config
           libsodium-dev  # the relay server's connect tokens (server/connect_token.h)
           libbullet-dev  # the optional bench/bullet_bench comparison (docs/performance.md)
           chromium  # the headless browser test of lockroll view
+          libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core  # examples/room's window and overlay words
+          xvfb xauth  # its window test under a virtual X server (tests/examples/room_test.sh)
           mono-mcs mono-runtime  # the C# P/Invoke sample over the C ABI (tests/capi)
           curl)     # the Agones sidecar script (server/agones) and its test
 if [[ "${1:-}" == "--cross" ]]; then

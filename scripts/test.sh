@@ -36,6 +36,8 @@ else
   phase install bash scripts/install-deps.sh
 fi
 phase build bash -c "bash scripts/configure.sh '$build' && cmake --build '$build' -j$(nproc)"
+# The benchmark programs are not in `all` (bench/CMakeLists.txt): CI builds them so they stay whole.
+if [[ $full -eq 1 ]]; then phase benchmarks cmake --build "$build" -j"$(nproc)" --target benchmarks; fi
 phase tests ctest --test-dir "$build" --output-on-failure -j"$(nproc)" -LE 'soak|cross|examples'
 if [[ $full -eq 1 ]]; then
   # The platform matrix apart, so the default tier's own time shows in CI's output too.

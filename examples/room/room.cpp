@@ -2,7 +2,7 @@
 // seen from above (like the paper's Figure 7), two players over ENet.
 //
 //   room SLOT MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--fps F] [--bot]
-//        [--screenshot FILE --shot-frame F]
+//        [--font FILE] [--screenshot FILE --shot-frame F]
 //
 // The game owns its loop: it draws at its own rate (--fps, default 144; the match ticks at 60 Hz)
 // and calls NetSession::update() once per drawn frame. Between ticks it draws the moving bodies
@@ -12,11 +12,17 @@
 // Keys: arrows or WASD move, space lifts, L toggles this client between rollback (runs ahead on
 // predictions, up to --window frames) and lockstep (prediction window 0: a frame runs once its
 // inputs are confirmed; set_prediction_window), Esc quits.
-// The overlay (SDL has no text; bars and digits drawn here): ping (ms), input delay (frames),
-// rollback depth (frames, newest), frames behind the peer, and the view (R or L).
-// --bot plays by itself (tests); --screenshot saves the window as BMP once frame F is shown.
+// The overlay says in words, each over a bar: "ping 62 ms", "input delay 2", "rollback 3 frames"
+// (the newest rollback's depth), "frames behind 0" (how far the peer's frame is estimated
+// behind this one's: NetworkStats::frames_behind), and the mode. Its text
+// is SDL2_ttf with DejaVu Sans (Debian fonts-dejavu-core, found at its Debian path, or --font
+// FILE); without that font the overlay says so once on stderr and keeps its bars.
+// --bot plays by itself (tests); --screenshot saves the window as BMP once frame F is shown and
+// prints, for that frame, one "overlay X Y W H WORDS" line per text it drew (the rectangle it
+// drew it in), so a test can check the screenshot for the words' pixels.
 // Prints the confirmed checksum of the last frame, which both windows must agree on.
 #include <SDL.h>
+#include <SDL_ttf.h>
 
 #include <lockroll/net/session_builder.h>
 #include <lockroll/rollback/world_simulation.h>
@@ -28,9 +34,14 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cerrno>
 #include <cstring>
+#include <iterator>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -70,40 +81,92 @@ constexpr int kScale = 50, kTop = 70, kSize = 14 * kScale;  // 14 m of room and 
 int px(Fixed x) { return kSize / 2 + static_cast<int>((x.raw * kScale) >> 32); }
 int py(Fixed z) { return kTop + kSize / 2 - static_cast<int>((z.raw * kScale) >> 32); }
 
-// A 3x5 font for the overlay: digits and the few letters it uses.
-const char* glyph(char c) {
-    switch (c) {
-        case '0': return "111101101101111"; case '1': return "010110010010111"; case '2': return "111001111100111";
-        case '3': return "111001111001111"; case '4': return "101101111001001"; case '5': return "111100111001111";
-        case '6': return "111100111101111"; case '7': return "111001010010010"; case '8': return "111101111101111";
-        case '9': return "111101111001111"; case 'P': return "111101111100100"; case 'D': return "110101101101110";
-        case 'R': return "110101110101101"; case 'B': return "110101110101110"; case 'L': return "100100100100111";
-        default: return "000000000000000";
-    }
-}
-void text(SDL_Renderer* r, int x, int y, const std::string& s, int dot = 3) {
-    for (char c : s) {
-        const char* g = glyph(c);
-        for (int i = 0; i < 15; ++i)
-            if (g[i] == '1') {
-                SDL_Rect d{x + (i % 3) * dot, y + (i / 3) * dot, dot, dot};
-                SDL_RenderFillRect(r, &d);
+// The overlay's words: SDL2_ttf, one texture per label, rendered again only when its words change
+// (they change a few times a second; the window draws up to --fps times).
+class Label {
+public:
+    Label() = default;
+    Label(const Label&) = delete;
+    Label& operator=(const Label&) = delete;
+    ~Label() { release(); }
+    // Draws `words` with its top left at (x, y); with no font it draws nothing. Returns the
+    // rectangle drawn (empty when nothing was).
+    SDL_Rect draw(SDL_Renderer* r, TTF_Font* font, int x, int y, const std::string& words, SDL_Color colour) {
+        if (!font) return {x, y, 0, 0};
+        if (!texture_ || words != words_) {
+            release();
+            words_ = words;
+            if (SDL_Surface* text = TTF_RenderUTF8_Blended(font, words.c_str(), colour)) {
+                texture_ = SDL_CreateTextureFromSurface(r, text);
+                w_ = text->w;
+                h_ = text->h;
+                SDL_FreeSurface(text);
             }
-        x += 4 * dot;
+            if (!texture_) return {x, y, 0, 0};
+        }
+        SDL_Rect where{x, y, w_, h_};
+        SDL_RenderCopy(r, texture_, nullptr, &where);
+        return where;
     }
-}
-// Label, value, and a bar of value out of full.
-void gauge(SDL_Renderer* r, int x, const char* label, long value, long full) {
-    SDL_SetRenderDrawColor(r, 220, 220, 220, 255);
-    text(r, x, 10, label);
-    text(r, x + 30, 10, std::to_string(std::max(0L, value)));
-    SDL_SetRenderDrawColor(r, 60, 60, 60, 255);
-    SDL_Rect back{x, 40, 150, 12};
-    SDL_RenderFillRect(r, &back);
-    SDL_SetRenderDrawColor(r, 80, 200, 90, 255);
-    SDL_Rect bar{x, 40, static_cast<int>(150 * std::clamp(value, 0L, full) / full), 12};
-    SDL_RenderFillRect(r, &bar);
-}
+
+private:
+    void release() {
+        if (texture_) SDL_DestroyTexture(texture_);
+        texture_ = nullptr;
+    }
+    std::string words_;
+    SDL_Texture* texture_ = nullptr;
+    int w_ = 0, h_ = 0;
+};
+
+// What the overlay shows, in the words a player reads.
+struct OverlayValues {
+    long ping_ms = 0, input_delay = 0, rollback_frames = 0, frames_behind = 0, window = 1;
+    bool lockstep = false;
+};
+
+std::string plural(long n, const char* one, const char* many) { return std::to_string(n) + (n == 1 ? one : many); }
+
+// Four gauges (words over a bar of value out of full) and the mode line, in the band above the
+// room. Remembers what it drew last, for --screenshot's report.
+class Overlay {
+public:
+    explicit Overlay(TTF_Font* font) : font_(font) {}
+    void draw(SDL_Renderer* r, const OverlayValues& v) {
+        drawn_.clear();
+        gauge(r, 0, "ping " + std::to_string(v.ping_ms) + " ms", v.ping_ms, 200);
+        gauge(r, 1, "input delay " + std::to_string(v.input_delay), v.input_delay, 10);
+        gauge(r, 2, "rollback " + plural(v.rollback_frames, " frame", " frames"), v.rollback_frames, std::max(v.window, 1L));
+        gauge(r, 3, "frames behind " + std::to_string(v.frames_behind), v.frames_behind, 10);
+        const std::string mode = v.lockstep ? "lockstep: frames run on confirmed inputs only (L: rollback)"
+                                            : "rollback: runs ahead on predicted inputs (L: lockstep)";
+        record(labels_[4].draw(r, font_, kLeft, 48, mode, {255, 255, 255, 255}), mode);
+    }
+    // One "overlay X Y W H WORDS" line per text of the last draw().
+    void report(std::FILE* out) const {
+        for (const auto& [where, words] : drawn_)
+            std::fprintf(out, "overlay %d %d %d %d %s\n", where.x, where.y, where.w, where.h, words.c_str());
+    }
+
+private:
+    static constexpr int kLeft = 10, kColumn = 172, kBar = 150;
+    void gauge(SDL_Renderer* r, int column, const std::string& words, long value, long full) {
+        const int x = kLeft + column * kColumn;
+        record(labels_[column].draw(r, font_, x, 6, words, {230, 230, 230, 255}), words);
+        SDL_SetRenderDrawColor(r, 60, 60, 60, 255);
+        SDL_Rect back{x, 30, kBar, 10};
+        SDL_RenderFillRect(r, &back);
+        SDL_SetRenderDrawColor(r, 80, 200, 90, 255);
+        SDL_Rect bar{x, 30, static_cast<int>(kBar * std::clamp(value, 0L, full) / full), 10};
+        if (bar.w > 0) SDL_RenderFillRect(r, &bar);  // SDL draws a zero-wide rectangle as a line
+    }
+    void record(SDL_Rect where, const std::string& words) {
+        if (where.w > 0) drawn_.emplace_back(where, words);
+    }
+    TTF_Font* font_;
+    Label labels_[5];
+    std::vector<std::pair<SDL_Rect, std::string>> drawn_;
+};
 
 void disc(SDL_Renderer* r, int cx, int cy, int rad) {
     for (int dy = -rad; dy <= rad; ++dy) {
@@ -156,37 +219,92 @@ void draw_world(SDL_Renderer* r, const lockroll::sim::SceneDesc& scene, const lo
     }
 }
 
-int usage(const char* why) {
+int usage(const std::string& why) {
     std::fprintf(stderr, "room: %s\nusage: room SLOT(0|1) MY_PORT PEER_PORT [--frames N] [--delay D] [--window W] [--fps F] [--bot] "
-                         "[--screenshot FILE --shot-frame F]\n", why);
+                         "[--font FILE] [--screenshot FILE --shot-frame F]\n", why.c_str());
     return 2;
 }
+
+// `text` as a whole decimal number in [lo, hi], or nothing (the caller names what it was for).
+std::optional<long> whole(const char* text, long lo, long hi) {
+    char* end = nullptr;
+    errno = 0;
+    const long v = std::strtol(text, &end, 10);
+    if (end == text || *end != '\0' || errno != 0 || v < lo || v > hi) return std::nullopt;
+    return v;
+}
+
+// Debian's fonts-dejavu-core puts it here; fontconfig (fc-match) is not assumed.
+constexpr const char* kDefaultFont = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+constexpr int kFontPoints = 15;
+
+struct TtfFontCloser {
+    void operator()(TTF_Font* f) const { TTF_CloseFont(f); }
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
     if (argc < 4) return usage("missing arguments");
-    const int slot = std::atoi(argv[1]);
-    const long my_port = std::atol(argv[2]), peer_port = std::atol(argv[3]);
     long frames = 0, delay = 2, window = 8, shot_frame = -1, fps = 144;
     bool bot = false;
-    std::string shot;
+    std::string shot, font_path;
+    struct Positional {
+        const char* name;
+        long lo, hi;
+        long value = 0;
+    } positional[] = {{"SLOT", 0, 1}, {"MY_PORT", 1, 65535}, {"PEER_PORT", 1, 65535}};
+    for (int i = 0; i < 3; ++i) {
+        const auto& p = positional[i];
+        const auto v = whole(argv[i + 1], p.lo, p.hi);
+        if (!v) return usage(std::string(p.name) + " '" + argv[i + 1] + "': must be a whole number in " + std::to_string(p.lo) +
+                             ".." + std::to_string(p.hi));
+        positional[i].value = *v;
+    }
+    const int slot = static_cast<int>(positional[0].value);
+    const long my_port = positional[1].value, peer_port = positional[2].value;
+    struct Flag {
+        const char* name;
+        long* value;
+        long lo, hi;
+    } const numbers[] = {{"--frames", &frames, 0, 100000000}, {"--delay", &delay, 0, 1000}, {"--window", &window, 0, 1000},
+                         {"--fps", &fps, 1, 1000},            {"--shot-frame", &shot_frame, 0, 100000000}};
     for (int i = 4; i < argc; ++i) {
         const std::string a = argv[i];
         const bool has = i + 1 < argc;
-        if (a == "--bot") bot = true;
-        else if (a == "--frames" && has) frames = std::atol(argv[++i]);
-        else if (a == "--delay" && has) delay = std::atol(argv[++i]);
-        else if (a == "--window" && has) window = std::atol(argv[++i]);
-        else if (a == "--fps" && has) fps = std::atol(argv[++i]);
-        else if (a == "--screenshot" && has) shot = argv[++i];
-        else if (a == "--shot-frame" && has) shot_frame = std::atol(argv[++i]);
-        else return usage(("unknown or incomplete option " + a).c_str());
+        const auto number = std::find_if(std::begin(numbers), std::end(numbers), [&](const Flag& f) { return a == f.name; });
+        if (a == "--bot") {
+            bot = true;
+        } else if (number != std::end(numbers) && has) {
+            const auto v = whole(argv[++i], number->lo, number->hi);
+            if (!v) return usage(a + " '" + argv[i] + "': must be a whole number in " + std::to_string(number->lo) + ".." +
+                                 std::to_string(number->hi));
+            *number->value = *v;
+        } else if (a == "--screenshot" && has) {
+            shot = argv[++i];
+        } else if (a == "--font" && has) {
+            font_path = argv[++i];
+        } else {
+            return usage("unknown or incomplete option " + a);
+        }
     }
-    if ((slot != 0 && slot != 1) || my_port < 1 || my_port > 65535 || peer_port < 1 || peer_port > 65535 || frames < 0)
-        return usage("bad slot, port or frame count");
     if (!shot.empty() && shot_frame < 0) return usage("--screenshot needs --shot-frame");
-    if (fps < 1 || fps > 1000) return usage(("--fps " + std::to_string(fps) + ": must be 1..1000").c_str());
+
+    // The overlay's font, before any work starts: a --font that does not open is bad input (exit
+    // 2); the default missing only costs the overlay its words, said once here.
+    std::unique_ptr<TTF_Font, TtfFontCloser> font;
+    if (TTF_Init() != 0) {
+        if (!font_path.empty()) return usage("--font " + font_path + ": SDL2_ttf did not start: " + TTF_GetError());
+        std::fprintf(stderr, "room: SDL2_ttf did not start (%s); the overlay shows bars without words\n", TTF_GetError());
+    } else {
+        font.reset(TTF_OpenFont(font_path.empty() ? kDefaultFont : font_path.c_str(), kFontPoints));
+        if (!font && !font_path.empty()) return usage("--font " + font_path + ": " + TTF_GetError());
+        if (!font)
+            std::fprintf(stderr,
+                         "room: no font at %s (Debian package fonts-dejavu-core, or --font FILE): the overlay shows bars "
+                         "without words\n",
+                         kDefaultFont);
+    }
 
     const lockroll::sim::SceneDesc scene = paper_scene();
     lockroll::rollback::WorldSimulation game(scene, 2);
@@ -227,6 +345,7 @@ int main(int argc, char** argv) {
         long depth = 0;
     } ticks(game);
     bool lockstep_view = false, shot_taken = false;
+    auto overlay = std::make_unique<Overlay>(font.get());  // freed before the renderer: its textures are the renderer's
     const auto other = static_cast<lockroll::rollback::PlayerId>(1 - slot);
     // Called once per tick inside update(): this tick's input, from the keys SDL last pumped.
     const lockroll::net::InputSource input = [&](std::uint32_t frame, std::span<std::uint8_t> out) {
@@ -267,12 +386,12 @@ int main(int argc, char** argv) {
         const auto& s = net->session();
         draw_world(ren, scene, game.world(), ticks.positions, r.interpolation);
         const auto st = net->network_stats(other);
-        gauge(ren, 10, "P", static_cast<long>(st.ping_us / 1000), 200);
-        gauge(ren, 180, "D", s.input_delay(), 10);
-        gauge(ren, 350, "RB", ticks.depth, std::max(window, 1L));
-        gauge(ren, 520, "B", st.frames_behind, 10);
-        SDL_SetRenderDrawColor(ren, 255, 255, 255, 255);
-        text(ren, kSize - 30, 10, lockstep_view ? "L" : "R", 5);
+        overlay->draw(ren, {.ping_ms = static_cast<long>(st.ping_us / 1000),
+                           .input_delay = s.input_delay(),
+                           .rollback_frames = ticks.depth,
+                           .frames_behind = st.frames_behind,
+                           .window = window,
+                           .lockstep = lockstep_view});
         if (!shot.empty() && !shot_taken && s.frame() >= static_cast<std::uint32_t>(shot_frame)) {
             shot_taken = true;  // read back before presenting: the back buffer is then undefined
             if (SDL_Surface* img = SDL_CreateRGBSurfaceWithFormat(0, kSize, kTop + kSize, 32, SDL_PIXELFORMAT_ARGB8888)) {
@@ -280,6 +399,7 @@ int main(int argc, char** argv) {
                 SDL_SaveBMP(img, shot.c_str());
                 SDL_FreeSurface(img);
             }
+            overlay->report(stdout);
         }
         SDL_RenderPresent(ren);
         next += frame_time;
@@ -287,9 +407,12 @@ int main(int argc, char** argv) {
         if (next < now) next = now;  // a slow frame is not made up in a burst
         std::this_thread::sleep_until(next);
     }
+    overlay.reset();
     SDL_DestroyRenderer(ren);
     SDL_DestroyWindow(win);
     SDL_Quit();
+    font.reset();
+    TTF_Quit();
     const auto last = frames > 0 ? net->session().confirmed_checksum(static_cast<std::uint32_t>(frames)) : std::nullopt;
     std::printf("slot %d %s frame %ld checksum %016llx\n", slot, lockroll::net::outcome_name(outcome), frames,
                 last ? static_cast<unsigned long long>(*last) : 0ull);

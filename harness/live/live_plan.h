@@ -35,6 +35,7 @@ struct LiveOptions {
     std::string log_level = "info";
     bool no_virtual = false;
     double disconnect_timeout = 5;
+    double finish_timeout = 15;  // passed to every process: seconds after the last frame to wait for all
     int recoveries = 0;
     bool prediction_given = false;
     std::vector<std::string> clock_skews;  // SLOT=PPM (fault test)

@@ -168,7 +168,8 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         args.insert(args.end(),
                     {"--scene", o.scene, "--bot", o.bot, "--frames", std::to_string(o.frames), "--tick-rate",
                      std::to_string(o.tick_rate), "--mode", mode_name(mode), "--seed", std::to_string(o.seed), "--log-level", o.log_level,
-                     "--progress", "--recoveries", std::to_string(o.recoveries), "--out", (dir / r.name).string()});
+                     "--progress", "--recoveries", std::to_string(o.recoveries), "--finish-timeout", num(o.finish_timeout),
+                     "--out", (dir / r.name).string()});
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
         if (r.joiner) args.emplace_back("--join");
         if (r.spectator) args.emplace_back("--spectate");
@@ -196,7 +197,9 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         return false;
     };
 
-    const std::uint64_t limit_us = static_cast<std::uint64_t>(10.0 * o.frames / o.tick_rate * 1e6) + 60000000;
+    // Ten match lengths (the processes' own run timeout) plus their finish timeout and 45 s of
+    // start-up and slack: 60 s over the ten match lengths at the default 15 s finish timeout.
+    const std::uint64_t limit_us = static_cast<std::uint64_t>((10.0 * o.frames / o.tick_rate + 45 + o.finish_timeout) * 1e6);
     const std::uint64_t start = net::now_us();
     for (;;) {
         for (std::size_t i = 0; i < recs.size(); ++i) {

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 11's faults with real processes (`lockroll live`, ENet on 127.0.0.1, free ports, bounded
-# by live's own time limit and CTest's timeout; RUN_SERIAL): clocks running 1 % fast and 5 %
+# by live's own time limit and CTest's timeout; RESOURCE_LOCK realtime): clocks running 1 % fast and 5 %
 # slow; a corrupted and a truncated snapshot during a late join; bad fault flags. Outcomes only
 # (checksums, events, counts); the kill-and-rejoin fault is in live_test.sh, the truncated replay
 # in tests/rollback/replay_cli_test.cpp.

@@ -102,6 +102,7 @@ expect2 "--kill 5@10: SLOT must be" --kill 5@10
 expect2 "--rejoin 1@50: needs an earlier --kill" --rejoin 1@50
 expect2 "--kill x: expected SLOT@FRAME" --kill x
 expect2 "--loss must be a probability" --loss 3
+expect2 "--finish-timeout must be 0..3600 s" --finish-timeout 0
 # A flag only the target process could refuse (body 5 is a wall) is refused by live itself.
 expect2 "--inject-desync 1:250:5: body 5 is not part of the simulation state" --inject-desync 1:250:5
 [[ -e $tmp/bad ]] && fail "bad flags left output behind"

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <set>
 
 #include "rollback/session.h"
@@ -599,9 +600,10 @@ TEST(Lifecycle, StretchedTicksFollowClocksSixPercentApart) {
 }
 
 // Issue 21, "any peer's word drops any player": peer 2 rewrites the slot table of its input
-// messages to claim that slot 1, which plays fine, was dropped in a newer epoch. Sent to peer 0
-// alone (and in the variant to both others), it is one vote of three: slot 1 stays everywhere,
-// all three confirm equal checksums, and the receivers count the claim as unheeded.
+// messages (adding one to every message) to claim that slot 1, which plays fine, was dropped in
+// a newer epoch. Sent to peer 0 alone (and in the variant to both others), it is one vote of
+// three: slot 1 stays everywhere, all three confirm equal checksums, and the receivers count
+// the claim as unheeded.
 void forged_slot_table(bool to_both) {
     const auto scene = make_scene(3, 10);
     const SessionConfig cfg = real_config(3, 8);
@@ -611,7 +613,13 @@ void forged_slot_table(bool to_both) {
     cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
         if (from != 2 || (to != 0 && !(to_both && to == 1)) || b.empty() || (b[0] & 0x0F) != 1) return true;
         InputMessage m;
-        if (decode(b, cfg.input_size, m) != nullptr || !m.has_extension) return true;
+        if (decode(b, cfg.input_size, m) != nullptr) return true;
+        if (!m.has_extension) {
+            // An honest steady peer sends its table only when it changes; a forger sends one
+            // whenever it likes (counts 0: it claims to lag, which costs the others relays).
+            m.has_extension = true;
+            for (std::uint8_t s = 0; s < 3; ++s) m.slots.push_back({s, SlotState::Running, 0, 0});
+        }
         for (SlotEntry& e : m.slots) {
             if (e.slot != 1) continue;
             e.state = SlotState::Disconnected;
@@ -786,6 +794,134 @@ TEST(Lifecycle, ForgedTimeSyncClaimIsBounded) {
     cluster.run_frames(600, 60'000'000);
     EXPECT_LE(longest_wait, cfg.input_delay + cfg.prediction_window + 2);
 }
+
+// Issue 21, "the wire": a steady match sends its slot table only when it changes, plus a slow
+// refresh. Four players, 20 s, no membership change: every peer sends each other at most
+// seconds / 2 s (the refresh) + a few tables. It rode every 8th message (150 here) before.
+bool carries_table(const std::vector<std::uint8_t>& b) {
+    return !b.empty() && (b[0] & 0x0F) == static_cast<std::uint8_t>(MessageKind::Input) && (b[0] & kFlagExtension) != 0;
+}
+
+void steady_tables(std::uint32_t loss_ppm) {
+    constexpr int kPlayers = 4;
+    constexpr std::uint32_t kFrames = 1200;
+    const auto scene = make_scene(kPlayers, 10);
+    NetParams net{15000, 3000};
+    net.loss_ppm = loss_ppm;
+    Cluster cluster(scene, real_config(kPlayers, 8), net, 53);
+    cluster.run_frames(60);  // past the handshake
+    std::map<std::pair<PlayerId, PlayerId>, int> tables;
+    int input_messages = 0;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (!b.empty() && (b[0] & 0x0F) == static_cast<std::uint8_t>(MessageKind::Input)) ++input_messages;
+        if (carries_table(b)) ++tables[{from, to}];
+        return true;
+    };
+    const std::uint64_t start = cluster.now();
+    cluster.run_frames(60 + kFrames, 120'000'000);
+    const std::uint64_t seconds = (cluster.now() - start) / 1'000'000 + 1;
+    EXPECT_GT(input_messages, 1000 * kPlayers * (kPlayers - 1)) << "the match ran";
+    int most = 0;
+    for (const auto& [link, n] : tables) most = std::max(most, n);
+    std::printf("loss %u ppm: at most %d slot tables on one link in %llu s (%zu links carried any)\n", loss_ppm, most,
+                static_cast<unsigned long long>(seconds), tables.size());
+    EXPECT_LE(most, static_cast<int>(seconds / 2) + 4) << "tables on the busiest link in " << seconds << " s";
+    for (const auto& c : cluster.clients) {
+        EXPECT_TRUE(events_of(*c, Kind::Disconnected).empty());
+        EXPECT_EQ(c->session->stats().desyncs, 0u);
+    }
+    cluster.settle(60 + kFrames);
+    expect_equal_at(cluster, 60 + kFrames);
+}
+
+TEST(Lifecycle, SteadyMatchSendsItsSlotTableOnlyWhenItChanges) { steady_tables(0); }
+TEST(Lifecycle, SteadyMatchSendsItsSlotTableOnlyWhenItChangesUnderLoss) { steady_tables(50000); }
+
+// A change of the table must still reach every peer when its datagrams are lost. Slots 0 and 3
+// cannot hear each other for 6 s (the others hear both): each votes the other gone, one vote of
+// four, so nobody is dropped. Healed, each withdraws its vote, and every datagram carrying a
+// slot table from either to the two others is lost for lost_us: still, within within_us, no
+// peer holds a "gone" vote from them any more (left there, it would help a later single vote
+// to a majority).
+void withdrawn_vote_reaches_everyone(std::uint64_t lost_us, std::uint64_t within_us) {
+    constexpr int kPlayers = 4;
+    const auto scene = make_scene(kPlayers, 10);
+    Cluster cluster(scene, real_config(kPlayers, 8), {15000, 3000}, 59);
+    cluster.run_frames(120);
+    bool cut = true;
+    std::uint64_t healed_at = 0;
+    int lost = 0;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        const bool across = (from == 0 && to == 3) || (from == 3 && to == 0);
+        if (cut) return !across;
+        if ((from == 0 || from == 3) && (to == 1 || to == 2) && carries_table(b) && cluster.now() < healed_at + lost_us) {
+            ++lost;
+            return false;
+        }
+        return true;
+    };
+    cluster.run([](const Cluster&) { return false; }, 6'000'000);
+    const auto gone_votes_held = [&] {
+        int held = 0;
+        for (PlayerId p = 0; p < kPlayers; ++p)
+            for (const auto& [voter, slot] : {std::pair<PlayerId, PlayerId>{0, 3}, {3, 0}})
+                if (p != voter && cluster.clients[p]->session->membership().vote_of(voter, slot) == Vote::Gone) ++held;
+        return held;
+    };
+    // The setup: both votes are out, at the two peers that hear both voters (and at the voters).
+    ASSERT_EQ(gone_votes_held(), 4);
+    cut = false;
+    healed_at = cluster.now();
+    cluster.run([&](const Cluster&) { return gone_votes_held() == 0; }, within_us);
+    EXPECT_EQ(gone_votes_held(), 0) << "a withdrawn vote is still held " << (cluster.now() - healed_at) / 1000
+                                    << " ms after the heal";
+    EXPECT_GT(lost, 0) << "the test lost no table";
+    std::printf("%d tables lost over %llu ms: every withdrawn vote arrived %llu ms after the heal\n", lost,
+                static_cast<unsigned long long>(lost_us / 1000), static_cast<unsigned long long>((cluster.now() - healed_at) / 1000));
+    cluster.run_frames(cluster.clients[0]->session->frame() + 300, 60'000'000);
+    for (const auto& c : cluster.clients) {
+        ASSERT_EQ(c->session->phase(), SessionPhase::Running) << c->session->failure();
+        EXPECT_TRUE(events_of(*c, Kind::Disconnected).empty());
+        for (PlayerId p = 0; p < kPlayers; ++p) EXPECT_EQ(c->session->slot_state(p), SlotState::Running);
+    }
+    const std::uint32_t f = cluster.clients[0]->session->frame();
+    cluster.settle(f);
+    expect_equal_at(cluster, f);
+}
+
+// The first copies lost: a later copy of the change arrives within a few messages.
+TEST(Lifecycle, LostSlotTableCopyIsRepairedByTheNext) { withdrawn_vote_reaches_everyone(50'000, 400'000); }
+// Every copy of the change lost (they span about a second): the refresh, 2 s after the last
+// copy, repairs it.
+TEST(Lifecycle, LostSlotTableChangeIsRepairedByTheRefresh) { withdrawn_vote_reaches_everyone(1'500'000, 3'500'000); }
+
+// Counts still go where relays are wanted: slot 0's datagrams to slot 3 are lost for 3 s (not
+// long enough for a vote). Lagging on 0's stream, 3 sends its counts now and then, and the two
+// others relay 0's inputs to it, so 3 keeps confirming frames through the cut.
+void relays_through_a_cut(int window) {
+    constexpr int kPlayers = 4;
+    const auto scene = make_scene(kPlayers, 10);
+    Cluster cluster(scene, real_config(kPlayers, window), {15000, 3000}, 61);
+    cluster.run_frames(120);
+    bool cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) { return !cut || !(from == 0 && to == 3); };
+    const std::uint32_t before = cluster.clients[3]->session->confirmed_frame();
+    cluster.run([](const Cluster&) { return false; }, 3'000'000);
+    const std::uint32_t during = cluster.clients[3]->session->confirmed_frame() - before;
+    std::printf("window %d: slot 3 confirmed %u frames in the 3 s its link from slot 0 was cut\n", window, during);
+    EXPECT_GT(during, 100u) << "relays carried 0's stream to 3 (without, it stalls for the whole cut)";
+    cut = false;
+    cluster.run_frames(cluster.clients[0]->session->frame() + 120, 60'000'000);
+    for (const auto& c : cluster.clients) {
+        ASSERT_EQ(c->session->phase(), SessionPhase::Running) << c->session->failure();
+        EXPECT_TRUE(events_of(*c, Kind::Disconnected).empty());
+    }
+    const std::uint32_t f = cluster.clients[0]->session->frame();
+    cluster.settle(f);
+    expect_equal_at(cluster, f);
+}
+
+TEST(Lifecycle, APeerStuckOnAGapGetsRelaysInASteadyMatch) { relays_through_a_cut(8); }
 
 }  // namespace
 }  // namespace lockroll::rollback

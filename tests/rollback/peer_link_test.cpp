@@ -1,5 +1,5 @@
-// PeerLink (rollback/peer_link.h) on its own: the sticky error, the smoothed round trip, and the
-// echoed stamps both sessions put on their input messages.
+// PeerLink (rollback/peer_link.h) on its own: the sticky error, the smoothed round trip, the
+// echoed stamps both sessions put on their input messages, and the slot table's schedule.
 #include "rollback/peer_link.h"
 
 #include <gtest/gtest.h>
@@ -174,4 +174,52 @@ TEST(PeerLink, ChecksumsRideEveryNewCheckpointThenRepeatTheNewest) {
     // A checksum no longer held is left out.
     const auto none = [](std::uint32_t) { return std::optional<std::uint64_t>(); };
     EXPECT_EQ(l.pick_checksums(56, 8, 2, 3, none, frames, sums), 0);
+}
+
+// The slot table's schedule (issue 21): a change rides at once and then after 1, 2, 4, ...
+// messages, `copies` times; a table that changed once is refreshed every refresh_us; one that
+// never changed (the starting view) is never due; a rejoined process gets it as a change.
+TEST(PeerLink, SlotTableGoesOnChangeInSpreadCopiesThenOnTheRefresh) {
+    PeerLink l(8, 60);
+    const std::vector<std::uint16_t> start{0x0100, 0x0100, 0x0100};
+    const std::vector<std::uint16_t> vote{0x0100, 0x0100, 0x0201};  // slot 2 "gone" in epoch 1
+    constexpr std::uint64_t kRefresh = 2'000'000;
+    l.table_assumed(start, 0);
+    std::uint64_t now = 0;
+    std::vector<std::uint64_t> sent_at;  // message numbers that carried the table
+    const auto run = [&](const std::vector<std::uint16_t>& entries, int messages) {
+        for (int i = 0; i < messages; ++i, now += 16'667) {
+            if (l.table_due(entries, now, kRefresh)) {
+                l.table_sent(entries, now, 8);
+                sent_at.push_back(l.messages_sent);
+            }
+            ++l.messages_sent;
+        }
+    };
+    run(start, 600);  // 10 s of a table that never changed
+    EXPECT_TRUE(sent_at.empty());
+    run(vote, 100);  // the change, at message 600
+    EXPECT_EQ(sent_at, (std::vector<std::uint64_t>{600, 601, 602, 604, 608, 616, 632, 664}));
+    sent_at.clear();
+    run(vote, 240);  // then the refresh: 2 s (120 messages) after the last copy, and again
+    EXPECT_EQ(sent_at, (std::vector<std::uint64_t>{784, 904}));
+    sent_at.clear();
+    // A copy sent for another reason counts: the next is spread from it.
+    const std::uint64_t change = l.messages_sent;
+    l.table_sent(start, now, 8);  // the vote withdrawn, first copy
+    ++l.messages_sent;
+    now += 16'667;
+    l.table_sent(start, now, 8);  // a second copy (relays rode)
+    ++l.messages_sent;
+    now += 16'667;
+    run(start, 3);
+    EXPECT_EQ(sent_at, (std::vector<std::uint64_t>{change + 2, change + 4}));
+    // A new process in the slot has heard nothing: the table is a change to it.
+    l.reset_lifecycle(3);
+    EXPECT_TRUE(l.table_due(start, now, kRefresh));
+    // Refresh 0: never refreshed.
+    PeerLink quiet(8, 60);
+    quiet.table_sent(vote, 0, 1);
+    EXPECT_FALSE(quiet.table_due(vote, 10'000'000, 0));
+    EXPECT_TRUE(quiet.table_due(vote, 10'000'000, kRefresh));
 }
