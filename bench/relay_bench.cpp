@@ -483,6 +483,7 @@ private:
         m.confirmed_ack = c.confirmed_next;
         m.first_frame = first;
         m.frame_count = static_cast<std::uint8_t>(count);
+        m.slots = static_cast<std::uint16_t>(1u << c.slot);
         m.inputs.resize(count * kInputSize);
         for (std::uint32_t i = 0; i < count; ++i) bot_input(c.room, c.slot, first + i, &m.inputs[i * kInputSize]);
         m.stamp = static_cast<std::uint16_t>(now / 100);

@@ -183,6 +183,7 @@ private:
         m.confirmed_ack = b.confirmed_next;
         m.first_frame = first;
         m.frame_count = static_cast<std::uint8_t>(count);
+        m.slots = static_cast<std::uint16_t>(1u << b.slot);
         m.inputs.resize(count * kInputSize);
         for (std::uint32_t i = 0; i < count; ++i) {
             const std::uint32_t phase = ((first + i) / 30 + static_cast<std::uint32_t>(b.room * 7 + b.slot * 3)) % 9;

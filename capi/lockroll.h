@@ -180,7 +180,8 @@ LOCKROLL_API lockroll_status lockroll_builder_local_player(lockroll_builder* bui
 /* A slot played by the process listening at host:port. */
 LOCKROLL_API lockroll_status lockroll_builder_remote_player(lockroll_builder* builder, int32_t slot, const char* host,
                                                             uint16_t port);
-/* Through a relay server (`lockroll server`) instead of remote players; exactly one local player. */
+/* Through a relay server (`lockroll server`) instead of remote players; one or more local players
+ * (several play through one connection). */
 LOCKROLL_API lockroll_status lockroll_builder_server(lockroll_builder* builder, const char* host, uint16_t port);
 /* Where this process listens (default 127.0.0.1, an ephemeral port: lockroll_port()). */
 LOCKROLL_API lockroll_status lockroll_builder_listen(lockroll_builder* builder, const char* host, uint16_t port);

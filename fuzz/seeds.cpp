@@ -129,24 +129,27 @@ int main(int argc, char** argv) {
     // relay: two players start a room and play a few frames; a spectator; a bad hello.
     {
         using namespace lockroll::fuzz;
-        auto hello = [](int slot, RelayRole role) {
+        // Room 7 of 2 players by default; a couch's hello names its further slots (also).
+        auto hello = [](int slot, RelayRole role, std::uint64_t room = 7, int players = 2, std::uint16_t also = 0) {
             RelayHello h;
-            h.room_id = 7;
-            h.players = 2;
+            h.room_id = room;
+            h.players = static_cast<std::uint8_t>(players);
             h.input_size = 3;
             h.slot = static_cast<std::uint8_t>(slot);
+            h.also_slots = also;
             h.role = role;
-            h.incarnation = 100 + static_cast<std::uint64_t>(slot);
+            h.incarnation = (room == 7 ? 100 : 200) + static_cast<std::uint64_t>(slot);
             std::vector<std::uint8_t> b;
             encode(h, b);
             return b;
         };
-        auto inputs = [](std::uint32_t first, int count, std::uint32_t ack) {
+        auto inputs = [](std::uint32_t first, int count, std::uint32_t ack, std::uint16_t slots) {
             RelayInput m;
             m.confirmed_ack = ack;
             m.first_frame = first;
             m.frame_count = static_cast<std::uint8_t>(count);
-            m.inputs.assign(static_cast<std::size_t>(count) * 3, 0x42);
+            m.slots = slots;
+            m.inputs.assign(static_cast<std::size_t>(count) * 3 * static_cast<std::size_t>(relay_slot_count(slots)), 0x42);
             std::vector<std::uint8_t> b;
             encode(m, 3, b);
             return b;
@@ -157,8 +160,8 @@ int main(int argc, char** argv) {
         relay_op(play, kDatagram, 0, hello(0, RelayRole::Player));
         relay_op(play, kDatagram, 1, hello(1, RelayRole::Player));
         for (std::uint32_t f = 0; f < 6; f += 2) {
-            relay_op(play, kDatagram, 0, inputs(f, 2, f));
-            relay_op(play, kDatagram, 1, inputs(f, 2, f));
+            relay_op(play, kDatagram, 0, inputs(f, 2, f, 0x1));
+            relay_op(play, kDatagram, 1, inputs(f, 2, f, 0x2));
             relay_op(play, kTime, 0, {17});
             relay_op(play, kTake, 0);
         }
@@ -177,10 +180,33 @@ int main(int argc, char** argv) {
         put(root / "relay", "spectator_forward", watch);
         std::vector<std::uint8_t> late = play;
         relay_op(late, kTime, 0, {255});
-        relay_op(late, kDatagram, 1, inputs(10000, 3, 0));
+        relay_op(late, kDatagram, 1, inputs(10000, 3, 0, 0x2));
         relay_op(late, kDatagram, 0, hello(1, RelayRole::Player));
         relay_op(late, kTake, 0);
         put(root / "relay", "late_and_spoof", late);
+        // Several local players (wire v3): a couch on connection 0 plays slots 0 and 1 of a
+        // 3-player room, connection 1 plays slot 2; both send records; slot 2's connection then
+        // sends records naming slot 0 (bad, ignored), and a version-2 hello is refused.
+        auto couch_hello = [&](int slot, std::uint16_t also) { return hello(slot, RelayRole::Player, 8, 3, also); };
+        std::vector<std::uint8_t> couch;
+        relay_op(couch, kOpen, 0);
+        relay_op(couch, kOpen, 1);
+        relay_op(couch, kDatagram, 0, couch_hello(0, 0x2));
+        relay_op(couch, kDatagram, 1, couch_hello(2, 0));
+        for (std::uint32_t f = 0; f < 6; f += 2) {
+            relay_op(couch, kDatagram, 0, inputs(f, 2, f, 0x3));
+            relay_op(couch, kDatagram, 1, inputs(f, 2, f, 0x4));
+            relay_op(couch, kTime, 0, {17});
+            relay_op(couch, kTake, 0);
+        }
+        relay_op(couch, kDatagram, 1, inputs(6, 2, 6, 0x1));
+        std::vector<std::uint8_t> v2 = couch_hello(1, 0);
+        v2[1] = 2;
+        v2.erase(v2.begin() + 25, v2.begin() + 27);  // the v2 layout: no also_slots
+        relay_op(couch, kOpen, 2);
+        relay_op(couch, kDatagram, 2, v2);
+        relay_op(couch, kTake, 0);
+        put(root / "relay", "couch_and_online", couch);
     }
     // token: grants sealed with the fuzzer's key (a player, a spectator of a 3-player room with
     // an absent slot, one expired at the fuzzer's clock), and a token of another key.
@@ -200,6 +226,9 @@ int main(int argc, char** argv) {
         old.expires_unix_s = lockroll::fuzz::kFuzzUnixS - 1;
         put(root / "token", "expired", seal_token(old, lockroll::fuzz::kFuzzTokenKey));
         put(root / "token", "other_key", seal_token(g, new_token_key()));
+        ConnectGrant couch = g;  // one connection, slots 0 and 1 (several local players)
+        couch.also_slots = 0x2;
+        put(root / "token", "couch", seal_token(couch, lockroll::fuzz::kFuzzTokenKey));
     }
     // membership: the cases of docs/sessions.md's Drop section as scripts (fuzz/membership_fuzz.h).
     {

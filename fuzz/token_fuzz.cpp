@@ -39,6 +39,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     h.room_id = opened ? g.room_id : 7;
     h.role = opened ? g.role : RelayRole::Player;
     h.slot = opened ? g.slot : 0;
+    h.also_slots = opened && g.role != RelayRole::Spectator ? g.also_slots : 0;  // a couch's token: all its slots
     h.players = opened ? g.players : 2;
     h.input_size = opened ? g.input_size : 3;
     h.tick_rate = opened ? g.tick_rate : 60;
@@ -61,6 +62,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const bool was_kicked = s.next_kick(kicked);
     if (admitted) {
         check(!was_kicked && s.room(h.room_id) != nullptr && s.room(h.room_id)->slot_of(1) >= 0);
+        check(s.room(h.room_id)->connection_slots(1) == relay_hello_slots(h));
         check(s.counters().tokens_refused == 0);
     } else {
         check(was_kicked && kicked == 1 && s.room_count() == 0);

@@ -1,5 +1,7 @@
 #include "harness/peer_command.h"
 
+#include "harness/cli_validators.h"
+
 #include <csignal>
 #include <ctime>
 
@@ -51,7 +53,8 @@ using nlohmann::json;
 using rollback::PlayerId;
 
 struct PeerOptions {
-    int slot = -1;
+    std::vector<int> slots;          // --slot as given: one, or (`lockroll client`) several: 0,1
+    int slot = -1;                   // the lowest of them (plan() sets it)
     int players = 2;
     std::string listen;
     std::vector<std::string> peers;
@@ -98,6 +101,7 @@ struct PeerPlan {
     Endpoint listen;
     Endpoint server;  // relay: the server's address
     std::vector<std::uint8_t> token;  // relay: the connect token (empty: none)
+    std::uint16_t also_slots = 0;     // relay: the further slots this client plays (`--slot 0,1`)
     std::vector<net::PeerAddress> peers;
     std::vector<DesyncInjection> injections;  // client field = this slot
     spdlog::level::level_enum log_level = spdlog::level::info;
@@ -105,10 +109,23 @@ struct PeerPlan {
 
 double raw_to_m(sim::Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
 
-PeerPlan plan(const PeerOptions& o) {
+PeerPlan plan(const PeerOptions& given) {
     PeerPlan p;
-    p.o = o;
+    PeerOptions o = given;
     if (o.players < 2 || o.players > 16) throw UsageError("--players must be 2..16");
+    if (o.slots.empty()) throw UsageError("--slot is required");
+    o.slot = *std::min_element(o.slots.begin(), o.slots.end());
+    if (o.slots.size() > 1) {
+        // Several local players: through the server only (one connection plays them all).
+        if (!o.relay) throw UsageError("--slot: a peer plays one slot (several local players: lockroll client --slot 0,1)");
+        if (o.spectate) throw UsageError("--slot: a spectator has one id, not several");
+        try {
+            p.also_slots = static_cast<std::uint16_t>(slot_mask(o.slots, o.players, "--slot") & ~(1u << o.slot));
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(e.what());
+        }
+    }
+    p.o = o;
     if (o.spectators < 0 || o.spectators > 16) throw UsageError("--spectators must be 0..16");
     if (o.spectate && o.relay && o.slot < o.players)
         throw UsageError("--slot must be >= players with --spectate (the server assigns the spectator's place)");
@@ -516,12 +533,15 @@ net::RunnerConfig runner_config(const PeerPlan& p, const net::Clock& clock) {
     return rc;
 }
 
-// The bot's input for a frame, recorded for the input-latency figures.
-net::InputSource bot_input(const Bot& bot, const rollback::WorldSimulation& sim, PeerRecorder& rec) {
-    return [&bot, &sim, &rec](std::uint32_t frame, std::span<std::uint8_t> out) {
-        const auto bytes = rollback::encode_input(bot.input(frame, sim.world()));
-        rec.before_advance(rec.now_us(), frame, bytes);
-        std::copy(bytes.begin(), bytes.end(), out.begin());
+// The bots' inputs for a frame, one per local slot in slot order (a client of several slots:
+// `--slot 0,1`); the first slot's is recorded for the input-latency figures.
+net::InputSource bot_input(const std::vector<Bot>& bots, const rollback::WorldSimulation& sim, PeerRecorder& rec) {
+    return [&bots, &sim, &rec](std::uint32_t frame, std::span<std::uint8_t> out) {
+        for (std::size_t k = 0; k < bots.size(); ++k) {
+            const auto bytes = rollback::encode_input(bots[k].input(frame, sim.world()));
+            if (k == 0) rec.before_advance(rec.now_us(), frame, bytes);
+            std::copy(bytes.begin(), bytes.end(), out.begin() + static_cast<std::ptrdiff_t>(k * bytes.size()));
+        }
     };
 }
 
@@ -554,6 +574,7 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     rollback::RelaySessionConfig rc;
     rc.players = p.o.players;
     rc.local_slot = static_cast<PlayerId>(p.o.spectate ? 0 : p.o.slot);
+    rc.also_slots = p.also_slots;
     rc.role = p.o.spectate ? rollback::RelayRole::Spectator : p.o.join ? rollback::RelayRole::Joiner : rollback::RelayRole::Player;
     rc.input_size = rollback::kWorldInputSize;
     rc.tick_rate = p.o.tick_rate;
@@ -586,15 +607,20 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
                                    .timeout_limit = 32,
                                    .timeout_min_ms = 5000,
                                    .timeout_max_ms = 30000});
+    std::string slots;  // "0,1" for a client of several slots
+    for (PlayerId s : session.local_slots()) slots += (slots.empty() ? "" : ",") + std::to_string(s);
     log->info("connecting to the relay server {}:{} for room '{}' as {} {} of {} ({} mode)", p.server.host, p.server.port, p.o.room,
-              p.o.spectate ? "spectator" : "slot", p.o.slot, p.o.players, mode_name(p.mode));
+              p.o.spectate ? "spectator" : "slot", p.o.spectate ? std::to_string(p.o.slot) : slots, p.o.players, mode_name(p.mode));
     rec.event("listening", rec.now_us(), {{"port", enet.port()}, {"room", p.o.room}});
-    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::RelayRunner runner(runner_config(p, clock), p.server.host, p.server.port, session, enet, bot_input(bot, sim, rec), &rec);
+    std::vector<Bot> bots;  // one per local slot, in slot order
+    if (session.local_slots().empty()) bots.emplace_back(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
+    for (PlayerId s : session.local_slots()) bots.emplace_back(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, s);
+    net::RelayRunner runner(runner_config(p, clock), p.server.host, p.server.port, session, enet, bot_input(bots, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     if (outcome == net::RunOutcome::Failed) log->error("session failed: {}", session.failure());
     const rollback::RelayStats& rs = session.relay_stats();
     json extra = {{"topology", "relay"},
+                  {"local_slots", session.local_slots()},
                   {"clock_skew_ppm", p.o.clock_skew_ppm},
                   {"room", p.o.room},
                   {"rtt_ms", {{"server", static_cast<double>(session.rtt_us()) / 1000.0}}},
@@ -659,8 +685,8 @@ int do_peer(const PeerOptions& options) {
     if (p.o.clock_skew_ppm != 0) log->info("clock skew {} ppm (fault test)", p.o.clock_skew_ppm);
     rec.event("listening", rec.now_us(), {{"port", enet.port()}, {"match_id", p.o.match_id}});
 
-    const Bot bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot);
-    net::PeerRunner runner(runner_config(p, clock), session, enet, bot_input(bot, sim, rec), &rec);
+    const std::vector<Bot> bots{Bot(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, p.o.slot)};
+    net::PeerRunner runner(runner_config(p, clock), session, enet, bot_input(bots, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
     const rollback::SessionStats& st = session.stats();
     json rtts = json::object();
@@ -679,7 +705,10 @@ int do_peer(const PeerOptions& options) {
 namespace {
 // The options `peer` and `client` share: the player, the game, the outputs.
 void add_player_options(CLI::App* cmd, const std::shared_ptr<PeerOptions>& o) {
-    cmd->add_option("--slot", o->slot, "This process's player slot 0..players-1")->required();
+    cmd->add_option("--slot", o->slots, "This process's player slot 0..players-1 (`lockroll client`: several, as 0,1)")
+        ->required()
+        ->allow_extra_args(false)
+        ->delimiter(',');
     cmd->add_option("--players", o->players, "Players in the match (2..16)")->capture_default_str();
     cmd->add_option("--scene", o->scene, "Scene file or shipped scene name")->capture_default_str();
     cmd->add_option("--bot", o->bot, "Input bot: random or chase")->check(CLI::IsMember({"random", "chase"}))->capture_default_str();

@@ -1,5 +1,6 @@
 #include "harness/token_command.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "harness/cli_validators.h"
 #include "harness/match/cli_error.h"
 #include "harness/report/output_path.h"
 #include "harness/peer_command.h"
@@ -24,7 +26,8 @@ struct TokenOptions {
     std::string key;
     bool new_key = false;
     std::string room;
-    int slot = -1;
+    std::vector<int> slots;  // --slot: one, or several (a couch on one connection: 0,1)
+    int slot = -1;           // the lowest of them
     bool spectate = false;
     std::uint64_t client_id = 0;
     double expires_in = 3600;
@@ -58,7 +61,9 @@ server::TokenKey key_or_usage(const std::string& path) {
     }
 }
 
-int do_token(const TokenOptions& o) {
+int do_token(const TokenOptions& given) {
+    TokenOptions o = given;
+    if (!o.slots.empty()) o.slot = *std::min_element(o.slots.begin(), o.slots.end());
     if (o.key.empty()) throw UsageError("--key FILE is required");
     if (o.new_key) {
         if (std::filesystem::exists(o.key)) throw UsageError("--key " + o.key + ": exists; --new-key writes a new file only");
@@ -74,6 +79,12 @@ int do_token(const TokenOptions& o) {
     if (o.players < 2 || o.players > rollback::kRelayMaxPlayers) throw UsageError("--players must be 2..16");
     if (!o.spectate && (o.slot < 0 || o.slot >= o.players)) throw UsageError("--slot must be 0..players-1 (or --spectate)");
     if (o.spectate && o.slot >= 0) throw UsageError("--slot and --spectate exclude each other (the server places a spectator)");
+    std::uint16_t also = 0;  // the further slots of a couch's token
+    if (!o.spectate) try {
+            also = static_cast<std::uint16_t>(slot_mask(o.slots, o.players, "--slot") & ~(1u << o.slot));
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(e.what());
+        }
     if (o.tick_rate < 1 || o.tick_rate > 1000) throw UsageError("--tick-rate must be 1..1000");
     if (!(o.expires_in >= 1 && o.expires_in <= 10.0 * 365 * 86400)) throw UsageError("--expires-in must be 1 s..10 years");
     std::uint16_t absent = 0;
@@ -93,6 +104,7 @@ int do_token(const TokenOptions& o) {
     g.expires_unix_s = static_cast<std::uint64_t>(std::time(nullptr)) + static_cast<std::uint64_t>(o.expires_in);
     g.role = o.spectate ? rollback::RelayRole::Spectator : rollback::RelayRole::Player;
     g.slot = static_cast<std::uint8_t>(o.spectate ? 0 : o.slot);
+    g.also_slots = also;
     g.players = static_cast<std::uint8_t>(o.players);
     g.input_size = static_cast<std::uint8_t>(rollback::kWorldInputSize);
     g.tick_rate = static_cast<std::uint16_t>(o.tick_rate);
@@ -100,7 +112,7 @@ int do_token(const TokenOptions& o) {
     g.absent_slots = absent;
     server::write_token_file(o.out, server::seal_token(g, key));
     std::printf("token for room '%s' %s%s, client id %llu, expires at %llu (Unix s), written to %s\n", o.room.c_str(),
-                o.spectate ? "spectator" : "slot ", o.spectate ? "" : std::to_string(o.slot).c_str(),
+                o.spectate ? "spectator" : o.slots.size() > 1 ? "slots " : "slot ", o.spectate ? "" : slot_text(o.slots).c_str(),
                 static_cast<unsigned long long>(g.client_id), static_cast<unsigned long long>(g.expires_unix_s), o.out.c_str());
     return 0;
 }
@@ -114,7 +126,9 @@ void add_token_command(CLI::App& app) {
     cmd->add_option("--key", o->key, "FILE with the key shared with the server (64 hex digits)")->type_name("FILE");
     cmd->add_flag("--new-key", o->new_key, "Write a fresh random key to --key FILE and stop");
     cmd->add_option("--room", o->room, "Room the token admits to (the name lockroll client --room gives)");
-    cmd->add_option("--slot", o->slot, "Slot the token admits to, 0..players-1");
+    cmd->add_option("--slot", o->slots, "Slot the token admits to, 0..players-1; several (0,1) for one client playing them all")
+        ->allow_extra_args(false)
+        ->delimiter(',');
     cmd->add_flag("--spectate", o->spectate, "A spectator's token (no slot)");
     cmd->add_option("--client-id", o->client_id, "Who holds the slot: only this id's token takes it back (default: random)");
     cmd->add_option("--expires-in", o->expires_in, "Seconds the token admits for (also reconnects)")->capture_default_str();

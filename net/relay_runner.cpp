@@ -23,7 +23,8 @@ RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, st
     if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
     if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
     if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
-    input_bytes_.assign(session_.config().input_size, 0);
+    // input_size bytes per local slot, in slot order (RelaySession::local_slots()).
+    input_bytes_.assign(session_.local_input_size(), 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
     session_.set_last_frame(config_.target_frame);  // a run of target_frame frames ends on it
 }

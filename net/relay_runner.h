@@ -6,7 +6,7 @@
 //    whole run. A connection ENet dropped is made again and the session says hello again: the
 //    server resumes it by its incarnation.
 //  - Each tick: drain the transport -> RelaySession::receive -> local input for frame() +
-//    input_delay() -> advance -> catch_up() while behind() (a late start, a joiner, a clock
+//    input_delay() (input_size bytes per local slot, local_slots() order) -> advance -> catch_up() while behind() (a late start, a joiner, a clock
 //    running slow: the session says how far it is behind the room clock) -> events -> poll ->
 //    send (reliable for what the session marks so).
 //  - The game's loop or the runner's: update() / wait() / run() as PeerRunner's.

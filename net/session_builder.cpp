@@ -351,15 +351,22 @@ rollback::RelaySessionConfig SessionBuilder::relay_config() const {
     if (engine_.spectate) bad("spectator() is peer to peer only for now (through a server: configure_relay()'s role)");
     if (players_ < 1 || players_ > rollback::kRelayMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kRelayMaxPlayers) + " through a server");
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
-    if (local_.size() != 1) bad("through a server, exactly one local_player() (several local players need a mesh for now)");
+    if (local_.empty()) bad("no local_player(): name the slot(s) this machine plays");
     if (input_delay_ < 0 || input_delay_ > 60) bad("input_delay must be 0..60");
     check_engine_settings();
     rollback::RelaySessionConfig c;
     if (engine_.join) c.role = rollback::RelayRole::Joiner;
     if (engine_.disconnect_ms.value_or(0) != 0) c.server_timeout_us = *engine_.disconnect_ms * 1000;
     c.players = players_;
-    c.local_slot = local_.front();
-    if (c.local_slot >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(c.local_slot) + "): slot out of range");
+    // Several local slots: one connection plays them all (the lowest names it to the server).
+    c.local_slot = *std::min_element(local_.begin(), local_.end());
+    for (rollback::PlayerId s : local_) {
+        if (s >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(s) + "): slot out of range");
+        const auto bit = static_cast<std::uint16_t>(1u << s);
+        if (s != c.local_slot && (c.also_slots & bit)) bad("slot " + std::to_string(s) + " is named twice");
+        if (s != c.local_slot) c.also_slots = static_cast<std::uint16_t>(c.also_slots | bit);
+    }
+    if (std::count(local_.begin(), local_.end(), c.local_slot) > 1) bad("slot " + std::to_string(c.local_slot) + " is named twice");
     c.input_size = input_size_;
     c.tick_rate = tick_rate_;
     c.input_delay = input_delay_;
@@ -504,7 +511,6 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         rollback::validate(rs);
         std::unique_ptr<NetSession> s(new NetSession());
         s->runner_config_ = rc;
-        s->relay_slots_ = {rs.local_slot};
         s->engine_ = make_engine(*s, simulation, rs.local_slot, rs.players);
         // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
         attach_transport(*s, rs.local_slot,
@@ -515,6 +521,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
                                                .timeout_min_ms = 5000,
                                                .timeout_max_ms = 30000});
         s->relay_session_ = std::make_unique<rollback::RelaySession>(rs, simulation, s->engine_.get());
+        s->relay_slots_ = s->relay_session_->local_slots();  // the input's order: ascending slots
         NetSession* raw = s.get();
         RunnerObserver* as_observer = raw;
         s->relay_runner_ = std::make_unique<RelayRunner>(

@@ -21,8 +21,9 @@
 //    NetSession::port()); remote_player() gives where the others listen. Connections follow
 //    PeerRunner's rules (the lower process connects, retried every 0.5 s).
 //  - server(host, port): play through a relay server (`lockroll server`, docs/relay.md) instead
-//    of a mesh: no remote_player(), exactly one local_player() (several local players through
-//    the server are not supported yet: start() throws naming it), match_id() is the room.
+//    of a mesh: no remote_player(), one or more local_player() (several are several slots on
+//    one connection; the input is then input_size bytes per local slot, ascending slot order,
+//    which is local_slots()), match_id() is the room.
 //    NetSession then runs a rollback::RelaySession with net::RelayRunner; session() is the
 //    mesh's only (relay_session() here). Without input_delay() the delay adapts to the round
 //    trip; without prediction_window() the window is 20 frames (a 300 ms round trip).

@@ -9,7 +9,7 @@ namespace lockroll::rollback {
 
 namespace {
 constexpr std::size_t kFramesHeaderBytes = 1 + 4 + 2 + 4 + 4 + 2 + 1 + 1 + 2 + 2 + 2;
-constexpr std::size_t kInputHeaderBytes = 1 + 4 + 4 + 1 + 2 + 2 + 2 + 1;
+constexpr std::size_t kInputHeaderBytes = 1 + 4 + 4 + 1 + 2 + 2 + 2 + 2 + 1;
 constexpr std::size_t kChecksumBytes = 4 + 8;
 constexpr std::uint8_t kMaxInputsPerMessage = 64;
 
@@ -63,9 +63,20 @@ std::uint16_t relay_max_frames(int players, std::size_t input_size) {
     return static_cast<std::uint16_t>(std::max<std::size_t>(1, (kRelayMaxDatagramBytes - kFramesHeaderBytes) / per_frame));
 }
 
-std::uint8_t relay_max_inputs(std::size_t input_size) {
+std::uint8_t relay_max_inputs(std::size_t record_bytes) {
     const std::size_t room = kRelayMaxDatagramBytes - kInputHeaderBytes - kRelayMaxChecksums * kChecksumBytes;
-    return static_cast<std::uint8_t>(std::min<std::size_t>(kMaxInputsPerMessage, room / std::max<std::size_t>(1, input_size)));
+    return static_cast<std::uint8_t>(std::min<std::size_t>(kMaxInputsPerMessage, room / std::max<std::size_t>(1, record_bytes)));
+}
+
+int relay_slot_count(std::uint16_t slots) {
+    int n = 0;
+    for (; slots; slots = static_cast<std::uint16_t>(slots & (slots - 1))) ++n;
+    return n;
+}
+
+std::uint16_t relay_hello_slots(const RelayHello& h) {
+    if (h.role == RelayRole::Spectator || h.slot >= kRelayMaxPlayers) return 0;
+    return static_cast<std::uint16_t>(h.also_slots | (1u << h.slot));
 }
 
 void encode(const RelayHello& m, std::vector<std::uint8_t>& out) {
@@ -79,6 +90,7 @@ void encode(const RelayHello& m, std::vector<std::uint8_t>& out) {
     w.u16(m.tick_rate);
     w.u8(static_cast<std::uint8_t>(m.role));
     w.u8(m.slot);
+    w.u16(m.also_slots);
     w.u16(m.absent_slots);
     w.u64(m.incarnation);
     w.u64(m.stamp_us);
@@ -90,7 +102,14 @@ void encode(const RelayHello& m, std::vector<std::uint8_t>& out) {
 const char* decode(std::span<const std::uint8_t> d, RelayHello& m) {
     ByteReader r(d);
     if (const char* e = expect(r, RelayKind::Hello)) return e;
-    m.version = r.u16();
+    const std::uint16_t version = r.u16();
+    if (!r.ok()) return "relay hello: truncated";
+    if (version != kRelayProtocolVersion) {
+        m = RelayHello{};
+        m.version = version;
+        return nullptr;
+    }
+    m.version = version;
     m.room_id = r.u64();
     m.scene_checksum = r.u64();
     m.players = r.u8();
@@ -98,6 +117,7 @@ const char* decode(std::span<const std::uint8_t> d, RelayHello& m) {
     m.tick_rate = r.u16();
     const std::uint8_t role = r.u8();
     m.slot = r.u8();
+    m.also_slots = r.u16();
     m.absent_slots = r.u16();
     m.incarnation = r.u64();
     m.stamp_us = r.u64();
@@ -109,6 +129,12 @@ const char* decode(std::span<const std::uint8_t> d, RelayHello& m) {
     m.token.assign(token.begin(), token.end());
     if (role > kLastRelayRole) return "relay hello: unknown role";
     m.role = static_cast<RelayRole>(role);
+    if (m.also_slots != 0) {
+        if (m.role == RelayRole::Spectator) return "relay hello: a spectator plays no slot";
+        // One encoding per set of slots: `slot` is the lowest.
+        const std::uint32_t at_or_below = m.slot >= 15 ? 0xFFFFu : (2u << m.slot) - 1;
+        if (m.also_slots & at_or_below) return "relay hello: further slots must be above the first";
+    }
     return nullptr;
 }
 
@@ -155,14 +181,16 @@ const char* decode(std::span<const std::uint8_t> d, RelayWelcome& m) {
 }
 
 void encode(const RelayInput& m, std::size_t input_size, std::vector<std::uint8_t>& out) {
-    if (m.frame_count > relay_max_inputs(input_size) || m.inputs.size() != m.frame_count * input_size ||
-        m.checksum_count > kRelayMaxChecksums)
+    const std::size_t record = static_cast<std::size_t>(relay_slot_count(m.slots)) * input_size;
+    if ((m.frame_count > 0 && record == 0) || m.frame_count > relay_max_inputs(record) ||
+        m.inputs.size() != m.frame_count * record || m.checksum_count > kRelayMaxChecksums)
         throw std::invalid_argument("RelayInput: counts out of range");
     ByteWriter w(out);
     w.u8(kind_byte(RelayKind::Input));
     w.u32(m.confirmed_ack);
     w.u32(m.first_frame);
     w.u8(m.frame_count);
+    w.u16(m.slots);
     w.bytes(m.inputs);
     w.u16(m.stamp);
     w.u16(m.echo);
@@ -180,9 +208,12 @@ const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, Rela
     m.confirmed_ack = r.u32();
     m.first_frame = r.u32();
     m.frame_count = r.u8();
+    m.slots = r.u16();
     if (!r.ok()) return "relay input: truncated";
-    if (m.frame_count > relay_max_inputs(input_size)) return "relay input: too many inputs";
-    const auto bytes = r.bytes(m.frame_count * input_size);
+    const std::size_t record = static_cast<std::size_t>(relay_slot_count(m.slots)) * input_size;
+    if (m.frame_count > 0 && record == 0) return "relay input: inputs for no slot";
+    if (m.frame_count > relay_max_inputs(record)) return "relay input: too many inputs";
+    const auto bytes = r.bytes(m.frame_count * record);
     if (!r.ok()) return "relay input: truncated inputs";
     m.inputs.assign(bytes.begin(), bytes.end());
     m.stamp = r.u16();

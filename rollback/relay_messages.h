@@ -23,7 +23,8 @@
 namespace lockroll::rollback {
 
 // 2: the hello carries a connect token (server/connect_token.h), refusals 9..14.
-inline constexpr std::uint16_t kRelayProtocolVersion = 2;
+// 3: one connection plays several slots (the hello's also_slots, the input's slots mask).
+inline constexpr std::uint16_t kRelayProtocolVersion = 3;
 inline constexpr std::size_t kRelayMaxDatagramBytes = 1200;
 inline constexpr int kRelayMaxPlayers = 16;
 inline constexpr std::size_t kRelayMaxInputSize = 64;
@@ -75,7 +76,10 @@ struct RelayHello {
     std::uint8_t input_size = 3;
     std::uint16_t tick_rate = 60;
     RelayRole role = RelayRole::Player;
-    std::uint8_t slot = 0;            // wanted slot (ignored for spectators)
+    std::uint8_t slot = 0;            // wanted slot, the lowest this connection plays (ignored for spectators)
+    // Bit s: this connection also plays slot s (couch + online: several local players in one
+    // client). Every bit is above `slot` (one encoding per set of slots); 0 for a spectator.
+    std::uint16_t also_slots = 0;
     std::uint16_t absent_slots = 0;   // bit s: nobody plays slot s at frame 0 (the first hello sets it)
     std::uint64_t incarnation = 0;    // a restarted process says so (its old connection is replaced)
     std::uint64_t stamp_us = 0;       // echoed in the welcome: the first round trip
@@ -103,11 +107,15 @@ struct RelayWelcome {
 inline constexpr std::uint32_t kRelayNoFrames = 0xFFFFFFFF;
 
 // Client -> server, every tick.
+// Each carried frame is one record: the inputs of the slots in `slots`, in slot order, input_size
+// bytes each. The server takes them only when `slots` is exactly what the connection was
+// admitted for: the mask names, it never grants.
 struct RelayInput {
     std::uint32_t confirmed_ack = 0;  // next confirmed frame the client needs (or kRelayNoFrames)
-    std::uint32_t first_frame = 0;    // frame of the first own input carried
+    std::uint32_t first_frame = 0;    // frame of the first own record carried
     std::uint8_t frame_count = 0;
-    std::vector<std::uint8_t> inputs; // frame_count * input_size
+    std::uint16_t slots = 0;          // bit s: each record holds slot s's input (0: no records)
+    std::vector<std::uint8_t> inputs; // frame_count * popcount(slots) * input_size
     std::uint16_t stamp = 0;          // round trip, as protocol.h: 100 µs units, wrapping
     std::uint16_t echo = 0;
     std::uint16_t hold = 0;
@@ -164,8 +172,13 @@ struct RelayNotice {
 
 // Most frames one Frames message can carry for these sizes (every slot changing every frame).
 std::uint16_t relay_max_frames(int players, std::size_t input_size);
-// Most own inputs one Input message can carry.
-std::uint8_t relay_max_inputs(std::size_t input_size);
+// Most own records one Input message can carry, a record being record_bytes long (one slot's
+// input size times the slots a connection plays).
+std::uint8_t relay_max_inputs(std::size_t record_bytes);
+// The slots of a hello, lowest first: `slot` and every bit of `also_slots` (none for a spectator).
+std::uint16_t relay_hello_slots(const RelayHello& h);
+// Slots in a mask (its popcount).
+int relay_slot_count(std::uint16_t slots);
 
 // Preconditions (programming errors, std::invalid_argument): sizes match the counts, counts
 // within the limits above.
@@ -177,7 +190,10 @@ void encode(const RelayForward& m, std::vector<std::uint8_t>& out);
 void encode(const RelayNotice& m, std::vector<std::uint8_t>& out);
 
 // nullptr on success, else a static description (m is then unspecified). m is reused so that
-// steady-state decoding does not allocate.
+// steady-state decoding does not allocate. A hello of another protocol version decodes to its
+// version alone (every other field at its default): its layout is not this one's, and the
+// server refuses it naming the version (a client of another version is told, not ignored).
+// input_size: one slot's; an Input's records are sized by its own `slots` mask.
 const char* decode(std::span<const std::uint8_t> d, RelayHello& m);
 const char* decode(std::span<const std::uint8_t> d, RelayWelcome& m);
 const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, RelayInput& m);

@@ -25,9 +25,11 @@ public:
     void predict(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> last_confirmed,
                  std::uint32_t last_confirmed_frame, std::span<std::uint8_t> out) override {
         const InputQueue& own = s_.own_;
-        if (s_.config_.role != RelayRole::Spectator && player == s_.config_.local_slot && frame >= own.floor() &&
-            frame < own.confirmed_count()) {
-            const auto in = own.confirmed(frame);
+        const auto& mine = s_.local_slots_;
+        const auto at = std::find(mine.begin(), mine.end(), player);
+        if (at != mine.end() && frame >= own.floor() && frame < own.confirmed_count()) {
+            // own_ holds one record per frame: every local slot's input, in slot order.
+            const auto in = own.confirmed(frame).subspan(static_cast<std::size_t>(at - mine.begin()) * out.size(), out.size());
             std::copy(in.begin(), in.end(), out.begin());
             return;
         }
@@ -53,14 +55,36 @@ void validate(const RelaySessionConfig& c) {
     need(c.max_recoveries >= 0, "relay session: max recoveries must be >= 0");
     need(c.hello_resend_us > 0 && c.transfer_resend_us > 0, "relay session: resend intervals must be positive");
     need(c.connect_token.size() <= kRelayMaxTokenBytes, "relay session: connect token longer than 256 bytes");
+    need(c.role != RelayRole::Spectator || c.also_slots == 0, "relay session: a spectator plays no slot (also_slots must be 0)");
+    need(c.role == RelayRole::Spectator || c.local_slot >= static_cast<PlayerId>(c.players) ||
+             (c.also_slots >> c.players) == 0,
+         "relay session: also_slots names a slot out of range");
+    need(c.role == RelayRole::Spectator || c.local_slot >= static_cast<PlayerId>(c.players) ||
+             (c.also_slots & ((2u << c.local_slot) - 1)) == 0,
+         "relay session: also_slots must be above local_slot (the lowest local slot)");
 }
+
+std::uint16_t relay_local_slots(const RelaySessionConfig& c) {
+    if (c.role == RelayRole::Spectator || c.local_slot >= kRelayMaxPlayers) return 0;
+    return static_cast<std::uint16_t>(c.also_slots | (1u << c.local_slot));
+}
+
+namespace {
+std::vector<PlayerId> slot_list(std::uint16_t mask) {
+    std::vector<PlayerId> out;
+    for (int s = 0; s < kRelayMaxPlayers; ++s)
+        if (mask & (1u << s)) out.push_back(static_cast<PlayerId>(s));
+    return out;
+}
+}  // namespace
 
 RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
                            Predictor* predictor)
     : SessionCore(SessionPhase::Synchronizing, config.local_slot, config.input_delay, observer),
       config_(config),
+      local_slots_(slot_list(relay_local_slots(config))),
       sim_(simulation),
-      own_(config.input_size, config.input_capacity),
+      own_(config.input_size * std::max<std::size_t>(1, local_slots_.size()), config.input_capacity),
       link_(1, 60) {
     validate(config_);
     default_to_zero(config_.cpu_clock);
@@ -202,7 +226,7 @@ void RelaySession::handle_frames(std::uint64_t now_us) {
                 continue;
             if (flags & kRelayReplaced) {
                 ++relay_stats_.replaced_any;
-                if (config_.role != RelayRole::Spectator && p == config_.local_slot) ++relay_stats_.own_replaced;
+                if (relay_local_slots(config_) & (1u << p)) ++relay_stats_.own_replaced;
             }
             const bool absent = flags & kRelayAbsent;
             const bool was_absent = slot_flags_[p] & kRelayAbsent;
@@ -397,7 +421,7 @@ void RelaySession::add_own_input(std::span<const std::uint8_t> input) {
         ++stats_.dropped_local_inputs;  // the delay shrank: sent inputs never change
         return;
     }
-    scratch_.assign(config_.input_size, 0);
+    scratch_.assign(local_input_size(), 0);
     if (const auto last = own_.last_confirmed(); !last.empty()) scratch_.assign(last.begin(), last.end());
     for (; next < target; ++next)
         if (own_.add_confirmed(next, scratch_) != InputQueue::Add::Stored) return;
@@ -416,8 +440,11 @@ void RelaySession::confirm_frames() {
         }
     }
     // Own inputs the server holds and this client has seen confirmed are never read again.
-    if (config_.role != RelayRole::Spectator)
-        own_.discard_before(std::min(server_ack_, sync_->queue(config_.local_slot).confirmed_count()));
+    if (config_.role != RelayRole::Spectator) {
+        std::uint32_t seen = server_ack_;
+        for (PlayerId p : local_slots_) seen = std::min(seen, sync_->queue(p).confirmed_count());
+        own_.discard_before(seen);
+    }
 }
 
 AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
@@ -430,7 +457,7 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
     }
     // A caller's bug, handled as the P2P session does (session.h): counted, and the tick does
     // nothing; it used to fail the session here.
-    if (local_input.size() != config_.input_size) {
+    if (local_input.size() != local_input_size()) {
         ++stats_.bad_local_inputs;
         r.frame = frame();
         return r;
@@ -477,7 +504,7 @@ int RelaySession::catch_up_impl(std::uint64_t now_us, int max_frames) {
         if (sync_->must_wait(0) || frame() >= last_frame_) break;
         if (config_.role != RelayRole::Spectator) {
             // The skipped tick's input repeats the last one.
-            scratch_.assign(config_.input_size, 0);
+            scratch_.assign(local_input_size(), 0);
             if (const auto last = own_.last_confirmed(); !last.empty()) scratch_.assign(last.begin(), last.end());
             const std::vector<std::uint8_t> input = scratch_;
             add_own_input(input);
@@ -512,6 +539,7 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         h.tick_rate = static_cast<std::uint16_t>(config_.tick_rate);
         h.role = config_.role;
         h.slot = static_cast<std::uint8_t>(config_.role == RelayRole::Spectator ? 0 : config_.local_slot);
+        h.also_slots = config_.role == RelayRole::Spectator ? 0 : config_.also_slots;
         h.absent_slots = config_.absent_slots;
         h.incarnation = incarnation_;
         h.stamp_us = now_us;
@@ -558,9 +586,10 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.confirmed_ack = phase_ == SessionPhase::Running ? sync_->inputs_complete() : kRelayNoFrames;
         if (config_.role != RelayRole::Spectator && phase_ == SessionPhase::Running) {
             // Own inputs the server lacks.
-            const auto run = own_.copy_confirmed(server_ack_, relay_max_inputs(config_.input_size), m.inputs);
+            const auto run = own_.copy_confirmed(server_ack_, relay_max_inputs(local_input_size()), m.inputs);
             m.first_frame = run.first;
             m.frame_count = static_cast<std::uint8_t>(run.count);
+            m.slots = run.count > 0 ? relay_local_slots(config_) : 0;
         }
         const PeerLink::Stamps st = link_.outgoing_stamps(now_us);
         m.stamp = st.stamp;

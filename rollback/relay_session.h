@@ -24,8 +24,14 @@
 //    reload the state of the slot the notice names the same way.
 //  - Checksums of confirmed frames that are multiples of the room's interval ride on the input
 //    messages (each three times); the server arbitrates.
+//  - Several local slots (couch + online: RelaySessionConfig::also_slots): one connection, one
+//    hello naming them all, one input message per tick whose records carry every local slot's
+//    input, in slot order. advance() takes input_size bytes per local slot (local_slots()
+//    order); each local slot is predicted with what this client sent for it, and confirmed by
+//    the server like any other.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -54,7 +60,10 @@ inline constexpr PlayerId kRelayServerPeer = 0xFFFF;
 
 struct RelaySessionConfig {
     int players = 2;
-    PlayerId local_slot = 0;            // ignored for spectators
+    PlayerId local_slot = 0;            // ignored for spectators; the lowest local slot
+    // Bit s: this client plays slot s too (several local players through the server). Every bit
+    // above local_slot and below players; 0 for a spectator.
+    std::uint16_t also_slots = 0;
     RelayRole role = RelayRole::Player;
     std::size_t input_size = 3;
     int tick_rate = 60;
@@ -90,6 +99,8 @@ struct RelaySessionConfig {
 
 // Throws std::invalid_argument naming the field.
 void validate(const RelaySessionConfig& config);
+// The slots a client with this config plays, bit per slot (none for a spectator).
+std::uint16_t relay_local_slots(const RelaySessionConfig& config);
 
 // What the relay did to this client's match, beyond SessionStats.
 struct RelayStats {
@@ -132,6 +143,10 @@ public:
     // input_delay(), stalled(), recoveries(), saved_state(), stats(): SessionCore's.
 
     const RelaySessionConfig& config() const { return config_; }
+    // The slots this client plays, ascending (empty for a spectator), and the bytes advance()
+    // takes: input_size per local slot, in that order (a spectator: one input_size, ignored).
+    const std::vector<PlayerId>& local_slots() const { return local_slots_; }
+    std::size_t local_input_size() const { return config_.input_size * std::max<std::size_t>(1, local_slots_.size()); }
     // The server holds this client's inputs of every frame before this.
     std::uint32_t server_input_ack() const { return server_ack_; }
     // This client's id in the room (its slot, or players + place for a spectator).
@@ -169,6 +184,7 @@ private:
     void revise_input_delay(std::uint64_t now_us);
 
     RelaySessionConfig config_;
+    std::vector<PlayerId> local_slots_;  // relay_local_slots(config_), ascending
     Simulation& sim_;
     std::unique_ptr<OwnPredictor> own_predictor_;
     RelayStats relay_stats_;

@@ -36,7 +36,9 @@ bool grant_in_range(const ConnectGrant& g) {
     return g.players >= 1 && g.players <= rollback::kRelayMaxPlayers && g.input_size >= 1 &&
            g.input_size <= rollback::kRelayMaxInputSize && g.tick_rate >= 1 && g.tick_rate <= 1000 &&
            static_cast<std::uint8_t>(g.role) <= rollback::kLastRelayRole &&
-           (g.role == RelayRole::Spectator || g.slot < g.players);
+           (g.role == RelayRole::Spectator ? g.also_slots == 0
+                                           : g.slot < g.players && (g.also_slots >> g.players) == 0 &&
+                                                 (g.also_slots & ((2u << g.slot) - 1)) == 0);
 }
 
 std::string read_text(const std::string& path, const char* what) {
@@ -77,7 +79,7 @@ void write_hex(const std::string& path, std::span<const std::uint8_t> bytes, con
 
 bool operator==(const ConnectGrant& a, const ConnectGrant& b) {
     return a.room_id == b.room_id && a.client_id == b.client_id && a.expires_unix_s == b.expires_unix_s &&
-           a.role == b.role && a.slot == b.slot && a.players == b.players && a.input_size == b.input_size &&
+           a.role == b.role && a.slot == b.slot && a.also_slots == b.also_slots && a.players == b.players && a.input_size == b.input_size &&
            a.tick_rate == b.tick_rate && a.scene_checksum == b.scene_checksum && a.absent_slots == b.absent_slots;
 }
 
@@ -98,6 +100,7 @@ std::vector<std::uint8_t> seal_token(const ConnectGrant& g, const TokenKey& key)
     w.u64(g.expires_unix_s);
     w.u8(static_cast<std::uint8_t>(g.role));
     w.u8(g.slot);
+    w.u16(g.also_slots);
     w.u8(g.players);
     w.u8(g.input_size);
     w.u16(g.tick_rate);
@@ -133,6 +136,7 @@ const char* open_token(std::span<const std::uint8_t> token, const TokenKey& key,
     g.expires_unix_s = r.u64();
     const std::uint8_t role = r.u8();
     g.slot = r.u8();
+    g.also_slots = r.u16();
     g.players = r.u8();
     g.input_size = r.u8();
     g.tick_rate = r.u16();
@@ -150,7 +154,7 @@ const char* open_token(std::span<const std::uint8_t> token, const TokenKey& key,
 RelayRefusal check_grant(const ConnectGrant& g, const RelayHello& h, std::uint64_t unix_s) {
     if (unix_s >= g.expires_unix_s) return RelayRefusal::TokenExpired;
     const bool spectator = g.role == RelayRole::Spectator;
-    if (h.room_id != g.room_id || (h.role == RelayRole::Spectator) != spectator || (!spectator && h.slot != g.slot) ||
+    if (h.room_id != g.room_id || (h.role == RelayRole::Spectator) != spectator || (!spectator && (h.slot != g.slot || h.also_slots != g.also_slots)) ||
         h.players != g.players || h.input_size != g.input_size || h.tick_rate != g.tick_rate ||
         h.scene_checksum != g.scene_checksum || h.absent_slots != g.absent_slots)
         return RelayRefusal::TokenMismatch;

@@ -17,6 +17,9 @@
 //  - check_grant judges an opened grant against a hello and the server's wall clock (Unix
 //    seconds): expired, or for another room, slot, role or room parameters, is a refusal. Player
 //    and joiner grants are one: the server admits both alike.
+//  - A token lists every slot its holder plays (slot, the lowest, and also_slots: several local
+//    players on one connection); the hello must name exactly that set. One token, one
+//    connection: the slots of a couch are granted together or not at all.
 //  - The key and token files are hex text (64 digits for a key; whitespace around is ignored).
 //    Reading one that is missing, malformed or of the wrong size throws std::invalid_argument
 //    naming the file and what is wrong (the CLIs exit 2 on it before anything starts).
@@ -32,10 +35,11 @@
 
 namespace lockroll::server {
 
-inline constexpr std::uint16_t kConnectTokenVersion = 1;
+// 2: the grant lists the further slots its connection plays (also_slots).
+inline constexpr std::uint16_t kConnectTokenVersion = 2;
 inline constexpr std::size_t kTokenNonceBytes = 24;
 inline constexpr std::size_t kTokenTagBytes = 16;
-inline constexpr std::size_t kConnectGrantBytes = 8 + 8 + 8 + 1 + 1 + 1 + 1 + 2 + 8 + 2;
+inline constexpr std::size_t kConnectGrantBytes = 8 + 8 + 8 + 1 + 1 + 2 + 1 + 1 + 2 + 8 + 2;
 inline constexpr std::size_t kConnectTokenBytes = 2 + kTokenNonceBytes + kConnectGrantBytes + kTokenTagBytes;
 static_assert(kConnectTokenBytes <= rollback::kRelayMaxTokenBytes);
 
@@ -49,7 +53,8 @@ struct ConnectGrant {
     std::uint64_t client_id = 0;          // who holds the slot: only this id takes it back
     std::uint64_t expires_unix_s = 0;     // accepted while the server's wall clock is before this
     rollback::RelayRole role = rollback::RelayRole::Player;
-    std::uint8_t slot = 0;                // ignored for a spectator
+    std::uint8_t slot = 0;                // ignored for a spectator; the lowest slot granted
+    std::uint16_t also_slots = 0;         // bit s: slot s too (all above `slot`; 0 for a spectator)
     // The room's parameters: a room is created with these, never with a hello's.
     std::uint8_t players = 2;
     std::uint8_t input_size = 3;
@@ -63,7 +68,8 @@ bool operator==(const ConnectGrant& a, const ConnectGrant& b);
 // A fresh random key. Throws std::runtime_error if libsodium cannot start.
 TokenKey new_token_key();
 // Throws std::runtime_error if libsodium cannot start, std::invalid_argument for a grant out of
-// range (players 1..16, input size 1..64, tick rate 1..1000, slot below players, known role).
+// range (players 1..16, input size 1..64, tick rate 1..1000, slot below players, known role,
+// also_slots above slot and below players, none for a spectator).
 std::vector<std::uint8_t> seal_token(const ConnectGrant& grant, const TokenKey& key);
 // nullptr on success (grant filled in, tag set), else why the token is refused.
 const char* open_token(std::span<const std::uint8_t> token, const TokenKey& key, ConnectGrant& grant, TokenTag& tag);

@@ -55,6 +55,20 @@ int RelayRoom::slot_of(ConnectionId c) const {
     return -1;
 }
 
+std::uint16_t RelayRoom::slots_of(int primary) const {
+    std::uint16_t mask = 0;
+    for (int s = 0; s < players_; ++s) {
+        const Slot& sl = slots_[static_cast<std::size_t>(s)];
+        if (sl.connected && sl.primary == primary) mask = static_cast<std::uint16_t>(mask | (1u << s));
+    }
+    return mask;
+}
+
+std::uint16_t RelayRoom::connection_slots(ConnectionId c) const {
+    const int id = slot_of(c);
+    return id >= 0 && id < players_ ? slots_of(id) : 0;
+}
+
 bool RelayRoom::holder(int slot, ConnectionId& c) const {
     if (slot < 0 || slot >= players_ || !slots_[static_cast<std::size_t>(slot)].connected) return false;
     c = slots_[static_cast<std::size_t>(slot)].client.connection;
@@ -73,7 +87,7 @@ RelayRoom::Client* RelayRoom::client(int id) {
     if (id < 0) return nullptr;
     if (id < players_) {
         auto& s = slots_[static_cast<std::size_t>(id)];
-        return s.connected ? &s.client : nullptr;
+        return s.connected ? &slots_[s.primary].client : nullptr;
     }
     const auto i = static_cast<std::size_t>(id - players_);
     if (i >= spectators_.size() || !spectators_[i].connected) return nullptr;
@@ -91,7 +105,7 @@ bool RelayRoom::empty() const {
 int RelayRoom::snapshot_source(int except) const {
     for (int s = 0; s < players_; ++s) {
         const auto& slot = slots_[static_cast<std::size_t>(s)];
-        if (s != except && slot.connected && slot.state == SlotState::Running && slot.client.ack > 0) return s;
+        if (s != except && is_primary(s) && slot.state == SlotState::Running && slot.client.ack > 0) return s;
     }
     return kNoSlot;
 }
@@ -148,46 +162,73 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
         send_welcome(c, players_ + static_cast<int>(it - spectators_.begin()), RelayRefusal::None, h.stamp_us, now_us, out);
         return RelayRefusal::None;
     }
-    if (h.slot >= players_) return refuse(RelayRefusal::BadSlot);
-    Slot& s = slots_[h.slot];
-    // The same process on a new connection (its transport reconnected): it keeps its slot, its
-    // stream and its state; no snapshot. The incarnation is the client's secret token.
-    if (started_ && h.incarnation != 0 && h.incarnation == s.incarnation && s.state != SlotState::Absent) {
-        if (s.connected && replaced) *replaced = s.client.connection;
-        const bool was_running = s.state == SlotState::Running;
+    const std::uint16_t want = relay_hello_slots(h);
+    if (h.slot >= players_ || (want >> players_) != 0) return refuse(RelayRefusal::BadSlot);
+    // Every slot is judged before any is bound: the hello is admitted whole or not at all.
+    // A slot is resumed (the same process: its incarnation), free, or held by a connection that
+    // is silent (a restarted process takes it over); at most one such connection per hello.
+    ConnectionId other = 0;
+    bool has_other = false;
+    for (int p = 0; p < players_; ++p) {
+        if (!(want & (1u << p))) continue;
+        const Slot& s = slots_[static_cast<std::size_t>(p)];
+        if (!s.connected || s.client.connection == c) continue;
+        if (has_other && other != s.client.connection) return refuse(RelayRefusal::SlotTaken);
+        other = s.client.connection;
+        has_other = true;
+        const bool resume = started_ && h.incarnation != 0 && h.incarnation == s.incarnation && s.state != SlotState::Absent;
+        if (!resume && now_us - slots_[s.primary].client.last_heard_us < config_.replace_silent_us)
+            return refuse(RelayRefusal::SlotTaken);
+    }
+    if (has_other) {
+        if (replaced) *replaced = other;  // to be closed: its slots are this hello's now
+        // Its slots this hello does not name leave with it.
+        for (int p = 0; p < players_; ++p) {
+            Slot& s = slots_[static_cast<std::size_t>(p)];
+            if (s.connected && s.client.connection == other && !(want & (1u << p))) release(s);
+        }
+    }
+    bool late = false;
+    for (int p = 0; p < players_; ++p) {
+        if (!(want & (1u << p))) continue;
+        Slot& s = slots_[static_cast<std::size_t>(p)];
+        s.primary = h.slot;
+        // The same process on a new connection (its transport reconnected): it keeps its slot,
+        // its stream and its state; no snapshot. The incarnation is the client's secret token.
+        if (started_ && h.incarnation != 0 && h.incarnation == s.incarnation && s.state != SlotState::Absent) {
+            const bool was_running = s.state == SlotState::Running;
+            s.connected = true;
+            s.client = fresh;
+            s.state = SlotState::Running;
+            if (!was_running) {  // it had left: its inputs count again from a little ahead
+                s.input_from = std::max(confirmed_next_, clock_frame(now_us)) + static_cast<std::uint32_t>(config_.handoff_ticks);
+                std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+            }
+            continue;
+        }
         s.connected = true;
         s.client = fresh;
+        s.incarnation = h.incarnation;
+        late = late || started_;
+        const bool was_running = s.state == SlotState::Running;
         s.state = SlotState::Running;
-        if (!was_running) {  // it had left: its inputs count again from a little ahead
-            s.input_from = std::max(confirmed_next_, clock_frame(now_us)) + static_cast<std::uint32_t>(config_.handoff_ticks);
-            std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+        if (!started_) {
+            s.input_from = 0;
+        } else {
+            // Its inputs count from a little ahead of the clock, so the snapshot, the catch-up and
+            // the first input's trip fit before then; frames until then are absent (a join) or
+            // replaced (a reconnect whose slot was still running).
+            const std::uint32_t from = std::max(confirmed_next_, clock_frame(now_us)) +
+                                       static_cast<std::uint32_t>(config_.handoff_ticks);
+            s.input_from = was_running ? std::max(s.input_from, from) : from;
+            if (!was_running) s.last_input.assign(input_size_, 0);
         }
-        s.late = false;  // resumes: no snapshot
-        send_welcome(c, h.slot, RelayRefusal::None, h.stamp_us, now_us, out);
-        return RelayRefusal::None;
+        std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
     }
-    if (s.connected) {
-        if (now_us - s.client.last_heard_us < config_.replace_silent_us) return refuse(RelayRefusal::SlotTaken);
-        if (replaced) *replaced = s.client.connection;  // a restarted process takes its slot back
-    }
-    s.connected = true;
-    s.client = fresh;
-    s.incarnation = h.incarnation;
-    s.late = started_;
-    const bool was_running = s.state == SlotState::Running;
-    s.state = SlotState::Running;
-    if (!started_) {
-        s.input_from = 0;
-    } else {
-        // Its inputs count from a little ahead of the clock, so the snapshot, the catch-up and
-        // the first input's trip fit before then; frames until then are absent (a join) or
-        // replaced (a reconnect whose slot was still running).
-        const std::uint32_t from = std::max(confirmed_next_, clock_frame(now_us)) +
-                                   static_cast<std::uint32_t>(config_.handoff_ticks);
-        s.input_from = was_running ? std::max(s.input_from, from) : from;
-        if (!was_running) s.last_input.assign(input_size_, 0);
-    }
-    std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+    // One process, one state: if any of its slots is new to a running room, it begins from a
+    // snapshot (a resumed slot's state is the process's own, which the snapshot replaces).
+    for (int p = 0; p < players_; ++p)
+        if (want & (1u << p)) slots_[static_cast<std::size_t>(p)].late = late;
     send_welcome(c, h.slot, RelayRefusal::None, h.stamp_us, now_us, out);
     if (!started_) {
         bool all = true;
@@ -303,11 +344,21 @@ void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us,
     cl.last_send_us = now_us;
 }
 
+std::uint32_t RelayRoom::connection_input_ack(int primary) const {
+    // Its records carry all its slots together: it needs to resend from the first any lacks.
+    std::uint32_t ack = ~std::uint32_t{0};
+    for (int p = primary; p < players_; ++p)
+        if (slots_[static_cast<std::size_t>(p)].connected && slots_[static_cast<std::size_t>(p)].primary == primary)
+            ack = std::min(ack, input_ack(slots_[static_cast<std::size_t>(p)]));
+    return ack;
+}
+
 void RelayRoom::broadcast(std::uint64_t now_us, bool only_if_due, Outbox& out) {
-    for (auto& s : slots_) {
-        if (!s.connected) continue;
+    for (int p = 0; p < players_; ++p) {
+        if (!is_primary(p)) continue;  // one Frames message per connection
+        Slot& s = slots_[static_cast<std::size_t>(p)];
         if (only_if_due && now_us - s.client.last_send_us < period_us_) continue;
-        send_frames(s.client, input_ack(s), now_us, out);
+        send_frames(s.client, connection_input_ack(p), now_us, out);
     }
     for (auto& sp : spectators_) {
         if (!sp.connected) continue;
@@ -334,15 +385,17 @@ void RelayRoom::tick(std::uint64_t now_us, Outbox& out) {
 void RelayRoom::notify_all(const RelayNotice& n, Outbox& out) {
     std::vector<std::uint8_t> bytes;
     encode(n, bytes);
-    for (auto& s : slots_)
-        if (s.connected) out.add(s.client.connection, true).bytes = bytes;
+    for (int p = 0; p < players_; ++p)
+        if (is_primary(p)) out.add(slots_[static_cast<std::size_t>(p)].client.connection, true).bytes = bytes;
     for (auto& s : spectators_)
         if (s.connected) out.add(s.client.connection, true).bytes = bytes;
 }
 
 void RelayRoom::silent_connections(std::uint64_t now_us, std::vector<ConnectionId>& out) const {
-    for (const auto& s : slots_)
-        if (s.connected && now_us - s.client.last_heard_us >= config_.silence_drop_us) out.push_back(s.client.connection);
+    for (int p = 0; p < players_; ++p) {
+        const Slot& s = slots_[static_cast<std::size_t>(p)];
+        if (is_primary(p) && now_us - s.client.last_heard_us >= config_.silence_drop_us) out.push_back(s.client.connection);
+    }
     for (const auto& s : spectators_)
         if (s.connected && now_us - s.client.last_heard_us >= config_.silence_drop_us) out.push_back(s.client.connection);
 }
@@ -352,15 +405,20 @@ void RelayRoom::remove(ConnectionId c, std::uint64_t now_us) {
     const int id = slot_of(c);
     if (id < 0) return;
     if (id < players_) {
-        Slot& s = slots_[static_cast<std::size_t>(id)];
-        s.connected = false;
-        // Before the start a slot simply frees up; after it, its stream turns absent from the
-        // next frame to confirm (until someone rejoins it).
-        s.state = started_ ? SlotState::Left : SlotState::Absent;
-        std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+        for (auto& s : slots_)
+            if (s.connected && s.client.connection == c) release(s);
     } else {
         spectators_[static_cast<std::size_t>(id - players_)].connected = false;
     }
+}
+
+void RelayRoom::release(Slot& s) {
+    s.connected = false;
+    s.primary = kNoSlot;
+    // Before the start a slot simply frees up; after it, its stream turns absent from the
+    // next frame to confirm (until someone rejoins it).
+    s.state = started_ ? SlotState::Left : SlotState::Absent;
+    std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
 }
 
 const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, std::uint64_t now_us,
@@ -374,7 +432,7 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
     if (*kind == RelayKind::Forward) {
         if (const char* e = decode(d, fwd_)) return e;
         Client* to = client(fwd_.slot);
-        if (fwd_.slot == id) return "relay forward: to itself";
+        if (fwd_.slot == id || (to && to->connection == cl->connection)) return "relay forward: to itself";
         if (!to) {
             // Its snapshot source left: name another (if any), and the requester asks it.
             RelayNotice n;
@@ -392,6 +450,10 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
     }
     if (*kind != RelayKind::Input) return "relay: unexpected message kind from a client";
     if (const char* e = decode(d, input_size_, in_)) return e;
+    // The slots come from the connection: records for any other set (another's slot, a slot
+    // more or less) are not this connection's to author. The whole message is ignored.
+    const std::uint16_t mine = id < players_ ? slots_of(id) : 0;
+    if (in_.frame_count > 0 && in_.slots != mine) return "relay input: slots this connection was not admitted for";
     if (in_.confirmed_ack == kRelayNoFrames) cl->ack = confirmed_next_;  // the clock only, for now
     else if (in_.confirmed_ack > confirmed_next_) return "relay input: acknowledges frames not confirmed";
     else cl->ack = std::max(in_.confirmed_ack, history_base());
@@ -400,16 +462,19 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
     cl->has_stamp = true;
     const char* problem = nullptr;
     if (id < players_ && in_.frame_count > 0) {
-        Slot& s = slots_[static_cast<std::size_t>(id)];
-        const std::uint32_t low = std::max(confirmed_next_, s.input_from);
+        const std::size_t count = static_cast<std::size_t>(relay_slot_count(mine));
         const std::uint64_t clock_limit = started_ ? std::uint64_t{clock_frame(now_us)} + static_cast<std::uint64_t>(config_.max_frames_ahead)
                                                    : static_cast<std::uint64_t>(config_.max_frames_ahead);
         const std::uint64_t limit = std::min<std::uint64_t>(clock_limit, std::uint64_t{confirmed_next_} + kWindow);
+        auto out_of_window = [&](const char* why) {
+            for (int p = id; p < players_; ++p)
+                if (mine & (1u << p)) ++slots_[static_cast<std::size_t>(p)].counters.out_of_window;
+            problem = why;
+        };
         for (std::uint32_t i = 0; i < in_.frame_count; ++i) {
             const std::uint64_t f = std::uint64_t{in_.first_frame} + i;
             if (f >= limit) {
-                ++s.counters.out_of_window;
-                problem = "relay input: frame out of window";
+                out_of_window("relay input: frame out of window");
                 break;
             }
             const auto frame = static_cast<std::uint32_t>(f);
@@ -417,21 +482,27 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
             // lags the room by its round trip (seconds under a loss burst), never by a whole
             // input window: older frames are bad, not resends.
             if (std::uint64_t{frame} + kWindow < confirmed_next_) {
-                ++s.counters.out_of_window;
-                problem = "relay input: frame far in the past";
+                out_of_window("relay input: frame far in the past");
                 break;
             }
-            if (frame < low) {
-                if (frame < confirmed_next_ && frame >= history_base() &&
-                    (history_.at(frame - history_base())[static_cast<std::size_t>(id)] & kRelayReplaced))
-                    ++s.counters.late;
-                continue;
+            // The record's inputs, one per slot of the connection, in slot order.
+            std::size_t k = 0;
+            for (int p = id; p < players_; ++p) {
+                if (!(mine & (1u << p))) continue;
+                Slot& s = slots_[static_cast<std::size_t>(p)];
+                const auto at = static_cast<std::ptrdiff_t>((i * count + k++) * input_size_);
+                if (frame < std::max(confirmed_next_, s.input_from)) {
+                    if (frame < confirmed_next_ && frame >= history_base() &&
+                        (history_.at(frame - history_base())[static_cast<std::size_t>(p)] & kRelayReplaced))
+                        ++s.counters.late;
+                    continue;
+                }
+                if (has_input(s, frame)) continue;
+                std::copy_n(in_.inputs.begin() + at, input_size_,
+                            s.pending.begin() + static_cast<std::ptrdiff_t>((frame % kWindow) * input_size_));
+                s.pending_frame[frame % kWindow] = frame + 1;
+                ++s.counters.inputs;
             }
-            if (has_input(s, frame)) continue;
-            std::copy_n(in_.inputs.begin() + static_cast<std::ptrdiff_t>(i * input_size_), input_size_,
-                        s.pending.begin() + static_cast<std::ptrdiff_t>((frame % kWindow) * input_size_));
-            s.pending_frame[frame % kWindow] = frame + 1;
-            ++s.counters.inputs;
         }
     }
     if (id < players_)
@@ -468,9 +539,9 @@ void RelayRoom::report_checksum(int slot, std::uint32_t frame, std::uint64_t val
     it->value[static_cast<std::size_t>(slot)] = value;
     it->have |= 1u << slot;
     std::uint32_t need = 0;
+    // One vote per connection: its lowest slot's (a connection's slots share one state).
     for (int p = 0; p < players_; ++p)
-        if (slots_[static_cast<std::size_t>(p)].connected && slots_[static_cast<std::size_t>(p)].state == SlotState::Running)
-            need |= 1u << p;
+        if (is_primary(p) && slots_[static_cast<std::size_t>(p)].state == SlotState::Running) need |= 1u << p;
     if ((it->have & need) == need) {
         decide(*it, out);
         checks_.erase(it);

@@ -27,6 +27,16 @@
 //    silent for replace_silent_us: a restarted process) binds it with a handoff frame a little
 //    ahead of the clock; its inputs count from there. Spectators take places after the slots.
 //    Both are told which slot to pull a snapshot from (the lowest connected player).
+//  - Several slots per connection (couch + online): a hello names its slots (RelayHello::slot,
+//    the lowest, and also_slots). It is admitted whole or refused whole: every slot in range,
+//    each free, its own (the same incarnation: a resume), or held by one silent connection
+//    whose slots it then takes over (that connection's other slots leave with it). The
+//    connection is known by its lowest slot (slot_of(), welcomes, forwards, desync verdicts);
+//    its Input records carry every one of its slots' inputs, in slot order, and are taken only
+//    if their slots mask is exactly the connection's (anything else is bad, and ignored:
+//    identity comes from the connection, never from a field). Acks, stamps, silence and the
+//    Frames it is sent are per connection; checksums are one vote per connection, so a
+//    machine with two local players does not outvote one with one.
 #pragma once
 
 #include <array>
@@ -107,8 +117,11 @@ public:
     int tick_rate() const { return tick_rate_; }
     SlotState slot_state(int slot) const { return slots_[static_cast<std::size_t>(slot)].state; }
     const SlotCounters& slot_counters(int slot) const { return slots_[static_cast<std::size_t>(slot)].counters; }
-    // Its id in the room: a slot (< players), players + place for a spectator, -1 if not here.
+    // Its id in the room: a slot (< players; the lowest it plays), players + place for a
+    // spectator, -1 if not here.
     int slot_of(ConnectionId c) const;
+    // The slots connection c plays, bit per slot (0: none, or a spectator).
+    std::uint16_t connection_slots(ConnectionId c) const;
     // The connection holding player slot s; false when nobody does.
     bool holder(int slot, ConnectionId& c) const;
     // Connection c is here and was heard within replace_silent_us: nobody may take its place.
@@ -133,6 +146,10 @@ private:
         SlotState state = SlotState::Absent;
         Client client;
         bool connected = false;
+        // While connected: the lowest slot of its connection, whose `client` speaks for them
+        // all (acks, stamps, silence, sends); a slot's own `client` then only names the
+        // connection.
+        std::uint8_t primary = kNoSlot;
         bool late = false;                 // bound after the start: begins from a snapshot
         std::uint64_t incarnation = 0;
         std::uint32_t input_from = 0;      // its own inputs count from this frame
@@ -152,7 +169,14 @@ private:
         std::uint32_t have = 0;            // bit per slot
     };
 
-    Client* client(int id);  // by slot_of() id; nullptr when nobody is connected there
+    Client* client(int id);  // by slot_of() id (any slot: its connection's); nullptr when nobody is connected there
+    bool is_primary(int slot) const {
+        const Slot& s = slots_[static_cast<std::size_t>(slot)];
+        return s.connected && s.primary == slot;
+    }
+    std::uint16_t slots_of(int primary) const;  // bit per slot whose primary this is
+    void release(Slot& s);                       // unbinds one slot of a connection that left
+    std::uint32_t connection_input_ack(int primary) const;
     void start(std::uint64_t now_us);
     void send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
                       Outbox& out);

@@ -137,10 +137,13 @@ void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::
     auto r = rooms_.find(conn.room);
     if (r == rooms_.end()) return;
     if (kind == RelayKind::Hello) {
-        // A repeat of its own hello is harmless; a hello for another slot is a spoof.
+        // A repeat of its own hello is harmless; a hello for another slot (or another set of
+        // slots) is a spoof.
         if (const char* e = decode(d, hello_)) return bad(c, conn, e, now_us);
         const int id = r->second->slot_of(c);
-        if (hello_.room_id == conn.room && (hello_.role == RelayRole::Spectator ? id >= r->second->players() : id == hello_.slot))
+        if (hello_.room_id == conn.room &&
+            (hello_.role == RelayRole::Spectator ? id >= r->second->players()
+                                                 : id == hello_.slot && relay_hello_slots(hello_) == r->second->connection_slots(c)))
             return r->second->welcome_again(c, hello_, now_us, out_);
         refuse(c, RelayRefusal::Spoof, hello_);
         return bad(c, conn, "hello for another slot", now_us);
@@ -248,11 +251,15 @@ RelayRefusal RelayServer::check_token(ConnectionId c, const RelayHello& h, std::
             room->second->live(u->second, now_us))
             return RelayRefusal::TokenInUse;
     }
-    // A held slot (its connection live or silent) goes back only to its client id.
-    ConnectionId held = 0;
-    if (h.role != RelayRole::Spectator && room->second->holder(h.slot, held) && held != c)
-        if (const auto hc = connections_.find(held); hc != connections_.end() && hc->second.client_id != grant_.client_id)
-            return RelayRefusal::SlotOwned;
+    // A held slot (its connection live or silent) goes back only to its client id: each slot
+    // the hello names.
+    const std::uint16_t want = relay_hello_slots(h);
+    for (int s = 0; s < room->second->players(); ++s) {
+        ConnectionId held = 0;
+        if ((want & (1u << s)) && room->second->holder(s, held) && held != c)
+            if (const auto hc = connections_.find(held); hc != connections_.end() && hc->second.client_id != grant_.client_id)
+                return RelayRefusal::SlotOwned;
+    }
     return RelayRefusal::None;
 }
 

@@ -8,9 +8,11 @@
 //  - A room is created by the first hello carrying its id, with that hello's parameters (slots,
 //    input size, tick rate, scene checksum, absent slots); a later hello with other parameters is
 //    refused (RoomParams). Its clock starts once every slot not absent at frame 0 has a player.
-//  - The slot comes from the connection: a hello binds a connection to (room, slot) once; every
-//    later datagram of that connection speaks for that slot, and no packet field can name
-//    another. A second hello for another slot is refused (Spoof) and counted as bad.
+//  - The slot comes from the connection: a hello binds a connection to (room, slot) once (or to
+//    a set of slots: several local players, RelayRoom's contract); every later datagram of that
+//    connection speaks for those slots, and no packet field can grant another (an input's slots
+//    mask must be exactly the connection's). A second hello for another slot or set is refused
+//    (Spoof) and counted as bad.
 //  - Never trust a client: malformed datagrams, inputs outside [confirmed frame, room clock +
 //    max_frames_ahead), reports for frames not confirmed yet, and anything before a hello count
 //    as bad; past max_bad_packets the connection is kicked. Each connection has a token bucket

@@ -5,6 +5,9 @@
 #   fail MSG  prints FAIL: MSG and counts it; `failures` holds the count
 #   show_logs DIR   the last lines of every process log under DIR (server.log, peer.log,
 #                   *.stderr.log), so a failure can be diagnosed from CI's output alone
+#   expect_2 WHAT MESSAGE COMMAND...   COMMAND exits 2 printing MESSAGE (bad flags), else fail
+#   start_server DIR [ARGS...]   `$lockroll server` on a free port (the test sets lockroll);
+#                   sets server_pid and server_port (empty, and a failure, if not ready in 10 s)
 tmp=$(mktemp -d)
 pids=()
 failures=0
@@ -20,4 +23,23 @@ show_logs() {
         echo "--- ${f#"$1"/} (last 8 lines)"
         tail -8 "$f"
     done
+}
+expect_2() {  # expect_2 WHAT MESSAGE COMMAND...
+    local what=$1 message=$2; shift 2
+    timeout 20 "$@" >"$tmp/out.txt" 2>&1
+    local status=$?
+    [ "$status" = 2 ] || fail "$what: exit status $status, expected 2"
+    grep -q -- "$message" "$tmp/out.txt" || fail "$what: no '$message' in: $(cat "$tmp/out.txt")"
+}
+# start_server DIR [ARGS...]: a server on a free port; sets server_pid and server_port.
+start_server() {
+    local dir=$1; shift
+    mkdir -p "$dir"
+    "$lockroll" server --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" "$@" \
+        >"$dir/server.out" 2>"$dir/server.log" &
+    server_pid=$!
+    pids+=("$server_pid")
+    for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
+    server_port=$(cat "$dir/ready" 2>/dev/null)
+    [ -n "$server_port" ] || fail "server in $dir did not get ready"
 }

@@ -69,8 +69,14 @@ TEST(SessionBuilder, ConfigurationErrorsThrowNamingTheSetting) {
     EXPECT_NE(error_of([&] { base().local_player(0).remote_player(1, "127.0.0.1", 9).server("127.0.0.1", 9).start(sim); })
                   .find("exclude each other"),
               std::string::npos);
-    EXPECT_NE(error_of([&] { base().local_player(0).local_player(1).server("127.0.0.1", 9).start(sim); }).find("exactly one local_player"),
+    EXPECT_NE(error_of([&] { base().local_player(1).local_player(1).server("127.0.0.1", 9).start(sim); }).find("slot 1 is named twice"),
               std::string::npos);
+    EXPECT_NE(error_of([&] { base().local_player(0).local_player(2).server("127.0.0.1", 9).start(sim); }).find("local_player(2): slot out of range"),
+              std::string::npos);
+    // Several local players through a server: one connection, the lowest slot names it.
+    const auto couch = SessionBuilder().players(3).input_size(1).local_player(2).local_player(0).server("127.0.0.1", 9).relay_config();
+    EXPECT_EQ(couch.local_slot, 0);
+    EXPECT_EQ(couch.also_slots, 0x4);
 }
 
 // The game's own transport: its id must be this process's slot, and it is bound already.
@@ -188,44 +194,82 @@ TEST(SessionBuilder, StartUpRoundTripDoesNotCountHellosHeldBeforeTheConnection) 
     EXPECT_LE(sb->session().input_delay(), 5) << detail;
 }
 
+// A real `lockroll-server` on 127.0.0.1 (a free port it picks), bounded to 60 s; port 0 when
+// it did not get ready within 4 s.
+struct RelayServerProcess {
+    explicit RelayServerProcess(const std::string& name)
+        : process({LOCKROLL_SERVER_EXE, "--listen", "127.0.0.1:0", "--ready-file", ::testing::TempDir() + "/" + name + "-ready",
+                   "--run-seconds", "60"},
+                  ::testing::TempDir() + "/" + name + "-server.log", true) {
+        for (int i = 0; i < 200 && port == 0; ++i) {
+            for (const auto& line : process.read_lines())
+                if (line.rfind("ready ", 0) == 0) port = static_cast<std::uint16_t>(std::stoi(line.substr(6)));
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+    }
+    harness::ChildProcess process;
+    std::uint16_t port = 0;
+};
+
+// Runs both sessions on threads to the end: both complete, on every frame's equal checksum.
+void play_through_server(NetSession& a, NetSession& b, InputSource in_a, InputSource in_b, std::uint32_t frames) {
+    RunOutcome oa{}, ob{};
+    std::thread ta([&] { oa = a.run(in_a); });
+    std::thread tb([&] { ob = b.run(in_b); });
+    ta.join();
+    tb.join();
+    ASSERT_EQ(oa, RunOutcome::Completed) << a.relay_session().failure();
+    ASSERT_EQ(ob, RunOutcome::Completed) << b.relay_session().failure();
+    EXPECT_EQ(a.relay_session().frame(), frames);
+    EXPECT_EQ(b.relay_session().frame(), frames);
+    for (std::uint32_t f = 1; f <= frames; ++f) {
+        const auto ca = a.confirmed_checksum(f), cb = b.confirmed_checksum(f);
+        ASSERT_TRUE(ca && cb) << f;
+        ASSERT_EQ(*ca, *cb) << "frame " << f;
+    }
+}
+
 // Two processes' sessions through a real `lockroll-server` on 127.0.0.1: the builder's server().
 TEST(SessionBuilder, TwoPlayersThroughTheRelayServer) {
     constexpr std::uint32_t kFrames = 180;
-    const std::string ready = ::testing::TempDir() + "/builder-relay-ready";
-    std::remove(ready.c_str());
-    harness::ChildProcess server({LOCKROLL_SERVER_EXE, "--listen", "127.0.0.1:0", "--ready-file", ready, "--run-seconds", "60"},
-                                 ::testing::TempDir() + "/builder-relay-server.log", true);
-    std::uint16_t port = 0;
-    for (int i = 0; i < 200 && port == 0; ++i) {
-        for (const auto& line : server.read_lines())
-            if (line.rfind("ready ", 0) == 0) port = static_cast<std::uint16_t>(std::stoi(line.substr(6)));
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ASSERT_NE(port, 0) << "the server did not get ready";
+    RelayServerProcess server("builder-relay");
+    ASSERT_NE(server.port, 0) << "the server did not get ready";
     Counters sim_a, sim_b;
     const auto build = [&](rollback::PlayerId slot, Counters& sim) {
-        return SessionBuilder().players(2).input_size(1).local_player(slot).server("127.0.0.1", port).match_id(77)
+        return SessionBuilder().players(2).input_size(1).local_player(slot).server("127.0.0.1", server.port).match_id(77)
             .frames(kFrames).start(sim);
     };
     auto sa = build(0, sim_a);
     auto sb = build(1, sim_b);
     EXPECT_TRUE(sa->through_server());
-    RunOutcome oa{}, ob{};
-    std::thread ta([&] { oa = sa->run([](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f * 7); }); });
-    std::thread tb([&] { ob = sb->run([](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f ^ 0x5A); }); });
-    ta.join();
-    tb.join();
-    ASSERT_EQ(oa, RunOutcome::Completed) << sa->relay_session().failure();
-    ASSERT_EQ(ob, RunOutcome::Completed) << sb->relay_session().failure();
-    EXPECT_EQ(sa->relay_session().frame(), kFrames);
-    EXPECT_EQ(sb->relay_session().frame(), kFrames);
-    for (std::uint32_t f = 1; f <= kFrames; ++f) {
-        const auto ca = sa->confirmed_checksum(f), cb = sb->confirmed_checksum(f);
-        ASSERT_TRUE(ca && cb) << f;
-        ASSERT_EQ(*ca, *cb) << "frame " << f;
-    }
+    play_through_server(*sa, *sb, [](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f * 7); },
+                        [](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f ^ 0x5A); }, kFrames);
     EXPECT_GT(sa->network_stats(1).ping_us, 0u);
-    server.stop(5000);
+    server.process.stop(5000);
+}
+
+// A couch of two (slots 0 and 1 in one NetSession, one connection) and one online player (slot
+// 2) through a real `lockroll-server` on 127.0.0.1: equal checksums on every confirmed frame.
+TEST(SessionBuilder, CouchOfTwoPlusOneOnlineThroughTheRelayServer) {
+    constexpr std::uint32_t kFrames = 180;
+    RelayServerProcess server("builder-relay-couch");
+    ASSERT_NE(server.port, 0) << "the server did not get ready";
+    Counters sim_a, sim_b;
+    const auto base = [&] { return SessionBuilder().players(3).input_size(1).server("127.0.0.1", server.port).match_id(78).frames(kFrames); };
+    auto sa = base().local_player(1).local_player(0).start(sim_a);
+    auto sb = base().local_player(2).start(sim_b);
+    ASSERT_EQ(sa->local_slots().size(), 2u);
+    EXPECT_EQ(sa->local_slots()[0], 0);
+    EXPECT_EQ(sa->local_slots()[1], 1);
+    EXPECT_EQ(sa->relay_session().local_input_size(), 2u);
+    play_through_server(
+        *sa, *sb,
+        [](std::uint32_t f, std::span<std::uint8_t> out) {
+            out[0] = static_cast<std::uint8_t>(f * 7);  // slot 0
+            out[1] = static_cast<std::uint8_t>(f + 3);  // slot 1
+        },
+        [](std::uint32_t f, std::span<std::uint8_t> out) { out[0] = static_cast<std::uint8_t>(f ^ 0x5A); }, kFrames);
+    server.process.stop(5000);
 }
 
 }  // namespace

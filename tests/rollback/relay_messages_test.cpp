@@ -10,12 +10,12 @@ namespace {
 TEST(RelayMessages, SizesAreTheDocumentedOnes) {
     std::vector<std::uint8_t> b;
     encode(RelayHello{}, b);
-    EXPECT_EQ(b.size(), 45u);  // version 2: a u16 token length, here 0
+    EXPECT_EQ(b.size(), 47u);  // version 3: also_slots; a u16 token length, here 0
     b.clear();
     RelayHello with_token;
     with_token.token.assign(82, 7);
     encode(with_token, b);
-    EXPECT_EQ(b.size(), 45u + 82u);
+    EXPECT_EQ(b.size(), 47u + 82u);
     b.clear();
     encode(RelayWelcome{}, b);
     EXPECT_EQ(b.size(), 30u);
@@ -62,13 +62,66 @@ TEST(RelayMessages, HelloAndWelcomeRoundTrip) {
     b[24 - 1] = 9;                     // role byte out of range
     EXPECT_NE(decode(b, g), nullptr);
     b[24 - 1] = 1;
-    b[43] = 0x01;                      // token length 257: over kRelayMaxTokenBytes
-    b[44] = 0x01;
+    b[45] = 0x01;                      // token length 257: over kRelayMaxTokenBytes
+    b[46] = 0x01;
     EXPECT_NE(decode(b, g), nullptr);
     RelayHello too_long;
     too_long.token.assign(kRelayMaxTokenBytes + 1, 0);
     std::vector<std::uint8_t> c;
     EXPECT_THROW(encode(too_long, c), std::invalid_argument);
+}
+
+TEST(RelayMessages, HelloNamesSeveralSlotsLowestFirst) {
+    RelayHello h;
+    h.players = 4;
+    h.slot = 1;
+    h.also_slots = 0x4 | 0x8;  // slots 2 and 3 too
+    std::vector<std::uint8_t> b;
+    encode(h, b);
+    RelayHello g;
+    ASSERT_EQ(decode(b, g), nullptr);
+    EXPECT_EQ(g.also_slots, 0xC);
+    EXPECT_EQ(relay_hello_slots(g), 0xE);
+    EXPECT_EQ(relay_slot_count(relay_hello_slots(g)), 3);
+    // Another encoding of the same set (slot 2, also 1 and 3) is malformed: `slot` is the lowest.
+    RelayHello other = h;
+    other.slot = 2;
+    other.also_slots = 0x2 | 0x8;
+    b.clear();
+    encode(other, b);
+    EXPECT_STREQ(decode(b, g), "relay hello: further slots must be above the first");
+    other.also_slots = 0x4;  // itself again
+    b.clear();
+    encode(other, b);
+    EXPECT_NE(decode(b, g), nullptr);
+    RelayHello spectator;
+    spectator.role = RelayRole::Spectator;
+    spectator.also_slots = 0x2;
+    b.clear();
+    encode(spectator, b);
+    EXPECT_STREQ(decode(b, g), "relay hello: a spectator plays no slot");
+    spectator.also_slots = 0;
+    EXPECT_EQ(relay_hello_slots(spectator), 0);
+}
+
+TEST(RelayMessages, HelloOfAnotherVersionDecodesToItsVersionAlone) {
+    // A version-2 client's hello (no also_slots field: 45 bytes): decoded to its version only, so
+    // the server can refuse it with refusal 1, naming the reason, instead of counting it bad.
+    RelayHello h;
+    h.room_id = 5;
+    h.slot = 1;
+    std::vector<std::uint8_t> b;
+    encode(h, b);
+    b.erase(b.begin() + 25, b.begin() + 27);  // drop also_slots: the v2 layout
+    b[1] = 2;
+    b[2] = 0;
+    RelayHello g;
+    g.room_id = 99;  // stale from an earlier hello: must not survive
+    ASSERT_EQ(decode(b, g), nullptr);
+    EXPECT_EQ(g.version, 2);
+    EXPECT_EQ(g.room_id, 0u);
+    EXPECT_EQ(g.slot, 0);
+    EXPECT_NE(decode(std::span(b).first(2), g), nullptr);  // not even a version
 }
 
 TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
@@ -104,6 +157,7 @@ TEST(RelayMessages, InputForwardNoticeRoundTripAndLimits) {
     m.confirmed_ack = kRelayNoFrames;
     m.first_frame = 70000;
     m.frame_count = 2;
+    m.slots = 0x1;
     m.inputs = {1, 2, 3, 4, 5, 6};
     m.checksum_count = 1;
     m.checksum_frames[0] = 60;
@@ -117,9 +171,30 @@ TEST(RelayMessages, InputForwardNoticeRoundTripAndLimits) {
     EXPECT_EQ(g.checksums[0], m.checksums[0]);
     EXPECT_NE(decode(b, 4, g), nullptr);  // another input size does not parse
     RelayInput many;
+    many.slots = 0x1;
     many.frame_count = static_cast<std::uint8_t>(relay_max_inputs(3) + 1);
     many.inputs.assign(many.frame_count * 3u, 0);
     EXPECT_THROW(encode(many, 3, b), std::invalid_argument);
+    // Records of two slots: 2 frames x 2 slots x 3 bytes, sized by the mask.
+    RelayInput two;
+    two.slots = 0x5;  // slots 0 and 2
+    two.frame_count = 2;
+    two.inputs = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12};
+    b.clear();
+    encode(two, 3, b);
+    ASSERT_EQ(decode(b, 3, g), nullptr);
+    EXPECT_EQ(g.slots, 0x5);
+    EXPECT_EQ(g.inputs, two.inputs);
+    b[10] = 0;  // the mask now names no slot, while two records follow
+    b[11] = 0;
+    EXPECT_STREQ(decode(b, 3, g), "relay input: inputs for no slot");
+    EXPECT_EQ(relay_max_inputs(16 * kRelayMaxInputSize), 1);  // every slot's largest input fits one record
+    RelayInput none;  // a spectator's: no records, no slots
+    b.clear();
+    encode(none, 3, b);
+    ASSERT_EQ(decode(b, 3, g), nullptr);
+    two.slots = 0x1;  // the inputs no longer fit the mask
+    EXPECT_THROW(encode(two, 3, b), std::invalid_argument);
 
     RelayForward f;
     f.slot = 4;

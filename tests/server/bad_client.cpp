@@ -109,6 +109,7 @@ int main(int argc, char** argv) {
                     m.confirmed_ack = 0;
                     m.first_frame = behavior == "future" ? 10000 + frame : frame;
                     m.frame_count = 1;
+                    m.slots = static_cast<std::uint16_t>(1u << slot);
                     m.inputs.assign(3, static_cast<std::uint8_t>(rng()));
                     rollback::encode(m, 3, bytes);
                 }

@@ -38,6 +38,7 @@ RelayHello hello_for(const ConnectGrant& g) {
     RelayHello h;
     h.room_id = g.room_id;
     h.slot = g.slot;
+    h.also_slots = g.also_slots;
     h.role = g.role;
     h.players = g.players;
     h.input_size = g.input_size;
@@ -92,9 +93,9 @@ TEST(ConnectToken, AnotherKeyAWrongLengthOrVersionIsRefused) {
     longer.push_back(0);
     EXPECT_NE(open_token(longer, key, g, tag), nullptr);
     EXPECT_NE(open_token({}, key, g, tag), nullptr);
-    auto v2 = token;
-    v2[0] = 2;
-    EXPECT_STREQ(open_token(v2, key, g, tag), "connect token: unknown version");
+    auto v1 = token;  // a version-1 token (no also_slots) is not read as this version
+    v1[0] = 1;
+    EXPECT_STREQ(open_token(v1, key, g, tag), "connect token: unknown version");
     // An all-zero token of the right size (a guess) does not open either.
     EXPECT_NE(open_token(std::vector<std::uint8_t>(kConnectTokenBytes, 0), key, g, tag), nullptr);
 }
@@ -132,6 +133,42 @@ TEST(ConnectToken, AnotherRoomSlotRoleOrParametersIsRefused) {
     EXPECT_EQ(check_grant(s, h, now), RelayRefusal::None);
     h.role = RelayRole::Player;
     EXPECT_EQ(check_grant(s, h, now), RelayRefusal::TokenMismatch);
+}
+
+// A token lists every slot of its connection (several local players): the hello must name
+// exactly that set, no slot more or less.
+TEST(ConnectToken, ATokenForSeveralSlotsAdmitsExactlyThatSet) {
+    const TokenKey key = new_token_key();
+    ConnectGrant g = grant();  // slot 1 of 3
+    g.absent_slots = 0;
+    g.slot = 0;
+    g.also_slots = 0x4;  // slots 0 and 2
+    ConnectGrant opened;
+    TokenTag tag{};
+    ASSERT_EQ(open_token(seal_token(g, key), key, opened, tag), nullptr);
+    EXPECT_EQ(opened.also_slots, 0x4);
+    EXPECT_EQ(opened, g);
+    const std::uint64_t now = g.expires_unix_s - 60;
+    RelayHello h = hello_for(g);
+    EXPECT_EQ(check_grant(g, h, now), RelayRefusal::None);
+    h.also_slots = 0x6;  // slot 1 as well
+    EXPECT_EQ(check_grant(g, h, now), RelayRefusal::TokenMismatch);
+    h.also_slots = 0;  // slot 0 alone
+    EXPECT_EQ(check_grant(g, h, now), RelayRefusal::TokenMismatch);
+    // A one-slot token does not admit a couch either.
+    RelayHello couch = hello_for(grant());
+    couch.also_slots = 0x4;
+    EXPECT_EQ(check_grant(grant(), couch, now), RelayRefusal::TokenMismatch);
+    // Out of range: a further slot not above the first, past the room, or for a spectator.
+    g.slot = 2;
+    g.also_slots = 0x1;
+    EXPECT_THROW(seal_token(g, key), std::invalid_argument);
+    g.slot = 0;
+    g.also_slots = 0x8;
+    EXPECT_THROW(seal_token(g, key), std::invalid_argument);
+    g.also_slots = 0x2;
+    g.role = RelayRole::Spectator;
+    EXPECT_THROW(seal_token(g, key), std::invalid_argument);
 }
 
 TEST(ConnectToken, AGrantOutOfRangeIsNotSealed) {

@@ -24,7 +24,10 @@ struct RelayClient : rollback::SessionObserver {
     RelayClient(const sim::SceneDesc& scene, const rollback::RelaySessionConfig& cfg, ConnectionId conn,
                 NetParams up, NetParams down, std::uint64_t seed)
         : sim(scene, cfg.players), session(std::make_unique<rollback::RelaySession>(cfg, sim, this)),
-          connection(conn), up_net(up, seed * 2 + 1), down_net(down, seed * 2 + 2), bot(seed + 77) {}
+          connection(conn), up_net(up, seed * 2 + 1), down_net(down, seed * 2 + 2), bot(seed + 77) {
+        // One bot per further local slot (several local players on one connection).
+        for (std::size_t k = 1; k < session->local_slots().size(); ++k) also_bots.emplace_back(seed + 77 + 1000 * k);
+    }
 
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override { confirmed[f.frame] = f.checksum; }
 
@@ -33,6 +36,7 @@ struct RelayClient : rollback::SessionObserver {
     ConnectionId connection;
     TestNet up_net, down_net;   // client -> server, server -> client
     WalkBot bot;
+    std::vector<WalkBot> also_bots;  // the further local slots', in slot order
     std::map<std::uint32_t, std::uint64_t> confirmed;
     std::vector<rollback::SessionEvent> events;
     std::uint64_t next_tick_us = 0;
@@ -122,8 +126,13 @@ private:
         for (auto& c : clients_) {
             RelayClient& cl = *c;
             if (!cl.alive || cl.frozen || now_ < cl.next_tick_us) continue;
-            const auto in = cl.bot.next();
-            const rollback::AdvanceResult r = cl.session->advance(in, now_);
+            const auto first = cl.bot.next();
+            in_.assign(first.begin(), first.end());
+            for (auto& b : cl.also_bots) {
+                const auto more = b.next();
+                in_.insert(in_.end(), more.begin(), more.end());
+            }
+            const rollback::AdvanceResult r = cl.session->advance(in_, now_);
             if (cl.session->running()) {
                 if (r.advanced) {
                     if (cl.last_advance_us) cl.longest_stall_us = std::max(cl.longest_stall_us, now_ - cl.last_advance_us);
@@ -161,6 +170,7 @@ private:
     std::uint64_t now_ = 1'000'000;
     ConnectionId next_conn_ = 1;
     std::vector<rollback::Datagram> out_;
+    std::vector<std::uint8_t> in_;  // a client's local input: 3 bytes per local slot
     std::vector<Outgoing> sent_;
     std::map<ConnectionId, std::uint64_t> kicked_;
 };

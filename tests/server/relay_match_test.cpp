@@ -219,11 +219,53 @@ TEST(RelayMatch, LateJoinerAndSpectatorLoadABuddySnapshotAndCatchUp) {
     expect_equal_at(cl, {0, 1, j, w}, 700);
     EXPECT_EQ(count(cl.client(j), Kind::SnapshotLoaded), 1);
     EXPECT_EQ(count(cl.client(w), Kind::SnapshotLoaded), 1);
+    // A spectator's advance() takes one (ignored) input of input_size bytes, as a player's.
+    EXPECT_EQ(cl.client(w).session->local_input_size(), 3u);
+    EXPECT_EQ(cl.client(w).session->stats().bad_local_inputs, 0u);
     EXPECT_GE(count(cl.client(0), Kind::Joined), 1);  // slot 2's inputs start: seen by the others
     // The joiner's own inputs count from its handoff on.
     const RelayRoom* room = cl.server().room(42);
     ASSERT_NE(room, nullptr);
     EXPECT_GT(room->slot_counters(2).inputs, 300u);
+}
+
+// Several local players on one connection (issue 23): a couch of two (slots 0 and 1) and one
+// online player (slot 2) on lossy links, then a second couch joins slots 3 and 4 by snapshot.
+// Everyone confirms the same checksums; each slot's stream is its own bot's, not replaced.
+TEST(RelayMatch, CouchesOfSeveralSlotsPlayAndJoinThroughOneConnectionEach) {
+    const auto scene = rollback::testing::make_scene(5, 20);
+    RelayCluster cl(scene);
+    const rollback::testing::NetParams link{25000, 3000, 50000, 0, 0};
+    auto cfg = [&](int slot, std::uint16_t also) {
+        auto c = player(5, slot);
+        c.also_slots = also;
+        c.absent_slots = (1u << 3) | (1u << 4);
+        return c;
+    };
+    const int couch = cl.add(cfg(0, 0x2), link, 61);
+    const int online = cl.add(cfg(2, 0), link, 62);
+    EXPECT_EQ(cl.client(couch).session->local_input_size(), 6u);
+    ASSERT_TRUE(cl.run_until_frame(200));
+    auto join = cfg(3, 0x10);
+    join.role = rollback::RelayRole::Joiner;
+    const int late = cl.add(join, link, 63);
+    ASSERT_TRUE(cl.run_until_frame(700));
+    cl.run_for(2'000'000);
+    expect_equal_at(cl, {couch, online, late}, 700);
+    EXPECT_EQ(count(cl.client(late), Kind::SnapshotLoaded), 1);
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_EQ(cl.server().counters().bad_packets, 0u);
+    for (int s = 0; s < 5; ++s) {
+        EXPECT_EQ(room->slot_state(s), RelayRoom::SlotState::Running) << "slot " << s;
+        EXPECT_GT(room->slot_counters(s).inputs, 300u) << "slot " << s;
+    }
+    // The couch's two streams are confirmed as its bots made them: they differ from each other.
+    std::vector<std::uint8_t> flags, in;
+    int differ = 0;
+    for (std::uint32_t f = 100; f < 400; ++f)
+        if (room->confirmed_inputs(f, flags, in)) differ += !std::equal(in.begin(), in.begin() + 3, in.begin() + 3);
+    EXPECT_GT(differ, 100);
 }
 
 TEST(RelayMatch, KilledPlayerRejoinsItsSlot) {

@@ -15,19 +15,6 @@ source "$(dirname "$0")/../process_test_support.sh"
 
 free_port() { python3 -c 'import socket; s=socket.socket(socket.AF_INET, socket.SOCK_DGRAM); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
 
-# start_server DIR [ARGS...]: a server on a free port; sets server_pid and server_port.
-start_server() {
-    local dir=$1; shift
-    mkdir -p "$dir"
-    "$lockroll" server --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" "$@" \
-        >"$dir/server.out" 2>"$dir/server.log" &
-    server_pid=$!
-    pids+=("$server_pid")
-    for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
-    server_port=$(cat "$dir/ready" 2>/dev/null)
-    [ -n "$server_port" ] || fail "server in $dir did not get ready"
-}
-
 # proxy PORT_TO LATENCY_MS LOSS SEED: a proxy on a free port in front of PORT_TO; sets proxy_port.
 proxy() {
     proxy_port=$(free_port)

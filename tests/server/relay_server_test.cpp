@@ -3,6 +3,7 @@
 // the rest of rollback/.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <vector>
 
 #include "server/relay_server.h"
@@ -22,17 +23,20 @@ protected:
     }
     void SetUp() override { server = std::make_unique<RelayServer>(config()); }
 
+    std::map<ConnectionId, std::uint16_t> plays;  // by hello()
     void connect(ConnectionId c) { server->on_connect(c, now); }
     void send(ConnectionId c, const std::vector<std::uint8_t>& bytes) { server->receive(c, bytes, now); }
     void hello(ConnectionId c, std::uint64_t room, int slot, RelayRole role = RelayRole::Player, int players = 2,
-               std::uint64_t incarnation = 0) {
+               std::uint64_t incarnation = 0, std::uint16_t also = 0) {
         RelayHello h;
+        h.also_slots = also;
         h.incarnation = incarnation ? incarnation : 1000 + c;
         h.room_id = room;
         h.players = static_cast<std::uint8_t>(players);
         h.input_size = 2;
         h.slot = static_cast<std::uint8_t>(slot);
         h.role = role;
+        plays[c] = relay_hello_slots(h);
         std::vector<std::uint8_t> b;
         encode(h, b);
         send(c, b);
@@ -42,7 +46,22 @@ protected:
         m.confirmed_ack = ack;
         m.first_frame = first;
         m.frame_count = static_cast<std::uint8_t>(count);
-        m.inputs.assign(static_cast<std::size_t>(count) * 2, value);
+        m.slots = plays[c];  // the slot this connection said hello for
+        m.inputs.assign(static_cast<std::size_t>(count) * 2 * static_cast<std::size_t>(relay_slot_count(m.slots)), value);
+        std::vector<std::uint8_t> b;
+        encode(m, 2, b);
+        send(c, b);
+    }
+    // Records for `slots` (whatever the connection plays), each slot's input `value + slot`.
+    void records(ConnectionId c, std::uint16_t slots, std::uint32_t first, std::uint8_t value, int count, std::uint32_t ack = 0) {
+        RelayInput m;
+        m.confirmed_ack = ack;
+        m.first_frame = first;
+        m.frame_count = static_cast<std::uint8_t>(count);
+        m.slots = slots;
+        for (int f = 0; f < count; ++f)
+            for (int s = 0; s < 16; ++s)
+                if (slots & (1u << s)) m.inputs.insert(m.inputs.end(), 2, static_cast<std::uint8_t>(value + s));
         std::vector<std::uint8_t> b;
         encode(m, 2, b);
         send(c, b);
@@ -82,6 +101,16 @@ protected:
         ASSERT_TRUE(server->room(room)->started());
     }
 
+    // Room 7 of 3 players, started: connection 1 plays slots 0 and 1 (a couch), 2 plays slot 2.
+    void start_couch_room() {
+        connect(1);
+        connect(2);
+        hello(1, 7, 0, RelayRole::Player, 3, 0, 0x2);
+        hello(2, 7, 2, RelayRole::Player, 3);
+        drain();
+        ASSERT_TRUE(server->room(7)->started());
+    }
+
     std::unique_ptr<RelayServer> server;
     std::uint64_t now = 1'000'000;
     std::map<ConnectionId, std::vector<RelayWelcome>> welcomes;
@@ -112,6 +141,151 @@ TEST_F(Server, FrameIsConfirmedWhenAllInputsAreInOrAtTheDeadline) {
     ASSERT_TRUE(room.confirmed_inputs(2, flags, in));
     EXPECT_EQ(in[2], 0x22);
     EXPECT_EQ(room.slot_counters(1).late, 1u);
+}
+
+// Several local players (issue 23): one connection plays slots 0 and 1 of a 3-player room, a
+// second plays slot 2. Each slot's input comes from the connection's records, in slot order.
+TEST_F(Server, OneConnectionPlaysSeveralSlotsEachFromItsRecords) {
+    connect(1);
+    connect(2);
+    hello(1, 7, 0, RelayRole::Player, 3, 0, 0x2);
+    drain();
+    ASSERT_EQ(last_refusal(1), RelayRefusal::None);
+    EXPECT_FALSE(server->room(7)->started());  // slot 2 is still missing
+    hello(2, 7, 2, RelayRole::Player, 3);
+    drain();
+    const RelayRoom& room = *server->room(7);
+    ASSERT_TRUE(room.started());
+    EXPECT_EQ(room.slot_of(1), 0);  // known by its lowest slot
+    EXPECT_EQ(room.connection_slots(1), 0x3);
+    EXPECT_EQ(room.connection_slots(2), 0x4);
+    EXPECT_EQ(welcomes[1].back().slot, 0);
+    records(1, 0x3, 0, 0x10, 2);
+    EXPECT_EQ(room.confirmed_frames(), 0u);  // slot 2's inputs are missing
+    records(2, 0x4, 0, 0x20, 2);
+    ASSERT_EQ(room.confirmed_frames(), 2u);
+    std::vector<std::uint8_t> flags, in;
+    ASSERT_TRUE(room.confirmed_inputs(1, flags, in));
+    EXPECT_EQ(flags, (std::vector<std::uint8_t>{0, 0, 0}));
+    EXPECT_EQ(in, (std::vector<std::uint8_t>{0x10, 0x10, 0x11, 0x11, 0x22, 0x22}));
+    EXPECT_EQ(room.slot_counters(0).inputs, 2u);
+    EXPECT_EQ(room.slot_counters(1).inputs, 2u);
+    EXPECT_EQ(server->counters().bad_packets, 0u);
+    // Frames messages go per connection, not per slot: the couch gets as many as the other.
+    sent.clear();
+    advance(5 * 16667);
+    drain();
+    EXPECT_GE(sent[2], 5);
+    EXPECT_EQ(sent[1], sent[2]);
+    // The connection leaves: both its slots turn absent from the next frame.
+    server->on_disconnect(1, now);
+    EXPECT_EQ(room.slot_state(0), RelayRoom::SlotState::Left);
+    EXPECT_EQ(room.slot_state(1), RelayRoom::SlotState::Left);
+    EXPECT_EQ(room.slot_state(2), RelayRoom::SlotState::Running);
+}
+
+// A connection authors only the slots it was admitted for: records naming another's slot, or
+// only some of its own, are bad and ignored (nothing of them is stored), and counted.
+TEST_F(Server, InputsForASlotTheConnectionDoesNotOwnAreBadAndIgnored) {
+    start_couch_room();
+    const RelayRoom& room = *server->room(7);
+    records(2, 0x1, 0, 0x66, 4);  // slot 2's connection speaking for slot 0
+    records(2, 0x5, 0, 0x66, 4);  // for slot 0 and its own
+    records(1, 0x1, 0, 0x66, 4);  // slot 0 alone: slot 1 is this connection's too
+    records(1, 0x7, 0, 0x66, 4);  // slot 2 as well
+    EXPECT_EQ(server->counters().bad_packets, 4u);
+    for (int s = 0; s < 3; ++s) EXPECT_EQ(room.slot_counters(s).inputs, 0u) << "slot " << s;
+    records(1, 0x3, 0, 0x10, 1);
+    records(2, 0x4, 0, 0x20, 1);
+    ASSERT_EQ(room.confirmed_frames(), 1u);
+    std::vector<std::uint8_t> flags, in;
+    ASSERT_TRUE(room.confirmed_inputs(0, flags, in));
+    EXPECT_EQ(in, (std::vector<std::uint8_t>{0x10, 0x10, 0x11, 0x11, 0x22, 0x22}));  // no 0x66 anywhere
+    // Past max_bad_packets the spoofer is kicked; the honest connection is untouched.
+    for (int i = 0; i < config().max_bad_packets; ++i) records(2, 0x1, 1, 0x66, 1);
+    drain();
+    EXPECT_TRUE(was_kicked(2));
+    EXPECT_FALSE(was_kicked(1));
+}
+
+// A hello for several slots is admitted whole or refused whole.
+TEST_F(Server, AHelloForSeveralSlotsIsAdmittedWholeOrNotAtAll) {
+    start_room(7, 1, 2);  // 2 players: slots 0 and 1 held
+    connect(3);
+    hello(3, 8, 0, RelayRole::Player, 3, 0, 0x8);  // slot 3 of a 3-player room
+    drain();
+    EXPECT_EQ(last_refusal(3), RelayRefusal::BadSlot);
+    connect(4);
+    connect(5);
+    hello(4, 9, 1, RelayRole::Player, 3);
+    drain();
+    hello(5, 9, 0, RelayRole::Player, 3, 0, 0x2 | 0x4);  // slot 1 is held by a live connection
+    drain();
+    EXPECT_EQ(last_refusal(5), RelayRefusal::SlotTaken);
+    const RelayRoom& room = *server->room(9);
+    ConnectionId holder = 0;
+    EXPECT_FALSE(room.holder(0, holder));  // nothing of it was bound
+    EXPECT_FALSE(room.holder(2, holder));
+    EXPECT_EQ(room.connection_slots(4), 0x2);
+    // A repeat of its own hello is welcomed again; the same slot with another set is a spoof.
+    connect(6);
+    hello(6, 9, 0, RelayRole::Player, 3, 0, 0x4);
+    drain();
+    ASSERT_EQ(last_refusal(6), RelayRefusal::None);
+    hello(6, 9, 0, RelayRole::Player, 3, 0, 0x4);
+    drain();
+    EXPECT_EQ(last_refusal(6), RelayRefusal::None);
+    const auto bad = server->counters().bad_packets;
+    hello(6, 9, 0, RelayRole::Player, 3);  // slot 0 alone now
+    drain();
+    EXPECT_EQ(last_refusal(6), RelayRefusal::Spoof);
+    EXPECT_EQ(server->counters().bad_packets, bad + 1);
+}
+
+// A restarted process takes back every slot of its silent connection in one hello.
+TEST_F(Server, ARestartedCouchTakesBackAllItsSlots) {
+    start_couch_room();
+    // Slot 2 keeps talking; connection 1 falls silent for over replace_silent_us.
+    for (int i = 0; i < 80; ++i) {
+        advance(16667);
+        records(2, 0x4, static_cast<std::uint32_t>(i), 0x20, 1, server->room(7)->confirmed_frames());
+    }
+    connect(3);
+    hello(3, 7, 0, RelayRole::Player, 3, 4242, 0x2);  // a new process (new incarnation)
+    drain();
+    ASSERT_EQ(last_refusal(3), RelayRefusal::None);
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_EQ(server->room(7)->connection_slots(3), 0x3);
+    EXPECT_EQ(welcomes[3].back().snapshot_from, 2);  // a newcomer to a running room: snapshot from slot 2
+}
+
+// Checksums are one vote per connection: a couch of two does not outvote one online player.
+TEST_F(Server, ChecksumsAreOneVotePerConnection) {
+    ServerConfig c = config();
+    c.room.checksum_interval = 2;
+    server = std::make_unique<RelayServer>(c);
+    start_couch_room();
+    records(1, 0x3, 0, 0x10, 2);
+    records(2, 0x4, 0, 0x20, 2);
+    ASSERT_EQ(server->room(7)->confirmed_frames(), 2u);
+    auto report = [&](ConnectionId conn, std::uint64_t value) {
+        RelayInput m;
+        m.confirmed_ack = 2;
+        m.checksum_count = 1;
+        m.checksum_frames[0] = 2;
+        m.checksums[0] = value;
+        std::vector<std::uint8_t> b;
+        encode(m, 2, b);
+        send(conn, b);
+    };
+    report(2, 0xBBBB);
+    EXPECT_TRUE(server->room(7)->desync_verdicts().empty());  // the couch has not reported
+    report(1, 0xAAAA);
+    // Decided on two reports (not three); one against one: the lower slot (0) is taken as right.
+    const auto& v = server->room(7)->desync_verdicts();
+    ASSERT_EQ(v.size(), 1u);
+    EXPECT_EQ(v[0].first, 2u);
+    EXPECT_EQ(v[0].second, 2);
 }
 
 TEST_F(Server, ASecondRoomIsCreatedByItsFirstHelloAndParametersMustMatch) {
@@ -160,6 +334,24 @@ TEST_F(Server, SameProcessOnANewConnectionResumesItsSlotOthersAreRefused) {
     inputs(1, 4, 1, 2);
     inputs(4, 4, 2, 2);  // its stream goes on where it was
     EXPECT_EQ(server->room(7)->confirmed_frames(), 6u);
+}
+
+// A client of relay wire version 2 (no also_slots: a 45-byte hello) is told why it is refused
+// (the version), not counted as sending garbage.
+TEST_F(Server, AHelloOfAnOlderVersionIsRefusedNamingTheVersion) {
+    connect(1);
+    RelayHello h;
+    h.room_id = 7;
+    std::vector<std::uint8_t> b;
+    encode(h, b);
+    b.erase(b.begin() + 25, b.begin() + 27);  // the version-2 layout
+    b[1] = 2;
+    send(1, b);
+    drain();
+    EXPECT_EQ(last_refusal(1), RelayRefusal::Version);
+    EXPECT_TRUE(was_kicked(1));
+    EXPECT_EQ(server->counters().bad_packets, 0u);
+    EXPECT_EQ(server->room_count(), 0u);
 }
 
 TEST_F(Server, BoundConnectionClaimingAnotherSlotIsKicked) {

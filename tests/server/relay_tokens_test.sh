@@ -12,13 +12,6 @@ lockroll=$1
 source "$(dirname "$0")/../process_test_support.sh"
 
 # ---- 1. bad flags and files: exit 2, before anything starts ----
-expect_2() {  # expect_2 WHAT MESSAGE COMMAND...
-    local what=$1 message=$2; shift 2
-    timeout 20 "$@" >"$tmp/out.txt" 2>&1
-    local status=$?
-    [ "$status" = 2 ] || fail "$what: exit status $status, expected 2"
-    grep -q -- "$message" "$tmp/out.txt" || fail "$what: no '$message' in: $(cat "$tmp/out.txt")"
-}
 echo "not hex" >"$tmp/bad.hex"
 expect_2 "token: missing key" "key file '$tmp/none' cannot be read" \
     "$lockroll" token --key "$tmp/none" --room r --slot 0 --out "$tmp/t"
@@ -38,13 +31,8 @@ for k in 0 1; do
     "$lockroll" token --key "$dir/key" --room tok --slot $k --client-id $((k + 1)) --expires-in 600 \
         --out "$dir/t$k" >/dev/null || fail "token for slot $k"
 done
-"$lockroll" server --listen 127.0.0.1:0 --key "$dir/key" --ready-file "$dir/ready" --status-file "$dir/status.json" \
-    >"$dir/server.out" 2>"$dir/server.log" &
-server_pid=$!
-pids+=("$server_pid")
-for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
-port=$(cat "$dir/ready" 2>/dev/null)
-[ -n "$port" ] || fail "keyed server did not get ready"
+start_server "$dir" --key "$dir/key"
+port=$server_port
 for k in 0 1; do
     timeout 120 "$lockroll" client --slot $k --players 2 --connect "127.0.0.1:$port" --room tok --frames 300 \
         --token "$dir/t$k" --out "$dir/c$k" >"$dir/c$k.out" 2>&1 &

@@ -28,6 +28,7 @@ protected:
         server->set_wall_clock(kUnixStart * 1'000'000, now);
     }
 
+    std::map<ConnectionId, std::uint16_t> plays;  // by hello()
     ConnectGrant grant(int slot, std::uint64_t client_id, std::uint64_t expires_in_s = 600) const {
         ConnectGrant g;
         g.room_id = kRoom;
@@ -45,7 +46,7 @@ protected:
     }
     // A hello on connection c with the grant's parameters, carrying `tok`.
     void hello(ConnectionId c, int slot, const std::vector<std::uint8_t>& tok, std::uint64_t incarnation = 0,
-               std::uint8_t players = 2) {
+               std::uint8_t players = 2, std::uint16_t also = 0) {
         if (!seen.count(c)) server->on_connect(c, now);
         seen[c] = true;
         RelayHello h;
@@ -55,6 +56,8 @@ protected:
         h.tick_rate = 60;
         h.scene_checksum = 5;
         h.slot = static_cast<std::uint8_t>(slot);
+        h.also_slots = also;
+        plays[c] = relay_hello_slots(h);
         h.incarnation = incarnation ? incarnation : 1000 + c;
         h.token = tok;
         std::vector<std::uint8_t> b;
@@ -66,7 +69,8 @@ protected:
         RelayInput m;
         m.first_frame = first;
         m.frame_count = static_cast<std::uint8_t>(count);
-        m.inputs.assign(static_cast<std::size_t>(count) * 2, 1);
+        m.slots = plays[c];  // the slot this connection said hello for
+        m.inputs.assign(static_cast<std::size_t>(count) * 2 * static_cast<std::size_t>(relay_slot_count(m.slots)), 1);
         std::vector<std::uint8_t> b;
         encode(m, 2, b);
         server->receive(c, b, now);
@@ -176,6 +180,29 @@ TEST_F(Tokens, AnExpiredTokenIsRefusedAndAReconnectAfterExpiryToo) {
     hello(4, 0, tok0, 1000 + 1);
     EXPECT_EQ(last[4], RelayRefusal::TokenExpired);
     EXPECT_EQ(server->room(kRoom)->slot_of(4), -1);
+}
+
+// A couch (one connection, slots 0 and 1) holds one token listing both: it admits exactly that
+// set; a one-slot token of another client id cannot take either slot while the couch holds it.
+TEST_F(Tokens, ACouchTokenAdmitsItsSlotsTogether) {
+    ConnectGrant couch = grant(0, 21);
+    couch.also_slots = 0x2;
+    const auto tok = seal_token(couch, key);
+    hello(1, 0, tok);  // slot 0 alone with the couch's token
+    EXPECT_EQ(last[1], RelayRefusal::TokenMismatch);
+    hello(2, 0, token(0, 21), 0, 2, 0x2);  // both slots with a one-slot token
+    EXPECT_EQ(last[2], RelayRefusal::TokenMismatch);
+    EXPECT_EQ(server->room_count(), 0u);
+    hello(3, 0, tok, 0, 2, 0x2);
+    ASSERT_EQ(last[3], RelayRefusal::None);
+    ASSERT_TRUE(server->room(kRoom)->started());  // one connection fills the 2-player room
+    EXPECT_EQ(server->room(kRoom)->connection_slots(3), 0x3);
+    inputs(3, 0, 4);
+    EXPECT_EQ(server->room(kRoom)->confirmed_frames(), 4u);
+    // Slot 1 belongs to the couch's client id: another's token for it is refused.
+    hello(4, 1, token(1, 22));
+    EXPECT_EQ(last[4], RelayRefusal::SlotOwned);
+    EXPECT_EQ(server->counters().bad_packets, 0u);
 }
 
 TEST_F(Tokens, ATokenForAnotherSlotRoomOrParametersIsRefused) {
