@@ -52,8 +52,14 @@ lockroll_status guarded(const char* where, lockroll_status on_error, F&& f) noex
 class GameSimulation final : public rollback::Simulation {
 public:
     GameSimulation(const lockroll_game& game, void* user) : user_(user), scratch_(game.state_size) {
-        // Only the fields the caller's struct has (struct_size): later ones stay zero.
-        std::memcpy(&game_, &game, std::min(game.struct_size, sizeof game_));
+        // Only the fields the caller's struct has whole (struct_size; start() checked it covers
+        // the required ones): later ones stay zero. A field cut by a garbled struct_size is
+        // not taken (half a function pointer is an address nobody wrote; fuzz/capi_fuzz.cpp),
+        // and the desync-report fields are one group, taken only with a whole struct.
+        game_ = lockroll_game{};
+        std::memcpy(&game_, &game, offsetof(lockroll_game, checksum));
+        if (game.struct_size >= offsetof(lockroll_game, checksum) + sizeof game.checksum) game_.checksum = game.checksum;
+        if (game.struct_size >= sizeof game_) game_ = game;
         if (game_.field_count > 0)
             for (int i = 0; i < game_.field_count; ++i)
                 names_.emplace_back(game_.field_names[i] ? game_.field_names[i] : "");
@@ -75,7 +81,7 @@ public:
     }
     void save(std::span<std::uint8_t> out) const override {
         fill();
-        std::memcpy(out.data(), scratch_.data(), std::min({saved_, out.size(), scratch_.size()}));
+        if (const std::size_t n = std::min({saved_, out.size(), scratch_.size()}); n > 0) std::memcpy(out.data(), scratch_.data(), n);
     }
     std::string load(std::span<const std::uint8_t> in) override {
         fresh_ = false;
@@ -88,7 +94,7 @@ public:
         return game_.checksum ? game_.checksum(user_, state.data(), state.size()) : Simulation::checksum(state);
     }
     std::uint32_t body_count() const override { return game_.field_value ? game_.body_count : 0; }
-    int field_count() const override { return game_.field_value ? game_.field_count : 0; }
+    int field_count() const override { return game_.field_value ? std::max(game_.field_count, 0) : 0; }
     const char* field_name(int field) const override {
         return field >= 0 && static_cast<std::size_t>(field) < names_.size() ? names_[static_cast<std::size_t>(field)].c_str()
                                                                               : Simulation::field_name(field);
@@ -396,7 +402,8 @@ lockroll_session* lockroll_builder_start(const lockroll_builder* b, const lockro
             s->input_bytes = b->input_size * s->net->local_slots().size();
             s->input.assign(s->input_bytes, 0);
             s->source = [raw = s.get()](std::uint32_t, std::span<std::uint8_t> bytes) {
-                std::memcpy(bytes.data(), raw->input.data(), std::min(bytes.size(), raw->input.size()));
+                // A spectator has no local input (an empty vector's data() may be NULL).
+                if (const std::size_t n = std::min(bytes.size(), raw->input.size()); n > 0) std::memcpy(bytes.data(), raw->input.data(), n);
             };
             out = s.release();
             return LOCKROLL_OK;

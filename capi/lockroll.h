@@ -49,11 +49,21 @@
 #define LOCKROLL_API
 #endif
 
+/* The enumerations are int-sized in C. In C++ they are given int32_t as their type, so that any
+ * int a C caller passes where one is expected (an enumerator of a newer header, a garbled value)
+ * is a value the library may read and refuse; without a fixed type, C++ may assume only the
+ * enumerators' range (found by fuzz/capi_fuzz.cpp: lockroll_outcome_name(2147534418)). */
+#ifdef __cplusplus
+#define LOCKROLL_ENUM_TYPE : int32_t
+#else
+#define LOCKROLL_ENUM_TYPE
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-typedef enum lockroll_status {
+typedef enum lockroll_status LOCKROLL_ENUM_TYPE {
     LOCKROLL_OK = 0,
     LOCKROLL_INVALID_ARGUMENT = 1, /* a NULL handle, a bad setting or value */
     LOCKROLL_START_FAILED = 2,     /* the settings do not make a session (slots, port in use, ...) */
@@ -62,7 +72,7 @@ typedef enum lockroll_status {
 } lockroll_status;
 
 /* How a run ended (lockroll_update_result.outcome); LOCKROLL_RUNNING while it goes on. */
-typedef enum lockroll_outcome {
+typedef enum lockroll_outcome LOCKROLL_ENUM_TYPE {
     LOCKROLL_RUNNING = 0,
     LOCKROLL_COMPLETED = 1,       /* every player confirmed the last frame (lockroll_builder_frames) */
     LOCKROLL_CONNECT_TIMEOUT = 2, /* not every peer connected in time */
@@ -74,14 +84,14 @@ typedef enum lockroll_outcome {
 } lockroll_outcome;
 
 /* A slot's input for one frame, as advance() is told (one byte per player). */
-typedef enum lockroll_input_status {
+typedef enum lockroll_input_status LOCKROLL_ENUM_TYPE {
     LOCKROLL_INPUT_CONFIRMED = 0, /* the player's own input, final */
     LOCKROLL_INPUT_PREDICTED = 1, /* a guess: the frame runs again if the real input differs */
     LOCKROLL_INPUT_ABSENT = 2     /* nobody plays the slot: all zero bytes, final */
 } lockroll_input_status;
 
 /* What a session tells its game (rollback/session_event.h has each one's meaning). */
-typedef enum lockroll_event_kind {
+typedef enum lockroll_event_kind LOCKROLL_ENUM_TYPE {
     LOCKROLL_EVENT_SYNCHRONIZING = 0,     /* frame: round trips so far */
     LOCKROLL_EVENT_SYNCHRONIZED = 1,      /* frame 0 (or a snapshot's frame) starts */
     LOCKROLL_EVENT_REFUSED = 2,           /* a handshake failed; detail says why */

@@ -21,7 +21,7 @@ namespace {
 
 void validate(const SessionConfig& c) {
     LOCKROLL_REQUIRE(c.players >= 1 && c.players <= kMaxPlayers, "players must be 1.." + std::to_string(kMaxPlayers));
-    LOCKROLL_REQUIRE(c.max_spectators >= 0 && c.players + c.max_spectators <= 255,
+    LOCKROLL_REQUIRE(c.max_spectators >= 0 && c.max_spectators <= 255 - c.players,  // no overflow for any int
             "max_spectators must be 0.." + std::to_string(255 - c.players));
     if (c.role == Role::Spectator)
         LOCKROLL_REQUIRE(c.local_player >= static_cast<PlayerId>(c.players) &&

@@ -8,7 +8,7 @@
 #   bash scripts/fuzz.sh [--seconds N | --runs N] [TARGET...]   (default: every target)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-all=(protocol_fuzz session_fuzz replay_fuzz snapshot_fuzz scene_fuzz transfer_fuzz relay_fuzz token_fuzz membership_fuzz)
+all=(protocol_fuzz session_fuzz replay_fuzz snapshot_fuzz scene_fuzz transfer_fuzz relay_fuzz token_fuzz membership_fuzz capi_fuzz)
 limit=(-max_total_time="${FUZZ_SECONDS:-30}")
 targets=()
 while [[ $# -gt 0 ]]; do

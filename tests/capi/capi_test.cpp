@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -179,6 +180,47 @@ TEST(CApi, OnePlayerSessionRunsTheCallbacksToTheFinalChecksum) {
     EXPECT_EQ(lockroll_network_stats(s, 3, &st), LOCKROLL_NOT_FOUND);
     EXPECT_EQ(lockroll_network_stats(s, 0, &st), LOCKROLL_OK);
     lockroll_session_free(s);
+}
+
+// Found by fuzz/capi_fuzz.cpp. A C caller may pass any int where an enumeration is expected
+// (an enumerator of a newer header): it is a value the library reads and names "unknown".
+TEST(CApi, AnyIntForAnEnumerationIsNamedUnknown) {
+    const int garbage[] = {-1, 100, 255, 100000, 2147483647};
+    for (int v : garbage) {
+        EXPECT_STREQ(lockroll_outcome_name(static_cast<lockroll_outcome>(v)), "unknown") << v;
+        ASSERT_NE(lockroll_event_name(static_cast<lockroll_event_kind>(v)), nullptr) << v;
+    }
+}
+
+// Found by fuzz/capi_fuzz.cpp: a struct_size that ends inside a field (a garbled or mistaken
+// size) must not hand the library half a function pointer, nor the desync fields without a
+// whole struct: the cut field and the later ones read as absent, and the game still runs.
+TEST(CApi, AStructSizeThatCutsAFieldTakesNoneOfIt) {
+    for (std::size_t cut : {offsetof(lockroll_game, checksum) + 3, offsetof(lockroll_game, field_names) + 1,
+                            sizeof(lockroll_game) - 1}) {
+        lockroll_builder* b = one_player(3);
+        Game g;
+        lockroll_game c = callbacks();
+        c.struct_size = cut;
+        c.checksum = [](void*, const std::uint8_t*, std::size_t) -> std::uint64_t { return 0xbad; };
+        c.field_count = 2;  // with no names: taken only from a whole struct, where start() refuses it
+        lockroll_session* s = lockroll_builder_start(b, &c, &g);
+        lockroll_builder_free(b);
+        ASSERT_NE(s, nullptr) << cut << ": " << error();
+        lockroll_update_result r{};
+        const std::uint8_t press = 0;
+        for (int i = 0; i < 20000 && r.outcome == LOCKROLL_RUNNING; ++i) {
+            ASSERT_EQ(lockroll_update(s, &press, 1, &r), LOCKROLL_OK);
+            lockroll_wait(s);
+        }
+        EXPECT_EQ(r.outcome, LOCKROLL_COMPLETED) << cut;
+        std::uint64_t last = 0;
+        ASSERT_EQ(lockroll_final_checksum(s, &last), LOCKROLL_OK);
+        // The checksum callback is taken exactly when the struct holds all of it.
+        const bool whole = cut >= offsetof(lockroll_game, checksum) + sizeof c.checksum;
+        EXPECT_EQ(last == 0xbadu, whole) << cut;
+        lockroll_session_free(s);
+    }
 }
 
 // A custom checksum callback is the one the session confirms.

@@ -44,6 +44,9 @@ TEST(SessionConfig, EachBadFieldIsNamed) {
         {[](SessionConfig& c) { c.absent_slots = 1; }, "absent"},
         {[](SessionConfig& c) { c.slot_hosts = {0}; }, "slot_hosts"},
         {[](SessionConfig& c) { c.slot_hosts = {1, 1}; }, "slot_hosts[0]"},
+        // Any int is refused without overflow (found by fuzz/capi_fuzz.cpp through spectators()).
+        {[](SessionConfig& c) { c.max_spectators = 2147483647; }, "max_spectators"},
+        {[](SessionConfig& c) { c.max_spectators = 254; }, "max_spectators"},
     };
     for (const auto& k : cases) {
         const std::string why = refusal(k.change);
