@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include "net/peer_runner.h"
-#include "rollback/relay_session.h"
-#include "transport/transport.h"
+#include <lockroll/net/peer_runner.h>
+#include <lockroll/rollback/relay_session.h>
+#include <lockroll/transport/transport.h>
 
 namespace lockroll::net {
 

@@ -85,12 +85,12 @@
 #include <string>
 #include <vector>
 
-#include "net/peer_runner.h"
-#include "net/relay_runner.h"
-#include "rollback/relay_session.h"
-#include "rollback/session.h"
-#include "rollback/simulation.h"
-#include "transport/enet_transport.h"
+#include <lockroll/net/peer_runner.h>
+#include <lockroll/net/relay_runner.h>
+#include <lockroll/rollback/relay_session.h>
+#include <lockroll/rollback/session.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/transport/enet_transport.h>
 
 namespace lockroll::net {
 

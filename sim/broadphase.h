@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "sim/scene.h"
+#include <lockroll/sim/scene.h>
 
 namespace lockroll::sim {
 

@@ -21,7 +21,7 @@
 
 #include <cstdint>
 
-#include "sim/vec3.h"
+#include <lockroll/sim/vec3.h>
 
 namespace lockroll::sim {
 

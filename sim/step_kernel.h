@@ -18,9 +18,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "sim/broadphase.h"
-#include "sim/contact.h"
-#include "sim/scene.h"
+#include <lockroll/sim/broadphase.h>
+#include <lockroll/sim/contact.h>
+#include <lockroll/sim/scene.h>
 
 namespace lockroll::sim {
 

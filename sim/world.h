@@ -11,12 +11,12 @@
 #include <span>
 #include <vector>
 
-#include "sim/broadphase.h"
-#include "sim/controller.h"
-#include "sim/input.h"
-#include "sim/rigid_solver.h"
-#include "sim/scene.h"
-#include "sim/step_kernel.h"
+#include <lockroll/sim/broadphase.h>
+#include <lockroll/sim/controller.h>
+#include <lockroll/sim/input.h>
+#include <lockroll/sim/rigid_solver.h>
+#include <lockroll/sim/scene.h>
+#include <lockroll/sim/step_kernel.h>
 
 namespace lockroll::sim {
 
