@@ -15,8 +15,7 @@
 # each alone.
 set(LOCKROLL_HEADER_DIR_sim sim)
 set(LOCKROLL_SURFACE_sim fixed.h vec3.h scene.h world.h)
-set(LOCKROLL_DETAIL_sim wide_int.h number_traits.h quat.h input.h broadphase.h contact.h controller.h
-    rigid_contact.h rigid_solver.h step_kernel.h)
+set(LOCKROLL_DETAIL_sim wide_int.h quat.h input.h)
 
 set(LOCKROLL_HEADER_DIR_rollback rollback)
 set(LOCKROLL_SURFACE_rollback simulation.h world_simulation.h session.h relay_session.h sync_test.h

@@ -9,7 +9,7 @@
 #include <cstdint>
 #include <vector>
 
-#include <lockroll/sim/scene.h>
+#include "sim/scene.h"
 
 namespace lockroll::sim {
 

@@ -10,7 +10,7 @@
 // runs these very routines; sim/ uses them only with Fixed (the aliases below).
 #pragma once
 
-#include <lockroll/sim/number_traits.h>
+#include "sim/number_traits.h"
 
 namespace lockroll::sim {
 

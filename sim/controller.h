@@ -4,8 +4,8 @@
 // Pure integer arithmetic on Q32.32; only called when the scene has players.
 #pragma once
 
-#include <lockroll/sim/input.h>
-#include <lockroll/sim/scene.h>
+#include "sim/input.h"
+#include "sim/scene.h"
 
 namespace lockroll::sim {
 

@@ -21,7 +21,7 @@
 
 #include <cstdint>
 
-#include <lockroll/sim/vec3.h>
+#include "sim/vec3.h"
 
 namespace lockroll::sim {
 

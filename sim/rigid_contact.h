@@ -19,8 +19,8 @@
 //  - Deterministic: a fixed order of points, integer arithmetic only.
 #pragma once
 
-#include <lockroll/sim/quat.h>
-#include <lockroll/sim/scene.h>
+#include "sim/quat.h"
+#include "sim/scene.h"
 
 namespace lockroll::sim {
 

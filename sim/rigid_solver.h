@@ -42,9 +42,9 @@
 #include <cstdint>
 #include <vector>
 
-#include <lockroll/sim/broadphase.h>
-#include <lockroll/sim/rigid_contact.h>
-#include <lockroll/sim/step_kernel.h>
+#include "sim/broadphase.h"
+#include "sim/rigid_contact.h"
+#include "sim/step_kernel.h"
 
 namespace lockroll::sim {
 

@@ -18,9 +18,9 @@
 #include <cstdint>
 #include <vector>
 
-#include <lockroll/sim/broadphase.h>
-#include <lockroll/sim/contact.h>
-#include <lockroll/sim/scene.h>
+#include "sim/broadphase.h"
+#include "sim/contact.h"
+#include "sim/scene.h"
 
 namespace lockroll::sim {
 

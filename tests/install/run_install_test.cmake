@@ -54,8 +54,7 @@ set(expected_headers
   net/session_builder.h
   harness/match/match.h harness/match/scene_loader.h  # lockroll::match, for examples/web
   # not API:
-  sim/wide_int.h sim/number_traits.h sim/quat.h sim/input.h sim/broadphase.h sim/contact.h
-  sim/controller.h sim/rigid_contact.h sim/rigid_solver.h sim/step_kernel.h
+  sim/wide_int.h sim/quat.h sim/input.h
   rollback/player_id.h rollback/events.h rollback/telemetry.h rollback/session_config.h
   rollback/session_core.h rollback/sync.h rollback/snapshot_ring.h rollback/input_queue.h
   rollback/predictor.h rollback/time_sync.h rollback/desync_detector.h rollback/membership.h
