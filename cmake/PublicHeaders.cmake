@@ -30,7 +30,7 @@ set(LOCKROLL_DETAIL_transport link_conditions.h partition_schedule.h)  # harness
 
 set(LOCKROLL_HEADER_DIR_net net)
 set(LOCKROLL_SURFACE_net session_builder.h)
-set(LOCKROLL_DETAIL_net peer_runner.h relay_runner.h clock.h)
+set(LOCKROLL_DETAIL_net peer_runner.h clock.h)
 
 # lockroll::match stays installed for examples/web, which steps a whole virtual-time match from
 # JavaScript (Match) on a shipped scene (load_scene); no game over the network needs it.

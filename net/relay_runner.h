@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/net/peer_runner.h>
-#include <lockroll/rollback/relay_session.h>
-#include <lockroll/transport/transport.h>
+#include "net/peer_runner.h"
+#include "rollback/relay_session.h"
+#include "transport/transport.h"
 
 namespace lockroll::net {
 

@@ -61,7 +61,7 @@ set(expected_headers
   rollback/peer_link.h rollback/protocol.h rollback/control_messages.h rollback/snapshot_transfer.h
   rollback/relay_messages.h
   transport/link_conditions.h transport/partition_schedule.h
-  net/peer_runner.h net/relay_runner.h net/clock.h
+  net/peer_runner.h net/clock.h
   harness/match/bots.h harness/match/metrics.h)
 file(GLOB_RECURSE headers RELATIVE ${prefix}/include/lockroll ${prefix}/include/lockroll/*)
 set(unexpected ${headers})
