@@ -40,6 +40,7 @@
 
 #include "harness/match/scene_loader.h"
 #include "sim/inertia.h"
+#include "sim/rigid_solver.h"
 #include "sim/world.h"
 
 namespace {

@@ -1,14 +1,16 @@
 # The public libraries as another project sees them. Each lockroll_<name> built from <name>/
-# becomes lockroll::<name>, with its headers <name>/*.h reachable as <lockroll/<name>/...>
-# (a library may name another directory and a subset of its headers: cmake/PublicHeaders.cmake):
-#  - in this build tree (a parent project using add_subdirectory gets the same spelling),
+# becomes lockroll::<name>, with the headers cmake/PublicHeaders.cmake lists (and no others)
+# reachable as <lockroll/<dir>/<header>>:
+#  - in this build tree through per-file links in <build>/include/lockroll/ (a parent project
+#    using add_subdirectory gets the same spelling, and an unlisted header is not reachable so),
 #  - after `cmake --install`: find_package(lockroll) (versioned, SameMajorVersion) and lockroll.pc.
-# The headers include each other as "sim/fixed.h", so both <prefix>/include and
-# <prefix>/include/lockroll are include dirs of every target.
+# Only <build>/include and <prefix>/include are include dirs of the package: installed headers
+# include each other as <lockroll/...>, so a consumer's own sim/world.h or net/clock.h on its
+# include path never replaces ours.
 #
 # Adding a library: append its name to LOCKROLL_PUBLIC_LIBRARIES (top-level CMakeLists.txt), after
 # the libraries it links (static linking wants dependents first; lockroll.pc lists them in
-# reverse). Its target must give
+# reverse), and list its headers in cmake/PublicHeaders.cmake. Its target must give
 # its source include dir as $<BUILD_INTERFACE:...> (CMake refuses to export a raw source path),
 # and every imported target it links must be one this file knows how to find again (below).
 include(GNUInstallDirs)
@@ -32,18 +34,26 @@ foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
   list(APPEND lockroll_installed ${name})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} POSITION_INDEPENDENT_CODE ON)
   lockroll_public_headers(${name} header_dir headers)  # cmake/PublicHeaders.cmake
-  # A header dir may be nested (lockroll::match: harness/match): its parent is a real directory
-  # here; an older build tree may still hold a link to the whole source folder in its place.
-  get_filename_component(link_parent ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir} DIRECTORY)
-  if(IS_SYMLINK ${link_parent})
-    file(REMOVE ${link_parent})
-  endif()
-  file(MAKE_DIRECTORY ${link_parent})
-  file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${header_dir} ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir} SYMBOLIC)
-  target_include_directories(${target} INTERFACE
+  # One link per listed header (an older build tree may hold a link to the whole source folder,
+  # or to a folder above it, in its place).
+  set(link_dir ${PROJECT_BINARY_DIR}/include/lockroll/${header_dir})
+  foreach(dir IN ITEMS ${link_dir} ${PROJECT_BINARY_DIR}/include/lockroll/harness)
+    if(IS_SYMLINK ${dir})
+      file(REMOVE ${dir})
+    endif()
+  endforeach()
+  file(GLOB stale RELATIVE ${link_dir} ${link_dir}/*.h)
+  list(REMOVE_ITEM stale ${headers})
+  list(TRANSFORM stale PREPEND ${link_dir}/)
+  file(REMOVE ${stale} ${link_dir}/.none)  # a header no longer listed must not stay reachable
+  file(MAKE_DIRECTORY ${link_dir})
+  foreach(h IN LISTS headers)
+    file(CREATE_LINK ${PROJECT_SOURCE_DIR}/${header_dir}/${h} ${link_dir}/${h} SYMBOLIC)
+  endforeach()
+  # PUBLIC: the library's own sources include its public headers, which spell <lockroll/...>.
+  target_include_directories(${target} PUBLIC
     $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
-    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
-    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/lockroll>)
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   install(TARGETS ${target} EXPORT lockrollTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
   list(TRANSFORM headers PREPEND ${PROJECT_SOURCE_DIR}/${header_dir}/)
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/lockroll/${header_dir})
@@ -58,10 +68,9 @@ foreach(name IN LISTS LOCKROLL_PUBLIC_LIBRARIES)
       list(APPEND lockroll_companions ${link})
       string(REGEX REPLACE "^lockroll_" "" companion ${link})
       set_target_properties(${link} PROPERTIES EXPORT_NAME ${companion} POSITION_INDEPENDENT_CODE ON)
-      target_include_directories(${link} INTERFACE
+      target_include_directories(${link} PUBLIC
         $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include>
-        $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
-        $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/lockroll>)
+        $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
       install(TARGETS ${link} EXPORT lockrollTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
       list(INSERT lockroll_pc_libs 1 -l${link})
       continue()

@@ -1,17 +1,54 @@
-# Which headers a public library lockroll_<name> installs, and under which directory:
-# <dir> is the target's LOCKROLL_HEADER_DIR property, else <name> (a library built from <name>/);
-# the headers are its LOCKROLL_HEADERS property (file names in <dir>), else every <dir>/*.h.
-# They are installed as <lockroll/<dir>/<header>> (cmake/Install.cmake) and each compiles alone
-# (tests/headers).
+# The installed surface, in this one place: which headers each public library lockroll_<name>
+# installs. Each is installed as <prefix>/include/lockroll/<dir>/<header> (one level: the source
+# folder's name; cmake/Install.cmake), the build tree gives the same spelling through per-file
+# links in <build>/include/lockroll/, and only <prefix>/include (<build>/include) is an include
+# dir, so a game's own net/clock.h can never stand in for ours. An installed header includes the
+# others only as <lockroll/<dir>/<header>>; internal code keeps "rollback/session.h".
+#
+# Two lists per library:
+#  - LOCKROLL_SURFACE_<name>: the API a game programs against (docs/guide.md).
+#  - LOCKROLL_DETAIL_<name>: not API, installed only because a surface header still includes it
+#    (a member, base or argument type no pimpl hides yet). Each entry goes when its includer is
+#    pimpl'd; nothing may be added here without an includer in the surface.
+# Besides these: <lockroll/version.h> (generated) and <lockroll/lockroll.h> (the C ABI, capi/).
+# tests/install lists what must be installed and fails on one header more; tests/headers compiles
+# each alone.
+set(LOCKROLL_HEADER_DIR_sim sim)
+set(LOCKROLL_SURFACE_sim fixed.h vec3.h scene.h world.h)
+set(LOCKROLL_DETAIL_sim wide_int.h quat.h input.h)
+
+set(LOCKROLL_HEADER_DIR_rollback rollback)
+set(LOCKROLL_SURFACE_rollback simulation.h world_simulation.h session.h relay_session.h sync_test.h
+    session_event.h replay.h)
+set(LOCKROLL_DETAIL_rollback player_id.h events.h telemetry.h session_config.h session_core.h sync.h
+    snapshot_ring.h input_queue.h predictor.h time_sync.h desync_detector.h membership.h peer_link.h
+    protocol.h control_messages.h snapshot_transfer.h relay_messages.h)
+
+set(LOCKROLL_HEADER_DIR_transport transport)
+set(LOCKROLL_SURFACE_transport transport.h enet_transport.h)
+set(LOCKROLL_DETAIL_transport link_conditions.h partition_schedule.h)  # harness/match/match.h's
+
+set(LOCKROLL_HEADER_DIR_net net)
+set(LOCKROLL_SURFACE_net session_builder.h)
+set(LOCKROLL_DETAIL_net peer_runner.h clock.h)
+
+# lockroll::match stays installed for examples/web, which steps a whole virtual-time match from
+# JavaScript (Match) on a shipped scene (load_scene); no game over the network needs it.
+set(LOCKROLL_HEADER_DIR_match harness/match)
+set(LOCKROLL_SURFACE_match match.h scene_loader.h)
+set(LOCKROLL_DETAIL_match bots.h metrics.h)
+
+# lockroll_public_headers(name dir_var headers_var): the directory under include/lockroll/ and the
+# headers (file names in it) lockroll_<name> installs. Without ENet (WebAssembly) the ENet
+# transport is not built and its header not installed.
 function(lockroll_public_headers name dir_var headers_var)
-  get_target_property(dir lockroll_${name} LOCKROLL_HEADER_DIR)
-  if(NOT dir)
-    set(dir ${name})
+  if(NOT DEFINED LOCKROLL_HEADER_DIR_${name})
+    message(FATAL_ERROR "cmake/PublicHeaders.cmake: public library ${name} lists no headers")
   endif()
-  get_target_property(headers lockroll_${name} LOCKROLL_HEADERS)
-  if(NOT headers)
-    file(GLOB headers CONFIGURE_DEPENDS RELATIVE ${PROJECT_SOURCE_DIR}/${dir} ${PROJECT_SOURCE_DIR}/${dir}/*.h)
+  set(headers ${LOCKROLL_SURFACE_${name}} ${LOCKROLL_DETAIL_${name}})
+  if(name STREQUAL "transport" AND NOT LOCKROLL_ENET)
+    list(REMOVE_ITEM headers enet_transport.h)
   endif()
-  set(${dir_var} ${dir} PARENT_SCOPE)
+  set(${dir_var} ${LOCKROLL_HEADER_DIR_${name}} PARENT_SCOPE)
   set(${headers_var} ${headers} PARENT_SCOPE)
 endfunction()

@@ -58,9 +58,9 @@
 #include <string>
 #include <vector>
 
-#include "net/clock.h"
-#include "rollback/session.h"
-#include "transport/transport.h"
+#include <lockroll/net/clock.h>
+#include <lockroll/rollback/session.h>
+#include <lockroll/transport/transport.h>
 
 namespace lockroll::net {
 

@@ -1,6 +1,7 @@
 #include "net/session_builder.h"
 
 #include "net/clock.h"
+#include "net/relay_runner.h"
 #include "net/tick_schedule.h"
 #include "rollback/desync_evidence.h"
 #include "rollback/replay.h"

@@ -85,14 +85,15 @@
 #include <string>
 #include <vector>
 
-#include "net/peer_runner.h"
-#include "net/relay_runner.h"
-#include "rollback/relay_session.h"
-#include "rollback/session.h"
-#include "rollback/simulation.h"
-#include "transport/enet_transport.h"
+#include <lockroll/net/peer_runner.h>
+#include <lockroll/rollback/relay_session.h>
+#include <lockroll/rollback/session.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/transport/enet_transport.h>
 
 namespace lockroll::net {
+
+class RelayRunner;  // net/relay_runner.h: held by pointer, so this installed header need not include it
 
 // A running session over ENet (built by SessionBuilder::start). Not copyable or movable.
 class NetSession final : private RunnerObserver {

@@ -11,7 +11,7 @@
 #include <span>
 #include <vector>
 
-#include "rollback/protocol.h"
+#include <lockroll/rollback/protocol.h>
 
 namespace lockroll::rollback {
 

@@ -29,12 +29,12 @@
 #include <span>
 #include <vector>
 
-#include "rollback/events.h"
-#include "rollback/player_id.h"
-#include "rollback/protocol.h"
-#include "rollback/simulation.h"
-#include "rollback/snapshot_ring.h"
-#include "rollback/telemetry.h"
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/protocol.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/rollback/snapshot_ring.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

@@ -29,8 +29,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "rollback/player_id.h"
-#include "rollback/protocol.h"
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/protocol.h>
 
 namespace lockroll::rollback {
 

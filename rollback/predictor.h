@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <span>
 
-#include "rollback/player_id.h"
+#include <lockroll/rollback/player_id.h>
 
 namespace lockroll::rollback {
 

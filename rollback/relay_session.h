@@ -40,18 +40,18 @@
 #include <string>
 #include <vector>
 
-#include "rollback/events.h"
-#include "rollback/input_queue.h"
-#include "rollback/peer_link.h"
-#include "rollback/player_id.h"
-#include "rollback/predictor.h"
-#include "rollback/relay_messages.h"
-#include "rollback/session.h"
-#include "rollback/session_core.h"
-#include "rollback/simulation.h"
-#include "rollback/snapshot_transfer.h"
-#include "rollback/sync.h"
-#include "rollback/telemetry.h"
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/input_queue.h>
+#include <lockroll/rollback/peer_link.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/predictor.h>
+#include <lockroll/rollback/relay_messages.h>
+#include <lockroll/rollback/session.h>
+#include <lockroll/rollback/session_core.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/rollback/snapshot_transfer.h>
+#include <lockroll/rollback/sync.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

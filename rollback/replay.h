@@ -17,8 +17,8 @@
 #include <string>
 #include <vector>
 
-#include "rollback/events.h"
-#include "rollback/simulation.h"
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/simulation.h>
 
 namespace lockroll::rollback {
 

@@ -79,21 +79,21 @@
 #include <string>
 #include <vector>
 
-#include "rollback/control_messages.h"
-#include "rollback/desync_detector.h"
-#include "rollback/events.h"
-#include "rollback/membership.h"
-#include "rollback/peer_link.h"
-#include "rollback/player_id.h"
-#include "rollback/predictor.h"
-#include "rollback/protocol.h"
-#include "rollback/session_config.h"
-#include "rollback/session_core.h"
-#include "rollback/session_event.h"
-#include "rollback/simulation.h"
-#include "rollback/snapshot_transfer.h"
-#include "rollback/sync.h"
-#include "rollback/telemetry.h"
+#include <lockroll/rollback/control_messages.h>
+#include <lockroll/rollback/desync_detector.h>
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/membership.h>
+#include <lockroll/rollback/peer_link.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/predictor.h>
+#include <lockroll/rollback/protocol.h>
+#include <lockroll/rollback/session_config.h>
+#include <lockroll/rollback/session_core.h>
+#include <lockroll/rollback/session_event.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/rollback/snapshot_transfer.h>
+#include <lockroll/rollback/sync.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

@@ -12,10 +12,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "rollback/control_messages.h"
-#include "rollback/membership.h"
-#include "rollback/player_id.h"
-#include "rollback/sync.h"
+#include <lockroll/rollback/control_messages.h>
+#include <lockroll/rollback/membership.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/sync.h>
 
 namespace lockroll::rollback {
 

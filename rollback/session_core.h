@@ -22,12 +22,12 @@
 #include <string>
 #include <utility>
 
-#include "rollback/events.h"
-#include "rollback/player_id.h"
-#include "rollback/predictor.h"
-#include "rollback/session_event.h"
-#include "rollback/sync.h"
-#include "rollback/telemetry.h"
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/predictor.h>
+#include <lockroll/rollback/session_event.h>
+#include <lockroll/rollback/sync.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

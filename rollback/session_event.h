@@ -12,7 +12,7 @@
 #include <deque>
 #include <string>
 
-#include "rollback/player_id.h"
+#include <lockroll/rollback/player_id.h>
 
 namespace lockroll::rollback {
 

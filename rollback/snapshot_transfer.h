@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "rollback/control_messages.h"
-#include "rollback/player_id.h"
+#include <lockroll/rollback/control_messages.h>
+#include <lockroll/rollback/player_id.h>
 
 namespace lockroll::rollback {
 

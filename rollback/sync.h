@@ -29,14 +29,14 @@
 #include <string>
 #include <vector>
 
-#include "rollback/events.h"
-#include "rollback/input_queue.h"
-#include "rollback/player_id.h"
-#include "rollback/predictor.h"
-#include "rollback/simulation.h"
-#include "rollback/snapshot_ring.h"
-#include "rollback/snapshot_transfer.h"
-#include "rollback/telemetry.h"
+#include <lockroll/rollback/events.h>
+#include <lockroll/rollback/input_queue.h>
+#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/predictor.h>
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/rollback/snapshot_ring.h>
+#include <lockroll/rollback/snapshot_transfer.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

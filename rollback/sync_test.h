@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "rollback/simulation.h"
-#include "rollback/snapshot_ring.h"
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/rollback/snapshot_ring.h>
 
 namespace lockroll::rollback {
 

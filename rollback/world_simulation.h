@@ -13,10 +13,10 @@
 #include <array>
 #include <vector>
 
-#include "rollback/simulation.h"
-#include "sim/input.h"
-#include "sim/scene.h"
-#include "sim/world.h"
+#include <lockroll/rollback/simulation.h>
+#include <lockroll/sim/input.h>
+#include <lockroll/sim/scene.h>
+#include <lockroll/sim/world.h>
 
 namespace lockroll::rollback {
 

@@ -20,7 +20,7 @@
 #include <string>
 #include <string_view>
 
-#include "sim/wide_int.h"
+#include <lockroll/sim/wide_int.h>
 
 namespace lockroll::sim {
 

@@ -17,7 +17,7 @@
 //  - No float or double anywhere.
 #pragma once
 
-#include "sim/vec3.h"
+#include <lockroll/sim/vec3.h>
 
 namespace lockroll::sim {
 

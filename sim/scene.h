@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/quat.h"
+#include <lockroll/sim/quat.h>
 
 namespace lockroll::sim {
 

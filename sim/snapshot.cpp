@@ -1,5 +1,8 @@
 #include "sim/snapshot.h"
 
+#include "sim/rigid_solver.h"
+#include "sim/step_kernel.h"
+
 #define XXH_INLINE_ALL
 #include <xxhash.h>
 
@@ -23,7 +26,7 @@ public:
     static std::vector<Vec3>& vel(World& w) { return w.vel_; }
     static std::vector<Quat>& orient(World& w) { return w.orient_; }
     static std::vector<Vec3>& angvel(World& w) { return w.angvel_; }
-    static std::vector<ContactImpulse>& impulses(World& w) { return w.impulses_; }
+    static std::vector<ContactImpulse>& impulses(World& w) { return w.carried_impulses(); }
 };
 
 namespace {

@@ -2,7 +2,7 @@
 // products and round once, so |v| and v.w are correctly rounded, not the sum of three roundings.
 #pragma once
 
-#include "sim/fixed.h"
+#include <lockroll/sim/fixed.h>
 
 namespace lockroll::sim {
 

@@ -2,7 +2,22 @@
 
 #include <stdexcept>
 
+#include "sim/broadphase.h"
+#include "sim/controller.h"
+#include "sim/rigid_solver.h"
+#include "sim/step_kernel.h"
+
 namespace lockroll::sim {
+
+// What steps the world, apart from its state: built once from the scene, copied with the world.
+struct World::Engine {
+    explicit Engine(const SceneDesc& scene) : kernel(scene) {}
+    StepKernel<Fixed> kernel;
+    ControllerFactors controller;  // used only when the scene has players
+    Broadphase broadphase;
+    RigidSolver rigid;                      // configured only for rigid scenes
+    std::vector<ContactImpulse> impulses;   // state: rigid scenes with warm starting only
+};
 
 namespace {
 const SceneDesc& validated(const SceneDesc& scene) {
@@ -11,38 +26,77 @@ const SceneDesc& validated(const SceneDesc& scene) {
 }
 }  // namespace
 
-World::World(const SceneDesc& scene) : scene_(validated(scene)), kernel_(scene_) {
+World::World(const SceneDesc& scene)
+    : scene_(validated(scene)), engine_(std::make_unique<Engine>(scene_)) {
+    auto& kernel_ = engine_->kernel;
+    auto& rigid_ = engine_->rigid;
     kernel_.initial_state(scene_, pos_, vel_);
     player_body_.resize(static_cast<std::size_t>(sim::player_count(scene_)));
     for (std::size_t i = 0; i < scene_.bodies.size(); ++i)
         if (scene_.bodies[i].player >= 0)
             player_body_[static_cast<std::size_t>(scene_.bodies[i].player)] = static_cast<BodyId>(i);
-    controller_ = ControllerFactors::from(scene_.controller, kernel_.dt());
+    engine_->controller = ControllerFactors::from(scene_.controller, kernel_.dt());
     rigid_.configure(scene_, kernel_);
+    rigid_enabled_ = rigid_.enabled();
     if (rigid_.enabled()) rigid_.initial_state(scene_, orient_, angvel_);
-    impulses_.reserve(rigid_.impulse_capacity());  // steps and loads never allocate for it
-    broadphase_.configure(scene_.broadphase, kernel_.dynamic_ids(), kernel_.static_ids(), pos_,
+    engine_->impulses.reserve(rigid_.impulse_capacity());  // steps and loads never allocate for it
+    engine_->broadphase.configure(scene_.broadphase, kernel_.dynamic_ids(), kernel_.static_ids(), pos_,
                           rigid_.enabled() ? rigid_.extent() : kernel_.extent(), scene_.contact_margin);
     // Whatever scene construction saturated is part of the initial state.
     overflow_count_ = 0;
 }
 
+World::World(const World& other)
+    : scene_(other.scene_),
+      engine_(std::make_unique<Engine>(*other.engine_)),
+      frame_(other.frame_),
+      overflow_count_(other.overflow_count_),
+      pos_(other.pos_),
+      vel_(other.vel_),
+      orient_(other.orient_),
+      angvel_(other.angvel_),
+      player_body_(other.player_body_),
+      rigid_enabled_(other.rigid_enabled_) {}
+
+World& World::operator=(const World& other) {
+    if (this != &other) *this = World(other);
+    return *this;
+}
+
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+World::~World() = default;
+
+std::size_t World::dynamic_count() const { return engine_->kernel.dynamic_ids().size(); }
+bool World::is_static(BodyId id) const { return engine_->kernel.inv_mass(id).raw == 0; }
+Shape World::shape(BodyId id) const { return engine_->kernel.shape(id); }
+const RigidSolver& World::rigid_solver() const { return engine_->rigid; }
+const std::vector<ContactImpulse>& World::contact_impulses() const { return engine_->impulses; }
+std::vector<ContactImpulse>& World::carried_impulses() { return engine_->impulses; }
+Fixed World::inv_mass(BodyId id) const { return engine_->kernel.inv_mass(id); }
+Fixed World::dt() const { return engine_->kernel.dt(); }
+const std::vector<BodyId>& World::dynamic_ids() const { return engine_->kernel.dynamic_ids(); }
+const StepKernel<Fixed>& World::kernel() const { return engine_->kernel; }
+
 void World::step(std::span<const PlayerInput> inputs) {
+    auto& kernel_ = engine_->kernel;
+    auto& rigid_ = engine_->rigid;
+    auto& broadphase_ = engine_->broadphase;
     const std::uint64_t overflow_before = overflow_events();
     const auto control = [this, inputs](std::vector<Vec3>&) {
         if (!player_body_.empty()) apply_controller(inputs);
     };
     if (rigid_.enabled())
         rigid_.step(
-            pos_, vel_, orient_, angvel_, impulses_,
-            [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+            pos_, vel_, orient_, angvel_, engine_->impulses,
+            [&broadphase_, &rigid_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
                 broadphase_.find_pairs(pos, rigid_.extent(), out);
             },
             control);
     else
         kernel_.step(
             pos_, vel_,
-            [this](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+            [&broadphase_, &kernel_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
                 broadphase_.find_pairs(pos, kernel_.extent(), out);
             },
             control);
@@ -53,7 +107,7 @@ void World::step(std::span<const PlayerInput> inputs) {
 void World::apply_controller(std::span<const PlayerInput> inputs) {
     for (std::size_t slot = 0; slot < player_body_.size(); ++slot) {
         const PlayerInput in = slot < inputs.size() ? inputs[slot] : PlayerInput{};
-        apply_input(controller_, in, vel_[player_body_[slot]]);
+        apply_input(engine_->controller, in, vel_[player_body_[slot]]);
     }
 }
 

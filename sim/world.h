@@ -5,26 +5,41 @@
 // Body ids are indices into SceneDesc::bodies, stable for the world's life; they are what
 // desync reports, snapshots and the harness name. Static bodies (mass 0) never move and are
 // not part of the snapshot.
+//
+// The step's machinery (kernel, controller factors, broadphase, rigid solver and the impulses it
+// carries) lives behind one pointer (Engine, sim/world.cpp), so this installed header names none
+// of its types: one indirection per step or per kernel query, no allocation but in construction
+// and copying. The state a snapshot stores and a renderer reads (positions, velocities,
+// orientations) stays inline here.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
-#include "sim/broadphase.h"
-#include "sim/controller.h"
-#include "sim/input.h"
-#include "sim/rigid_solver.h"
-#include "sim/scene.h"
-#include "sim/step_kernel.h"
+#include <lockroll/sim/input.h>
+#include <lockroll/sim/scene.h>
 
 namespace lockroll::sim {
+
+// The machinery's types, for the accessors internal code uses (sim/step_kernel.h,
+// sim/rigid_solver.h define them).
+template <class Number>
+class StepKernel;
+class RigidSolver;
+struct ContactImpulse;
 
 class World {
 public:
     // The scene must pass validate(); throws std::invalid_argument with validate()'s message
     // otherwise (a programming error: loaders validate and report first).
     explicit World(const SceneDesc& scene);
+    World(const World& other);
+    World& operator=(const World& other);
+    World(World&& other) noexcept;
+    World& operator=(World&& other) noexcept;
+    ~World();
 
     // Advances one frame. inputs[p] drives player slot p; slots beyond inputs.size() get a
     // neutral input. Never allocates after the first step.
@@ -35,27 +50,27 @@ public:
     std::uint64_t overflow_count() const { return overflow_count_; }
 
     std::size_t body_count() const { return pos_.size(); }
-    std::size_t dynamic_count() const { return kernel_.dynamic_ids().size(); }
+    std::size_t dynamic_count() const;
     int player_count() const { return static_cast<int>(player_body_.size()); }
     BodyId player_body(int slot) const { return player_body_[static_cast<std::size_t>(slot)]; }
-    bool is_static(BodyId id) const { return kernel_.inv_mass(id).raw == 0; }
-    Shape shape(BodyId id) const { return kernel_.shape(id); }
+    bool is_static(BodyId id) const;
+    Shape shape(BodyId id) const;
     const Vec3& position(BodyId id) const { return pos_[id]; }
     const Vec3& velocity(BodyId id) const { return vel_[id]; }
     // Rigid scenes (scene().rigid.enabled) only: orientation and angular velocity (rad/s, world
     // frame) of every body; the particle solver has neither (empty).
-    bool rigid() const { return rigid_.enabled(); }
+    bool rigid() const { return rigid_enabled_; }
     const Quat& orientation(BodyId id) const { return orient_[id]; }
     const Vec3& angular_velocity(BodyId id) const { return angvel_[id]; }
-    const RigidSolver& rigid_solver() const { return rigid_; }
+    const RigidSolver& rigid_solver() const;
     // Rigid scenes with rigid.warm_starting: the impulses carried to the next step (state,
     // sorted by key; at most rigid_solver().impulse_capacity()). Empty otherwise.
-    const std::vector<ContactImpulse>& contact_impulses() const { return impulses_; }
-    Fixed inv_mass(BodyId id) const { return kernel_.inv_mass(id); }
-    Fixed dt() const { return kernel_.dt(); }
-    const std::vector<BodyId>& dynamic_ids() const { return kernel_.dynamic_ids(); }
+    const std::vector<ContactImpulse>& contact_impulses() const;
+    Fixed inv_mass(BodyId id) const;
+    Fixed dt() const;
+    const std::vector<BodyId>& dynamic_ids() const;
     // The step algorithm and the per-body constants it uses (sizes, masses, materials).
-    const StepKernel<Fixed>& kernel() const { return kernel_; }
+    const StepKernel<Fixed>& kernel() const;
     const SceneDesc& scene() const { return scene_; }
 
     // Fault injection for desync tests: flips one bit of one state word of a dynamic body.
@@ -66,11 +81,13 @@ public:
 
 private:
     friend class SnapshotAccess;
+    struct Engine;  // sim/world.cpp
 
     void apply_controller(std::span<const PlayerInput> inputs);
+    std::vector<ContactImpulse>& carried_impulses();  // SnapshotAccess loads them
 
     SceneDesc scene_;
-    StepKernel<Fixed> kernel_;
+    std::unique_ptr<Engine> engine_;
 
     // Mutable state (exactly what a snapshot stores).
     std::uint32_t frame_ = 0;
@@ -78,12 +95,9 @@ private:
     std::vector<Vec3> pos_, vel_;
     std::vector<Quat> orient_;  // rigid scenes only
     std::vector<Vec3> angvel_;  // rigid scenes only
-    std::vector<ContactImpulse> impulses_;  // rigid scenes with warm starting only
 
     std::vector<BodyId> player_body_;  // by player slot
-    ControllerFactors controller_;     // used only when the scene has players
-    Broadphase broadphase_;
-    RigidSolver rigid_;  // configured only for rigid scenes
+    bool rigid_enabled_ = false;       // the engine's rigid solver is configured
 };
 
 }  // namespace lockroll::sim

@@ -41,7 +41,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "transport/transport.h"
+#include <lockroll/transport/transport.h>
 
 struct _ENetHost;
 struct _ENetPeer;

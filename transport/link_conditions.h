@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-#include "transport/transport.h"
+#include <lockroll/transport/transport.h>
 
 namespace lockroll::transport {
 

@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "transport/transport.h"
+#include <lockroll/transport/transport.h>
 
 namespace lockroll::transport {
 

@@ -19,8 +19,8 @@
 #include <optional>
 #include <string_view>
 
-#include "sim/input.h"
-#include "sim/world.h"
+#include <lockroll/sim/input.h>
+#include <lockroll/sim/world.h>
 
 namespace lockroll::harness {
 

@@ -20,13 +20,13 @@
 #include <string>
 #include <vector>
 
-#include "harness/match/bots.h"
-#include "harness/match/metrics.h"
-#include "rollback/telemetry.h"
-#include "sim/scene.h"
-#include "sim/world.h"
-#include "transport/link_conditions.h"
-#include "transport/partition_schedule.h"
+#include <lockroll/harness/match/bots.h>
+#include <lockroll/harness/match/metrics.h>
+#include <lockroll/rollback/telemetry.h>
+#include <lockroll/sim/scene.h>
+#include <lockroll/sim/world.h>
+#include <lockroll/transport/link_conditions.h>
+#include <lockroll/transport/partition_schedule.h>
 
 namespace lockroll::harness {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "sim/vec3.h"
+#include <lockroll/sim/vec3.h>
 
 namespace lockroll::harness {
 

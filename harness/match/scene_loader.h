@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "sim/scene.h"
+#include <lockroll/sim/scene.h>
 
 namespace lockroll::harness {
 

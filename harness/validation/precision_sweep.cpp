@@ -17,6 +17,7 @@
 #include "harness/report/plot_script.h"
 #include "harness/validation/reference_world.h"
 #include "harness/match/scene_loader.h"
+#include "sim/step_kernel.h"
 #include "sim/world.h"
 
 namespace lockroll::harness {

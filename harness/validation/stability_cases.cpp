@@ -7,6 +7,7 @@
 
 #include "harness/match/scene_loader.h"
 #include "sim/contact.h"
+#include "sim/step_kernel.h"
 #include "sim/world.h"
 
 namespace lockroll::harness::stability {

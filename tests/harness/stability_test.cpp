@@ -22,6 +22,7 @@
 #include "harness/validation/reference_world.h"
 #include "harness/validation/stability_cases.h"
 #include "sim/snapshot.h"
+#include "sim/step_kernel.h"
 #include "sim/world.h"
 
 namespace lockroll {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sim/snapshot.h"
+#include "sim/rigid_solver.h"
 #include "sim/world.h"
 
 namespace lockroll::sim {

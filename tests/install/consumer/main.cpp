@@ -1,11 +1,13 @@
 // A game outside lockroll, built against the installed package: it uses every installed library
-// through the header paths a consumer writes (<lockroll/...>).
+// through the surface headers only (cmake/PublicHeaders.cmake), spelled as a consumer writes them
+// (<lockroll/...>).
 //  - lockroll::sim: builds a small World in code (a room, a player capsule, a spawner of balls)
-//    and steps it with a scripted input.
+//    and steps it with a scripted input; the checksum is the WorldSimulation's.
 //  - lockroll::rollback: two Sessions run a toy Simulation of the consumer's own (a counter per
-//    player) in virtual time and must agree on every confirmed checksum.
-//  - lockroll::transport: the sessions' datagrams travel over a SimNetwork with latency and loss,
-//    and an EnetTransport binds 127.0.0.1 (so ENet, a private dependency, links).
+//    player) in virtual time and must agree on every confirmed checksum; their datagrams travel
+//    over the consumer's own delay line, losing every 13th.
+//  - lockroll::transport: an EnetTransport binds 127.0.0.1 (so ENet, a private dependency, links).
+//  - lockroll::net: a SessionBuilder validates a 2-player mesh config (a compiled function).
 // tests/install runs this built against the installed package (CMake and pkg-config) and built
 // in-tree; the outputs must be identical.
 #include <algorithm>
@@ -16,14 +18,12 @@
 #include <string>
 #include <vector>
 
+#include <lockroll/net/session_builder.h>
 #include <lockroll/rollback/session.h>
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/sim/snapshot.h>
+#include <lockroll/rollback/world_simulation.h>
 #include <lockroll/sim/world.h>
-#include <lockroll/net/clock.h>
-#include <lockroll/net/udp_address.h>
 #include <lockroll/transport/enet_transport.h>
-#include <lockroll/transport/sim_network.h>
 
 namespace {
 
@@ -54,16 +54,19 @@ std::string world_line() {
     expand_spawner(scene, balls);
 
     if (const std::string error = validate(scene); !error.empty()) return "invalid scene: " + error;
-    World world(scene);
-    std::vector<PlayerInput> inputs(1);
+    lockroll::rollback::WorldSimulation game(scene, 1);
+    PlayerInput input;
     for (std::uint32_t f = 0; f < 300; ++f) {
-        inputs[0].forward = static_cast<std::int8_t>(f % 120 < 60 ? 127 : -127);
-        inputs[0].right = static_cast<std::int8_t>(f % 90 < 45 ? 64 : -64);
-        world.step(inputs);
+        input.forward = static_cast<std::int8_t>(f % 120 < 60 ? 127 : -127);
+        input.right = static_cast<std::int8_t>(f % 90 < 45 ? 64 : -64);
+        game.step(lockroll::rollback::encode_input(input));
     }
+    const World& world = game.world();
+    std::vector<std::uint8_t> state(game.state_size());
+    const auto saved = game.save_to(state);
     char buf[160];
     std::snprintf(buf, sizeof buf, "world %zu bodies, frame %" PRIu32 ", overflows %" PRIu64 ", checksum %016" PRIx64,
-                  world.body_count(), world.frame(), world.overflow_count(), checksum(world));
+                  world.body_count(), world.frame(), world.overflow_count(), game.checksum(saved));
     return buf;
 }
 
@@ -95,12 +98,15 @@ private:
 
 std::string session_line() {
     using namespace lockroll;
-    transport::SimNetworkConfig net_cfg;
-    net_cfg.peers = 2;
-    net_cfg.seed = 5;
-    net_cfg.link.latency_us = 40000;
-    net_cfg.link.loss = 0.05;
-    transport::SimNetwork net(net_cfg);
+    // The consumer's own network: every datagram arrives 40 ms after it was sent, but every 13th
+    // is lost (so the sessions must resend).
+    struct InFlight {
+        std::uint64_t due;
+        rollback::PlayerId from;
+        std::vector<std::uint8_t> bytes;
+    };
+    std::vector<InFlight> wire[2];
+    std::uint64_t sent = 0;
 
     Counters games[2];
     std::unique_ptr<rollback::Session> sessions[2];
@@ -112,17 +118,19 @@ std::string session_line() {
         sessions[p] = std::make_unique<rollback::Session>(cfg, games[p]);
     }
     std::vector<rollback::Datagram> out;
-    transport::Datagram in;
     for (std::uint64_t tick = 0; tick < 600; ++tick) {
         const std::uint64_t now = tick * 16667;
         for (rollback::PlayerId p = 0; p < 2; ++p) {
-            while (net.endpoint(p).receive(in, now))
-                sessions[p]->receive(static_cast<rollback::PlayerId>(in.from), in.bytes, now);
+            auto& inbox = wire[p];
+            for (const auto& d : inbox)
+                if (d.due <= now) sessions[p]->receive(d.from, d.bytes, now);
+            std::erase_if(inbox, [now](const InFlight& d) { return d.due <= now; });
             const std::uint8_t input = static_cast<std::uint8_t>((tick / 7 + p) % 3 == 0 ? 3 : -1);
             sessions[p]->advance(std::span(&input, 1), now);
             out.clear();
             sessions[p]->poll(now, out);
-            for (const auto& d : out) net.endpoint(p).send(d.peer, d.bytes, now);
+            for (const auto& d : out)
+                if (++sent % 13 != 0) wire[d.peer].push_back({now + 40000, p, d.bytes});
         }
     }
     const std::uint32_t confirmed = std::min(sessions[0]->confirmed_frame(), sessions[1]->confirmed_frame());
@@ -139,11 +147,13 @@ std::string enet_line() {
     return enet.port() != 0 ? "enet bound" : "enet NOT bound";
 }
 
-// The real-time layer: its clock and its address parser (a compiled function, so it links).
+// The real-time layer's builder: validates a mesh without binding a port (compiled, so it links).
 std::string net_line() {
-    std::string error;
-    const auto addr = lockroll::net::parse_udp_address("127.0.0.1:4000", &error);
-    return addr && lockroll::net::now_us() > 0 ? "net parses" : "net FAILED: " + error;
+    lockroll::net::SessionBuilder builder;
+    builder.players(2).input_size(1).local_player(0).remote_player(1, "127.0.0.1", 4000).tick_rate(30);
+    const auto cfg = builder.session_config();
+    return cfg.players == 2 && cfg.local_player == 0 && builder.runner_config().tick_rate == 30 ? "net builds"
+                                                                                              : "net FAILED";
 }
 
 }  // namespace
@@ -152,6 +162,6 @@ int main() {
     const std::string world = world_line(), session = session_line(), enet = enet_line(), net = net_line();
     std::printf("lockroll consumer: %s; %s; %s; %s\n", world.c_str(), session.c_str(), enet.c_str(), net.c_str());
     const bool ok = world.find("frame 300,") != std::string::npos && session.find(" agree") != std::string::npos &&
-                    enet == "enet bound" && net == "net parses";
+                    enet == "enet bound" && net == "net builds";
     return ok ? 0 : 1;
 }
