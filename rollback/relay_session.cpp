@@ -535,7 +535,8 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     const bool in_room = phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring;
     if (in_room && config_.server_timeout_us && last_server_us_ && now_us > last_server_us_ + config_.server_timeout_us) {
         const std::string why = "the relay server is silent for " + std::to_string((now_us - last_server_us_) / 1000) + " ms";
-        emit(SessionEvent::Kind::Disconnected, kRelayServerPeer, frame(), now_us, why);
+        emit(SessionEvent::Kind::ServerLost, kRelayServerPeer, frame(), now_us, why);
+        server_lost_ = true;
         pending_out_.clear();
         return fail(why, now_us);
     }

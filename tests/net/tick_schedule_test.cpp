@@ -92,6 +92,7 @@ TEST(RunEnd, AHealedPartitionCompletesAsUsual) {
 TEST(RunEnd, EveryOutcomeHasAName) {
     EXPECT_STREQ(outcome_name(RunOutcome::Partitioned), "partitioned");
     EXPECT_STREQ(outcome_name(RunOutcome::Completed), "completed");
+    EXPECT_STREQ(outcome_name(RunOutcome::ServerLost), "server_lost");
 }
 
 // A game loop of `hz` frames a second driving a TickLoop at 60 ticks a second, in virtual time:

@@ -106,7 +106,8 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
 }
 
 // The server dies and nothing comes back: each client fails within its server timeout (5 s),
-// saying so, instead of hanging with no error until its run timeout.
+// saying so, with a server_lost event (a named outcome for the runner), instead of hanging with
+// no error until its run timeout.
 TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
     RelayCluster cl(rollback::testing::make_scene(2, 10));
     add_two_players(cl, 50);
@@ -117,7 +118,9 @@ TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
     cl.run_for(2'000'000);
     for (int s = 0; s < 2; ++s) {
         expect_failed(cl, s, "silent");
-        EXPECT_EQ(count(cl.client(s), Kind::Disconnected), 1) << "slot " << s;
+        EXPECT_TRUE(cl.client(s).session->server_lost()) << "slot " << s;
+        EXPECT_EQ(count(cl.client(s), Kind::ServerLost), 1) << "slot " << s;
+        EXPECT_EQ(count(cl.client(s), Kind::Disconnected), 0) << "slot " << s;
     }
 }
 
