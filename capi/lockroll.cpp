@@ -135,6 +135,7 @@ lockroll_outcome to_c(net::RunOutcome o) {
         case net::RunOutcome::Failed: return LOCKROLL_FAILED;
         case net::RunOutcome::Stopped: return LOCKROLL_STOPPED;
         case net::RunOutcome::Partitioned: return LOCKROLL_PARTITIONED;
+        case net::RunOutcome::ServerLost: return LOCKROLL_SERVER_LOST;
     }
     return LOCKROLL_FAILED;
 }
@@ -160,6 +161,7 @@ lockroll_event_kind to_c(rollback::SessionEvent::Kind k) {
         case K::Failed: return LOCKROLL_EVENT_FAILED;
         case K::Draining: return LOCKROLL_EVENT_SERVER_DRAINING;
         case K::DesyncReport: return LOCKROLL_EVENT_DESYNC_REPORT;
+        case K::ServerLost: return LOCKROLL_EVENT_SERVER_LOST;
         default: return LOCKROLL_EVENT_OTHER;  // a kind newer than the C header
     }
 }
@@ -234,6 +236,7 @@ const char* lockroll_outcome_name(lockroll_outcome outcome) {
         case LOCKROLL_FAILED: return net::outcome_name(net::RunOutcome::Failed);
         case LOCKROLL_STOPPED: return net::outcome_name(net::RunOutcome::Stopped);
         case LOCKROLL_PARTITIONED: return net::outcome_name(net::RunOutcome::Partitioned);
+        case LOCKROLL_SERVER_LOST: return net::outcome_name(net::RunOutcome::ServerLost);
     }
     return "unknown";
 }

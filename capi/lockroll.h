@@ -80,7 +80,8 @@ typedef enum lockroll_outcome LOCKROLL_ENUM_TYPE {
     LOCKROLL_RUN_TIMEOUT = 4,     /* the last frame never shown within the run timeout */
     LOCKROLL_FAILED = 5,          /* the session failed (refused, kicked): see the failed event */
     LOCKROLL_STOPPED = 6,         /* lockroll_request_stop() */
-    LOCKROLL_PARTITIONED = 7      /* ended while cut off from a majority of the players */
+    LOCKROLL_PARTITIONED = 7,     /* ended while cut off from a majority of the players */
+    LOCKROLL_SERVER_LOST = 8      /* relay: the server went silent (killed or unreachable) */
 } lockroll_outcome;
 
 /* A slot's input for one frame, as advance() is told (one byte per player). */
@@ -111,6 +112,7 @@ typedef enum lockroll_event_kind LOCKROLL_ENUM_TYPE {
     LOCKROLL_EVENT_SERVER_DRAINING = 16,
     LOCKROLL_EVENT_DESYNC_REPORT = 17,    /* narrowing ended: frame: first differing frame; detail
                                              names body, field and the evidence file */
+    LOCKROLL_EVENT_SERVER_LOST = 18,      /* relay: the server went silent; detail: how long */
     LOCKROLL_EVENT_OTHER = 255            /* a kind newer than this header; detail names it */
 } lockroll_event_kind;
 

@@ -436,6 +436,7 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     if (outcome == net::RunOutcome::Completed && alone_since) detail += " alone since frame " + std::to_string(*alone_since);
     if (outcome == net::RunOutcome::Partitioned)
         detail += " since frame " + std::to_string(partitioned_since.value_or(0)) + " (heard no majority of the match; did not complete)";
+    if (outcome == net::RunOutcome::ServerLost) detail += ": " + session.failure();
     if (outcome == net::RunOutcome::Failed) {
         detail += ": " + session.failure();
         if (partitioned_since) detail += "; had been partitioned since frame " + std::to_string(*partitioned_since);
@@ -617,7 +618,8 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
     for (PlayerId s : session.local_slots()) bots.emplace_back(BotConfig{p.bot, p.o.seed, p.o.tick_rate, 4.0}, s);
     net::RelayRunner runner(runner_config(p, clock), p.server.host, p.server.port, session, enet, bot_input(bots, sim, rec), &rec);
     const net::RunOutcome outcome = run_with_signals(runner);
-    if (outcome == net::RunOutcome::Failed) log->error("session failed: {}", session.failure());
+    if (outcome == net::RunOutcome::Failed || outcome == net::RunOutcome::ServerLost)
+        log->error("session failed: {}", session.failure());
     const rollback::RelayStats& rs = session.relay_stats();
     json extra = {{"topology", "relay"},
                   {"local_slots", session.local_slots()},

@@ -25,6 +25,7 @@ const char* outcome_name(RunOutcome o) {
         case RunOutcome::Failed: return "failed";
         case RunOutcome::Stopped: return "stopped";
         case RunOutcome::Partitioned: return "partitioned";
+        case RunOutcome::ServerLost: return "server_lost";
     }
     return "?";
 }

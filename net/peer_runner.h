@@ -107,6 +107,8 @@ enum class RunOutcome {
     Partitioned,     // the run ended (timed out, or would have completed) while the session was
                      // cut off from a majority of the view: PeerRunner::partitioned_since() says
                      // from which frame. Never "completed": nobody agreed on its end.
+    ServerLost,      // relay: the server went silent past RelaySessionConfig::server_timeout_us
+                     // (killed or unreachable); the session failed, failure() says how long.
 };
 const char* outcome_name(RunOutcome o);
 

@@ -60,10 +60,7 @@ std::uint32_t RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.advance = session_.advance(input_bytes_, now);
     if (config_.catch_up_frames > 0 && session_.running() && session_.behind(now) > 0)
         caught_up_ += static_cast<std::uint64_t>(session_.catch_up(now, config_.catch_up_frames));
-    for (rollback::SessionEvent e; session_.next_event(e);) {
-        events_.push_back(e);
-        if (observer_) observer_->on_session_event(e);
-    }
+    drain_events();
     const auto max_extra = static_cast<std::uint64_t>(static_cast<double>(period_us_) * config_.max_stretch);
     const std::uint64_t extra =
         std::min(max_extra, period_us_ * static_cast<std::uint64_t>(std::max(0, report.advance.tick_stretch_ppm)) / 1000000u);
@@ -78,10 +75,18 @@ std::uint32_t RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
             held_.push_back(d.bytes);
         }
     }
+    drain_events();  // poll's too: the server's silence is found there, and ends the run at once
     report.length_us = period_us_ + extra;
     if (observer_) observer_->on_tick(report);
     ++ticks_;
     return report.advance.rollback_depth;
+}
+
+void RelayRunner::drain_events() {
+    for (rollback::SessionEvent e; session_.next_event(e);) {
+        events_.push_back(e);
+        if (observer_) observer_->on_session_event(e);
+    }
 }
 
 UpdateResult RelayRunner::update() {
@@ -105,7 +110,8 @@ UpdateResult RelayRunner::update() {
                               .running = session_.running(),
                               .shown_target = session_.frame() >= target,
                               .confirmed = session_.confirmed_frame() >= target &&
-                                           (spectator || session_.server_input_ack() >= target)};
+                                           (spectator || session_.server_input_ack() >= target),
+                              .server_lost = session_.server_lost()};
         });
     r.events = events_;
     return r;

@@ -57,6 +57,7 @@ public:
 private:
     void service(std::uint64_t now);
     std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled);
+    void drain_events();  // the session's events to events_ and the observer
 
     RunnerConfig config_;
     std::string host_;

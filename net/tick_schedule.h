@@ -101,6 +101,7 @@ struct TickStatus {
     bool shown_target = false;  // frame() reached config.target_frame
     bool confirmed = false;     // the runner's own "everyone confirmed the target" condition
     bool partitioned = false;   // cut off from a majority and not healed since (P2P only)
+    bool server_lost = false;   // failed because the relay server went silent (relay only)
 };
 
 // What a runner's tick tells the loop: how much longer the tick after it is (time-sync
@@ -165,7 +166,7 @@ public:
             ++r.frames;
             r.rollback_depth = std::max(r.rollback_depth, done.rollback_depth);
             const TickStatus s = status();
-            if (s.failed) return over(r, RunOutcome::Failed);
+            if (s.failed) return over(r, s.server_lost ? RunOutcome::ServerLost : RunOutcome::Failed);
             if (!started_us_) {
                 if (s.running) {
                     started_us_ = now;

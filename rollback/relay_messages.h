@@ -162,6 +162,9 @@ enum class RelayNoticeKind : std::uint8_t {
     Kicked = 4,     // you were disconnected; `frame` carries the reason code (RelayRefusal)
 };
 inline constexpr std::uint8_t kLastRelayNotice = 4;
+// A Desync notice's slot when no majority can settle the round (two voters that disagree): the
+// match ends for the client, there is nobody to reload from.
+inline constexpr std::uint8_t kRelayNoMajority = 255;
 
 struct RelayNotice {
     RelayNoticeKind kind = RelayNoticeKind::Desync;

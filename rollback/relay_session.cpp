@@ -344,14 +344,23 @@ void RelaySession::handle_notice(std::uint64_t now_us) {
             if (phase_ != SessionPhase::Running || n.frame < recover_after_) return;  // stale, or already reloading
             ++relay_stats_.desync_notices;
             ++stats_.desyncs;
+            const bool no_majority = n.slot == kRelayNoMajority;
             emit(SessionEvent::Kind::DesyncDetected, static_cast<PlayerId>(std::max(my_id_, 0)), n.frame, now_us,
-                 "the relay server found this client's checksum of frame " + std::to_string(n.frame) +
-                     " in the minority; reloading from slot " + std::to_string(n.slot));
+                 no_majority ? "the relay server found the two players' checksums of frame " + std::to_string(n.frame) +
+                                   " differ, with no majority to settle it"
+                             : "the relay server found this client's checksum of frame " + std::to_string(n.frame) +
+                                   " in the minority; reloading from slot " + std::to_string(n.slot));
             if (observer_) observer_->on_desync({static_cast<PlayerId>(n.slot), n.frame, 0, n.detail});
+            // The server's two-player rule (docs/relay.md): neither can be shown wrong, the match
+            // ends for both; a reload from the other could be a reload from a liar, for ever.
+            if (no_majority)
+                return fail("desync at frame " + std::to_string(n.frame) +
+                                ": two players disagree and no majority can settle it (the server's two-player rule "
+                                "ends the match)",
+                            now_us);
             if (recoveries_ >= config_.max_recoveries)
                 return fail("desync at frame " + std::to_string(n.frame) + " (the server's verdict) and no recovery left", now_us);
             ++recoveries_;
-            if (n.slot == RelayWelcome{}.snapshot_from) return fail("desync: no majority client to reload from", now_us);
             begin_transfer(n.slot, TransferReason::Recover, now_us);
             return;
         }
@@ -526,7 +535,8 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     const bool in_room = phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring;
     if (in_room && config_.server_timeout_us && last_server_us_ && now_us > last_server_us_ + config_.server_timeout_us) {
         const std::string why = "the relay server is silent for " + std::to_string((now_us - last_server_us_) / 1000) + " ms";
-        emit(SessionEvent::Kind::Disconnected, kRelayServerPeer, frame(), now_us, why);
+        emit(SessionEvent::Kind::ServerLost, kRelayServerPeer, frame(), now_us, why);
+        server_lost_ = true;
         pending_out_.clear();
         return fail(why, now_us);
     }

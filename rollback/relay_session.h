@@ -149,6 +149,8 @@ public:
     std::size_t local_input_size() const { return config_.input_size * std::max<std::size_t>(1, local_slots_.size()); }
     // The server holds this client's inputs of every frame before this.
     std::uint32_t server_input_ack() const { return server_ack_; }
+    // The session failed because the server went silent (server_timeout_us): ServerLost.
+    bool server_lost() const { return server_lost_; }
     // This client's id in the room (its slot, or players + place for a spectator).
     int room_id_slot() const { return my_id_; }
     std::uint64_t rtt_us() const { return link_.rtt_us(); }
@@ -199,6 +201,7 @@ private:
     std::uint64_t last_hello_us_ = 0;
     bool hello_sent_ = false;
     bool welcomed_ = false;
+    bool server_lost_ = false;  // failed on the server's silence (server_lost())
     std::uint64_t last_server_us_ = 0;  // the last datagram from the server (0: none yet)
     bool room_started_ = false;
     std::uint64_t started_us_ = 0;

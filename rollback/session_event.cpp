@@ -25,6 +25,7 @@ const char* event_name(SessionEvent::Kind k) {
         case K::Failed: return "failed";
         case K::Draining: return "server_draining";
         case K::DesyncReport: return "desync_report";
+        case K::ServerLost: return "server_lost";
     }
     return "unknown";
 }

@@ -40,6 +40,8 @@ struct SessionEvent {
         DesyncReport,    // net::NetSession only (the builder): narrowing ended; peer, frame: the
                          // first differing frame; detail: the summary (body and field when found)
                          // and the evidence file written (desync_report_dir), if any
+        ServerLost,      // relay: nothing from the server for server_timeout_us while in the room
+                         // (killed, or cut off); detail says how long. The session then fails.
     };
     Kind kind = Kind::Synchronizing;
     PlayerId peer = 0;        // the slot or peer id concerned

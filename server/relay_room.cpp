@@ -209,6 +209,7 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
         s.connected = true;
         s.client = fresh;
         s.incarnation = h.incarnation;
+        s.counters.minority_streak = 0;  // a new process: the old one's verdicts are not its own
         late = late || started_;
         const bool was_running = s.state == SlotState::Running;
         s.state = SlotState::Running;
@@ -551,11 +552,14 @@ void RelayRoom::report_checksum(int slot, std::uint32_t frame, std::uint64_t val
 void RelayRoom::decide(Check& c, Outbox& out) {
     decided_.push_back(c.frame);
     if (decided_.size() > kMaxPendingChecks) decided_.pop_front();
+    if (ended_without_majority_) return;  // the match is over: nothing left to settle
     // The value most slots report; on a tie, the one of the lowest slot among the tied values.
     int best_count = 0;
+    int voters = 0;
     std::uint64_t best = 0;
     for (int p = 0; p < players_; ++p) {
         if (!(c.have & (1u << p))) continue;
+        ++voters;
         int n = 0;
         for (int q = 0; q < players_; ++q)
             if ((c.have & (1u << q)) && c.value[static_cast<std::size_t>(q)] == c.value[static_cast<std::size_t>(p)]) ++n;
@@ -564,6 +568,30 @@ void RelayRoom::decide(Check& c, Outbox& out) {
             best = c.value[static_cast<std::size_t>(p)];
         }
     }
+    int running = 0;
+    for (int p = 0; p < players_; ++p)
+        if (is_primary(p) && slots_[static_cast<std::size_t>(p)].state == SlotState::Running) ++running;
+    const bool strict_majority = 2 * best_count > voters;
+    if (voters == 2 && running == 2 && !strict_majority &&
+        config_.two_player_desync == TwoPlayerDesync::EndMatch) {
+        // Neither can be shown wrong: reloading one from the other would let a liar make its
+        // honest peer reload for ever. Both are told, and the match ends for both.
+        ended_without_majority_ = true;
+        for (int p = 0; p < players_; ++p) {
+            if (!(c.have & (1u << p))) continue;
+            Slot& s = slots_[static_cast<std::size_t>(p)];
+            ++s.counters.desyncs;
+            verdicts_.emplace_back(c.frame, p);
+            if (!s.connected) continue;
+            RelayNotice n;
+            n.kind = RelayNoticeKind::Desync;
+            n.slot = rollback::kRelayNoMajority;
+            n.frame = c.frame;
+            n.detail = c.value[static_cast<std::size_t>(p)];
+            encode(n, out.add(s.client.connection, true).bytes);
+        }
+        return;
+    }
     int source = kNoSlot;
     for (int p = 0; p < players_; ++p)
         if ((c.have & (1u << p)) && c.value[static_cast<std::size_t>(p)] == best && slots_[static_cast<std::size_t>(p)].connected) {
@@ -571,11 +599,23 @@ void RelayRoom::decide(Check& c, Outbox& out) {
             break;
         }
     for (int p = 0; p < players_; ++p) {
-        if (!(c.have & (1u << p)) || c.value[static_cast<std::size_t>(p)] == best) continue;
+        if (!(c.have & (1u << p))) continue;
         Slot& s = slots_[static_cast<std::size_t>(p)];
+        if (c.value[static_cast<std::size_t>(p)] == best) {
+            s.counters.minority_streak = 0;
+            continue;
+        }
         ++s.counters.desyncs;
         verdicts_.emplace_back(c.frame, p);
         if (!s.connected) continue;
+        // A persistent liar is outvoted round after round; an honest client that drifted once
+        // reloads and agrees at the next round.
+        if (voters >= 3 && strict_majority && config_.max_minority_rounds > 0 &&
+            ++s.counters.minority_streak >= static_cast<std::uint32_t>(config_.max_minority_rounds)) {
+            s.counters.minority_streak = 0;
+            kicks_.push_back(s.client.connection);
+            continue;
+        }
         RelayNotice n;
         n.kind = RelayNoticeKind::Desync;
         n.slot = static_cast<std::uint8_t>(source);
@@ -583,6 +623,11 @@ void RelayRoom::decide(Check& c, Outbox& out) {
         n.detail = best;
         encode(n, out.add(s.client.connection, true).bytes);
     }
+}
+
+void RelayRoom::take_kicks(std::vector<ConnectionId>& out) {
+    out.insert(out.end(), kicks_.begin(), kicks_.end());
+    kicks_.clear();
 }
 
 bool RelayRoom::confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const {

@@ -21,8 +21,17 @@
 //    every frame after it from the room.
 //  - Checksums: clients report confirmed checksums of multiples of checksum_interval. Once every
 //    running slot reported a frame (or checksum_timeout_frames later), the majority value wins;
-//    a slot in the minority is sent a Desync notice naming a majority slot to reload from. Two
-//    slots that disagree: the lower slot is taken as right.
+//    a slot in the minority is sent a Desync notice naming a majority slot to reload from.
+//    No majority between two voters (a round whose only two reports disagree, in a room of two
+//    running connections): RoomConfig::two_player_desync decides. EndMatch (the default): both
+//    are sent a Desync notice naming kRelayNoMajority, and fail "no majority"; the room decides
+//    no more rounds. KeepLowestSlot: P2P's DesyncKeep::LowestSlot, the higher slot reloads from
+//    the lower. Three or more voters split with no strict majority: the lowest slot's group.
+//  - Liars: a connection in the minority against a strict majority (3+ voters) in
+//    max_minority_rounds decided rounds in a row is handed to the server to kick
+//    (take_kicks()). Its streak restarts at 0 when a decided round finds it with the winning
+//    value, and when its slot is bound to a new process; `desyncs` counts every verdict and
+//    never resets.
 //  - Joins: a hello for an absent or departed slot (or a held slot whose connection has been
 //    silent for replace_silent_us: a restarted process) binds it with a handoff frame a little
 //    ahead of the clock; its inputs count from there. Spectators take places after the slots.
@@ -55,6 +64,12 @@ namespace lockroll::server {
 
 using rollback::RelayRefusal;
 
+// Two voters whose checksums disagree: neither is a majority (contract below, docs/relay.md).
+enum class TwoPlayerDesync : std::uint8_t {
+    EndMatch,        // both are told no majority can settle it: the match ends for both
+    KeepLowestSlot,  // P2P's DesyncKeep::LowestSlot: the higher slot reloads from the lower
+};
+
 struct RoomConfig {
     int input_deadline = 8;                 // ticks past a frame's time before inputs are replaced
     int checksum_interval = 60;             // frames; 0: no arbitration
@@ -65,6 +80,8 @@ struct RoomConfig {
     std::uint64_t silence_drop_us = 5'000'000;   // a slot silent this long has left
     std::uint64_t replace_silent_us = 1'000'000; // a held slot may be taken over after this silence
     int handoff_ticks = 30;                 // a joiner's inputs start this far ahead of the clock
+    TwoPlayerDesync two_player_desync = TwoPlayerDesync::EndMatch;  // two voters disagree: what then
+    int max_minority_rounds = 3;            // rounds in a row in the minority before the kick (0: never)
 };
 
 // Per slot, for tests, the log and reports.
@@ -73,7 +90,8 @@ struct SlotCounters {
     std::uint64_t replaced = 0;         // frames confirmed with its input replaced
     std::uint64_t late = 0;             // inputs that arrived after their frame was confirmed
     std::uint64_t out_of_window = 0;    // inputs for frames too far ahead
-    std::uint64_t desyncs = 0;          // times it was in the checksum minority
+    std::uint64_t desyncs = 0;          // times it was in the checksum minority (never reset)
+    std::uint32_t minority_streak = 0;  // decided rounds in a row in the minority of a strict majority
 };
 
 class RelayRoom {
@@ -129,6 +147,10 @@ public:
     std::size_t history_frames() const { return history_.size(); }
     // Verdicts so far: (frame, odd slot).
     const std::vector<std::pair<std::uint32_t, int>>& desync_verdicts() const { return verdicts_; }
+    // A round of two disagreeing voters ended the match (TwoPlayerDesync::EndMatch).
+    bool ended_without_majority() const { return ended_without_majority_; }
+    // Connections in the minority max_minority_rounds in a row since the last call, to kick.
+    void take_kicks(std::vector<ConnectionId>& out);
     // The confirmed input set of a frame still in the history: flags then inputs.
     bool confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const;
 
@@ -220,6 +242,8 @@ private:
     std::deque<Check> checks_;
     std::deque<std::uint32_t> decided_;  // frames of the latest decided rounds
     std::vector<std::pair<std::uint32_t, int>> verdicts_;
+    bool ended_without_majority_ = false;
+    std::vector<ConnectionId> kicks_;  // liars found by decide(), for take_kicks()
     // decode / encode scratch
     rollback::RelayInput in_;
     rollback::RelayForward fwd_;

@@ -153,9 +153,7 @@ void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::
     const bool was_pending = r->second->frames_pending();
     if (const char* e = r->second->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
     if (!was_pending && r->second->frames_pending()) pending_rooms_.push_back(conn.room);
-    const auto& v = r->second->desync_verdicts();
-    for (std::size_t i = verdicts; i < v.size(); ++i)
-        emit({ServerEvent::Kind::Desync, conn.room, v[i].second, v[i].first, c, "checksum in the minority"});
+    report_verdicts(*r->second, conn.room, verdicts, now_us);
     if (!was_started && r->second->started()) {
         emit({ServerEvent::Kind::RoomStarted, conn.room, -1, 0, c, {}});
         schedule(conn.room, r->second->next_tick_us());
@@ -297,6 +295,21 @@ void RelayServer::tick(std::uint64_t now_us) {
     }
 }
 
+void RelayServer::report_verdicts(RelayRoom& room, std::uint64_t id, std::size_t from, std::uint64_t now_us) {
+    const auto& v = room.desync_verdicts();
+    for (std::size_t i = from; i < v.size(); ++i) {
+        ConnectionId c = 0;
+        room.holder(v[i].second, c);
+        emit({ServerEvent::Kind::Desync, id, v[i].second, v[i].first, c,
+              room.ended_without_majority() ? "two players disagree, no majority: the match ends"
+                                            : "checksum in the minority"});
+    }
+    liars_.clear();
+    room.take_kicks(liars_);
+    for (ConnectionId c : liars_)
+        if (auto it = connections_.find(c); it != connections_.end()) kick(c, it->second, "checksum in the minority round after round", now_us);
+}
+
 void RelayServer::schedule(std::uint64_t id, std::uint64_t due_us) {
     auto [it, fresh] = room_due_.try_emplace(id, due_us);
     if (!fresh) {
@@ -313,7 +326,9 @@ void RelayServer::service_room(std::uint64_t id, std::uint64_t due, std::uint64_
     auto r = rooms_.find(id);
     if (r == rooms_.end()) return;
     RelayRoom& room = *r->second;
+    const std::size_t verdicts = room.desync_verdicts().size();
     room.tick(now_us, out_);
+    report_verdicts(room, id, verdicts, now_us);
     silent_.clear();
     room.silent_connections(now_us, silent_);
     for (ConnectionId c : silent_) {

@@ -164,6 +164,8 @@ private:
     // None, or why the hello's connect token does not admit it (fills grant_, tag_).
     RelayRefusal check_token(ConnectionId c, const rollback::RelayHello& h, std::uint64_t now_us);
     void bad(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
+    // Emits the room's verdicts from index `from` on and kicks the liars it found.
+    void report_verdicts(RelayRoom& room, std::uint64_t id, std::size_t from, std::uint64_t now_us);
     void kick(ConnectionId c, Connection& conn, const char* why, std::uint64_t now_us);
     void refuse(ConnectionId c, RelayRefusal why, const rollback::RelayHello& h);
     void collect(RelayRoom& room);
@@ -189,6 +191,7 @@ private:
     // Connections not bound yet, in connection order, for the hello timeout: (id, connected_us).
     std::deque<std::pair<ConnectionId, std::uint64_t>> unbound_;
     std::vector<ConnectionId> silent_;
+    std::vector<ConnectionId> liars_;  // report_verdicts() scratch
     std::vector<std::uint64_t> pending_rooms_;  // rooms with confirmed frames not broadcast yet
     Outbox out_;
     std::deque<ConnectionId> kicks_;

@@ -1,6 +1,7 @@
 #include "server/server_cli.h"
 
 #include <memory>
+#include <string>
 #include <stdexcept>
 
 #include "server/connect_token.h"
@@ -27,6 +28,19 @@ void add_server_options(CLI::App& cmd) {
         ->capture_default_str();
     cmd.add_option("--checksum-interval", o->server.room.checksum_interval, "Arbitrate confirmed checksums every K frames (0: off)")
         ->check(CLI::Range(0, 65535))
+        ->capture_default_str();
+    cmd.add_option_function<std::string>(
+           "--two-player-desync",
+           [o](const std::string& v) {
+               o->server.room.two_player_desync = v == "end" ? TwoPlayerDesync::EndMatch : TwoPlayerDesync::KeepLowestSlot;
+           },
+           "Two players whose checksums disagree (no majority): end (the match ends for both) or keep-lowest (P2P's "
+           "DesyncKeep::LowestSlot: the higher slot reloads from the lower)")
+        ->check(CLI::IsMember({"end", "keep-lowest"}))
+        ->default_str("end");
+    cmd.add_option("--max-minority-rounds", o->server.room.max_minority_rounds,
+                   "Checksum rounds in a row a client may be outvoted by a majority (3+ voters) before it is kicked (0: never)")
+        ->check(CLI::Range(0, 1000))
         ->capture_default_str();
     cmd.add_option("--history-s", o->server.room.history_s, "Seconds of confirmed input history kept per room (late join, reconnect)")
         ->check(CLI::Range(1.0, 86400.0))

@@ -123,6 +123,8 @@ TEST(CApi, EventNamesFollowTheEnumerators) {
     EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_OTHER), "other");
     EXPECT_STREQ(lockroll_outcome_name(LOCKROLL_COMPLETED), "completed");
     EXPECT_STREQ(lockroll_outcome_name(LOCKROLL_RUNNING), "running");
+    EXPECT_STREQ(lockroll_outcome_name(LOCKROLL_SERVER_LOST), "server_lost");
+    EXPECT_STREQ(lockroll_event_name(LOCKROLL_EVENT_SERVER_LOST), "server_lost");
     EXPECT_STREQ(lockroll_version(), "0.2.0");
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <functional>
 #include <vector>
 
 #include "net/tick_schedule.h"
@@ -92,6 +93,7 @@ TEST(RunEnd, AHealedPartitionCompletesAsUsual) {
 TEST(RunEnd, EveryOutcomeHasAName) {
     EXPECT_STREQ(outcome_name(RunOutcome::Partitioned), "partitioned");
     EXPECT_STREQ(outcome_name(RunOutcome::Completed), "completed");
+    EXPECT_STREQ(outcome_name(RunOutcome::ServerLost), "server_lost");
 }
 
 // A game loop of `hz` frames a second driving a TickLoop at 60 ticks a second, in virtual time:
@@ -190,6 +192,33 @@ TEST(TickLoop, StopAndConnectTimeoutEndTheRunOnce) {
     EXPECT_NEAR(static_cast<double>(waiting.updates.size()) / 60.0, 2.0, 0.1);
 }
 
+// Updates `loop` once a tick from `now` until its run is over (at most 200 updates), each tick
+// counted in `ticks`; the outcome, if it came.
+std::optional<RunOutcome> update_until_over(TickLoop& loop, std::uint64_t& now, int& ticks, const std::function<TickStatus()>& status) {
+    std::atomic<bool> stop{false};
+    std::optional<RunOutcome> o;
+    for (int i = 0; i < 200 && !o; ++i, now += kTick)
+        o = loop.update([&] { return now; }, stop, nullptr, [](std::uint64_t) { return true; },
+                        [&](std::uint64_t, std::uint64_t) { return ++ticks, TickDone{}; }, status)
+                .outcome;
+    return o;
+}
+
+// A failed session ends the run Failed, or ServerLost when it failed on the relay server's
+// silence: the outcome names a dead server.
+TEST(TickLoop, AFailureOnTheServersSilenceIsServerLost) {
+    const RunnerConfig c = config();  // the loop keeps a reference to it
+    TickLoop failed(c), lost(c);
+    std::uint64_t now = kStart;
+    int ticks = 0;
+    EXPECT_EQ(update_until_over(failed, now, ticks, [&] { return TickStatus{.failed = ticks >= 5, .running = true}; }),
+              RunOutcome::Failed);
+    ticks = 0;
+    EXPECT_EQ(update_until_over(lost, now, ticks,
+                                [&] { return TickStatus{.failed = ticks >= 5, .running = true, .server_lost = ticks >= 5}; }),
+              RunOutcome::ServerLost);
+}
+
 TEST(TickLoop, ARunThatIsOverStaysOver) {
     RunnerConfig c = config();
     c.target_frame = 10;
@@ -197,12 +226,8 @@ TEST(TickLoop, ARunThatIsOverStaysOver) {
     std::atomic<bool> stop{false};
     std::uint64_t now = kStart;
     int ticks = 0;
-    std::optional<RunOutcome> first;
-    for (int i = 0; i < 200 && !first; ++i, now += kTick)
-        first = loop.update([&] { return now; }, stop, nullptr, [](std::uint64_t) { return true; },
-                            [&](std::uint64_t, std::uint64_t) { return ++ticks, TickDone{}; },
-                            [&] { return TickStatus{.running = true, .shown_target = ticks >= 10, .confirmed = ticks >= 10}; })
-                    .outcome;
+    const std::optional<RunOutcome> first = update_until_over(
+        loop, now, ticks, [&] { return TickStatus{.running = true, .shown_target = ticks >= 10, .confirmed = ticks >= 10}; });
     ASSERT_TRUE(first);
     EXPECT_EQ(*first, RunOutcome::Completed);
     const int at_end = ticks;

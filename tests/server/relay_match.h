@@ -44,6 +44,7 @@ struct RelayClient : rollback::SessionObserver {
     std::uint64_t longest_stall_us = 0, last_advance_us = 0;
     bool alive = true;
     bool frozen = false;  // sends nothing, ticks nothing (a hung process)
+    bool lies = false;    // a modified client: every checksum it reports is flipped on the way out
     int catch_ups = 0;
 };
 
@@ -143,12 +144,24 @@ private:
             for (rollback::SessionEvent e; cl.session->next_event(e);) cl.events.push_back(e);
             out_.clear();
             cl.session->poll(now_, out_);
-            for (auto& d : out_) cl.up_net.send(0, 1, std::move(d.bytes), now_);
+            for (auto& d : out_) {
+                if (cl.lies) lie(cl, d.bytes);
+                cl.up_net.send(0, 1, std::move(d.bytes), now_);
+            }
             const std::uint64_t period = 1000000 / static_cast<std::uint64_t>(cl.session->config().tick_rate);
             const std::uint64_t stretched = period + period * static_cast<std::uint64_t>(r.tick_stretch_ppm) / 1000000;
             cl.next_tick_us += stretched * cl.period_ppm / 1000000;
             if (cl.next_tick_us <= now_) cl.next_tick_us = now_ + 1;
         }
+    }
+    // Rewrites an Input datagram with every checksum it reports flipped (its state stays honest).
+    void lie(RelayClient& cl, std::vector<std::uint8_t>& bytes) {
+        if (rollback::peek_relay_kind(bytes) != rollback::RelayKind::Input) return;
+        const std::size_t input_size = cl.session->config().input_size;
+        if (rollback::decode(bytes, input_size, lie_) != nullptr || lie_.checksum_count == 0) return;
+        for (int i = 0; i < lie_.checksum_count; ++i) lie_.checksums[i] = ~lie_.checksums[i];
+        bytes.clear();
+        rollback::encode(lie_, input_size, bytes);
     }
     void flush_server() {
         sent_.clear();
@@ -172,6 +185,7 @@ private:
     std::vector<rollback::Datagram> out_;
     std::vector<std::uint8_t> in_;  // a client's local input: 3 bytes per local slot
     std::vector<Outgoing> sent_;
+    rollback::RelayInput lie_;
     std::map<ConnectionId, std::uint64_t> kicked_;
 };
 

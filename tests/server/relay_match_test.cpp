@@ -32,6 +32,13 @@ int count(const testing::RelayClient& c, Kind k) {
     return n;
 }
 
+// Client i's session failed, its failure naming `why`.
+void expect_failed(RelayCluster& cl, int i, const char* why) {
+    const auto& c = cl.client(i);
+    EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "client " << i;
+    EXPECT_NE(c.session->failure().find(why), std::string::npos) << "client " << i << ": " << c.session->failure();
+}
+
 // Every listed client confirmed `frame`, all with one checksum.
 void expect_equal_at(RelayCluster& cl, std::initializer_list<int> who, std::uint32_t frame) {
     std::optional<std::uint64_t> first;
@@ -99,7 +106,8 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
 }
 
 // The server dies and nothing comes back: each client fails within its server timeout (5 s),
-// saying so, instead of hanging with no error until its run timeout.
+// saying so, with a server_lost event (a named outcome for the runner), instead of hanging with
+// no error until its run timeout.
 TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
     RelayCluster cl(rollback::testing::make_scene(2, 10));
     add_two_players(cl, 50);
@@ -109,10 +117,10 @@ TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
     for (int s = 0; s < 2; ++s) EXPECT_NE(cl.client(s).session->phase(), rollback::SessionPhase::Failed);
     cl.run_for(2'000'000);
     for (int s = 0; s < 2; ++s) {
-        const auto& c = cl.client(s);
-        EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "slot " << s;
-        EXPECT_NE(c.session->failure().find("silent"), std::string::npos) << c.session->failure();
-        EXPECT_EQ(count(c, Kind::Disconnected), 1) << "slot " << s;
+        expect_failed(cl, s, "silent");
+        EXPECT_TRUE(cl.client(s).session->server_lost()) << "slot " << s;
+        EXPECT_EQ(count(cl.client(s), Kind::ServerLost), 1) << "slot " << s;
+        EXPECT_EQ(count(cl.client(s), Kind::Disconnected), 0) << "slot " << s;
     }
 }
 
@@ -145,6 +153,7 @@ TEST(RelayMatch, FrozenPlayerIsReplacedThenDroppedAndTheOthersGoOn) {
 TEST(RelayMatch, RecoveryFromASourceThatNeverServesEnds) {
     ServerConfig sc;
     sc.room.silence_drop_us = 120'000'000;  // the hung source keeps its slot
+    sc.room.two_player_desync = TwoPlayerDesync::KeepLowestSlot;  // slot 1 reloads from slot 0
     RelayCluster cl(rollback::testing::make_scene(2, 10), sc);
     add_two_players(cl, 60);
     ASSERT_TRUE(cl.run_until_frame(100));
@@ -309,6 +318,58 @@ TEST(RelayMatch, ServerNamesTheOddClientWhichReloadsTheMajorityState) {
     EXPECT_EQ(count(cl.client(1), Kind::DesyncRecovered), 1);
     EXPECT_EQ(count(cl.client(0), Kind::DesyncDetected), 0);
     expect_equal_at(cl, {0, 1, 2}, 600);
+}
+
+// Two players, slot 0 a liar (its state is honest, its reported checksums are not): no
+// majority can tell who is right. Under the server's two-player rule both clients fail once,
+// saying so, within a checkpoint of the lie; before it, the honest slot 1 reloaded from the
+// liar at every checkpoint until its recoveries ran out, and the liar played on untouched.
+TEST(RelayMatch, TwoPlayerLiarEndsTheMatchForBothWithNoEndlessReload) {
+    ServerConfig sc;
+    sc.room.checksum_interval = 30;
+    RelayCluster cl(rollback::testing::make_scene(2, 10), sc);
+    add_two_players(cl, 60);
+    cl.client(0).lies = true;
+    EXPECT_FALSE(cl.run_until_frame(600));  // ends early: a client failed
+    cl.run_for(1'000'000);
+    for (int s = 0; s < 2; ++s) {
+        const auto& c = cl.client(s);
+        expect_failed(cl, s, "no majority");
+        EXPECT_EQ(count(c, Kind::DesyncRecovered), 0) << "slot " << s;
+        EXPECT_LT(c.session->frame(), 120u) << "slot " << s;  // the first checkpoint (30) ended it
+    }
+    const RelayRoom* room = cl.server().room(42);
+    if (room) {
+        EXPECT_TRUE(room->ended_without_majority());
+    }
+}
+
+// Three players, slot 2 a persistent liar: outvoted at every checkpoint, it is kicked at the
+// third round in a row; the two honest clients are never told anything and play on equal.
+TEST(RelayMatch, PersistentLiarOfThreeIsKickedAndTheOthersPlayOn) {
+    ServerConfig sc;
+    sc.room.checksum_interval = 30;
+    RelayCluster cl(rollback::testing::make_scene(3, 20), sc);
+    const rollback::testing::NetParams link{10000, 1000, 0, 0, 0};
+    for (int s = 0; s < 3; ++s) cl.add(player(3, s), link, 70 + static_cast<std::uint64_t>(s));
+    cl.client(2).lies = true;
+    const ConnectionId liar = cl.client(2).connection;
+    for (int i = 0; i < 300 && std::min(cl.client(0).session->frame(), cl.client(1).session->frame()) < 600; ++i) {
+        cl.run_for(100'000);
+        if (cl.kicked(liar)) cl.kill(2);
+    }
+    EXPECT_GT(cl.kicked(liar), 0u);
+    bool named = false;
+    for (const auto& e : cl.server_events)
+        named = named || (e.kind == ServerEvent::Kind::Kicked && e.connection == liar &&
+                          e.detail.find("minority") != std::string::npos);
+    EXPECT_TRUE(named);
+    for (int s = 0; s < 2; ++s) {
+        EXPECT_GE(cl.client(s).session->frame(), 600u) << "slot " << s;
+        EXPECT_EQ(count(cl.client(s), Kind::DesyncDetected), 0) << "slot " << s;
+        EXPECT_EQ(cl.kicked(cl.client(s).connection), 0u) << "slot " << s;
+    }
+    expect_equal_at(cl, {0, 1}, 540);
 }
 
 }  // namespace

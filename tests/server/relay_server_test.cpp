@@ -3,6 +3,7 @@
 // the rest of rollback/.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <vector>
 
@@ -82,6 +83,11 @@ protected:
                 ASSERT_EQ(decode(o.bytes, w), nullptr);
                 welcomes[o.to].push_back(w);
             }
+            if (peek_relay_kind(o.bytes) == RelayKind::Notice) {
+                RelayNotice n;
+                ASSERT_EQ(decode(o.bytes, n), nullptr);
+                notices[o.to].push_back(n);
+            }
             sent[o.to] += 1;
         }
         for (ConnectionId k; server->next_kick(k);) {
@@ -115,7 +121,48 @@ protected:
     std::uint64_t now = 1'000'000;
     std::map<ConnectionId, std::vector<RelayWelcome>> welcomes;
     std::map<ConnectionId, int> sent;
+    std::map<ConnectionId, std::vector<RelayNotice>> notices;
     std::vector<ConnectionId> kicked;
+
+    // Connection c reports `value` as its checksum of `frame`.
+    void report(ConnectionId c, std::uint32_t frame, std::uint64_t value) {
+        RelayInput m;
+        m.confirmed_ack = frame;
+        m.checksum_count = 1;
+        m.checksum_frames[0] = frame;
+        m.checksums[0] = value;
+        std::vector<std::uint8_t> b;
+        encode(m, 2, b);
+        send(c, b);
+    }
+    // One checkpoint round of start_three()'s room: connections 1 and 2 report `frame` as the
+    // checksum of `frame`, connection 3 reports `third`.
+    void three_report(std::uint32_t frame, std::uint64_t third) {
+        report(1, frame, frame);
+        report(2, frame, frame);
+        report(3, frame, third);
+    }
+    // Every connection of `conns` sends its inputs of frames [first, first + count).
+    void play(const std::vector<ConnectionId>& conns, std::uint32_t first, int count) {
+        for (ConnectionId c : conns) inputs(c, first, 1, count, first);
+    }
+    int desync_notices(ConnectionId c) const {
+        auto it = notices.find(c);
+        if (it == notices.end()) return 0;
+        return static_cast<int>(std::count_if(it->second.begin(), it->second.end(),
+                                              [](const RelayNotice& n) { return n.kind == RelayNoticeKind::Desync; }));
+    }
+    // Room 7 of 3 players on connections 1, 2, 3, started, with checkpoints every 2 frames.
+    void start_three(ServerConfig c) {
+        c.room.checksum_interval = 2;
+        server = std::make_unique<RelayServer>(c);
+        for (ConnectionId k = 1; k <= 3; ++k) {
+            connect(k);
+            hello(k, 7, static_cast<int>(k - 1), RelayRole::Player, 3);
+        }
+        drain();
+        ASSERT_TRUE(server->room(7)->started());
+    }
 };
 
 TEST_F(Server, FrameIsConfirmedWhenAllInputsAreInOrAtTheDeadline) {
@@ -263,6 +310,7 @@ TEST_F(Server, ARestartedCouchTakesBackAllItsSlots) {
 TEST_F(Server, ChecksumsAreOneVotePerConnection) {
     ServerConfig c = config();
     c.room.checksum_interval = 2;
+    c.room.two_player_desync = TwoPlayerDesync::KeepLowestSlot;  // two voters: P2P's lowest-slot rule
     server = std::make_unique<RelayServer>(c);
     start_couch_room();
     records(1, 0x3, 0, 0x10, 2);
@@ -281,11 +329,103 @@ TEST_F(Server, ChecksumsAreOneVotePerConnection) {
     report(2, 0xBBBB);
     EXPECT_TRUE(server->room(7)->desync_verdicts().empty());  // the couch has not reported
     report(1, 0xAAAA);
+    EXPECT_FALSE(server->room(7)->ended_without_majority());
     // Decided on two reports (not three); one against one: the lower slot (0) is taken as right.
     const auto& v = server->room(7)->desync_verdicts();
     ASSERT_EQ(v.size(), 1u);
     EXPECT_EQ(v[0].first, 2u);
     EXPECT_EQ(v[0].second, 2);
+}
+
+// Two players, a liar in slot 0: no majority can say who is right. Under the default rule both
+// are told so (no slot to reload from) and the match ends for both, once: no endless reload of
+// the honest slot from the liar, no later verdicts.
+TEST_F(Server, TwoPlayersWhoDisagreeEndTheMatchForBoth) {
+    ServerConfig c = config();
+    c.room.checksum_interval = 2;
+    server = std::make_unique<RelayServer>(c);
+    start_room(7, 1, 2);
+    play({1, 2}, 0, 8);
+    ASSERT_EQ(server->room(7)->confirmed_frames(), 8u);
+    report(1, 2, 0xBAD);
+    report(2, 2, 0x600D);
+    for (std::uint32_t f = 4; f <= 8; f += 2) {  // the liar goes on lying
+        report(1, f, 0xBAD + f);
+        report(2, f, 0x600D + f);
+    }
+    drain();
+    EXPECT_TRUE(server->room(7)->ended_without_majority());
+    for (ConnectionId k : {1u, 2u}) {
+        ASSERT_EQ(desync_notices(k), 1) << "connection " << k;
+        EXPECT_EQ(notices[k][0].slot, kRelayNoMajority);
+        EXPECT_EQ(notices[k][0].frame, 2u);
+    }
+    EXPECT_EQ(server->room(7)->desync_verdicts().size(), 2u);
+    EXPECT_EQ(server->counters().kicks, 0u);
+}
+
+// The rule P2P uses by default (DesyncKeep::LowestSlot): slot 1 reloads from slot 0.
+TEST_F(Server, TwoPlayersUnderKeepLowestSlotReloadTheHigherSlot) {
+    ServerConfig c = config();
+    c.room.checksum_interval = 2;
+    c.room.two_player_desync = TwoPlayerDesync::KeepLowestSlot;
+    server = std::make_unique<RelayServer>(c);
+    start_room(7, 1, 2);
+    play({1, 2}, 0, 4);
+    report(1, 2, 0xBAD);
+    report(2, 2, 0x600D);
+    drain();
+    EXPECT_FALSE(server->room(7)->ended_without_majority());
+    EXPECT_EQ(desync_notices(1), 0);
+    ASSERT_EQ(desync_notices(2), 1);
+    EXPECT_EQ(notices[2][0].slot, 0);
+}
+
+// Three players, slot 2 lying at every checkpoint: it is told twice, then kicked at the third
+// round in a row (max_minority_rounds); the honest two are never told anything.
+TEST_F(Server, APersistentLiarOfThreeIsKicked) {
+    start_three(config());
+    play({1, 2, 3}, 0, 8);
+    for (std::uint32_t f = 2; f <= 6; f += 2) {
+        three_report(f, 0xBAD);
+        drain();
+        EXPECT_EQ(was_kicked(3), f == 6) << "frame " << f;
+    }
+    EXPECT_EQ(desync_notices(3), 2);
+    EXPECT_EQ(desync_notices(1) + desync_notices(2), 0);
+    EXPECT_FALSE(was_kicked(1) || was_kicked(2));
+    EXPECT_EQ(server->room(7)->slot_counters(2).desyncs, 3u);
+}
+
+// An honest client that drifts now and then reloads and agrees at the next round: its streak
+// resets there, so it is never kicked however many single verdicts it collects.
+TEST_F(Server, AnOccasionalMinorityIsNotKickedItsStreakResets) {
+    start_three(config());
+    play({1, 2, 3}, 0, 40);
+    for (std::uint32_t f = 2; f <= 40; f += 2) {
+        const bool odd_one_out = (f / 2) % 3 != 0;  // two rounds in the minority, then one agreeing
+        three_report(f, odd_one_out ? 0xBAD : f);
+        drain();
+        EXPECT_EQ(server->room(7)->slot_counters(2).minority_streak, odd_one_out ? (f / 2) % 3 : 0u) << "frame " << f;
+    }
+    EXPECT_FALSE(was_kicked(3));
+    EXPECT_EQ(server->room(7)->slot_counters(2).desyncs, 14u);  // every verdict still counts
+}
+
+// A restarted process taking the slot over starts with no streak: the old one's verdicts are not its.
+TEST_F(Server, ARestartedProcessStartsWithNoMinorityStreak) {
+    start_three(config());
+    play({1, 2, 3}, 0, 8);
+    three_report(2, 0xBAD);
+    three_report(4, 0xBAD);
+    drain();
+    ASSERT_EQ(server->room(7)->slot_counters(2).minority_streak, 2u);
+    advance(1'100'000);  // slot 2 silent past replace_silent_us; the others keep talking
+    connect(4);
+    hello(4, 7, 2, RelayRole::Player, 3, 99);
+    drain();
+    ASSERT_EQ(last_refusal(4), RelayRefusal::None);
+    EXPECT_EQ(server->room(7)->slot_counters(2).minority_streak, 0u);
 }
 
 TEST_F(Server, ASecondRoomIsCreatedByItsFirstHelloAndParametersMustMatch) {
