@@ -196,12 +196,13 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
         // gridded box. A neighbour out of reach holds no pair, so skipping it changes nothing.
         // Only y and z need it: the runs below span x - 1 .. x + 1 whole. The cell's coordinates
         // are any of its bodies' (the first one's), with no division.
-        i128 up_edge[3] = {}, down_edge[3] = {};
+        // Saturating the edges to int64 can only add reach (extra tests), never lose a pair.
+        std::int64_t up_edge[3] = {}, down_edge[3] = {};
         for (int k = 1; k < 3; ++k) {
             const std::int64_t interior = coord(sorted_box_[here.start], k) - 1;
             const i128 lower = static_cast<i128>(origin_[k] + interior) << cell_shift_;
-            up_edge[k] = lower + (i128{1} << cell_shift_);
-            down_edge[k] = lower + widest_;
+            up_edge[k] = sat(lower + (i128{1} << cell_shift_));
+            down_edge[k] = sat(lower + widest_);
         }
         // The 13 forward neighbours are the next cell along x plus four rows of three cells
         // (x - 1, x, x + 1). Cells are sorted by linear index, so each row's bodies are one
@@ -249,8 +250,8 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
             scan(s + 1, row_end);
             unsigned reach = 0;
             for (int k = 1; k < 3; ++k) {
-                if (static_cast<i128>(ba.hi[k]) >= up_edge[k]) reach |= 1u << k;
-                if (static_cast<i128>(ba.lo[k]) < down_edge[k]) reach |= 8u << k;
+                reach |= static_cast<unsigned>(ba.hi[k] >= up_edge[k]) << k;
+                reach |= static_cast<unsigned>(ba.lo[k] < down_edge[k]) << (3 + k);
             }
             for (int r = 0; r < 4; ++r) {
                 if ((kRowNeed[r] & ~reach) == 0) scan(rows[r].start, rows[r].start + rows[r].count);
@@ -260,10 +261,11 @@ void Broadphase::grid(std::vector<BodyPair>& out) {
     }
     // The canonical order (docs/determinism.md): blocks by ascending body id. It is the order a
     // walk over the bodies by id produces, so the walk's order of memory accesses is free.
-    out.reserve(out.size() + used);
+    std::size_t at = out.size();
+    out.resize(at + used);
     for (BodyId a : gridded_) {
         const Block b = block_[a];
-        out.insert(out.end(), scratch_.begin() + b.begin, scratch_.begin() + b.begin + b.size);
+        for (std::uint32_t i = 0; i < b.size; ++i) out[at++] = scratch_[b.begin + i];
     }
 }
 
