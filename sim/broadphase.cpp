@@ -70,16 +70,18 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
     };
     for (BodyId id : dynamic_) grow(make_box(pos[id], extent[id], margin.raw));
     for (BodyId id : static_) grow(make_box(pos[id], extent[id], 0));
-    // Coarsen until the grid has at most ~16 cells per body (memory and clearing cost).
+    // Coarsen until the grid has at most ~64 cells per body (memory), and the padded linear
+    // cell index fits the 32 bits it has in a sort key.
     const std::uint64_t max_cells = std::max<std::uint64_t>(4096, 64 * gridded_.size());
     for (;;) {
-        std::uint64_t cells = 1;
+        std::uint64_t cells = 1, padded = 1;
         for (int k = 0; k < 3; ++k) {
             origin_[k] = bounds.lo[k] >> cell_shift_;
             dims_[k] = (bounds.hi[k] >> cell_shift_) - origin_[k] + 1;
             cells *= static_cast<std::uint64_t>(dims_[k]);
+            padded *= static_cast<std::uint64_t>(dims_[k] + 2);
         }
-        if (cells <= max_cells || cell_shift_ >= 62) break;
+        if ((cells <= max_cells && padded <= UINT32_MAX) || cell_shift_ >= 62) break;
         ++cell_shift_;
     }
     const std::int64_t px = dims_[0] + 2, py = dims_[1] + 2, pz = dims_[2] + 2;  // with the border

@@ -75,13 +75,13 @@ private:
     std::int64_t dims_[3] = {1, 1, 1};    // interior cells per axis (the border comes on top)
     std::int64_t stride_y_ = 0, stride_z_ = 0;
     i128 widest_ = 0;  // widest fattened box (hi - lo) of a gridded body, any axis
-    int key_bits_ = 0;  // bits of the largest linear cell index (radix sort passes)
+    int key_bits_ = 0;  // bits of the largest linear cell index (< 2^32: radix sort passes)
 
     // Spatially ordered layout, rebuilt each step: gridded bodies radix-sorted by linear cell
     // index (stable, so ascending id within a cell), their boxes copied into that order, so
     // a cell's bodies are contiguous and cells are walked in memory order.
     struct Cell {
-        std::uint32_t start, count;  // slots in sorted_; count is zero outside occupied_
+        std::uint32_t start, count;  // slots in sorted_id_ / sorted_box_; count is 0 outside occupied_
     };
     struct Block {
         std::uint32_t begin, size;  // one body's pairs in scratch_
@@ -91,7 +91,7 @@ private:
     std::vector<std::uint64_t> keys_, keys_tmp_;  // (cell << 32 | id) for the radix sort
     std::vector<BodyId> sorted_id_;          // body in each slot
     std::vector<Box> sorted_box_;            // its box, copied so neighbour scans are contiguous
-    std::vector<BodyPair> scratch_;          // pairs as found, grouped per lower-indexed body
+    std::vector<BodyPair> scratch_;          // pairs as found, grouped by the body whose walk found them
     std::vector<Block> block_;               // by body id: where its pairs sit in scratch_
 };
 
