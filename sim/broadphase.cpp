@@ -16,10 +16,6 @@ std::int64_t sat(i128 v) {
 
 std::int64_t largest_axis(const Vec3& e) { return std::max({e.x.raw, e.y.raw, e.z.raw}); }
 
-// Each unordered pair of neighbouring cells is visited once: the own cell (ids above ours) plus
-// the 13 neighbours that are "forward" in (z, y, x) lexicographic order.
-constexpr int kForward[13][3] = {{1, 0, 0},  {-1, 1, 0}, {0, 1, 0},  {1, 1, 0},  {-1, -1, 1}, {0, -1, 1}, {1, -1, 1},
-                                 {-1, 0, 1}, {0, 0, 1},  {1, 0, 1},  {-1, 1, 1}, {0, 1, 1},   {1, 1, 1}};
 }  // namespace
 
 Broadphase::Box Broadphase::make_box(const Vec3& p, const Vec3& e, std::int64_t m) {
@@ -74,35 +70,32 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
     };
     for (BodyId id : dynamic_) grow(make_box(pos[id], extent[id], margin.raw));
     for (BodyId id : static_) grow(make_box(pos[id], extent[id], 0));
-    // Coarsen until the grid has at most ~16 cells per body (memory and clearing cost).
+    // Coarsen until the grid has at most ~64 cells per body (memory), and the padded linear
+    // cell index fits the 32 bits it has in a sort key.
     const std::uint64_t max_cells = std::max<std::uint64_t>(4096, 64 * gridded_.size());
     for (;;) {
-        std::uint64_t cells = 1;
+        std::uint64_t cells = 1, padded = 1;
         for (int k = 0; k < 3; ++k) {
             origin_[k] = bounds.lo[k] >> cell_shift_;
             dims_[k] = (bounds.hi[k] >> cell_shift_) - origin_[k] + 1;
             cells *= static_cast<std::uint64_t>(dims_[k]);
+            padded *= static_cast<std::uint64_t>(dims_[k] + 2);
         }
-        if (cells <= max_cells || cell_shift_ >= 62) break;
+        if ((cells <= max_cells && padded <= UINT32_MAX) || cell_shift_ >= 62) break;
         ++cell_shift_;
     }
     const std::int64_t px = dims_[0] + 2, py = dims_[1] + 2, pz = dims_[2] + 2;  // with the border
     stride_y_ = px;
     stride_z_ = px * py;
-    for (int k = 0; k < 13; ++k) {
-        forward_offset_[k] = kForward[k][0] + kForward[k][1] * stride_y_ + kForward[k][2] * stride_z_;
-        forward_need_[k] = 0;
-        for (int j = 0; j < 3; ++j)
-            if (kForward[k][j] != 0) forward_need_[k] |= static_cast<std::uint8_t>((kForward[k][j] > 0 ? 1u : 8u) << j);
-    }
     // Widest fattened box of a gridded body on any axis (hi - lo, as make_box builds it).
     widest_ = 0;
     for (BodyId id : gridded_) {
         const Box b = make_box(Vec3{}, extent[id], margin.raw);
         for (int k = 0; k < 3; ++k) widest_ = std::max(widest_, static_cast<i128>(b.hi[k]) - b.lo[k]);
     }
-    cell_count_.assign(static_cast<std::size_t>(px * py * pz), 0);
-    cell_start_.assign(cell_count_.size(), 0);
+    cell_.assign(static_cast<std::size_t>(px * py * pz), Cell{0, 0});
+    key_bits_ = 0;
+    while ((std::uint64_t{1} << key_bits_) < cell_.size()) ++key_bits_;
     occupied_.clear();
 }
 
@@ -147,65 +140,134 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
 
 void Broadphase::grid(std::vector<BodyPair>& out) {
     // Interior coordinates 1..dims (0 and dims + 1 are the empty border).
-    auto coord = [&](BodyId id, int k) {
-        return std::clamp((box_[id].lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
+    auto coord = [&](const Box& box, int k) {
+        return std::clamp((box.lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
     };
-    for (std::uint32_t c : occupied_) cell_count_[c] = 0;
+    for (std::uint32_t c : occupied_) cell_[c].count = 0;
     occupied_.clear();
-    if (cell_of_.size() < box_.size()) {
-        cell_of_.resize(box_.size());
-        slot_of_.resize(box_.size());
-    }
-    for (BodyId id : gridded_) {
-        const auto c = static_cast<std::uint32_t>(coord(id, 2) * stride_z_ + coord(id, 1) * stride_y_ + coord(id, 0));
-        cell_of_[id] = c;
-        if (cell_count_[c]++ == 0) occupied_.push_back(c);
-    }
-    // Slots per occupied cell, in order of first appearance; then a stable fill by id, so each
-    // cell lists its bodies in ascending id order.
-    std::uint32_t next = 0;
-    for (std::uint32_t c : occupied_) {
-        cell_start_[c] = next;
-        next += cell_count_[c];
-    }
-    cell_items_.resize(gridded_.size());
-    for (BodyId id : gridded_) {
-        const std::uint32_t slot = cell_start_[cell_of_[id]]++;
-        cell_items_[slot] = id;
-        slot_of_[id] = slot;
-    }
-    for (std::uint32_t c : occupied_) cell_start_[c] -= cell_count_[c];
 
-    for (BodyId a : gridded_) {
-        const Box& ba = box_[a];
-        const std::uint32_t own = cell_of_[a];
-        // Own cell: the bodies after a in its ascending run are exactly those with a greater id.
-        for (std::uint32_t s = slot_of_[a] + 1, e = cell_start_[own] + cell_count_[own]; s < e; ++s) {
-            const BodyId b = cell_items_[s];
-            if (overlap(ba, box_[b])) out.push_back(BodyPair{a, b});
+    // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
+    // Keys start in ascending id order and every pass is stable, so each cell lists its bodies
+    // in ascending id order: the layout is a pure function of the positions.
+    const std::size_t n = gridded_.size();
+    keys_.resize(n);
+    keys_tmp_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const BodyId id = gridded_[i];
+        const Box& box = box_[id];
+        const auto c = static_cast<std::uint64_t>(coord(box, 2) * stride_z_ + coord(box, 1) * stride_y_ + coord(box, 0));
+        keys_[i] = c << 32 | id;
+    }
+    constexpr int kDigit = 11;
+    for (int shift = 0; shift < key_bits_; shift += kDigit) {
+        std::uint32_t histogram[(1u << kDigit) + 1] = {};
+        auto digit = [&](std::uint64_t key) { return static_cast<std::uint32_t>(key >> (32 + shift)) & ((1u << kDigit) - 1); };
+        for (std::uint64_t key : keys_) ++histogram[digit(key) + 1];
+        for (std::uint32_t d = 1; d <= (1u << kDigit); ++d) histogram[d] += histogram[d - 1];
+        for (std::uint64_t key : keys_) keys_tmp_[histogram[digit(key)]++] = key;
+        keys_.swap(keys_tmp_);
+    }
+
+    // Slots in sorted order; one run per occupied cell, the cells ascending.
+    sorted_id_.resize(n);
+    sorted_box_.resize(n);
+    for (std::size_t s = 0; s < n; ++s) {
+        const auto id = static_cast<BodyId>(keys_[s]);
+        const auto c = static_cast<std::uint32_t>(keys_[s] >> 32);
+        sorted_id_[s] = id;
+        sorted_box_[s] = box_[id];
+        Cell& cell = cell_[c];
+        if (cell.count++ == 0) {
+            cell.start = static_cast<std::uint32_t>(s);
+            occupied_.push_back(c);
         }
-        // Which neighbours a's box can reach at all: a body in the next cell up an axis has its
-        // min corner at or above that cell's lower edge (clamping only ever moves bodies down
-        // into cell 0 or up into the last cell, never into a next cell), and a body in the cell
-        // below has its max corner under this cell's lower edge plus the widest gridded box.
-        // A neighbour out of reach holds no pair, so skipping it leaves the output as it was.
-        unsigned reach = 0;
-        for (int k = 0; k < 3; ++k) {
-            const std::int64_t i = coord(a, k) - 1;  // interior index
-            const i128 lower = static_cast<i128>(origin_[k] + i) << cell_shift_;
-            if (static_cast<i128>(ba.hi[k]) >= lower + (i128{1} << cell_shift_)) reach |= 1u << k;
-            if (static_cast<i128>(ba.lo[k]) < lower + widest_) reach |= 8u << k;
+    }
+
+    // Walk cell by cell, in ascending linear index, so the neighbour rows read are just ahead in
+    // memory. Each body's pairs are found in one go (its own cell, then the 13 forward
+    // neighbours, those after it in (z, y, x) lexicographic order, each cell's bodies ascending;
+    // every unordered pair of neighbouring cells is visited once) and kept as a block.
+    if (block_.size() < box_.size()) block_.resize(box_.size());
+    std::uint32_t used = 0;  // pairs in scratch_ (its size only grows: no clearing per body)
+    for (std::uint32_t own : occupied_) {
+        const Cell here = cell_[own];
+        // Which neighbours a box in this cell can reach at all: a body in the next cell up an
+        // axis has its min corner at or above that cell's lower edge (clamping only ever moves
+        // bodies down into cell 0 or up into the last cell, never into a next cell), and a body
+        // in the cell below has its max corner under this cell's lower edge plus the widest
+        // gridded box. A neighbour out of reach holds no pair, so skipping it changes nothing.
+        // Only y and z need it: the runs below span x - 1 .. x + 1 whole. The cell's coordinates
+        // are any of its bodies' (the first one's), with no division.
+        // Saturating the edges to int64 can only add reach (extra tests), never lose a pair.
+        std::int64_t up_edge[3] = {}, down_edge[3] = {};
+        for (int k = 1; k < 3; ++k) {
+            const std::int64_t interior = coord(sorted_box_[here.start], k) - 1;
+            const i128 lower = static_cast<i128>(origin_[k] + interior) << cell_shift_;
+            up_edge[k] = sat(lower + (i128{1} << cell_shift_));
+            down_edge[k] = sat(lower + widest_);
         }
-        for (int f = 0; f < 13; ++f) {
-            if ((forward_need_[f] & ~reach) != 0) continue;
-            const auto c = static_cast<std::size_t>(static_cast<std::int64_t>(own) + forward_offset_[f]);
-            const std::uint32_t n = cell_count_[c];
-            if (n == 0) continue;
-            for (std::uint32_t s = cell_start_[c], e = s + n; s < e; ++s) {
-                const BodyId b = cell_items_[s];
-                if (overlap(ba, box_[b])) out.push_back(a < b ? BodyPair{a, b} : BodyPair{b, a});
+        // The 13 forward neighbours are the next cell along x plus four rows of three cells
+        // (x - 1, x, x + 1). Cells are sorted by linear index, so each row's bodies are one
+        // contiguous run of slots, in the (z, y, x) order of its cells; a run is scanned whole
+        // and the overlap test decides along x.
+        auto run = [&](std::int64_t middle) {
+            Cell r{0, 0};
+            std::uint32_t end = 0;
+            for (std::int64_t c = middle - 1; c <= middle + 1; ++c) {
+                const Cell& cell = cell_[static_cast<std::size_t>(c)];
+                if (cell.count == 0) continue;
+                if (end == 0) r.start = cell.start;
+                end = cell.start + cell.count;
             }
+            if (end != 0) r.count = end - r.start;
+            return r;
+        };
+        const auto o = static_cast<std::int64_t>(own);
+        const Cell along_x = cell_[static_cast<std::size_t>(o + 1)];
+        const std::uint32_t row_end = along_x.count != 0 ? along_x.start + along_x.count : here.start + here.count;
+        // Rows (dy, dz) = (1, 0), (-1, 1), (0, 1), (1, 1), and the reach each needs.
+        const Cell rows[4] = {run(o + stride_y_), run(o - stride_y_ + stride_z_), run(o + stride_z_),
+                              run(o + stride_y_ + stride_z_)};
+        constexpr unsigned kRowNeed[4] = {2u, 16u | 4u, 4u, 2u | 4u};
+
+        for (std::uint32_t s = here.start, e = here.start + here.count; s < e; ++s) {
+            const BodyId a = sorted_id_[s];
+            const Box ba = sorted_box_[s];
+            const std::uint32_t begin = used;
+            // Room for every candidate, so the scans store unconditionally and keep a pair only
+            // when the boxes overlap: no branch on the test (a coin toss in a pile).
+            std::uint32_t room = row_end - s - 1;
+            for (const Cell& row : rows) room += row.count;
+            if (scratch_.size() < std::size_t{used} + room) scratch_.resize(2 * (std::size_t{used} + room));
+            BodyPair* w = scratch_.data();
+            auto scan = [&](std::uint32_t t, std::uint32_t te) {
+                for (; t < te; ++t) {
+                    const BodyId b = sorted_id_[t];
+                    w[used] = BodyPair{std::min(a, b), std::max(a, b)};
+                    used += overlap_bits(ba, sorted_box_[t]);
+                }
+            };
+            // Own cell first: the bodies after a in its ascending run are exactly those with a
+            // greater id; then the next cell along x, which follows it in slot order.
+            scan(s + 1, row_end);
+            unsigned reach = 0;
+            for (int k = 1; k < 3; ++k) {
+                reach |= static_cast<unsigned>(ba.hi[k] >= up_edge[k]) << k;
+                reach |= static_cast<unsigned>(ba.lo[k] < down_edge[k]) << (3 + k);
+            }
+            for (int r = 0; r < 4; ++r) {
+                if ((kRowNeed[r] & ~reach) == 0) scan(rows[r].start, rows[r].start + rows[r].count);
+            }
+            block_[a] = Block{begin, used - begin};
         }
+    }
+    // The canonical order (docs/determinism.md): blocks by ascending body id. It is the order a
+    // walk over the bodies by id produces, so the walk's order of memory accesses is free.
+    std::size_t at = out.size();
+    out.resize(at + used);
+    for (BodyId a : gridded_) {
+        const Block b = block_[a];
+        for (std::uint32_t i = 0; i < b.size; ++i) out[at++] = scratch_[b.begin + i];
     }
 }
 

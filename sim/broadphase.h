@@ -39,6 +39,11 @@ private:
         return a.lo[0] <= b.hi[0] && b.lo[0] <= a.hi[0] && a.lo[1] <= b.hi[1] && b.lo[1] <= a.hi[1] &&
                a.lo[2] <= b.hi[2] && b.lo[2] <= a.hi[2];
     }
+    // The same test without branches, 1 or 0.
+    static std::uint32_t overlap_bits(const Box& a, const Box& b) {
+        return static_cast<std::uint32_t>((a.lo[0] <= b.hi[0]) & (b.lo[0] <= a.hi[0]) & (a.lo[1] <= b.hi[1]) &
+                                          (b.lo[1] <= a.hi[1]) & (a.lo[2] <= b.hi[2]) & (b.lo[2] <= a.hi[2]));
+    }
 
     void sweep_and_prune(std::vector<BodyPair>& out);
     void grid(std::vector<BodyPair>& out);
@@ -63,22 +68,31 @@ private:
     // bounds are clamped into the border cells: clamping keeps neighbours neighbours, so it
     // only costs extra tests, never a missed pair.
     // The grid has a one-cell empty border on every side, so a neighbour is always
-    // cell + offset, with no bounds test. Only occupied cells are counted and cleared, so a
+    // cell + offset, with no bounds test. Only occupied cells are filled and cleared, so a
     // step costs O(bodies), however many cells the bounds span.
     int cell_shift_ = 0;
     std::int64_t origin_[3] = {0, 0, 0};
     std::int64_t dims_[3] = {1, 1, 1};    // interior cells per axis (the border comes on top)
     std::int64_t stride_y_ = 0, stride_z_ = 0;
-    std::int64_t forward_offset_[13] = {};  // linear offsets of the 13 forward neighbours
-    // Per forward neighbour, the reach it needs: bit k for +1 along axis k, bit 3 + k for -1.
-    std::uint8_t forward_need_[13] = {};
     i128 widest_ = 0;  // widest fattened box (hi - lo) of a gridded body, any axis
-    std::vector<std::uint32_t> cell_count_;  // bodies per cell; zero outside occupied_
-    std::vector<std::uint32_t> cell_start_;  // first slot in cell_items_, valid when count > 0
-    std::vector<std::uint32_t> occupied_;    // cells with bodies this step, by first body id
-    std::vector<BodyId> cell_items_;         // gridded bodies grouped by cell, ascending id within
-    std::vector<std::uint32_t> cell_of_;     // linear cell index by body id
-    std::vector<std::uint32_t> slot_of_;     // index in cell_items_ by body id
+    int key_bits_ = 0;  // bits of the largest linear cell index (< 2^32: radix sort passes)
+
+    // Spatially ordered layout, rebuilt each step: gridded bodies radix-sorted by linear cell
+    // index (stable, so ascending id within a cell), their boxes copied into that order, so
+    // a cell's bodies are contiguous and cells are walked in memory order.
+    struct Cell {
+        std::uint32_t start, count;  // slots in sorted_id_ / sorted_box_; count is 0 outside occupied_
+    };
+    struct Block {
+        std::uint32_t begin, size;  // one body's pairs in scratch_
+    };
+    std::vector<Cell> cell_;                 // by linear cell index
+    std::vector<std::uint32_t> occupied_;    // cells with bodies this step, ascending index
+    std::vector<std::uint64_t> keys_, keys_tmp_;  // (cell << 32 | id) for the radix sort
+    std::vector<BodyId> sorted_id_;          // body in each slot
+    std::vector<Box> sorted_box_;            // its box, copied so neighbour scans are contiguous
+    std::vector<BodyPair> scratch_;          // pairs as found, grouped by the body whose walk found them
+    std::vector<Block> block_;               // by body id: where its pairs sit in scratch_
 };
 
 }  // namespace lockroll::sim
