@@ -156,8 +156,10 @@ done
 
 work=$(mktemp -d "${TMPDIR:-/tmp}/lockroll-cross.XXXXXX")
 if [[ $keep -eq 1 ]]; then echo "cross-check: work directory $work"; else trap 'rm -rf "$work"' EXIT; fi
-mkdir -p "$work/include"
+mkdir -p "$work/include/lockroll"
 for h in "${headers[@]}"; do ln -s "$h" "$work/include/$(basename "$h")"; done
+# sim/'s headers include each other as <lockroll/sim/...> (the installed spelling).
+ln -s "$root/sim" "$work/include/lockroll/sim"
 
 sources=("$root"/sim/*.cpp "$root/harness/match/scene_loader.cpp" "$root/tests/golden/golden_main.cpp")
 common=(-std=c++20 -ffp-contract=off -fno-fast-math -w -I"$root" -I"$work/include")
