@@ -4,7 +4,7 @@
 #   bash scripts/test.sh          the default tier (docs/testing.md): installs what is missing,
 #                                 builds build/ (scripts/configure.sh, the quick start's flags, so
 #                                 nothing it built is rebuilt) and runs every unit, integration and
-#                                 real-process test: ctest -LE 'soak|cross|examples'. About 10
+#                                 real-process test: ctest -LE 'soak|cross|examples'. About 9.5
 #                                 minutes from a fresh clone on the 2-core VM, build included.
 #   bash scripts/test.sh --full   what CI runs (.ci/run): the cross toolchains too, the default
 #                                 tier, then the 11-target golden cross check and the WebAssembly
