@@ -27,7 +27,8 @@ source "$(dirname "$0")/../process_test_support.sh"
 [ -x "$relay_bench" ] || { echo "relay_soak: $relay_bench not built (cmake --build build --target relay_bench)"; exit 2; }
 
 dir=$tmp/soak
-start_server "$dir"
+# Every bot on one address: ENet's per-address limit (64 by default) raised, as relay_bench does.
+start_server "$dir" --per-address 4095 --max-connections $((2 * ROOMS + 256))
 [ -n "$server_port" ] || exit 1
 seconds=$((MINUTES * 60))
 "$relay_bench" --connect "127.0.0.1:$server_port" --server-pid "$server_pid" --rooms "$ROOMS" --seconds "$seconds" \
@@ -48,7 +49,8 @@ while kill -0 "$bench_pid" 2>/dev/null; do
         echo "$(( (now - start) / 60 )) $(rss)" >>"$dir/rss.txt"
         last_rss=$now
     fi
-    [ $((now - start)) -lt 10 ] && { sleep 1; continue; }  # the rooms ramp up first
+    # The rooms ramp up first (50 a second), so that a steal never names a room not yet made.
+    [ $((now - start)) -lt $((20 + ROOMS / 50)) ] && { sleep 1; continue; }
     round=$((round + 1))
     r=$dir/round$round
     mkdir -p "$r"
