@@ -197,6 +197,12 @@ int main(int argc, char** argv) {
                 connected = true;
                 enet.send_reliable(server, hello, now);
             }
+            if (e.type == transport::TransportEvent::Type::Disconnected && connected && behavior == "steal") {
+                // The server refuses, then closes: the close can be polled before the refusal
+                // is read. Either way the slot was not taken.
+                std::printf("steal: refused (the server closed the connection: %s)\n", e.reason.c_str());
+                return 0;
+            }
             if (e.type == transport::TransportEvent::Type::Disconnected && connected) {
                 std::printf("disconnected by the server after %s (%s)\n", behavior.c_str(), e.reason.c_str());
                 return 0;
