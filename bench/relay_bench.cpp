@@ -637,7 +637,7 @@ int main(int argc, char** argv) {
     app.add_option("--connect", o.connect, "127.0.0.1:PORT of a server started by hand (one run per R)");
     app.add_option("--server-pid", o.server_pid, "with --connect: its pid, for CPU and RSS");
     app.add_option("--rooms", o.rooms, "room counts to sweep")->delimiter(',')->capture_default_str();
-    app.add_option("--seconds", o.seconds, "measurement window per run")->check(CLI::Range(1.0, 600.0))->capture_default_str();
+    app.add_option("--seconds", o.seconds, "measurement window per run")->check(CLI::Range(1.0, 3600.0))->capture_default_str();
     app.add_option("--warmup", o.warmup, "seconds after every room started before measuring")->check(CLI::Range(0.0, 60.0))->capture_default_str();
     app.add_option("--repeat", o.repeat, "runs per room count (medians reported)")->check(CLI::Range(1, 50))->capture_default_str();
     app.add_option("--hosts", o.hosts, "ENet client hosts (tick phases)")->check(CLI::Range(1, 64))->capture_default_str();

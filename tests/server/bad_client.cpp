@@ -5,6 +5,8 @@
 //   garbage  sends random bytes
 //   flood    sends valid input messages at 5,000 per second
 //   future   sends inputs for frame 10,000 and beyond
+//   steal    says hello for --slot of a room (--room-id: any room, e.g. relay_bench's) whose
+//            holder is live, and reports the answer: exit 0 refused, 1 admitted or no answer
 //   liar     plays the match with real inputs (a full RelaySession through the builder) but
 //            reports a wrong checksum for every frame and never hears the server's desync
 //            verdicts or its kick, so it goes on disagreeing round after round and comes back
@@ -141,19 +143,25 @@ int run_liar(const std::string& host, std::uint16_t port, const std::string& roo
 
 int main(int argc, char** argv) {
     CLI::App app{"relay bad client (tests)"};
-    std::string connect, room, behavior;
+    std::string connect, room, behavior, room_id_text, scene_checksum_text;
     int slot = 0, players = 2, claim = 0;
     double seconds = 10;
     std::string scene_name = "paper";
     app.add_option("--connect", connect)->required();
-    app.add_option("--room", room)->required();
+    auto* room_opt = app.add_option("--room", room);
+    app.add_option("--room-id", room_id_text, "the room's 64-bit id in hex (instead of --room's name)")->excludes(room_opt);
+    app.add_option("--scene-checksum", scene_checksum_text, "steal: the room's scene checksum in hex (default: --scene's)");
     app.add_option("--slot", slot)->required();
     app.add_option("--players", players);
     app.add_option("--scene", scene_name, "the room's scene (its checksum goes in the hello)");
     app.add_option("--claim", claim, "spoof: the slot to claim");
-    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future", "liar"}))->required();
+    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future", "liar", "steal"}))->required();
     app.add_option("--seconds", seconds);
     CLI11_PARSE(app, argc, argv);
+    if (room.empty() == room_id_text.empty()) {
+        std::fprintf(stderr, "bad_client: give --room or --room-id\n");
+        return 2;
+    }
     const auto colon = connect.rfind(':');
     const std::string host = connect.substr(0, colon);
     const auto port = static_cast<std::uint16_t>(std::stoi(connect.substr(colon + 1)));
@@ -168,8 +176,8 @@ int main(int argc, char** argv) {
     sim.save(state);
     const std::uint64_t scene = sim.checksum(state);
     rollback::RelayHello h;
-    h.room_id = room_hash(room);
-    h.scene_checksum = scene;
+    h.room_id = room_id_text.empty() ? room_hash(room) : std::stoull(room_id_text, nullptr, 16);
+    h.scene_checksum = scene_checksum_text.empty() ? scene : std::stoull(scene_checksum_text, nullptr, 16);
     h.players = static_cast<std::uint8_t>(players);
     h.input_size = 3;
     h.tick_rate = 60;
@@ -189,13 +197,31 @@ int main(int argc, char** argv) {
                 connected = true;
                 enet.send_reliable(server, hello, now);
             }
+            if (e.type == transport::TransportEvent::Type::Disconnected && connected && behavior == "steal") {
+                // The server refuses, then closes: the close can be polled before the refusal
+                // is read. Either way the slot was not taken.
+                std::printf("steal: refused (the server closed the connection: %s)\n", e.reason.c_str());
+                return 0;
+            }
             if (e.type == transport::TransportEvent::Type::Disconnected && connected) {
                 std::printf("disconnected by the server after %s (%s)\n", behavior.c_str(), e.reason.c_str());
                 return 0;
             }
         }
-        for (transport::Datagram d; enet.receive(d, now);)
-            if (rollback::peek_relay_kind(d.bytes) == rollback::RelayKind::Welcome) welcomed = true;
+        for (transport::Datagram d; enet.receive(d, now);) {
+            if (rollback::peek_relay_kind(d.bytes) != rollback::RelayKind::Welcome) continue;
+            rollback::RelayWelcome w;
+            if (rollback::decode(d.bytes, w)) continue;
+            if (behavior == "steal") {
+                if (w.refusal == rollback::RelayRefusal::None) {
+                    std::printf("steal: admitted to slot %d (the live holder lost it)\n", static_cast<int>(w.slot));
+                    return 1;
+                }
+                std::printf("steal: refused: %s\n", rollback::relay_refusal_name(w.refusal));
+                return 0;
+            }
+            welcomed = welcomed || w.refusal == rollback::RelayRefusal::None;
+        }
         const int per_tick = behavior == "flood" ? 80 : 1;
         if (welcomed && now - last >= 16000) {
             last = now;
