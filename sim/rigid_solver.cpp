@@ -239,6 +239,14 @@ void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) co
 }
 
 void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const {
+    if (inv_mass_[id].raw == 0) {
+        // A static body's arms are never read for a result: its angular velocity is zero (every
+        // row speed skips its term), its inverse inertia is zero (so are its Jacobian products
+        // and its share of the effective masses), and no pass moves it. Zeros change no bits
+        // and save the room's walls three cross products per point.
+        c[0] = c[1] = c[2] = Vec3{};
+        return;
+    }
     if (shape_[id] == Shape::Sphere) {
         // A sphere's contact point lies on its normal through the centre: r = L n, so r x n is
         // exactly zero (its normal impulse never spins it), r x t1 = L t2 and r x t2 = -L t1.
