@@ -29,7 +29,8 @@
 // rotational, J), the spheres' share of it, the rotational part, the vertical part (m vy^2 / 2:
 // hopping), the mean height of the centres (m), how many spheres sit above 1.5 radii (on other
 // bodies), the deepest sphere into the floor (mm, floor at y = 0 as in the shipped rooms) and,
-// for lockroll, the contact points of the last step (what a step's solver work scales with):
+// the contact points of the last step (what a step's solver work scales with; Bullet's: the
+// points held in its persistent manifolds, at most 4 a pair):
 // whether a pile comes to rest, and how it compares with Bullet's on the same scene
 // (docs/physics.md). `--lockroll-only` leaves Bullet out, for quick what-ifs on scene files.
 #include <btBulletDynamicsCommon.h>
@@ -177,6 +178,14 @@ public:
         world_.stepSimulation(static_cast<btScalar>(dt_), 0);
     }
     const std::vector<std::unique_ptr<btRigidBody>>& bodies() const { return bodies_; }
+    // Contact points in Bullet's persistent manifolds after the last step (at most 4 a pair),
+    // the counterpart of lockroll's contact_count().
+    std::size_t contact_points() {
+        std::size_t n = 0;
+        for (int i = 0; i < dispatcher_.getNumManifolds(); ++i)
+            n += static_cast<std::size_t>(dispatcher_.getManifoldByIndexInternal(i)->getNumContacts());
+        return n;
+    }
 
 private:
     btDefaultCollisionConfiguration config_;
@@ -277,9 +286,9 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
     std::unique_ptr<BulletScene> theirs;
     if (with_bullet) theirs = std::make_unique<BulletScene>(scene);
     Drivers drivers(scene, g_neutral);
-    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s\n", "scene",
+    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s %6s\n", "scene",
                 "frame", "lockroll J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points",
-                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm");
+                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points");
     for (int f = 1; f <= frames; ++f) {
         const std::vector<sim::PlayerInput>& in = drivers.at(static_cast<std::uint32_t>(f - 1));
         ours.step(in);
@@ -288,9 +297,10 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
         const Rest a = rest_of(ours), b = theirs ? rest_of(*theirs, scene) : Rest{};
         std::printf(
             "%-18s %6d | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f %6zu | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu "
-            "%7.2f\n",
+            "%7.2f %6zu\n",
             scene.name.c_str(), f, a.ke(), a.ke_spheres, a.ke_rot, a.ke_vertical, a.mean_height(), a.lifted, a.sink * 1e3,
-            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted, b.sink * 1e3);
+            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted,
+            b.sink * 1e3, theirs ? theirs->contact_points() : std::size_t{0});
         std::fflush(stdout);
     }
 }
