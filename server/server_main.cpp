@@ -1,16 +1,20 @@
 // lockroll-server: the relay server alone (what the container image ships). The same options
 // as `lockroll server`; it links neither sim/ nor the session core.
 // Exit status: 0 drained cleanly, 2 bad options, 1 failure (cannot listen, drain timed out).
+// Unlike `lockroll server`, it batches its socket's syscalls (server/enet_socket_batching.h).
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <exception>
 
+#include "server/enet_socket_batching.h"
 #include "server/server_cli.h"
 
 int main(int argc, char** argv) {
     CLI::App app{"lockroll relay server: rooms that collect, confirm and broadcast inputs; runs no simulation"};
-    lockroll::server::add_server_options(app);
+    namespace batching = lockroll::server::enet_socket_batching;
+    lockroll::server::add_server_options(
+        app, {[](int fd) { return batching::install(fd, batching::Mode::Batch); }, [] { batching::flush(); }});
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
