@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "server/enet_socket_batching.h"
 #include "server/server_cli.h"
@@ -13,8 +14,12 @@
 int main(int argc, char** argv) {
     CLI::App app{"lockroll relay server: rooms that collect, confirm and broadcast inputs; runs no simulation"};
     namespace batching = lockroll::server::enet_socket_batching;
-    lockroll::server::add_server_options(
-        app, {[](int fd) { return batching::install(fd, batching::Mode::Batch); }, [] { batching::flush(); }});
+    bool plain = false;
+    app.add_flag("--plain-syscalls", plain, "One recvmsg / sendmsg per datagram, as plain ENet (the baseline of the batching)");
+    lockroll::server::add_server_options(app, {[&plain](int fd) {
+                                                   return plain ? std::string("--plain-syscalls") : batching::install(fd, batching::Mode::Batch);
+                                               },
+                                               [] { batching::flush(); }});
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {
