@@ -27,6 +27,10 @@ if(NOT LOCKROLL_SIM_ONLY AND LOCKROLL_ENET)
   # The relay server's connect tokens (server/connect_token.h): sealed and opened by libsodium.
   pkg_check_modules(SODIUM QUIET IMPORTED_TARGET libsodium)
   lockroll_require(SODIUM_FOUND libsodium-dev "libsodium")
+  # lockroll-server's allocator (server/CMakeLists.txt): ENet allocates a packet and a command per
+  # datagram, and mimalloc's malloc / free cost a third of glibc's (docs/performance.md, "Density").
+  find_package(mimalloc CONFIG QUIET)
+  lockroll_require(mimalloc_FOUND libmimalloc-dev "mimalloc")
   find_package(spdlog QUIET)
   lockroll_require(spdlog_FOUND libspdlog-dev "spdlog")
   find_package(nlohmann_json 3.10 QUIET)
