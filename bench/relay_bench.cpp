@@ -22,6 +22,11 @@
 // was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
 // whose generator fell behind measures the generator, not the server.
 //
+// With --echo build/bench/udp_echo, each server run is paired with a run of the bare UDP echo
+// (one syscall per datagram), pinned and niced as the server and loaded at the UDP datagram rate
+// the server saw: the ratio of their CPU times is the "server / echo" figure of
+// docs/performance.md ("Density"), measured in the same run on the same machine.
+//
 // A benchmark, not a test: run by hand (docs/performance.md, "Relay server"), e.g.
 //   build/bench/relay_bench --server build/server/lockroll-server --rooms 100,250,500,1000,1500
 // Loopback only: the server listens on 127.0.0.1.

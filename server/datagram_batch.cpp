@@ -14,34 +14,36 @@ DatagramBatch::DatagramBatch(int fd, std::size_t receive_slots, std::size_t send
     send_slots_.resize(send_slots);
     receive_headers_.resize(receive_slots);
     send_headers_.resize(send_slots);
-    for (std::size_t i = 0; i < receive_slots; ++i) receive_slots_[i].iov = {&receive_bytes_[i * kMaxBytes], kMaxBytes};
+    for (std::size_t i = 0; i < receive_slots; ++i) {
+        receive_slots_[i].iov = {&receive_bytes_[i * kMaxBytes], kMaxBytes};
+        msghdr& h = receive_headers_[i].msg_hdr;
+        h = {};
+        h.msg_name = &receive_slots_[i].address;
+        h.msg_namelen = sizeof(sockaddr_in);
+        h.msg_iov = &receive_slots_[i].iov;
+        h.msg_iovlen = 1;
+    }
     for (std::size_t i = 0; i < send_slots; ++i) send_slots_[i].iov = {&send_bytes_[i * kMaxBytes], 0};
 }
 
 DatagramBatch::~DatagramBatch() = default;
 
-void DatagramBatch::fill() {
-    for (std::size_t i = 0; i < receive_slots_.size(); ++i) {
-        msghdr& h = receive_headers_[i].msg_hdr;
-        h = {};
-        h.msg_name = &receive_slots_[i].address;
-        h.msg_namelen = sizeof(sockaddr_in);
-        receive_slots_[i].iov.iov_len = kMaxBytes;
-        h.msg_iov = &receive_slots_[i].iov;
-        h.msg_iovlen = 1;
-        receive_headers_[i].msg_len = 0;
-    }
+int DatagramBatch::fill() {
+    // The kernel rewrites only msg_namelen, msg_flags and msg_len of the headers it filled: reset
+    // those, the rest was set once (constructor).
+    for (std::size_t i = 0; i < received_; ++i) receive_headers_[i].msg_hdr.msg_namelen = sizeof(sockaddr_in);
     ++counters_.receive_calls;
     const int n = recvmmsg(fd_, receive_headers_.data(), static_cast<unsigned>(receive_headers_.size()), MSG_DONTWAIT, nullptr);
     received_ = n > 0 ? static_cast<std::size_t>(n) : 0;
     next_received_ = 0;
+    return n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR ? -1 : 0;
 }
 
 int DatagramBatch::receive(sockaddr_in& from, const iovec* bufs, std::size_t count) {
     for (;;) {
         if (next_received_ == received_) {
-            fill();
-            if (received_ == 0) return (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) ? 0 : -1;
+            const int error = fill();
+            if (received_ == 0) return error;
         }
         const mmsghdr& m = receive_headers_[next_received_];
         const Slot& slot = receive_slots_[next_received_++];

@@ -59,7 +59,7 @@ private:
         sockaddr_in address{};
         iovec iov{};
     };
-    void fill();
+    int fill();  // one recvmmsg; -1 on a socket error, 0 otherwise (nothing waiting included)
 
     int fd_;
     std::vector<std::uint8_t> receive_bytes_, send_bytes_;
