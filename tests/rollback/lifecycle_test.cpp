@@ -17,19 +17,9 @@ using testing::Client;
 using testing::Cluster;
 using testing::make_scene;
 using testing::NetParams;
+using testing::real_config;
 using Kind = SessionEvent::Kind;
 
-SessionConfig real_config(int players, int window) {
-    SessionConfig c;
-    c.players = players;
-    c.prediction_window = window;
-    c.input_delay = window == 0 ? 4 : 2;
-    c.handshake = true;
-    c.match_id = 0xC0FFEE;
-    c.interrupt_us = 750000;
-    c.disconnect_us = 5000000;
-    return c;
-}
 
 std::vector<const SessionEvent*> events_of(const Client& c, Kind k) {
     std::vector<const SessionEvent*> out;
