@@ -1,5 +1,6 @@
 #include "rollback/session.h"
 
+#include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
 #include "rollback/session_admission.h"
 
@@ -108,6 +109,7 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     dc.resend_us = config_.query_resend_us;
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
+    authority_ = std::make_unique<InputAuthority>(config_.players, peers_total());
     if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
@@ -478,8 +480,9 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         const std::size_t n = config_.input_size;
         for (std::uint32_t k = 0; k < m.frame_count; ++k) {
             const std::uint32_t f = *first + k;
-            const auto r = sync_->add_remote_input(from, f, std::span(m.inputs).subspan(k * n, n));
-            if (r == InputQueue::Add::Conflict) return malformed(from, "input message: rewrites a confirmed input");
+            const auto in = std::span(m.inputs).subspan(k * n, n);
+            const auto r = sync_->add_remote_input(from, f, in);
+            if (!owner_copy(from, f, in, r)) return malformed(from, "input message: rewrites a confirmed input");
             if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;  // resent later
         }
     }
@@ -552,6 +555,7 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
     SlotView& v = slots_[slot];
     const SlotState before = slot_state(slot);
     membership_.set(slot, e.state, e.epoch);
+    authority_->reset_slot(slot);
     v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
@@ -591,6 +595,10 @@ void Session::apply_blocks(PlayerId from) {
         if (config_.role != Role::Spectator && (b.slot == config_.local_player || my_guest(b.slot))) continue;
         const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
         if (!first) continue;
+        if (relayed_block(from, b, *first)) {
+            if (phase_ == SessionPhase::Failed || links_[from].error()) return;
+            continue;
+        }
         for (std::uint32_t k = 0; k < b.frame_count; ++k) {
             const auto r = sync_->add_remote_input(b.slot, *first + k, std::span(b.inputs).subspan(k * n, n), b.absent);
             if (r == InputQueue::Add::Conflict) return malformed(from, "input message: relayed input contradicts a confirmed one");
@@ -677,7 +685,10 @@ std::uint32_t Session::confirm_limit() const {
     }
     const auto span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
     const std::uint32_t oldest = sync_->frame() > span ? sync_->frame() - span : 0;
-    return std::min(confirmable, std::max(majority_holds, oldest));
+    // A relayed input of a running slot waits for its owner's own copy (which wins if it
+    // differs), as long as the saved states allow: frame n rests on the inputs before n.
+    const std::uint32_t unverified = authority_->first_unverified(sync_->confirmed_frame()).value_or(confirmable);
+    return std::min(confirmable, std::max(std::min(majority_holds, unverified), oldest));
 }
 
 void Session::confirm_frames() {
@@ -687,6 +698,8 @@ void Session::confirm_frames() {
         detector_->add_local(fc.frame, fc.checksum);
         if (observer_) observer_->on_frame_confirmed(fc);
     }
+    for (int s = 0; s < config_.players; ++s)
+        authority_->forget_before(static_cast<PlayerId>(s), sync_->queue(static_cast<PlayerId>(s)).floor());
 }
 
 // A peer's frame now: what it last reported plus the time since then and half a round trip. A
@@ -751,6 +764,7 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
     membership_.leave(slot);
+    authority_->reset_slot(slot);
     v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
@@ -1231,6 +1245,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
         return reject(e);
     if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
+    authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
     incoming_.reset();
     offer_requested_ = false;
@@ -1350,7 +1365,8 @@ std::uint64_t Session::table_refresh_us() const {
 SlotEntry Session::table_entry(PlayerId to, PlayerId s) const {
     const bool vote = is_slot(to);
     return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
-            vote ? membership_.advertised_epoch(s) : membership_.epoch(s), static_cast<std::uint16_t>(count_of(s))};
+            vote ? membership_.advertised_epoch(s) : membership_.epoch(s),
+            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
 }
 
 void Session::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
@@ -1421,7 +1437,9 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, s
         if (slot == config_.local_player || (is_slot(to) && slot == to) || !link.has_count[slot]) continue;
         const InputQueue& q = sync_->queue(slot);
         const std::uint32_t theirs = link.counts[slot];
-        const std::uint32_t mine = q.confirmed_count();
+        std::uint32_t mine = q.confirmed_count();
+        // Only what the owner's own stream delivered is relayed onward, never another's claim.
+        if (const auto f = authority_->first_unverified_of(slot, theirs)) mine = std::min(mine, *f);
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
         // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
@@ -1501,7 +1519,7 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.has_extension = false;
         m.slots.clear();
         m.blocks.clear();
-        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(count_of(pid)) : 0;
+        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(owner_count(pid)) : 0;
         std::uint32_t count = 0;
         m.inputs.clear();
         if (!spectator) {
@@ -1551,6 +1569,75 @@ void Session::set_input_delay(int frames) {
 
 void Session::damage_outgoing_chunks(int count, ChunkDamage how) {
     if (count > 0) chunk_damage_.insert(chunk_damage_.end(), static_cast<std::size_t>(count), how);
+}
+
+}  // namespace lockroll::rollback
+
+namespace lockroll::rollback {
+
+// The owner's own input of `slot` at frame f came in (added: what the queue made of it). Equal to
+// a relayed copy: verified. Different from a relayed copy: the owner wins -- its input replaces
+// the relay's where no confirmed frame rests on it yet, and the relay is counted and ignored; if
+// a confirmed frame already rests on it, it stands (the checksums tell; recovery repairs) and
+// the owner is not blamed. False only when the owner contradicts an input nobody relayed: it
+// rewrote its own past.
+bool Session::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
+    if (added == InputQueue::Add::Duplicate) authority_->verified(slot, f);
+    if (added != InputQueue::Add::Conflict) return true;
+    const auto relay = authority_->relay_of(slot, f);
+    if (!relay) return false;
+    const bool replaced = sync_->replace_remote_input(slot, f, input);
+    if (authority_->owner_disagrees(slot, f, replaced) && *relay < stats_.peers.size())
+        stats_.peers[*relay].relay_disagreements = authority_->disagreements(*relay);
+    return true;
+}
+
+// A block of a running slot's stream, not from this session's own streams: its owner's (a host
+// sends its guests' streams as blocks), or a relay's claim that fills only what the owner's
+// stream has not delivered. True when handled here; false for every other block (absent
+// streams, spectators' views), which apply_blocks takes as before.
+// What we tell slot s's owner we hold of its stream (ack and table count): up to the first
+// input a relay filled in that the owner has not verified yet, so it resends from there and its
+// own copy settles the relay's (frames a confirmed frame already rests on are past settling).
+std::uint32_t Session::owner_count(PlayerId s) const {
+    const std::uint32_t count = count_of(s);
+    const auto f = authority_->first_unverified_of(s, sync_->confirmed_frame());
+    return f ? std::min(count, *f) : count;
+}
+
+bool Session::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
+    if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
+    const std::size_t n = config_.input_size;
+    const bool owner = is_slot(from) && host_of(b.slot) == from;
+    if (!owner && authority_->ignored(from)) {
+        ++stats_.peers[from].ignored_packets;
+        return true;
+    }
+    for (std::uint32_t k = 0; k < b.frame_count; ++k) {
+        const std::uint32_t f = first + k;
+        const auto in = std::span(b.inputs).subspan(k * n, n);
+        const auto r = sync_->add_remote_input(b.slot, f, in, false);
+        if (owner) {
+            if (!owner_copy(b.slot, f, in, r)) {
+                malformed(from, "input message: rewrites a confirmed input of its guest");
+                return true;
+            }
+        } else if (r == InputQueue::Add::Stored) {
+            authority_->note_relayed(b.slot, f, from);
+        } else if (r == InputQueue::Add::Duplicate) {
+            authority_->vouch(b.slot, f, from);
+        } else if (r == InputQueue::Add::Conflict) {
+            // Against another relay's claim the owner decides later; against the owner's own
+            // input this relay is wrong: counted and ignored, never a drop of the owner.
+            if (!authority_->relay_of(b.slot, f)) {
+                authority_->relay_disagrees(from);
+                stats_.peers[from].relay_disagreements = authority_->disagreements(from);
+            }
+            return true;
+        }
+        if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
+    }
+    return true;
 }
 
 }  // namespace lockroll::rollback

@@ -97,6 +97,8 @@
 
 namespace lockroll::rollback {
 
+class InputAuthority;  // rollback/input_authority.h
+
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
     FlipBit,   // one bit of the chunk's last byte: the right length, so the receiver's hash check
@@ -332,6 +334,12 @@ private:
     // fault injection on sent chunks (damage_outgoing_chunks), in order
     std::vector<ChunkDamage> chunk_damage_;
     std::uint64_t damaged_chunks_ = 0;
+    // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
+    // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
+    std::unique_ptr<InputAuthority> authority_;
+    bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
+    bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
+    std::uint32_t owner_count(PlayerId slot) const;
 };
 
 }  // namespace lockroll::rollback
