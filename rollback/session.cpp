@@ -3,6 +3,7 @@
 #include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
 #include "rollback/session_admission.h"
+#include "rollback/snapshot_vetting.h"
 
 #include <algorithm>
 #include <array>
@@ -110,6 +111,7 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
     authority_ = std::make_unique<InputAuthority>(config_.players, peers_total());
+    vetting_ = std::make_unique<SnapshotVetting>();
     if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
@@ -253,10 +255,19 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
             return handle_snapshot_chunk(from, snap_chunk_msg_, now_us);
         default: break;
     }
+    // A newcomer vetting its snapshot: the peers' confirmed checksums of its frame.
+    if (*kind == MessageKind::Reply && vetting_->active()) {
+        if (const char* e = decode(datagram, reply_msg_)) return malformed(from, e);
+        if (reply_msg_.what == QueryWhat::FrameChecksums && reply_msg_.count == 1)
+            vetting_->on_reply(from, reply_msg_.frame, reply_msg_.available && reply_msg_.values.size() == 1,
+                               reply_msg_.values.empty() ? 0 : reply_msg_.values[0]);
+        return;
+    }
     // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
     // snapshot is loaded; a player still synchronizing already does (frame 0).
     if (phase_ != SessionPhase::Running && config_.role != Role::Player) return void(++ps.ignored_packets);
-    if (!link.welcomed || (is_slot(from) && !slot_running(from))) {
+    // A welcomed joiner's query (its snapshot's vetting) is answered before its slot runs.
+    if (!link.welcomed || (is_slot(from) && !slot_running(from) && *kind != MessageKind::Query)) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
         if (is_slot(from) && slot_state(from) == SlotState::Disconnected && link.refusal_quiet_for(now_us, 500000)) {
@@ -1061,7 +1072,11 @@ void Session::poll_handshake(std::uint64_t now_us) {
             const PeerLink& l = links_[pid];
             if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
             ask.push_back(pid);
-            if (config_.role == Role::Spectator) break;  // one host is enough
+        }
+        // One host is enough for a spectator: the first that did not serve a rejected snapshot.
+        if (config_.role == Role::Spectator && ask.size() > 1) {
+            const auto good = std::find_if(ask.begin(), ask.end(), [&](PlayerId p) { return p != rejected_provider_; });
+            ask = {good != ask.end() ? *good : ask.front()};
         }
     }
     offer_requested_ = true;
@@ -1078,6 +1093,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
 
 void Session::poll_transfer(std::uint64_t now_us) {
     if (!incoming_) return;
+    if (vetting_->active()) return poll_vetting(now_us);
     std::vector<std::uint32_t> due;
     incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
     for (std::uint32_t c : due) {
@@ -1235,6 +1251,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
         emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
         incoming_.reset();
         offer_requested_ = false;
+        vetting_->reset();
     };
     const auto blob = incoming_->verified();
     if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
@@ -1244,6 +1261,31 @@ void Session::finish_transfer(std::uint64_t now_us) {
         !e.empty())
         return reject(e);
     if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
+    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
+    // same checksum of that frame (a recovery already follows the majority's checksums).
+    std::string vetted;
+    if (offer.reason != TransferReason::Recover) {
+        if (!vetting_->active() || vetting_->frame() != t.frame || vetting_->provider() != from) {
+            std::vector<PlayerId> voters;
+            for (const SlotEntry& e : offer.slots) {
+                const PlayerId p = e.slot;
+                if (!is_slot(p) || p == config_.local_player || host_of(p) != p) continue;
+                if (e.state == SlotState::Running || links_[p].welcomed) voters.push_back(p);
+            }
+            // Short: the slot is handed over already, and a newcomer silent to the others for
+            // disconnect_us would be voted gone again.
+            const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
+            vetting_->start(t.frame, sim_.checksum(t.state), from, std::move(voters), now_us, wait_us);
+            return;  // poll_vetting asks, and comes back here once decided
+        }
+        const SnapshotVetting::Verdict v = vetting_->verdict(now_us);
+        vetted = vetting_->detail(now_us);
+        if (v != SnapshotVetting::Verdict::Accepted) {
+            rejected_provider_ = from;
+            return reject("snapshot rejected: " + vetted);
+        }
+        vetting_->reset();
+    }
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
@@ -1279,7 +1321,8 @@ void Session::finish_transfer(std::uint64_t now_us) {
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
     emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
-         config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating");
+         (config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating") +
+             "; " + vetted);
     emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
     refresh_resend_floor();
 }
@@ -1638,6 +1681,27 @@ bool Session::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t f
         if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
     }
     return true;
+}
+
+}  // namespace lockroll::rollback
+
+namespace lockroll::rollback {
+
+// Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
+// answer), and finishes the transfer once the vetting is decided either way.
+void Session::poll_vetting(std::uint64_t now_us) {
+    std::vector<PlayerId> ask;
+    vetting_->due(now_us, config_.query_resend_us, ask);
+    for (PlayerId p : ask) {
+        QueryMessage q;
+        q.what = QueryWhat::FrameChecksums;
+        q.frame = vetting_->frame();
+        q.count = 1;
+        Datagram d{p, {}, false};
+        encode(q, d.bytes);
+        pending_out_.push_back(std::move(d));
+    }
+    if (vetting_->verdict(now_us) != SnapshotVetting::Verdict::Pending) finish_transfer(now_us);
 }
 
 }  // namespace lockroll::rollback

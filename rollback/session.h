@@ -97,7 +97,8 @@
 
 namespace lockroll::rollback {
 
-class InputAuthority;  // rollback/input_authority.h
+class InputAuthority;   // rollback/input_authority.h
+class SnapshotVetting;  // rollback/snapshot_vetting.h
 
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
@@ -340,6 +341,11 @@ private:
     bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
     bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
     std::uint32_t owner_count(PlayerId slot) const;
+    // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
+    // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
+    std::unique_ptr<SnapshotVetting> vetting_;
+    std::optional<PlayerId> rejected_provider_;
+    void poll_vetting(std::uint64_t now_us);
 };
 
 }  // namespace lockroll::rollback

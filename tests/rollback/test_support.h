@@ -336,4 +336,13 @@ private:
     std::vector<Datagram> out_;
 };
 
+// A new process comes into the match `cfg` describes: a joiner for slot `id`, or a spectator.
+inline Client& start_newcomer(Cluster& cluster, const sim::SceneDesc& scene, const SessionConfig& cfg, Role role,
+                              PlayerId id, std::uint64_t bot_seed) {
+    SessionConfig c = cfg;
+    c.role = role;
+    c.local_player = id;
+    return cluster.start(id, scene, c, bot_seed);
+}
+
 }  // namespace lockroll::rollback::testing
