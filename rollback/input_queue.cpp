@@ -38,6 +38,17 @@ InputQueue::Add InputQueue::add_confirmed(std::uint32_t frame, std::span<const s
     return Add::Stored;
 }
 
+bool InputQueue::replace_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input) {
+    if (input.size() != input_size_ || frame < floor_ || frame >= confirmed_count_) return false;
+    std::copy(input.begin(), input.end(), confirmed_.begin() + static_cast<std::ptrdiff_t>(slot(frame)));
+    absent_[frame & (capacity_ - 1)] = 0;
+    if (frame + 1 == confirmed_count_) {
+        last_.assign(input.begin(), input.end());
+        last_absent_ = false;
+    }
+    return true;
+}
+
 void InputQueue::restart_at(std::uint32_t frame) {
     confirmed_count_ = frame;
     floor_ = frame;

@@ -40,6 +40,11 @@ public:
     void discard_before(std::uint32_t frame);
 
     Add add_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input, bool absent = false);
+    // The one exception to "a confirmed input never changes": a running slot's input that a
+    // relay filled in is replaced by its owner's own copy (rollback/input_authority.h), before
+    // any confirmed frame rests on it. floor() <= frame < confirmed_count() and the right size,
+    // else false and nothing changes. The absent flag is cleared (an owner's input is its own).
+    bool replace_confirmed(std::uint32_t frame, std::span<const std::uint8_t> input);
 
     // floor() <= frame < confirmed_count().
     std::span<const std::uint8_t> confirmed(std::uint32_t frame) const;

@@ -1,7 +1,9 @@
 #include "rollback/session.h"
 
+#include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
 #include "rollback/session_admission.h"
+#include "rollback/snapshot_vetting.h"
 
 #include <algorithm>
 #include <array>
@@ -108,6 +110,8 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     dc.resend_us = config_.query_resend_us;
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
+    authority_ = std::make_unique<InputAuthority>(config_.players, peers_total());
+    vetting_ = std::make_unique<SnapshotVetting>();
     if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
@@ -251,10 +255,19 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
             return handle_snapshot_chunk(from, snap_chunk_msg_, now_us);
         default: break;
     }
+    // A newcomer vetting its snapshot: the peers' confirmed checksums of its frame.
+    if (*kind == MessageKind::Reply && vetting_->active()) {
+        if (const char* e = decode(datagram, reply_msg_)) return malformed(from, e);
+        if (reply_msg_.what == QueryWhat::FrameChecksums && reply_msg_.count == 1)
+            vetting_->on_reply(from, reply_msg_.frame, reply_msg_.available && reply_msg_.values.size() == 1,
+                               reply_msg_.values.empty() ? 0 : reply_msg_.values[0]);
+        return;
+    }
     // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
     // snapshot is loaded; a player still synchronizing already does (frame 0).
     if (phase_ != SessionPhase::Running && config_.role != Role::Player) return void(++ps.ignored_packets);
-    if (!link.welcomed || (is_slot(from) && !slot_running(from))) {
+    // A welcomed joiner's query (its snapshot's vetting) is answered before its slot runs.
+    if (!link.welcomed || (is_slot(from) && !slot_running(from) && *kind != MessageKind::Query)) {
         ++ps.ignored_packets;
         // A dropped slot's process still talking: tell it, now and then.
         if (is_slot(from) && slot_state(from) == SlotState::Disconnected && link.refusal_quiet_for(now_us, 500000)) {
@@ -478,8 +491,9 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
         const std::size_t n = config_.input_size;
         for (std::uint32_t k = 0; k < m.frame_count; ++k) {
             const std::uint32_t f = *first + k;
-            const auto r = sync_->add_remote_input(from, f, std::span(m.inputs).subspan(k * n, n));
-            if (r == InputQueue::Add::Conflict) return malformed(from, "input message: rewrites a confirmed input");
+            const auto in = std::span(m.inputs).subspan(k * n, n);
+            const auto r = sync_->add_remote_input(from, f, in);
+            if (!owner_copy(from, f, in, r)) return malformed(from, "input message: rewrites a confirmed input");
             if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;  // resent later
         }
     }
@@ -552,6 +566,7 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
     SlotView& v = slots_[slot];
     const SlotState before = slot_state(slot);
     membership_.set(slot, e.state, e.epoch);
+    authority_->reset_slot(slot);
     v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
@@ -591,6 +606,10 @@ void Session::apply_blocks(PlayerId from) {
         if (config_.role != Role::Spectator && (b.slot == config_.local_player || my_guest(b.slot))) continue;
         const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
         if (!first) continue;
+        if (relayed_block(from, b, *first)) {
+            if (phase_ == SessionPhase::Failed || links_[from].error()) return;
+            continue;
+        }
         for (std::uint32_t k = 0; k < b.frame_count; ++k) {
             const auto r = sync_->add_remote_input(b.slot, *first + k, std::span(b.inputs).subspan(k * n, n), b.absent);
             if (r == InputQueue::Add::Conflict) return malformed(from, "input message: relayed input contradicts a confirmed one");
@@ -677,7 +696,10 @@ std::uint32_t Session::confirm_limit() const {
     }
     const auto span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
     const std::uint32_t oldest = sync_->frame() > span ? sync_->frame() - span : 0;
-    return std::min(confirmable, std::max(majority_holds, oldest));
+    // A relayed input of a running slot waits for its owner's own copy (which wins if it
+    // differs), as long as the saved states allow: frame n rests on the inputs before n.
+    const std::uint32_t unverified = authority_->first_unverified(sync_->confirmed_frame()).value_or(confirmable);
+    return std::min(confirmable, std::max(std::min(majority_holds, unverified), oldest));
 }
 
 void Session::confirm_frames() {
@@ -687,6 +709,8 @@ void Session::confirm_frames() {
         detector_->add_local(fc.frame, fc.checksum);
         if (observer_) observer_->on_frame_confirmed(fc);
     }
+    for (int s = 0; s < config_.players; ++s)
+        authority_->forget_before(static_cast<PlayerId>(s), sync_->queue(static_cast<PlayerId>(s)).floor());
 }
 
 // A peer's frame now: what it last reported plus the time since then and half a round trip. A
@@ -751,6 +775,7 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
     membership_.leave(slot);
+    authority_->reset_slot(slot);
     v.kick_vote = false;
     v.authoring = false;
     v.neutral_reported = false;
@@ -1047,7 +1072,11 @@ void Session::poll_handshake(std::uint64_t now_us) {
             const PeerLink& l = links_[pid];
             if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
             ask.push_back(pid);
-            if (config_.role == Role::Spectator) break;  // one host is enough
+        }
+        // One host is enough for a spectator: the first that did not serve a rejected snapshot.
+        if (config_.role == Role::Spectator && ask.size() > 1) {
+            const auto good = std::find_if(ask.begin(), ask.end(), [&](PlayerId p) { return p != rejected_provider_; });
+            ask = {good != ask.end() ? *good : ask.front()};
         }
     }
     offer_requested_ = true;
@@ -1064,6 +1093,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
 
 void Session::poll_transfer(std::uint64_t now_us) {
     if (!incoming_) return;
+    if (vetting_->active()) return poll_vetting(now_us);
     std::vector<std::uint32_t> due;
     incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
     for (std::uint32_t c : due) {
@@ -1221,6 +1251,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
         emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
         incoming_.reset();
         offer_requested_ = false;
+        vetting_->reset();
     };
     const auto blob = incoming_->verified();
     if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
@@ -1230,7 +1261,33 @@ void Session::finish_transfer(std::uint64_t now_us) {
         !e.empty())
         return reject(e);
     if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
+    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
+    // same checksum of that frame (a recovery already follows the majority's checksums).
+    std::string vetted;
+    if (offer.reason != TransferReason::Recover) {
+        if (!vetting_->active() || vetting_->frame() != t.frame || vetting_->provider() != from) {
+            std::vector<PlayerId> voters;
+            for (const SlotEntry& e : offer.slots) {
+                const PlayerId p = e.slot;
+                if (!is_slot(p) || p == config_.local_player || host_of(p) != p) continue;
+                if (e.state == SlotState::Running || links_[p].welcomed) voters.push_back(p);
+            }
+            // Short: the slot is handed over already, and a newcomer silent to the others for
+            // disconnect_us would be voted gone again.
+            const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
+            vetting_->start(t.frame, sim_.checksum(t.state), from, std::move(voters), now_us, wait_us);
+            return;  // poll_vetting asks, and comes back here once decided
+        }
+        const SnapshotVetting::Verdict v = vetting_->verdict(now_us);
+        vetted = vetting_->detail(now_us);
+        if (v != SnapshotVetting::Verdict::Accepted) {
+            rejected_provider_ = from;
+            return reject("snapshot rejected: " + vetted);
+        }
+        vetting_->reset();
+    }
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
+    authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
     incoming_.reset();
     offer_requested_ = false;
@@ -1264,7 +1321,8 @@ void Session::finish_transfer(std::uint64_t now_us) {
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
     emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
-         config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating");
+         (config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating") +
+             "; " + vetted);
     emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
     refresh_resend_floor();
 }
@@ -1350,7 +1408,8 @@ std::uint64_t Session::table_refresh_us() const {
 SlotEntry Session::table_entry(PlayerId to, PlayerId s) const {
     const bool vote = is_slot(to);
     return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
-            vote ? membership_.advertised_epoch(s) : membership_.epoch(s), static_cast<std::uint16_t>(count_of(s))};
+            vote ? membership_.advertised_epoch(s) : membership_.epoch(s),
+            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
 }
 
 void Session::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
@@ -1421,7 +1480,9 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, s
         if (slot == config_.local_player || (is_slot(to) && slot == to) || !link.has_count[slot]) continue;
         const InputQueue& q = sync_->queue(slot);
         const std::uint32_t theirs = link.counts[slot];
-        const std::uint32_t mine = q.confirmed_count();
+        std::uint32_t mine = q.confirmed_count();
+        // Only what the owner's own stream delivered is relayed onward, never another's claim.
+        if (const auto f = authority_->first_unverified_of(slot, theirs)) mine = std::min(mine, *f);
         if (mine <= theirs) continue;
         const SlotView& v = slots_[slot];
         // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
@@ -1501,7 +1562,7 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.has_extension = false;
         m.slots.clear();
         m.blocks.clear();
-        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(count_of(pid)) : 0;
+        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(owner_count(pid)) : 0;
         std::uint32_t count = 0;
         m.inputs.clear();
         if (!spectator) {
@@ -1551,6 +1612,96 @@ void Session::set_input_delay(int frames) {
 
 void Session::damage_outgoing_chunks(int count, ChunkDamage how) {
     if (count > 0) chunk_damage_.insert(chunk_damage_.end(), static_cast<std::size_t>(count), how);
+}
+
+}  // namespace lockroll::rollback
+
+namespace lockroll::rollback {
+
+// The owner's own input of `slot` at frame f came in (added: what the queue made of it). Equal to
+// a relayed copy: verified. Different from a relayed copy: the owner wins -- its input replaces
+// the relay's where no confirmed frame rests on it yet, and the relay is counted and ignored; if
+// a confirmed frame already rests on it, it stands (the checksums tell; recovery repairs) and
+// the owner is not blamed. False only when the owner contradicts an input nobody relayed: it
+// rewrote its own past.
+bool Session::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
+    if (added == InputQueue::Add::Duplicate) authority_->verified(slot, f);
+    if (added != InputQueue::Add::Conflict) return true;
+    const auto relay = authority_->relay_of(slot, f);
+    if (!relay) return false;
+    const bool replaced = sync_->replace_remote_input(slot, f, input);
+    if (authority_->owner_disagrees(slot, f, replaced) && *relay < stats_.peers.size())
+        stats_.peers[*relay].relay_disagreements = authority_->disagreements(*relay);
+    return true;
+}
+
+// A block of a running slot's stream, not from this session's own streams: its owner's (a host
+// sends its guests' streams as blocks), or a relay's claim that fills only what the owner's
+// stream has not delivered. True when handled here; false for every other block (absent
+// streams, spectators' views), which apply_blocks takes as before.
+// What we tell slot s's owner we hold of its stream (ack and table count): up to the first
+// input a relay filled in that the owner has not verified yet, so it resends from there and its
+// own copy settles the relay's (frames a confirmed frame already rests on are past settling).
+std::uint32_t Session::owner_count(PlayerId s) const {
+    const std::uint32_t count = count_of(s);
+    const auto f = authority_->first_unverified_of(s, sync_->confirmed_frame());
+    return f ? std::min(count, *f) : count;
+}
+
+bool Session::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
+    if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
+    const std::size_t n = config_.input_size;
+    const bool owner = is_slot(from) && host_of(b.slot) == from;
+    if (!owner && authority_->ignored(from)) {
+        ++stats_.peers[from].ignored_packets;
+        return true;
+    }
+    for (std::uint32_t k = 0; k < b.frame_count; ++k) {
+        const std::uint32_t f = first + k;
+        const auto in = std::span(b.inputs).subspan(k * n, n);
+        const auto r = sync_->add_remote_input(b.slot, f, in, false);
+        if (owner) {
+            if (!owner_copy(b.slot, f, in, r)) {
+                malformed(from, "input message: rewrites a confirmed input of its guest");
+                return true;
+            }
+        } else if (r == InputQueue::Add::Stored) {
+            authority_->note_relayed(b.slot, f, from);
+        } else if (r == InputQueue::Add::Duplicate) {
+            authority_->vouch(b.slot, f, from);
+        } else if (r == InputQueue::Add::Conflict) {
+            // Against another relay's claim the owner decides later; against the owner's own
+            // input this relay is wrong: counted and ignored, never a drop of the owner.
+            if (!authority_->relay_of(b.slot, f)) {
+                authority_->relay_disagrees(from);
+                stats_.peers[from].relay_disagreements = authority_->disagreements(from);
+            }
+            return true;
+        }
+        if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
+    }
+    return true;
+}
+
+}  // namespace lockroll::rollback
+
+namespace lockroll::rollback {
+
+// Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
+// answer), and finishes the transfer once the vetting is decided either way.
+void Session::poll_vetting(std::uint64_t now_us) {
+    std::vector<PlayerId> ask;
+    vetting_->due(now_us, config_.query_resend_us, ask);
+    for (PlayerId p : ask) {
+        QueryMessage q;
+        q.what = QueryWhat::FrameChecksums;
+        q.frame = vetting_->frame();
+        q.count = 1;
+        Datagram d{p, {}, false};
+        encode(q, d.bytes);
+        pending_out_.push_back(std::move(d));
+    }
+    if (vetting_->verdict(now_us) != SnapshotVetting::Verdict::Pending) finish_transfer(now_us);
 }
 
 }  // namespace lockroll::rollback

@@ -97,6 +97,9 @@
 
 namespace lockroll::rollback {
 
+class InputAuthority;   // rollback/input_authority.h
+class SnapshotVetting;  // rollback/snapshot_vetting.h
+
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
     FlipBit,   // one bit of the chunk's last byte: the right length, so the receiver's hash check
@@ -332,6 +335,17 @@ private:
     // fault injection on sent chunks (damage_outgoing_chunks), in order
     std::vector<ChunkDamage> chunk_damage_;
     std::uint64_t damaged_chunks_ = 0;
+    // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
+    // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
+    std::unique_ptr<InputAuthority> authority_;
+    bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
+    bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
+    std::uint32_t owner_count(PlayerId slot) const;
+    // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
+    // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
+    std::unique_ptr<SnapshotVetting> vetting_;
+    std::optional<PlayerId> rejected_provider_;
+    void poll_vetting(std::uint64_t now_us);
 };
 
 }  // namespace lockroll::rollback

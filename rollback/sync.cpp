@@ -198,6 +198,19 @@ InputQueue::Add Sync::add_remote_input(PlayerId player, std::uint32_t frame, std
     return result;
 }
 
+bool Sync::replace_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input) {
+    if (player >= queues_.size() || frame < confirmed_frame_) return false;
+    InputQueue& q = queues_[player];
+    if (!q.replace_confirmed(frame, input)) return false;
+    if (frame >= frame_) return true;
+    const auto used = q.used(frame);
+    if (!used || !std::equal(used->begin(), used->end(), input.begin()) || q.used_absent(frame)) {
+        ++stats_.peers[player].mispredictions;
+        pending_ = pending_ ? std::min(*pending_, frame) : frame;
+    }
+    return true;
+}
+
 bool Sync::must_wait(int delay) const {
     const std::uint64_t window = static_cast<std::uint64_t>(config_.prediction_window);
     if (std::uint64_t{frame_} >= std::uint64_t{remote_confirmed_inputs()} + window) return true;

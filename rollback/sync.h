@@ -86,6 +86,11 @@ public:
     // rollback on a misprediction (input bytes or absent flag).
     InputQueue::Add add_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input,
                                      bool absent = false);
+    // The owner's input of `frame` replaces a relayed one that differs (InputQueue::
+    // replace_confirmed): only while no confirmed frame rests on it (frame >= confirmed_frame()),
+    // else false and nothing changes. A frame already simulated with other bytes is rolled back
+    // like a misprediction.
+    bool replace_remote_input(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> input);
 
     // Frames the queue of `player` must keep beyond confirmation: for the local queue the
     // oldest input a peer has not acknowledged (resends), for any queue the oldest a peer being

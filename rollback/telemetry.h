@@ -20,6 +20,7 @@ struct PeerStats {
     std::uint64_t mispredictions = 0;     // confirmed inputs that differed from the one simulated
     std::uint64_t checksum_matches = 0;
     std::uint64_t checksum_mismatches = 0;
+    std::uint64_t relay_disagreements = 0;  // its relayed inputs that contradicted their owner's
     std::uint64_t rtt_us = 0;             // smoothed; 0 until measured
     std::int32_t frame_advantage_x100 = 0;  // mean over the time-sync window, frames * 100
 };

@@ -17,19 +17,10 @@ using testing::Client;
 using testing::Cluster;
 using testing::make_scene;
 using testing::NetParams;
+using testing::real_config;
+using testing::start_newcomer;
 using Kind = SessionEvent::Kind;
 
-SessionConfig real_config(int players, int window) {
-    SessionConfig c;
-    c.players = players;
-    c.prediction_window = window;
-    c.input_delay = window == 0 ? 4 : 2;
-    c.handshake = true;
-    c.match_id = 0xC0FFEE;
-    c.interrupt_us = 750000;
-    c.disconnect_us = 5000000;
-    return c;
-}
 
 std::vector<const SessionEvent*> events_of(const Client& c, Kind k) {
     std::vector<const SessionEvent*> out;
@@ -38,14 +29,6 @@ std::vector<const SessionEvent*> events_of(const Client& c, Kind k) {
     return out;
 }
 
-// A new process comes into the match `cfg` describes: a joiner for slot `id`, or a spectator.
-Client& start_newcomer(Cluster& cluster, const sim::SceneDesc& scene, const SessionConfig& cfg, Role role,
-                       PlayerId id, std::uint64_t bot_seed) {
-    SessionConfig c = cfg;
-    c.role = role;
-    c.local_player = id;
-    return cluster.start(id, scene, c, bot_seed);
-}
 
 // Every client that takes part confirmed `frame` with the same checksum.
 void expect_equal_at(const Cluster& cluster, std::uint32_t frame) {

@@ -68,6 +68,20 @@ private:
     std::array<std::uint8_t, 3> axis_{};
 };
 
+// A session as the lifecycle tests run it: handshake, a match id, and timeouts that let a cut of
+// a few seconds be noticed (interrupted at 0.75 s) without a drop (5 s).
+inline SessionConfig real_config(int players, int window) {
+    SessionConfig c;
+    c.players = players;
+    c.prediction_window = window;
+    c.input_delay = window == 0 ? 4 : 2;
+    c.handshake = true;
+    c.match_id = 0xC0FFEE;
+    c.interrupt_us = 750000;
+    c.disconnect_us = 5000000;
+    return c;
+}
+
 struct NetParams {
     std::uint64_t latency_us = 30000;  // one way
     std::uint64_t jitter_us = 0;       // uniform extra delay 0..jitter
@@ -209,6 +223,8 @@ public:
     std::function<void(PlayerId, Client&)> before_tick;
     // Lets a test intercept datagrams; return false to drop.
     std::function<bool(PlayerId from, PlayerId to, const std::vector<std::uint8_t>&)> filter;
+    // Lets a test alter datagrams a client sends (an attacker's), before the filter sees them.
+    std::function<void(PlayerId from, PlayerId to, std::vector<std::uint8_t>&)> rewrite;
 
     std::uint64_t now() const { return now_; }
     TestNet& net() { return net_; }
@@ -307,6 +323,7 @@ private:
         out_.clear();
         c.session->poll(now_, out_);
         for (auto& d : out_) {
+            if (rewrite) rewrite(id, d.peer, d.bytes);
             if (filter && !filter(id, d.peer, d.bytes)) continue;
             net_.send(id, d.peer, std::move(d.bytes), now_);
         }
@@ -318,5 +335,14 @@ private:
     std::uint64_t now_ = 0;
     std::vector<Datagram> out_;
 };
+
+// A new process comes into the match `cfg` describes: a joiner for slot `id`, or a spectator.
+inline Client& start_newcomer(Cluster& cluster, const sim::SceneDesc& scene, const SessionConfig& cfg, Role role,
+                              PlayerId id, std::uint64_t bot_seed) {
+    SessionConfig c = cfg;
+    c.role = role;
+    c.local_player = id;
+    return cluster.start(id, scene, c, bot_seed);
+}
 
 }  // namespace lockroll::rollback::testing

@@ -1,0 +1,126 @@
+// SnapshotVetting on its own (majority, two players, answers that do not count, the deadline),
+// and in virtual time the attack it stops (issue 21, "a joiner trusts any snapshot"): a peer
+// whose state is wrong serves a snapshot whose hash matches its bytes; the newcomer asks the
+// others for their confirmed checksum of that frame, rejects it, asks another host, and ends on
+// the honest final.
+#include <gtest/gtest.h>
+
+#include "rollback/session.h"
+#include "rollback/snapshot_vetting.h"
+#include "tests/rollback/test_support.h"
+
+namespace lockroll::rollback {
+namespace {
+
+using V = SnapshotVetting::Verdict;
+
+TEST(SnapshotVetting, AMajorityOfAgreeingAnswersAccepts) {
+    SnapshotVetting v;
+    v.start(100, 0xAB, 0, {0, 1, 2}, 0, 1'000'000);
+    EXPECT_EQ(v.needed(), 2);
+    EXPECT_EQ(v.verdict(0), V::Pending);
+    v.on_reply(0, 100, true, 0xAB);
+    EXPECT_EQ(v.verdict(0), V::Pending) << "the provider's word alone is not a majority of three";
+    v.on_reply(2, 100, true, 0xAB);
+    EXPECT_EQ(v.verdict(0), V::Accepted);
+    EXPECT_NE(v.detail(0).find("2 of 3 peers agree"), std::string::npos) << v.detail(0);
+}
+
+TEST(SnapshotVetting, DisagreeingAnswersThatLeaveNoMajorityReject) {
+    SnapshotVetting v;
+    v.start(100, 0xAB, 0, {0, 1, 2}, 0, 1'000'000);
+    v.on_reply(0, 100, true, 0xAB);
+    v.on_reply(1, 100, true, 0xCD);
+    EXPECT_EQ(v.verdict(0), V::Pending) << "2 could still agree";
+    v.on_reply(2, 100, true, 0xCD);
+    EXPECT_EQ(v.verdict(0), V::Rejected);
+    EXPECT_NE(v.detail(0).find("peer 1 confirmed 00000000000000cd"), std::string::npos) << v.detail(0);
+}
+
+TEST(SnapshotVetting, AnswersThatDoNotCount) {
+    SnapshotVetting v;
+    v.start(100, 0xAB, 0, {0, 1, 2}, 0, 1'000'000);
+    v.on_reply(7, 100, true, 0xAB);   // not a voter
+    v.on_reply(1, 99, true, 0xAB);    // another frame
+    v.on_reply(1, 100, false, 0xAB);  // not available: no answer, asked again
+    v.on_reply(0, 100, true, 0xAB);
+    v.on_reply(0, 100, true, 0xAB);   // twice: one answer
+    EXPECT_EQ(v.verdict(0), V::Pending);
+    std::vector<PlayerId> ask;
+    v.due(0, 100, ask);
+    EXPECT_EQ(ask, (std::vector<PlayerId>{1, 2}));
+    v.due(50, 100, ask);
+    EXPECT_TRUE(ask.empty()) << "not before the resend time";
+    v.due(100, 100, ask);
+    EXPECT_EQ(ask, (std::vector<PlayerId>{1, 2}));
+}
+
+TEST(SnapshotVetting, TwoPlayersTheProvidersWordDecidesAndSaysSo) {
+    SnapshotVetting v;
+    v.start(40, 0x11, 0, {0}, 0, 1'000'000);
+    EXPECT_EQ(v.needed(), 1);
+    v.on_reply(0, 40, true, 0x11);
+    EXPECT_EQ(v.verdict(0), V::Accepted);
+    EXPECT_NE(v.detail(0).find("two players"), std::string::npos);
+}
+
+TEST(SnapshotVetting, AtTheDeadlineSilenceDoesNotBlockButNoAnswerRejects) {
+    SnapshotVetting v;
+    v.start(10, 0x1, 0, {0, 1, 2}, 0, 1000);
+    v.on_reply(0, 10, true, 0x1);
+    EXPECT_EQ(v.verdict(999), V::Pending);
+    EXPECT_EQ(v.verdict(1000), V::Accepted) << "some agree, nobody differs";
+    v.start(10, 0x1, 0, {0, 1, 2}, 0, 1000);
+    EXPECT_EQ(v.verdict(1000), V::Rejected) << "nobody answered";
+    v.start(10, 0x1, 0, {0, 1, 2}, 0, 1000);
+    v.on_reply(0, 10, true, 0x1);
+    v.on_reply(1, 10, true, 0x2);
+    EXPECT_EQ(v.verdict(1000), V::Rejected) << "one differs";
+    v.reset();
+    EXPECT_FALSE(v.active());
+}
+
+using testing::Client;
+using testing::Cluster;
+using testing::make_scene;
+using Kind = SessionEvent::Kind;
+
+// Slot 0's state goes wrong at frame 120 (a flipped bit, no recovery): from then on each of its
+// snapshots is consistent -- the hash matches the bytes -- but wrong. A spectator asks slot 0
+// first (the lowest host); before, it loaded that state and followed the wrong match.
+TEST(SnapshotVetting, ForgedSnapshotIsRejectedAndTheSpectatorEndsOnTheHonestFinal) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = testing::real_config(3, 8);
+    cfg.max_spectators = 1;
+    Cluster cluster(scene, cfg, {15000, 3000}, 9);
+    cluster.run_frames(60);
+    const std::uint32_t body = cluster.clients[0]->sim.body_id(5);
+    ASSERT_EQ(cluster.clients[0]->session->inject_fault(120, body, 0, 20), "");
+    cluster.run_frames(300, 30'000'000);
+    Client& spectator = testing::start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1);
+    cluster.run_frames(700, 60'000'000);
+    cluster.settle(700);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    std::vector<const SessionEvent*> rejected, loaded;
+    for (const SessionEvent& e : spectator.events) {
+        if (e.kind == Kind::SnapshotRejected) rejected.push_back(&e);
+        if (e.kind == Kind::SnapshotLoaded) loaded.push_back(&e);
+    }
+    ASSERT_GE(rejected.size(), 1u);
+    EXPECT_EQ(rejected[0]->peer, 0u) << "slot 0 served the forged snapshot";
+    EXPECT_NE(rejected[0]->detail.find("differ"), std::string::npos) << rejected[0]->detail;
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_NE(loaded[0]->peer, 0u) << "loaded from an honest host";
+    EXPECT_NE(loaded[0]->detail.find("agree"), std::string::npos) << loaded[0]->detail;
+    // The spectator follows the honest players (1 and 2), not slot 0's wrong state.
+    const auto honest = cluster.clients[1]->confirmed.find(700);
+    const auto mine = spectator.confirmed.find(700);
+    ASSERT_NE(honest, cluster.clients[1]->confirmed.end());
+    ASSERT_NE(mine, spectator.confirmed.end());
+    EXPECT_EQ(mine->second, honest->second);
+    EXPECT_EQ(cluster.clients[2]->confirmed.at(700), honest->second);
+    EXPECT_NE(cluster.clients[0]->confirmed.at(700), honest->second) << "slot 0 really was wrong";
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
