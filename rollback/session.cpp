@@ -1279,6 +1279,9 @@ void Session::finish_transfer(std::uint64_t now_us) {
             return;  // poll_vetting asks, and comes back here once decided
         }
         const SnapshotVetting::Verdict v = vetting_->verdict(now_us);
+        // A repeated last chunk completes the transfer again while the answers are still coming:
+        // that is no verdict (it was taken for a rejection, and a joiner under loss never joined).
+        if (v == SnapshotVetting::Verdict::Pending) return;
         vetted = vetting_->detail(now_us);
         if (v != SnapshotVetting::Verdict::Accepted) {
             rejected_provider_ = from;
