@@ -30,19 +30,13 @@ set(LOCKROLL_DETAIL_rollback)
 
 set(LOCKROLL_HEADER_DIR_transport transport)
 set(LOCKROLL_SURFACE_transport transport.h enet_transport.h)
-set(LOCKROLL_DETAIL_transport link_conditions.h partition_schedule.h)  # harness/match/match.h's
+set(LOCKROLL_DETAIL_transport)
 
 set(LOCKROLL_HEADER_DIR_net net)
 # update_result.h: what NetSession::update() returns and its observer hears; the runners and the
 # clock (peer_runner.h, clock.h) stay in-tree.
 set(LOCKROLL_SURFACE_net session_builder.h update_result.h)
 set(LOCKROLL_DETAIL_net)
-
-# lockroll::match stays installed for examples/web, which steps a whole virtual-time match from
-# JavaScript (Match) on a shipped scene (load_scene); no game over the network needs it.
-set(LOCKROLL_HEADER_DIR_match harness/match)
-set(LOCKROLL_SURFACE_match match.h scene_loader.h)
-set(LOCKROLL_DETAIL_match bots.h metrics.h)
 
 # lockroll_public_headers(name dir_var headers_var): the directory under include/lockroll/ and the
 # headers (file names in it) lockroll_<name> installs. Without ENet (WebAssembly) the ENet
