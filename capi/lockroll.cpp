@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "net/peer_runner.h"
 #include "net/session_builder.h"
 #include "rollback/player_id.h"
 #include "rollback/simulation.h"

@@ -14,29 +14,29 @@
 # tests/install lists what must be installed and fails on one header more; tests/headers compiles
 # each alone.
 set(LOCKROLL_HEADER_DIR_sim sim)
-set(LOCKROLL_SURFACE_sim fixed.h vec3.h scene.h world.h)
-set(LOCKROLL_DETAIL_sim wide_int.h quat.h input.h)
+# wide_int.h, quat.h and input.h are API too, not leftovers: Fixed's arithmetic is inline over
+# wide_int.h's 128-bit type (a Q32.32 product needs it, and inline is what keeps the step fast),
+# a scene's bodies carry an orientation (quat.h's Quat), and World::step takes the players'
+# PlayerInput (input.h).
+set(LOCKROLL_SURFACE_sim fixed.h vec3.h scene.h world.h wide_int.h quat.h input.h)
+set(LOCKROLL_DETAIL_sim)
 
 set(LOCKROLL_HEADER_DIR_rollback rollback)
+# The sessions are facades over in-tree state machines (session_impl.h, relay_session_impl.h), so
+# what they name is only what a game sees: configs, stats, events, ids, the per-tick values.
 set(LOCKROLL_SURFACE_rollback simulation.h world_simulation.h session.h relay_session.h sync_test.h
-    session_event.h replay.h)
-set(LOCKROLL_DETAIL_rollback player_id.h events.h telemetry.h session_config.h session_core.h sync.h
-    snapshot_ring.h input_queue.h predictor.h time_sync.h desync_detector.h membership.h peer_link.h
-    protocol.h control_messages.h snapshot_transfer.h relay_messages.h)
+    session_event.h replay.h session_config.h session_types.h session_queries.h player_id.h events.h telemetry.h)
+set(LOCKROLL_DETAIL_rollback)
 
 set(LOCKROLL_HEADER_DIR_transport transport)
 set(LOCKROLL_SURFACE_transport transport.h enet_transport.h)
-set(LOCKROLL_DETAIL_transport link_conditions.h partition_schedule.h)  # harness/match/match.h's
+set(LOCKROLL_DETAIL_transport)
 
 set(LOCKROLL_HEADER_DIR_net net)
-set(LOCKROLL_SURFACE_net session_builder.h)
-set(LOCKROLL_DETAIL_net peer_runner.h clock.h)
-
-# lockroll::match stays installed for examples/web, which steps a whole virtual-time match from
-# JavaScript (Match) on a shipped scene (load_scene); no game over the network needs it.
-set(LOCKROLL_HEADER_DIR_match harness/match)
-set(LOCKROLL_SURFACE_match match.h scene_loader.h)
-set(LOCKROLL_DETAIL_match bots.h metrics.h)
+# update_result.h: what NetSession::update() returns and its observer hears; the runners and the
+# clock (peer_runner.h, clock.h) stay in-tree.
+set(LOCKROLL_SURFACE_net session_builder.h update_result.h)
+set(LOCKROLL_DETAIL_net)
 
 # lockroll_public_headers(name dir_var headers_var): the directory under include/lockroll/ and the
 # headers (file names in it) lockroll_<name> installs. Without ENet (WebAssembly) the ENet

@@ -1,9 +1,11 @@
 #include "net/session_builder.h"
 
 #include "net/clock.h"
+#include "net/peer_runner.h"
 #include "net/relay_runner.h"
 #include "net/tick_schedule.h"
 #include "rollback/desync_evidence.h"
+#include "rollback/relay_messages.h"
 #include "rollback/replay.h"
 
 #include <algorithm>
@@ -124,7 +126,7 @@ struct NetSession::Engine final : rollback::SessionObserver {
         }
         // Into the event stream like the session's own (update()'s, next_event(), the observer).
         owner.on_session_event({rollback::SessionEvent::Kind::DesyncReport, r.peer, r.frame,
-                                owner.runner_config_.clock.now_us(), std::move(detail)});
+                                owner.runner_config_->clock.now_us(), std::move(detail)});
         if (user) user->on_desync_report(r);
     }
     void on_peer_error(rollback::PlayerId peer, const std::string& why) override {
@@ -144,6 +146,8 @@ NetSession::~NetSession() {
     runner_.reset();
     session_.reset();
 }
+
+const RunnerConfig& NetSession::runner_config() const { return *runner_config_; }
 
 std::string NetSession::output_error() const { return engine_ ? engine_->output_error : std::string(); }
 
@@ -165,7 +169,7 @@ void NetSession::restart_as_joiner() {
     session_ = std::make_unique<rollback::Session>(sc, engine_->sim, engine_.get());
     RunnerObserver* as_observer = this;
     runner_ = std::make_unique<PeerRunner>(
-        runner_config_, *session_, *transport_,
+        *runner_config_, *session_, *transport_,
         [this](std::uint32_t frame, std::span<std::uint8_t> out) { (*input_)(frame, out); }, as_observer);
 }
 
@@ -511,7 +515,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         if (rs.incarnation == 0) rs.incarnation = (static_cast<std::uint64_t>(rd()) << 32 | rd()) | 1;
         rollback::validate(rs);
         std::unique_ptr<NetSession> s(new NetSession());
-        s->runner_config_ = rc;
+        s->runner_config_ = std::make_unique<RunnerConfig>(rc);
         s->engine_ = make_engine(*s, simulation, rs.local_slot, rs.players);
         // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
         attach_transport(*s, rs.local_slot,
@@ -535,7 +539,7 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     if (configure_) configure_(sc, rc);
     rollback::validate(sc);  // names the field, before anything is bound
     std::unique_ptr<NetSession> s(new NetSession());
-    s->runner_config_ = rc;
+    s->runner_config_ = std::make_unique<RunnerConfig>(rc);
     s->engine_ = make_engine(*s, simulation, sc.local_player, sc.players);
     // A player from frame 0 may learn it is a restarted process: it then rejoins with this config.
     if (sc.role == rollback::Role::Player) s->engine_->rejoin_config = sc;

@@ -30,7 +30,8 @@
 //  - Defaults are those of a real network: handshake on (match id, hello/RTT phase before frame
 //    0, agreed drops), input delay 2, prediction window 8 (0 = lockstep), 60 Hz, run until
 //    request_stop() (frames(N): until N frames are confirmed everywhere). configure() reaches
-//    every SessionConfig and RunnerConfig field the builder does not name.
+//    every SessionConfig field the builder does not name (and, in-tree code that includes
+//    net/peer_runner.h, every RunnerConfig field: pacing, timeouts, the clock).
 //  - transport(t): the game's own transport::Transport instead of ENet (any that keeps
 //    transport/transport.h's contract: Steam networking sockets, WebRTC, plain UDP). Its
 //    local_id() must be this process's lowest local slot (through a server: the local slot),
@@ -85,7 +86,7 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/net/peer_runner.h>
+#include <lockroll/net/update_result.h>
 #include <lockroll/rollback/relay_session.h>
 #include <lockroll/rollback/session.h>
 #include <lockroll/rollback/simulation.h>
@@ -93,7 +94,11 @@
 
 namespace lockroll::net {
 
-class RelayRunner;  // net/relay_runner.h: held by pointer, so this installed header need not include it
+// Held by pointer (or named only as a parameter), so this installed header includes neither
+// the runners nor the clock: net/peer_runner.h, net/relay_runner.h, net/clock.h are in-tree.
+class PeerRunner;
+class RelayRunner;
+struct RunnerConfig;  // net/peer_runner.h: configure()'s second argument, complete in-tree only
 
 // A running session over ENet (built by SessionBuilder::start). Not copyable or movable.
 class NetSession final : private RunnerObserver {
@@ -145,7 +150,8 @@ public:
     rollback::RelaySession& relay_session() { return *relay_session_; }
     const rollback::RelaySession& relay_session() const { return *relay_session_; }
     transport::Transport& transport() { return *transport_; }
-    const RunnerConfig& runner_config() const { return runner_config_; }
+    // In-tree only (net/peer_runner.h): the runner's config as started.
+    const RunnerConfig& runner_config() const;
     // The first failure writing a desync evidence file or the replay (path and why); empty: none.
     std::string output_error() const;
 
@@ -161,7 +167,7 @@ private:
     void on_tick(const TickReport& r) override;
     void on_all_confirmed(std::uint64_t now_us) override;
 
-    RunnerConfig runner_config_;
+    std::unique_ptr<RunnerConfig> runner_config_;
     std::shared_ptr<transport::Transport> owned_;  // ENet, or a transport handed over by unique_ptr
     transport::Transport* transport_ = nullptr;     // the one in use
     transport::EnetTransport* enet_ = nullptr;      // when it is the builder's ENet
@@ -224,7 +230,7 @@ public:
     // The configs start() would use (validated the same way); for tests and tools.
     rollback::SessionConfig session_config() const;   // peer to peer
     rollback::RelaySessionConfig relay_config() const;  // through server()
-    RunnerConfig runner_config() const;
+    RunnerConfig runner_config() const;                 // in-tree only (net/peer_runner.h)
 
 private:
     void check_engine_settings() const;

@@ -11,16 +11,12 @@
 #include <span>
 #include <vector>
 
-#include <lockroll/rollback/protocol.h>
+#include "rollback/protocol.h"
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 
-// What a peer asks to be when it says hello.
-enum class Role : std::uint8_t {
-    Player = 0,     // a slot present from frame 0
-    Joiner = 1,     // a slot joining (or rejoining) a running match by snapshot
-    Spectator = 2,  // follows the match, never sends inputs
-};
+// Role (what a peer asks to be when it says hello): rollback/session_types.h.
 inline constexpr std::uint8_t kLastRole = 2;
 
 // Why a hello was not welcomed. Retry is not a refusal: the peer is not ready yet (a rejoining

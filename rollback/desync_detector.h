@@ -31,9 +31,9 @@
 
 #include <lockroll/rollback/events.h>
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/protocol.h>
+#include "rollback/protocol.h"
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/snapshot_ring.h>
+#include "rollback/snapshot_ring.h"
 #include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {

@@ -30,16 +30,12 @@
 #include <vector>
 
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/protocol.h>
+#include "rollback/protocol.h"
+#include <lockroll/rollback/session_config.h>
 
 namespace lockroll::rollback {
 
-// A view of two running players has no strict majority of the other voter: what then.
-enum class TwoPlayerRule : std::uint8_t {
-    PlayOnAlone,  // either one's vote drops the other: each survivor plays on alone (the default)
-    NoDrop,       // nobody is dropped: the one that lost the other reports Partitioned and waits
-};
-const char* two_player_rule_name(TwoPlayerRule r);
+// TwoPlayerRule (two running players have no strict majority): rollback/session_config.h.
 
 // Epochs wrap at 256: a is newer than b when it is less than half the circle ahead.
 inline bool newer_epoch(std::uint8_t a, std::uint8_t b) {

@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/rollback/control_messages.h>
-#include <lockroll/rollback/protocol.h>
-#include <lockroll/rollback/time_sync.h>
+#include "rollback/control_messages.h"
+#include "rollback/protocol.h"
+#include "rollback/time_sync.h"
 
 namespace lockroll::rollback {
 

@@ -19,6 +19,8 @@
 #include <span>
 #include <vector>
 
+#include "rollback/session_types.h"
+
 namespace lockroll::rollback {
 
 inline constexpr std::size_t kMaxDatagramBytes = 1200;  // fits any path MTU with UDP/IP headers
@@ -54,13 +56,7 @@ inline constexpr int kMaxChecksumsPerMessage = 3;
 inline constexpr int kMaxSlotEntries = 64;
 inline constexpr int kMaxStreamBlocks = 16;
 
-// A player slot's lifecycle state as peers gossip it (docs/sessions.md). Each change bumps the
-// slot's epoch; the higher epoch wins, so every peer converges on one table.
-enum class SlotState : std::uint8_t {
-    Absent = 0,        // nobody plays it yet: its input is the flagged neutral input
-    Running = 1,       // its owner process sends its inputs
-    Disconnected = 2,  // it was dropped (timeout or kick): flagged neutral input from an agreed frame
-};
+// SlotState (a slot's lifecycle state as peers gossip it): rollback/session_types.h.
 inline constexpr std::uint8_t kLastSlotState = 2;
 
 // One slot as the sender sees it, and how many of that slot's inputs the sender holds

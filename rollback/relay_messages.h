@@ -20,6 +20,8 @@
 #include <span>
 #include <vector>
 
+#include "rollback/session_types.h"
+
 namespace lockroll::rollback {
 
 // 2: the hello carries a connect token (server/connect_token.h), refusals 9..14.
@@ -44,7 +46,7 @@ enum class RelayKind : std::uint8_t {
 
 std::optional<RelayKind> peek_relay_kind(std::span<const std::uint8_t> datagram);
 
-enum class RelayRole : std::uint8_t { Player = 0, Joiner = 1, Spectator = 2 };
+// RelayRole: rollback/session_types.h (RelaySessionConfig names it).
 inline constexpr std::uint8_t kLastRelayRole = 2;
 
 enum class RelayRefusal : std::uint8_t {

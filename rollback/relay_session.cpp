@@ -1,4 +1,4 @@
-#include "rollback/relay_session.h"
+#include "rollback/relay_session_impl.h"
 
 #include "rollback/input_delay.h"
 #include "rollback/time_sync.h"
@@ -19,9 +19,9 @@ constexpr std::int64_t kFrac = 65536;  // room clock units per frame
 
 // The local slot's guess is the input this client sent for that frame; everyone else's is the
 // game's predictor's.
-class RelaySession::OwnPredictor final : public Predictor {
+class RelaySessionImpl::OwnPredictor final : public Predictor {
 public:
-    OwnPredictor(RelaySession& s, Predictor& inner) : s_(s), inner_(inner) {}
+    OwnPredictor(RelaySessionImpl& s, Predictor& inner) : s_(s), inner_(inner) {}
     void predict(PlayerId player, std::uint32_t frame, std::span<const std::uint8_t> last_confirmed,
                  std::uint32_t last_confirmed_frame, std::span<std::uint8_t> out) override {
         const InputQueue& own = s_.own_;
@@ -37,7 +37,7 @@ public:
     }
 
 private:
-    RelaySession& s_;
+    RelaySessionImpl& s_;
     Predictor& inner_;
 };
 
@@ -78,7 +78,7 @@ std::vector<PlayerId> slot_list(std::uint16_t mask) {
 }
 }  // namespace
 
-RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
+RelaySessionImpl::RelaySessionImpl(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer,
                            Predictor* predictor)
     : SessionCore(SessionPhase::Synchronizing, config.local_slot, config.input_delay, observer),
       config_(config),
@@ -102,21 +102,21 @@ RelaySession::RelaySession(const RelaySessionConfig& config, Simulation& simulat
     confirmed_frames_.assign(kConfirmedKept, 0);
 }
 
-std::optional<std::uint64_t> RelaySession::confirmed_checksum(std::uint32_t frame) const {
+std::optional<std::uint64_t> RelaySessionImpl::confirmed_checksum(std::uint32_t frame) const {
     if (frame == 0 || frame > sync_->confirmed_frame() || confirmed_frames_[frame % kConfirmedKept] != frame) return std::nullopt;
     return confirmed_checksums_[frame % kConfirmedKept];
 }
 
-RelaySession::~RelaySession() = default;
+RelaySessionImpl::~RelaySessionImpl() = default;
 
-void RelaySession::malformed(const char* why) {
+void RelaySessionImpl::malformed(const char* why) {
     ++stats_.malformed_packets;
     link_.note_malformed(why);
 }
 
 // ---- receiving ----
 
-void RelaySession::receive_impl(std::span<const std::uint8_t> d, std::uint64_t now_us) {
+void RelaySessionImpl::receive_impl(std::span<const std::uint8_t> d, std::uint64_t now_us) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     ++stats_.packets_received;
     stats_.bytes_received += d.size();
@@ -143,7 +143,7 @@ void RelaySession::receive_impl(std::span<const std::uint8_t> d, std::uint64_t n
     if (err) malformed(err);
 }
 
-void RelaySession::handle_welcome(std::uint64_t now_us) {
+void RelaySessionImpl::handle_welcome(std::uint64_t now_us) {
     const RelayWelcome& w = welcome_;
     if (welcomed_) return;  // a repeat
     if (w.refusal != RelayRefusal::None) {
@@ -187,7 +187,7 @@ void RelaySession::handle_welcome(std::uint64_t now_us) {
     }
 }
 
-void RelaySession::start_running(std::uint64_t now_us) {
+void RelaySessionImpl::start_running(std::uint64_t now_us) {
     if (phase_ == SessionPhase::Running) return;
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
@@ -195,7 +195,7 @@ void RelaySession::start_running(std::uint64_t now_us) {
          "input delay " + std::to_string(input_delay_) + ", rtt " + std::to_string(link_.rtt_us() / 1000) + " ms");
 }
 
-void RelaySession::handle_frames(std::uint64_t now_us) {
+void RelaySessionImpl::handle_frames(std::uint64_t now_us) {
     const RelayFrames& m = frames_;
     if (!welcomed_) return;
     // Round trip from the echoed stamp, then the room clock sample (the freshest of a window wins:
@@ -240,7 +240,7 @@ void RelaySession::handle_frames(std::uint64_t now_us) {
     relay_stats_.frames_received += sync_->inputs_complete() - before;
 }
 
-void RelaySession::send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload) {
+void RelaySessionImpl::send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload) {
     RelayForward f;
     f.slot = to;
     f.payload = payload;
@@ -249,7 +249,7 @@ void RelaySession::send_forward(std::uint8_t to, const std::vector<std::uint8_t>
     pending_out_.push_back(std::move(d));
 }
 
-void RelaySession::handle_forward(std::uint64_t now_us) {
+void RelaySessionImpl::handle_forward(std::uint64_t now_us) {
     const std::uint8_t from = forward_.slot;
     const auto payload = std::span<const std::uint8_t>(forward_.payload);
     const auto kind = peek_kind(payload);
@@ -296,7 +296,7 @@ void RelaySession::handle_forward(std::uint64_t now_us) {
     malformed("relay forward: not a snapshot message");
 }
 
-void RelaySession::begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us) {
+void RelaySessionImpl::begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us) {
     transfer_progress_us_ = now_us;
     phase_ = SessionPhase::Transferring;
     transfer_from_ = from;
@@ -305,7 +305,7 @@ void RelaySession::begin_transfer(std::uint8_t from, TransferReason reason, std:
     last_offer_request_us_ = 0;
 }
 
-void RelaySession::finish_transfer(std::uint64_t now_us) {
+void RelaySessionImpl::finish_transfer(std::uint64_t now_us) {
     const auto blob = incoming_->verified();
     TransferContents t;
     std::string err = blob ? unpack_transfer(*blob, sim_.state_size(), config_.players, config_.input_size,
@@ -337,7 +337,7 @@ void RelaySession::finish_transfer(std::uint64_t now_us) {
     start_running(now_us);
 }
 
-void RelaySession::handle_notice(std::uint64_t now_us) {
+void RelaySessionImpl::handle_notice(std::uint64_t now_us) {
     const RelayNotice& n = notice_;
     switch (n.kind) {
         case RelayNoticeKind::Desync: {
@@ -376,7 +376,7 @@ void RelaySession::handle_notice(std::uint64_t now_us) {
     }
 }
 
-void RelaySession::transport_reconnected(std::uint64_t now_us) {
+void RelaySessionImpl::transport_reconnected(std::uint64_t now_us) {
     (void)now_us;
     if (phase_ == SessionPhase::Failed || !welcomed_) return;
     welcomed_ = false;  // say hello again on the new connection (same incarnation: a resume)
@@ -385,20 +385,20 @@ void RelaySession::transport_reconnected(std::uint64_t now_us) {
 
 // ---- pacing ----
 
-std::optional<std::int64_t> RelaySession::room_clock(std::uint64_t now_us) const {
+std::optional<std::int64_t> RelaySessionImpl::room_clock(std::uint64_t now_us) const {
     if (!clock_offset_) return std::nullopt;
     const std::int64_t local = static_cast<std::int64_t>(now_us) * config_.tick_rate / 1000000 * kFrac +
                                static_cast<std::int64_t>(now_us * static_cast<std::uint64_t>(config_.tick_rate) % 1000000) * kFrac / 1000000;
     return local + *clock_offset_;
 }
 
-std::int64_t RelaySession::target_lead() const {
+std::int64_t RelaySessionImpl::target_lead() const {
     const auto period = static_cast<std::int64_t>(1000000 / config_.tick_rate);
     const auto need = static_cast<std::int64_t>(link_.rtt_us() / 2 + 2 * link_.rtt_var_us());
     return (need + period - 1) / period + 1 - input_delay_;
 }
 
-std::int32_t RelaySession::behind(std::uint64_t now_us) const {
+std::int32_t RelaySessionImpl::behind(std::uint64_t now_us) const {
     if (phase_ != SessionPhase::Running) return 0;
     const auto clock = room_clock(now_us);
     if (!clock) return 0;
@@ -407,7 +407,7 @@ std::int32_t RelaySession::behind(std::uint64_t now_us) const {
     return gap >= 2 ? static_cast<std::int32_t>(std::min<std::int64_t>(gap - 1, 1 << 20)) : 0;
 }
 
-void RelaySession::revise_input_delay(std::uint64_t now_us) {
+void RelaySessionImpl::revise_input_delay(std::uint64_t now_us) {
     if (!config_.auto_input_delay || config_.role == RelayRole::Spectator || !link_.has_rtt()) return;
     if (last_delay_revision_us_ && now_us - last_delay_revision_us_ < kDelayRevisionUs) return;
     // The one policy (rollback/input_delay.h): an input reaches the others through the server,
@@ -422,7 +422,7 @@ void RelaySession::revise_input_delay(std::uint64_t now_us) {
 
 // ---- ticking ----
 
-void RelaySession::add_own_input(std::span<const std::uint8_t> input) {
+void RelaySessionImpl::add_own_input(std::span<const std::uint8_t> input) {
     if (config_.role == RelayRole::Spectator) return;
     const std::uint32_t target = std::max(frame() + static_cast<std::uint32_t>(input_delay_), handoff_);
     std::uint32_t next = own_.confirmed_count();
@@ -437,7 +437,7 @@ void RelaySession::add_own_input(std::span<const std::uint8_t> input) {
     own_.add_confirmed(target, input);
 }
 
-void RelaySession::confirm_frames() {
+void RelaySessionImpl::confirm_frames() {
     while (!sync_->rollback_pending() && sync_->confirmed_frame() < sync_->confirmable_frame()) {
         const FrameConfirmed fc = sync_->confirm_next();
         if (observer_) observer_->on_frame_confirmed(fc);
@@ -456,7 +456,7 @@ void RelaySession::confirm_frames() {
     }
 }
 
-AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
+AdvanceResult RelaySessionImpl::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     AdvanceResult r;
     ++stats_.ticks;
@@ -505,7 +505,7 @@ AdvanceResult RelaySession::advance_impl(std::span<const std::uint8_t> local_inp
     return r;
 }
 
-int RelaySession::catch_up_impl(std::uint64_t now_us, int max_frames) {
+int RelaySessionImpl::catch_up_impl(std::uint64_t now_us, int max_frames) {
     int stepped = 0;
     const int want = std::min(max_frames, static_cast<int>(behind(now_us)));
     while (stepped < want && phase_ == SessionPhase::Running) {
@@ -525,7 +525,7 @@ int RelaySession::catch_up_impl(std::uint64_t now_us, int max_frames) {
     return stepped;
 }
 
-void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
+void RelaySessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     if (!incarnation_) incarnation_ = config_.incarnation ? config_.incarnation : now_us | 1;
     if (phase_ == SessionPhase::Failed) {
         pending_out_.clear();
@@ -627,19 +627,19 @@ void RelaySession::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
 
 // ---- the per-tick calls: SessionCore::guarded turns anything thrown into a failed session ----
 
-void RelaySession::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) noexcept {
+void RelaySessionImpl::receive(std::span<const std::uint8_t> d, std::uint64_t now_us) noexcept {
     guarded("receive", now_us, [&] { receive_impl(d, now_us); });
 }
 
-AdvanceResult RelaySession::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
+AdvanceResult RelaySessionImpl::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
     return guarded("advance", now_us, [&] { return advance_impl(local_input, now_us); }, [&] { return idle_result(); });
 }
 
-void RelaySession::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
+void RelaySessionImpl::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
     guarded("poll", now_us, [&] { poll_impl(now_us, out); });
 }
 
-int RelaySession::catch_up(std::uint64_t now_us, int max_frames) noexcept {
+int RelaySessionImpl::catch_up(std::uint64_t now_us, int max_frames) noexcept {
     return guarded("catch_up", now_us, [&] { return catch_up_impl(now_us, max_frames); }, [] { return 0; });
 }
 

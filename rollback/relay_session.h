@@ -29,11 +29,13 @@
 //    input, in slot order. advance() takes input_size bytes per local slot (local_slots()
 //    order); each local slot is predicted with what this client sent for it, and confirmed by
 //    the server like any other.
+//
+// RelaySession is a facade, as Session is: it owns its state machine (RelaySessionImpl,
+// rollback/relay_session_impl.h, not installed) through one pointer and forwards each call.
 #pragma once
 
-#include <algorithm>
+#include <cstddef>
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <optional>
 #include <span>
@@ -41,19 +43,17 @@
 #include <vector>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/input_queue.h>
-#include <lockroll/rollback/peer_link.h>
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/predictor.h>
-#include <lockroll/rollback/relay_messages.h>
 #include <lockroll/rollback/session.h>
-#include <lockroll/rollback/session_core.h>
+#include <lockroll/rollback/session_event.h>
+#include <lockroll/rollback/session_queries.h>
+#include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/snapshot_transfer.h>
-#include <lockroll/rollback/sync.h>
 #include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
+
+class RelaySessionImpl;  // rollback/relay_session_impl.h (in-tree)
 
 // The server's id in Datagram::peer (poll() addresses everything to it; receive() takes only it).
 inline constexpr PlayerId kRelayServerPeer = 0xFFFF;
@@ -112,7 +112,7 @@ struct RelayStats {
     std::int64_t target_lead = 0;        // frames
 };
 
-class RelaySession : public SessionCore {
+class RelaySession : public SessionQueries {
 public:
     // As Session's: simulation, observer and predictor outlive it, the simulation in its
     // initial state (nullptr: no observer / the repeat-last predictor). A bad config throws
@@ -120,6 +120,8 @@ public:
     RelaySession(const RelaySessionConfig& config, Simulation& simulation, SessionObserver* observer = nullptr,
                  Predictor* predictor = nullptr);
     ~RelaySession();
+    RelaySession(const RelaySession&) = delete;
+    RelaySession& operator=(const RelaySession&) = delete;
 
     // A datagram from the server. Never throws or asserts on its content.
     void receive(std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
@@ -133,113 +135,41 @@ public:
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
     // As Session::set_last_frame: no step beyond `frame`, and no own input past it, while
     // rollbacks and confirmations go on. Default: no limit.
-    void set_last_frame(std::uint32_t frame) { last_frame_ = frame; }
+    void set_last_frame(std::uint32_t frame);
     // Frames this client is behind its target (0 when on time or ahead).
     std::int32_t behind(std::uint64_t now_us) const;
     // The transport lost the server and connected again: say hello again. The server knows this
     // process by its incarnation and resumes it (same slot, stream and state; no snapshot).
     void transport_reconnected(std::uint64_t now_us);
-    // next_event(), inject_fault(), phase(), failure(), frame(), confirmed_frame(),
-    // input_delay(), stalled(), recoveries(), saved_state(), stats(): SessionCore's.
 
-    const RelaySessionConfig& config() const { return config_; }
+    const RelaySessionConfig& config() const;
     // The slots this client plays, ascending (empty for a spectator), and the bytes advance()
     // takes: input_size per local slot, in that order (a spectator: one input_size, ignored).
-    const std::vector<PlayerId>& local_slots() const { return local_slots_; }
-    std::size_t local_input_size() const { return config_.input_size * std::max<std::size_t>(1, local_slots_.size()); }
+    const std::vector<PlayerId>& local_slots() const;
+    std::size_t local_input_size() const;
     // The server holds this client's inputs of every frame before this.
-    std::uint32_t server_input_ack() const { return server_ack_; }
+    std::uint32_t server_input_ack() const;
     // The session failed because the server went silent (server_timeout_us): ServerLost.
-    bool server_lost() const { return server_lost_; }
+    bool server_lost() const;
     // This client's id in the room (its slot, or players + place for a spectator).
-    int room_id_slot() const { return my_id_; }
-    std::uint64_t rtt_us() const { return link_.rtt_us(); }
-    std::uint64_t jitter_us() const { return link_.rtt_var_us(); }
-    const RelayStats& relay_stats() const { return relay_stats_; }
+    int room_id_slot() const;
+    std::uint64_t rtt_us() const;
+    std::uint64_t jitter_us() const;
+    const RelayStats& relay_stats() const;
     // Checksum of a confirmed frame among the newest kConfirmedKept.
     std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
     static constexpr std::uint32_t kConfirmedKept = 4096;
 
+    // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
+    // stats(), saved_state(), next_event(), inject_fault(): SessionQueries' (session_queries.h).
+
+    // The state machine itself, for tests that look inside: complete only where
+    // rollback/relay_session_impl.h is included.
+    RelaySessionImpl& impl() { return *impl_; }
+    const RelaySessionImpl& impl() const { return *impl_; }
+
 private:
-    class OwnPredictor;
-
-    // The per-tick calls' bodies; the public ones turn anything thrown (the game's step / save /
-    // load, an allocation) into a failed session with the reason: nothing per tick throws.
-    void receive_impl(std::span<const std::uint8_t> datagram, std::uint64_t now_us);
-    AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
-    void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
-    int catch_up_impl(std::uint64_t now_us, int max_frames);
-    void handle_welcome(std::uint64_t now_us);
-    void handle_frames(std::uint64_t now_us);
-    void handle_forward(std::uint64_t now_us);
-    void handle_notice(std::uint64_t now_us);
-    void start_running(std::uint64_t now_us);
-    void begin_transfer(std::uint8_t from, TransferReason reason, std::uint64_t now_us);
-    void finish_transfer(std::uint64_t now_us);
-    void confirm_frames();
-    void add_own_input(std::span<const std::uint8_t> input);
-    void send_forward(std::uint8_t to, const std::vector<std::uint8_t>& payload);
-    void malformed(const char* why);
-    // Estimated room clock now, in 1/65536 frames (nullopt before the first frames message).
-    std::optional<std::int64_t> room_clock(std::uint64_t now_us) const;
-    std::int64_t target_lead() const;
-    void revise_input_delay(std::uint64_t now_us);
-
-    RelaySessionConfig config_;
-    std::vector<PlayerId> local_slots_;  // relay_local_slots(config_), ascending
-    Simulation& sim_;
-    std::unique_ptr<OwnPredictor> own_predictor_;
-    RelayStats relay_stats_;
-    InputQueue own_;                     // inputs this client made, from the server's ack on
-    PeerLink link_;                      // the server: round trip, stamps
-    std::vector<Datagram> pending_out_;
-    int my_id_ = -1;
-    std::uint32_t handoff_ = 0;
-    std::uint32_t server_ack_ = 0;
-    std::uint16_t checksum_interval_ = 0;
-    std::uint64_t incarnation_ = 0;
-    std::uint64_t last_hello_us_ = 0;
-    bool hello_sent_ = false;
-    bool welcomed_ = false;
-    bool server_lost_ = false;  // failed on the server's silence (server_lost())
-    std::uint64_t last_server_us_ = 0;  // the last datagram from the server (0: none yet)
-    bool room_started_ = false;
-    std::uint64_t started_us_ = 0;
-    std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
-    std::uint64_t last_delay_revision_us_ = 0;
-    // Room clock estimate: the largest (room clock - local clock) seen in a window of samples.
-    std::deque<std::int64_t> clock_offsets_;
-    std::optional<std::int64_t> clock_offset_;
-    // slot flags of the newest confirmed frame (for Joined / Disconnected events)
-    std::vector<std::uint8_t> slot_flags_;
-    std::vector<bool> slot_seen_;
-    // checksums to report, each sent kChecksumRepeats times
-    struct Report {
-        std::uint32_t frame;
-        std::uint64_t checksum;
-        int sends;
-    };
-    std::deque<Report> reports_;
-    std::vector<std::uint64_t> confirmed_checksums_;  // ring, frame % kConfirmedKept
-    std::vector<std::uint32_t> confirmed_frames_;
-    // snapshot transfer, receiving side
-    std::optional<std::uint8_t> transfer_from_;
-    TransferReason transfer_reason_ = TransferReason::Join;
-    std::unique_ptr<TransferReceiver> incoming_;
-    std::uint64_t last_offer_request_us_ = 0;
-    std::uint64_t transfer_progress_us_ = 0;  // when the transfer began, or last moved on
-    std::uint32_t recover_after_ = 0;    // Desync notices for frames before this are stale
-    // providing side
-    TransferSender outgoing_{20'000'000};  // offers, each kept for this long (us)
-    // decode scratch
-    RelayWelcome welcome_;
-    RelayFrames frames_;
-    RelayForward forward_;
-    RelayNotice notice_;
-    SnapshotRequestMessage snap_req_;
-    SnapshotOfferMessage snap_offer_;
-    SnapshotChunkMessage snap_chunk_;
-    std::vector<std::uint8_t> scratch_;
+    std::unique_ptr<RelaySessionImpl> impl_;
 };
 
 }  // namespace lockroll::rollback

@@ -1,4 +1,4 @@
-#include "rollback/session.h"
+#include "rollback/session_impl.h"
 
 #include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
@@ -42,9 +42,9 @@ constexpr std::uint64_t kTableRefreshUs = 2'000'000;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
-class Session::Tap final : public SessionObserver {
+class SessionImpl::Tap final : public SessionObserver {
 public:
-    Tap(Session& s, SessionObserver* next) : s_(s), next_(next) {}
+    Tap(SessionImpl& s, SessionObserver* next) : s_(s), next_(next) {}
     void on_frame_simulated(const FrameSimulated& f) override {
         if (next_) next_->on_frame_simulated(f);
     }
@@ -72,7 +72,7 @@ public:
     }
 
 private:
-    Session& s_;
+    SessionImpl& s_;
     SessionObserver* next_;
 };
 
@@ -82,7 +82,7 @@ static std::string oversized_message(const Simulation& sim) {
            std::to_string(sim.state_size());
 }
 
-Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
+SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, SessionObserver* observer,
                  Predictor* predictor)
     : SessionCore(SessionPhase::Running, config.local_player, config.input_delay, observer),
       config_(config),
@@ -147,31 +147,31 @@ Session::Session(const SessionConfig& config, Simulation& simulation, SessionObs
     refresh_resend_floor();
 }
 
-Session::~Session() = default;
+SessionImpl::~SessionImpl() = default;
 
 // The per-tick calls: SessionCore::guarded turns anything thrown into a failed session.
-void Session::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
+void SessionImpl::receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept {
     guarded("receive", now_us, [&] { receive_impl(from, datagram, now_us); });
 }
 
-AdvanceResult Session::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
+AdvanceResult SessionImpl::advance(std::span<const std::uint8_t> local_input, std::uint64_t now_us) noexcept {
     return guarded("advance", now_us, [&] { return advance_impl(local_input, now_us); }, [&] { return idle_result(); });
 }
 
-int Session::catch_up(std::uint64_t now_us, int max_frames) noexcept {
+int SessionImpl::catch_up(std::uint64_t now_us, int max_frames) noexcept {
     return guarded("catch_up", now_us, [&] { return catch_up_impl(now_us, max_frames); }, [] { return 0; });
 }
 
-void Session::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
+void SessionImpl::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcept {
     guarded("poll", now_us, [&] { poll_impl(now_us, out); });
 }
 
-void Session::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
+void SessionImpl::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
     Datagram d{to, std::move(bytes), true};
     pending_out_.push_back(std::move(d));
 }
 
-bool Session::live_peer(PlayerId p) const {
+bool SessionImpl::live_peer(PlayerId p) const {
     if (p == config_.local_player || p >= links_.size() || is_guest(p)) return false;
     const PeerLink& l = links_[p];
     if (!l.welcomed || l.error()) return false;
@@ -179,19 +179,19 @@ bool Session::live_peer(PlayerId p) const {
     return l.role == Role::Spectator;
 }
 
-std::optional<PlayerId> Session::owner() const {
+std::optional<PlayerId> SessionImpl::owner() const {
     for (int s = 0; s < config_.players; ++s)
         if (slot_running(static_cast<PlayerId>(s))) return static_cast<PlayerId>(s);
     return std::nullopt;
 }
 
-bool Session::any_slot_not_running() const {
+bool SessionImpl::any_slot_not_running() const {
     for (int s = 0; s < config_.players; ++s)
         if (!slot_running(static_cast<PlayerId>(s))) return true;
     return false;
 }
 
-void Session::malformed(PlayerId from, const char* why) {
+void SessionImpl::malformed(PlayerId from, const char* why) {
     ++stats_.malformed_packets;
     ++stats_.peers[from].malformed_packets;
     if (links_[from].note_malformed(why)) {
@@ -202,7 +202,7 @@ void Session::malformed(PlayerId from, const char* why) {
     }
 }
 
-void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
+void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) {
     last_now_us_ = std::max(last_now_us_, now_us);
     ++stats_.packets_received;
     stats_.bytes_received += datagram.size();
@@ -311,7 +311,7 @@ void Session::receive_impl(PlayerId from, std::span<const std::uint8_t> datagram
     }
 }
 
-void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us) {
+void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     WelcomeMessage w;
     w.match_id = config_.match_id;
@@ -368,7 +368,7 @@ void Session::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t n
     send_control(from, std::move(b));
 }
 
-void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
+void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     if (m.refusal == Refusal::Retry) return;
     if (m.refusal == Refusal::Disconnected) {
@@ -408,7 +408,7 @@ void Session::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64
 // processes: that peer's connection came up late). Its hellos go on until every running slot
 // has welcomed it; the late welcome makes the link live, so the two exchange inputs from now on
 // (without it each would ignore the other and the peer would drop the slot for silence).
-void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
+void SessionImpl::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     if (config_.role != Role::Joiner || !is_slot(from) || !slot_running(from) || !m.running || link.welcomed) return;
     link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
@@ -421,7 +421,7 @@ void Session::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std
 // soon as another player has started (it says so in a welcome or sends inputs), once every one
 // has answered at least once: following the first starter at once keeps the starts a one-way
 // trip apart instead of a whole sync phase, so time sync has little to even out.
-void Session::maybe_start(std::uint64_t now_us) {
+void SessionImpl::maybe_start(std::uint64_t now_us) {
     if (config_.role != Role::Player || phase_ != SessionPhase::Synchronizing) return;
     const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
     for (int p = 0; p < config_.players; ++p) {
@@ -432,7 +432,7 @@ void Session::maybe_start(std::uint64_t now_us) {
     start_running(now_us);
 }
 
-void Session::start_running(std::uint64_t now_us) {
+void SessionImpl::start_running(std::uint64_t now_us) {
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
     std::uint64_t worst = 0;
@@ -450,7 +450,7 @@ void Session::start_running(std::uint64_t now_us) {
          "input delay " + std::to_string(input_delay_) + ", worst sync rtt " + std::to_string(worst / 1000) + " ms");
 }
 
-void Session::handle_input(PlayerId from, std::uint64_t now_us) {
+void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
     const InputMessage& m = in_msg_;
     PeerLink& link = links_[from];
     const bool from_player = is_slot(from);
@@ -520,7 +520,7 @@ void Session::handle_input(PlayerId from, std::uint64_t now_us) {
 // word, adopted as before), and so is any newer epoch of a slot that does not run here (a join,
 // or a drop we missed). The sender's entries about itself and its guests say nothing new, and
 // nobody but this session's own process hands over this session's slots.
-void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
+void SessionImpl::apply_slot_table(PlayerId from, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     for (const SlotEntry& e : in_msg_.slots) {
         const std::size_t s = e.slot;
@@ -562,7 +562,7 @@ void Session::apply_slot_table(PlayerId from, std::uint64_t now_us) {
     }
 }
 
-void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
+void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
     SlotView& v = slots_[slot];
     const SlotState before = slot_state(slot);
     membership_.set(slot, e.state, e.epoch);
@@ -599,7 +599,7 @@ void Session::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us
 // player is not the sender's connection itself (that is the base message's job) and, for a
 // running slot, never from anyone while the slot's own process sends them: only gaps are filled,
 // and a forwarded input that contradicts a confirmed one is a protocol violation like any other.
-void Session::apply_blocks(PlayerId from) {
+void SessionImpl::apply_blocks(PlayerId from) {
     const std::size_t n = config_.input_size;
     for (const StreamBlock& b : in_msg_.blocks) {
         if (is_slot(from) && b.slot == from) continue;
@@ -635,7 +635,7 @@ void Session::apply_blocks(PlayerId from) {
 // input_capacity frames later -- the lone survivor froze for good (issue 21). A peer that
 // becomes live again (a joiner) counts from its own acks on; floors never move back, and what
 // it lacks from before the floor comes with its snapshot.
-void Session::refresh_resend_floor() {
+void SessionImpl::refresh_resend_floor() {
     if (config_.role == Role::Spectator) return;
     std::uint32_t floor = std::numeric_limits<std::uint32_t>::max();
     for (std::size_t p = 0; p < links_.size(); ++p)
@@ -646,7 +646,7 @@ void Session::refresh_resend_floor() {
 // Other streams are kept back to what a peer we may relay to still lacks, and while we serve a
 // snapshot, from its frame. Never more than half the ring, so a peer that stops acknowledging
 // cannot stall us: it is then beyond relaying and must fetch a snapshot.
-void Session::refresh_keep_floors(std::uint64_t now_us) {
+void SessionImpl::refresh_keep_floors(std::uint64_t now_us) {
     for (int s = 0; s < config_.players; ++s) {
         const auto slot = static_cast<PlayerId>(s);
         if (config_.role != Role::Spectator && slot == config_.local_player) continue;
@@ -672,7 +672,7 @@ void Session::refresh_keep_floors(std::uint64_t now_us) {
 // and nothing we confirmed can differ from what it confirmed (issue 21). Once we lose the
 // majority, confirmation stops there. A view of two under PlayOnAlone needs nobody else. Never
 // so far back that the state of the next frame to confirm is no longer saved.
-std::uint32_t Session::confirm_limit() const {
+std::uint32_t SessionImpl::confirm_limit() const {
     const std::uint32_t confirmable = sync_->confirmable_frame();
     const int others = membership_.majority_size() - 1;
     if (config_.role == Role::Spectator || others <= 0) return confirmable;
@@ -702,7 +702,7 @@ std::uint32_t Session::confirm_limit() const {
     return std::min(confirmable, std::max(std::min(majority_holds, unverified), oldest));
 }
 
-void Session::confirm_frames() {
+void SessionImpl::confirm_frames() {
     const std::uint32_t limit = confirm_limit();
     while (sync_->confirmed_frame() < limit) {
         const FrameConfirmed fc = sync_->confirm_next();
@@ -717,7 +717,7 @@ void Session::confirm_frames() {
 // peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
 // there (unbounded, a stuck peer read as tens of thousands of frames ahead).
 // Local advantage against each peer: (its frame now, estimated) - our frame.
-void Session::sample_time_sync(std::uint64_t now_us) {
+void SessionImpl::sample_time_sync(std::uint64_t now_us) {
     const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
     for (std::size_t p = 0; p < links_.size(); ++p) {
         PeerLink& link = links_[p];
@@ -731,7 +731,7 @@ void Session::sample_time_sync(std::uint64_t now_us) {
     }
 }
 
-std::int32_t Session::frames_ahead_x100() const {
+std::int32_t SessionImpl::frames_ahead_x100() const {
     std::int32_t ahead = 0;
     for (std::size_t p = 0; p < links_.size(); ++p)
         if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
@@ -739,7 +739,7 @@ std::int32_t Session::frames_ahead_x100() const {
     return ahead;
 }
 
-std::int32_t Session::behind(std::uint64_t now_us) const {
+std::int32_t SessionImpl::behind(std::uint64_t now_us) const {
     std::int64_t most = 0;
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const PeerLink& link = links_[p];
@@ -749,7 +749,7 @@ std::int32_t Session::behind(std::uint64_t now_us) const {
     return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
 }
 
-NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const {
+NetworkStats SessionImpl::network_stats(PlayerId p, std::uint64_t now_us) const {
     NetworkStats n;
     if (p >= links_.size() || p == config_.local_player) return n;
     const PeerLink& l = links_[p];
@@ -769,9 +769,9 @@ NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const {
     return n;
 }
 
-std::uint32_t Session::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
+std::uint32_t SessionImpl::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
 
-void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
+void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
     membership_.leave(slot);
@@ -790,7 +790,7 @@ void Session::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
 }
 
 // A peer's vote (or the local one): counted by Membership, which ignores what does not count.
-void Session::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) {
+void SessionImpl::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) {
     const Tally t = membership_.vote(voter, slot, vote, epoch);
     if (t == Tally::Counted && vote == Vote::Gone && voter != config_.local_player &&
         membership_.vote_of(config_.local_player, slot) != Vote::Gone)
@@ -799,7 +799,7 @@ void Session::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t 
 
 // Drops every running slot a majority has voted gone (this session's own slot: it was kicked),
 // then notes whether this session is cut off from a majority (Partitioned, once per episode).
-void Session::settle_membership(std::uint64_t now_us) {
+void SessionImpl::settle_membership(std::uint64_t now_us) {
     if (config_.role == Role::Spectator) return;
     const auto players = static_cast<PlayerId>(config_.players);
     for (PlayerId s = membership_.next_gone(); s < players; s = membership_.next_gone()) {
@@ -831,7 +831,7 @@ void Session::settle_membership(std::uint64_t now_us) {
 
 // A kick is this session's vote, as if the slot had been silent for disconnect_us; it is not
 // withdrawn by hearing the slot. With three or more players the others must agree.
-void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
+void SessionImpl::disconnect_player(PlayerId slot, std::uint64_t now_us) {
     if (!is_slot(slot) || slot == config_.local_player || my_guest(slot))
         throw std::invalid_argument("disconnect_player: not a remote slot");
     if (membership_.vote_local(slot, true) == Tally::AboutAGuest)
@@ -840,7 +840,7 @@ void Session::disconnect_player(PlayerId slot, std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
-void Session::check_silence(std::uint64_t now_us) {
+void SessionImpl::check_silence(std::uint64_t now_us) {
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
         if (!live_peer(pid)) continue;
@@ -865,7 +865,7 @@ void Session::check_silence(std::uint64_t now_us) {
 // of the slot's stream, and holds at least as much itself (peers relay what it lacks): then the
 // neutral inputs start right after the last real input anyone received, and nobody has confirmed
 // anything else.
-void Session::author_absent_streams(std::uint64_t now_us) {
+void SessionImpl::author_absent_streams(std::uint64_t now_us) {
     const auto own = owner();
     if (!own || *own != config_.local_player || config_.role == Role::Spectator) return;
     const std::uint32_t target = local_target();
@@ -901,7 +901,7 @@ void Session::author_absent_streams(std::uint64_t now_us) {
 // The slots this session hosts follow its own stream frame for frame: their inputs are
 // confirmed at once (the gap a longer input delay opens repeats each one's last input, as the
 // local stream does) and reach the peers as stream blocks (fill_extension).
-void Session::author_guest_streams(std::span<const std::uint8_t> inputs) {
+void SessionImpl::author_guest_streams(std::span<const std::uint8_t> inputs) {
     const std::size_t n = config_.input_size;
     const std::uint32_t want = count_of(config_.local_player);
     for (std::size_t i = 1; i < local_slots_.size(); ++i) {
@@ -920,7 +920,7 @@ void Session::author_guest_streams(std::span<const std::uint8_t> inputs) {
     }
 }
 
-AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
+AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     AdvanceResult result;
     result.frame = sync_->frame();
     const std::size_t expected = std::max<std::size_t>(local_slots_.size(), 1) * config_.input_size;
@@ -1003,7 +1003,7 @@ AdvanceResult Session::advance_impl(std::span<const std::uint8_t> local_input, s
     return result;
 }
 
-int Session::catch_up_impl(std::uint64_t now_us, int max_frames) {
+int SessionImpl::catch_up_impl(std::uint64_t now_us, int max_frames) {
     if (phase_ != SessionPhase::Running) return 0;
     int stepped = 0;
     const bool spectator = config_.role == Role::Spectator;
@@ -1021,12 +1021,12 @@ int Session::catch_up_impl(std::uint64_t now_us, int max_frames) {
     return stepped;
 }
 
-std::uint32_t Session::checkpoint() const {
+std::uint32_t SessionImpl::checkpoint() const {
     const std::uint32_t newest = detector_->newest_local();
     return newest - newest % static_cast<std::uint32_t>(config_.checksum_interval);
 }
 
-void Session::poll_handshake(std::uint64_t now_us) {
+void SessionImpl::poll_handshake(std::uint64_t now_us) {
     if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
     const bool newcomer = config_.role != Role::Player;
@@ -1091,7 +1091,7 @@ void Session::poll_handshake(std::uint64_t now_us) {
     }
 }
 
-void Session::poll_transfer(std::uint64_t now_us) {
+void SessionImpl::poll_transfer(std::uint64_t now_us) {
     if (!incoming_) return;
     if (vetting_->active()) return poll_vetting(now_us);
     std::vector<std::uint32_t> due;
@@ -1114,7 +1114,7 @@ void Session::poll_transfer(std::uint64_t now_us) {
     }
 }
 
-void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
+void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     if (m.transfer_id != 0) {
         const TransferSender::Transfer* t = outgoing_.find(m.transfer_id, from);
         if (!t) return void(++stats_.peers[from].ignored_packets);  // an old transfer, or not ours
@@ -1220,7 +1220,7 @@ void Session::handle_snapshot_request(PlayerId from, const SnapshotRequestMessag
     refresh_resend_floor();
 }
 
-void Session::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
+void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
     const bool newcomer_waiting = config_.role != Role::Player &&
                                   (phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring);
     const bool recovering = phase_ == SessionPhase::Running && recover_from_ == from && m.reason == TransferReason::Recover;
@@ -1239,12 +1239,12 @@ void Session::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m
     if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
 }
 
-void Session::handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us) {
+void SessionImpl::handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us) {
     if (!incoming_ || from != incoming_from_ || !incoming_->add(m)) return void(++stats_.peers[from].ignored_packets);
     if (incoming_->complete()) finish_transfer(now_us);
 }
 
-void Session::finish_transfer(std::uint64_t now_us) {
+void SessionImpl::finish_transfer(std::uint64_t now_us) {
     const SnapshotOfferMessage offer = incoming_->offer();
     const PlayerId from = incoming_from_;
     const auto reject = [&](const std::string& why) {
@@ -1333,7 +1333,7 @@ void Session::finish_transfer(std::uint64_t now_us) {
 // After narrowing (or a few seconds), decide who is odd: the peers whose checksum of the first
 // mismatching frame is in the minority reload the majority's state; a tie between two groups
 // (always so with two players) keeps the group of the lowest (or highest) slot.
-void Session::consider_recovery(std::uint64_t now_us) {
+void SessionImpl::consider_recovery(std::uint64_t now_us) {
     if (config_.max_recoveries == 0 || !mismatch_frame_ || recover_from_ || config_.role == Role::Spectator) return;
     for (std::size_t p = 0; p < links_.size(); ++p)
         if (detector_->investigating(static_cast<PlayerId>(p)) && now_us < mismatch_since_us_ + 3'000'000) return;
@@ -1382,7 +1382,7 @@ void Session::consider_recovery(std::uint64_t now_us) {
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
 
-bool Session::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
+bool SessionImpl::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
                                bool lagging) const {
     if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
     // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
@@ -1401,21 +1401,21 @@ bool Session::extension_needed(PlayerId to, const std::vector<std::uint16_t>& en
     return lagging || relay_wanted(to, now_us);
 }
 
-std::uint64_t Session::table_refresh_us() const {
+std::uint64_t SessionImpl::table_refresh_us() const {
     if (config_.players < 3) return 0;
     return config_.disconnect_us == 0 ? kTableRefreshUs : std::min(kTableRefreshUs, config_.disconnect_us / 2);
 }
 
 // What our table says about slot s to peer `to`: to a player our vote where we cast one ("gone"
 // in the next epoch), else the view; a spectator, which follows our view, gets the view.
-SlotEntry Session::table_entry(PlayerId to, PlayerId s) const {
+SlotEntry SessionImpl::table_entry(PlayerId to, PlayerId s) const {
     const bool vote = is_slot(to);
     return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
             vote ? membership_.advertised_epoch(s) : membership_.epoch(s),
             static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
 }
 
-void Session::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
+void SessionImpl::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
     out.clear();
     for (int s = 0; s < config_.players; ++s) {
         const SlotEntry e = table_entry(to, static_cast<PlayerId>(s));
@@ -1425,7 +1425,7 @@ void Session::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) co
 
 // We lag on a running stream by about as much as lets us predict no further (or half the relay
 // lag, if less): our counts should reach the peers, which relay what they hold.
-bool Session::lags_on_a_stream() const {
+bool SessionImpl::lags_on_a_stream() const {
     if (config_.role != Role::Player || config_.players < 3) return false;
     const std::uint32_t mine = count_of(config_.local_player);
     const auto lag = static_cast<std::uint32_t>(
@@ -1443,7 +1443,7 @@ bool Session::lags_on_a_stream() const {
 // shows a lag of the frames since its table on top of its own, which is what lets relays start
 // before relay_lag is reached for real -- everyone stalls on the stuck peer's inputs first. But
 // counts of seconds ago (the refresh, a lag that ended) would show a lag of seconds.
-bool Session::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
+bool SessionImpl::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
     const std::uint64_t window = (static_cast<std::uint64_t>(config_.time_sync_every) + 1) * 1'000'000 /
                                  static_cast<std::uint64_t>(config_.tick_rate);
     return now_us <= link.counts_at_us + window;
@@ -1451,7 +1451,7 @@ bool Session::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
 
 // A running stream on which `to`'s recent counts say it lags by more than relay_lag (what
 // fill_extension relays to a player when every slot simply runs).
-bool Session::relay_wanted(PlayerId to, std::uint64_t now_us) const {
+bool SessionImpl::relay_wanted(PlayerId to, std::uint64_t now_us) const {
     const PeerLink& link = links_[to];
     if (!counts_fresh(link, now_us)) return false;
     for (int s = 0; s < config_.players; ++s) {
@@ -1466,7 +1466,7 @@ bool Session::relay_wanted(PlayerId to, std::uint64_t now_us) const {
 // from anyone else soon: non-running slots (the owner's neutral inputs, or a dropped player's
 // last inputs some peers missed), a joiner's stream up to its handoff, everything for a
 // spectator, and any stream on which it lags by more than relay_lag.
-void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) {
+void SessionImpl::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) {
     m.has_extension = true;
     m.slots.clear();
     m.blocks.clear();
@@ -1522,7 +1522,7 @@ void Session::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, s
     }
 }
 
-void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
+void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     last_now_us_ = std::max(last_now_us_, now_us);
     const auto account = [&](const Datagram& d) {
         ++stats_.packets_sent;
@@ -1604,16 +1604,16 @@ void Session::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     }
 }
 
-void Session::set_prediction_window(int frames) { sync_->set_prediction_window(frames); }
+void SessionImpl::set_prediction_window(int frames) { sync_->set_prediction_window(frames); }
 
-void Session::set_input_delay(int frames) {
+void SessionImpl::set_input_delay(int frames) {
     const int max_delay = static_cast<int>(config_.input_capacity / 4);
     if (frames < 0 || frames > max_delay)
         throw std::invalid_argument("input delay must be 0.." + std::to_string(max_delay));
     input_delay_ = frames;
 }
 
-void Session::damage_outgoing_chunks(int count, ChunkDamage how) {
+void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) {
     if (count > 0) chunk_damage_.insert(chunk_damage_.end(), static_cast<std::size_t>(count), how);
 }
 
@@ -1627,7 +1627,7 @@ namespace lockroll::rollback {
 // a confirmed frame already rests on it, it stands (the checksums tell; recovery repairs) and
 // the owner is not blamed. False only when the owner contradicts an input nobody relayed: it
 // rewrote its own past.
-bool Session::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
+bool SessionImpl::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
     if (added == InputQueue::Add::Duplicate) authority_->verified(slot, f);
     if (added != InputQueue::Add::Conflict) return true;
     const auto relay = authority_->relay_of(slot, f);
@@ -1645,13 +1645,13 @@ bool Session::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::ui
 // What we tell slot s's owner we hold of its stream (ack and table count): up to the first
 // input a relay filled in that the owner has not verified yet, so it resends from there and its
 // own copy settles the relay's (frames a confirmed frame already rests on are past settling).
-std::uint32_t Session::owner_count(PlayerId s) const {
+std::uint32_t SessionImpl::owner_count(PlayerId s) const {
     const std::uint32_t count = count_of(s);
     const auto f = authority_->first_unverified_of(s, sync_->confirmed_frame());
     return f ? std::min(count, *f) : count;
 }
 
-bool Session::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
+bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
     if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
     const std::size_t n = config_.input_size;
     const bool owner = is_slot(from) && host_of(b.slot) == from;
@@ -1692,7 +1692,7 @@ namespace lockroll::rollback {
 
 // Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
 // answer), and finishes the transfer once the vetting is decided either way.
-void Session::poll_vetting(std::uint64_t now_us) {
+void SessionImpl::poll_vetting(std::uint64_t now_us) {
     std::vector<PlayerId> ask;
     vetting_->due(now_us, config_.query_resend_us, ask);
     for (PlayerId p : ask) {

@@ -68,37 +68,33 @@
 //    in the minority (two players: config.two_player_keep decides) reloads the majority's
 //    snapshot the same way.
 //  - Events for every transition come out of next_event() (requests, not callbacks).
+//
+// Session is a facade: it owns its state machine (SessionImpl, rollback/session_impl.h, not
+// installed) through one pointer and forwards each call, so this installed header names none
+// of the internals (Sync, peer links, membership, wire messages). The cost is one indirect call
+// per call, nothing per frame beyond it.
 #pragma once
 
 #include <cstdint>
-#include <deque>
-#include <map>
 #include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
-#include <lockroll/rollback/control_messages.h>
-#include <lockroll/rollback/desync_detector.h>
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/membership.h>
-#include <lockroll/rollback/peer_link.h>
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/predictor.h>
-#include <lockroll/rollback/protocol.h>
 #include <lockroll/rollback/session_config.h>
-#include <lockroll/rollback/session_core.h>
 #include <lockroll/rollback/session_event.h>
+#include <lockroll/rollback/session_queries.h>
+#include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/snapshot_transfer.h>
-#include <lockroll/rollback/sync.h>
 #include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
-class InputAuthority;   // rollback/input_authority.h
-class SnapshotVetting;  // rollback/snapshot_vetting.h
+class Predictor;    // rollback/predictor.h (in-tree): how missing inputs are guessed
+class SessionImpl;  // rollback/session_impl.h (in-tree)
 
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
@@ -108,13 +104,7 @@ enum class ChunkDamage : std::uint8_t {
 };
 
 
-struct Datagram {
-    PlayerId peer = 0;
-    std::vector<std::uint8_t> bytes;
-    // Control and snapshot messages: a transport with a reliable channel should use it (the
-    // session re-asks what is lost anyway, so an unreliable one works too).
-    bool reliable = false;
-};
+// Datagram, AdvanceResult, SessionPhase, SlotState, Role: rollback/session_types.h.
 
 
 // One peer's link as a game's network overlay shows it (GGPO's GGPONetworkStats).
@@ -128,7 +118,8 @@ struct NetworkStats {
     bool interrupted = false;
 };
 
-class Session : public SessionCore {
+
+class Session : public SessionQueries {
 public:
     // The simulation must be in its initial state and outlive the session, as must the
     // observer and predictor (nullptr: none / repeat-last). Throws std::invalid_argument for a
@@ -136,6 +127,8 @@ public:
     Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer = nullptr,
             Predictor* predictor = nullptr);
     ~Session();
+    Session(const Session&) = delete;
+    Session& operator=(const Session&) = delete;
 
     // A datagram from player `from`. Never throws or asserts on its content.
     void receive(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us) noexcept;
@@ -157,7 +150,7 @@ public:
     // prediction_window (throws std::invalid_argument beyond it). Peers need not agree: the
     // window is this client's own choice of how far to run on guesses.
     void set_prediction_window(int frames);
-    int prediction_window() const { return sync_->prediction_window(); }
+    int prediction_window() const;
     // Drops a slot on purpose (a kick): as if it had been silent for disconnect_us.
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
@@ -166,186 +159,56 @@ public:
     // The last frame this session simulates (a run of N frames ends on frame N, not beyond):
     // once frame() reaches it, advance() and catch_up() still take inputs, roll back and confirm,
     // but step no further, and a held tick is not a stall. Default: no limit.
-    void set_last_frame(std::uint32_t frame) { last_frame_ = frame; }
+    void set_last_frame(std::uint32_t frame);
     // Frames the most advanced running peer is estimated to be ahead of this session.
     std::int32_t behind(std::uint64_t now_us) const;
-    // next_event(), inject_fault(): SessionCore's (rollback/session_core.h).
     // Fault injection (a test hook; `lockroll peer --corrupt-snapshot / --truncate-snapshot`):
     // the next `count` snapshot chunks this session sends, as provider of a join, spectate or
     // recovery transfer, are damaged as `how` says, after any still pending. Its own state and
     // the blob it keeps stay intact, so a chunk asked for again goes out whole once the count is
     // used up. damaged_chunks() counts the chunks damaged so far.
     void damage_outgoing_chunks(int count, ChunkDamage how);
-    std::uint64_t damaged_chunks() const { return damaged_chunks_; }
+    std::uint64_t damaged_chunks() const;
+    // inject_fault() (flip a bit of a body's field each time a frame is stepped): SessionQueries'.
 
-    const SessionConfig& config() const { return config_; }
+    const SessionConfig& config() const;
     // The slots this session plays, ascending: local_player first, then the slots it hosts
     // (config.slot_hosts). Empty for a spectator. advance() takes one input per entry.
-    std::span<const PlayerId> local_slots() const { return local_slots_; }
+    std::span<const PlayerId> local_slots() const;
     // The slot whose process plays `slot` (itself unless config.slot_hosts says otherwise).
-    PlayerId host_of(PlayerId slot) const {
-        return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
-    }
-    SlotState slot_state(PlayerId slot) const { return membership_.state(slot); }
-    // The view and the votes (who plays, who says whom is gone).
-    const Membership& membership() const { return membership_; }
+    PlayerId host_of(PlayerId slot) const;
+    SlotState slot_state(PlayerId slot) const;
     // Reported Partitioned and not yet heard a majority again.
-    bool partitioned() const { return partitioned_; }
+    bool partitioned() const;
     // Silent longer than interrupt_us (and not dropped yet).
-    bool interrupted(PlayerId peer) const { return links_[peer].interrupted; }
-    std::uint64_t foreign_packets() const { return foreign_packets_; }  // other match or version
+    bool interrupted(PlayerId peer) const;
+    std::uint64_t foreign_packets() const;  // other match or version
+
     // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
-    // saved_state(), stats(): SessionCore's.
+    // stats(), saved_state(), next_event(): SessionQueries' (rollback/session_queries.h).
+
     // Checksum of a confirmed frame, while remembered.
-    std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const {
-        return detector_->local_checksum(frame);
-    }
+    std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
     // stats().peers[p].rtt_us / frame_advantage_x100 are refreshed by advance().
-    bool peer_error(PlayerId p) const { return links_[p].error(); }
+    bool peer_error(PlayerId p) const;
     // Smoothed round trip to a peer (µs; 0 until measured).
-    std::uint64_t rtt_us(PlayerId p) const { return links_[p].rtt_us(); }
+    std::uint64_t rtt_us(PlayerId p) const;
     // The first of our input frames peer p has not acknowledged: p holds our inputs of every
     // frame before it (so once it is > n and p has everyone else's, p can confirm frame n + 1).
-    std::uint32_t peer_ack(PlayerId p) const { return links_[p].remote_ack; }
+    std::uint32_t peer_ack(PlayerId p) const;
     // Ping, jitter, bandwidth, frames behind and send queue of one peer, for an overlay.
     NetworkStats network_stats(PlayerId p, std::uint64_t now_us) const;
-    bool desynced(PlayerId p) const { return detector_->desynced(p); }
+    bool desynced(PlayerId p) const;
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;
 
+    // The state machine itself, for in-tree code and tests that look inside (its membership,
+    // links): complete only where rollback/session_impl.h is included.
+    SessionImpl& impl() { return *impl_; }
+    const SessionImpl& impl() const { return *impl_; }
+
 private:
-    class Tap;  // sees the detector's and sync's callbacks first, then forwards them
-    // What this session does about each slot beyond the view (membership_ holds state and epoch).
-    struct SlotView {
-        bool authoring = false;           // owner: writing its neutral inputs
-        bool neutral_reported = false;    // NeutralFrom event fired for this epoch
-        std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
-        bool handed_off_by_me = false;
-        bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
-    };
-
-    void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
-    AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
-    void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
-    int catch_up_impl(std::uint64_t now_us, int max_frames);
-    void handle_input(PlayerId from, std::uint64_t now_us);
-    void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
-    void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
-    void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
-    void handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us);
-    void handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us);
-    void handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us);
-    void apply_slot_table(PlayerId from, std::uint64_t now_us);
-    void apply_blocks(PlayerId from);
-    void malformed(PlayerId from, const char* why);
-    void confirm_frames();
-    std::uint32_t confirm_limit() const;
-    void sample_time_sync(std::uint64_t now_us);
-    void refresh_resend_floor();
-    void refresh_keep_floors(std::uint64_t now_us);
-    std::uint32_t checkpoint() const;
-    void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
-    void poll_handshake(std::uint64_t now_us);
-    void poll_transfer(std::uint64_t now_us);
-    void check_silence(std::uint64_t now_us);
-    void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
-    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
-    void settle_membership(std::uint64_t now_us);
-    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
-    void author_absent_streams(std::uint64_t now_us);
-    void author_guest_streams(std::span<const std::uint8_t> inputs);
-    void start_running(std::uint64_t now_us);
-    void maybe_start(std::uint64_t now_us);
-    void finish_transfer(std::uint64_t now_us);
-    void consider_recovery(std::uint64_t now_us);
-    // entries: our table's entries to `to` now (table_entries_for); lagging: lags_on_a_stream().
-    bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us, bool lagging) const;
-    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us);
-    std::uint64_t table_refresh_us() const;
-    SlotEntry table_entry(PlayerId to, PlayerId s) const;
-    void table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const;
-    bool lags_on_a_stream() const;
-    bool counts_fresh(const PeerLink& link, std::uint64_t now_us) const;
-    bool relay_wanted(PlayerId to, std::uint64_t now_us) const;
-    bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
-    // A slot played by another slot's process: no peer id, no link of its own.
-    bool is_guest(PlayerId p) const { return host_of(p) != p; }
-    // A guest slot whose stream this session authors.
-    bool my_guest(PlayerId p) const {
-        return config_.role != Role::Spectator && is_guest(p) && host_of(p) == config_.local_player;
-    }
-    bool slot_running(PlayerId s) const { return membership_.running(s); }
-    // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
-    bool live_peer(PlayerId p) const;
-    std::optional<PlayerId> owner() const;
-    bool any_slot_not_running() const;
-    std::uint32_t count_of(PlayerId slot) const { return sync_->queue(slot).confirmed_count(); }
-    int peers_total() const { return config_.players + config_.max_spectators; }
-    std::uint32_t local_target() const;
-
-    SessionConfig config_;
-    Simulation& sim_;
-    std::unique_ptr<DesyncDetector> detector_;
-    std::vector<PeerLink> links_;
-    std::vector<std::int32_t> local_advantage_;   // per peer, latest estimate (frames)
-    std::vector<int> replies_this_poll_;
-    std::vector<Datagram> pending_out_;
-    std::uint32_t next_time_sync_frame_ = 0;
-    // decode scratch, reused
-    InputMessage in_msg_;
-    QueryMessage query_msg_;
-    ReplyMessage reply_msg_;
-    InputMessage out_msg_;
-    std::vector<std::uint16_t> table_entries_;  // our table's entries to one peer (poll scratch)
-    std::vector<std::pair<PlayerId, QueryMessage>> queries_;
-
-    // lifecycle
-    std::unique_ptr<Tap> tap_;
-    Membership membership_;
-    bool partitioned_ = false;
-    std::vector<SlotView> slots_;
-    std::vector<PlayerId> local_slots_;
-    bool any_guest_ = false;
-    std::vector<std::uint8_t> guest_scratch_;
-    std::uint64_t foreign_packets_ = 0;
-    std::uint64_t scene_checksum_ = 0;
-    std::uint64_t started_us_ = 0;
-    std::uint64_t last_now_us_ = 0;
-    std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
-    // the newcomer's side of a transfer
-    std::unique_ptr<TransferReceiver> incoming_;
-    PlayerId incoming_from_ = 0;
-    std::uint64_t last_offer_request_us_ = 0;
-    bool offer_requested_ = false;
-    std::optional<PlayerId> recover_from_;
-    std::uint64_t first_welcome_us_ = 0;
-    bool joining_ = false;          // local stream starts ahead of the shown frame
-    // the provider's side
-    TransferSender outgoing_{60'000'000};  // offers, each kept for this long (us)
-    // desync recovery
-    std::optional<std::uint32_t> mismatch_frame_;
-    std::uint64_t mismatch_since_us_ = 0;
-    std::uint64_t incarnation_ = 0;
-    bool peer_started_ = false;  // another player has started frame 0 (sync phase ends early)
-    HelloMessage hello_msg_;
-    WelcomeMessage welcome_msg_;
-    SnapshotRequestMessage snap_req_msg_;
-    SnapshotOfferMessage snap_offer_msg_;
-    SnapshotChunkMessage snap_chunk_msg_;
-    // fault injection on sent chunks (damage_outgoing_chunks), in order
-    std::vector<ChunkDamage> chunk_damage_;
-    std::uint64_t damaged_chunks_ = 0;
-    // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
-    // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
-    std::unique_ptr<InputAuthority> authority_;
-    bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
-    bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
-    std::uint32_t owner_count(PlayerId slot) const;
-    // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
-    // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
-    std::unique_ptr<SnapshotVetting> vetting_;
-    std::optional<PlayerId> rejected_provider_;
-    void poll_vetting(std::uint64_t now_us);
+    std::unique_ptr<SessionImpl> impl_;
 };
 
 }  // namespace lockroll::rollback

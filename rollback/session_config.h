@@ -12,12 +12,18 @@
 #include <cstdint>
 #include <vector>
 
-#include <lockroll/rollback/control_messages.h>
-#include <lockroll/rollback/membership.h>
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/sync.h>
+#include <lockroll/rollback/session_types.h>
+#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
+
+// A view of two running players has no strict majority of the other voter: what then.
+enum class TwoPlayerRule : std::uint8_t {
+    PlayOnAlone,  // either one's vote drops the other: each survivor plays on alone (the default)
+    NoDrop,       // nobody is dropped: the one that lost the other reports Partitioned and waits
+};
+const char* two_player_rule_name(TwoPlayerRule r);
 
 // Two peers disagree and neither is a majority: whose state survives.
 enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
@@ -25,7 +31,7 @@ enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
 struct SessionConfig {
     int players = 2;                   // 1..kMaxPlayers
     PlayerId local_player = 0;
-    std::size_t input_size = 3;        // bytes per player-frame, 1..kMaxInputSize
+    std::size_t input_size = 3;        // bytes per player-frame, 1..kMaxInputSize (64)
     int tick_rate = 60;                // Hz; converts times to frames for time sync
     int input_delay = 2;               // frames; set_input_delay() changes it mid-game
     int prediction_window = 8;         // W; 0 = lockstep

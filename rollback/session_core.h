@@ -24,29 +24,15 @@
 
 #include <lockroll/rollback/events.h>
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/predictor.h>
+#include "rollback/predictor.h"
 #include <lockroll/rollback/session_event.h>
-#include <lockroll/rollback/sync.h>
+#include <lockroll/rollback/session_types.h>
+#include "rollback/sync.h"
 #include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
-enum class SessionPhase : std::uint8_t { Synchronizing, Transferring, Running, Failed };
-const char* phase_name(SessionPhase p);
-
-struct AdvanceResult {
-    bool advanced = false;             // false: stalled (window full, or lockstep waiting)
-    std::uint32_t frame = 0;           // the displayed frame after this call
-    std::uint32_t rollback_depth = 0;  // frames resimulated first (0: no rollback)
-    int wait_frames = 0;               // time sync: skip this many ticks to let peers catch up
-    int blocking_player = -1;          // when stalled: the remote player whose input is missing
-    std::uint64_t resim_ns = 0;        // cpu time of the rollback, if any
-    std::uint64_t forward_ns = 0;      // cpu time of the forward step, if any
-    // Time sync for real-time loops: lengthen the next tick by this many parts per million
-    // (0..100,000: 2 % per frame ahead) so peers behind catch up without a visible skip. wait_frames is the same advice
-    // as whole ticks, for virtual-time loops.
-    int tick_stretch_ppm = 0;
-};
+// SessionPhase, phase_name, AdvanceResult: rollback/session_types.h (the game sees them).
 
 class SessionCore {
 public:

@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/rollback/control_messages.h>
+#include "rollback/control_messages.h"
 #include <lockroll/rollback/player_id.h>
 
 namespace lockroll::rollback {

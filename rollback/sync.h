@@ -30,18 +30,17 @@
 #include <vector>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/input_queue.h>
+#include "rollback/input_queue.h"
 #include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/predictor.h>
+#include "rollback/predictor.h"
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/snapshot_ring.h>
-#include <lockroll/rollback/snapshot_transfer.h>
+#include "rollback/snapshot_ring.h"
+#include "rollback/snapshot_transfer.h"
 #include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
-// Nanoseconds from any monotonic origin; used for telemetry only.
-using CpuClock = std::function<std::uint64_t()>;
+// CpuClock (telemetry only): rollback/telemetry.h.
 
 struct SyncConfig {
     int players = 2;

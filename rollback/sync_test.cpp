@@ -1,5 +1,7 @@
 #include "rollback/sync_test.h"
 
+#include "rollback/snapshot_ring.h"
+
 #include <algorithm>
 #include <cinttypes>
 #include <cstdio>
@@ -17,15 +19,17 @@ std::size_t slots_for(const SyncTestConfig& c) {
 SyncTest::SyncTest(Simulation& sim, const SyncTestConfig& config)
     : sim_(sim),
       config_(config),
-      ring_(slots_for(config), sim.state_size()),
+      ring_(std::make_unique<SnapshotRing>(slots_for(config), sim.state_size())),
       checksums_(slots_for(config), 0),
       inputs_(slots_for(config) * static_cast<std::size_t>(std::max(config.players, 1)) * config.input_size),
       scratch_(sim.state_size()) {
     if (config.players < 1 || config.input_size < 1) throw std::invalid_argument("players and input size must be >= 1");
-    const auto s = sim_.save_to(ring_.slot_for(0));
-    ring_.set_used(0, s.size());
+    const auto s = sim_.save_to(ring_->slot_for(0));
+    ring_->set_used(0, s.size());
     checksums_[0] = sim_.checksum(s);
 }
+
+SyncTest::~SyncTest() = default;
 
 std::string SyncTest::describe_difference(std::span<const std::uint8_t> expected,
                                           std::span<const std::uint8_t> actual) const {
@@ -55,14 +59,14 @@ std::optional<SyncTestFailure> SyncTest::advance(std::span<const std::uint8_t> i
     std::copy(inputs.begin(), inputs.end(), inputs_.begin() + static_cast<std::ptrdiff_t>((frame_ % slots) * frame_bytes));
     sim_.step(inputs);
     ++frame_;
-    const auto saved = sim_.save_to(ring_.slot_for(frame_));
-    ring_.set_used(frame_, saved.size());
+    const auto saved = sim_.save_to(ring_->slot_for(frame_));
+    ring_->set_used(frame_, saved.size());
     checksums_[frame_ % slots] = sim_.checksum(saved);
 
     // Roll back and resimulate.
     const std::uint32_t back = std::min<std::uint32_t>(static_cast<std::uint32_t>(config_.check_distance), frame_);
     const std::uint32_t from = frame_ - back;
-    const auto start = ring_.find(from);
+    const auto start = ring_->find(from);
     if (const std::string err = sim_.load(*start); !err.empty()) {
         SyncTestFailure f{from, from, checksums_[from % slots], 0, "load failed: " + err};
         return f;
@@ -80,7 +84,7 @@ std::optional<SyncTestFailure> SyncTest::advance(std::span<const std::uint8_t> i
         const std::uint64_t actual = sim_.checksum(now);
         const std::uint64_t expected = checksums_[(f + 1) % slots];
         if (actual != expected)
-            return SyncTestFailure{f + 1, from, expected, actual, describe_difference(*ring_.find(f + 1), now)};
+            return SyncTestFailure{f + 1, from, expected, actual, describe_difference(*ring_->find(f + 1), now)};
     }
     return std::nullopt;
 }

@@ -7,15 +7,17 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/snapshot_ring.h>
 
 namespace lockroll::rollback {
+
+class SnapshotRing;  // rollback/snapshot_ring.h (in-tree): held by pointer, so this installed header need not include it
 
 struct SyncTestConfig {
     int players = 2;
@@ -35,6 +37,9 @@ class SyncTest {
 public:
     // The simulation must be in its initial state. Throws std::invalid_argument on a bad config.
     SyncTest(Simulation& sim, const SyncTestConfig& config);
+    ~SyncTest();
+    SyncTest(const SyncTest&) = delete;
+    SyncTest& operator=(const SyncTest&) = delete;
 
     // Simulates frame() with `inputs` (players * input_size bytes), then rolls back and
     // resimulates. Returns the first discrepancy, if any (the test stops being meaningful then).
@@ -49,7 +54,7 @@ private:
 
     Simulation& sim_;
     SyncTestConfig config_;
-    SnapshotRing ring_;
+    std::unique_ptr<SnapshotRing> ring_;
     std::vector<std::uint64_t> checksums_;   // by frame % (distance + 1)
     std::vector<std::uint8_t> inputs_;       // by frame % (distance + 1), players * input_size each
     std::vector<std::uint8_t> scratch_;

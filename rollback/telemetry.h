@@ -6,10 +6,14 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <vector>
 
 namespace lockroll::rollback {
+
+// Nanoseconds from any monotonic origin; used for telemetry only (the configs' cpu_clock).
+using CpuClock = std::function<std::uint64_t()>;
 
 struct PeerStats {
     std::uint64_t packets_sent = 0, bytes_sent = 0;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages lockroll needs, and only those missing. Safe to re-run; as
 # root it uses apt-get directly, otherwise sudo. `--cross` adds the cross compilers, qemu-user,
-# clang, emscripten and node used by scripts/cross-check.sh and examples/web, and the clang
+# clang, emscripten and node used by scripts/cross-check.sh and harness/web, and the clang
 # runtimes (ASan, UBSan, libFuzzer) used by scripts/sanitize.sh and scripts/fuzz.sh.
 set -euo pipefail
 

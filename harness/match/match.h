@@ -9,7 +9,7 @@
 // confirmed it, so the final checksums are of confirmed state.
 //
 // run_match plays a match to the end; Match is the same match one client tick at a time, for a
-// caller that shows it while it runs (examples/web steps it from JavaScript). Stepping a Match
+// caller that shows it while it runs (harness/web steps it from JavaScript). Stepping a Match
 // to the end and calling finish() gives exactly what run_match gives.
 #pragma once
 
@@ -20,13 +20,13 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/harness/match/bots.h>
-#include <lockroll/harness/match/metrics.h>
+#include "harness/match/bots.h"
+#include "harness/match/metrics.h"
 #include <lockroll/rollback/telemetry.h>
 #include <lockroll/sim/scene.h>
 #include <lockroll/sim/world.h>
-#include <lockroll/transport/link_conditions.h>
-#include <lockroll/transport/partition_schedule.h>
+#include "transport/link_conditions.h"
+#include "transport/partition_schedule.h"
 
 namespace lockroll::harness {
 

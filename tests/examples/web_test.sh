@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# examples/web in a real browser (Debian's chromium, headless): the page, built for WebAssembly
-# against the installed package and served on 127.0.0.1 only, runs a 600-frame match of the
+# harness/web in a real browser (Debian's chromium, headless): the page, built for WebAssembly
+# from the tree (harness/web/build.sh) and served on 127.0.0.1 only, runs a 600-frame match of the
 # paper scene and must report, on both clients, the same confirmed checksum of the last frame as
 # a native `lockroll run` with the same mode, seed and conditions, run here in the same test.
 # Bad settings show lockroll's own message on the page. Screenshots are kept in OUT_DIR.
@@ -29,9 +29,9 @@ trap cleanup EXIT
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 
-echo "building examples/web against an installed lockroll (first run: a few minutes)"
-if ! timeout 1200 bash "$root/examples/web/build.sh" "$out/build"; then
-    echo "FAIL: examples/web/build.sh"
+echo "building harness/web from the tree (first run: a few minutes)"
+if ! timeout 1200 bash "$root/harness/web/build.sh" "$out/build"; then
+    echo "FAIL: harness/web/build.sh"
     exit 1
 fi
 site=$out/build/web/site

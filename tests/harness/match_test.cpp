@@ -43,7 +43,7 @@ TEST(Match, SameSeedSameSummary) {
     EXPECT_NE(without_cpu(summary_json(a)).dump(), without_cpu(summary_json(other)).dump());
 }
 
-// Match is run_match one client tick at a time (what examples/web steps from JavaScript): stepped
+// Match is run_match one client tick at a time (what harness/web steps from JavaScript): stepped
 // to the end it gives the same figures, and in between each client's frame only moves forward,
 // one frame per tick at most, while the error rows grow.
 TEST(Match, SteppedToTheEndIsRunMatch) {

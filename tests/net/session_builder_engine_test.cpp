@@ -23,6 +23,7 @@
 
 #include "harness/match/match.h"
 #include "harness/match/scene_loader.h"
+#include "net/peer_runner.h"
 #include "net/session_builder.h"
 #include "rollback/replay.h"
 #include "rollback/simulation.h"

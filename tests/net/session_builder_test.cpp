@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "harness/live/child_process.h"
+#include "net/peer_runner.h"
 #include "net/session_builder.h"
 #include "rollback/simulation.h"
 #include "udp_socket_transport.h"

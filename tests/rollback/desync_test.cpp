@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "rollback/session.h"
+#include "rollback/session_impl.h"
 #include "sim/snapshot.h"
 #include "tests/rollback/test_support.h"
 

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "rollback/session.h"
+#include "rollback/session_impl.h"
 #include "tests/rollback/test_support.h"
 
 namespace lockroll::rollback {
@@ -869,7 +870,7 @@ void withdrawn_vote_reaches_everyone(std::uint64_t lost_us, std::uint64_t within
         int held = 0;
         for (PlayerId p = 0; p < kPlayers; ++p)
             for (const auto& [voter, slot] : {std::pair<PlayerId, PlayerId>{0, 3}, {3, 0}})
-                if (p != voter && cluster.clients[p]->session->membership().vote_of(voter, slot) == Vote::Gone) ++held;
+                if (p != voter && cluster.clients[p]->session->impl().membership().vote_of(voter, slot) == Vote::Gone) ++held;
         return held;
     };
     // The setup: both votes are out, at the two peers that hear both voters (and at the voters).

@@ -152,7 +152,7 @@ std::string net_line() {
     lockroll::net::SessionBuilder builder;
     builder.players(2).input_size(1).local_player(0).remote_player(1, "127.0.0.1", 4000).tick_rate(30);
     const auto cfg = builder.session_config();
-    return cfg.players == 2 && cfg.local_player == 0 && builder.runner_config().tick_rate == 30 ? "net builds"
+    return cfg.players == 2 && cfg.local_player == 0 && cfg.tick_rate == 30 ? "net builds"
                                                                                               : "net FAILED";
 }
 

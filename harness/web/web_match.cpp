@@ -18,8 +18,8 @@
 #include <string>
 #include <utility>
 
-#include <lockroll/harness/match/match.h>
-#include <lockroll/harness/match/scene_loader.h>
+#include "harness/match/match.h"
+#include "harness/match/scene_loader.h"
 
 namespace {
 
