@@ -20,6 +20,8 @@
 
 #include "sim/broadphase.h"
 #include "sim/contact.h"
+#include "sim/islands.h"
+#include "sim/parallel_tasks.h"
 #include "sim/scene.h"
 
 namespace lockroll::sim {
@@ -39,12 +41,17 @@ public:
     // Advances pos/vel (indexed by body id) by one frame. find_pairs(pos, out) fills the
     // candidate pairs for the current positions (called once per physics step);
     // control(vel) applies the frame's player input (called once per frame).
+    // tasks: how the default step's parallel phases run (the extended step is sequential);
+    // the same bits either way (docs/physics.md, "Parallel step"): integration per body range,
+    // and the iterations island by island over the candidate pairs (sim/islands.h), each
+    // island's pairs in their global relative order.
     template <class FindPairs, class Control>
-    void step(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs&& find_pairs, Control&& control) {
+    void step(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs&& find_pairs, Control&& control,
+              const ParallelTasks& tasks = ParallelTasks()) {
         if (extended_)
             step_extended(pos, vel, find_pairs, control);
         else
-            step_default(pos, vel, find_pairs, control);
+            step_default(pos, vel, find_pairs, control, tasks);
     }
 
     N dt() const { return dt_; }
@@ -63,14 +70,25 @@ public:
 private:
     static Vec vec(const Vec3& v) { return {T::from_fixed(v.x), T::from_fixed(v.y), T::from_fixed(v.z)}; }
 
+    // Per-body phases cut into ranges of at least this many dynamic bodies.
+    static constexpr std::size_t kBodyGrain = 512;
+
     template <class FindPairs, class Control>
-    void step_default(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control) {
-        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+    void step_default(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
+                      const ParallelTasks& tasks) {
+        tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+        });
         control(vel);
-        for (BodyId id : dynamic_) pos[id] += vel[id] * dt_;
+        tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) pos[dynamic_[i]] += vel[dynamic_[i]] * dt_;
+        });
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
         prepare_pairs();
-        solve_default(pos, vel);
+        if (tasks.parallel())
+            solve_default_islands(pos, vel, tasks);
+        else
+            solve_default(pos, vel);
     }
 
     template <class FindPairs, class Control>
@@ -175,17 +193,40 @@ private:
     static const N& component(const Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
     void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) const {
-        for (int iteration = 0; iteration < iterations_; ++iteration) {
-            for (const SolverPair& p : solver_pairs_) {
-                BasicContact<N> c;
-                if (!narrow(p, pos, c)) continue;
-                const int axis = normal_axis(c.normal);
-                if (axis >= 0)
-                    resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
-                else
-                    resolve(p, pos, vel, c);
-            }
+        for (int iteration = 0; iteration < iterations_; ++iteration)
+            for (const SolverPair& p : solver_pairs_) solve_pair(p, pos, vel);
+    }
+
+    // One pair, once: narrowphase, then resolution. It writes only the pair's dynamic bodies.
+    void solve_pair(const SolverPair& p, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
+        BasicContact<N> c;
+        if (!narrow(p, pos, c)) return;
+        const int axis = normal_axis(c.normal);
+        if (axis >= 0)
+            resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
+        else
+            resolve(p, pos, vel, c);
+    }
+
+    // solve_default() island by island: the pairs of other islands write none of an island's
+    // bodies (static bodies are never written), so each island's iterations over its pairs in
+    // their global relative order give the bits of the global sweep.
+    void solve_default_islands(std::vector<Vec>& pos, std::vector<Vec>& vel, const ParallelTasks& tasks) {
+        links_.resize(solver_pairs_.size());
+        for (std::size_t k = 0; k < solver_pairs_.size(); ++k) {
+            const SolverPair& p = solver_pairs_[k];
+            links_[k] = {inv_mass_[p.a] == T::zero() ? Islands::kStatic : p.a,
+                         inv_mass_[p.b] == T::zero() ? Islands::kStatic : p.b};
         }
+        islands_.build(pos.size(), links_);
+        const std::size_t pieces = std::min<std::size_t>(static_cast<std::size_t>(tasks.chunks()), islands_.count());
+        tasks.run(pieces, [&](std::size_t k) {
+            for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+                const auto pairs = islands_.links(i);
+                for (int iteration = 0; iteration < iterations_; ++iteration)
+                    for (const std::uint32_t j : pairs) solve_pair(solver_pairs_[j], pos, vel);
+            }
+        });
     }
 
     // The seed paper's resolution: full positional correction split by inverse mass, then the
@@ -542,6 +583,9 @@ private:
 
     std::vector<BodyPair> pairs_;
     std::vector<SolverPair> solver_pairs_;
+    // Parallel default step only: islands over solver_pairs_.
+    Islands islands_;
+    std::vector<Islands::Link> links_;
 };
 
 template <class N>
