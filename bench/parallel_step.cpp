@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/median.h"
 #include "harness/match/hex.h"
 #include "harness/match/scene_loader.h"
 #include "sim/snapshot.h"
@@ -23,6 +24,7 @@
 
 namespace {
 using namespace lockroll;
+using lockroll::bench::median;
 
 double process_cpu_seconds() {
     timespec ts{};
@@ -47,12 +49,6 @@ Run run(const sim::World& warmed, int workers, int frames) {
     r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     r.checksum = sim::checksum(w);
     return r;
-}
-
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
 }
 
 }  // namespace

@@ -50,6 +50,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/median.h"
 #include "rollback/relay_messages.h"
 
 namespace {
@@ -622,12 +623,7 @@ private:
     std::uint64_t next_debug_ = 0;
 };
 
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
-}
-
+using lockroll::bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {
