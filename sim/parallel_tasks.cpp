@@ -12,11 +12,7 @@ ParallelTasks::ParallelTasks(int chunks, TaskRunner runner) : chunks_(chunks), r
     if (!runner_) throw std::invalid_argument("parallel step: the task runner is empty");
 }
 
-void ParallelTasks::run(std::size_t count, const std::function<void(std::size_t)>& task) const {
-    if (!parallel() || count <= 1 || !runner_) {
-        for (std::size_t i = 0; i < count; ++i) task(i);
-        return;
-    }
+void ParallelTasks::run_parallel(std::size_t count, const std::function<void(std::size_t)>& task) const {
     // What tasks on other threads counted, and how many tasks ran (the contract check).
     struct Phase {
         const std::function<void(std::size_t)>* task;

@@ -36,7 +36,17 @@ public:
     // Runs task(i) for every i in [0, count) through the runner (directly when sequential or
     // count <= 1). Throws std::logic_error if the runner returned having made another number
     // of task calls than count (a task skipped, or run twice).
-    void run(std::size_t count, const std::function<void(std::size_t)>& task) const;
+    // Sequential, it is a plain loop over `task` (no std::function, so no allocation).
+    template <class Task>
+    void run(std::size_t count, Task&& task) const {
+        if (!parallel() || count <= 1) {
+            for (std::size_t i = 0; i < count; ++i) task(i);
+            return;
+        }
+        // A reference wrapper always fits std::function's inline buffer: no allocation.
+        const std::function<void(std::size_t)> f = std::ref(task);
+        run_parallel(count, f);
+    }
 
     // Cuts [0, n) into at most chunks() ranges of at least `grain` items (one range when
     // sequential or n < 2 grain) and runs body(begin, end) for each.
@@ -57,6 +67,8 @@ public:
     }
 
 private:
+    void run_parallel(std::size_t count, const std::function<void(std::size_t)>& task) const;
+
     int chunks_ = 1;
     TaskRunner runner_;
 };

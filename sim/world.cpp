@@ -125,15 +125,15 @@ void World::step(std::span<const PlayerInput> inputs) {
     if (rigid_.enabled())
         rigid_.step(
             pos_, vel_, orient_, angvel_, engine_->impulses,
-            [&broadphase_, &rigid_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
-                broadphase_.find_pairs(pos, rigid_.extent(), out);
+            [&broadphase_, &rigid_, &tasks](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+                broadphase_.find_pairs(pos, rigid_.extent(), out, tasks);
             },
             control, tasks);
     else
         kernel_.step(
             pos_, vel_,
-            [&broadphase_, &kernel_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
-                broadphase_.find_pairs(pos, kernel_.extent(), out);
+            [&broadphase_, &kernel_, &tasks](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+                broadphase_.find_pairs(pos, kernel_.extent(), out, tasks);
             },
             control, tasks);
     ++frame_;
