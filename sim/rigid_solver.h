@@ -99,26 +99,37 @@ public:
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
               std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control,
               const ParallelTasks& tasks) {
-        tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
-            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
-        });
-        control(vel);
-        if (damped_) damp(vel, angvel, tasks);
-        update_inertia(orient, tasks);
-        find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
-        if (tasks.parallel()) {
-            build_contacts_parallel(pos, vel, angvel, tasks);
-            solve_islands(impulses, tasks);
-        } else {
+        if (!tasks.parallel()) {
+            for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+            control(vel);
+            if (damped_) damp(vel, angvel, 0, dynamic_.size());
+            update_inertia(orient, 0, dynamic_.size());
+            find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
             build_contacts(pos, vel, angvel);
             if (warm_) warm_start(impulses, nullptr);
             for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, nullptr);
+        } else {
+            const auto per_body = [&](auto&& phase) { tasks.for_ranges(dynamic_.size(), kBodyGrain, phase); };
+            per_body([&](std::size_t begin, std::size_t end) {
+                for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+            });
+            control(vel);
+            if (damped_) per_body([&](std::size_t begin, std::size_t end) { damp(vel, angvel, begin, end); });
+            per_body([&](std::size_t begin, std::size_t end) { update_inertia(orient, begin, end); });
+            find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+            build_contacts_parallel(pos, vel, angvel, tasks);
+            solve_islands(impulses, tasks);
         }
         if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass();
         scatter(vel, angvel);
         if (split_) split_passes(tasks);
-        integrate(pos, vel, orient, angvel, tasks);
+        if (!tasks.parallel())
+            integrate(pos, vel, orient, angvel, 0, dynamic_.size());
+        else
+            tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+                integrate(pos, vel, orient, angvel, begin, end);
+            });
     }
 
     // Most ContactImpulse entries a step keeps (kImpulsesPerBody per dynamic body; 0 without
@@ -157,8 +168,9 @@ private:
     static constexpr std::size_t kBodyGrain = 256;
     // Candidate pairs per contact-generation range, at least.
     static constexpr std::size_t kPairGrain = 128;
-    void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, const ParallelTasks& tasks) const;
-    void update_inertia(const std::vector<Quat>& orient, const ParallelTasks& tasks);
+    // The per-body phases, over dynamic_[begin, end).
+    void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
+    void update_inertia(const std::vector<Quat>& orient, std::size_t begin, std::size_t end);
     // rigid.reduce_manifold: keeps of a box-box face manifold the point farthest along each of
     // the four diagonals of the contact plane's tangent basis (a point extreme along two of
     // them is kept once), renamed kFeatureReduced + diagonal so warm starting finds it again.
@@ -220,7 +232,7 @@ private:
     void solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                      Rows rows = Rows::Both);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
-                   std::vector<Vec3>& angvel, const ParallelTasks& tasks) const;
+                   std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);

@@ -70,12 +70,27 @@ public:
 private:
     static Vec vec(const Vec3& v) { return {T::from_fixed(v.x), T::from_fixed(v.y), T::from_fixed(v.z)}; }
 
-    // Per-body phases cut into ranges of at least this many dynamic bodies.
-    static constexpr std::size_t kBodyGrain = 512;
-
     template <class FindPairs, class Control>
     void step_default(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
                       const ParallelTasks& tasks) {
+        if (tasks.parallel()) {
+            step_default_parallel(pos, vel, find_pairs, control, tasks);
+            return;
+        }
+        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+        control(vel);
+        for (BodyId id : dynamic_) pos[id] += vel[id] * dt_;
+        find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
+        prepare_pairs();
+        solve_default(pos, vel);
+    }
+
+    // step_default() in parallel phases (a separate path: the sequential one stays the plain
+    // loops, whose code the paper scene's cost depends on).
+    static constexpr std::size_t kBodyGrain = 512;  // dynamic bodies per range, at least
+    template <class FindPairs, class Control>
+    void step_default_parallel(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
+                               const ParallelTasks& tasks) {
         tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
         });
@@ -85,10 +100,7 @@ private:
         });
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
         prepare_pairs();
-        if (tasks.parallel())
-            solve_default_islands(pos, vel, tasks);
-        else
-            solve_default(pos, vel);
+        solve_default_islands(pos, vel, tasks);
     }
 
     template <class FindPairs, class Control>
@@ -193,19 +205,26 @@ private:
     static const N& component(const Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
     void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) const {
-        for (int iteration = 0; iteration < iterations_; ++iteration)
-            for (const SolverPair& p : solver_pairs_) solve_pair(p, pos, vel);
+        solve_pairs(solver_pairs_, [](const SolverPair& p) -> const SolverPair& { return p; }, pos, vel);
     }
 
-    // One pair, once: narrowphase, then resolution. It writes only the pair's dynamic bodies.
-    void solve_pair(const SolverPair& p, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
-        BasicContact<N> c;
-        if (!narrow(p, pos, c)) return;
-        const int axis = normal_axis(c.normal);
-        if (axis >= 0)
-            resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
-        else
-            resolve(p, pos, vel, c);
+    // `iterations` passes over the pairs of `order` (get(item) names the pair): narrowphase,
+    // then resolution, which writes only the pair's dynamic bodies. One body for the whole
+    // list and for an island's (two instantiations, each optimised as the one loop was).
+    template <class Order, class Get>
+    void solve_pairs(const Order& order, Get&& get, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
+        for (int iteration = 0; iteration < iterations_; ++iteration) {
+            for (const auto& item : order) {
+                const SolverPair& p = get(item);
+                BasicContact<N> c;
+                if (!narrow(p, pos, c)) continue;
+                const int axis = normal_axis(c.normal);
+                if (axis >= 0)
+                    resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
+                else
+                    resolve(p, pos, vel, c);
+            }
+        }
     }
 
     // solve_default() island by island: the pairs of other islands write none of an island's
@@ -222,9 +241,8 @@ private:
         const std::size_t pieces = std::min<std::size_t>(static_cast<std::size_t>(tasks.chunks()), islands_.count());
         tasks.run(pieces, [&](std::size_t k) {
             for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
-                const auto pairs = islands_.links(i);
-                for (int iteration = 0; iteration < iterations_; ++iteration)
-                    for (const std::uint32_t j : pairs) solve_pair(solver_pairs_[j], pos, vel);
+                solve_pairs(islands_.links(i), [this](std::uint32_t j) -> const SolverPair& { return solver_pairs_[j]; },
+                            pos, vel);
             }
         });
     }
