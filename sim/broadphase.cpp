@@ -145,10 +145,6 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
     }
 }
 
-std::int64_t Broadphase::coord(const Box& box, int k) const {
-    return std::clamp((box.lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
-}
-
 void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     for (std::uint32_t c : occupied_) cell_[c].count = 0;
     occupied_.clear();
@@ -194,16 +190,19 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     // each range into its own scratch), then concatenate the blocks by body id.
     if (block_.size() < box_.size()) block_.resize(box_.size());
     const std::size_t pieces = tasks.piece_count(occupied_.size(), kCellGrain);
-    if (scratch_.size() < pieces) scratch_.resize(pieces);
+    if (scratch_.size() < pieces) {
+        scratch_.resize(pieces);
+        found_.resize(pieces);
+    }
     tasks.run(pieces, [&](std::size_t k) {
         const std::size_t n_occ = occupied_.size();
-        walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k));
+        found_[k] = walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k));
     });
     // The canonical order (docs/determinism.md): blocks by ascending body id. It is the order a
     // walk over the bodies by id produces, so the walk's order of memory accesses is free, and
     // so is the cut into ranges.
     std::size_t total = 0;
-    for (BodyId a : gridded_) total += block_[a].size;
+    for (std::size_t k = 0; k < pieces; ++k) total += found_[k];
     std::size_t at = out.size();
     out.resize(at + total);
     for (BodyId a : gridded_) {
@@ -213,7 +212,7 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     }
 }
 
-void Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) {
+std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) {
     std::vector<BodyPair>& scratch = scratch_[piece];
     std::uint32_t used = 0;  // pairs in scratch (its size only grows: no clearing per body)
     for (std::size_t oi = first; oi < last; ++oi) {
@@ -289,6 +288,7 @@ void Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) 
             block_[a] = Block{begin, used - begin, piece};
         }
     }
+    return used;
 }
 
 void Broadphase::oversize_and_statics(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
