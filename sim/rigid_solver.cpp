@@ -635,7 +635,7 @@ void RigidSolver::each_point(const ManifoldSet* set, bool backwards, F&& f) {
 
 void RigidSolver::solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
     islands_.build(bodies_.size(), links_);
-    const std::size_t pieces = std::min<std::size_t>(static_cast<std::size_t>(tasks.chunks()), islands_.count());
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
     tasks.run(pieces, [&](std::size_t k) {
         for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
             const ManifoldSet set = islands_.links(i);
@@ -766,7 +766,7 @@ void RigidSolver::split_passes(const ParallelTasks& tasks) {
         return;
     }
     // The same islands as the iterations (solve_islands built them this step).
-    const std::size_t pieces = std::min<std::size_t>(static_cast<std::size_t>(tasks.chunks()), islands_.count());
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
     tasks.run(pieces, [&](std::size_t k) {
         for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
             const ManifoldSet set = islands_.links(i);

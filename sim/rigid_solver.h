@@ -166,8 +166,9 @@ private:
 
     // Per-body phases cut into ranges of at least this many dynamic bodies.
     static constexpr std::size_t kBodyGrain = 256;
-    // Candidate pairs per contact-generation range, at least.
-    static constexpr std::size_t kPairGrain = 128;
+    // Candidate pairs per contact-generation range, and manifolds per piece of islands, at
+    // least (a small scene is not worth waking a thread for).
+    static constexpr std::size_t kPairGrain = 128, kManifoldGrain = 64;
     // The per-body phases, over dynamic_[begin, end).
     void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
     void update_inertia(const std::vector<Quat>& orient, std::size_t begin, std::size_t end);

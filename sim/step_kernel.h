@@ -88,6 +88,7 @@ private:
     // step_default() in parallel phases (a separate path: the sequential one stays the plain
     // loops, whose code the paper scene's cost depends on).
     static constexpr std::size_t kBodyGrain = 512;  // dynamic bodies per range, at least
+    static constexpr std::size_t kPairGrain = 256;  // candidate pairs per island piece, at least
     template <class FindPairs, class Control>
     void step_default_parallel(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
                                const ParallelTasks& tasks) {
@@ -238,7 +239,8 @@ private:
                          inv_mass_[p.b] == T::zero() ? Islands::kStatic : p.b};
         }
         islands_.build(pos.size(), links_);
-        const std::size_t pieces = std::min<std::size_t>(static_cast<std::size_t>(tasks.chunks()), islands_.count());
+        // At least kPairGrain pairs a piece: a small scene is not worth waking a thread for.
+        const std::size_t pieces = std::min(tasks.piece_count(solver_pairs_.size(), kPairGrain), islands_.count());
         tasks.run(pieces, [&](std::size_t k) {
             for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
                 solve_pairs(islands_.links(i), [this](std::uint32_t j) -> const SolverPair& { return solver_pairs_[j]; },
