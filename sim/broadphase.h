@@ -54,8 +54,10 @@ private:
     void sweep_and_prune(std::vector<BodyPair>& out);
     void grid(std::vector<BodyPair>& out, const ParallelTasks& tasks);
     // The grid walk over occupied_[first, last), into scratch_[piece], each body's pairs a
-    // block (block_); returns how many pairs it found.
-    std::uint32_t walk(std::size_t first, std::size_t last, std::uint32_t piece);
+    // block, written to blocks[slot] when by_slot, else blocks[id]; returns how many pairs it
+    // found.
+    struct Block;
+    std::uint32_t walk(std::size_t first, std::size_t last, std::uint32_t piece, Block* blocks, bool by_slot);
     // Interior cell coordinate 1..dims along axis k of a box's min corner (0 and dims + 1 are
     // the empty border).
     // Inline (it was a lambda in grid(); out of line it cost bodies_10k's step ~4 %).
@@ -113,6 +115,7 @@ private:
     std::vector<std::vector<BodyPair>> scratch_;  // per walk range: pairs as found, by the body whose walk found them
     std::vector<std::uint32_t> found_;       // per walk range: how many
     std::vector<Block> block_;               // by body id: where its pairs sit in scratch_
+    std::vector<Block> slot_block_;          // parallel walk: the same by slot
     std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests
 };
 
