@@ -7,7 +7,12 @@
 // scene's per-pair tables on both sides (Bullet through its contact-added material callback;
 // Bullet has one friction coefficient, so it gets the kinetic one). Bullet's deactivation
 // (sleeping) is switched off, since lockroll has none: both compute every body every step.
-// Players get neutral input (Bullet has no controller), so they just stand.
+// Players are driven as in the paper scene's matches: each slot's input is the random bot's
+// (harness/match/bots.h, seed 1, 4 changes a second, as `lockroll compare` runs them), a pure
+// function of slot and frame, and both engines apply it by lockroll's controller rule
+// (sim/controller.h; Bullet: to the body's velocity before each step, which lockroll applies
+// after the step's gravity: the same horizontal velocities, the rule does not look at v.y).
+// `--neutral` gives every player neutral input instead (the bench before issue 19).
 //
 // Measurement: for each scene, `--reps` rounds; each round builds both worlds afresh and steps
 // each `--frames` frames, alternating which engine goes first, timed by thread CPU time (the
@@ -24,7 +29,8 @@
 // rotational, J), the spheres' share of it, the rotational part, the vertical part (m vy^2 / 2:
 // hopping), the mean height of the centres (m), how many spheres sit above 1.5 radii (on other
 // bodies), the deepest sphere into the floor (mm, floor at y = 0 as in the shipped rooms) and,
-// for lockroll, the contact points of the last step (what a step's solver work scales with):
+// the contact points of the last step (what a step's solver work scales with; Bullet's: the
+// points held in its persistent manifolds, at most 4 a pair):
 // whether a pile comes to rest, and how it compares with Bullet's on the same scene
 // (docs/physics.md). `--lockroll-only` leaves Bullet out, for quick what-ifs on scene files.
 #include <btBulletDynamicsCommon.h>
@@ -39,7 +45,9 @@
 #include <vector>
 
 #include "bench/median.h"
+#include "harness/match/bots.h"
 #include "harness/match/scene_loader.h"
+#include "sim/controller.h"
 #include "sim/inertia.h"
 #include "sim/rigid_solver.h"
 #include "sim/world.h"
@@ -86,11 +94,31 @@ bool material_callback(btManifoldPoint& cp, const btCollisionObjectWrapper* a, i
     return true;
 }
 
+// The players' inputs of one frame, the same for both engines.
+class Drivers {
+public:
+    Drivers(const sim::SceneDesc& scene, bool neutral) : inputs_(static_cast<std::size_t>(sim::player_count(scene))) {
+        if (neutral) return;
+        for (int slot = 0; slot < sim::player_count(scene); ++slot)
+            bots_.emplace_back(harness::BotConfig{harness::BotKind::Random, 1, scene.tick_rate, 4.0}, slot);
+    }
+    const std::vector<sim::PlayerInput>& at(std::uint32_t frame) {
+        for (std::size_t slot = 0; slot < bots_.size(); ++slot) inputs_[slot] = bots_[slot].random_walk(frame);
+        return inputs_;
+    }
+
+private:
+    std::vector<harness::Bot> bots_;
+    std::vector<sim::PlayerInput> inputs_;
+};
+bool g_neutral = false;
+
 // The scene as a Bullet world; owns everything it allocates.
 class BulletScene {
 public:
     explicit BulletScene(const sim::SceneDesc& scene)
-        : dispatcher_(&config_), world_(&dispatcher_, &broadphase_, &solver_, &config_), dt_(1.0 / scene.tick_rate) {
+        : dispatcher_(&config_), world_(&dispatcher_, &broadphase_, &solver_, &config_), dt_(1.0 / scene.tick_rate),
+          controller_(scene.controller) {
         world_.setGravity(vec(scene.gravity));
         world_.getSolverInfo().m_numIterations = scene.iterations;
         for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
@@ -120,6 +148,10 @@ public:
                 body->setDamping(bullet_damping(lin), bullet_damping(ang));
             }
             world_.addRigidBody(body.get());
+            if (b.player >= 0) {
+                if (players_.size() <= static_cast<std::size_t>(b.player)) players_.resize(static_cast<std::size_t>(b.player) + 1);
+                players_[static_cast<std::size_t>(b.player)] = body.get();
+            }
             shapes_.push_back(std::move(shape));
             bodies_.push_back(std::move(body));
         }
@@ -130,8 +162,31 @@ public:
     BulletScene(const BulletScene&) = delete;
     BulletScene& operator=(const BulletScene&) = delete;
 
-    void step() { world_.stepSimulation(static_cast<btScalar>(dt_), 0); }
+    // lockroll's controller rule (sim/controller.cpp) on each player body, then one step.
+    void step(const std::vector<sim::PlayerInput>& in) {
+        const double per_unit = num(controller_.max_speed) / 127, accel_dt = num(controller_.acceleration) * dt_;
+        const double vaccel_dt = num(controller_.vertical_acceleration) * dt_ / 127;
+        for (std::size_t slot = 0; slot < players_.size() && slot < in.size(); ++slot) {
+            if (players_[slot] == nullptr) continue;
+            btVector3 v = players_[slot]->getLinearVelocity();
+            const auto axis = [](std::int8_t a) { return static_cast<double>(sim::clamp_axis(a)); };
+            const auto toward = [&](double target, double now) { return std::clamp(target - now, -accel_dt, accel_dt); };
+            v.setX(v.x() + static_cast<btScalar>(toward(per_unit * axis(in[slot].right), v.x())));
+            v.setZ(v.z() + static_cast<btScalar>(toward(per_unit * axis(in[slot].forward), v.z())));
+            v.setY(v.y() + static_cast<btScalar>(vaccel_dt * axis(in[slot].up)));
+            players_[slot]->setLinearVelocity(v);
+        }
+        world_.stepSimulation(static_cast<btScalar>(dt_), 0);
+    }
     const std::vector<std::unique_ptr<btRigidBody>>& bodies() const { return bodies_; }
+    // Contact points in Bullet's persistent manifolds after the last step (at most 4 a pair),
+    // the counterpart of lockroll's contact_count().
+    std::size_t contact_points() {
+        std::size_t n = 0;
+        for (int i = 0; i < dispatcher_.getNumManifolds(); ++i)
+            n += static_cast<std::size_t>(dispatcher_.getManifoldByIndexInternal(i)->getNumContacts());
+        return n;
+    }
 
 private:
     btDefaultCollisionConfiguration config_;
@@ -140,23 +195,33 @@ private:
     btSequentialImpulseConstraintSolver solver_;
     btDiscreteDynamicsWorld world_;
     double dt_;
+    sim::ControllerDesc controller_;
+    std::vector<btRigidBody*> players_;  // by slot
     std::vector<std::unique_ptr<btCollisionShape>> shapes_;
     std::vector<std::unique_ptr<btDefaultMotionState>> motion_;
     std::vector<std::unique_ptr<btRigidBody>> bodies_;
 };
 
 // CPU seconds per step over `frames` steps of a fresh world.
+// The inputs are made before the clock starts (a bot's draw is not the engine's work).
+std::vector<std::vector<sim::PlayerInput>> inputs_for(const sim::SceneDesc& scene, int frames) {
+    Drivers d(scene, g_neutral);
+    std::vector<std::vector<sim::PlayerInput>> all;
+    for (int f = 0; f < frames; ++f) all.push_back(d.at(static_cast<std::uint32_t>(f)));
+    return all;
+}
 double time_lockroll(const sim::SceneDesc& scene, int frames) {
     sim::World w(scene);
-    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(w.player_count()));
+    const auto in = inputs_for(scene, frames);
     const double t0 = thread_seconds();
-    for (int f = 0; f < frames; ++f) w.step(in);
+    for (int f = 0; f < frames; ++f) w.step(in[static_cast<std::size_t>(f)]);
     return (thread_seconds() - t0) / frames;
 }
 double time_bullet(const sim::SceneDesc& scene, int frames) {
     BulletScene w(scene);
+    const auto in = inputs_for(scene, frames);
     const double t0 = thread_seconds();
-    for (int f = 0; f < frames; ++f) w.step();
+    for (int f = 0; f < frames; ++f) w.step(in[static_cast<std::size_t>(f)]);
     return (thread_seconds() - t0) / frames;
 }
 
@@ -221,20 +286,22 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
     sim::World ours(scene);
     std::unique_ptr<BulletScene> theirs;
     if (with_bullet) theirs = std::make_unique<BulletScene>(scene);
-    const std::vector<sim::PlayerInput> in(static_cast<std::size_t>(ours.player_count()));
-    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s\n", "scene",
+    Drivers drivers(scene, g_neutral);
+    std::printf("%-18s %6s | %10s %10s %10s %10s %8s %6s %7s %6s | %10s %10s %10s %10s %8s %6s %7s %6s\n", "scene",
                 "frame", "lockroll J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points",
-                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm");
+                "bullet J", "spheres", "rotation", "vertical", "height m", "lifted", "sink mm", "points");
     for (int f = 1; f <= frames; ++f) {
+        const std::vector<sim::PlayerInput>& in = drivers.at(static_cast<std::uint32_t>(f - 1));
         ours.step(in);
-        if (theirs) theirs->step();
+        if (theirs) theirs->step(in);
         if (f % every != 0 && f != frames) continue;
         const Rest a = rest_of(ours), b = theirs ? rest_of(*theirs, scene) : Rest{};
         std::printf(
             "%-18s %6d | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu %7.2f %6zu | %10.2f %10.2f %10.2f %10.2f %8.4f %6zu "
-            "%7.2f\n",
+            "%7.2f %6zu\n",
             scene.name.c_str(), f, a.ke(), a.ke_spheres, a.ke_rot, a.ke_vertical, a.mean_height(), a.lifted, a.sink * 1e3,
-            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted, b.sink * 1e3);
+            ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted,
+            b.sink * 1e3, theirs ? theirs->contact_points() : std::size_t{0});
         std::fflush(stdout);
     }
 }
@@ -244,19 +311,20 @@ using lockroll::bench::median;
 
 int main(int argc, char** argv) {
     CLI::App app{"Steps rigid scenes in lockroll and in Bullet, alternating, and prints medians and ratios"};
-    std::vector<std::string> scenes{"paper_rigid", "bodies_10k_rigid"};
-    std::vector<int> frames{720, 60};
+    std::vector<std::string> scenes{"paper_rigid", "bodies_1k_rigid", "bodies_10k_rigid"};
+    std::vector<int> frames{720, 720, 720};
     int reps = 7;
     int settle_frames = 0, every = 60;
     bool lockroll_only = false;
     app.add_option("--scenes", scenes, "Scene names or files (rigid scenes)");
-    app.add_option("--frames", frames, "Frames per round, one per scene (default 720 for paper_rigid, 60 for 10k)");
+    app.add_option("--frames", frames, "Frames per round, one per scene (default 720 each: a scene's whole life)");
     app.add_option("--reps", reps, "Rounds per scene (median over them)")->check(CLI::Range(1, 1000));
     app.add_option("--settle", settle_frames,
                    "Instead of timing: step each scene this many frames in both engines and print kinetic "
                    "energy and mean height")
         ->check(CLI::Range(1, 1000000));
     app.add_option("--every", every, "With --settle: print every this many frames")->check(CLI::Range(1, 1000000));
+    app.add_flag("--neutral", g_neutral, "Players get neutral input (they stand) instead of the random bot's");
     app.add_flag("--lockroll-only", lockroll_only, "With --settle: leave Bullet out (quick what-ifs on scene files)");
     try {
         app.parse(argc, argv);

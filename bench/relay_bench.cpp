@@ -22,16 +22,24 @@
 // was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
 // whose generator fell behind measures the generator, not the server.
 //
+// With --echo build/bench/udp_echo, each server run is paired with a run of the bare UDP echo
+// (one syscall per datagram), pinned and niced as the server and loaded at the UDP datagram rate
+// the server saw: the ratio of their CPU times is the "server / echo" figure of
+// docs/performance.md ("Density"), measured in the same run on the same machine.
+//
 // A benchmark, not a test: run by hand (docs/performance.md, "Relay server"), e.g.
 //   build/bench/relay_bench --server build/server/lockroll-server --rooms 100,250,500,1000,1500
 // Loopback only: the server listens on 127.0.0.1.
 #include <CLI/CLI.hpp>
+#include <arpa/inet.h>
 #include <enet/enet.h>
+#include <netinet/in.h>
 #include <poll.h>
 #include <sched.h>
 #include <signal.h>
 #include <sys/epoll.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -88,6 +96,7 @@ struct Options {
     bool verbose = false;
     std::string csv;
     std::vector<std::string> server_args;
+    std::string echo;  // bench/udp_echo: the one-syscall-per-datagram baseline, run after each server run
 };
 
 struct Client {
@@ -131,6 +140,8 @@ struct RunResult {
     double loadavg = 0;
     std::uint64_t disconnects = 0;
     bool sustained = false;
+    // The paired echo run (--echo): its CPU at the server run's UDP datagram rate.
+    double echo_cpu = 0, echo_sys = 0, echo_in_per_s = 0, echo_out_per_s = 0;
 };
 
 double percentile(std::vector<std::uint32_t>& v, double p) {
@@ -195,22 +206,12 @@ struct ServerChild {
     std::string status_file;
 };
 
-ServerChild start_server(const Options& o, int rooms, const std::string& dir) {
+// Starts args[0] pinned to the server's CPU at the server's nice, its stderr to log, and waits
+// (bounded) for its "ready PORT" line: lockroll-server, or the echo baseline (bench/udp_echo).
+ServerChild spawn_ready(const Options& o, std::vector<std::string> args, const std::string& log) {
     ServerChild s;
-    s.status_file = dir + "/status.json";
     int fds[2];
     if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-    std::vector<std::string> args{o.server, "--listen", "127.0.0.1:0", "--max-rooms", std::to_string(rooms + 16),
-                                  "--per-address", "4095", "--status-file", s.status_file, "--log-level", "warn"};
-    // Sized as a deployment would size it (docs/deployment.md): ENet walks every connection
-    // slot of its host on each pass, used or not.
-    if (std::find(o.server_args.begin(), o.server_args.end(), "--max-connections") == o.server_args.end()) {
-        args.push_back("--max-connections");
-        args.push_back(std::to_string(std::min(4095, 2 * rooms + 64)));
-    }
-    args.insert(args.end(), o.server_args.begin(), o.server_args.end());
-    static int runs = 0;
-    const std::string log = dir + "/server-" + std::to_string(rooms) + "-" + std::to_string(runs++) + ".log";
     s.pid = fork();
     if (s.pid < 0) throw std::runtime_error("fork failed");
     if (s.pid == 0) {
@@ -224,7 +225,7 @@ ServerChild start_server(const Options& o, int rooms, const std::string& dir) {
         for (auto& a : args) argv.push_back(a.data());
         argv.push_back(nullptr);
         execv(argv[0], argv.data());
-        std::perror("relay_bench: exec lockroll-server");
+        std::perror("relay_bench: exec");
         _exit(127);
     }
     close(fds[1]);
@@ -243,9 +244,26 @@ ServerChild start_server(const Options& o, int rooms, const std::string& dir) {
     if (std::sscanf(line.c_str(), "ready %u", &port) != 1 || port == 0) {
         kill(s.pid, SIGKILL);
         waitpid(s.pid, nullptr, 0);
-        throw std::runtime_error("lockroll-server did not print 'ready PORT' (see " + log + ")");
+        throw std::runtime_error(args[0] + " did not print 'ready PORT' (see " + log + ")");
     }
     s.port = static_cast<std::uint16_t>(port);
+    return s;
+}
+
+ServerChild start_server(const Options& o, int rooms, const std::string& dir) {
+    const std::string status_file = dir + "/status.json";
+    std::vector<std::string> args{o.server, "--listen", "127.0.0.1:0", "--max-rooms", std::to_string(rooms + 16),
+                                  "--per-address", "4095", "--status-file", status_file, "--log-level", "warn"};
+    // Sized as a deployment would size it (docs/deployment.md): ENet walks every connection
+    // slot of its host on each pass, used or not.
+    if (std::find(o.server_args.begin(), o.server_args.end(), "--max-connections") == o.server_args.end()) {
+        args.push_back("--max-connections");
+        args.push_back(std::to_string(std::min(4095, 2 * rooms + 64)));
+    }
+    args.insert(args.end(), o.server_args.begin(), o.server_args.end());
+    static int runs = 0;
+    ServerChild s = spawn_ready(o, args, dir + "/server-" + std::to_string(rooms) + "-" + std::to_string(runs++) + ".log");
+    s.status_file = status_file;
     return s;
 }
 
@@ -623,7 +641,110 @@ private:
     std::uint64_t next_debug_ = 0;
 };
 
+// The echo baseline's run, paired with a server run: bench/udp_echo (pinned and niced as the
+// server) loaded at rate UDP datagrams a second, sent as the generator sends (o.hosts sockets,
+// each firing once per tick at its own phase of the tick, the datagrams of a fire in one
+// sendmmsg: the generator's cost is not what is measured), its replies drained. Its CPU
+// (utime + stime) over o.seconds after one second of warm-up.
+void run_echo(const Options& o, double rate, const std::string& dir, RunResult& res) {
+    static int runs = 0;
+    const ServerChild echo = spawn_ready(o, {o.echo}, dir + "/echo-" + std::to_string(runs++) + ".log");
+    const int hosts = std::max(1, o.hosts);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    to.sin_port = htons(echo.port);
+    const int ep = epoll_create1(EPOLL_CLOEXEC);
+    std::vector<int> fds;
+    for (int h = 0; h < hosts; ++h) {
+        const int fd = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK, 0);
+        const int big = 1 << 20;
+        setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &big, sizeof big);
+        epoll_event ev{};
+        ev.events = EPOLLIN;
+        ev.data.u32 = static_cast<std::uint32_t>(h);
+        epoll_ctl(ep, EPOLL_CTL_ADD, fd, &ev);
+        fds.push_back(fd);
+    }
+    std::array<std::uint8_t, 40> payload{};  // about a relay input with ENet's headers
+    std::vector<iovec> iov(4096, iovec{payload.data(), payload.size()});
+    std::vector<mmsghdr> out(4096), in(256);
+    std::vector<std::array<std::uint8_t, 64>> in_bytes(in.size());
+    std::vector<iovec> in_iov(in.size());
+    const double per_fire = rate / kTickRate / hosts;
+    std::vector<double> owed(static_cast<std::size_t>(hosts), 0);
+    const std::uint64_t start = now_us(), window_start = start + 1'000'000;
+    const std::uint64_t window_end = window_start + static_cast<std::uint64_t>(o.seconds * 1e6);
+    std::vector<std::uint64_t> next_fire(static_cast<std::size_t>(hosts));
+    for (int h = 0; h < hosts; ++h) next_fire[static_cast<std::size_t>(h)] = start + kPeriodUs * static_cast<std::uint64_t>(h) / static_cast<std::uint64_t>(hosts);
+    std::uint64_t sent = 0, received = 0, sent0 = 0, received0 = 0;
+    double cpu0 = 0, sys0 = 0;
+    bool measuring = false;
+    std::vector<epoll_event> ready(static_cast<std::size_t>(hosts));
+    for (;;) {
+        const std::uint64_t now = now_us();
+        if (!measuring && now >= window_start) {
+            measuring = true;
+            cpu0 = process_cpu_s(echo.pid, &sys0);
+            sent0 = sent;
+            received0 = received;
+        }
+        if (now >= window_end) break;
+        for (int h = 0; h < hosts; ++h) {
+            auto& nf = next_fire[static_cast<std::size_t>(h)];
+            while (now >= nf) {
+                owed[static_cast<std::size_t>(h)] += per_fire;
+                const auto n = std::min<std::size_t>(out.size(), static_cast<std::size_t>(owed[static_cast<std::size_t>(h)]));
+                owed[static_cast<std::size_t>(h)] -= static_cast<double>(n);
+                for (std::size_t i = 0; i < n; ++i) {
+                    out[i].msg_hdr = {};
+                    out[i].msg_hdr.msg_name = &to;
+                    out[i].msg_hdr.msg_namelen = sizeof to;
+                    out[i].msg_hdr.msg_iov = &iov[i];
+                    out[i].msg_hdr.msg_iovlen = 1;
+                }
+                for (std::size_t at = 0; at < n;) {
+                    const int k = sendmmsg(fds[static_cast<std::size_t>(h)], &out[at], static_cast<unsigned>(n - at), 0);
+                    if (k <= 0) break;  // the echo's buffer is full: what was not sent is lost, as UDP
+                    at += static_cast<std::size_t>(k);
+                    sent += static_cast<std::uint64_t>(k);
+                }
+                nf += kPeriodUs;
+            }
+        }
+        const std::uint64_t wake = *std::min_element(next_fire.begin(), next_fire.end());
+        const std::uint64_t t = now_us();
+        const std::uint64_t wait_us = wake > t ? std::min<std::uint64_t>(wake - t, 999'999) : 0;
+        const timespec ts{0, static_cast<long>(wait_us * 1000)};
+        const int n = epoll_pwait2(ep, ready.data(), hosts, &ts, nullptr);
+        for (int i = 0; i < n; ++i) {
+            const int fd = fds[ready[static_cast<std::size_t>(i)].data.u32];
+            for (;;) {
+                for (std::size_t j = 0; j < in.size(); ++j) {
+                    in_iov[j] = {in_bytes[j].data(), in_bytes[j].size()};
+                    in[j].msg_hdr = {};
+                    in[j].msg_hdr.msg_iov = &in_iov[j];
+                    in[j].msg_hdr.msg_iovlen = 1;
+                }
+                const int k = recvmmsg(fd, in.data(), static_cast<unsigned>(in.size()), MSG_DONTWAIT, nullptr);
+                if (k <= 0) break;
+                received += static_cast<std::uint64_t>(k);
+            }
+        }
+    }
+    const double wall = static_cast<double>(now_us() - window_start) / 1e6;
+    double sys1 = 0;
+    res.echo_cpu = (process_cpu_s(echo.pid, &sys1) - cpu0) / wall;
+    res.echo_sys = (sys1 - sys0) / wall;
+    res.echo_in_per_s = static_cast<double>(sent - sent0) / wall;
+    res.echo_out_per_s = static_cast<double>(received - received0) / wall;
+    stop_server(echo);
+    for (int fd : fds) close(fd);
+    close(ep);
+}
+
 using lockroll::bench::median;
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -633,7 +754,7 @@ int main(int argc, char** argv) {
     app.add_option("--connect", o.connect, "127.0.0.1:PORT of a server started by hand (one run per R)");
     app.add_option("--server-pid", o.server_pid, "with --connect: its pid, for CPU and RSS");
     app.add_option("--rooms", o.rooms, "room counts to sweep")->delimiter(',')->capture_default_str();
-    app.add_option("--seconds", o.seconds, "measurement window per run")->check(CLI::Range(1.0, 600.0))->capture_default_str();
+    app.add_option("--seconds", o.seconds, "measurement window per run")->check(CLI::Range(1.0, 3600.0))->capture_default_str();
     app.add_option("--warmup", o.warmup, "seconds after every room started before measuring")->check(CLI::Range(0.0, 60.0))->capture_default_str();
     app.add_option("--repeat", o.repeat, "runs per room count (medians reported)")->check(CLI::Range(1, 50))->capture_default_str();
     app.add_option("--hosts", o.hosts, "ENet client hosts (tick phases)")->check(CLI::Range(1, 64))->capture_default_str();
@@ -648,6 +769,9 @@ int main(int argc, char** argv) {
     app.add_flag("--verbose", o.verbose, "print the ramp's progress every second");
     app.add_option("--csv", o.csv, "append one row per run here");
     app.add_option("--server-arg", o.server_args, "extra lockroll-server flag (repeatable)");
+    app.add_option("--echo", o.echo,
+                   "bench/udp_echo binary: after each server run, the bare echo (one syscall per datagram) at that run's UDP "
+                   "datagram rate, its CPU as the baseline of the server's (the ratio's median is reported)");
     CLI11_PARSE(app, argc, argv);
     if (o.server.empty() == o.connect.empty()) {
         std::fprintf(stderr, "relay_bench: give exactly one of --server and --connect\n");
@@ -673,7 +797,7 @@ int main(int argc, char** argv) {
     if (csv && std::ftell(csv) == 0)
         std::fprintf(csv, "rooms,run,rooms_live,p50_us,p99_us,max_us,samples,replaced,unsent,relay_in_per_s,relay_out_per_s,"
                           "udp_in_per_s,udp_out_per_s,server_cpu,server_rss_mib,generator_cpu,generator_late_p99_us,loadavg,sustained,"
-                          "server_sys\n");
+                          "server_sys,echo_cpu,echo_sys,echo_in_per_s,echo_out_per_s\n");
     std::printf("%6s %4s %8s %8s %8s %10s %10s %10s %10s %7s %7s %8s %7s %8s %5s %s\n", "rooms", "run", "p50_us", "p99_us", "max_us",
                 "replaced", "relay_in/s", "relay_out/s", "udp_in/s", "srv_cpu", "srv_sys", "rss_MiB", "gen_cpu", "late_p99", "load",
                 "sustained");
@@ -698,17 +822,23 @@ int main(int argc, char** argv) {
                 r = g.run(server);
             }
             if (!o.server.empty()) stop_server(server);
+            if (!o.echo.empty() && r.udp_in_per_s > 0) run_echo(o, r.udp_in_per_s, dir, r);
             std::printf("%6d %4d %8.0f %8.0f %8.0f %10llu %10.0f %10.0f %10.0f %6.0f%% %6.0f%% %8.1f %6.0f%% %8.0f %5.1f %s\n", rooms,
                         k, r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.replaced + r.unsent), r.relay_in_per_s,
                         r.relay_out_per_s, r.udp_in_per_s, r.server_cpu * 100, r.server_sys * 100, r.server_rss_mib, r.client_cpu * 100,
                         r.late_p99_us, r.loadavg, r.sustained ? "yes" : "no");
+            if (!o.echo.empty())
+                std::printf("       echo baseline at %.0f datagrams/s in, %.0f out: CPU %.1f%% (kernel %.1f%%); server / echo %.3f\n",
+                            r.echo_in_per_s, r.echo_out_per_s, r.echo_cpu * 100, r.echo_sys * 100,
+                            r.echo_cpu > 0 ? r.server_cpu / r.echo_cpu : 0);
             std::fflush(stdout);
             if (csv)
-                std::fprintf(csv, "%d,%d,%d,%.0f,%.0f,%.0f,%llu,%llu,%llu,%.0f,%.0f,%.0f,%.0f,%.4f,%.1f,%.4f,%.0f,%.2f,%d,%.4f\n", rooms, k,
+                std::fprintf(csv, "%d,%d,%d,%.0f,%.0f,%.0f,%llu,%llu,%llu,%.0f,%.0f,%.0f,%.0f,%.4f,%.1f,%.4f,%.0f,%.2f,%d,%.4f,%.4f,%.4f,%.0f,%.0f\n", rooms, k,
                              r.rooms_live, r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.samples),
                              static_cast<unsigned long long>(r.replaced), static_cast<unsigned long long>(r.unsent),
                              r.relay_in_per_s, r.relay_out_per_s, r.udp_in_per_s, r.udp_out_per_s, r.server_cpu,
-                             r.server_rss_mib, r.client_cpu, r.late_p99_us, r.loadavg, r.sustained ? 1 : 0, r.server_sys);
+                             r.server_rss_mib, r.client_cpu, r.late_p99_us, r.loadavg, r.sustained ? 1 : 0, r.server_sys,
+                             r.echo_cpu, r.echo_sys, r.echo_in_per_s, r.echo_out_per_s);
             if (r.disconnects) std::fprintf(stderr, "relay_bench: %llu clients disconnected (server logs in %s)\n",
                                             static_cast<unsigned long long>(r.disconnects), dir.c_str());
             runs.push_back(r);
@@ -744,6 +874,10 @@ int main(int argc, char** argv) {
                     med([&](const RunResult& r) { return r.server_cpu * 1e6 / rooms; }),
                     med([](const RunResult& r) { return r.server_rss_mib; }),
                     med([](const RunResult& r) { return static_cast<double>(r.replaced + r.unsent); }), sustained, runs.size());
+        if (!o.echo.empty())
+            std::printf("median %6d rooms: server CPU / echo CPU at the same datagram rate %.3f (paired runs), echo CPU %.1f%%\n", rooms,
+                        med([](const RunResult& r) { return r.echo_cpu > 0 ? r.server_cpu / r.echo_cpu : 0; }),
+                        med([](const RunResult& r) { return r.echo_cpu * 100; }));
         std::fflush(stdout);
     }
     std::printf("largest room count sustained (p99 <= %.0f us, nothing replaced, in most runs): %d\n", o.goal_us, best);

@@ -11,8 +11,10 @@
 //   valgrind --tool=callgrind --toggle-collect=relay_cost_server_pass build/bench/relay_cost --rooms 200
 //
 // counts only the server's passes (poll + ServerPass::run) over the measured ticks; divide by
-// the relay datagrams in + out it prints. Kernel time (one recvmsg / sendmsg per UDP datagram
-// inside ENet) is not in callgrind's count; the syscalls per datagram are printed instead.
+// the relay datagrams in + out it prints. Kernel time is not in callgrind's count; the server
+// socket's syscalls per relayed datagram are printed instead, counted in this process by
+// server/enet_socket_batching (the same interposer lockroll-server runs): --syscalls batch (as
+// lockroll-server: recvmmsg / sendmmsg) or --syscalls enet (ENet's own, one per datagram, counted).
 // Without valgrind it also prints the wall time per datagram (indicative only).
 //
 // The bots behave like relay_bench's: one RelayInput per client per tick with an input delay
@@ -26,9 +28,11 @@
 #include <cstdio>
 #include <memory>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "rollback/relay_messages.h"
+#include "server/enet_socket_batching.h"
 #include "server/relay_server.h"
 #include "server/server_pass.h"
 #include "transport/enet_server.h"
@@ -57,28 +61,40 @@ struct Bot {
 };
 
 struct Counts {
-    std::uint64_t relay_in = 0, relay_out = 0, udp_in = 0, udp_out = 0, passes = 0;
+    std::uint64_t relay_in = 0, relay_out = 0, udp_in = 0, udp_out = 0, passes = 0, syscalls = 0;
 };
 
 }  // namespace
 
-// The measured work: one poll of the server's socket and one pass of its loop. Not inlined, so
-// callgrind's --toggle-collect can name it.
+namespace {
+// One poll of the server's socket and one pass of its loop, as lockroll-server without a pass
+// interval (server/server_process.cpp), the batch flushed after each.
+void server_pass_body(transport::EnetServer& enet, server::RelayServer& relay, server::ServerPass& pass, std::uint64_t now) {
+    enet.poll(now, 0);
+    server::enet_socket_batching::flush();
+    pass.run(enet, relay, now, nullptr, false);
+    server::enet_socket_batching::flush();
+}
+}  // namespace
+
+// The measured work (the passes of the measured ticks only). Not inlined, so callgrind's
+// --toggle-collect can name it.
 extern "C" __attribute__((noinline)) void relay_cost_server_pass(transport::EnetServer& enet, server::RelayServer& relay,
                                                                   server::ServerPass& pass, std::uint64_t now) {
-    enet.poll(now, 0);
-    pass.run(enet, relay, now, nullptr, false);  // as lockroll-server without a pass interval
+    server_pass_body(enet, relay, pass, now);
 }
 
 namespace {
 
 class Driver {
 public:
-    Driver(int rooms, int phases) : rooms_(rooms), phases_(std::max(1, std::min(phases, rooms))) {
+    Driver(int rooms, int phases, server::enet_socket_batching::Mode mode) : rooms_(rooms), phases_(std::max(1, std::min(phases, rooms))) {
         transport::EnetServerConfig ec;
         ec.max_connections = static_cast<std::size_t>(std::min(4095, 2 * rooms + 64));
         ec.max_connections_per_address = 4095;
         enet_ = std::make_unique<transport::EnetServer>(ec);
+        const std::string why = server::enet_socket_batching::install(enet_->socket_fd(), mode);
+        if (!why.empty()) throw std::runtime_error("cannot count the server socket's syscalls: " + why);
         server::ServerConfig sc;
         sc.max_rooms = static_cast<std::size_t>(rooms + 16);
         sc.max_connections = ec.max_connections;
@@ -159,6 +175,7 @@ public:
 
     Counts counts() const {
         Counts c;
+        c.syscalls = server::enet_socket_batching::counts().syscalls();
         c.relay_in = relay_->counters().datagrams_in;
         c.relay_out = relay_->counters().datagrams_out;
         c.passes = passes_;
@@ -173,10 +190,7 @@ public:
 
 private:
     void set_enet_time() { enet_time_set(static_cast<enet_uint32>(now_ / 1000)); }
-    void server_pass() {
-        enet_->poll(now_, 0);
-        pass_.run(*enet_, *relay_, now_, nullptr, false);
-    }
+    void server_pass() { server_pass_body(*enet_, *relay_, pass_, now_); }
 
     void send_input(Bot& b, std::uint32_t first, std::uint32_t count) {
         RelayInput& m = input_;
@@ -263,16 +277,21 @@ private:
 
 int main(int argc, char** argv) {
     int rooms = 200, phases = 16, warm_ticks = 60, ticks = 300;
+    std::string syscalls = "batch";
     CLI::App app{"relay_cost: the server's work per relayed datagram, under a virtual clock (docs/performance.md)"};
     app.add_option("--rooms", rooms, "two-player rooms")->check(CLI::Range(1, 2000))->capture_default_str();
     app.add_option("--phases", phases, "tick phases (one server pass each)")->check(CLI::Range(1, 256))->capture_default_str();
     app.add_option("--warm-ticks", warm_ticks, "ticks played before measuring")->check(CLI::Range(1, 100000))->capture_default_str();
     app.add_option("--ticks", ticks, "ticks measured")->check(CLI::Range(1, 100000))->capture_default_str();
+    app.add_option("--syscalls", syscalls, "the server socket's syscalls: batch (recvmmsg / sendmmsg, as lockroll-server) or enet (one per datagram)")
+        ->check(CLI::IsMember({"batch", "enet"}))
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
+    const auto mode = syscalls == "batch" ? server::enet_socket_batching::Mode::Batch : server::enet_socket_batching::Mode::Count;
     if (enet_initialize() != 0) return 1;
     int status = 0;
     {
-        Driver d(rooms, phases);
+        Driver d(rooms, phases, mode);
         if (!d.start()) {
             std::fprintf(stderr, "relay_cost: the rooms did not all start\n");
             return 1;
@@ -293,6 +312,8 @@ int main(int argc, char** argv) {
                     static_cast<unsigned long long>(d.replaced()), static_cast<unsigned long long>(d.disconnects()));
         std::printf("relay datagrams measured: %llu (divide callgrind's Ir of relay_cost_server_pass by this)\n",
                     static_cast<unsigned long long>(relay));
+        std::printf("server socket syscalls (%s) while measured: %llu, %.3f per relay datagram\n", syscalls.c_str(),
+                    static_cast<unsigned long long>(b.syscalls - a.syscalls), static_cast<double>(b.syscalls - a.syscalls) / static_cast<double>(relay));
         std::printf("wall time (bots included, indicative): %.2f us per relay datagram\n", wall_us / static_cast<double>(relay));
         if (d.replaced() || d.disconnects()) status = 1;
     }

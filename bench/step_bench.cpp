@@ -98,6 +98,7 @@ void BM_SavePaper(benchmark::State& state) { save_scene(state, "paper"); }
 // paper_rigid: every body turns and rubs, capsule players (docs/physics.md).
 void BM_SavePaperRigid(benchmark::State& state) { save_scene(state, "paper_rigid"); }
 void BM_StepPaperRigid(benchmark::State& state) { step_scene(state, harness::load_scene("paper_rigid")); }
+void BM_Step1kRigid(benchmark::State& state) { step_scene(state, harness::load_scene("bodies_1k_rigid")); }
 void BM_Step10kRigid(benchmark::State& state) { step_scene(state, harness::load_scene("bodies_10k_rigid")); }
 
 void BM_LoadPaper(benchmark::State& state) {
@@ -146,5 +147,6 @@ BENCHMARK(BM_ChecksumPaper);
 BENCHMARK(BM_StepPaperRigid)->Iterations(20 * kSceneFrames);
 BENCHMARK(BM_SavePaperRigid);
 BENCHMARK(BM_Rollback8PaperRigid)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Step1kRigid)->Iterations(kSceneFrames)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Step10kRigid)->Iterations(kSceneFrames)->Unit(benchmark::kMillisecond);
 BENCHMARK_MAIN();

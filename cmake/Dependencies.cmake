@@ -27,6 +27,16 @@ if(NOT LOCKROLL_SIM_ONLY AND LOCKROLL_ENET)
   # The relay server's connect tokens (server/connect_token.h): sealed and opened by libsodium.
   pkg_check_modules(SODIUM QUIET IMPORTED_TARGET libsodium)
   lockroll_require(SODIUM_FOUND libsodium-dev "libsodium")
+  # lockroll-server's allocator (server/CMakeLists.txt), optional: ENet allocates a packet and a
+  # command per datagram, and mimalloc's malloc / free cost a third of glibc's (docs/performance.md,
+  # "Density"). Not one of the project's chosen dependencies, so the server builds and behaves the
+  # same without it (glibc's malloc), only dearer per datagram; install-deps.sh installs it.
+  find_package(mimalloc CONFIG QUIET)
+  if(mimalloc_FOUND)
+    message(STATUS "lockroll-server allocates with mimalloc")
+  else()
+    message(STATUS "lockroll-server allocates with the C library's malloc (libmimalloc-dev not found: optional)")
+  endif()
   find_package(spdlog QUIET)
   lockroll_require(spdlog_FOUND libspdlog-dev "spdlog")
   find_package(nlohmann_json 3.10 QUIET)

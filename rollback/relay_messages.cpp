@@ -48,6 +48,7 @@ const char* relay_refusal_name(RelayRefusal r) {
         case RelayRefusal::TokenMismatch: return "connect token is for another room, slot, role or room parameters";
         case RelayRefusal::TokenInUse: return "connect token already in use by a live connection (replay)";
         case RelayRefusal::SlotOwned: return "slot belongs to another client (only its token's holder takes it back)";
+        case RelayRefusal::Kicked: return "slot was kicked from this match (its checksums were in the minority round after round)";
     }
     return "unknown refusal";
 }

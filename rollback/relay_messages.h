@@ -64,8 +64,10 @@ enum class RelayRefusal : std::uint8_t {
     TokenMismatch = 12, // the token is for another room, slot, role or room parameters
     TokenInUse = 13,    // a live connection of another process holds the slot with this token (a replay)
     SlotOwned = 14,     // the slot belongs to another client id: only its token's holder takes it back
+    Kicked = 15,        // the slot was kicked from this room's match (a persistent checksum liar):
+                        // no process takes it back while the match lasts
 };
-inline constexpr std::uint8_t kLastRelayRefusal = 14;
+inline constexpr std::uint8_t kLastRelayRefusal = 15;
 const char* relay_refusal_name(RelayRefusal r);
 
 struct RelayHello {

@@ -9,6 +9,7 @@ packages=(g++ cmake ninja-build pkg-config
           libenet-dev libxxhash-dev libspdlog-dev libgtest-dev nlohmann-json3-dev libcli11-dev
           libbenchmark-dev python3 python3-matplotlib zlib1g-dev
           libsodium-dev  # the relay server's connect tokens (server/connect_token.h)
+          libmimalloc-dev  # lockroll-server's allocator, optional (server/CMakeLists.txt)
           libbullet-dev  # the optional bench/bullet_bench comparison (docs/performance.md)
           chromium  # the headless browser test of lockroll view
           libsdl2-dev libsdl2-ttf-dev fonts-dejavu-core  # examples/room's window and overlay words

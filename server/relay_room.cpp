@@ -164,6 +164,7 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
     }
     const std::uint16_t want = relay_hello_slots(h);
     if (h.slot >= players_ || (want >> players_) != 0) return refuse(RelayRefusal::BadSlot);
+    if (want & banned_) return refuse(RelayRefusal::Kicked);
     // Every slot is judged before any is bound: the hello is admitted whole or not at all.
     // A slot is resumed (the same process: its incarnation), free, or held by a connection that
     // is silent (a restarted process takes it over); at most one such connection per hello.
@@ -613,6 +614,17 @@ void RelayRoom::decide(Check& c, Outbox& out) {
         if (voters >= 3 && strict_majority && config_.max_minority_rounds > 0 &&
             ++s.counters.minority_streak >= static_cast<std::uint32_t>(config_.max_minority_rounds)) {
             s.counters.minority_streak = 0;
+            // Told why before the server closes the connection (the notice is queued first,
+            // and ENet sends queued packets before a disconnect_later).
+            RelayNotice k;
+            k.kind = RelayNoticeKind::Kicked;
+            k.slot = static_cast<std::uint8_t>(p);
+            k.frame = c.frame;
+            encode(k, out.add(s.client.connection, true).bytes);
+            for (int q = 0; q < players_; ++q)
+                if (slots_[static_cast<std::size_t>(q)].connected &&
+                    slots_[static_cast<std::size_t>(q)].client.connection == s.client.connection)
+                    banned_ |= static_cast<std::uint16_t>(1u << q);
             kicks_.push_back(s.client.connection);
             continue;
         }

@@ -29,9 +29,11 @@
 //    the lower. Three or more voters split with no strict majority: the lowest slot's group.
 //  - Liars: a connection in the minority against a strict majority (3+ voters) in
 //    max_minority_rounds decided rounds in a row is handed to the server to kick
-//    (take_kicks()). Its streak restarts at 0 when a decided round finds it with the winning
-//    value, and when its slot is bound to a new process; `desyncs` counts every verdict and
-//    never resets.
+//    (take_kicks()), after a Kicked notice. Its slots are then banned for the rest of the
+//    match: a hello naming one is refused (RelayRefusal::Kicked), so neither the kicked process
+//    (whose transport reconnects) nor a newcomer takes it back; it plays the absent input. Its
+//    streak restarts at 0 when a decided round finds it with the winning value, and when its
+//    slot is bound to a new process; `desyncs` counts every verdict and never resets.
 //  - Joins: a hello for an absent or departed slot (or a held slot whose connection has been
 //    silent for replace_silent_us: a restarted process) binds it with a handoff frame a little
 //    ahead of the clock; its inputs count from there. Spectators take places after the slots.
@@ -244,6 +246,7 @@ private:
     std::vector<std::pair<std::uint32_t, int>> verdicts_;
     bool ended_without_majority_ = false;
     std::vector<ConnectionId> kicks_;  // liars found by decide(), for take_kicks()
+    std::uint16_t banned_ = 0;         // bit s: slot s was kicked as a liar; refused from then on
     // decode / encode scratch
     rollback::RelayInput in_;
     rollback::RelayForward fwd_;

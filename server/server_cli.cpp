@@ -9,8 +9,9 @@
 
 namespace lockroll::server {
 
-void add_server_options(CLI::App& cmd) {
+void add_server_options(CLI::App& cmd, const SocketBatching& batching) {
     auto o = std::make_shared<ServerProcessOptions>();
+    o->socket_batching = batching;
     cmd.add_option("--listen", o->listen, "HOST:PORT to listen on (port 0: any free one; printed as 'ready PORT')")
         ->capture_default_str()
         ->check([](const std::string& s) {

@@ -102,6 +102,17 @@ int ServerProcess::run() {
     ec.max_connections_per_address = options_.max_connections_per_address;
     transport::EnetServer enet(ec);
     RelayServer server(options_.server);
+    const SocketBatching& batching = options_.socket_batching;
+    const auto flush_batch = [&] {
+        if (batching.flush) batching.flush();
+    };
+    if (batching.install) {
+        const std::string why = batching.install(enet.socket_fd());
+        if (why.empty())
+            log->info("socket syscalls batched: recvmmsg / sendmmsg under ENet");
+        else
+            log->warn("socket syscalls not batched ({}): one per datagram, as plain ENet", why);
+    }
     const std::uint64_t start = monotonic_us();
     server.set_wall_clock(unix_us(), start);
     if (options_.server.token_key)
@@ -126,9 +137,11 @@ int ServerProcess::run() {
         }
         last_pass = monotonic_us();
         enet.poll(last_pass, 1000);
+        flush_batch();
         const std::uint64_t now = monotonic_us();
         // Polling again at once sends what the pass queued; sleeping first (a pass interval) does not.
         pass.run(enet, server, now, log.get(), options_.pass_interval_us > 0);
+        flush_batch();
         if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
         if (drain_.load(std::memory_order_relaxed) && !server.draining()) {
             log->info("draining: refusing new hellos; {} rooms play on", server.room_count());
@@ -143,6 +156,7 @@ int ServerProcess::run() {
         }
         if (server.drained()) {
             enet.flush();
+            flush_batch();
             if (!options_.status_file.empty())
                 write_atomically(options_.status_file, status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
             log->info("drained: every room finished; exiting");

@@ -14,6 +14,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "server/relay_server.h"
@@ -23,6 +24,15 @@ class logger;
 }
 
 namespace lockroll::server {
+
+// lockroll-server's batched socket syscalls (server/enet_socket_batching.h), given by its main;
+// empty in `lockroll server`, which keeps ENet's one syscall per datagram. install gets the bound
+// socket and returns "" or why batching is off; flush sends what ENet queued (run after each poll
+// and each pass).
+struct SocketBatching {
+    std::function<std::string(int fd)> install;
+    std::function<void()> flush;
+};
 
 struct ServerProcessOptions {
     std::string listen = "127.0.0.1:0";
@@ -37,6 +47,7 @@ struct ServerProcessOptions {
     std::uint32_t pass_interval_us = 0;
     std::string log_level = "info";
     std::string key_file;      // where server.token_key came from (for the log)
+    SocketBatching socket_batching;
 };
 
 // HOST:PORT or [V6]:PORT; throws std::invalid_argument naming the text.

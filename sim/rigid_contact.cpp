@@ -635,9 +635,20 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
 }
 }  // namespace
 
+namespace {
+// The identity rotation exactly (an unturned box: every room wall). Multiplying by it, either
+// way round, gives v bit for bit (each row's dot product is one exact term rounded once), so
+// the products are skipped.
+bool identity(const Mat3& m) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one();
+    return m.row[0] == Vec3{one, zero, zero} && m.row[1] == Vec3{zero, one, zero} && m.row[2] == Vec3{zero, zero, one};
+}
+}  // namespace
+
 bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& normal, Vec3& surface, Fixed& distance) {
     const Mat3& r = *box.rot;
-    const Vec3 local = transpose_times(r, p - box.center);
+    const bool unturned = identity(r);
+    const Vec3 local = unturned ? p - box.center : transpose_times(r, p - box.center);
     const Vec3& h = box.half;
     // Quick reject on each axis before any square root.
     for (int k = 0; k < 3; ++k)
@@ -655,9 +666,22 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
         const Vec3 d = q - local;
         const u128 dsq = length_sq_wide(d);
         if (dsq >= static_cast<u128>(mul_wide(reach.raw, reach.raw))) return false;
-        distance = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dsq)));
-        if (distance.raw == 0) return false;
-        nl = {d.x / distance, d.y / distance, d.z / distance};
+        // Off one face only (the common case: a ball on the floor), d has one non-zero
+        // component c: |d| = |c| exactly (the square root of a perfect square) and d / |d| is
+        // exactly the unit axis with c's sign (0 / |c| = 0, c / |c| = +-1, correctly rounded),
+        // so the root and the three divisions give those bits without being computed.
+        const int nonzero = (d.x.raw != 0) + (d.y.raw != 0) + (d.z.raw != 0);
+        if (nonzero == 1) {
+            const int k = d.x.raw != 0 ? 0 : d.y.raw != 0 ? 1 : 2;
+            const Fixed c = comp(d, k);
+            distance = abs(c);
+            nl = {zero, zero, zero};
+            comp(nl, k) = c.raw > 0 ? one : -one;
+        } else {
+            distance = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dsq)));
+            if (distance.raw == 0) return false;
+            nl = {d.x / distance, d.y / distance, d.z / distance};
+        }
     } else {
         // Inside: out through the nearest face (ties: x, then y, then z); the normal points from
         // the point into the box, i.e. opposite to that face's outward direction.
@@ -674,8 +698,8 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
         comp(q, best_axis) = best_neg ? -comp(h, best_axis) : comp(h, best_axis);
         distance = -best;
     }
-    normal = r * nl;
-    surface = box.center + r * q;
+    normal = unturned ? nl : r * nl;
+    surface = box.center + (unturned ? q : r * q);
     return true;
 }
 

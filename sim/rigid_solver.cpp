@@ -26,6 +26,34 @@ void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
     t2 = cross(n, t1);
 }
 
+// A row direction that is exactly a signed unit axis +-e_k (a contact on a room wall's face:
+// its normal and tangent basis are axes) gives +-(k + 1), anything else 0. For such a d the
+// product d * s is s or -s on axis k and exactly 0 elsewhere, bit for bit as the three rounded
+// products give it (1 * s = s, -1 * s = -s, and for s = Fixed::min() both saturate to max and
+// count one overflow, as unary minus does), and a sum u x + w y over two different axes is x
+// on one and y on the other: the impulse's velocity change needs no products at all.
+std::int8_t axis_code(const Vec3& d) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one(), neg = -Fixed::one();
+    const Fixed c[3] = {d.x, d.y, d.z};
+    for (int k = 0; k < 3; ++k) {
+        const Fixed o1 = c[(k + 1) % 3], o2 = c[(k + 2) % 3];
+        if (o1 != zero || o2 != zero) continue;
+        if (c[k] == one) return static_cast<std::int8_t>(k + 1);
+        if (c[k] == neg) return static_cast<std::int8_t>(-(k + 1));
+    }
+    return 0;
+}
+Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+// v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
+void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
+    Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
+    c -= code > 0 ? s : -s;
+}
+void add_along(Vec3& v, std::int8_t code, Fixed s) {
+    Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
+    c += code > 0 ? s : -s;
+}
+
 Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 
 Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * dt); }
@@ -241,6 +269,14 @@ void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) co
 }
 
 void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const {
+    if (inv_mass_[id].raw == 0) {
+        // A static body's arms are never read for a result: its angular velocity is zero (every
+        // row speed skips its term), its inverse inertia is zero (so are its Jacobian products
+        // and its share of the effective masses), and no pass moves it. Zeros change no bits
+        // and save the room's walls three cross products per point.
+        c[0] = c[1] = c[2] = Vec3{};
+        return;
+    }
     if (shape_[id] == Shape::Sphere) {
         // A sphere's contact point lies on its normal through the centre: r = L n, so r x n is
         // exactly zero (its normal impulse never spins it), r x t1 = L t2 and r x t2 = -L t1.
@@ -329,11 +365,17 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
     const bool move_a = moves(a, p.a, only);
     const bool move_b = moves(b, p.b, only);
     if (move_a) {
-        a.v -= p.n * (l * a.inv_mass);
+        if (p.axis_n != 0)
+            subtract_along(a.v, p.axis_n, l * a.inv_mass);
+        else
+            a.v -= p.n * (l * a.inv_mass);
         if (p.row[0].ia != Vec3{}) a.w -= p.row[0].ia * l;
     }
     if (move_b) {
-        b.v += p.n * (l * b.inv_mass);
+        if (p.axis_n != 0)
+            add_along(b.v, p.axis_n, l * b.inv_mass);
+        else
+            b.v += p.n * (l * b.inv_mass);
         if (p.row[0].ib != Vec3{}) b.w += p.row[0].ib * l;
     }
 }
@@ -346,14 +388,26 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
     const auto sum = [](const Vec3& u, Fixed x, const Vec3& w, Fixed y) {
         return Vec3{mul_add(u.x, x, w.x, y), mul_add(u.y, x, w.y, y), mul_add(u.z, x, w.z, y)};
     };
+    // Both tangents axes (then different ones, being orthogonal): x on one, y on the other.
+    const bool axes = p.axis_t1 != 0 && p.axis_t2 != 0;
     if (move_a) {
         const Fixed m = a.inv_mass;
-        a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
+        if (axes) {
+            subtract_along(a.v, p.axis_t1, l1 * m);
+            subtract_along(a.v, p.axis_t2, l2 * m);
+        } else {
+            a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
+        }
         a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
     }
     if (move_b) {
         const Fixed m = b.inv_mass;
-        b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
+        if (axes) {
+            add_along(b.v, p.axis_t1, l1 * m);
+            add_along(b.v, p.axis_t2, l2 * m);
+        } else {
+            b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
+        }
         b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
     }
 }
@@ -507,6 +561,9 @@ void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std:
         p.feature = c.feature;
         p.n = c.normal;
         tangents(p.n, p.t1, p.t2);
+        p.axis_n = axis_code(p.n);
+        p.axis_t1 = axis_code(p.t1);
+        p.axis_t2 = axis_code(p.t2);
         Vec3 ca[3], cb[3];
         arms(a, c.point - pos[a], p, ca);
         arms(b, c.point - pos[b], p, cb);

@@ -155,6 +155,8 @@ private:
         BodyId a, b;
         std::uint32_t sa, sb;  // a's and b's places in bodies_
         std::uint8_t feature;  // ContactPoint::feature
+        // +-(k + 1) when n (t1, t2) is exactly +-e_k (a room wall's face), else 0: see axis_code().
+        std::int8_t axis_n, axis_t1, axis_t2;
         Vec3 n, t1, t2;
         Row row[3];          // along n, t1, t2
         Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)

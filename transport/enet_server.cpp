@@ -178,6 +178,7 @@ void EnetServer::disconnect(std::uint32_t connection) {
     if (it != by_id_.end()) enet_peer_disconnect_later(it->second, 0);
 }
 
+int EnetServer::socket_fd() const { return static_cast<int>(host_->socket); }
 std::uint64_t EnetServer::wire_bytes_sent() const { return host_->totalSentData; }
 std::uint64_t EnetServer::wire_bytes_received() const { return host_->totalReceivedData; }
 

@@ -85,6 +85,8 @@ public:
     EnetServer& operator=(const EnetServer&) = delete;
 
     std::uint16_t port() const { return port_; }
+    // The host's UDP socket (lockroll-server batches its syscalls: server/enet_socket_batching.h).
+    int socket_fd() const;
     // Waits up to wait_us for traffic, then takes everything ENet has (bounded per call).
     void poll(Micros now, std::uint32_t wait_us);
     bool next_event(ServerConnectionEvent& out);

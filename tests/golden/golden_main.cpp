@@ -58,6 +58,7 @@ const std::vector<GoldenScene> kScenes = {
     {"stability/tunneling", {60, 240}},       // swept tests against static bodies
     // Rigid bodies (scene "rigid"): orientation, friction, contact points, box-box SAT.
     {"paper_rigid", {0, 1, 60, 240}},
+    {"bodies_1k_rigid", {0, 1, 60, 240}},    // rotating bodies at scale: balls and boxes in a pile
     {"stability/rigid_spin", {60, 240}},      // free precession, Dzhanibekov flip
     {"stability/rigid_tip", {60, 240}},       // edge contacts, friction, tipping
     {"stability/rigid_pyramid_10", {60}},     // box-box manifolds, shock propagation

@@ -168,7 +168,46 @@ TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     EXPECT_EQ(s.bodies[1].angular_velocity.y, sim::Fixed::from_int(2));
     EXPECT_EQ(*s.bodies[1].friction, *sim::Fixed::parse("0.9"));
     EXPECT_EQ(*s.bodies[1].linear_damping, *sim::Fixed::parse("0.5"));
-    for (const char* name : {"paper_rigid", "bodies_10k_rigid"}) EXPECT_TRUE(load_scene(name).rigid.enabled) << name;
+    for (const char* name : {"paper_rigid", "bodies_1k_rigid", "bodies_10k_rigid"})
+        EXPECT_TRUE(load_scene(name).rigid.enabled) << name;
+}
+
+// bodies_1k_rigid is bodies_10k_rigid at a tenth of the bodies and the same density: a tenth of
+// each shape with the same sizes and materials, a tenth of the floor area (so the pile is as
+// deep), the same room height and spawn heights.
+TEST(SceneLoader, Bodies1kRigidIsThe10kRecipeAtATenth) {
+    const sim::SceneDesc small = load_scene("bodies_1k_rigid"), large = load_scene("bodies_10k_rigid");
+    const auto count = [](const sim::SceneDesc& s, sim::Shape shape) {
+        std::size_t n = 0;
+        for (const auto& b : s.bodies) n += b.mass.raw > 0 && b.shape == shape;
+        return n;
+    };
+    for (sim::Shape shape : {sim::Shape::Sphere, sim::Shape::Box}) {
+        EXPECT_GT(count(small, shape), 0u);
+        EXPECT_EQ(count(small, shape) * 10, count(large, shape));
+    }
+    const auto first = [](const sim::SceneDesc& s, sim::Shape shape) {
+        for (const auto& b : s.bodies)
+            if (b.mass.raw > 0 && b.shape == shape) return b;
+        return sim::BodyDesc{};
+    };
+    EXPECT_EQ(first(small, sim::Shape::Sphere).radius, first(large, sim::Shape::Sphere).radius);
+    EXPECT_EQ(first(small, sim::Shape::Box).half_extents, first(large, sim::Shape::Box).half_extents);
+    EXPECT_EQ(small.rigid.friction[0][0], large.rigid.friction[0][0]);
+    EXPECT_EQ(small.iterations, large.iterations);
+    const auto to_d = [](sim::Fixed f) { return static_cast<double>(f.raw) / static_cast<double>(sim::Fixed::kOne); };
+    // The room's walls come first (sim::add_room): the floor, then the ceiling. The floor spans
+    // the inside plus a wall thickness (twice its half height) on each side.
+    ASSERT_GE(small.bodies.size(), 2u);
+    ASSERT_GE(large.bodies.size(), 2u);
+    const auto floor_per_body = [&](const sim::SceneDesc& s) {
+        const sim::BodyDesc& f = s.bodies[0];
+        const double t = 2 * to_d(f.half_extents.y);
+        const double dx = 2 * to_d(f.half_extents.x) - 2 * t, dz = 2 * to_d(f.half_extents.z) - 2 * t;
+        return dx * dz / static_cast<double>(count(s, sim::Shape::Sphere) + count(s, sim::Shape::Box));
+    };
+    EXPECT_NEAR(floor_per_body(small), floor_per_body(large), 0.01 * floor_per_body(large));
+    EXPECT_EQ(small.bodies[1].position.y, large.bodies[1].position.y);  // the ceiling
 }
 
 TEST(SceneLoader, RigidKeysOutsideARigidSceneAreErrors) {

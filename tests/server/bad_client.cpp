@@ -5,6 +5,12 @@
 //   garbage  sends random bytes
 //   flood    sends valid input messages at 5,000 per second
 //   future   sends inputs for frame 10,000 and beyond
+//   steal    says hello for --slot of a room (--room-id: any room, e.g. relay_bench's) whose
+//            holder is live, and reports the answer: exit 0 refused, 1 admitted or no answer
+//   liar     plays the match with real inputs (a full RelaySession through the builder) but
+//            reports a wrong checksum for every frame and never hears the server's desync
+//            verdicts or its kick, so it goes on disagreeing round after round and comes back
+//            after a kick (issue 20's persistent liar)
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -14,6 +20,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "net/session_builder.h"
 #include "rollback/relay_messages.h"
 #include "harness/match/match.h"
 #include "harness/match/scene_loader.h"
@@ -33,26 +40,132 @@ std::uint64_t room_hash(const std::string& id) {  // as lockroll client's --room
     for (unsigned char c : id) h = (h ^ c) * 0x100000001b3ull;
     return h;
 }
+
+// The liar's transport: ENet underneath; every Input message it sends has its checksums
+// altered, and every desync and kicked Notice from the server is swallowed (so the liar's
+// session never reloads or fails: it keeps lying, and when its connection is closed its
+// transport reconnects and says hello again). Everything else passes through unchanged.
+class LyingTransport final : public transport::Transport {
+public:
+    LyingTransport(transport::EnetTransport& inner, std::size_t input_size) : inner_(inner), input_size_(input_size) {}
+    transport::PeerId local_id() const override { return inner_.local_id(); }
+    bool send(transport::PeerId to, std::span<const std::uint8_t> bytes, transport::Micros now) override {
+        return inner_.send(to, lie(bytes), now);
+    }
+    bool send_reliable(transport::PeerId to, std::span<const std::uint8_t> bytes, transport::Micros now) override {
+        return inner_.send_reliable(to, lie(bytes), now);
+    }
+    bool receive(transport::Datagram& out, transport::Micros now) override {
+        while (inner_.receive(out, now)) {
+            rollback::RelayNotice n;
+            if (rollback::peek_relay_kind(out.bytes) == rollback::RelayKind::Notice && !rollback::decode(out.bytes, n) &&
+                (n.kind == rollback::RelayNoticeKind::Desync || n.kind == rollback::RelayNoticeKind::Kicked)) {
+                ++verdicts_ignored;
+                continue;
+            }
+            return true;
+        }
+        return false;
+    }
+    const transport::TransportCounters& counters() const override { return inner_.counters(); }
+    bool next_event(transport::TransportEvent& out) override { return inner_.next_event(out); }
+    bool connect(transport::PeerId remote, const std::string& host, std::uint16_t port, std::string* error) override {
+        return inner_.connect(remote, host, port, error);
+    }
+    bool is_connected(transport::PeerId remote) const override { return inner_.is_connected(remote); }
+    void poll(transport::Micros now) override { inner_.poll(now); }
+
+    std::uint64_t checksums_altered = 0;
+    std::uint64_t verdicts_ignored = 0;
+
+private:
+    std::span<const std::uint8_t> lie(std::span<const std::uint8_t> bytes) {
+        rollback::RelayInput m;
+        if (rollback::peek_relay_kind(bytes) != rollback::RelayKind::Input || rollback::decode(bytes, input_size_, m) ||
+            m.checksum_count == 0)
+            return bytes;
+        for (std::uint8_t i = 0; i < m.checksum_count; ++i) m.checksums[i] ^= 0x5a5a5a5a5a5a5a5aull;
+        checksums_altered += m.checksum_count;
+        out_.clear();
+        rollback::encode(m, input_size_, out_);
+        return out_;
+    }
+    transport::EnetTransport& inner_;
+    std::size_t input_size_;
+    std::vector<std::uint8_t> out_;
+};
+
+// --behavior liar: a whole match through the builder over LyingTransport. Exit 0 when the
+// session ended within --seconds (the server kicked it and refused it back), 1 otherwise.
+int run_liar(const std::string& host, std::uint16_t port, const std::string& room, int slot, int players,
+             const std::string& scene_name, double seconds) {
+    transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(slot), .bind_host = "127.0.0.1", .port = 0,
+                                   .max_peers = 2});
+    LyingTransport liar(enet, 3);
+    rollback::WorldSimulation sim(harness::with_players(harness::load_scene(scene_name), players), players);
+    auto session = net::SessionBuilder()
+                       .players(players)
+                       .input_size(3)
+                       .local_player(static_cast<rollback::PlayerId>(slot))
+                       .server(host, port)
+                       .match_id(room_hash(room))
+                       .transport(liar)
+                       .start(sim);
+    const net::InputSource input = [](std::uint32_t frame, std::span<std::uint8_t> out) {
+        // Real, varying inputs: the liar plays; only its checksums are false.
+        for (std::size_t i = 0; i < out.size(); ++i) out[i] = static_cast<std::uint8_t>((frame / 20 + i) % 3);
+    };
+    const auto end = std::chrono::steady_clock::now() + std::chrono::microseconds(static_cast<std::int64_t>(seconds * 1e6));
+    while (std::chrono::steady_clock::now() < end) {
+        const net::UpdateResult r = session->update(input);
+        for (const rollback::SessionEvent& e : r.events)
+            if (e.kind == rollback::SessionEvent::Kind::Failed || e.kind == rollback::SessionEvent::Kind::ServerLost ||
+                e.kind == rollback::SessionEvent::Kind::Kicked) {
+                std::printf("liar: session ended (%s: %s) after %llu altered checksums, %llu verdicts ignored\n",
+                            rollback::event_name(e.kind), e.detail.c_str(),
+                            static_cast<unsigned long long>(liar.checksums_altered),
+                            static_cast<unsigned long long>(liar.verdicts_ignored));
+                return liar.checksums_altered > 0 ? 0 : 1;
+            }
+        if (r.outcome) {
+            std::printf("liar: run over (%s) after %llu altered checksums, %llu verdicts ignored\n", net::outcome_name(*r.outcome),
+                        static_cast<unsigned long long>(liar.checksums_altered),
+                        static_cast<unsigned long long>(liar.verdicts_ignored));
+            return *r.outcome == net::RunOutcome::Completed ? 1 : 0;
+        }
+        session->wait();
+    }
+    std::printf("liar: still playing after %.0f s (%llu altered checksums, %llu verdicts ignored)\n", seconds,
+                static_cast<unsigned long long>(liar.checksums_altered), static_cast<unsigned long long>(liar.verdicts_ignored));
+    return 1;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"relay bad client (tests)"};
-    std::string connect, room, behavior;
+    std::string connect, room, behavior, room_id_text, scene_checksum_text;
     int slot = 0, players = 2, claim = 0;
     double seconds = 10;
     std::string scene_name = "paper";
     app.add_option("--connect", connect)->required();
-    app.add_option("--room", room)->required();
+    auto* room_opt = app.add_option("--room", room);
+    app.add_option("--room-id", room_id_text, "the room's 64-bit id in hex (instead of --room's name)")->excludes(room_opt);
+    app.add_option("--scene-checksum", scene_checksum_text, "steal: the room's scene checksum in hex (default: --scene's)");
     app.add_option("--slot", slot)->required();
     app.add_option("--players", players);
     app.add_option("--scene", scene_name, "the room's scene (its checksum goes in the hello)");
     app.add_option("--claim", claim, "spoof: the slot to claim");
-    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future"}))->required();
+    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future", "liar", "steal"}))->required();
     app.add_option("--seconds", seconds);
     CLI11_PARSE(app, argc, argv);
+    if (room.empty() == room_id_text.empty()) {
+        std::fprintf(stderr, "bad_client: give --room or --room-id\n");
+        return 2;
+    }
     const auto colon = connect.rfind(':');
     const std::string host = connect.substr(0, colon);
     const auto port = static_cast<std::uint16_t>(std::stoi(connect.substr(colon + 1)));
+    if (behavior == "liar") return run_liar(host, port, room, slot, players, scene_name, seconds);
 
     transport::EnetTransport enet({.local_id = 900, .bind_host = "127.0.0.1", .port = 0, .max_peers = 2});
     const transport::PeerId server = rollback::kRelayServerPeer;
@@ -63,8 +176,8 @@ int main(int argc, char** argv) {
     sim.save(state);
     const std::uint64_t scene = sim.checksum(state);
     rollback::RelayHello h;
-    h.room_id = room_hash(room);
-    h.scene_checksum = scene;
+    h.room_id = room_id_text.empty() ? room_hash(room) : std::stoull(room_id_text, nullptr, 16);
+    h.scene_checksum = scene_checksum_text.empty() ? scene : std::stoull(scene_checksum_text, nullptr, 16);
     h.players = static_cast<std::uint8_t>(players);
     h.input_size = 3;
     h.tick_rate = 60;
@@ -84,13 +197,31 @@ int main(int argc, char** argv) {
                 connected = true;
                 enet.send_reliable(server, hello, now);
             }
+            if (e.type == transport::TransportEvent::Type::Disconnected && connected && behavior == "steal") {
+                // The server refuses, then closes: the close can be polled before the refusal
+                // is read. Either way the slot was not taken.
+                std::printf("steal: refused (the server closed the connection: %s)\n", e.reason.c_str());
+                return 0;
+            }
             if (e.type == transport::TransportEvent::Type::Disconnected && connected) {
                 std::printf("disconnected by the server after %s (%s)\n", behavior.c_str(), e.reason.c_str());
                 return 0;
             }
         }
-        for (transport::Datagram d; enet.receive(d, now);)
-            if (rollback::peek_relay_kind(d.bytes) == rollback::RelayKind::Welcome) welcomed = true;
+        for (transport::Datagram d; enet.receive(d, now);) {
+            if (rollback::peek_relay_kind(d.bytes) != rollback::RelayKind::Welcome) continue;
+            rollback::RelayWelcome w;
+            if (rollback::decode(d.bytes, w)) continue;
+            if (behavior == "steal") {
+                if (w.refusal == rollback::RelayRefusal::None) {
+                    std::printf("steal: admitted to slot %d (the live holder lost it)\n", static_cast<int>(w.slot));
+                    return 1;
+                }
+                std::printf("steal: refused: %s\n", rollback::relay_refusal_name(w.refusal));
+                return 0;
+            }
+            welcomed = welcomed || w.refusal == rollback::RelayRefusal::None;
+        }
         const int per_tick = behavior == "flood" ? 80 : 1;
         if (welcomed && now - last >= 16000) {
             last = now;

@@ -397,6 +397,32 @@ TEST_F(Server, APersistentLiarOfThreeIsKicked) {
     EXPECT_EQ(server->room(7)->slot_counters(2).desyncs, 3u);
 }
 
+// A kick is told (a Kicked notice before the connection closes) and final for the match: the
+// kicked process reconnecting with its incarnation, or any newcomer for the slot, is refused
+// Kicked, while the slot plays the absent input and the honest two go on. Before, the server
+// only closed the connection, and the liar's transport was back in the slot 0.5 s later.
+TEST_F(Server, AKickedLiarIsToldAndItsSlotIsRefusedForTheRestOfTheMatch) {
+    start_three(config());
+    play({1, 2, 3}, 0, 8);
+    for (std::uint32_t f = 2; f <= 6; f += 2) {
+        three_report(f, 0xBAD);
+        drain();
+    }
+    ASSERT_TRUE(was_kicked(3));
+    ASSERT_FALSE(notices[3].empty());
+    EXPECT_EQ(notices[3].back().kind, RelayNoticeKind::Kicked);
+    EXPECT_EQ(notices[3].back().slot, 2);
+    connect(4);
+    hello(4, 7, 2, RelayRole::Player, 3, 1003);  // the kicked process again (its incarnation)
+    connect(5);
+    advance(1'100'000);
+    hello(5, 7, 2, RelayRole::Player, 3, 77);    // a newcomer for the slot, long after
+    drain();
+    EXPECT_EQ(last_refusal(4), RelayRefusal::Kicked);
+    EXPECT_EQ(last_refusal(5), RelayRefusal::Kicked);
+    EXPECT_FALSE(was_kicked(1) || was_kicked(2));
+}
+
 // An honest client that drifts now and then reloads and agrees at the next round: its streak
 // resets there, so it is never kicked however many single verdicts it collects.
 TEST_F(Server, AnOccasionalMinorityIsNotKickedItsStreakResets) {

@@ -40,6 +40,59 @@ TEST(RigidContact, SphereOnFloorTouchesAtItsLowestPoint) {
     EXPECT_NEAR(d(m.points[0].point.y), 0, 1e-9);
 }
 
+// point_box's general arithmetic, written out: what its shortcuts for an unturned box (no
+// matrix products) and for a point off one face only (no root, no divisions) must reproduce.
+bool point_box_general(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& normal, Vec3& surface,
+                       Fixed& distance) {
+    const Mat3& r = *box.rot;
+    const Vec3 local = transpose_times(r, p - box.center);
+    const Vec3& h = box.half;
+    const Fixed lc[3] = {local.x, local.y, local.z}, hc[3] = {h.x, h.y, h.z};
+    Fixed q[3];
+    bool inside = true;
+    for (int k = 0; k < 3; ++k) {
+        if (abs(lc[k]) - hc[k] >= reach) return false;
+        q[k] = clamp(lc[k], -hc[k], hc[k]);
+        inside = inside && q[k] == lc[k];
+    }
+    if (inside) return point_box(p, box, reach, normal, surface, distance);  // not a shortcut's case
+    const Vec3 dl{q[0] - lc[0], q[1] - lc[1], q[2] - lc[2]};
+    const u128 dsq = length_sq_wide(dl);
+    if (dsq >= static_cast<u128>(mul_wide(reach.raw, reach.raw))) return false;
+    distance = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dsq)));
+    if (distance.raw == 0) return false;
+    normal = r * Vec3{dl.x / distance, dl.y / distance, dl.z / distance};
+    surface = box.center + r * Vec3{q[0], q[1], q[2]};
+    return true;
+}
+
+TEST(RigidContact, PointBoxShortcutsGiveTheGeneralBits) {
+    std::mt19937_64 rng(19);
+    std::uniform_real_distribution<double> u(-2.5, 2.5);
+    OrientedCollider box;
+    box.shape = Shape::Box;
+    box.rot = &kIdentity;
+    box.half = v3(1.5, 0.5, 0.75);
+    int off_one_face = 0, off_an_edge = 0;
+    for (int i = 0; i < 200000; ++i) {
+        box.center = v3(u(rng) * 100, u(rng), u(rng) * 100);
+        const Vec3 p = box.center + v3(u(rng), u(rng), u(rng));
+        const Fixed reach = fx(0.2 + (u(rng) + 2.5) / 5);
+        Vec3 n1, s1, n2, s2;
+        Fixed d1, d2;
+        const bool hit1 = point_box(p, box, reach, n1, s1, d1), hit2 = point_box_general(p, box, reach, n2, s2, d2);
+        ASSERT_EQ(hit1, hit2) << i;
+        if (!hit1) continue;
+        ASSERT_EQ(n1, n2) << i;
+        ASSERT_EQ(s1, s2) << i;
+        ASSERT_EQ(d1, d2) << i;
+        const int axes = (n1.x.raw != 0) + (n1.y.raw != 0) + (n1.z.raw != 0);
+        (axes == 1 ? off_one_face : off_an_edge) += d1.raw > 0;
+    }
+    EXPECT_GT(off_one_face, 1000);  // both cases are exercised
+    EXPECT_GT(off_an_edge, 1000);
+}
+
 TEST(RigidContact, SpeculativeWithinTheMarginOnly) {
     OrientedCollider s;
     s.center = v3(0, 0.53, 0);
