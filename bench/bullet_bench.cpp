@@ -44,6 +44,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/median.h"
 #include "harness/match/bots.h"
 #include "harness/match/scene_loader.h"
 #include "sim/controller.h"
@@ -305,11 +306,7 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
     }
 }
 
-double median(std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    const std::size_t n = v.size();
-    return n % 2 ? v[n / 2] : (v[n / 2 - 1] + v[n / 2]) / 2;
-}
+using lockroll::bench::median;
 }  // namespace
 
 int main(int argc, char** argv) {

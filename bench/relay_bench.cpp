@@ -58,6 +58,7 @@
 #include <thread>
 #include <vector>
 
+#include "bench/median.h"
 #include "rollback/relay_messages.h"
 
 namespace {
@@ -742,11 +743,7 @@ void run_echo(const Options& o, double rate, const std::string& dir, RunResult& 
     close(ep);
 }
 
-double median(std::vector<double> v) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    return v.size() % 2 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
-}
+using lockroll::bench::median;
 
 }  // namespace
 

@@ -19,6 +19,10 @@
 #   armhf          arm-linux-gnueabihf-g++ -O2 -static   portable      qemu-arm (32-bit ARM, hard float)
 #   wasm32         em++ (emscripten) -O2 -fexceptions     __int128      node (NODERAWFS: reads the host's files)
 #
+# Threads column: every target that runs threads also runs the golden runner a second time with
+# --workers 3 (the parallel step, docs/physics.md), which must print the same file. wasm32 is
+# built without threads (no -pthread, no SharedArrayBuffer under node): its column says "none".
+#
 # A target whose compiler, emulator or library is missing is skipped with a message naming the
 # Debian package; the others still run.
 #
@@ -101,6 +105,8 @@ link_flags_of() {
 }
 # The golden runner's file name (emscripten writes JavaScript plus golden.wasm beside it).
 exe_of() { case "$1" in wasm32) echo golden.js ;; *) echo golden ;; esac; }
+# Workers of the threads column's run; empty: the target has no threads.
+threads_of() { case "$1" in wasm32) ;; *) echo 3 ;; esac; }
 runner_of() {
     case "$1" in
         aarch64) echo qemu-aarch64 ;;
@@ -225,9 +231,25 @@ for t in "${targets[@]}"; do
         echo "cross-check: regenerated $golden from $t ($(grep -vc '^#' "$golden") lines)"
     fi
     diff=$(first_difference "$golden" "$out")
+    threads="none"
+    workers=$(threads_of "$t")
+    if [[ -z "$diff" && -n "$workers" ]]; then
+        tout="$work/$t/output-threads.txt"
+        # shellcheck disable=SC2046
+        if ! $(runner_of "$t") "$work/$t/$(exe_of "$t")" --scene-dir "$root/harness/scenes" --workers "$workers" \
+                >"$tout" 2>"$work/$t/stderr-threads.txt"; then
+            echo "cross-check: $t: golden runner failed at $workers workers:" >&2
+            cat "$work/$t/stderr-threads.txt" >&2
+            exit 4
+        fi
+        diff=$(first_difference "$golden" "$tout")
+        [[ -z "$diff" ]] || diff="$diff (at $workers workers)"
+        threads="$workers workers match, $(elapsed "$t2" "$(now)")s"
+    fi
     if [[ -z "$diff" ]]; then
         result[$t]="match"
-        printf 'cross-check: %-16s match   (build %ss, run %ss)\n' "$t" "$(elapsed "$t0" "$t1")" "$(elapsed "$t1" "$t2")"
+        printf 'cross-check: %-16s match   (build %ss, run %ss; threads: %s)\n' "$t" "$(elapsed "$t0" "$t1")" \
+            "$(elapsed "$t1" "$t2")" "$threads"
     else
         result[$t]="MISMATCH"
         printf 'cross-check: %-16s MISMATCH at %s\n' "$t" "$diff" >&2

@@ -53,6 +53,7 @@ Fixed divide_round(i128 n, i128 d) {
 
 std::uint64_t overflow_events() { return t_overflow_events; }
 void note_overflow() { ++t_overflow_events; }
+void note_overflows(std::uint64_t count) { t_overflow_events += count; }
 
 Fixed Fixed::from_int(std::int64_t v) {
     if (v >= (std::int64_t{1} << 31)) { note_overflow(); return max(); }

@@ -27,6 +27,9 @@ namespace lockroll::sim {
 // Overflow events on this thread since it started. Monotonic; callers diff it around a step.
 std::uint64_t overflow_events();
 void note_overflow();
+// Adds `count` events at once: what a parallel step's tasks counted on other threads
+// (sim/parallel_tasks.h).
+void note_overflows(std::uint64_t count);
 
 struct Fixed {
     static constexpr int kFracBits = 32;

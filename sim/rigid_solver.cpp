@@ -223,15 +223,17 @@ void RigidSolver::initial_state(const SceneDesc& scene, std::vector<Quat>& orien
     for (BodyId id : dynamic_) angvel[id] = scene.bodies[id].angular_velocity;
 }
 
-void RigidSolver::damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const {
-    for (BodyId id : dynamic_) {
+void RigidSolver::damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const {
+    for (std::size_t i = begin; i < end; ++i) {
+        const BodyId id = dynamic_[i];
         if (lin_damp_[id] != Fixed::one()) vel[id] = vel[id] * lin_damp_[id];
         if (ang_damp_[id] != Fixed::one()) angvel[id] = angvel[id] * ang_damp_[id];
     }
 }
 
-void RigidSolver::update_inertia(const std::vector<Quat>& orient) {
-    for (BodyId id : dynamic_) {
+void RigidSolver::update_inertia(const std::vector<Quat>& orient, std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) {
+        const BodyId id = dynamic_[i];
         // A sphere's collider never reads its rotation (nor does an isotropic body's inertia or
         // integration), so it is not built.
         if (shape_[id] == Shape::Box || core_half_[id].raw != 0) rot_[id] = rotation(orient[id]);
@@ -459,6 +461,17 @@ void RigidSolver::reduce(Manifold& m) {
     m = out;
 }
 
+void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,
+                              Manifold& m) const {
+    // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
+    a = pair.a;
+    b = pair.b;
+    if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
+    contact_points(collider(a, pos), collider(b, pos), margin_, m);
+    if (m.count == 0) return;
+    if (reduce_ && shape_[a] == Shape::Box && shape_[b] == Shape::Box && m.points[0].feature < kFeatureEdge) reduce(m);
+}
+
 void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel) {
     for (BodyId id : slot_ids_) slot_[id] = kNoSlot;
@@ -468,71 +481,126 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     manifold_start_.clear();
     Manifold m;
     for (const BodyPair& pair : pairs_) {
-        // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
-        BodyId a = pair.a, b = pair.b;
-        if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
-        contact_points(collider(a, pos), collider(b, pos), margin_, m);
+        BodyId a, b;
+        manifold_of(pair, pos, a, b, m);
         if (m.count == 0) continue;
-        if (reduce_ && shape_[a] == Shape::Box && shape_[b] == Shape::Box && m.points[0].feature < kFeatureEdge) reduce(m);
         if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
-        const Fixed e = pair_restitution(a, b);
-        Fixed mu_k, mu_s;
-        pair_friction(a, b, mu_k, mu_s);
-        const std::uint32_t sa = slot_of(a, vel, angvel), sb = slot_of(b, vel, angvel);
-        const auto sphere_or_static = [&](BodyId id) { return shape_[id] == Shape::Sphere || inv_mass_[id].raw == 0; };
-        const bool sphere_pair = sphere_or_static(a) && sphere_or_static(b);
-        for (int i = 0; i < m.count; ++i) {
-            const ContactPoint& c = m.points[i];
-            Point& p = points_.emplace_back();
-            p.a = a;
-            p.b = b;
-            p.sa = sa;
-            p.sb = sb;
-            p.feature = c.feature;
-            p.n = c.normal;
-            tangents(p.n, p.t1, p.t2);
-            p.axis_n = axis_code(p.n);
-            p.axis_t1 = axis_code(p.t1);
-            p.axis_t2 = axis_code(p.t2);
-            Vec3 ca[3], cb[3];
-            arms(a, c.point - pos[a], p, ca);
-            arms(b, c.point - pos[b], p, cb);
-            make_row(p, ca[0], cb[0], p.row[0]);
-            make_row(p, ca[1], cb[1], p.row[1]);
-            // Between spheres (or a sphere and a static body) the two tangent rows' effective
-            // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
-            // one division serves both.
-            make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
-            p.mu_k = mu_k;
-            p.mu_s = mu_s;
-            p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
-            // Target normal speed (> 0 separates): close a gap within this step and no faster;
-            // push out overlap beyond slop at baumgarte per step; bounce fast approaches.
-            // With split impulses the push-out is the pseudo velocities' bias instead.
-            Fixed target = c.depth * inv_dt_;
-            if (c.depth.raw > 0) {
-                const Fixed push = max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
-                target = split_ ? Fixed::zero() : push;
-                p.bias = split_ ? push : Fixed::zero();
-            }
-            if (e.raw > 0) {
-                const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
-                // The bounce is e times the approach speed the bodies came in with, before this
-                // step's gravity (as Box2D and Bullet measure it): bouncing the g dt added this
-                // step too gave every bounce e g dt more than it brought, so a ball on e = 0.8
-                // kept hopping at ~0.9 m/s, above the threshold, forever (docs/physics.md).
-                const Fixed vn_before = vn - dot(p.n, gravity_dv_[b] - gravity_dv_[a]);
-                // Only when the approach closes the gap within this step: the gap is -depth, so
-                // it closes when -vn dt >= -depth, i.e. vn dt <= depth. (This read vn dt + depth
-                // < 0, true for every approaching gap: a ball bounced off the floor up to the
-                // whole contact margin above it.)
-                if (-vn_before > threshold_ && (c.depth.raw > 0 || vn * dt_ <= c.depth))
-                    target = max(target, -(e * vn_before));
-            }
-            p.target = target;
-        }
+        slot_of(a, vel, angvel);
+        slot_of(b, vel, angvel);
+        const std::size_t first = points_.size();
+        points_.resize(first + static_cast<std::size_t>(m.count));
+        build_points(a, b, m, pos, points_.data() + first);
     }
     if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+}
+
+void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
+                                          const std::vector<Vec3>& angvel, const ParallelTasks& tasks) {
+    for (BodyId id : slot_ids_) slot_[id] = kNoSlot;
+    slot_ids_.clear();
+    bodies_.clear();
+    points_.clear();
+    manifold_start_.clear();
+    links_.clear();
+    // 1. Manifolds per range of pairs (contiguous ranges, so the lists concatenated in range
+    //    order are the pairs' order).
+    const std::size_t n = pairs_.size();
+    const std::size_t pieces = tasks.piece_count(n, kPairGrain);
+    if (found_.size() < pieces) found_.resize(pieces);
+    tasks.run(pieces, [&](std::size_t k) {
+        std::vector<Found>& list = found_[k];
+        list.clear();
+        Manifold m;
+        for (std::size_t i = n * k / pieces, e = n * (k + 1) / pieces; i < e; ++i) {
+            BodyId a, b;
+            manifold_of(pairs_[i], pos, a, b, m);
+            if (m.count != 0) list.push_back({static_cast<std::uint32_t>(i), m});
+        }
+    });
+    // 2. Slots and places in the order the sequential step makes them: manifold by manifold.
+    found_first_.resize(pieces + 1);
+    for (std::size_t k = 0; k < pieces; ++k) {
+        found_first_[k] = static_cast<std::uint32_t>(manifold_start_.size());
+        for (const Found& f : found_[k]) {
+            const BodyPair& pair = pairs_[f.pair];
+            const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
+            const BodyId a = swapped ? pair.b : pair.a, b = swapped ? pair.a : pair.b;
+            const std::uint32_t sa = slot_of(a, vel, angvel), sb = slot_of(b, vel, angvel);
+            manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+            links_.push_back({inv_mass_[a].raw != 0 ? sa : Islands::kStatic, inv_mass_[b].raw != 0 ? sb : Islands::kStatic});
+            points_.resize(points_.size() + static_cast<std::size_t>(f.m.count));
+        }
+    }
+    found_first_[pieces] = static_cast<std::uint32_t>(manifold_start_.size());
+    manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+    // 3. The points, per range, into their places (they read only the slots made in 2).
+    tasks.run(pieces, [&](std::size_t k) {
+        std::uint32_t mi = found_first_[k];
+        for (const Found& f : found_[k]) {
+            const BodyPair& pair = pairs_[f.pair];
+            const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
+            build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + manifold_start_[mi++]);
+        }
+    });
+}
+
+void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const {
+    const Fixed e = pair_restitution(a, b);
+    Fixed mu_k, mu_s;
+    pair_friction(a, b, mu_k, mu_s);
+    const std::uint32_t sa = slot_[a], sb = slot_[b];
+    const auto sphere_or_static = [&](BodyId id) { return shape_[id] == Shape::Sphere || inv_mass_[id].raw == 0; };
+    const bool sphere_pair = sphere_or_static(a) && sphere_or_static(b);
+    for (int i = 0; i < m.count; ++i) {
+        const ContactPoint& c = m.points[i];
+        Point& p = out[i];
+        p.a = a;
+        p.b = b;
+        p.sa = sa;
+        p.sb = sb;
+        p.feature = c.feature;
+        p.n = c.normal;
+        tangents(p.n, p.t1, p.t2);
+        p.axis_n = axis_code(p.n);
+        p.axis_t1 = axis_code(p.t1);
+        p.axis_t2 = axis_code(p.t2);
+        Vec3 ca[3], cb[3];
+        arms(a, c.point - pos[a], p, ca);
+        arms(b, c.point - pos[b], p, cb);
+        make_row(p, ca[0], cb[0], p.row[0]);
+        make_row(p, ca[1], cb[1], p.row[1]);
+        // Between spheres (or a sphere and a static body) the two tangent rows' effective
+        // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
+        // one division serves both.
+        make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
+        p.mu_k = mu_k;
+        p.mu_s = mu_s;
+        p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
+        // Target normal speed (> 0 separates): close a gap within this step and no faster;
+        // push out overlap beyond slop at baumgarte per step; bounce fast approaches.
+        // With split impulses the push-out is the pseudo velocities' bias instead.
+        Fixed target = c.depth * inv_dt_;
+        if (c.depth.raw > 0) {
+            const Fixed push = max(c.depth - slop_, Fixed::zero()) * baumgarte_rate_;
+            target = split_ ? Fixed::zero() : push;
+            p.bias = split_ ? push : Fixed::zero();
+        }
+        if (e.raw > 0) {
+            const Fixed vn = row_speed(p, 0, bodies_[sb].v - bodies_[sa].v, bodies_);
+            // The bounce is e times the approach speed the bodies came in with, before this
+            // step's gravity (as Box2D and Bullet measure it): bouncing the g dt added this
+            // step too gave every bounce e g dt more than it brought, so a ball on e = 0.8
+            // kept hopping at ~0.9 m/s, above the threshold, forever (docs/physics.md).
+            const Fixed vn_before = vn - dot(p.n, gravity_dv_[b] - gravity_dv_[a]);
+            // Only when the approach closes the gap within this step: the gap is -depth, so
+            // it closes when -vn dt >= -depth, i.e. vn dt <= depth. (This read vn dt + depth
+            // < 0, true for every approaching gap: a ball bounced off the floor up to the
+            // whole contact margin above it.)
+            if (-vn_before > threshold_ && (c.depth.raw > 0 || vn * dt_ <= c.depth))
+                target = max(target, -(e * vn_before));
+        }
+        p.target = target;
+    }
 }
 
 void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
@@ -587,17 +655,51 @@ ContactImpulse RigidSolver::key_of(const Point& p) const {
     return k;
 }
 
-void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses) {
+void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, const ManifoldSet* set) {
     if (impulses.empty()) return;
-    for (Point& p : points_) {
+    each_point(set, false, [&](Point& p) {
         const ContactImpulse k = key_of(p);
         const auto it = std::lower_bound(impulses.begin(), impulses.end(), k, key_less);
-        if (it == impulses.end() || key_less(k, *it)) continue;
+        if (it == impulses.end() || key_less(k, *it)) return;
         p.pn = it->pn;
         p.pt1 = it->pt1;
         p.pt2 = it->pt2;
         apply(p, p.pn, p.pt1, p.pt2, bodies_);
+    });
+}
+
+template <class F>
+void RigidSolver::each_point(const ManifoldSet* set, bool backwards, F&& f) {
+    if (set == nullptr) {
+        if (backwards)
+            for (auto it = points_.rbegin(); it != points_.rend(); ++it) f(*it);
+        else
+            for (Point& p : points_) f(p);
+        return;
     }
+    // The island's points are whole manifolds, each contiguous in points_: the subsequence of
+    // the global order (or of its reverse) that lies in the island.
+    if (backwards) {
+        for (std::size_t k = set->size(); k-- > 0;) {
+            const std::uint32_t m = (*set)[k];
+            for (std::uint32_t j = manifold_start_[m + 1]; j-- > manifold_start_[m];) f(points_[j]);
+        }
+    } else {
+        for (const std::uint32_t m : *set)
+            for (std::uint32_t j = manifold_start_[m]; j < manifold_start_[m + 1]; ++j) f(points_[j]);
+    }
+}
+
+void RigidSolver::solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
+    islands_.build(bodies_.size(), links_);
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
+    tasks.run(pieces, [&](std::size_t k) {
+        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+            const ManifoldSet set = islands_.links(i);
+            if (warm_) warm_start(impulses, &set);
+            for (int pass = 0; pass < iterations_; ++pass) solve_pass(bodies_, pass, &set);
+        }
+    });
 }
 
 void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
@@ -617,9 +719,9 @@ void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
     if (impulses.size() > impulse_capacity_) impulses.resize(impulse_capacity_);
 }
 
-void RigidSolver::solve_pass(Bodies& bodies, int pass) {
+void RigidSolver::solve_pass(Bodies& bodies, int pass, const ManifoldSet* set) {
     if (!warm_ && !block_) {
-        for (Point& p : points_) solve_point(p, bodies, kEveryBody, false);
+        each_point(set, false, [&](Point& p) { solve_point(p, bodies, kEveryBody, false); });
         return;
     }
     // Warm-started scenes: every normal row, then every friction row, odd passes backwards.
@@ -627,14 +729,14 @@ void RigidSolver::solve_pass(Bodies& bodies, int pass) {
     // always goes first), which turned every box of a stack the same way; alternating the
     // direction spreads a stack's support both ways in one iteration pair.
     const auto sweep = [&](Rows rows) {
-        if (pass & 1)
-            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_point(*it, bodies, kEveryBody, false, rows);
-        else
-            for (Point& p : points_) solve_point(p, bodies, kEveryBody, false, rows);
+        each_point(set, pass & 1, [&](Point& p) { solve_point(p, bodies, kEveryBody, false, rows); });
     };
     if (block_) {
-        const std::size_t count = manifold_start_.size() - 1;
-        for (std::size_t k = 0; k < count; ++k) solve_block(pass & 1 ? count - 1 - k : k, bodies, false);
+        const std::size_t count = set != nullptr ? set->size() : manifold_start_.size() - 1;
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::size_t j = pass & 1 ? count - 1 - k : k;
+            solve_block(set != nullptr ? (*set)[j] : j, bodies, false);
+        }
     } else {
         sweep(Rows::Normal);
     }
@@ -711,19 +813,36 @@ void RigidSolver::solve_pseudo(Point& p) {
     apply_normal(p, d, pseudo_, kEveryBody);
 }
 
-void RigidSolver::split_passes() {
+void RigidSolver::split_passes(const ParallelTasks& tasks) {
     pseudo_.resize(bodies_.size());
     for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass, bodies_[k].iso_inv_inertia};
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
-    const std::size_t count = block_ ? manifold_start_.size() - 1 : 0;
+    if (!tasks.parallel()) {
+        split_iterations(nullptr);
+        return;
+    }
+    // The same islands as the iterations (solve_islands built them this step).
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
+    tasks.run(pieces, [&](std::size_t k) {
+        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+            const ManifoldSet set = islands_.links(i);
+            split_iterations(&set);
+        }
+    });
+}
+
+void RigidSolver::split_iterations(const ManifoldSet* set) {
+    const std::size_t count = !block_ ? 0 : set != nullptr ? set->size() : manifold_start_.size() - 1;
     for (int i = 0; i < iterations_; ++i) {
-        if (block_)
-            for (std::size_t k = 0; k < count; ++k) solve_block(i & 1 ? count - 1 - k : k, pseudo_, true);
-        else if (i & 1)
-            for (auto it = points_.rbegin(); it != points_.rend(); ++it) solve_pseudo(*it);
-        else
-            for (Point& p : points_) solve_pseudo(p);
+        if (block_) {
+            for (std::size_t k = 0; k < count; ++k) {
+                const std::size_t j = i & 1 ? count - 1 - k : k;
+                solve_block(set != nullptr ? (*set)[j] : j, pseudo_, true);
+            }
+        } else {
+            each_point(set, i & 1, [&](Point& p) { solve_pseudo(p); });
+        }
     }
 }
 
@@ -733,9 +852,11 @@ Vec3 RigidSolver::omega_from(BodyId id, const Quat& q, const Vec3& l) const {
 }
 
 void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
-                            std::vector<Vec3>& angvel) const {
+                            std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const {
     const Fixed half_dt = Fixed::from_raw(dt_.raw / 2);
-    for (BodyId id : dynamic_) {
+    // Each body's real motion, then its pseudo motion, as one sweep gives them.
+    for (std::size_t i = begin; i < end; ++i) {
+        const BodyId id = dynamic_[i];
         pos[id] += vel[id] * dt_;
         const Vec3 w = angvel[id];
         if (w == Vec3{}) continue;
@@ -753,7 +874,8 @@ void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel
     }
     if (!split_) return;
     // Split impulses: the pseudo motion, after the real one, then dropped.
-    for (BodyId id : dynamic_) {
+    for (std::size_t i = begin; i < end; ++i) {
+        const BodyId id = dynamic_[i];
         const std::uint32_t k = slot_[id];
         if (k == kNoSlot) continue;  // no contact: no pseudo motion
         if (pseudo_[k].v != Vec3{}) pos[id] += pseudo_[k].v * dt_;

@@ -40,9 +40,12 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "sim/broadphase.h"
+#include "sim/islands.h"
+#include "sim/parallel_tasks.h"
 #include "sim/rigid_contact.h"
 #include "sim/step_kernel.h"
 
@@ -82,23 +85,51 @@ public:
     const std::vector<Vec3>& extent() const { return extent_; }
 
     // impulses: the warm-starting state (ContactImpulse), read and rewritten when
-    // warm_starting(), untouched otherwise.
+    // warm_starting(), untouched otherwise. tasks: how the parallel phases run (sequential
+    // by default); the bits are the same either way (docs/physics.md, "Parallel step"):
+    //  - per body (gravity, damping, inertia, integration): each body's own operations;
+    //  - contact generation per pair range into per-range manifold lists, concatenated in pair
+    //    order, then solver slots assigned in that order (sequential), then the points built
+    //    per range into their places;
+    //  - warm start and the iterations island by island (sim/islands.h), each island's rows
+    //    in their global relative order; the split passes likewise;
+    //  - sequential, as they are global: keeping the impulses (a sort by key), the shock pass
+    //    (levels over the whole graph, one global order) and the scatter.
     template <class FindPairs, class Control>
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
-              std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control) {
-        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
-        control(vel);
-        if (damped_) damp(vel, angvel);
-        update_inertia(orient);
-        find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
-        build_contacts(pos, vel, angvel);
-        if (warm_) warm_start(impulses);
-        for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i);
+              std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control,
+              const ParallelTasks& tasks) {
+        if (!tasks.parallel()) {
+            for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+            control(vel);
+            if (damped_) damp(vel, angvel, 0, dynamic_.size());
+            update_inertia(orient, 0, dynamic_.size());
+            find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+            build_contacts(pos, vel, angvel);
+            if (warm_) warm_start(impulses, nullptr);
+            for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, nullptr);
+        } else {
+            const auto per_body = [&](auto&& phase) { tasks.for_ranges(dynamic_.size(), kBodyGrain, phase); };
+            per_body([&](std::size_t begin, std::size_t end) {
+                for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+            });
+            control(vel);
+            if (damped_) per_body([&](std::size_t begin, std::size_t end) { damp(vel, angvel, begin, end); });
+            per_body([&](std::size_t begin, std::size_t end) { update_inertia(orient, begin, end); });
+            find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+            build_contacts_parallel(pos, vel, angvel, tasks);
+            solve_islands(impulses, tasks);
+        }
         if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass();
         scatter(vel, angvel);
-        if (split_) split_passes();
-        integrate(pos, vel, orient, angvel);
+        if (split_) split_passes(tasks);
+        if (!tasks.parallel())
+            integrate(pos, vel, orient, angvel, 0, dynamic_.size());
+        else
+            tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+                integrate(pos, vel, orient, angvel, begin, end);
+            });
     }
 
     // Most ContactImpulse entries a step keeps (kImpulsesPerBody per dynamic body; 0 without
@@ -135,8 +166,14 @@ private:
         Fixed pn, pt1, pt2;  // accumulated impulses
     };
 
-    void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
-    void update_inertia(const std::vector<Quat>& orient);
+    // Per-body phases cut into ranges of at least this many dynamic bodies.
+    static constexpr std::size_t kBodyGrain = 256;
+    // Candidate pairs per contact-generation range, and manifolds per piece of islands, at
+    // least (a small scene is not worth waking a thread for).
+    static constexpr std::size_t kPairGrain = 128, kManifoldGrain = 64;
+    // The per-body phases, over dynamic_[begin, end).
+    void damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
+    void update_inertia(const std::vector<Quat>& orient, std::size_t begin, std::size_t end);
     // rigid.reduce_manifold: keeps of a box-box face manifold the point farthest along each of
     // the four diagonals of the contact plane's tangent basis (a point extreme along two of
     // them is kept once), renamed kFeatureReduced + diagonal so warm starting finds it again.
@@ -158,10 +195,26 @@ private:
     std::uint32_t slot_of(BodyId id, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     void scatter(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
-    void solve_pass(Bodies& bodies, int pass);
-    // Gives each point its carried impulses and applies them; keep_impulses() stores the
-    // iterations' result (before the shock pass, which is not a physical impulse).
-    void warm_start(const std::vector<ContactImpulse>& impulses);
+    // The pair's manifold (a, b: the pair in the roles contact_points() gets), reduced when
+    // the scene asks; m.count == 0 when apart.
+    void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
+    // Builds the m.count points of a manifold between a and b (whose slots exist) at out.
+    void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
+    // build_contacts() in three phases (RigidSolver::step), the same points in the same places.
+    void build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
+                                 const std::vector<Vec3>& angvel, const ParallelTasks& tasks);
+    // Warm start and the iterations, island by island (islands_ over the manifolds).
+    void solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks);
+    // The points of one island: manifold indexes (into manifold_start_), ascending. Null in a
+    // pass means every point.
+    using ManifoldSet = std::span<const std::uint32_t>;
+    template <class F>
+    void each_point(const ManifoldSet* set, bool backwards, F&& f);
+    void solve_pass(Bodies& bodies, int pass, const ManifoldSet* set);
+    // Gives each point (of set, or every one) its carried impulses and applies them;
+    // keep_impulses() stores the iterations' result (before the shock pass, which is not a
+    // physical impulse).
+    void warm_start(const std::vector<ContactImpulse>& impulses, const ManifoldSet* set);
     void keep_impulses(std::vector<ContactImpulse>& impulses) const;
     ContactImpulse key_of(const Point& p) const;
     void shock_pass();
@@ -169,7 +222,8 @@ private:
     // (pseudo_), driving each point's pseudo normal speed to its bias (overlap beyond slop
     // times baumgarte per step), accumulated >= 0. They move the bodies in integrate() and
     // are dropped: the real velocities never see the push-out.
-    void split_passes();
+    void split_passes(const ParallelTasks& tasks);
+    void split_iterations(const ManifoldSet* set);
     // rigid.block_solver: manifold m's normal rows (real, or pseudo with split impulses) swept
     // forward and back until no impulse changes, at most kBlockSweeps times.
     static constexpr int kBlockSweeps = 8;
@@ -181,7 +235,7 @@ private:
     void solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                      Rows rows = Rows::Both);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
-                   std::vector<Vec3>& angvel) const;
+                   std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
@@ -224,8 +278,19 @@ private:
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
     std::vector<Point> points_;
-    // rigid.block_solver: first point of each manifold, then points_.size() (empty otherwise).
+    // rigid.block_solver, or a parallel step: first point of each manifold, then
+    // points_.size() (empty otherwise).
     std::vector<std::uint32_t> manifold_start_;
+    // Parallel step only: each contact range's manifolds (pair index, manifold), the solver's
+    // islands over the manifolds, and their links (solver slots, Islands::kStatic for static).
+    struct Found {
+        std::uint32_t pair;
+        Manifold m;
+    };
+    std::vector<std::vector<Found>> found_;
+    std::vector<std::uint32_t> found_first_;  // by range: its first manifold's index
+    Islands islands_;
+    std::vector<Islands::Link> links_;
     Bodies bodies_;
     std::vector<std::uint32_t> slot_;  // by body id: its place in bodies_, or kNoSlot
     std::vector<BodyId> slot_ids_;     // by place: the body id

@@ -20,6 +20,8 @@
 
 #include "sim/broadphase.h"
 #include "sim/contact.h"
+#include "sim/islands.h"
+#include "sim/parallel_tasks.h"
 #include "sim/scene.h"
 
 namespace lockroll::sim {
@@ -39,12 +41,17 @@ public:
     // Advances pos/vel (indexed by body id) by one frame. find_pairs(pos, out) fills the
     // candidate pairs for the current positions (called once per physics step);
     // control(vel) applies the frame's player input (called once per frame).
+    // tasks: how the default step's parallel phases run (the extended step is sequential);
+    // the same bits either way (docs/physics.md, "Parallel step"): integration per body range,
+    // and the iterations island by island over the candidate pairs (sim/islands.h), each
+    // island's pairs in their global relative order.
     template <class FindPairs, class Control>
-    void step(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs&& find_pairs, Control&& control) {
+    void step(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs&& find_pairs, Control&& control,
+              const ParallelTasks& tasks = ParallelTasks()) {
         if (extended_)
             step_extended(pos, vel, find_pairs, control);
         else
-            step_default(pos, vel, find_pairs, control);
+            step_default(pos, vel, find_pairs, control, tasks);
     }
 
     N dt() const { return dt_; }
@@ -64,13 +71,37 @@ private:
     static Vec vec(const Vec3& v) { return {T::from_fixed(v.x), T::from_fixed(v.y), T::from_fixed(v.z)}; }
 
     template <class FindPairs, class Control>
-    void step_default(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control) {
+    void step_default(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
+                      const ParallelTasks& tasks) {
+        if (tasks.parallel()) {
+            step_default_parallel(pos, vel, find_pairs, control, tasks);
+            return;
+        }
         for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
         control(vel);
         for (BodyId id : dynamic_) pos[id] += vel[id] * dt_;
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
         prepare_pairs();
         solve_default(pos, vel);
+    }
+
+    // step_default() in parallel phases (a separate path: the sequential one stays the plain
+    // loops, whose code the paper scene's cost depends on).
+    static constexpr std::size_t kBodyGrain = 512;  // dynamic bodies per range, at least
+    static constexpr std::size_t kPairGrain = 256;  // candidate pairs per island piece, at least
+    template <class FindPairs, class Control>
+    void step_default_parallel(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
+                               const ParallelTasks& tasks) {
+        tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+        });
+        control(vel);
+        tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) pos[dynamic_[i]] += vel[dynamic_[i]] * dt_;
+        });
+        find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
+        prepare_pairs();
+        solve_default_islands(pos, vel, tasks);
     }
 
     template <class FindPairs, class Control>
@@ -175,8 +206,17 @@ private:
     static const N& component(const Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
     void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) const {
+        solve_pairs(solver_pairs_, [](const SolverPair& p) -> const SolverPair& { return p; }, pos, vel);
+    }
+
+    // `iterations` passes over the pairs of `order` (get(item) names the pair): narrowphase,
+    // then resolution, which writes only the pair's dynamic bodies. One body for the whole
+    // list and for an island's (two instantiations, each optimised as the one loop was).
+    template <class Order, class Get>
+    void solve_pairs(const Order& order, Get&& get, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
         for (int iteration = 0; iteration < iterations_; ++iteration) {
-            for (const SolverPair& p : solver_pairs_) {
+            for (const auto& item : order) {
+                const SolverPair& p = get(item);
                 BasicContact<N> c;
                 if (!narrow(p, pos, c)) continue;
                 const int axis = normal_axis(c.normal);
@@ -186,6 +226,27 @@ private:
                     resolve(p, pos, vel, c);
             }
         }
+    }
+
+    // solve_default() island by island: the pairs of other islands write none of an island's
+    // bodies (static bodies are never written), so each island's iterations over its pairs in
+    // their global relative order give the bits of the global sweep.
+    void solve_default_islands(std::vector<Vec>& pos, std::vector<Vec>& vel, const ParallelTasks& tasks) {
+        links_.resize(solver_pairs_.size());
+        for (std::size_t k = 0; k < solver_pairs_.size(); ++k) {
+            const SolverPair& p = solver_pairs_[k];
+            links_[k] = {inv_mass_[p.a] == T::zero() ? Islands::kStatic : p.a,
+                         inv_mass_[p.b] == T::zero() ? Islands::kStatic : p.b};
+        }
+        islands_.build(pos.size(), links_);
+        // At least kPairGrain pairs a piece: a small scene is not worth waking a thread for.
+        const std::size_t pieces = std::min(tasks.piece_count(solver_pairs_.size(), kPairGrain), islands_.count());
+        tasks.run(pieces, [&](std::size_t k) {
+            for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+                solve_pairs(islands_.links(i), [this](std::uint32_t j) -> const SolverPair& { return solver_pairs_[j]; },
+                            pos, vel);
+            }
+        });
     }
 
     // The seed paper's resolution: full positional correction split by inverse mass, then the
@@ -542,6 +603,9 @@ private:
 
     std::vector<BodyPair> pairs_;
     std::vector<SolverPair> solver_pairs_;
+    // Parallel default step only: islands over solver_pairs_.
+    Islands islands_;
+    std::vector<Islands::Link> links_;
 };
 
 template <class N>

@@ -1,11 +1,14 @@
 #include "sim/world.h"
 
 #include <stdexcept>
+#include <string>
 
 #include "sim/broadphase.h"
 #include "sim/controller.h"
+#include "sim/parallel_tasks.h"
 #include "sim/rigid_solver.h"
 #include "sim/step_kernel.h"
+#include "sim/task_pool.h"
 
 namespace lockroll::sim {
 
@@ -19,7 +22,15 @@ struct World::Engine {
     std::vector<ContactImpulse> impulses;   // state: rigid scenes with warm starting only
 };
 
+// How this world runs its parallel phases (World::set_workers, set_task_runner).
+struct World::Parallel {
+    std::unique_ptr<TaskPool> pool;  // set_workers only
+    ParallelTasks tasks;
+};
+
 namespace {
+const ParallelTasks kSequential;
+
 const SceneDesc& validated(const SceneDesc& scene) {
     if (const std::string err = validate(scene); !err.empty()) throw std::invalid_argument(err);
     return scene;
@@ -63,6 +74,30 @@ World& World::operator=(const World& other) {
     return *this;
 }
 
+void World::set_workers(int workers) {
+    if (workers < 1)
+        throw std::invalid_argument("World::set_workers: workers must be at least 1 (got " + std::to_string(workers) + ")");
+    if (workers == 1) {
+        parallel_.reset();
+        return;
+    }
+    auto p = std::make_unique<Parallel>();
+    p->pool = std::make_unique<TaskPool>(workers);
+    TaskPool* pool = p->pool.get();
+    p->tasks = ParallelTasks(workers, [pool](std::size_t count, const std::function<void(std::size_t)>& task) {
+        pool->run(count, task);
+    });
+    parallel_ = std::move(p);
+}
+
+void World::set_task_runner(int tasks, TaskRunner runner) {
+    auto p = std::make_unique<Parallel>();
+    p->tasks = ParallelTasks(tasks, std::move(runner));  // throws for tasks < 1 or an empty runner
+    parallel_ = std::move(p);
+}
+
+int World::workers() const { return parallel_ ? parallel_->tasks.chunks() : 1; }
+
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 World::~World() = default;
@@ -82,6 +117,7 @@ void World::step(std::span<const PlayerInput> inputs) {
     auto& kernel_ = engine_->kernel;
     auto& rigid_ = engine_->rigid;
     auto& broadphase_ = engine_->broadphase;
+    const ParallelTasks& tasks = parallel_ ? parallel_->tasks : kSequential;
     const std::uint64_t overflow_before = overflow_events();
     const auto control = [this, inputs](std::vector<Vec3>&) {
         if (!player_body_.empty()) apply_controller(inputs);
@@ -89,17 +125,17 @@ void World::step(std::span<const PlayerInput> inputs) {
     if (rigid_.enabled())
         rigid_.step(
             pos_, vel_, orient_, angvel_, engine_->impulses,
-            [&broadphase_, &rigid_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
-                broadphase_.find_pairs(pos, rigid_.extent(), out);
+            [&broadphase_, &rigid_, &tasks](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+                broadphase_.find_pairs(pos, rigid_.extent(), out, tasks);
             },
-            control);
+            control, tasks);
     else
         kernel_.step(
             pos_, vel_,
-            [&broadphase_, &kernel_](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
-                broadphase_.find_pairs(pos, kernel_.extent(), out);
+            [&broadphase_, &kernel_, &tasks](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
+                broadphase_.find_pairs(pos, kernel_.extent(), out, tasks);
             },
-            control);
+            control, tasks);
     ++frame_;
     overflow_count_ += overflow_events() - overflow_before;
 }

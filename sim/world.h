@@ -11,9 +11,18 @@
 // of its types: one indirection per step or per kernel query, no allocation but in construction
 // and copying. The state a snapshot stores and a renderer reads (positions, velocities,
 // orientations) stays inline here.
+//
+// Parallel step (opt-in, docs/physics.md "Parallel step"): set_workers() gives the world its
+// own pool of threads, set_task_runner() hands it a game's job system instead. Either way the
+// step's bits are those of the sequential step, for any worker count and any order the tasks
+// run in (docs/determinism.md). The default, one worker, runs the sequential code and nothing
+// else. The setting is how the world runs, not state: snapshots and checksums never see it, and
+// a copy of a world steps sequentially (a pool's threads are not copied); a move keeps it.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -30,6 +39,12 @@ class StepKernel;
 class RigidSolver;
 struct ContactImpulse;
 
+// A game's job system, as the parallel step sees it. Contract: runner(count, task) calls
+// task(i) exactly once for every i in [0, count), on any threads, in any order, concurrently or
+// not, and returns only after every call has returned. A task never throws (the step's tasks
+// do not); the world calls the runner from the thread that steps, a few times per step.
+using TaskRunner = std::function<void(std::size_t count, const std::function<void(std::size_t)>& task)>;
+
 class World {
 public:
     // The scene must pass validate(); throws std::invalid_argument with validate()'s message
@@ -44,6 +59,14 @@ public:
     // Advances one frame. inputs[p] drives player slot p; slots beyond inputs.size() get a
     // neutral input. Never allocates after the first step.
     void step(std::span<const PlayerInput> inputs);
+
+    // Parallel step. set_workers(n): n - 1 threads of the world's own pool plus the stepping
+    // thread; 1 is sequential (the default). set_task_runner(tasks, runner): each parallel phase
+    // is cut into `tasks` pieces run by `runner`. Both throw std::invalid_argument for a count
+    // below 1 (or an empty runner). workers(): the pool's size or the runner's task count.
+    void set_workers(int workers);
+    void set_task_runner(int tasks, TaskRunner runner);
+    int workers() const;
 
     std::uint32_t frame() const { return frame_; }
     // Operations that saturated since the world was created (part of state and checksum).
@@ -81,13 +104,15 @@ public:
 
 private:
     friend class SnapshotAccess;
-    struct Engine;  // sim/world.cpp
+    struct Engine;    // sim/world.cpp
+    struct Parallel;  // sim/world.cpp: the pool or runner; not copied
 
     void apply_controller(std::span<const PlayerInput> inputs);
     std::vector<ContactImpulse>& carried_impulses();  // SnapshotAccess loads them
 
     SceneDesc scene_;
     std::unique_ptr<Engine> engine_;
+    std::unique_ptr<Parallel> parallel_;  // null: sequential
 
     // Mutable state (exactly what a snapshot stores).
     std::uint32_t frame_ = 0;

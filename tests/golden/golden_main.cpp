@@ -10,9 +10,12 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "harness/match/hex.h"
@@ -62,9 +65,46 @@ const std::vector<GoldenScene> kScenes = {
     {"stability/rigid_stack_20", {60}},       // warm starting: carried impulses (layout 2)
 };
 
-void run(const GoldenScene& g, const std::string& scene_dir, std::ostream& out) {
+// How the world runs its parallel phases: --workers N alone uses the world's own pool; with
+// --task-runner the phases are cut into N tasks run by a runner of this file, which proves the
+// bits do not depend on the order tasks run in or on which thread runs them.
+struct Parallel {
+    int workers = 1;
+    std::string runner;  // "", "reversed", "shuffled" or "spawn"
+};
+
+// Runs the tasks on the calling thread, last first.
+void run_reversed(std::size_t count, const std::function<void(std::size_t)>& task) {
+    for (std::size_t i = count; i-- > 0;) task(i);
+}
+
+// Runs the tasks on the calling thread in a new pseudo-random order each call.
+void run_shuffled(std::size_t count, const std::function<void(std::size_t)>& task) {
+    static std::mt19937 rng(20261203);
+    std::vector<std::size_t> order(count);
+    for (std::size_t i = 0; i < count; ++i) order[i] = i;
+    std::shuffle(order.begin(), order.end(), rng);
+    for (std::size_t i : order) task(i);
+}
+
+// One new thread per task, started last first (overflow counts from other threads).
+void run_spawn(std::size_t count, const std::function<void(std::size_t)>& task) {
+    std::vector<std::thread> threads;
+    for (std::size_t i = count; i-- > 0;) threads.emplace_back([&task, i] { task(i); });
+    for (std::thread& t : threads) t.join();
+}
+
+void run(const GoldenScene& g, const std::string& scene_dir, const Parallel& parallel, std::ostream& out) {
     const std::string where = scene_dir.empty() ? std::string(g.name) : scene_dir + "/" + g.name + ".json";
     lockroll::sim::World world(lockroll::harness::load_scene(where));
+    if (parallel.runner == "reversed")
+        world.set_task_runner(parallel.workers, run_reversed);
+    else if (parallel.runner == "shuffled")
+        world.set_task_runner(parallel.workers, run_shuffled);
+    else if (parallel.runner == "spawn")
+        world.set_task_runner(parallel.workers, run_spawn);
+    else
+        world.set_workers(parallel.workers);
     std::vector<PlayerInput> inputs(static_cast<std::size_t>(world.player_count()));
     for (std::uint32_t target : g.frames) {
         while (world.frame() < target) {
@@ -97,6 +137,13 @@ int main(int argc, char** argv) {
     app.add_option("--scene-dir", scene_dir, "Directory holding <scene>.json (default: the usual scene search)");
     app.add_option("--check", check_path, "Compare with this golden file instead of printing; exit 1 on a difference")
         ->check(CLI::ExistingFile);
+    Parallel parallel;
+    app.add_option("--workers", parallel.workers,
+                   "Step with this many workers (the world's own threads; with --task-runner, tasks per phase)")
+        ->check(CLI::Range(1, 64));
+    app.add_option("--task-runner", parallel.runner,
+                   "Run the parallel phases with a runner of this program instead of the world's threads")
+        ->check(CLI::IsMember({"reversed", "shuffled", "spawn"}));
     app.add_option("--only", only, "Run only these scenes")
         ->check(CLI::IsMember([] {
             std::vector<std::string> names;
@@ -113,7 +160,7 @@ int main(int argc, char** argv) {
     std::ostringstream out;
     try {
         for (const auto& g : kScenes)
-            if (selected(only, g.name)) run(g, scene_dir, out);
+            if (selected(only, g.name)) run(g, scene_dir, parallel, out);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "golden_main: %s\n", e.what());
         return 2;

@@ -3,6 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
 
 #include "sim/snapshot.h"
 #include "sim/world.h"
@@ -24,6 +29,16 @@ BodyDesc sphere(Vec3 pos, Vec3 vel, const char* radius, const char* mass) {
 }
 
 Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
+
+// A static box whose top face is y = 0, `half` wide each way.
+BodyDesc floor_box(const char* half) {
+    BodyDesc floor;
+    floor.shape = Shape::Box;
+    floor.position = v3("0", "-1", "0");
+    floor.half_extents = v3(half, "1", half);
+    floor.mass = Fixed::zero();
+    return floor;
+}
 
 TEST(World, FreeFallMatchesSemiImplicitEulerClosedForm) {
     SceneDesc s;
@@ -84,17 +99,12 @@ TEST(World, MomentumConservedWithUnequalMasses) {
 TEST(World, SphereOnStaticBoxBouncesWithRestitutionPointEight) {
     SceneDesc s;
     s.gravity = {};
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-1", "0");
-    floor.half_extents = v3("10", "1", "10");
-    floor.mass = Fixed::zero();
-    s.bodies.push_back(floor);
+    s.bodies.push_back(floor_box("10"));
     s.bodies.push_back(sphere(v3("0", "0.6", "0"), v3("0", "-6", "0"), "0.5", "1"));
     World w(s);
     for (int n = 0; n < 10; ++n) w.step({});
     EXPECT_NEAR(d(w.velocity(1).y), 4.8, 1e-6);  // box-sphere rule e = 0.8
-    EXPECT_EQ(w.position(0), floor.position) << "static bodies never move";
+    EXPECT_EQ(w.position(0), floor_box("10").position) << "static bodies never move";
 }
 
 TEST(World, PerBodyRestitutionOverridesTable) {
@@ -247,6 +257,98 @@ TEST(World, BroadphasesAgreeBitForBit) {
     }
     EXPECT_EQ(checksum(wa), checksum(wb));
     EXPECT_NE(wa.velocity(0).y.raw, 0) << "pairs must actually have collided";
+}
+
+
+// A pile for the parallel step: spheres and (rigid) boxes dropped in a grid onto a floor,
+// close enough to touch, so there are many islands and some large ones.
+SceneDesc pile(bool rigid) {
+    SceneDesc s;
+    s.rigid.enabled = rigid;
+    s.bodies.push_back(floor_box("40"));
+    for (int i = 0; i < 1200; ++i) {
+        const int x = i % 20, z = (i / 20) % 20, y = i / 400;
+        BodyDesc b = sphere({Fixed::from_raw((x - 10) * (Fixed::kOne * 9 / 10)), Fixed::from_raw(Fixed::kOne / 2 + y * Fixed::kOne),
+                             Fixed::from_raw((z - 10) * (Fixed::kOne * 9 / 10) + (x % 3) * (Fixed::kOne / 7))},
+                            v3("0", "0", "0"), "0.5", "1");
+        if (i % 4 == 1) {
+            b.shape = Shape::Box;
+            b.half_extents = v3("0.4", "0.4", "0.4");
+        }
+        s.bodies.push_back(b);
+    }
+    return s;
+}
+
+TEST(World, ParallelStepGivesTheSequentialBits) {
+    for (const bool rigid : {false, true}) {
+        World seq(pile(rigid)), pool(pile(rigid)), backwards(pile(rigid));
+        pool.set_workers(3);
+        backwards.set_task_runner(5, [](std::size_t count, const std::function<void(std::size_t)>& task) {
+            for (std::size_t i = count; i-- > 0;) task(i);
+        });
+        EXPECT_EQ(seq.workers(), 1);
+        EXPECT_EQ(pool.workers(), 3);
+        EXPECT_EQ(backwards.workers(), 5);
+        for (int n = 0; n < 40; ++n) {
+            seq.step({});
+            pool.step({});
+            backwards.step({});
+            ASSERT_EQ(checksum(pool), checksum(seq)) << (rigid ? "rigid" : "particles") << " frame " << n + 1;
+            ASSERT_EQ(checksum(backwards), checksum(seq)) << (rigid ? "rigid" : "particles") << " frame " << n + 1;
+        }
+        EXPECT_NE(seq.position(1200).y, pile(rigid).bodies[1200].position.y) << "the pile must have moved";
+        // A copy steps sequentially (threads are not state) and stays in step.
+        World copy(pool);
+        EXPECT_EQ(copy.workers(), 1);
+        copy.step({});
+        pool.step({});
+        EXPECT_EQ(checksum(copy), checksum(pool));
+    }
+}
+
+TEST(World, ParallelSaturationIsCountedOnce) {
+    // 2000 bodies that each saturate on their first step: the per-body phases run them on
+    // several threads, and the count must be the sequential one.
+    SceneDesc s;
+    s.gravity = {};
+    for (int i = 0; i < 2000; ++i)
+        s.bodies.push_back(sphere({Fixed::from_int(2147483000 - 0), Fixed::from_int(3 * i), Fixed::zero()},
+                                  v3("2147483000", "0", "0"), "1", "1"));
+    World seq(s), par(s);
+    par.set_task_runner(4, [](std::size_t count, const std::function<void(std::size_t)>& task) {
+        std::vector<std::thread> threads;
+        for (std::size_t i = 0; i < count; ++i) threads.emplace_back([&task, i] { task(i); });
+        for (std::thread& t : threads) t.join();
+    });
+    seq.step({});
+    par.step({});
+    EXPECT_GE(seq.overflow_count(), 2000u);
+    EXPECT_EQ(par.overflow_count(), seq.overflow_count());
+    EXPECT_EQ(checksum(par), checksum(seq));
+}
+
+TEST(World, ParallelSettingsRejectBadCountsClearly) {
+    World w(pile(false));
+    for (int bad : {0, -1}) {
+        try {
+            w.set_workers(bad);
+            FAIL() << "set_workers(" << bad << ") accepted";
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find("workers must be at least 1 (got " + std::to_string(bad) + ")"),
+                      std::string::npos)
+                << e.what();
+        }
+    }
+    EXPECT_THROW(w.set_task_runner(0, [](std::size_t, const std::function<void(std::size_t)>&) {}),
+                 std::invalid_argument);
+    EXPECT_THROW(w.set_task_runner(2, TaskRunner{}), std::invalid_argument);
+    EXPECT_EQ(w.workers(), 1) << "a rejected setting leaves the world as it was";
+    // A runner that drops tasks breaks the contract: the step says so instead of going on.
+    w.set_task_runner(2, [](std::size_t, const std::function<void(std::size_t)>&) {});
+    EXPECT_THROW(w.step({}), std::logic_error);
+    w.set_workers(1);
+    EXPECT_EQ(w.workers(), 1);
 }
 
 }  // namespace
