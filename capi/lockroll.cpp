@@ -19,7 +19,7 @@
 
 #include "net/peer_runner.h"
 #include "net/session_builder.h"
-#include "rollback/player_id.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 
 namespace {

@@ -91,7 +91,7 @@ typedef enum lockroll_input_status LOCKROLL_ENUM_TYPE {
     LOCKROLL_INPUT_ABSENT = 2     /* nobody plays the slot: all zero bytes, final */
 } lockroll_input_status;
 
-/* What a session tells its game (rollback/session_event.h has each one's meaning). */
+/* What a session tells its game (rollback/events.h has each one's meaning). */
 typedef enum lockroll_event_kind LOCKROLL_ENUM_TYPE {
     LOCKROLL_EVENT_SYNCHRONIZING = 0,     /* frame: round trips so far */
     LOCKROLL_EVENT_SYNCHRONIZED = 1,      /* frame 0 (or a snapshot's frame) starts */

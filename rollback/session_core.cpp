@@ -1,6 +1,7 @@
 #include "rollback/session_core.h"
 
 #include <exception>
+#include <utility>
 
 namespace lockroll::rollback {
 
@@ -12,6 +13,21 @@ const char* phase_name(SessionPhase p) {
         case SessionPhase::Failed: return "failed";
     }
     return "unknown";
+}
+
+void EventQueue::push(SessionEvent e) {
+    if (events_.size() >= kCapacity) {
+        events_.pop_front();
+        ++dropped_;
+    }
+    events_.push_back(std::move(e));
+}
+
+bool EventQueue::pop(SessionEvent& out) noexcept {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
 }
 
 SessionCore::SessionCore(SessionPhase initial, PlayerId self, int input_delay, SessionObserver* observer)

@@ -20,17 +20,14 @@
 #include "rollback/events.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
-#include "rollback/player_id.h"
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
-#include "rollback/session_config.h"
 #include "rollback/session.h"
 #include "rollback/session_core.h"
-#include "rollback/session_event.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
-#include "rollback/telemetry.h"
 
 namespace lockroll::rollback {
 

@@ -1,4 +1,4 @@
-#include "sim/quat.h"
+#include "sim/vec3.h"
 
 namespace lockroll::sim {
 

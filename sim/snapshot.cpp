@@ -61,7 +61,7 @@ void put_body(std::uint8_t* p, const Vec3& pos, const Vec3& vel) {
 
 void put_i32(std::uint8_t* p, std::int32_t v) { put_u32(p, static_cast<std::uint32_t>(v)); }
 
-// Orientation components sit on the 2^-30 grid (sim/quat.h): raw / 4 is exact and fits int32.
+// Orientation components sit on the 2^-30 grid (sim/vec3.h renormalised()): raw / 4 is exact and fits int32.
 void put_rigid(std::uint8_t* p, const Quat& q, const Vec3& w) {
     const Fixed c[4] = {q.w, q.x, q.y, q.z};
     for (int k = 0; k < 4; ++k) put_i32(p + 4 * k, static_cast<std::int32_t>(c[k].raw / 4));
