@@ -119,7 +119,7 @@ std::int32_t small_int(FuzzedDataProvider& in) {
 // One builder setter, chosen by the script, on `b` (which may be NULL).
 void set(FuzzedDataProvider& in, lockroll_builder* b) {
     std::string keep;
-    switch (in.ConsumeIntegralInRange<int>(0, 19)) {
+    switch (in.ConsumeIntegralInRange<int>(0, 21)) {
         case 0: checked(lockroll_builder_players(b, small_int(in))); break;
         case 1: checked(lockroll_builder_input_size(b, in.ConsumeIntegralInRange<std::uint32_t>(0, 70))); break;
         case 2: checked(lockroll_builder_local_player(b, small_int(in))); break;
@@ -148,8 +148,17 @@ void set(FuzzedDataProvider& in, lockroll_builder* b) {
             break;
         }
         case 17: checked(lockroll_builder_desync_report_dir(b, path(in, keep, "reports"))); break;
+        case 18: checked(lockroll_builder_server_spectator(b)); break;
+        case 19: {
+            // 0..300 bytes (the limit is 256), NULL now and then; a size that says more than the
+            // buffer holds only past the limit, where it is refused before anything is read.
+            const std::vector<std::uint8_t> token = in.ConsumeBytes<std::uint8_t>(in.ConsumeIntegralInRange<std::size_t>(0, 300));
+            const std::size_t size = in.ConsumeBool() ? token.size() : in.ConsumeIntegralInRange<std::size_t>(257, SIZE_MAX);
+            checked(lockroll_builder_connect_token(b, in.ConsumeBool() ? nullptr : token.data(), size));
+            break;
+        }
         // The common valid case, so starts get past validation often enough.
-        case 18:
+        case 20:
             checked(lockroll_builder_players(b, 1));
             checked(lockroll_builder_input_size(b, 1));
             checked(lockroll_builder_local_player(b, 0));
