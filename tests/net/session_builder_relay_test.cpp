@@ -2,7 +2,8 @@
 // and connect_token() with server(): what is refused and why, then over ENet on 127.0.0.1 with a
 // real `lockroll-server` and NetSessions on threads: a spectator that comes in mid-match follows
 // two players to their final checksum, on an open server and on a keyed one (a spectator's
-// token; no token and a player's token are refused with the server's reason); and a player
+// token; no token and a player's token are refused with the server's reason), and one there
+// before the players follows from frame 0; and a player
 // process restarted with its usual settings (no join()) rejoins by snapshot, both after a crash
 // (its old connection still live to the server: the hello is refused, held back and said again)
 // and after a clean exit, the match ending on one checksum.
@@ -164,8 +165,10 @@ TEST(SessionBuilderRelay, SettingsReachTheRelayConfig) {
 }
 
 // Two players through a real server; a spectator comes in once they are past frame 90 (the
-// room has started: it loads a snapshot through the server) and ends on their final checksum.
-void spectator_follows(RelayServerProcess& server, std::uint64_t room, const std::array<std::vector<std::uint8_t>, 3>& tokens) {
+// room has started: it loads a snapshot through the server), or with mid_match false before
+// the players (it follows from frame 0), and ends on their final checksum.
+void spectator_follows(RelayServerProcess& server, std::uint64_t room, const std::array<std::vector<std::uint8_t>, 3>& tokens,
+                       bool mid_match = true) {
     constexpr std::uint32_t kFrames = 360;
     ASSERT_NE(server.port, 0) << "the server did not get ready";
     Mix sim_a, sim_b, sim_s;
@@ -177,18 +180,24 @@ void spectator_follows(RelayServerProcess& server, std::uint64_t room, const std
         if (!tokens[slot].empty()) b.connect_token(tokens[slot]);
         return b.start(sim);
     };
+    const auto watcher = [&] {
+        // Watch the match through the server: no local_player(); the server places this process.
+        SessionBuilder watch = base();
+        watch.spectator();
+        if (!tokens[2].empty()) watch.connect_token(tokens[2]);  // a spectator's token
+        std::unique_ptr<NetSession> spectator = watch.start(sim_s);
+        return spectator;
+    };
+    std::unique_ptr<NetSession> spectator;
+    if (!mid_match) spectator = watcher();
     auto a = player(0, sim_a);
     auto b = player(1, sim_b);
     std::atomic<std::uint32_t> a_frame{0};
     RunOutcome oa{}, ob{}, os{};
     std::thread ta([&] { oa = a->run(scripted(0, &a_frame)); });
     std::thread tb([&] { ob = b->run(scripted(1)); });
-    const bool running = wait_for_frame(a_frame, 90);
-    // Watch the match through the server: no local_player(); the server places this process.
-    SessionBuilder watch = base();
-    watch.spectator();
-    if (!tokens[2].empty()) watch.connect_token(tokens[2]);  // a spectator's token
-    std::unique_ptr<NetSession> spectator = watch.start(sim_s);
+    const bool running = !mid_match || wait_for_frame(a_frame, 90);
+    if (mid_match) spectator = watcher();
     EXPECT_TRUE(spectator->local_slots().empty());
     std::thread ts([&] { os = spectator->run([](std::uint32_t, std::span<std::uint8_t>) {}); });  // no input
     ta.join();
@@ -200,20 +209,30 @@ void spectator_follows(RelayServerProcess& server, std::uint64_t room, const std
     ASSERT_EQ(os, RunOutcome::Completed) << spectator->relay_session().failure();
     const auto events = drain(*spectator);
     const auto snapshot = snapshot_frame(events);
-    ASSERT_TRUE(snapshot) << "the spectator never loaded a snapshot";
-    EXPECT_GE(*snapshot, 60u);
+    if (mid_match) {
+        ASSERT_TRUE(snapshot) << "the spectator never loaded a snapshot";
+        EXPECT_GE(*snapshot, 60u);
+    } else {
+        EXPECT_FALSE(snapshot) << "there from the start, it needs no snapshot";
+    }
     EXPECT_GE(spectator->relay_session().room_id_slot(), 2);  // players + its place
-    // The players' final checksum, and every frame the spectator confirmed after its snapshot.
+    // The players' final checksum, and every frame the spectator confirmed (after its snapshot).
     const auto final_a = a->confirmed_checksum(kFrames), final_s = spectator->confirmed_checksum(kFrames);
     ASSERT_TRUE(final_a && final_s);
     EXPECT_EQ(*final_s, *final_a);
     EXPECT_EQ(b->confirmed_checksum(kFrames), final_a);
-    expect_same_checksums(*a, *spectator, *snapshot + 1, kFrames);
+    expect_same_checksums(*a, *spectator, snapshot.value_or(0) + 1, kFrames);
 }
 
 TEST(SessionBuilderRelay, SpectatorFollowsToThePlayersFinalChecksum) {
     RelayServerProcess server("builder-relay-spectate");
     spectator_follows(server, 93, {});
+    server.process.stop(5000);
+}
+
+TEST(SessionBuilderRelay, SpectatorThereBeforeThePlayersFollowsFromFrameZero) {
+    RelayServerProcess server("builder-relay-spectate-first");
+    spectator_follows(server, 96, {}, false);
     server.process.stop(5000);
 }
 
