@@ -5,7 +5,8 @@
 // pointer the facade sets once in its constructor, so this installed header names none of it.
 //
 // Contract: every query is the SessionCore's, unchanged (rollback/session_core.h); the pointer
-// is set before the facade's constructor returns and lives as long as the facade.
+// is set before the facade's constructor returns, and again when Session::restart_as_joiner()
+// replaces its state machine; it points at the facade's current state machine.
 #pragma once
 
 #include <cstdint>
