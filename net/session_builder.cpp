@@ -45,8 +45,9 @@ void write_whole_file(const std::filesystem::path& path, std::string_view bytes)
 
 // ---- NetSession::Engine: what the builder adds around the session ----
 
-// The session's observer: forwards every callback to the game's, records the replay, writes the
-// desync evidence, and decides an automatic rejoin (see the contract in session_builder.h).
+// The session's observer: forwards every callback to the game's, records the replay and writes
+// the desync evidence (see the contract in session_builder.h). An automatic rejoin is the
+// runner's (net/peer_runner.h, rollback/rejoin.h): the session it drives starts again in place.
 struct NetSession::Engine final : rollback::SessionObserver {
     Engine(NetSession& o, rollback::Simulation& s) : owner(o), sim(s) {}
 
@@ -59,10 +60,6 @@ struct NetSession::Engine final : rollback::SessionObserver {
     std::filesystem::path replay_path;
     bool replay_written = false;
     std::string output_error;
-    // A P2P player that may be told it restarted: the config to rejoin with, until it runs.
-    std::optional<rollback::SessionConfig> rejoin_config;
-    bool ran = false;
-    bool rejoining = false;
 
     void failed_output(const std::string& why) {
         if (output_error.empty()) output_error = why;
@@ -77,14 +74,6 @@ struct NetSession::Engine final : rollback::SessionObserver {
             failed_output(std::string("record_replay: ") + e.what());
         }
     }
-    // True for the events an automatic rejoin swallows: the refusal as dropped (kicked) of a
-    // player that never ran, and the failure that follows it.
-    bool hold_back(const rollback::SessionEvent& e) {
-        using K = rollback::SessionEvent::Kind;
-        if (e.kind == K::Synchronized) ran = true;
-        if (rejoin_config && !ran && e.kind == K::Kicked) rejoining = true;
-        return rejoining && (e.kind == K::Kicked || e.kind == K::Failed);
-    }
 
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
         if (user) user->on_frame_simulated(f);
@@ -97,11 +86,23 @@ struct NetSession::Engine final : rollback::SessionObserver {
     }
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
         if (replay && !replay_written) {
-            if (f.frame == replay->replay().frames() + 1) {
+            const std::uint32_t have = replay->replay().frames();
+            if (f.frame == have + 1) {
                 replay->add(f);
+            } else if (owner.session_ && owner.session_->config().role == rollback::Role::Joiner) {
+                // Only a rejoin makes a player's session a joiner (record_replay() refuses join()):
+                // it goes on from a snapshot. A restart that never confirmed a frame writes no
+                // replay; a healed partition's minority keeps the frames it had confirmed.
+                if (have == 0) {
+                    replay.reset();
+                } else {
+                    failed_output("record_replay: this process rejoined by snapshot (frame " + std::to_string(f.frame) +
+                                  " confirmed next); the replay stops at frame " + std::to_string(have));
+                    write_replay();
+                }
             } else {  // frames are confirmed once each, in order: only a reload can skip
                 failed_output("record_replay: frame " + std::to_string(f.frame) + " confirmed after " +
-                              std::to_string(replay->replay().frames()) + "; the replay stops there");
+                              std::to_string(have) + "; the replay stops there");
                 write_replay();
             }
         }
@@ -156,23 +157,6 @@ void NetSession::queue_event(rollback::SessionEvent e) {
     events_.push_back(std::move(e));
 }
 
-// The automatic rejoin: the same session, now a joiner, on the same transport and simulation
-// (still in its initial state: the player never ran a frame).
-void NetSession::restart_as_joiner() {
-    rollback::SessionConfig sc = *engine_->rejoin_config;
-    sc.role = rollback::Role::Joiner;
-    engine_->rejoin_config.reset();
-    engine_->rejoining = false;
-    engine_->replay.reset();  // its frames start at the snapshot: no replay from frame 1
-    runner_.reset();
-    session_.reset();
-    session_ = std::make_unique<rollback::Session>(sc, engine_->sim, engine_.get());
-    RunnerObserver* as_observer = this;
-    runner_ = std::make_unique<PeerRunner>(
-        *runner_config_, *session_, *transport_,
-        [this](std::uint32_t frame, std::span<std::uint8_t> out) { (*input_)(frame, out); }, as_observer);
-}
-
 UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observer) {
     if (!input) {  // nothing to play with (a caller's bug; never throws)
         UpdateResult r;
@@ -182,11 +166,6 @@ UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observ
     observer_ = observer;
     input_ = &input;
     UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
-    if (engine_->rejoining) {
-        // Told this slot's process restarted: not an end, a rejoin by snapshot.
-        restart_as_joiner();
-        r = UpdateResult{};
-    }
     input_ = nullptr;
     observer_ = nullptr;
     if (r.outcome) engine_->write_replay();
@@ -241,7 +220,6 @@ void NetSession::on_transport_event(const transport::TransportEvent& e, std::uin
     if (observer_) observer_->on_transport_event(e, now_us);
 }
 void NetSession::on_session_event(const rollback::SessionEvent& e) {
-    if (engine_->hold_back(e)) return;
     queue_event(e);
     if (observer_) observer_->on_session_event(e);
 }
@@ -541,8 +519,6 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     std::unique_ptr<NetSession> s(new NetSession());
     s->runner_config_ = std::make_unique<RunnerConfig>(rc);
     s->engine_ = make_engine(*s, simulation, sc.local_player, sc.players);
-    // A player from frame 0 may learn it is a restarted process: it then rejoins with this config.
-    if (sc.role == rollback::Role::Player) s->engine_->rejoin_config = sc;
     attach_transport(*s, sc.local_player,
                      transport::EnetConfig{.local_id = static_cast<transport::PeerId>(sc.local_player),
                                            .bind_host = listen_host_,
