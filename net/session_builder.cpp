@@ -55,8 +55,9 @@ void write_whole_file(const std::filesystem::path& path, std::string_view bytes)
 
 // ---- NetSession::Engine: what the builder adds around the session ----
 
-// The session's observer: forwards every callback to the game's, records the replay, writes the
-// desync evidence, and decides an automatic rejoin (see the contract in session_builder.h).
+// The session's observer: forwards every callback to the game's, records the replay and writes
+// the desync evidence (see the contract in session_builder.h). An automatic rejoin is the
+// runner's (net/peer_runner.h, rollback/rejoin.h): the session it drives starts again in place.
 struct NetSession::Engine final : rollback::SessionObserver {
     Engine(NetSession& o, rollback::Simulation& s) : owner(o), sim(s) {}
 
@@ -69,10 +70,8 @@ struct NetSession::Engine final : rollback::SessionObserver {
     std::filesystem::path replay_path;
     bool replay_written = false;
     std::string output_error;
-    // A P2P player that may be told it restarted: the config to rejoin with, until it runs.
-    std::optional<rollback::SessionConfig> rejoin_config;
+    // Set by Synchronized: the session has run (a refusal after that is no restart to retry).
     bool ran = false;
-    bool rejoining = false;
     // Through a server: the config to say hello again with (the same incarnation) while the
     // slot or token is still held by this process's previous one, until it runs; the server.
     std::optional<rollback::RelaySessionConfig> relay_config;
@@ -96,10 +95,9 @@ struct NetSession::Engine final : rollback::SessionObserver {
             failed_output(std::string("record_replay: ") + e.what());
         }
     }
-    // True for the events an automatic rejoin swallows: the refusal as dropped (kicked) of a
-    // player that never ran, and the failure that follows it.
-    // Through a server, the refusal of a hello for a slot its previous process still holds,
-    // and the failure after it, while the retries last.
+    // True for the events a relay client's hello-again swallows: the refusal of a hello for a
+    // slot its previous process still holds, and the failure after it, while the retries last.
+    // (Peer to peer, the automatic rejoin lives in net::PeerRunner: rollback/rejoin.h.)
     bool hold_back(const rollback::SessionEvent& e) {
         using K = rollback::SessionEvent::Kind;
         if (e.kind == K::Synchronized) ran = true;
@@ -107,13 +105,11 @@ struct NetSession::Engine final : rollback::SessionObserver {
         // through a server: its frames start there, so no replay from frame 1 (a joiner or a
         // spectator records none anyway).
         if (relay_config && !ran && e.kind == K::SnapshotLoaded) replay.reset();
-        if (rejoin_config && !ran && e.kind == K::Kicked) rejoining = true;
         if (relay_config && !ran && e.kind == K::Refused && slot_still_held(e)) {
             if (!first_refusal_us) first_refusal_us = e.at_us;
             if (e.at_us - *first_refusal_us < retry_for_us) relay_retrying = true;
         }
-        return (rejoining && (e.kind == K::Kicked || e.kind == K::Failed)) ||
-               (relay_retrying && (e.kind == K::Refused || e.kind == K::Failed));
+        return relay_retrying && (e.kind == K::Refused || e.kind == K::Failed);
     }
 
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
@@ -127,11 +123,23 @@ struct NetSession::Engine final : rollback::SessionObserver {
     }
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
         if (replay && !replay_written) {
-            if (f.frame == replay->replay().frames() + 1) {
+            const std::uint32_t have = replay->replay().frames();
+            if (f.frame == have + 1) {
                 replay->add(f);
+            } else if (owner.session_ && owner.session_->config().role == rollback::Role::Joiner) {
+                // Only a rejoin makes a player's session a joiner (record_replay() refuses join()):
+                // it goes on from a snapshot. A restart that never confirmed a frame writes no
+                // replay; a healed partition's minority keeps the frames it had confirmed.
+                if (have == 0) {
+                    replay.reset();
+                } else {
+                    failed_output("record_replay: this process rejoined by snapshot (frame " + std::to_string(f.frame) +
+                                  " confirmed next); the replay stops at frame " + std::to_string(have));
+                    write_replay();
+                }
             } else {  // frames are confirmed once each, in order: only a reload can skip
                 failed_output("record_replay: frame " + std::to_string(f.frame) + " confirmed after " +
-                              std::to_string(replay->replay().frames()) + "; the replay stops there");
+                              std::to_string(have) + "; the replay stops there");
                 write_replay();
             }
         }
@@ -186,23 +194,6 @@ void NetSession::queue_event(rollback::SessionEvent e) {
     events_.push_back(std::move(e));
 }
 
-// The automatic rejoin: the same session, now a joiner, on the same transport and simulation
-// (still in its initial state: the player never ran a frame).
-void NetSession::restart_as_joiner() {
-    rollback::SessionConfig sc = *engine_->rejoin_config;
-    sc.role = rollback::Role::Joiner;
-    engine_->rejoin_config.reset();
-    engine_->rejoining = false;
-    engine_->replay.reset();  // its frames start at the snapshot: no replay from frame 1
-    runner_.reset();
-    session_.reset();
-    session_ = std::make_unique<rollback::Session>(sc, engine_->sim, engine_.get());
-    RunnerObserver* as_observer = this;
-    runner_ = std::make_unique<PeerRunner>(
-        *runner_config_, *session_, *transport_,
-        [this](std::uint32_t frame, std::span<std::uint8_t> out) { (*input_)(frame, out); }, as_observer);
-}
-
 // Through a server, the slot still held by the previous process: the same config (the same
 // incarnation) on a new RelaySession and runner, which connect to the server again (the server
 // closed the refused connection) and say hello. The simulation is still in its initial state:
@@ -238,11 +229,6 @@ UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observ
     observer_ = observer;
     input_ = &input;
     UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
-    if (engine_->rejoining) {
-        // Told this slot's process restarted: not an end, a rejoin by snapshot.
-        restart_as_joiner();
-        r = UpdateResult{};
-    }
     if (engine_->relay_retrying) {
         // The server still counts the previous process as live: not an end, a hello again soon.
         engine_->relay_retrying = false;
@@ -644,8 +630,6 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     std::unique_ptr<NetSession> s(new NetSession());
     s->runner_config_ = std::make_unique<RunnerConfig>(rc);
     s->engine_ = make_engine(*s, simulation, sc.local_player, sc.players);
-    // A player from frame 0 may learn it is a restarted process: it then rejoins with this config.
-    if (sc.role == rollback::Role::Player) s->engine_->rejoin_config = sc;
     attach_transport(*s, sc.local_player,
                      transport::EnetConfig{.local_id = static_cast<transport::PeerId>(sc.local_player),
                                            .bind_host = listen_host_,

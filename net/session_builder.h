@@ -61,23 +61,26 @@
 //    at most 256 bytes. A refused token fails the session with the server's reason (a Refused
 //    event, then Failed).
 //  - join(): enter a running match by snapshot in this process's slot (a late join into a slot
-//    the others start absent: configure()'s absent_slots on every process). Automatic rejoin:
-//    a player process restarted with its usual settings (no join()) says hello as a player; the
-//    running peers recognise the new process for a known slot, drop the old one and refuse it
-//    as dropped; a NetSession that has not yet run a frame then restarts its session as a joiner
-//    (rollback::Session's join path, the same as `lockroll peer --join`) and rejoins by snapshot.
-//    The refusal and the failure it causes are not passed on: the game sees snapshot_loaded and
-//    synchronized. The rejoin builds a new rollback::Session: a reference from session() taken
-//    before it is stale afterwards (take it again after update()). Through a server join() sets
-//    RelayRole::Joiner, and a restarted player (with or without join(), as it was started)
-//    needs nothing either: the server binds the slot of a process that left (or went silent) to
-//    the new one and names a player to load the snapshot from (events: synchronizing,
-//    snapshot_loaded, synchronized). While the old process's connection is still live to the
-//    server (heard within its replace_silent_us, 1 s: a crashed process is not yet silent long
-//    enough), the hello is refused ("slot held by a live connection", or with connect tokens,
-//    spectators' too, "already in use by a live connection"); a NetSession that has not been
-//    welcomed yet holds that refusal back and says hello again on a new connection every
-//    0.5 s, for up to RunnerConfig::connect_timeout_us (30 s) from the first refusal, after
+//    the others start absent: configure()'s absent_slots on every process). Automatic rejoin
+//    (peer to peer; net::PeerRunner with RunnerConfig::rejoin_when_dropped, on by default): a
+//    session whose slot the others dropped starts again in place as a joiner of that slot
+//    (rollback::Session::restart_as_joiner, the join path of `lockroll peer --join`) and
+//    rejoins by snapshot. That covers a player process restarted with its usual settings (no
+//    join()): it says hello as a player, the running peers recognise a new process for a known
+//    slot, drop the old one and refuse it as dropped; and the minority of a partition the
+//    majority dropped meanwhile, once the network heals. The failure the drop causes is not
+//    passed on; neither is the refusal (kicked) of a session that never ran: a restarted
+//    process's game sees snapshot_loaded and synchronized. A healed minority's game sees kicked,
+//    then snapshot_loaded and synchronized. session() stays the same object throughout. Through
+//    a server join() sets RelayRole::Joiner, and a restarted player (with or without join(), as
+//    it was started) needs nothing either: the server binds the slot of a process that left (or
+//    went silent) to the new one and names a player to load the snapshot from (events:
+//    synchronizing, snapshot_loaded, synchronized). While the old process's connection is still
+//    live to the server (heard within its replace_silent_us, 1 s: a crashed process is not yet
+//    silent long enough), the hello is refused ("slot held by a live connection", or with
+//    connect tokens, spectators' too, "already in use by a live connection"); a NetSession that
+//    has not been welcomed yet holds that refusal back and says hello again on a new connection
+//    every 0.5 s, for up to RunnerConfig::connect_timeout_us (30 s) from the first refusal, after
 //    which the refusal and the failure reach the game. The retry builds a new
 //    rollback::RelaySession (take relay_session() again after update()).
 //  - observer(o): the game's rollback::SessionObserver sees every frame, rollback, confirmation
@@ -92,7 +95,9 @@
 //    World: the scene JSON, which `lockroll replay` reads). The path is tried at start()
 //    (opened for writing, no file left behind: throws naming it if it cannot be). A joiner or
 //    spectator starts from a snapshot: record_replay() with join() or spectator() throws (either
-//    kind), and a restarted process that rejoined writes none.
+//    kind); a restarted process that rejoined writes none, and one that rejoined after confirming
+//    frames (a healed partition's minority) writes those, the rest being a snapshot's
+//    (output_error() says where it stops).
 //  - interrupt_timeout(ms) / disconnect_timeout(ms): a peer's silence before it is reported
 //    interrupted (750 ms) and before this process votes it gone (5000 ms; 0: never);
 //    SessionConfig's interrupt_us / disconnect_us. Through a server disconnect_timeout is the
@@ -182,11 +187,10 @@ public:
     std::string output_error() const;
 
 private:
-    struct Engine;  // observer, evidence, replay, automatic rejoin (session_builder.cpp)
+    struct Engine;  // observer, evidence, replay (session_builder.cpp)
     friend class SessionBuilder;
     NetSession();
     void queue_event(rollback::SessionEvent e);
-    void restart_as_joiner();
     void restart_relay();  // says hello again on a new RelaySession (a slot still held)
     void on_transport_event(const transport::TransportEvent& e, std::uint64_t now_us) override;
     void on_session_event(const rollback::SessionEvent& e) override;

@@ -182,9 +182,10 @@ void validate(const SessionConfig& config);
 // themselves -- phase, failure, frames, input delay, stalls, recoveries, stats, saved states,
 // the event queue and the bit-flip fault hook. Both public facades derive from it; it reads the
 // in-tree SessionCore (rollback/session_core.h) their state machines derive from, through a
-// pointer the facade sets once in its constructor, so this installed header names none of it.
+// pointer the facade sets (in its constructor, and on a rejoin), so this installed header names none of it.
 // Every query is the SessionCore's, unchanged; the pointer is set before the facade's
-// constructor returns and lives as long as the facade.
+// constructor returns, and again when Session::restart_as_joiner() replaces its state machine;
+// it points at the facade's current state machine.
 class SessionQueries {
 public:
     SessionPhase phase() const;
@@ -322,6 +323,20 @@ public:
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;
 
+    // Rejoining after a drop (docs/sessions.md, "Rejoin after a drop"). can_rejoin(): the others
+    // dropped this session's slot (it emitted `kicked` and failed) and its process can play the
+    // slot again as a joiner (a player or joiner hosting no other slots; not a spectator).
+    // restart_as_joiner() does it in place, when can_rejoin() (otherwise it returns false and
+    // changes nothing): the session starts again as a joiner of the same slot on the same
+    // simulation, observer and predictor, says hello, loads a snapshot of the match vetted by
+    // the majority's confirmed checksum, and catches up (catch_up()) while nobody pauses. Its
+    // counters (stats()), last frame and prediction window go on; injected faults, chunk damage
+    // and events not yet drained do not. References taken from stats(), config() or impl()
+    // before it are stale after it. net::PeerRunner and the in-process match call it on a
+    // `kicked` (RunnerConfig::rejoin_when_dropped); a game on its own loop may too.
+    bool can_rejoin() const;
+    bool restart_as_joiner();
+
     // The state machine itself, for in-tree code and tests that look inside (its membership,
     // links): complete only where rollback/session_impl.h is included.
     SessionImpl& impl() { return *impl_; }
@@ -329,6 +344,10 @@ public:
 
 private:
     std::unique_ptr<SessionImpl> impl_;
+    // What the constructor was given, for restart_as_joiner().
+    Simulation* simulation_;
+    SessionObserver* observer_;
+    Predictor* predictor_;
 };
 
 }  // namespace lockroll::rollback

@@ -36,6 +36,8 @@ SessionCore::SessionCore(SessionPhase initial, PlayerId self, int input_delay, S
 SessionCore::~SessionCore() = default;
 
 void SessionCore::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
+    // Only a drop that ends the session counts as its end (not one heard after another failure).
+    if (kind == SessionEvent::Kind::Kicked && phase_ != SessionPhase::Failed) kicked_ = true;
     events_.push({kind, peer, frame, now_us, std::move(detail)});
 }
 

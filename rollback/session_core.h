@@ -82,6 +82,10 @@ public:
     SessionPhase phase() const { return phase_; }
     bool running() const { return phase_ == SessionPhase::Running; }
     const std::string& failure() const { return failure_; }
+    // The others dropped this session: it emitted `kicked` (and so failed) before failing for
+    // any other reason. Set by emit(), the one place events are made; read by the rejoin rule
+    // (rollback/rejoin.h).
+    bool kicked() const { return kicked_; }
     std::uint32_t frame() const { return sync_->frame(); }
     std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
     int input_delay() const { return input_delay_; }
@@ -151,6 +155,7 @@ private:
     void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
 
     PlayerId self_;
+    bool kicked_ = false;
     EventQueue events_;
     std::unique_ptr<Predictor> default_predictor_;
 };
