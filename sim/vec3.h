@@ -130,8 +130,8 @@ inline Fixed sum4(Fixed a0, Fixed b0, Fixed a1, Fixed b1, Fixed a2, Fixed b2, Fi
 // give exactly the plain ones.
 inline bool small(const Quat& q) {
     constexpr std::uint64_t kBound = std::uint64_t{1} << 34;  // 4.0 in Q32.32
-    const auto in = [](Fixed f) { return static_cast<std::uint64_t>(f.raw) + kBound <= 2 * kBound; };
-    return in(q.w) & in(q.x) & in(q.y) & in(q.z);
+    const auto in = [](Fixed f) -> unsigned { return static_cast<std::uint64_t>(f.raw) + kBound <= 2 * kBound; };
+    return (in(q.w) & in(q.x) & in(q.y) & in(q.z)) != 0;  // one branch, not four
 }
 // a0 b0 + a1 b1 + a2 b2 + a3 b3 rounded once, for small() operands: sum4's value without its
 // overflow checks (the integration of every turning body runs one Hamilton product a step).
