@@ -125,11 +125,32 @@ inline Fixed sum4(Fixed a0, Fixed b0, Fixed a1, Fixed b1, Fixed a2, Fixed b2, Fi
     }
     return round_wide(t);
 }
+// Every component in [-4, 4] (a rotation's are in [-1, 1]): then each product is below 2^68
+// and a sum of four below 2^70, so nothing can overflow or saturate and the checked sums above
+// give exactly the plain ones.
+inline bool small(const Quat& q) {
+    constexpr std::uint64_t kBound = std::uint64_t{1} << 34;  // 4.0 in Q32.32
+    const auto in = [](Fixed f) -> unsigned { return static_cast<std::uint64_t>(f.raw) + kBound <= 2 * kBound; };
+    return (in(q.w) & in(q.x) & in(q.y) & in(q.z)) != 0;  // one branch, not four
+}
+// a0 b0 + a1 b1 + a2 b2 + a3 b3 rounded once, for small() operands: sum4's value without its
+// overflow checks (the integration of every turning body runs one Hamilton product a step).
+inline Fixed sum4_small(std::int64_t a0, std::int64_t b0, std::int64_t a1, std::int64_t b1, std::int64_t a2,
+                        std::int64_t b2, std::int64_t a3, std::int64_t b3) {
+    return round_wide(mul_wide(a0, b0) + mul_wide(a1, b1) + mul_wide(a2, b2) + mul_wide(a3, b3));
+}
 }  // namespace quat_detail
 
 // Hamilton product a b (apply b, then a).
 inline Quat operator*(const Quat& a, const Quat& b) {
     using quat_detail::sum4;
+    if (quat_detail::small(a) && quat_detail::small(b)) {
+        using quat_detail::sum4_small;
+        const std::int64_t aw = a.w.raw, ax = a.x.raw, ay = a.y.raw, az = a.z.raw;
+        const std::int64_t bw = b.w.raw, bx = b.x.raw, by = b.y.raw, bz = b.z.raw;
+        return {sum4_small(aw, bw, -ax, bx, -ay, by, -az, bz), sum4_small(aw, bx, ax, bw, ay, bz, -az, by),
+                sum4_small(aw, by, -ax, bz, ay, bw, az, bx), sum4_small(aw, bz, ax, by, -ay, bx, az, bw)};
+    }
     return {sum4(a.w, b.w, -a.x, b.x, -a.y, b.y, -a.z, b.z), sum4(a.w, b.x, a.x, b.w, a.y, b.z, -a.z, b.y),
             sum4(a.w, b.y, -a.x, b.z, a.y, b.w, a.z, b.x), sum4(a.w, b.z, a.x, b.y, -a.y, b.x, a.z, b.w)};
 }
