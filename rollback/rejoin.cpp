@@ -72,6 +72,17 @@ void carry_counters(const SessionStats& b, SessionStats& s) {
     }
 }
 
+JoinerInput joiner_input(bool joining, std::uint32_t count, std::uint32_t local_target, std::uint32_t lead) {
+    // Its frame + delay has met its stream: a player like any other from here.
+    if (!joining || count <= local_target) return {};
+    // One input per tick at the end of its stream (the others need them at the match's pace,
+    // which its own frame may not keep yet), as long as that stays within the lead.
+    if (count - local_target <= lead) return {true, count};
+    // A lead ahead already: nothing new until its frame + delay comes within it (Sync adds
+    // nothing below count). Still joining, so a tick without input is no dropped local input.
+    return {true, 0};
+}
+
 void SessionImpl::continue_from(const SessionImpl& before) {
     carry_counters(before.stats_, stats_);
     last_frame_ = before.last_frame_;

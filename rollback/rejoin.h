@@ -26,6 +26,19 @@
 //    errors, advantage -- which the new links measure again), its last frame
 //    (set_last_frame) and its prediction window (set_prediction_window). Not kept: injected
 //    faults and chunk damage (test hooks), undrained events.
+//  - joiner_input(...): where a (re)joiner's own input goes each tick once it runs (docs/sessions.md,
+//    Join step 5), the one rule SessionImpl follows. Its stream starts at the handoff frame H,
+//    ahead of the frame it loaded, and it sends one input per tick from the end of its stream
+//    (the match's pace, while its own frame catches up) -- but never more than `lead` frames
+//    beyond its frame + delay: the lead the owner gave H (the worst round trip in frames + 2,
+//    so an input reaches everyone before they need it), measured again by the joiner. Past it,
+//    nothing new until its frame + delay comes within it. Per tick alone is not the match's
+//    pace: the match steps slower than the tick rate whenever it stalls or waits for time sync,
+//    and a joiner that kept one input per tick until its frame + delay met its stream (the old
+//    rule; with H's lead that moment might never come) ran its stream ahead of every frame
+//    played by ~6 frames a second, ~600 after a minute and a kill's stall (the 16-minute soak:
+//    a provider's next snapshot then carried more than input_capacity / 2 inputs of that
+//    stream and the next joiner refused it).
 //  - Pure: no clock, no I/O.
 #pragma once
 
@@ -40,5 +53,14 @@ bool can_rejoin(const SessionConfig& c, bool kicked);
 SessionConfig rejoin_config(const SessionConfig& c, std::uint64_t scene_checksum);
 // Adds the counters of `before` to `into` (see continue_from above).
 void carry_counters(const SessionStats& before, SessionStats& into);
+
+// A joiner's own input this tick (see joiner_input above). `count`: its stream's length (the
+// next frame it would send); `local_target`: its frame + input delay; `lead`: how far its stream
+// may run ahead of local_target.
+struct JoinerInput {
+    bool joining = false;         // still pacing by tick, or holding within its lead
+    std::uint32_t min_frame = 0;  // Sync::add_local_input's min_frame: no input before it
+};
+JoinerInput joiner_input(bool joining, std::uint32_t count, std::uint32_t local_target, std::uint32_t lead);
 
 }  // namespace lockroll::rollback

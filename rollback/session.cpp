@@ -2,6 +2,7 @@
 
 #include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
+#include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
 #include "rollback/snapshot_vetting.h"
 
@@ -234,7 +235,7 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
     if (link.welcomed && (!is_slot(from) || slot_running(from))) {
         if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
         // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
-        if (is_slot(from) && !slots_[from].kick_vote) membership_.vote_local(from, false);
+        if (is_slot(from) && !slots_[from].kick_vote && !slots_[from].lapsed) membership_.vote_local(from, false);
     }
     switch (*kind) {
         case MessageKind::Hello: return;
@@ -568,6 +569,8 @@ void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t no
     membership_.set(slot, e.state, e.epoch);
     authority_->reset_slot(slot);
     v.kick_vote = false;
+    v.lapsed = false;
+    v.pending_since_us = 0;
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
@@ -769,14 +772,31 @@ NetworkStats SessionImpl::network_stats(PlayerId p, std::uint64_t now_us) const 
     return n;
 }
 
+// How far ahead of local_target() an input must go to reach everyone before they need it: the
+// worst round trip (the given one, and every live peer's; 100 ms unmeasured) in frames, + 2. The
+// owner's handoff frame and a joiner's lead over its own frame (joiner_input) are this far ahead.
+std::uint32_t SessionImpl::lead_frames(std::uint64_t rtt) const {
+    const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
+    for (std::size_t p = 0; p < links_.size(); ++p)
+        if (live_peer(static_cast<PlayerId>(p))) rtt = std::max(rtt, links_[p].rtt_us());
+    if (rtt == 0) rtt = 100000;
+    return static_cast<std::uint32_t>(rtt / tick_us) + 2;
+}
+
 std::uint32_t SessionImpl::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
 
 void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
+    if (v.lapsed) {  // a handoff that lapsed: the next one waits (check_handoff)
+        v.lapses = std::min(v.lapses + 1, 3);
+        v.next_handoff_us = now_us + (config_.disconnect_us << v.lapses);
+    }
     membership_.leave(slot);
     authority_->reset_slot(slot);
     v.kick_vote = false;
+    v.lapsed = false;
+    v.pending_since_us = 0;
     v.authoring = false;
     v.neutral_reported = false;
     v.handed_off_by_me = false;
@@ -810,7 +830,7 @@ void SessionImpl::settle_membership(std::uint64_t now_us) {
             fail("dropped from the match by the other peers", now_us);
             return;
         }
-        const std::string why = slots_[s].kick_vote ? "kicked" : "timed out";
+        const std::string why = slots_[s].kick_vote ? "kicked" : slots_[s].lapsed ? "handoff lapsed" : "timed out";
         drop_slot(s, now_us, (why + ", by " + std::to_string(membership_.gone_votes(s)) + " of " +
                               std::to_string(membership_.running_voters()) + " votes").c_str());
     }
@@ -848,6 +868,7 @@ void SessionImpl::check_silence(std::uint64_t now_us) {
         const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
         if (silence.interrupted_now)
             emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silence.silent_us / 1000) + " ms silent");
+        if (is_slot(pid)) check_handoff(pid, now_us);
         if (silence.timed_out) {
             if (is_slot(pid)) {
                 membership_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
@@ -858,6 +879,34 @@ void SessionImpl::check_silence(std::uint64_t now_us) {
         }
     }
     settle_membership(now_us);
+}
+
+// A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
+// never drops it, yet the match stalls at its handoff frame for inputs that never come: the
+// 16-minute soak froze for good (issue 21). The contract for a running slot that stalls the
+// others is a stall of at most disconnect_us (docs/sessions.md, "Cost"); so a handed-over slot
+// whose own stream has not started -- the newest input we hold of it is still the owner's
+// neutral one, flagged absent -- for disconnect_us after we first need its input is voted gone
+// here, and the vote is not withdrawn by hearing it (it is heard; it does not play). A majority
+// drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
+// slot over again only after 2, 4, then 8 x disconnect_us (drop_slot), so one that never loads
+// costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
+// resets the backoff.
+void SessionImpl::check_handoff(PlayerId slot, std::uint64_t now_us) {
+    SlotView& v = slots_[slot];
+    const InputQueue& q = sync_->queue(slot);
+    const bool started = q.confirmed_count() > 0 && !q.last_absent();
+    if (slot_running(slot) && started) v.lapses = 0;  // its own stream started: the join succeeded
+    // Pending: running, its newest input the owner's neutral one, and needed (we are at or past
+    // its stream's end, predicting or stalled on it): the stall the contract bounds starts here.
+    if (!slot_running(slot) || started || q.confirmed_count() == 0 || count_of(slot) > sync_->frame()) {
+        v.pending_since_us = 0;
+        return;
+    }
+    if (v.pending_since_us == 0) v.pending_since_us = now_us;
+    if (v.lapsed || config_.disconnect_us == 0 || now_us - v.pending_since_us < config_.disconnect_us) return;
+    v.lapsed = true;
+    membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
 }
 
 // The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot
@@ -953,8 +1002,11 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
     bool input_taken = false;
     if (!spectator) {
         const std::uint32_t count = count_of(config_.local_player);
-        if (joining_ && count <= local_target()) joining_ = false;
-        const std::uint32_t min_frame = joining_ ? count : 0;
+        // One rule (rollback/rejoin.h, joiner_input): one input per tick, within a round trip's
+        // lead of our frame (the lead the owner gave the handoff frame).
+        const JoinerInput pace = joiner_input(joining_, count, local_target(), lead_frames(0));
+        joining_ = pace.joining;
+        const std::uint32_t min_frame = pace.min_frame;
         const std::uint32_t target = std::max(local_target(), min_frame);
         const InputQueue& local = sync_->queue(config_.local_player);
         const std::size_t n = config_.input_size;
@@ -1162,13 +1214,9 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
             // (the drop is agreed): it picks the handoff frame, far enough ahead that the
             // joiner's first input reaches everyone before they need it.
             if (!is_slot(from) || slot_running(from) || !slots_[from].authoring) return;
-            const std::uint64_t tick_us = 1000000 / static_cast<std::uint64_t>(config_.tick_rate);
-            std::uint64_t rtt = links_[from].rtt_us();
-            for (std::size_t p = 0; p < links_.size(); ++p)
-                if (live_peer(static_cast<PlayerId>(p))) rtt = std::max(rtt, links_[p].rtt_us());
-            if (rtt == 0) rtt = 100000;
-            handoff = std::max(count_of(from),
-                               local_target() + static_cast<std::uint32_t>(rtt / tick_us) + 2);
+            // Its last handoff lapsed (check_handoff): not again before the backoff ends.
+            if (now_us < slots_[from].next_handoff_us) return;
+            handoff = std::max(count_of(from), local_target() + lead_frames(links_[from].rtt_us()));
             static const std::vector<std::uint8_t> zeros(kMaxInputSize, 0);
             while (count_of(from) < handoff)
                 if (sync_->add_remote_input(from, count_of(from), std::span(zeros.data(), config_.input_size), true) !=
@@ -1177,6 +1225,8 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
             SlotView& v = slots_[from];
             membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
             v.kick_vote = false;
+            v.lapsed = false;
+            v.pending_since_us = 0;
             v.authoring = false;
             v.neutral_reported = false;
             v.handoff = handoff;
@@ -1309,6 +1359,8 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
         SlotView& v = slots_[e.slot];
         membership_.set(e.slot, e.state, e.epoch);
         v.kick_vote = false;
+        v.lapsed = false;
+        v.pending_since_us = 0;
         v.authoring = false;
         v.neutral_reported = e.state != SlotState::Running;
     }

@@ -133,6 +133,16 @@ private:
         std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
         bool handed_off_by_me = false;
         bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
+        // A handed-over slot whose own stream has not started (its newest input is the owner's
+        // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
+        // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
+        std::uint64_t pending_since_us = 0;
+        bool lapsed = false;
+        // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
+        // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
+        // at most disconnect_us per attempt, and ever more rarely).
+        int lapses = 0;
+        std::uint64_t next_handoff_us = 0;
     };
 
     void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
@@ -140,6 +150,8 @@ private:
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
     int catch_up_impl(std::uint64_t now_us, int max_frames);
     void handle_input(PlayerId from, std::uint64_t now_us);
+    void check_handoff(PlayerId slot, std::uint64_t now_us);
+    std::uint32_t lead_frames(std::uint64_t rtt_us) const;
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
     void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);

@@ -431,6 +431,15 @@ TEST(Lifecycle, LateJoinIntoAbsentSlotAndSpectator) {
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().malformed_packets, 0u);
 }
 
+void rejoin_when_dropped(Cluster& cluster) {
+    cluster.before_tick = [](PlayerId, Client& c) {
+        if (c.session->phase() != SessionPhase::Failed || !c.session->can_rejoin()) return;
+        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);  // the kick, first
+        ASSERT_TRUE(c.session->restart_as_joiner());
+        c.catches_up = true;
+    };
+}
+
 TEST(Lifecycle, CorruptedSnapshotChunkIsRejectedAndAskedAgain) {
     const auto scene = make_scene(2, 30);
     SessionConfig cfg = real_config(2, 8);
@@ -458,6 +467,60 @@ TEST(Lifecycle, CorruptedSnapshotChunkIsRejectedAndAskedAgain) {
     EXPECT_NE(events_of(joiner, Kind::SnapshotRejected)[0]->detail.find("hash mismatch"), std::string::npos);
     EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
     expect_equal_at(cluster, 400);
+}
+
+// Issue 21, the 16-minute soak: a joiner that cannot load (every snapshot it gets is refused)
+// keeps talking, so silence never drops it, and every player waited at its handoff frame for
+// good. Its handoff lapses instead: a slot handed over whose own stream has not started within
+// disconnect_us is voted gone and dropped (the stall bounded as any drop's), the slot stays
+// neutral, and the joiner, refused as dropped, asks again and gets in once it can load.
+TEST(Lifecycle, AJoinerThatCannotLoadLapsesAndTheOthersPlayOn) {
+    const auto joins_of = [](const Client& c) { return events_of(c, Kind::Joined).size(); };
+    const auto scene = make_scene(3, 20);
+    const SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {30000, 8000, 20000}, 9);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(600, 60'000'000);
+    ASSERT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Disconnected);
+    bool refuse = true;  // every chunk the joiner gets is damaged: it never loads
+    cluster.filter = [&](PlayerId, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (refuse && to == 2 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk))
+            const_cast<std::vector<std::uint8_t>&>(b).back() ^= 0x5A;
+        return true;
+    };
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    Client& joiner = cluster.start(2, scene, again, 999);
+    const std::uint64_t joined_at = cluster.now();
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 6 * cfg.disconnect_us);
+    EXPECT_FALSE(events_of(joiner, Kind::SnapshotRejected).empty());
+    EXPECT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_FALSE(events_of(c, Kind::Joined).empty()) << "client " << p;
+        // Dropped again once its handoff lapsed, and the match went on.
+        const auto drops = events_of(c, Kind::Disconnected);
+        ASSERT_GE(drops.size(), 2u) << "client " << p;
+        EXPECT_NE(drops[1]->detail.find("handoff lapsed"), std::string::npos) << drops[1]->detail;
+        EXPECT_LT(drops[1]->at_us - joined_at, 2 * cfg.disconnect_us) << "client " << p;
+        // 30 s: handed over, lapsed after 5 s, not again for 10 s, lapsed again: it stalled the
+        // others for about a third of the time (before, for good at the first handoff).
+        EXPECT_GT(c.session->frame(), before + 60 * 30 / 2) << "client " << p;
+        EXPECT_LE(joins_of(c), 3u) << "client " << p;
+    }
+    // It can load now: it asks again and plays.
+    refuse = false;
+    cluster.run_frames(cluster.clients[0]->session->frame() + 600, 120'000'000);
+    cluster.settle(cluster.clients[0]->session->frame());
+    EXPECT_EQ(cluster.clients[2]->session->phase(), SessionPhase::Running);
+    EXPECT_FALSE(events_of(*cluster.clients[2], Kind::SnapshotLoaded).empty());
+    EXPECT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Running);
+    EXPECT_EQ(cluster.clients[1]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
 TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
@@ -680,14 +743,6 @@ void expect_no_disagreement(const Client& a, const Client& b, int& compared) {
 
 // A client whose session the others dropped starts again as a joiner of its slot, as
 // net::PeerRunner and the in-process match do (Session::restart_as_joiner), and catches up.
-void rejoin_when_dropped(Cluster& cluster) {
-    cluster.before_tick = [](PlayerId, Client& c) {
-        if (c.session->phase() != SessionPhase::Failed || !c.session->can_rejoin()) return;
-        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);  // the kick, first
-        ASSERT_TRUE(c.session->restart_as_joiner());
-        c.catches_up = true;
-    };
-}
 
 // Issue 21, "split matches": three players, {0, 1} and {2} cannot hear each other for 10 s. The
 // pair is a majority: it drops 2 and plays on. 2 drops nobody, says Partitioned and never
