@@ -55,6 +55,11 @@ void add_server_options(CLI::App& cmd, const SocketBatching& batching) {
     cmd.add_option("--per-address", o->max_connections_per_address, "Connections one IP address may hold (raise for a load test)")
         ->check(CLI::Range(1, 4095))
         ->capture_default_str();
+    cmd.add_option("--connections-per-host", o->connections_per_host,
+                   "Connections per ENet host behind the one socket (lockroll-server, batched syscalls only): a pass services only "
+                   "the hosts with traffic, instead of walking every connection; 0: one host for all (as lockroll server)")
+        ->check(CLI::Range(0, 4095))
+        ->capture_default_str();
     cmd.add_option("--pass-interval-us", o->pass_interval_us,
                    "Shortest time between two passes of the loop (0: a pass per wake-up). Each pass walks every ENet connection "
                    "slot three times; a longer interval batches more datagrams per pass, for up to this much more relay delay")
