@@ -146,16 +146,24 @@ void DatagramDemux::outgoing(std::size_t host, std::span<std::uint8_t> d) const 
 
 void DatagramDemux::connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
     if (host >= load_.size()) return;
-    if (const auto it = handshakes_.find(key(ip, port, connect_id)); it != handshakes_.end() && it->second.host == host) {
-        handshakes_.erase(it);  // the handshake is this connection now: its load and IP count stay
+    auto [it, fresh] = handshakes_.try_emplace(key(ip, port, connect_id), Handshake{static_cast<std::uint32_t>(host), 0});
+    if (!fresh) {
+        if (it->second.host != host || it->second.until == 0) return;  // another host's, or counted
+        it->second.until = 0;  // the handshake is this connection now: its load and IP count stay
+        ++connections_;
         return;
     }
-    ++load_[host];  // its handshake expired first (or never passed through route())
+    ++connections_;  // its handshake expired first (or never passed through route())
+    ++load_[host];
     ++per_ip_[ip];
 }
 
-void DatagramDemux::disconnected(std::size_t host, std::uint32_t ip) {
-    if (host < load_.size() && load_[host] > 0) release(host, ip);
+void DatagramDemux::disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
+    const auto it = handshakes_.find(key(ip, port, connect_id));
+    if (it == handshakes_.end() || it->second.host != host || it->second.until != 0) return;
+    handshakes_.erase(it);
+    --connections_;
+    release(host, ip);
 }
 
 void DatagramDemux::release(std::size_t host, std::uint32_t ip) {

@@ -14,14 +14,16 @@
 //    address, and a connection never moves;
 //  - an ENet connect (the peer id unassigned, the command CONNECT) goes to the least-loaded host
 //    (connections + handshakes; the lowest index on a tie), and the connect's repeats (same
-//    address, same connect id) to the same host while the handshake may last (pending_us);
+//    address, same connect id) to the same host while the handshake may last (pending_us) and
+//    while the connection it made lasts (one host drops a repeat of a connect it holds: so does
+//    that host);
 //    a connect from an IP holding max_per_ip connections and handshakes is dropped, as one ENet
 //    host drops it past its duplicatePeers, and so is one that finds every host full;
 //  - anything else with no peer id is dropped (ENet takes nothing else from an unknown sender);
 //  - the server's answer to a connect (VERIFY_CONNECT) names the host's peer index: outgoing()
 //    rewrites it to the server's id. Nothing else ENet sends names a server peer.
-// Memory: one entry per handshake in progress, bounded by the hosts' capacity; the connections
-// are counted per host and per IP (connected() / disconnected(), from ENet's events).
+// Memory: one entry per handshake or connection, bounded by the hosts' capacity; connections
+// and handshakes are counted per host and per IP (connected() / disconnected(), from ENet's events).
 // IPv4 in network byte order (ENet 1.3 speaks IPv4 only). Not thread-safe; reads no clock.
 #pragma once
 
@@ -64,16 +66,16 @@ public:
     // A datagram host `host` sends (its bytes, ENet's header first): its VERIFY_CONNECT's peer
     // index rewritten to the server's id.
     void outgoing(std::size_t host, std::span<std::uint8_t> datagram) const;
-    // ENet connected (a peer of `host` reached Connected; connect_id: ENetPeer::connectID) /
-    // disconnected one.
+    // ENet connected (a peer of `host` reached Connected; connect_id: ENetPeer::connectID, as
+    // its connect carried it) / disconnected one.
     void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id);
-    void disconnected(std::size_t host, std::uint32_t ip);
+    void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id);
 
     // Connections and handshakes held by a host.
     std::size_t load(std::size_t host) const { return load_[host]; }
     std::size_t capacity(std::size_t host) const { return host + 1 < load_.size() ? config_.capacity_per_host : last_capacity_; }
     std::size_t hosts() const { return load_.size(); }
-    std::size_t handshakes() const { return handshakes_.size(); }
+    std::size_t handshakes() const { return handshakes_.size() - connections_; }
     const DatagramDemuxCounters& counters() const { return counters_; }
     // The connect id of an ENet connect (the peer id unassigned, the first command CONNECT).
     static bool is_connect(std::span<const std::uint8_t> datagram, std::uint32_t& connect_id);
@@ -81,7 +83,7 @@ public:
 private:
     struct Handshake {
         std::uint32_t host = 0;
-        std::uint64_t until = 0;
+        std::uint64_t until = 0;  // 0: connected
     };
     struct Key {
         std::uint64_t address;  // ip << 16 | port
@@ -99,7 +101,8 @@ private:
 
     DatagramDemuxConfig config_;
     std::size_t last_capacity_;
-    std::unordered_map<Key, Handshake, KeyHash> handshakes_;
+    std::unordered_map<Key, Handshake, KeyHash> handshakes_;  // and connections (until 0)
+    std::size_t connections_ = 0;
     std::unordered_map<std::uint32_t, std::uint32_t> per_ip_;
     std::vector<std::size_t> load_;
     std::deque<std::pair<std::uint64_t, Key>> pending_;  // (until, key), oldest first

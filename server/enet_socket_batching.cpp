@@ -291,8 +291,8 @@ public:
     void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) override {
         if (state().shared.demux) state().shared.demux->connected(host, ip, port, connect_id);
     }
-    void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t) override {
-        if (state().shared.demux) state().shared.demux->disconnected(host, ip);
+    void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) override {
+        if (state().shared.demux) state().shared.demux->disconnected(host, ip, port, connect_id);
     }
 };
 

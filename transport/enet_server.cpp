@@ -194,7 +194,7 @@ void EnetServer::handle(const _ENetEvent& ev, std::size_t host, Micros now) {
             e.peer->data = reinterpret_cast<void*>(static_cast<std::uintptr_t>(id));
             enet_peer_timeout(e.peer, config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
             enet_peer_throttle_configure(e.peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
-            by_id_[id] = {e.peer, host};
+            by_id_[id] = {e.peer, host, e.peer->connectID};
             ++counters_.connections;
             if (fanout_) fanout_->connected(host, e.peer->address.host, e.peer->address.port, e.peer->connectID);
             events_.push_back({ServerConnectionEvent::Type::Connected, id, address_text(e.peer->address)});
@@ -202,9 +202,12 @@ void EnetServer::handle(const _ENetEvent& ev, std::size_t host, Micros now) {
         }
         case ENET_EVENT_TYPE_DISCONNECT: {
             const std::uint32_t id = id_of(e.peer);
-            if (id != 0 && by_id_.erase(id)) {
+            const auto it = id != 0 ? by_id_.find(id) : by_id_.end();
+            if (it != by_id_.end()) {
+                const std::uint32_t connect_id = it->second.connect_id;
+                by_id_.erase(it);
                 ++counters_.disconnects;
-                if (fanout_) fanout_->disconnected(host, e.peer->address.host, e.peer->address.port);
+                if (fanout_) fanout_->disconnected(host, e.peer->address.host, e.peer->address.port, connect_id);
                 events_.push_back({ServerConnectionEvent::Type::Disconnected, id, address_text(e.peer->address)});
             }
             e.peer->data = nullptr;

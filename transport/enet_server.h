@@ -56,7 +56,7 @@ public:
     // ENet connected / disconnected a peer of `host` at ip:port (as ENetAddress: the IP in network
     // byte order, the port in host byte order), whose connect carried connect_id (ENetPeer::connectID).
     virtual void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
-    virtual void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port) = 0;
+    virtual void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
 };
 
 struct EnetServerConfig {
@@ -169,6 +169,7 @@ private:
     struct Connection {
         _ENetPeer* peer = nullptr;
         std::size_t host = 0;
+        std::uint32_t connect_id = 0;  // ENet resets the peer's before its disconnect event
     };
     std::unordered_map<std::uint32_t, Connection> by_id_;
     std::deque<ServerConnectionEvent> events_;
