@@ -54,8 +54,10 @@ struct ServerProcessOptions {
     std::string status_file;   // JSON, rewritten every second
     double drain_timeout_s = 900;
     double run_seconds = 0;    // > 0: drain after this long (tests, soak)
-    // Shortest time between two passes (0: one per wake-up). A pass walks every ENet connection
-    // slot three times whatever it carries; waiting a little batches more datagrams per pass.
+    // Shortest time between two passes (0: one per wake-up). With one ENet host a pass walks every
+    // connection slot three times whatever it carries; with several (connections_per_host) it
+    // services the hosts with traffic, each at a fixed cost: waiting a little batches more
+    // datagrams per pass either way.
     std::uint32_t pass_interval_us = 0;
     // Connections per ENet host behind the socket, when socket_batching has a fanout (0: one host).
     std::size_t connections_per_host = kDefaultConnectionsPerHost;
