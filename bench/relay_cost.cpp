@@ -225,7 +225,7 @@ public:
     std::size_t connections() const { return enet_->connection_count(); }
     const transport::EnetServer& enet() const { return *enet_; }
     const server::RelayServer& relay() const { return *relay_; }
-    std::size_t rooms_started() const {
+    std::size_t bots_welcomed() const {
         std::size_t n = 0;
         for (const auto& b : bots_) n += b.welcomed && b.has_clock;
         return n;
@@ -342,7 +342,11 @@ int main(int argc, char** argv) {
     {
         Driver d(rooms, phases, mode, per_host);
         if (!d.start()) {
-            std::fprintf(stderr, "relay_cost: the rooms did not all start (%zu connections, %zu bots; connects %llu disconnects %llu, kicks %llu)\n", d.connections(), d.rooms_started(), (unsigned long long)d.enet().counters().connections, (unsigned long long)d.enet().counters().disconnects, (unsigned long long)d.relay().counters().kicks);
+            std::fprintf(stderr, "relay_cost: the rooms did not all start (server connections %zu, bots welcomed %zu; server connects %llu, "
+                         "disconnects %llu, kicks %llu)\n",
+                         d.connections(), d.bots_welcomed(), static_cast<unsigned long long>(d.enet().counters().connections),
+                         static_cast<unsigned long long>(d.enet().counters().disconnects),
+                         static_cast<unsigned long long>(d.relay().counters().kicks));
             return 1;
         }
         for (int t = 0; t < warm_ticks; ++t) d.tick(false);

@@ -6,8 +6,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <cstdio>
-#include <cstdlib>
 #include <span>
 #include <memory>
 #include <vector>
@@ -279,15 +277,6 @@ public:
         return host < sh.queue.size() && sh.next[host] < sh.queue[host].size();
     }
 
-    ~Fanout() override {
-        if (const char* e = std::getenv("LOCKROLL_DEMUX_DEBUG"); e && state().shared.demux) {
-            const auto& c = state().shared.demux->counters();
-            std::fprintf(stderr, "demux: peers %llu connects %llu repeats %llu unknown %llu limit %llu full %llu handshakes %zu\n",
-                         (unsigned long long)c.peers, (unsigned long long)c.connects, (unsigned long long)c.connect_repeats,
-                         (unsigned long long)c.dropped_unknown, (unsigned long long)c.dropped_limit, (unsigned long long)c.dropped_full,
-                         state().shared.demux->handshakes());
-        }
-    }
     void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) override {
         if (state().shared.demux) state().shared.demux->connected(host, ip, port, connect_id);
     }
