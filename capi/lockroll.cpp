@@ -19,7 +19,8 @@
 
 #include "net/peer_runner.h"
 #include "net/session_builder.h"
-#include "rollback/player_id.h"
+#include "rollback/relay_messages.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 
 namespace {
@@ -355,6 +356,19 @@ lockroll_status lockroll_builder_spectators(lockroll_builder* b, std::int32_t co
     constexpr const char* where = "lockroll_builder_spectators";
     if (count < 0) return fail(LOCKROLL_INVALID_ARGUMENT, where, "count " + std::to_string(count) + " must be >= 0");
     return with_builder(b, where, [&] { b->builder.spectators(count); });
+}
+
+lockroll_status lockroll_builder_server_spectator(lockroll_builder* b) {
+    return with_builder(b, "lockroll_builder_server_spectator", [&] { b->builder.spectator(); });
+}
+
+lockroll_status lockroll_builder_connect_token(lockroll_builder* b, const std::uint8_t* token, std::size_t size) {
+    constexpr const char* where = "lockroll_builder_connect_token";
+    if (token == nullptr) return fail(LOCKROLL_INVALID_ARGUMENT, where, "token is NULL");
+    if (size == 0 || size > rollback::kRelayMaxTokenBytes)
+        return fail(LOCKROLL_INVALID_ARGUMENT, where,
+                    "size " + std::to_string(size) + " must be 1.." + std::to_string(rollback::kRelayMaxTokenBytes));
+    return with_builder(b, where, [&] { b->builder.connect_token(std::vector<std::uint8_t>(token, token + size)); });
 }
 
 lockroll_status lockroll_builder_join(lockroll_builder* b) {

@@ -91,7 +91,7 @@ typedef enum lockroll_input_status LOCKROLL_ENUM_TYPE {
     LOCKROLL_INPUT_ABSENT = 2     /* nobody plays the slot: all zero bytes, final */
 } lockroll_input_status;
 
-/* What a session tells its game (rollback/session_event.h has each one's meaning). */
+/* What a session tells its game (rollback/events.h has each one's meaning). */
 typedef enum lockroll_event_kind LOCKROLL_ENUM_TYPE {
     LOCKROLL_EVENT_SYNCHRONIZING = 0,     /* frame: round trips so far */
     LOCKROLL_EVENT_SYNCHRONIZED = 1,      /* frame 0 (or a snapshot's frame) starts */
@@ -218,10 +218,23 @@ LOCKROLL_API lockroll_status lockroll_builder_disconnect_timeouts(lockroll_build
  * lockroll_builder_spectators, which every process of the match sets the same). */
 LOCKROLL_API lockroll_status lockroll_builder_spectator(lockroll_builder* builder, const char* host, uint16_t port,
                                                         int32_t index);
-/* Spectators the match admits (default 0); the same on every process. */
+/* Spectators the match admits (default 0); the same on every process. Peer to peer only: a relay
+ * server sets its own places per room (lockroll_builder_start fails naming both). */
 LOCKROLL_API lockroll_status lockroll_builder_spectators(lockroll_builder* builder, int32_t count);
-/* Enter a running match in the local slot by snapshot. Not needed after a restart: a player
- * process started again with its usual settings rejoins by snapshot by itself. */
+/* Watch a match played through the relay server (lockroll_builder_server) without playing: no
+ * local players; the server places this process. It loads a snapshot of a running match through
+ * the server and follows the confirmed frames; lockroll_update() takes an input of 0 bytes. A
+ * server started with a key needs a spectator's token (lockroll_builder_connect_token). */
+LOCKROLL_API lockroll_status lockroll_builder_server_spectator(lockroll_builder* builder);
+/* The connect token a backend issued for this process (`lockroll token`: a player's, or with
+ * --spectate a spectator's), sent in every hello to a relay server started with a key. `size`
+ * bytes (1..256) are copied. Through a server only (lockroll_builder_start fails otherwise); a
+ * refused token fails the session with the server's reason (a LOCKROLL_EVENT_REFUSED event). */
+LOCKROLL_API lockroll_status lockroll_builder_connect_token(lockroll_builder* builder, const uint8_t* token, size_t size);
+/* Enter a running match in the local slot by snapshot. Not needed after a restart, peer to peer
+ * or through a server: a player process started again with its usual settings rejoins by
+ * snapshot by itself (through a server it says hello again while the server still counts the
+ * previous process as live, up to the connect timeout). */
 LOCKROLL_API lockroll_status lockroll_builder_join(lockroll_builder* builder);
 /* Write every confirmed frame's inputs and checksum to a replay file (docs/replay-format.md)
  * when the run ends; scene_text (may be NULL) is what the game is rebuilt from. The path is

@@ -141,7 +141,24 @@ void set(FuzzedDataProvider& in, lockroll_builder* b) {
             break;
         case 13: checked(lockroll_builder_spectator(b, host(in), remote_port(in), small_int(in))); break;
         case 14: checked(lockroll_builder_spectators(b, small_int(in))); break;
-        case 15: checked(lockroll_builder_join(b)); break;
+        // Join, a spectator through the server and a connect token share one case, so the
+        // corpus's scripts (fuzz/corpus/capi) keep their meaning wherever they do not join.
+        case 15:
+            switch (in.ConsumeIntegralInRange<int>(0, 2)) {
+                case 0: checked(lockroll_builder_join(b)); break;
+                case 1: checked(lockroll_builder_server_spectator(b)); break;
+                default: {
+                    // 0..300 bytes (the limit is 256), NULL now and then; a size that says more
+                    // than the buffer holds only past the limit, where it is refused unread.
+                    const std::vector<std::uint8_t> token =
+                        in.ConsumeBytes<std::uint8_t>(in.ConsumeIntegralInRange<std::size_t>(0, 300));
+                    const std::size_t size =
+                        in.ConsumeBool() ? token.size() : in.ConsumeIntegralInRange<std::size_t>(257, SIZE_MAX);
+                    checked(lockroll_builder_connect_token(b, in.ConsumeBool() ? nullptr : token.data(), size));
+                    break;
+                }
+            }
+            break;
         case 16: {
             const std::string scene = in.ConsumeRandomLengthString(64);
             checked(lockroll_builder_record_replay(b, path(in, keep, "r.replay"), in.ConsumeBool() ? scene.c_str() : nullptr));

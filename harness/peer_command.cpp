@@ -426,25 +426,38 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     const std::optional<std::uint64_t> final_checksum = rec.match.final_checksum();
     const bool ok = outcome == net::RunOutcome::Completed && final_checksum;
     // What the outcome does not say by its name (the P2P runner only; the relay has a server):
-    // a completion played alone (two players, the other dropped), a partition, and why it failed.
-    std::optional<std::uint32_t> partitioned_since, alone_since;
+    // a completion played alone (two players, the other dropped), a partition, a rejoin by
+    // snapshot after the others dropped this slot (a healed partition's minority), and why it
+    // failed.
+    std::optional<std::uint32_t> partitioned_since, alone_since, rejoined_at;
+    std::string rejoin;  // "had been partitioned since frame F, rejoined at frame G"
     if constexpr (requires { runner.partitioned_since(); }) {
         partitioned_since = runner.partitioned_since();
         alone_since = runner.alone_since();
+        if (const std::optional<net::RejoinRecord>& rj = runner.rejoined(); rj && rj->at_frame) {
+            rejoined_at = rj->at_frame;
+            // The episode it was dropped in, healed by the rejoin (unless cut off again since).
+            if (!partitioned_since) partitioned_since = rj->partitioned_since;
+            rejoin = (rj->partitioned_since ? "had been partitioned since frame " + std::to_string(*rj->partitioned_since)
+                                            : "dropped by the others at frame " + std::to_string(rj->dropped_at_frame)) +
+                     ", rejoined at frame " + std::to_string(*rj->at_frame);
+        }
     }
     std::string detail = net::outcome_name(outcome);
     if (outcome == net::RunOutcome::Completed && alone_since) detail += " alone since frame " + std::to_string(*alone_since);
     if (outcome == net::RunOutcome::Partitioned)
         detail += " since frame " + std::to_string(partitioned_since.value_or(0)) + " (heard no majority of the match; did not complete)";
     if (outcome == net::RunOutcome::ServerLost) detail += ": " + session.failure();
-    if (outcome == net::RunOutcome::Failed) {
-        detail += ": " + session.failure();
-        if (partitioned_since) detail += "; had been partitioned since frame " + std::to_string(*partitioned_since);
-    }
+    if (outcome == net::RunOutcome::Failed) detail += ": " + session.failure();
+    if (!rejoin.empty() && outcome != net::RunOutcome::Partitioned)
+        detail += "; " + rejoin;
+    else if (outcome == net::RunOutcome::Failed && partitioned_since)
+        detail += "; had been partitioned since frame " + std::to_string(*partitioned_since);
     json finished = {{"outcome", net::outcome_name(outcome)}, {"detail", detail},
                      {"final_checksum", final_checksum ? json(hex16(*final_checksum)) : json(nullptr)}};
     if (partitioned_since) finished["partitioned_since_frame"] = *partitioned_since;
     if (alone_since) finished["alone_since_frame"] = *alone_since;
+    if (rejoined_at) finished["rejoined_at_frame"] = *rejoined_at;
     rec.event("finished", end_us, finished);
     log->log(ok ? spdlog::level::info : spdlog::level::err, "finished: {}, shown frame {}, confirmed {}", detail, session.frame(),
              session.confirmed_frame());
@@ -492,6 +505,7 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     // Present only when true of this run: a reader can test for the key.
     if (partitioned_since) s["partitioned_since_frame"] = *partitioned_since;
     if (alone_since) s["alone_since_frame"] = *alone_since;
+    if (rejoined_at) s["rejoined_at_frame"] = *rejoined_at;
     s["final_checksum"] = final_checksum ? json(hex16(*final_checksum)) : json(nullptr);
     json cps = json::array();
     for (const auto& [f, c] : m.confirmed) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});

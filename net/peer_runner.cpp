@@ -139,9 +139,31 @@ void PeerRunner::drain_session_events() {
             if (e.kind == K::Disconnected && e.peer < 2 && e.peer != sc.local_player && !alone_since_) alone_since_ = e.frame;
             if (e.kind == K::Joined && e.peer < 2 && e.peer != sc.local_player) alone_since_.reset();
         }
+        if (e.kind == K::SnapshotLoaded && rejoined_ && !rejoined_->at_frame) rejoined_->at_frame = e.frame;
+        // Dropped by the others: not an end but a rejoin, once this drain is over (the session
+        // decides whether it can: rollback/rejoin.h). The failure it caused is not one; the drop
+        // is news only to a game that saw the session play.
+        if (e.kind == K::Kicked && config_.rejoin_when_dropped && session_.can_rejoin()) {
+            rejoining_ = true;
+            if (!ran_) continue;
+        }
+        if (e.kind == K::Failed && rejoining_) continue;
         events_.push_back(e);
         if (observer_) observer_->on_session_event(e);
     }
+    if (rejoining_) rejoin();
+}
+
+// The session starts again in place as a joiner of its slot (Session::restart_as_joiner): the
+// same transport, connections and schedule; it says hello, loads the majority's snapshot and
+// catches up in the ticks that follow.
+void PeerRunner::rejoin() {
+    rejoining_ = false;
+    RejoinRecord r;
+    r.partitioned_since = partitioned_since_;
+    r.dropped_at_frame = session_.frame();
+    if (!session_.restart_as_joiner()) return;
+    rejoined_ = r;
 }
 
 // Whether the partition episode is still open after this tick. Not just Session::partitioned():
@@ -177,6 +199,7 @@ std::uint32_t PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     report.now_us = now;
     report.scheduled_us = scheduled;
     report.advance = session_.advance(input_bytes_, now);
+    ran_ = ran_ || session_.running();
     // Only a joiner catches up by stepping faster (it starts behind, from a snapshot); players
     // that drift apart are evened out by time sync.
     if (config_.catch_up_frames > 0 && session_.config().role == rollback::Role::Joiner && session_.running() &&

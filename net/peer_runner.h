@@ -39,7 +39,16 @@
 //    no inputs and get the last ones from the resends while the players linger). Then it lingers
 //    linger_us more so its last acknowledgements reach the others. Bounded by
 //    finish_timeout_us after showing the target, and by run_timeout_us overall.
-//  - A session that fails (refused handshake, kicked) ends run() with Failed.
+//  - A session that fails (refused handshake, desync beyond its recoveries) ends run() with
+//    Failed. A session the others dropped (`kicked`: a healed partition's minority, or a
+//    restarted player's process refused as dropped) is not an end while rejoin_when_dropped:
+//    the runner starts it again in place as a joiner of its slot (Session::restart_as_joiner,
+//    rollback/rejoin.h decides whether it can) on the same transport, and it rejoins by a
+//    snapshot vetted by the majority's confirmed checksum, then catches up; nobody pauses. The
+//    `failed` that followed the `kicked` is not passed on (the run goes on), nor is the `kicked`
+//    of a session that never ran (a restart: the game never saw it play). rejoined() says when.
+//    The run then ends as any other: completed only once it showed and confirmed the last
+//    frame on the majority's view.
 //  - Partitioned: a run that would end (completed, finish or run timeout) while the session is
 //    partitioned and not healed ends Partitioned; a partitioned session waits for the network to
 //    heal only until the match should have been over plus finish_timeout_us (RunEnd).
@@ -83,6 +92,7 @@ struct RunnerConfig {
     double max_stretch = 0.10;                   // longest tick = (1 + max_stretch) periods
     int max_catch_up = 8;
     int catch_up_frames = 8;                     // joiner: extra frames per tick while behind
+    bool rejoin_when_dropped = true;             // kicked: rejoin by snapshot (false: end Failed)
     Clock clock;                                 // this process's time (skewed only in fault tests)
 };
 
@@ -99,6 +109,15 @@ struct StretchTally {
 };
 
 // RunOutcome, TickReport, RunnerObserver, UpdateResult, InputSource: net/update_result.h.
+
+// A rejoin after a drop (PeerRunner::rejoined()): the session was kicked at dropped_at_frame (its
+// shown frame then), while in the partition episode since partitioned_since (if it was cut off),
+// and started again as a joiner; at_frame is the frame of the snapshot it loaded, once loaded.
+struct RejoinRecord {
+    std::optional<std::uint32_t> partitioned_since;
+    std::uint32_t dropped_at_frame = 0;
+    std::optional<std::uint32_t> at_frame;
+};
 
 class TickLoop;  // net/tick_schedule.h
 
@@ -132,13 +151,17 @@ public:
     std::uint64_t schedule_resets() const;
     std::uint64_t started_us() const;
     // The confirmed frame at which the session reported Partitioned, while that episode has not
-    // healed (healed: the session hears a majority again and confirms frames beyond it). Still
-    // set after a Failed run that was kicked out of a partition (the majority dropped it).
+    // healed (healed: the session hears a majority again and confirms frames beyond it, or,
+    // dropped by the majority meanwhile, rejoined by snapshot: rejoined() keeps the frame then).
+    // Still set after a Failed run that was kicked out of a partition (rejoin_when_dropped off).
     std::optional<std::uint32_t> partitioned_since() const { return partitioned_since_; }
     // Two players under TwoPlayerRule::PlayOnAlone: the frame from which the other slot was
     // dropped (its inputs held here then) and this process played on alone, unless it rejoined.
     // Never set with three or more players: there a drop is a majority's decision.
     std::optional<std::uint32_t> alone_since() const { return alone_since_; }
+    // The last rejoin after a drop (rejoin_when_dropped), if the session was ever kicked and
+    // started again as a joiner.
+    const std::optional<RejoinRecord>& rejoined() const { return rejoined_; }
 
 private:
     bool all_connected() const;
@@ -169,6 +192,10 @@ private:
     std::uint64_t last_reconnect_us_ = 0;
     std::optional<std::uint32_t> partitioned_since_, alone_since_;
     std::uint32_t confirmed_while_partitioned_ = 0;  // confirmed frame on the last partitioned tick
+    bool ran_ = false;                 // the session has run frames (this one or a predecessor)
+    bool rejoining_ = false;           // a kick drained this tick: restart as a joiner after the drain
+    std::optional<RejoinRecord> rejoined_;
+    void rejoin();
 };
 
 }  // namespace lockroll::net

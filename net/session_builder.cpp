@@ -21,8 +21,18 @@ namespace lockroll::net {
 
 namespace {
 constexpr std::size_t kMaxQueuedEvents = 1024;
+constexpr std::uint64_t kHelloAgainUs = 500'000;  // a held slot's hello again (RelayRunner's reconnect interval)
 
 [[noreturn]] void bad(const std::string& what) { throw std::invalid_argument("SessionBuilder: " + what); }
+
+// The relay server's answer when the slot's previous process still holds it: its connection
+// was heard within the server's replace_silent_us (a crashed process not yet silent long
+// enough). The session's Refused event carries the refusal's name (relay_session.cpp).
+bool slot_still_held(const rollback::SessionEvent& e) {
+    for (const auto r : {rollback::RelayRefusal::SlotTaken, rollback::RelayRefusal::TokenInUse})
+        if (e.detail == std::string("relay server refused: ") + rollback::relay_refusal_name(r)) return true;
+    return false;
+}
 
 // Writes `bytes` to `path` whole: a temporary file beside it, then renamed over it. Throws
 // std::runtime_error naming the path.
@@ -45,8 +55,9 @@ void write_whole_file(const std::filesystem::path& path, std::string_view bytes)
 
 // ---- NetSession::Engine: what the builder adds around the session ----
 
-// The session's observer: forwards every callback to the game's, records the replay, writes the
-// desync evidence, and decides an automatic rejoin (see the contract in session_builder.h).
+// The session's observer: forwards every callback to the game's, records the replay and writes
+// the desync evidence (see the contract in session_builder.h). An automatic rejoin is the
+// runner's (net/peer_runner.h, rollback/rejoin.h): the session it drives starts again in place.
 struct NetSession::Engine final : rollback::SessionObserver {
     Engine(NetSession& o, rollback::Simulation& s) : owner(o), sim(s) {}
 
@@ -59,10 +70,17 @@ struct NetSession::Engine final : rollback::SessionObserver {
     std::filesystem::path replay_path;
     bool replay_written = false;
     std::string output_error;
-    // A P2P player that may be told it restarted: the config to rejoin with, until it runs.
-    std::optional<rollback::SessionConfig> rejoin_config;
+    // Set by Synchronized: the session has run (a refusal after that is no restart to retry).
     bool ran = false;
-    bool rejoining = false;
+    // Through a server: the config to say hello again with (the same incarnation) while the
+    // slot or token is still held by this process's previous one, until it runs; the server.
+    std::optional<rollback::RelaySessionConfig> relay_config;
+    std::string server_host;
+    std::uint16_t server_port = 0;
+    std::uint64_t retry_for_us = 0;                   // how long after the first such refusal
+    std::optional<std::uint64_t> first_refusal_us;    // the first such refusal
+    bool relay_retrying = false;                      // this update(): say hello again
+    std::optional<std::uint64_t> hello_again_at_us;   // when (a new connection each time)
 
     void failed_output(const std::string& why) {
         if (output_error.empty()) output_error = why;
@@ -77,13 +95,21 @@ struct NetSession::Engine final : rollback::SessionObserver {
             failed_output(std::string("record_replay: ") + e.what());
         }
     }
-    // True for the events an automatic rejoin swallows: the refusal as dropped (kicked) of a
-    // player that never ran, and the failure that follows it.
+    // True for the events a relay client's hello-again swallows: the refusal of a hello for a
+    // slot its previous process still holds, and the failure after it, while the retries last.
+    // (Peer to peer, the automatic rejoin lives in net::PeerRunner: rollback/rejoin.h.)
     bool hold_back(const rollback::SessionEvent& e) {
         using K = rollback::SessionEvent::Kind;
         if (e.kind == K::Synchronized) ran = true;
-        if (rejoin_config && !ran && e.kind == K::Kicked) rejoining = true;
-        return rejoining && (e.kind == K::Kicked || e.kind == K::Failed);
+        // A player that loads a snapshot before it ever ran is a restarted process rejoining
+        // through a server: its frames start there, so no replay from frame 1 (a joiner or a
+        // spectator records none anyway).
+        if (relay_config && !ran && e.kind == K::SnapshotLoaded) replay.reset();
+        if (relay_config && !ran && e.kind == K::Refused && slot_still_held(e)) {
+            if (!first_refusal_us) first_refusal_us = e.at_us;
+            if (e.at_us - *first_refusal_us < retry_for_us) relay_retrying = true;
+        }
+        return relay_retrying && (e.kind == K::Refused || e.kind == K::Failed);
     }
 
     void on_frame_simulated(const rollback::FrameSimulated& f) override {
@@ -97,11 +123,23 @@ struct NetSession::Engine final : rollback::SessionObserver {
     }
     void on_frame_confirmed(const rollback::FrameConfirmed& f) override {
         if (replay && !replay_written) {
-            if (f.frame == replay->replay().frames() + 1) {
+            const std::uint32_t have = replay->replay().frames();
+            if (f.frame == have + 1) {
                 replay->add(f);
+            } else if (owner.session_ && owner.session_->config().role == rollback::Role::Joiner) {
+                // Only a rejoin makes a player's session a joiner (record_replay() refuses join()):
+                // it goes on from a snapshot. A restart that never confirmed a frame writes no
+                // replay; a healed partition's minority keeps the frames it had confirmed.
+                if (have == 0) {
+                    replay.reset();
+                } else {
+                    failed_output("record_replay: this process rejoined by snapshot (frame " + std::to_string(f.frame) +
+                                  " confirmed next); the replay stops at frame " + std::to_string(have));
+                    write_replay();
+                }
             } else {  // frames are confirmed once each, in order: only a reload can skip
                 failed_output("record_replay: frame " + std::to_string(f.frame) + " confirmed after " +
-                              std::to_string(replay->replay().frames()) + "; the replay stops there");
+                              std::to_string(have) + "; the replay stops there");
                 write_replay();
             }
         }
@@ -156,20 +194,18 @@ void NetSession::queue_event(rollback::SessionEvent e) {
     events_.push_back(std::move(e));
 }
 
-// The automatic rejoin: the same session, now a joiner, on the same transport and simulation
-// (still in its initial state: the player never ran a frame).
-void NetSession::restart_as_joiner() {
-    rollback::SessionConfig sc = *engine_->rejoin_config;
-    sc.role = rollback::Role::Joiner;
-    engine_->rejoin_config.reset();
-    engine_->rejoining = false;
-    engine_->replay.reset();  // its frames start at the snapshot: no replay from frame 1
-    runner_.reset();
-    session_.reset();
-    session_ = std::make_unique<rollback::Session>(sc, engine_->sim, engine_.get());
+// Through a server, the slot still held by the previous process: the same config (the same
+// incarnation) on a new RelaySession and runner, which connect to the server again (the server
+// closed the refused connection) and say hello. The simulation is still in its initial state:
+// the session was never welcomed.
+void NetSession::restart_relay() {
+    engine_->hello_again_at_us.reset();
+    relay_runner_.reset();
+    relay_session_.reset();
+    relay_session_ = std::make_unique<rollback::RelaySession>(*engine_->relay_config, engine_->sim, engine_.get());
     RunnerObserver* as_observer = this;
-    runner_ = std::make_unique<PeerRunner>(
-        *runner_config_, *session_, *transport_,
+    relay_runner_ = std::make_unique<RelayRunner>(
+        *runner_config_, engine_->server_host, engine_->server_port, *relay_session_, *transport_,
         [this](std::uint32_t frame, std::span<std::uint8_t> out) { (*input_)(frame, out); }, as_observer);
 }
 
@@ -179,12 +215,24 @@ UpdateResult NetSession::update(const InputSource& input, RunnerObserver* observ
         r.outcome = RunOutcome::Failed;
         return r;
     }
+    if (engine_->hello_again_at_us) {
+        // Waiting to say hello again (one new connection per half second, as the runner's own
+        // reconnects); a stop ends the wait, and the new runner reports it.
+        if (runner_config_->clock.now_us() < *engine_->hello_again_at_us && !stop_.load(std::memory_order_relaxed))
+            return UpdateResult{};
+        restart_relay();
+    }
+    if (stop_.load(std::memory_order_relaxed)) {
+        if (relay_runner_) relay_runner_->request_stop();
+        else runner_->request_stop();
+    }
     observer_ = observer;
     input_ = &input;
     UpdateResult r = relay_runner_ ? relay_runner_->update() : runner_->update();
-    if (engine_->rejoining) {
-        // Told this slot's process restarted: not an end, a rejoin by snapshot.
-        restart_as_joiner();
+    if (engine_->relay_retrying) {
+        // The server still counts the previous process as live: not an end, a hello again soon.
+        engine_->relay_retrying = false;
+        engine_->hello_again_at_us = runner_config_->clock.now_us() + kHelloAgainUs;
         r = UpdateResult{};
     }
     input_ = nullptr;
@@ -202,10 +250,9 @@ RunOutcome NetSession::run(InputSource input, RunnerObserver* observer) {
     return run_until_over([&] { return update(input, observer); }, [this] { wait(); });
 }
 
-void NetSession::request_stop() {
-    if (relay_runner_) relay_runner_->request_stop();
-    else runner_->request_stop();
-}
+// Only the flag: the runner may be replaced (a rejoin, a hello again) on the thread that
+// updates, so update() hands the stop to whichever runner it has.
+void NetSession::request_stop() { stop_.store(true, std::memory_order_relaxed); }
 
 std::span<const rollback::PlayerId> NetSession::local_slots() const {
     if (relay_session_) return relay_slots_;
@@ -313,9 +360,20 @@ SessionBuilder& SessionBuilder::prediction_window(int frames) {
     prediction_window_set_ = true;
     return *this;
 }
+// The two spectator() forms replace each other: the last one called is the one that counts.
 SessionBuilder& SessionBuilder::spectator(std::string host, std::uint16_t port, int index) {
+    engine_.spectate_server = false;
     engine_.spectate = Remote{static_cast<rollback::PlayerId>(std::max(index, 0)), std::move(host), port};
     if (index < 0) engine_.spectate->slot = std::numeric_limits<rollback::PlayerId>::max();  // refused at start()
+    return *this;
+}
+SessionBuilder& SessionBuilder::spectator() {
+    engine_.spectate.reset();
+    engine_.spectate_server = true;
+    return *this;
+}
+SessionBuilder& SessionBuilder::connect_token(std::vector<std::uint8_t> token) {
+    engine_.token = std::move(token);
     return *this;
 }
 SessionBuilder& SessionBuilder::spectators(int n) { engine_.spectators = n; return *this; }
@@ -338,8 +396,8 @@ void SessionBuilder::check_engine_settings() const {
     if (engine_.disconnect_ms && *engine_.disconnect_ms > kMaxMs)
         bad("disconnect_timeout(" + std::to_string(*engine_.disconnect_ms) + "): must be 0..3600000 ms (0: never)");
     if (engine_.spectators < 0) bad("spectators(" + std::to_string(engine_.spectators) + "): must be >= 0");
-    if (engine_.join && engine_.spectate) bad("spectator() and join() exclude each other");
-    if (!engine_.replay_path.empty() && (engine_.join || engine_.spectate))
+    if (engine_.join && spectating()) bad("spectator() and join() exclude each other");
+    if (!engine_.replay_path.empty() && (engine_.join || spectating()))
         bad(std::string("record_replay() with ") + (engine_.join ? "join()" : "spectator()") +
             ": it starts from a snapshot, so it has no frames from 1 on to record");
 }
@@ -353,25 +411,43 @@ rollback::RelaySessionConfig SessionBuilder::relay_config() const {
     if (!server_) bad("relay_config() without server()");
     if (server_->first.empty() || server_->second == 0) bad("server(): needs a host and a port");
     if (!remote_.empty()) bad("server() and remote_player() exclude each other: through a server, nobody's address is needed");
-    if (engine_.spectate) bad("spectator() is peer to peer only for now (through a server: configure_relay()'s role)");
+    if (engine_.spectate)
+        bad("spectator(host, port) and server() exclude each other: through a server, spectator() takes no address "
+            "(the server places the spectator)");
+    if (engine_.spectators != 0)
+        bad("spectators(" + std::to_string(engine_.spectators) +
+            ") and server() exclude each other: the relay server sets the spectator places of a room "
+            "(lockroll server --max-spectators)");
     if (players_ < 1 || players_ > rollback::kRelayMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kRelayMaxPlayers) + " through a server");
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
-    if (local_.empty()) bad("no local_player(): name the slot(s) this machine plays");
+    if (engine_.spectate_server && !local_.empty())
+        bad("spectator() and local_player() exclude each other: a spectator plays no slot");
+    if (!engine_.spectate_server && local_.empty())
+        bad("no local_player(): name the slot(s) this machine plays (or spectator() to watch)");
     if (input_delay_ < 0 || input_delay_ > 60) bad("input_delay must be 0..60");
+    if (engine_.token && engine_.token->size() > rollback::kRelayMaxTokenBytes)
+        bad("connect_token(): " + std::to_string(engine_.token->size()) + " bytes, at most " +
+            std::to_string(rollback::kRelayMaxTokenBytes));
     check_engine_settings();
     rollback::RelaySessionConfig c;
     if (engine_.join) c.role = rollback::RelayRole::Joiner;
     if (engine_.disconnect_ms.value_or(0) != 0) c.server_timeout_us = *engine_.disconnect_ms * 1000;
     c.players = players_;
-    // Several local slots: one connection plays them all (the lowest names it to the server).
-    c.local_slot = *std::min_element(local_.begin(), local_.end());
-    for (rollback::PlayerId s : local_) {
-        if (s >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(s) + "): slot out of range");
-        const auto bit = static_cast<std::uint16_t>(1u << s);
-        if (s != c.local_slot && (c.also_slots & bit)) bad("slot " + std::to_string(s) + " is named twice");
-        if (s != c.local_slot) c.also_slots = static_cast<std::uint16_t>(c.also_slots | bit);
+    if (engine_.token) c.connect_token = *engine_.token;
+    if (engine_.spectate_server) {
+        c.role = rollback::RelayRole::Spectator;  // no slot: the server places it
+        c.local_slot = 0;
+    } else {
+        // Several local slots: one connection plays them all (the lowest names it to the server).
+        c.local_slot = *std::min_element(local_.begin(), local_.end());
+        for (rollback::PlayerId s : local_) {
+            if (s >= static_cast<rollback::PlayerId>(players_)) bad("local_player(" + std::to_string(s) + "): slot out of range");
+            const auto bit = static_cast<std::uint16_t>(1u << s);
+            if (s != c.local_slot && (c.also_slots & bit)) bad("slot " + std::to_string(s) + " is named twice");
+            if (s != c.local_slot) c.also_slots = static_cast<std::uint16_t>(c.also_slots | bit);
+        }
+        if (std::count(local_.begin(), local_.end(), c.local_slot) > 1) bad("slot " + std::to_string(c.local_slot) + " is named twice");
     }
-    if (std::count(local_.begin(), local_.end(), c.local_slot) > 1) bad("slot " + std::to_string(c.local_slot) + " is named twice");
     c.input_size = input_size_;
     c.tick_rate = tick_rate_;
     c.input_delay = input_delay_;
@@ -390,6 +466,11 @@ SessionBuilder& SessionBuilder::configure(std::function<void(rollback::SessionCo
 
 rollback::SessionConfig SessionBuilder::session_config() const {
     if (server_) bad("session_config() with server(): through a server the session is a RelaySession (relay_config())");
+    if (engine_.spectate_server)
+        bad("spectator() without server(): with no address it watches through a relay server (server(host, port)); "
+            "peer to peer, spectator(host, port, index) names slot 0's process");
+    if (engine_.token)
+        bad("connect_token() without server(): a connect token admits to a relay server; peer to peer has none");
     if (players_ < 1 || players_ > rollback::kMaxPlayers) bad("players must be 1.." + std::to_string(rollback::kMaxPlayers));
     if (input_size_ == 0) bad("input_size() is required (bytes per player and frame)");
     check_engine_settings();
@@ -516,7 +597,15 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         rollback::validate(rs);
         std::unique_ptr<NetSession> s(new NetSession());
         s->runner_config_ = std::make_unique<RunnerConfig>(rc);
-        s->engine_ = make_engine(*s, simulation, rs.local_slot, rs.players);
+        const bool spectator = rs.role == rollback::RelayRole::Spectator;
+        // A spectator's evidence files are named by the first spectator id (its place is the server's).
+        s->engine_ = make_engine(*s, simulation, spectator ? static_cast<rollback::PlayerId>(rs.players) : rs.local_slot, rs.players);
+        // A restarted process may find its slot (or, a spectator, its token) still held by its
+        // previous process: it then says hello again with this config (see the contract).
+        s->engine_->relay_config = rs;
+        s->engine_->retry_for_us = rc.connect_timeout_us;
+        s->engine_->server_host = server_->first;
+        s->engine_->server_port = server_->second;
         // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
         attach_transport(*s, rs.local_slot,
                          transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
@@ -541,8 +630,6 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
     std::unique_ptr<NetSession> s(new NetSession());
     s->runner_config_ = std::make_unique<RunnerConfig>(rc);
     s->engine_ = make_engine(*s, simulation, sc.local_player, sc.players);
-    // A player from frame 0 may learn it is a restarted process: it then rejoins with this config.
-    if (sc.role == rollback::Role::Player) s->engine_->rejoin_config = sc;
     attach_transport(*s, sc.local_player,
                      transport::EnetConfig{.local_id = static_cast<transport::PeerId>(sc.local_player),
                                            .bind_host = listen_host_,

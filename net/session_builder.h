@@ -23,7 +23,7 @@
 //  - server(host, port): play through a relay server (`lockroll server`, docs/relay.md) instead
 //    of a mesh: no remote_player(), one or more local_player() (several are several slots on
 //    one connection; the input is then input_size bytes per local slot, ascending slot order,
-//    which is local_slots()), match_id() is the room.
+//    which is local_slots()) or spectator() (below), match_id() is the room.
 //    NetSession then runs a rollback::RelaySession with net::RelayRunner; session() is the
 //    mesh's only (relay_session() here). Without input_delay() the delay adapts to the round
 //    trip; without prediction_window() the window is 20 frames (a 300 ms round trip).
@@ -44,16 +44,45 @@
 //    serves the snapshot and every stream. The spectator's id is players + index, so it needs
 //    spectators(n) with n > index, and every player of the match passes the same spectators(n).
 //    A spectator of a match with several local players per process is not supported yet.
+//  - server(host, port) + spectator() (no address): watch a match played through the relay
+//    server: no local_player() (start() throws naming it), players() and input_size() as the
+//    room's players pass them, match_id() the room. The server places the spectator (its
+//    --max-spectators places per room; spectators(n) does not apply through a server and is
+//    refused there, as is spectator(host, port), which names a player's address). Joining a
+//    room that has started, it loads a snapshot of the lowest connected player through the
+//    server, then follows the confirmed frames; joining before the start, it follows from frame
+//    0. With frames(N), run() completes once frame N is confirmed here (a spectator waits for
+//    nobody). local_slots() is empty; the input callback is still called once per tick with
+//    input_size bytes, which go nowhere. The transport's local_id() is 0 (transport()).
+//  - connect_token(bytes): the connect token a backend issued for this process (server/
+//    connect_token.h, `lockroll token`), carried opaquely in every hello to a server started
+//    with a key: a player's token grants its slot(s), a spectator's token a spectator place
+//    (`lockroll token --spectate`). Through a server only (start() throws naming it otherwise);
+//    at most 256 bytes. A refused token fails the session with the server's reason (a Refused
+//    event, then Failed).
 //  - join(): enter a running match by snapshot in this process's slot (a late join into a slot
-//    the others start absent: configure()'s absent_slots on every process). Automatic rejoin:
-//    a player process restarted with its usual settings (no join()) says hello as a player; the
-//    running peers recognise the new process for a known slot, drop the old one and refuse it
-//    as dropped; a NetSession that has not yet run a frame then restarts its session as a joiner
-//    (rollback::Session's join path, the same as `lockroll peer --join`) and rejoins by snapshot.
-//    The refusal and the failure it causes are not passed on: the game sees snapshot_loaded and
-//    synchronized. The rejoin builds a new rollback::Session: a reference from session() taken
-//    before it is stale afterwards (take it again after update()). Peer to peer only; through a
-//    server join() sets RelayRole::Joiner.
+//    the others start absent: configure()'s absent_slots on every process). Automatic rejoin
+//    (peer to peer; net::PeerRunner with RunnerConfig::rejoin_when_dropped, on by default): a
+//    session whose slot the others dropped starts again in place as a joiner of that slot
+//    (rollback::Session::restart_as_joiner, the join path of `lockroll peer --join`) and
+//    rejoins by snapshot. That covers a player process restarted with its usual settings (no
+//    join()): it says hello as a player, the running peers recognise a new process for a known
+//    slot, drop the old one and refuse it as dropped; and the minority of a partition the
+//    majority dropped meanwhile, once the network heals. The failure the drop causes is not
+//    passed on; neither is the refusal (kicked) of a session that never ran: a restarted
+//    process's game sees snapshot_loaded and synchronized. A healed minority's game sees kicked,
+//    then snapshot_loaded and synchronized. session() stays the same object throughout. Through
+//    a server join() sets RelayRole::Joiner, and a restarted player (with or without join(), as
+//    it was started) needs nothing either: the server binds the slot of a process that left (or
+//    went silent) to the new one and names a player to load the snapshot from (events:
+//    synchronizing, snapshot_loaded, synchronized). While the old process's connection is still
+//    live to the server (heard within its replace_silent_us, 1 s: a crashed process is not yet
+//    silent long enough), the hello is refused ("slot held by a live connection", or with
+//    connect tokens, spectators' too, "already in use by a live connection"); a NetSession that
+//    has not been welcomed yet holds that refusal back and says hello again on a new connection
+//    every 0.5 s, for up to RunnerConfig::connect_timeout_us (30 s) from the first refusal, after
+//    which the refusal and the failure reach the game. The retry builds a new
+//    rollback::RelaySession (take relay_session() again after update()).
 //  - observer(o): the game's rollback::SessionObserver sees every frame, rollback, confirmation
 //    and desync callback of the session (either kind), as the CLI's recorder does.
 //  - desync_report_dir(path): created at start() (throws naming it if it cannot be); once
@@ -65,8 +94,10 @@
 //    the NetSession is destroyed. scene_text is what the simulation is rebuilt from (for the
 //    World: the scene JSON, which `lockroll replay` reads). The path is tried at start()
 //    (opened for writing, no file left behind: throws naming it if it cannot be). A joiner or
-//    spectator starts from a snapshot: record_replay() with join() or spectator() throws, and a
-//    restarted process that rejoined writes none.
+//    spectator starts from a snapshot: record_replay() with join() or spectator() throws (either
+//    kind); a restarted process that rejoined writes none, and one that rejoined after confirming
+//    frames (a healed partition's minority) writes those, the rest being a snapshot's
+//    (output_error() says where it stops).
 //  - interrupt_timeout(ms) / disconnect_timeout(ms): a peer's silence before it is reported
 //    interrupted (750 ms) and before this process votes it gone (5000 ms; 0: never);
 //    SessionConfig's interrupt_us / disconnect_us. Through a server disconnect_timeout is the
@@ -156,11 +187,11 @@ public:
     std::string output_error() const;
 
 private:
-    struct Engine;  // observer, evidence, replay, automatic rejoin (session_builder.cpp)
+    struct Engine;  // observer, evidence, replay (session_builder.cpp)
     friend class SessionBuilder;
     NetSession();
     void queue_event(rollback::SessionEvent e);
-    void restart_as_joiner();
+    void restart_relay();  // says hello again on a new RelaySession (a slot still held)
     void on_transport_event(const transport::TransportEvent& e, std::uint64_t now_us) override;
     void on_session_event(const rollback::SessionEvent& e) override;
     void on_synchronized(std::uint64_t now_us) override;
@@ -176,6 +207,7 @@ private:
     std::unique_ptr<rollback::RelaySession> relay_session_;
     std::unique_ptr<RelayRunner> relay_runner_;
     std::vector<rollback::PlayerId> relay_slots_;
+    std::atomic<bool> stop_{false};  // request_stop(), kept for a runner built after it
     RunnerObserver* observer_ = nullptr;
     const InputSource* input_ = nullptr;  // the current update()'s
     std::deque<rollback::SessionEvent> events_;
@@ -206,8 +238,15 @@ public:
     // Watch a match without playing, served by the player of slot 0 at host:port; spectator id
     // players + index (see the contract).
     SessionBuilder& spectator(std::string host, std::uint16_t port, int index = 0);
+    // Watch a match played through server() without playing: the server places this process
+    // (see the contract).
+    SessionBuilder& spectator();
     // Spectator ids the match admits (players .. players + n - 1); the same on every process.
+    // Peer to peer only: a relay server sets its own limit.
     SessionBuilder& spectators(int n);
+    // The connect token for a server started with a key, a player's or a spectator's (see the
+    // contract).
+    SessionBuilder& connect_token(std::vector<std::uint8_t> token);
     // Enter a running match by snapshot (see the contract; a restart rejoins without it).
     SessionBuilder& join();
     // The game's own session callbacks (must outlive the NetSession).
@@ -234,6 +273,7 @@ public:
 
 private:
     void check_engine_settings() const;
+    bool spectating() const { return engine_.spectate || engine_.spectate_server; }
     std::unique_ptr<NetSession::Engine> make_engine(NetSession& s, rollback::Simulation& simulation, rollback::PlayerId me,
                                                     int players) const;
     // Gives `s` its transport: the game's (its local_id() must be `id`), else ENet as `enet` says.
@@ -266,7 +306,9 @@ private:
     // The engine's settings beyond slots and addresses, grouped.
     struct EngineSettings {
         std::optional<Remote> spectate;  // spectator(): slot 0's address; .slot holds the index
+        bool spectate_server = false;    // spectator() with no address: through server()
         int spectators = 0;
+        std::optional<std::vector<std::uint8_t>> token;  // connect_token()
         bool join = false;
         rollback::SessionObserver* observer = nullptr;
         std::string desync_report_dir;

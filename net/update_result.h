@@ -9,7 +9,7 @@
 #include <optional>
 #include <span>
 
-#include <lockroll/rollback/session_event.h>
+#include <lockroll/rollback/events.h>
 #include <lockroll/rollback/session_types.h>
 #include <lockroll/transport/transport.h>
 

@@ -30,11 +30,10 @@
 #include <vector>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/player_id.h>
 #include "rollback/protocol.h"
+#include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
 #include "rollback/snapshot_ring.h"
-#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 

@@ -17,7 +17,7 @@
 #include <string>
 
 #include "rollback/events.h"
-#include "rollback/player_id.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 
 namespace lockroll::rollback {

@@ -1,4 +1,11 @@
-// What a session tells its owner while it runs: the hooks the harness measures with.
+// What a session (P2P or relay) tells its owner while it runs, in two forms:
+//  - SessionEvent: one stream of typed lifecycle events, each with the slot or peer it concerns,
+//    a frame and a detail, drained with next_event() (requests, not callbacks). The stream is
+//    bounded (4,096 events held): an owner that never drains it cannot make a session grow
+//    without bound; when full the oldest event is dropped, so the newest (the one that says how
+//    the session ended) is never lost.
+//  - SessionObserver: callbacks for every frame simulated, rollback, confirmation and desync,
+//    the hooks the harness measures with and a replay records from (rollback/replay.h).
 //
 // Frame numbers are state numbers throughout rollback/: "frame n" is the state after n steps
 // (sim::World::frame() == n; frame 0 is the initial state), and "the input of frame n" is what
@@ -12,9 +19,48 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
+
+// ---- the event stream (next_event()) ----
+
+struct SessionEvent {
+    enum class Kind : std::uint8_t {
+        Synchronizing,   // peer answered a hello (frame: round trips so far)
+        Synchronized,    // this session starts frame 0 (or its snapshot frame)
+        Refused,         // a handshake failed; detail says why
+        Interrupted,     // peer silent for interrupt_us
+        Resumed,         // heard again
+        Disconnected,    // slot dropped (frame: its inputs held here when dropped)
+        Partitioned,     // this session votes others gone but hears no majority of the view: it
+                         // drops nobody and stops confirming (frame: its confirmed frame); once
+                         // per episode, over when it hears a majority again or a drop is agreed
+        NeutralFrom,     // agreed: slot's input is the flagged neutral one from `frame`
+        Joined,          // slot (re)joined; frame: the first frame of its own inputs
+        SpectatorJoined,
+        SnapshotLoaded,  // this session loaded a snapshot of `frame`
+        SnapshotRejected,  // a transfer failed verification; asked again
+        DesyncDetected,  // frame: first mismatching confirmed frame with `peer`
+        DesyncRecovered, // this session reloaded the majority's state at `frame`
+        Kicked,          // the others dropped this session's slot
+        Failed,          // the session cannot go on; detail says why
+        Draining,        // relay: the server is shutting down (the match may finish)
+        DesyncReport,    // net::NetSession only (the builder): narrowing ended; peer, frame: the
+                         // first differing frame; detail: the summary (body and field when found)
+                         // and the evidence file written (desync_report_dir), if any
+        ServerLost,      // relay: nothing from the server for server_timeout_us while in the room
+                         // (killed, or cut off); detail says how long. The session then fails.
+    };
+    Kind kind = Kind::Synchronizing;
+    PlayerId peer = 0;        // the slot or peer id concerned
+    std::uint32_t frame = 0;
+    std::uint64_t at_us = 0;
+    std::string detail;
+};
+const char* event_name(SessionEvent::Kind k);
+
+// ---- observer callbacks (SessionObserver) ----
 
 struct FrameSimulated {
     std::uint32_t frame = 0;       // the state the simulation now holds (>= 1)

@@ -23,7 +23,7 @@
 #include <optional>
 #include <vector>
 
-#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 

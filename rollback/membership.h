@@ -29,13 +29,13 @@
 #include <cstdint>
 #include <vector>
 
-#include <lockroll/rollback/player_id.h>
 #include "rollback/protocol.h"
-#include <lockroll/rollback/session_config.h>
+#include <lockroll/rollback/session.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 
-// TwoPlayerRule (two running players have no strict majority): rollback/session_config.h.
+// TwoPlayerRule (two running players have no strict majority): rollback/session.h.
 
 // Epochs wrap at 256: a is newer than b when it is less than half the circle ahead.
 inline bool newer_epoch(std::uint8_t a, std::uint8_t b) {

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <span>
 
-#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 

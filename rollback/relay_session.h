@@ -43,13 +43,9 @@
 #include <vector>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/player_id.h>
 #include <lockroll/rollback/session.h>
-#include <lockroll/rollback/session_event.h>
-#include <lockroll/rollback/session_queries.h>
 #include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
@@ -161,7 +157,7 @@ public:
     static constexpr std::uint32_t kConfirmedKept = 4096;
 
     // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
-    // stats(), saved_state(), next_event(), inject_fault(): SessionQueries' (session_queries.h).
+    // stats(), saved_state(), next_event(), inject_fault(): SessionQueries' (rollback/session.h).
 
     // The state machine itself, for tests that look inside: complete only where
     // rollback/relay_session_impl.h is included.

@@ -18,16 +18,15 @@
 #include "rollback/events.h"
 #include "rollback/input_queue.h"
 #include "rollback/peer_link.h"
-#include "rollback/player_id.h"
 #include "rollback/predictor.h"
 #include "rollback/relay_messages.h"
 #include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/session_core.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
-#include "rollback/telemetry.h"
 
 namespace lockroll::rollback {
 

@@ -1319,6 +1319,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     }
     if (config_.role == Role::Joiner) {
         joining_ = true;
+        own_inputs_from_ = offer.handoff_frame;
         links_[from].remote_ack = 0;
     }
     phase_ = SessionPhase::Running;
@@ -1569,8 +1570,9 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         std::uint32_t count = 0;
         m.inputs.clear();
         if (!spectator) {
-            // Our inputs it has not acknowledged.
-            const auto run = sync_->queue(config_.local_player).copy_confirmed(link.remote_ack, max_frames_per_message(n), m.inputs);
+            // Our inputs it has not acknowledged (a joiner's from its handoff frame on).
+            const auto run = sync_->queue(config_.local_player)
+                                 .copy_confirmed(std::max(link.remote_ack, own_inputs_from_), max_frames_per_message(n), m.inputs);
             count = run.count;
             m.first_frame = static_cast<std::uint16_t>(run.first);
         }

@@ -73,8 +73,14 @@
 // installed) through one pointer and forwards each call, so this installed header names none
 // of the internals (Sync, peer links, membership, wire messages). The cost is one indirect call
 // per call, nothing per frame beyond it.
+//
+// Besides Session, this header holds what it is built from and answers with: SessionConfig and
+// its validate() (the builder and tools check a config without a session), and SessionQueries,
+// the queries both sessions answer alike (RelaySession, rollback/relay_session.h, derives from it
+// too).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -83,18 +89,138 @@
 #include <vector>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/player_id.h>
-#include <lockroll/rollback/session_config.h>
-#include <lockroll/rollback/session_event.h>
-#include <lockroll/rollback/session_queries.h>
 #include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
 class Predictor;    // rollback/predictor.h (in-tree): how missing inputs are guessed
 class SessionImpl;  // rollback/session_impl.h (in-tree)
+class SessionCore;  // rollback/session_core.h (in-tree)
+
+// ---- SessionConfig: what a Session is told at construction, and validate() ----
+
+// A view of two running players has no strict majority of the other voter: what then.
+enum class TwoPlayerRule : std::uint8_t {
+    PlayOnAlone,  // either one's vote drops the other: each survivor plays on alone (the default)
+    NoDrop,       // nobody is dropped: the one that lost the other reports Partitioned and waits
+};
+const char* two_player_rule_name(TwoPlayerRule r);
+
+// Two peers disagree and neither is a majority: whose state survives.
+enum class DesyncKeep : std::uint8_t { LowestSlot, HighestSlot };
+
+struct SessionConfig {
+    int players = 2;                   // 1..kMaxPlayers
+    PlayerId local_player = 0;
+    std::size_t input_size = 3;        // bytes per player-frame, 1..kMaxInputSize (64)
+    int tick_rate = 60;                // Hz; converts times to frames for time sync
+    int input_delay = 2;               // frames; set_input_delay() changes it mid-game
+    int prediction_window = 8;         // W; 0 = lockstep
+    int checksum_interval = 1;         // K: frames whose number is a multiple of K are compared
+    int checksum_repeats = 2;          // the newest checksum rides on this many messages
+    int evidence_frames = 64;          // confirmed states kept beyond the rollback window
+    int max_bad_packets = 8;           // malformed datagrams before a peer is ignored for good
+    std::uint32_t input_capacity = 1024;  // frames per input queue (power of two)
+    int time_sync_window = 60;         // ticks averaged per recommendation
+    int time_sync_min_frames = 2;      // recommend waiting only when this many frames ahead
+    int time_sync_every = 8;           // time-sync fields ride on every Nth message
+    std::uint64_t query_resend_us = 100000;  // desync narrowing: re-ask after this long
+    int max_replies_per_poll = 16;     // per peer: answers beyond this are dropped (re-asked)
+    CpuClock cpu_clock;                // telemetry only (CPU per tick, rollback cost); none: 0
+
+    // ---- lifecycle (docs/sessions.md) ----
+    // false: every slot not in absent_slots is running from frame 0 with no handshake (the
+    // in-process harness); true: hello/welcome and an RTT sync phase come first (real networks).
+    bool handshake = false;
+    Role role = Role::Player;          // Joiner / Spectator: start from a peer's snapshot
+    std::uint64_t match_id = 0;
+    std::uint64_t scene_checksum = 0;  // 0: the simulation's initial-state checksum
+    std::uint64_t absent_slots = 0;    // bit s: nobody plays slot s at frame 0
+    int max_spectators = 0;            // peer ids players .. players + max_spectators - 1
+    int sync_roundtrips = 5;           // hello/welcome round trips before frame 0
+    bool auto_input_delay = false;     // input delay from the sync phase's RTT
+    std::uint64_t hello_resend_us = 50000;
+    std::uint64_t interrupt_us = 750000;     // silence before a peer is reported interrupted
+    std::uint64_t disconnect_us = 5000000;   // silence before it is dropped (0: never)
+    std::uint64_t transfer_resend_us = 250000;  // snapshot offers and chunks re-asked after this
+    int transfer_window = 32;          // chunks in flight per transfer
+    std::uint32_t max_snapshot_bytes = 64u << 20;
+    int max_recoveries = 0;            // desync recoveries before giving up (0: never recover)
+    DesyncKeep two_player_keep = DesyncKeep::LowestSlot;
+    // Two running processes left in the view have no majority of the other: PlayOnAlone (either
+    // one's silence timeout drops the other, and each side plays on alone) or NoDrop (nobody is
+    // dropped: the one that lost the other reports Partitioned and waits for it). Every peer
+    // must pass the same rule. Three or more: a strict majority of the view, always.
+    TwoPlayerRule two_player_rule = TwoPlayerRule::PlayOnAlone;
+    int relay_lag = 0;                 // relay a stream to a peer this far behind (0: auto)
+    // Names this process in its hellos (0: taken from the first now_us this session sees, which
+    // differs between a process and its restarted successor).
+    std::uint64_t incarnation = 0;
+
+    // ---- several local players per process (couch + online) ----
+    // Empty: every slot is its own process (peer id == slot). Otherwise one entry per slot:
+    // slot_hosts[s] is the slot whose process plays s, always the lowest slot of that process
+    // (slot_hosts[s] <= s, and a host hosts itself). Every peer passes the same table. A hosted
+    // slot (a "guest": slot_hosts[s] != s) has no peer id or connection of its own: its host's
+    // session authors its stream (confirmed at once, sent to everyone as stream blocks, like the
+    // owner's neutral inputs for absent slots), and it is dropped together with its host. This
+    // session plays local_player plus every slot whose host is local_player (local_slots()).
+    // Joiners cannot host guests yet.
+    std::vector<PlayerId> slot_hosts;
+};
+
+// Throws std::invalid_argument "session config: FIELD ..." for the first field that is out of
+// range or inconsistent with another, and nothing else; a config it passes constructs a session
+// (as far as the config goes: the simulation may still refuse). The builder (net/session_builder)
+// and tools check a config with it, without a session.
+void validate(const SessionConfig& config);
+
+// ---- SessionQueries ----
+
+// SessionQueries: what both sessions (this P2P Session, the RelaySession) answer alike about
+// themselves -- phase, failure, frames, input delay, stalls, recoveries, stats, saved states,
+// the event queue and the bit-flip fault hook. Both public facades derive from it; it reads the
+// in-tree SessionCore (rollback/session_core.h) their state machines derive from, through a
+// pointer the facade sets (in its constructor, and on a rejoin), so this installed header names none of it.
+// Every query is the SessionCore's, unchanged; the pointer is set before the facade's
+// constructor returns, and again when Session::restart_as_joiner() replaces its state machine;
+// it points at the facade's current state machine.
+class SessionQueries {
+public:
+    SessionPhase phase() const;
+    bool running() const;
+    // Why the session failed (phase() == Failed): "WHERE: WHY"; empty otherwise.
+    const std::string& failure() const;
+    std::uint32_t frame() const;
+    std::uint32_t confirmed_frame() const;
+    int input_delay() const;
+    bool stalled() const;
+    // Snapshot reloads after a desync so far.
+    int recoveries() const;
+    // Updated in place as the session runs.
+    const SessionStats& stats() const;
+    // Saved state of a frame while the ring holds it (confirmed frames are final).
+    std::optional<std::span<const std::uint8_t>> saved_state(std::uint32_t frame) const;
+    // Lifecycle events in order; false when none is left.
+    bool next_event(SessionEvent& out) noexcept;
+    // Fault injection: every time frame `frame` is produced by a step on this client, flip
+    // `bit` of `field` of body `body_id`. Empty string on success, else why not (the frame is
+    // already simulated, or the simulation has no such body/field).
+    std::string inject_fault(std::uint32_t frame, std::uint32_t body_id, int field, int bit);
+
+protected:
+    SessionQueries() = default;
+    ~SessionQueries() = default;
+    SessionQueries(const SessionQueries&) = delete;
+    SessionQueries& operator=(const SessionQueries&) = delete;
+
+    SessionCore* core_ = nullptr;  // the facade's state machine, set by its constructor
+};
+
+// ---- Session ----
+
+// Datagram, AdvanceResult, SessionPhase, SlotState, Role, stats: rollback/session_types.h.
 
 // Fault injection on snapshot chunks this session sends (Session::damage_outgoing_chunks).
 enum class ChunkDamage : std::uint8_t {
@@ -102,10 +228,6 @@ enum class ChunkDamage : std::uint8_t {
                // of the whole blob must reject the transfer (snapshot_rejected) and ask again
     Truncate,  // the last byte dropped: the receiver's assembler must refuse the chunk and re-ask
 };
-
-
-// Datagram, AdvanceResult, SessionPhase, SlotState, Role: rollback/session_types.h.
-
 
 // One peer's link as a game's network overlay shows it (GGPO's GGPONetworkStats).
 struct NetworkStats {
@@ -117,7 +239,6 @@ struct NetworkStats {
     std::uint32_t send_queue = 0;    // our inputs it has not acknowledged yet (frames)
     bool interrupted = false;
 };
-
 
 class Session : public SessionQueries {
 public:
@@ -185,7 +306,7 @@ public:
     std::uint64_t foreign_packets() const;  // other match or version
 
     // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
-    // stats(), saved_state(), next_event(): SessionQueries' (rollback/session_queries.h).
+    // stats(), saved_state(), next_event(): SessionQueries' (above).
 
     // Checksum of a confirmed frame, while remembered.
     std::optional<std::uint64_t> confirmed_checksum(std::uint32_t frame) const;
@@ -202,6 +323,20 @@ public:
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;
 
+    // Rejoining after a drop (docs/sessions.md, "Rejoin after a drop"). can_rejoin(): the others
+    // dropped this session's slot (it emitted `kicked` and failed) and its process can play the
+    // slot again as a joiner (a player or joiner hosting no other slots; not a spectator).
+    // restart_as_joiner() does it in place, when can_rejoin() (otherwise it returns false and
+    // changes nothing): the session starts again as a joiner of the same slot on the same
+    // simulation, observer and predictor, says hello, loads a snapshot of the match vetted by
+    // the majority's confirmed checksum, and catches up (catch_up()) while nobody pauses. Its
+    // counters (stats()), last frame and prediction window go on; injected faults, chunk damage
+    // and events not yet drained do not. References taken from stats(), config() or impl()
+    // before it are stale after it. net::PeerRunner and the in-process match call it on a
+    // `kicked` (RunnerConfig::rejoin_when_dropped); a game on its own loop may too.
+    bool can_rejoin() const;
+    bool restart_as_joiner();
+
     // The state machine itself, for in-tree code and tests that look inside (its membership,
     // links): complete only where rollback/session_impl.h is included.
     SessionImpl& impl() { return *impl_; }
@@ -209,6 +344,10 @@ public:
 
 private:
     std::unique_ptr<SessionImpl> impl_;
+    // What the constructor was given, for restart_as_joiner().
+    Simulation* simulation_;
+    SessionObserver* observer_;
+    Predictor* predictor_;
 };
 
 }  // namespace lockroll::rollback

@@ -23,7 +23,7 @@
 #include <string>
 
 #include "rollback/control_messages.h"
-#include "rollback/player_id.h"
+#include "rollback/session_types.h"
 
 namespace lockroll::rollback {
 

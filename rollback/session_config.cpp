@@ -1,4 +1,4 @@
-#include "rollback/session_config.h"
+#include "rollback/session.h"
 
 #include <stdexcept>
 #include <string>

@@ -1,6 +1,7 @@
 #include "rollback/session_core.h"
 
 #include <exception>
+#include <utility>
 
 namespace lockroll::rollback {
 
@@ -14,12 +15,29 @@ const char* phase_name(SessionPhase p) {
     return "unknown";
 }
 
+void EventQueue::push(SessionEvent e) {
+    if (events_.size() >= kCapacity) {
+        events_.pop_front();
+        ++dropped_;
+    }
+    events_.push_back(std::move(e));
+}
+
+bool EventQueue::pop(SessionEvent& out) noexcept {
+    if (events_.empty()) return false;
+    out = std::move(events_.front());
+    events_.pop_front();
+    return true;
+}
+
 SessionCore::SessionCore(SessionPhase initial, PlayerId self, int input_delay, SessionObserver* observer)
     : observer_(observer), phase_(initial), input_delay_(input_delay), self_(self) {}
 
 SessionCore::~SessionCore() = default;
 
 void SessionCore::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
+    // Only a drop that ends the session counts as its end (not one heard after another failure).
+    if (kind == SessionEvent::Kind::Kicked && phase_ != SessionPhase::Failed) kicked_ = true;
     events_.push({kind, peer, frame, now_us, std::move(detail)});
 }
 

@@ -11,11 +11,13 @@
 //    exception (the game's step / save / load, an allocation, an invariant) into a failed
 //    session "WHERE: WHY", and returns the caller's fallback; should even that message not be
 //    built, the phase still becomes Failed.
-//  - Events go to one bounded queue (rollback/session_event.h); next_event() pops them in order.
+//  - Events go to one bounded queue (EventQueue below); next_event() pops them in order.
 //  - sync_ is built by the derived session's constructor; every query here needs it built.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <span>
@@ -23,16 +25,54 @@
 #include <utility>
 
 #include <lockroll/rollback/events.h>
-#include <lockroll/rollback/player_id.h>
 #include "rollback/predictor.h"
-#include <lockroll/rollback/session_event.h>
 #include <lockroll/rollback/session_types.h>
 #include "rollback/sync.h"
-#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
 // SessionPhase, phase_name, AdvanceResult: rollback/session_types.h (the game sees them).
+
+// The one bounded event queue under next_event() (rollback/events.h). Contract: bounded by
+// kCapacity; an owner that never drains it cannot make a session grow without bound, and when
+// full the oldest event is dropped and counted in dropped(), so the newest (the one that says how
+// the session ended) is never lost. One queue for both sessions (they held 4,096 and 1,024).
+class EventQueue {
+public:
+    static constexpr std::size_t kCapacity = 4096;
+
+    void push(SessionEvent e);
+    // Takes the oldest event; false when there is none. Never throws.
+    bool pop(SessionEvent& out) noexcept;
+    std::size_t size() const { return events_.size(); }
+    std::uint64_t dropped() const { return dropped_; }
+
+private:
+    std::deque<SessionEvent> events_;
+    std::uint64_t dropped_ = 0;
+};
+
+// The stall bookkeeping both sessions share: a tick that cannot step starts or continues a
+// stall, the next step ends it and adds its length to stall_time_us. Time comes from the caller
+// and need not be monotonic: a stall never adds a negative (wrapped) length.
+class StallTracker {
+public:
+    void stalled(std::uint64_t now_us, SessionStats& s) {
+        ++s.stall_ticks;
+        if (!since_) since_ = now_us;
+    }
+    // A step: true when it ended a stall.
+    bool stepped(std::uint64_t now_us, SessionStats& s) {
+        if (!since_) return false;
+        s.stall_time_us += now_us >= *since_ ? now_us - *since_ : 0;
+        since_.reset();
+        return true;
+    }
+    bool stalled() const { return since_.has_value(); }
+
+private:
+    std::optional<std::uint64_t> since_;
+};
 
 class SessionCore {
 public:
@@ -42,6 +82,10 @@ public:
     SessionPhase phase() const { return phase_; }
     bool running() const { return phase_ == SessionPhase::Running; }
     const std::string& failure() const { return failure_; }
+    // The others dropped this session: it emitted `kicked` (and so failed) before failing for
+    // any other reason. Set by emit(), the one place events are made; read by the rejoin rule
+    // (rollback/rejoin.h).
+    bool kicked() const { return kicked_; }
     std::uint32_t frame() const { return sync_->frame(); }
     std::uint32_t confirmed_frame() const { return sync_->confirmed_frame(); }
     int input_delay() const { return input_delay_; }
@@ -111,6 +155,7 @@ private:
     void fail_from_exception(const char* where, std::uint64_t now_us) noexcept;
 
     PlayerId self_;
+    bool kicked_ = false;
     EventQueue events_;
     std::unique_ptr<Predictor> default_predictor_;
 };

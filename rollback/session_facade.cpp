@@ -2,12 +2,16 @@
 // (session_impl.h; its code is in session.cpp), so session.h names no internal type.
 #include "rollback/session.h"
 
+#include "rollback/rejoin.h"
 #include "rollback/session_impl.h"
 
 namespace lockroll::rollback {
 
 Session::Session(const SessionConfig& config, Simulation& simulation, SessionObserver* observer, Predictor* predictor)
-    : impl_(std::make_unique<SessionImpl>(config, simulation, observer, predictor)) {
+    : impl_(std::make_unique<SessionImpl>(config, simulation, observer, predictor)),
+      simulation_(&simulation),
+      observer_(observer),
+      predictor_(predictor) {
     core_ = impl_.get();
 }
 
@@ -39,5 +43,17 @@ std::uint32_t Session::peer_ack(PlayerId p) const { return impl_->peer_ack(p); }
 NetworkStats Session::network_stats(PlayerId p, std::uint64_t now_us) const { return impl_->network_stats(p, now_us); }
 bool Session::desynced(PlayerId p) const { return impl_->desynced(p); }
 std::int32_t Session::frames_ahead_x100() const { return impl_->frames_ahead_x100(); }
+
+// The rule and the config are rollback/rejoin.h's; here only the swap of the state machine.
+bool Session::can_rejoin() const { return rollback::can_rejoin(impl_->config(), impl_->kicked()); }
+bool Session::restart_as_joiner() {
+    if (!can_rejoin()) return false;
+    auto next = std::make_unique<SessionImpl>(rejoin_config(impl_->config(), impl_->scene_checksum()), *simulation_,
+                                              observer_, predictor_);
+    next->continue_from(*impl_);
+    impl_ = std::move(next);
+    core_ = impl_.get();
+    return true;
+}
 
 }  // namespace lockroll::rollback

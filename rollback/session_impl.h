@@ -20,17 +20,14 @@
 #include "rollback/events.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
-#include "rollback/player_id.h"
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
-#include "rollback/session_config.h"
 #include "rollback/session.h"
 #include "rollback/session_core.h"
-#include "rollback/session_event.h"
+#include "rollback/session_types.h"
 #include "rollback/simulation.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
-#include "rollback/telemetry.h"
 
 namespace lockroll::rollback {
 
@@ -121,6 +118,11 @@ public:
     bool desynced(PlayerId p) const { return detector_->desynced(p); }
     // Frames this client is ahead of the slowest peer (x100), averaged over the window.
     std::int32_t frames_ahead_x100() const;
+    // The scene checksum its hellos carry (config.scene_checksum, else the initial state's).
+    std::uint64_t scene_checksum() const { return scene_checksum_; }
+    // A session started again as a joiner after a drop goes on from the one it replaces: its
+    // counters, last frame and prediction window (rollback/rejoin.h; the code is rejoin.cpp).
+    void continue_from(const SessionImpl& before);
 
 private:
     class Tap;  // sees the detector's and sync's callbacks first, then forwards them
@@ -229,6 +231,11 @@ private:
     std::optional<PlayerId> recover_from_;
     std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
+    // A joiner's handoff frame. Its stream before it is the owner's neutral input, flagged
+    // absent, which every peer holds or gets from the owner: never sent as its own (it differed
+    // in that flag, a malformed message at every peer whose link to it was new: one per join,
+    // and with several joining at once, max_bad_packets, after which the joiner was ignored).
+    std::uint32_t own_inputs_from_ = 0;
     // the provider's side
     TransferSender outgoing_{60'000'000};  // offers, each kept for this long (us)
     // desync recovery

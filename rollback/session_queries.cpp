@@ -1,5 +1,5 @@
 // SessionQueries: each query forwards to the SessionCore the facade pointed it at.
-#include "rollback/session_queries.h"
+#include "rollback/session.h"
 
 #include "rollback/session_core.h"
 

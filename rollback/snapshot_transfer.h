@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "rollback/control_messages.h"
-#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/rollback/player_id.h>
+#include <lockroll/rollback/session_types.h>
 
 namespace lockroll::rollback {
 

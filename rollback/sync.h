@@ -31,16 +31,15 @@
 
 #include <lockroll/rollback/events.h>
 #include "rollback/input_queue.h"
-#include <lockroll/rollback/player_id.h>
 #include "rollback/predictor.h"
+#include <lockroll/rollback/session_types.h>
 #include <lockroll/rollback/simulation.h>
 #include "rollback/snapshot_ring.h"
 #include "rollback/snapshot_transfer.h"
-#include <lockroll/rollback/telemetry.h>
 
 namespace lockroll::rollback {
 
-// CpuClock (telemetry only): rollback/telemetry.h.
+// CpuClock (telemetry only): rollback/session_types.h.
 
 struct SyncConfig {
     int players = 2;

@@ -14,7 +14,6 @@
 #include <vector>
 
 #include <lockroll/rollback/simulation.h>
-#include <lockroll/sim/input.h>
 #include <lockroll/sim/scene.h>
 #include <lockroll/sim/world.h>
 

@@ -4,8 +4,8 @@
 // Pure integer arithmetic on Q32.32; only called when the scene has players.
 #pragma once
 
-#include "sim/input.h"
 #include "sim/scene.h"
+#include "sim/world.h"  // PlayerInput
 
 namespace lockroll::sim {
 

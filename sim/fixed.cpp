@@ -21,7 +21,7 @@ int bit_length(u128 n) {
 // |n| / |d| and |n| % |d| for d != 0. On x86-64, when the quotient fits 64 bits (every
 // in-range result), one divq instruction gives exactly what the generic 128-bit division does,
 // several times faster; the results are the same integers either way, so determinism holds.
-// The portable path (sim/wide_int.h) never uses assembly.
+// The portable path (sim/fixed.h's Int128 / UInt128) never uses assembly.
 void divmod_unsigned(u128 n, u128 d, u128& q, u128& r) {
 #if LOCKROLL_BUILTIN_INT128 && defined(__x86_64__)
     const auto hi = static_cast<std::uint64_t>(n >> 64);

@@ -4,7 +4,7 @@
 //
 // The solver needs the inverses: inverse_inertia() returns the diagonal of I^-1 in the body
 // frame (zero for a static body), computed once per body in Q32.32. The world-space inverse
-// R diag R^T is computed from it once per step (sim/quat.h rotate_diagonal).
+// R diag R^T is computed from it once per step (sim/vec3.h rotate_diagonal).
 #pragma once
 
 #include "sim/scene.h"

@@ -1,4 +1,4 @@
-#include "sim/quat.h"
+#include "sim/vec3.h"
 
 namespace lockroll::sim {
 
@@ -36,7 +36,9 @@ Mat3 rotate_diagonal(const Mat3& r, const Vec3& d) {
 }
 
 Quat renormalised(const Quat& q) {
-    const Fixed s = quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
+    const Fixed s = quat_detail::small(q)
+                        ? quat_detail::sum4_small(q.w.raw, q.w.raw, q.x.raw, q.x.raw, q.y.raw, q.y.raw, q.z.raw, q.z.raw)
+                        : quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
     const Fixed f = Fixed::from_raw((3 * Fixed::kOne - s.raw) / 2);  // |s - 1| is tiny: no overflow
     return {to_grid(q.w * f), to_grid(q.x * f), to_grid(q.y * f), to_grid(q.z * f)};
 }

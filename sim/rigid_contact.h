@@ -1,7 +1,7 @@
 // Narrowphase for rotating bodies: contact manifolds with points, so impulses create torque.
 //
 // Contract
-//  - Colliders are given in world space: centre, rotation matrix (sim/quat.h rotation()) and
+//  - Colliders are given in world space: centre, rotation matrix (sim/vec3.h rotation()) and
 //    shape size. A capsule's core segment lies along its local y axis; a box is oriented.
 //  - contact_points() fills a manifold of up to kMaxManifold points when the colliders are
 //    closer than `margin` (speculative contacts: a point may have a negative depth, a gap, so
@@ -19,8 +19,8 @@
 //  - Deterministic: a fixed order of points, integer arithmetic only.
 #pragma once
 
-#include "sim/quat.h"
 #include "sim/scene.h"
+#include "sim/vec3.h"
 
 namespace lockroll::sim {
 

@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "sim/wide_int.h"
+#include "sim/fixed.h"
 
 namespace lockroll::sim {
 

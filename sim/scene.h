@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include <lockroll/sim/quat.h>
+#include <lockroll/sim/vec3.h>
 
 namespace lockroll::sim {
 

@@ -10,7 +10,7 @@
 //      u32 magic "LRS1" | u32 dynamic_count | u32 frame | u32 layout | u64 overflow_count
 //      then per dynamic body: i64 pos.x, pos.y, pos.z, vel.x, vel.y, vel.z
 //      and, when layout is 1 (rigid): i32 orientation w, x, y, z (units of 2^-30: the grid
-//      sim/quat.h keeps them on), i64 angular_velocity.x, y, z
+//      sim/vec3.h renormalised() keeps them on), i64 angular_velocity.x, y, z
 //    and, when layout is 2 (rigid with rigid.warm_starting): the layout-1 bodies, then
 //      u32 impulse_count, then per carried contact impulse (sim/rigid_solver.h ContactImpulse,
 //      in key order): u32 body, u32 other, u8 feature, i64 pn, pt1, pt2 (33 bytes)

@@ -2,6 +2,8 @@
 // fixed dt. Bit-exact: the same scene and the same inputs give the same bytes on every
 // compiler and CPU (see tests/golden/ and scripts/cross-check.sh).
 //
+// World::step's input, PlayerInput (one per player slot), is defined here too.
+//
 // Body ids are indices into SceneDesc::bodies, stable for the world's life; they are what
 // desync reports, snapshots and the harness name. Static bodies (mass 0) never move and are
 // not part of the snapshot.
@@ -27,10 +29,20 @@
 #include <span>
 #include <vector>
 
-#include <lockroll/sim/input.h>
 #include <lockroll/sim/scene.h>
 
 namespace lockroll::sim {
+
+// One player's input for one frame, what World::step takes per player slot: three signed axes,
+// each in [-127, 127] (-128 is clamped to -127 so the range is symmetric). This is all that
+// crosses the network per player-frame (rollback/world_simulation.h encodes it as 3 bytes).
+struct PlayerInput {
+    std::int8_t forward = 0;  // +z
+    std::int8_t right = 0;    // +x
+    std::int8_t up = 0;       // +y
+
+    friend constexpr bool operator==(const PlayerInput&, const PlayerInput&) = default;
+};
 
 // The machinery's types, for the accessors internal code uses (sim/step_kernel.h,
 // sim/rigid_solver.h define them).

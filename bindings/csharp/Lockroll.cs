@@ -11,7 +11,7 @@ namespace Lockroll {
 
 public enum Status { Ok = 0, InvalidArgument = 1, StartFailed = 2, NotFound = 3, Internal = 4 }
 public enum Outcome { Running = 0, Completed = 1, ConnectTimeout = 2, FinishTimeout = 3, RunTimeout = 4, Failed = 5,
-                      Stopped = 6, Partitioned = 7 }
+                      Stopped = 6, Partitioned = 7, ServerLost = 8 }
 
 [UnmanagedFunctionPointer(CallingConvention.Cdecl)]
 public delegate UIntPtr SaveFn(IntPtr user, IntPtr outBytes, UIntPtr capacity);
@@ -69,6 +69,8 @@ public static class Native {
     [DllImport(Lib)] public static extern Status lockroll_builder_disconnect_timeouts(IntPtr b, ulong interruptUs, ulong disconnectUs);
     [DllImport(Lib)] public static extern Status lockroll_builder_spectator(IntPtr b, string host, ushort port, int index);
     [DllImport(Lib)] public static extern Status lockroll_builder_spectators(IntPtr b, int count);
+    [DllImport(Lib)] public static extern Status lockroll_builder_server_spectator(IntPtr b);
+    [DllImport(Lib)] public static extern Status lockroll_builder_connect_token(IntPtr b, byte[] token, UIntPtr size);
     [DllImport(Lib)] public static extern Status lockroll_builder_join(IntPtr b);
     [DllImport(Lib)] public static extern Status lockroll_builder_record_replay(IntPtr b, string path, string sceneText);
     [DllImport(Lib)] public static extern Status lockroll_builder_desync_report_dir(IntPtr b, string path);

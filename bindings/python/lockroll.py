@@ -26,7 +26,7 @@ import os
 __all__ = ["Builder", "Session", "LockrollError", "Event", "UpdateResult", "Stats", "library"]
 
 OK, INVALID_ARGUMENT, START_FAILED, NOT_FOUND, INTERNAL = range(5)
-RUNNING, COMPLETED, CONNECT_TIMEOUT, FINISH_TIMEOUT, RUN_TIMEOUT, FAILED, STOPPED, PARTITIONED = range(8)
+RUNNING, COMPLETED, CONNECT_TIMEOUT, FINISH_TIMEOUT, RUN_TIMEOUT, FAILED, STOPPED, PARTITIONED, SERVER_LOST = range(9)
 INPUT_CONFIRMED, INPUT_PREDICTED, INPUT_ABSENT = range(3)
 
 
@@ -98,6 +98,8 @@ def _load_library():
         "lockroll_builder_disconnect_timeouts": (ctypes.c_int, [P, ctypes.c_uint64, ctypes.c_uint64]),
         "lockroll_builder_spectator": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_uint16, ctypes.c_int32]),
         "lockroll_builder_spectators": (ctypes.c_int, [P, ctypes.c_int32]),
+        "lockroll_builder_server_spectator": (ctypes.c_int, [P]),
+        "lockroll_builder_connect_token": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_uint8), ctypes.c_size_t]),
         "lockroll_builder_join": (ctypes.c_int, [P]),
         "lockroll_builder_record_replay": (ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_char_p]),
         "lockroll_builder_desync_report_dir": (ctypes.c_int, [P, ctypes.c_char_p]),
@@ -203,6 +205,12 @@ class Builder:
         return self._set("disconnect_timeouts", interrupt_us, disconnect_us)
     def spectator(self, host, port, index=0): return self._set("spectator", host.encode(), port, index)
     def spectators(self, n): return self._set("spectators", n)
+    # Watch a match played through server(host, port); the server places this process.
+    def server_spectator(self): return self._set("server_spectator")
+    # The connect token (bytes) for a server started with a key: a player's or a spectator's.
+    def connect_token(self, token):
+        token = bytes(token)
+        return self._set("connect_token", (ctypes.c_uint8 * len(token)).from_buffer_copy(token), len(token))
     def join(self): return self._set("join")
     def record_replay(self, path, scene_text=None):
         return self._set("record_replay", path.encode(), None if scene_text is None else scene_text.encode())

@@ -112,6 +112,9 @@ RunResult live_run_result(const LivePlan& p, Mode mode, const fs::path& dir, con
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): partitioned since frame " +
                               s.value("partitioned_since_frame", json(nullptr)).dump() +
                               " (heard no majority of the match), not completed; its figures count up to then");
+        else if (s.contains("rejoined_at_frame"))
+            r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): " + s.value("outcome_detail", "") +
+                              " (by snapshot, after the others dropped its slot); its figures count before and after");
         else if (s.contains("partitioned_since_frame"))
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): " + s.value("outcome_detail", "") +
                               "; its figures count up to then");
@@ -259,6 +262,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"outcome_detail", s.is_object() ? s.value("outcome_detail", "") : ""},
                   {"partitioned_since_frame", s.is_object() ? s.value("partitioned_since_frame", json(nullptr)) : json(nullptr)},
                   {"alone_since_frame", s.is_object() ? s.value("alone_since_frame", json(nullptr)) : json(nullptr)},
+                  {"rejoined_at_frame", s.is_object() ? s.value("rejoined_at_frame", json(nullptr)) : json(nullptr)},
                   {"killed_at_frame", r.killed ? json(r.killed_at_frame) : json(nullptr)},
                   {"disconnects", disconnects},
                   {"joins", joins},
@@ -268,12 +272,14 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
         procs.push_back(p);
     }
     // A split run (issue 21): the processes cut off from a majority say "partitioned" and exit 1,
-    // truthfully, or, if the network healed after the majority dropped them, "failed" (kicked)
-    // with the frame they had been partitioned since; that is the network's doing, not a failure
+    // truthfully, or "failed" (kicked once the network healed, with the frame they had been
+    // partitioned since) when they could not rejoin; that is the network's doing, not a failure
     // of the match or the harness. The run fails only if a process that was neither killed nor on
     // the cut-off side did not complete, or two final checksums differ (overclaims are added by
     // the caller). Every process partitioned (no majority anywhere) is a split with nobody
-    // completed, which is not a failure either.
+    // completed, which is not a failure either. A cut-off process that rejoined the majority's
+    // view by snapshot once healed and completed is no split side: it counts as completed, and
+    // its final must be everyone's like any other.
     bool survivors_ok = true;
     int completed = 0, partitioned = 0;
     json partitioned_names = json::array();

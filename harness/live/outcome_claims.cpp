@@ -2,6 +2,8 @@
 
 namespace lockroll::harness {
 
+using nlohmann::json;
+
 std::vector<std::string> overclaims(const ProcessSeen& p, int frames) {
     std::vector<std::string> out;
     const nlohmann::json& s = p.summary;
@@ -21,9 +23,17 @@ std::vector<std::string> overclaims(const ProcessSeen& p, int frames) {
     if (!s.contains("final_checksum") || !s["final_checksum"].is_string()) why("no final checksum");
     if (s.value("confirmed_frame", 0) < frames) why("confirmed only frame " + std::to_string(s.value("confirmed_frame", 0)));
     if (s.value("shown_frame", 0) < frames) why("showed only frame " + std::to_string(s.value("shown_frame", 0)));
-    // A completion from inside an unhealed partition would claim an agreement nobody made.
-    if (s.contains("partitioned_since_frame"))
-        why("partitioned since frame " + s["partitioned_since_frame"].dump() + " and not healed");
+    // A completion from inside an unhealed partition would claim an agreement nobody made. Healed
+    // by a rejoin (the majority dropped it; it loaded their snapshot), it completed on their view:
+    // the rejoin must come after the partition it ends.
+    if (s.contains("partitioned_since_frame")) {
+        const json& since = s["partitioned_since_frame"];
+        const json rejoined = s.value("rejoined_at_frame", json(nullptr));
+        if (!rejoined.is_number())
+            why("partitioned since frame " + since.dump() + " and not healed");
+        else if (!since.is_number() || rejoined.get<double>() <= since.get<double>())
+            why("partitioned since frame " + since.dump() + " and rejoined at frame " + rejoined.dump() + ", not after it");
+    }
     // Playing on alone is the two-player rule; with three or more every drop is a majority's.
     if (s.contains("alone_since_frame") && s.value("players", 2) > 2)
         why("alone since frame " + s["alone_since_frame"].dump() + " in a match of " + std::to_string(s.value("players", 2)) +

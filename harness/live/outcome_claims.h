@@ -1,7 +1,8 @@
 // Whether what a process of `lockroll live` says it did holds against what the harness saw it
 // do. A process that says "completed" must have exited 0 having shown and confirmed the last
 // frame with a final checksum, must not have been killed, must not be in an unhealed partition
-// (partitioned_since_frame) and may say "alone" (alone_since_frame) only in a match of two. One
+// (partitioned_since_frame without a later rejoined_at_frame: a healed minority rejoins the
+// majority's view by snapshot) and may say "alone" (alone_since_frame) only in a match of two. One
 // that says "partitioned" must name the frame and must not have exited 0. live fails on any
 // claim that does not hold, as on differing final checksums.
 #pragma once

@@ -19,7 +19,6 @@
 #include <optional>
 #include <string_view>
 
-#include <lockroll/sim/input.h>
 #include <lockroll/sim/world.h>
 
 namespace lockroll::harness {

@@ -5,7 +5,7 @@
 #pragma once
 
 #include "harness/match/metrics.h"
-#include "rollback/telemetry.h"
+#include "rollback/session_types.h"
 
 namespace lockroll::harness {
 

@@ -96,6 +96,13 @@ public:
     std::vector<rollback::Datagram> out_;
     transport::Datagram in_;
     transport::SimNetwork* net_ = nullptr;          // for loss events
+    // Issue 21: dropped by the others (a healed partition's minority), this client starts again
+    // as a joiner of its slot (Session::restart_as_joiner, as net::PeerRunner does) and rejoins
+    // by snapshot. partitioned_since_: the open partition episode's frame; the rejoin keeps the
+    // one it was dropped in, and the frame of the snapshot it loaded.
+    std::optional<std::uint32_t> partitioned_since_, dropped_partitioned_since_, rejoined_at_;
+    bool rejoined_ = false;
+    void drain_events();
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
     std::vector<double> recent_rtt_ms_;             // adaptive delay: last two seconds, ring
     std::size_t recent_next_ = 0;
@@ -282,6 +289,10 @@ void Client::tick(std::uint64_t now) {
                         rec_.rtt(static_cast<int>(p), static_cast<double>(st.peers[p].rtt_us) / 1000.0);
             }
             if (session_->frame() == static_cast<std::uint32_t>(shared_.target) && r.advanced) reached_target_us_ = now;
+            // A rejoined client starts behind the match, from a snapshot: it catches up faster
+            // than real time, as a real process's runner steps a joiner.
+            if (session_->config().role == rollback::Role::Joiner && session_->running() && session_->behind(now) > 0)
+                session_->catch_up(now, 8);
         }
     }
     out_.clear();
@@ -293,7 +304,30 @@ void Client::tick(std::uint64_t now) {
         if (ls.lost_random + ls.lost_burst + ls.lost_queue != lost) event("loss", d.peer);
         if (ls.lost_partition != cut) event("partition", d.peer);
     }
+    drain_events();
     ++tick_;
+}
+
+// The session's events, for the partition episodes and a rejoin after a drop: the rule is the
+// session's (can_rejoin, rollback/rejoin.h), the rebuild in place restart_as_joiner()'s.
+void Client::drain_events() {
+    using K = rollback::SessionEvent::Kind;
+    bool kicked = false;
+    for (rollback::SessionEvent e; session_->next_event(e);) {
+        if (e.kind == K::Partitioned && !partitioned_since_) partitioned_since_ = e.frame;
+        if (e.kind == K::SnapshotLoaded && rejoined_ && !rejoined_at_) rejoined_at_ = e.frame;
+        kicked = kicked || e.kind == K::Kicked;
+    }
+    if (!session_->partitioned() && session_->running() && partitioned_since_ && session_->confirmed_frame() > *partitioned_since_)
+        partitioned_since_.reset();  // healed: confirming frames again
+    if (!kicked || !session_->can_rejoin()) return;
+    const std::optional<std::uint32_t> since = partitioned_since_;
+    if (!session_->restart_as_joiner()) return;
+    dropped_partitioned_since_ = since;
+    rejoined_ = true;
+    rejoined_at_.reset();
+    wait_ticks_ = 0;
+    event("rejoin", since.value_or(0));
 }
 
 // Ping phase for --input-delay auto: every client pings every other every 50 ms for one second
@@ -652,6 +686,10 @@ RunResult Match::finish() {
         cr.stall_fraction = tf.stall_fraction;
         cr.final_checksum = c->rec_.final_checksum().value_or(0);
         cr.final_confirmed = c->rec_.final_checksum().has_value();
+        if (c->rejoined_at_) {
+            cr.rejoined_at_frame = c->rejoined_at_;
+            cr.partitioned_since_frame = c->dropped_partitioned_since_;
+        }
         res.completed = res.completed && cr.final_confirmed;
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);
         res.clients.push_back(cr);

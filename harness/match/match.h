@@ -22,7 +22,7 @@
 
 #include "harness/match/bots.h"
 #include "harness/match/metrics.h"
-#include <lockroll/rollback/telemetry.h>
+#include <lockroll/rollback/session_types.h>
 #include <lockroll/sim/scene.h>
 #include <lockroll/sim/world.h>
 #include "transport/link_conditions.h"

@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -104,6 +105,9 @@ struct ClientResult {
     // Played from frame 0. A joiner's catch-up shows frames faster than the match runs, so only
     // these clients make the match's tick rate and stall fraction (RunResult::ticks_per_second).
     bool from_start = true;
+    // Issue 21: dropped by the others while cut off (partitioned since that frame, if it said
+    // so) and rejoined their view by a snapshot of rejoined_at_frame once the network healed.
+    std::optional<std::uint32_t> partitioned_since_frame, rejoined_at_frame;
 };
 
 struct DesyncRecord {
@@ -120,7 +124,9 @@ struct DesyncRecord {
 // Something that happened at a moment of the run, for error_vs_time.png and events.csv:
 // "loss" (a datagram client sent was lost), "partition" (one was cut by --partition; value:
 // the peer), "stall", "rollback" (value: depth),
-// "correction" (value: jump in m), "time_sync_wait" (value: frames).
+// "correction" (value: jump in m), "time_sync_wait" (value: frames), "rejoin" (the others dropped
+// the client and it starts again as a joiner; value: the frame it had been partitioned since, 0
+// if it was not).
 struct RunEvent {
     double time_s = 0;
     int client = 0;

@@ -85,7 +85,7 @@ json summary_json(const RunResult& r) {
     json finals = json::array();
     for (const auto& c : r.clients) finals.push_back(c.final_confirmed ? json(hex16(c.final_checksum)) : json(nullptr));
     json clients = json::array();
-    for (const auto& c : r.clients)
+    for (const auto& c : r.clients) {
         clients.push_back({{"ticks_per_second", c.ticks_per_second},
                            {"stall_fraction", c.stall_fraction},
                            {"frames", c.frames},
@@ -102,6 +102,10 @@ json summary_json(const RunResult& r) {
                            {"packets_received", c.packets_received},
                            {"malformed_packets", c.malformed_packets},
                            {"desyncs", c.desyncs}});
+        // Present only when true of the client (issue 21: rejoined after a healed partition).
+        if (c.partitioned_since_frame) clients.back()["partitioned_since_frame"] = *c.partitioned_since_frame;
+        if (c.rejoined_at_frame) clients.back()["rejoined_at_frame"] = *c.rejoined_at_frame;
+    }
     json desyncs = json::array();
     for (const auto& d : r.desyncs)
         desyncs.push_back({{"client", d.client},

@@ -312,6 +312,75 @@ TEST(CApi, EngineSettingsAreCheckedNamingTheSetting) {
     EXPECT_EQ(g.advances, 0);
 }
 
+// Watching through a relay server and connect tokens (issue 23): bad values are statuses naming
+// the setting; settings that do not fit together fail the start naming them; a spectator
+// through a server starts (nothing listens at the address: it would only say hello) and takes
+// an input of 0 bytes.
+TEST(CApi, ServerSpectatorAndConnectTokenAreCheckedNamingTheSetting) {
+    const std::uint8_t token[3] = {1, 2, 3};
+    EXPECT_EQ(lockroll_builder_server_spectator(nullptr), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("lockroll_builder_server_spectator: builder is NULL"), std::string::npos) << error();
+    lockroll_builder* b = lockroll_builder_new();
+    ASSERT_NE(b, nullptr);
+    EXPECT_EQ(lockroll_builder_connect_token(b, nullptr, 3), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("lockroll_builder_connect_token: token is NULL"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_connect_token(b, token, 0), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("size 0 must be 1..256"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_connect_token(b, token, 257), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("size 257 must be 1..256"), std::string::npos) << error();
+    EXPECT_EQ(lockroll_builder_connect_token(nullptr, token, 3), LOCKROLL_INVALID_ARGUMENT);
+    lockroll_builder_free(b);
+
+    Game g;
+    const lockroll_game c = callbacks();
+    const auto fails_naming = [&](lockroll_builder* builder, const char* what) {
+        EXPECT_EQ(lockroll_builder_start(builder, &c, &g), nullptr);
+        EXPECT_NE(error().find(what), std::string::npos) << error();
+        lockroll_builder_free(builder);
+    };
+    const auto relay = [] {
+        lockroll_builder* r = lockroll_builder_new();
+        EXPECT_EQ(lockroll_builder_input_size(r, 1), LOCKROLL_OK);
+        EXPECT_EQ(lockroll_builder_server(r, "127.0.0.1", 9), LOCKROLL_OK);
+        return r;
+    };
+    b = relay();
+    ASSERT_EQ(lockroll_builder_server_spectator(b), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_local_player(b, 0), LOCKROLL_OK);
+    fails_naming(b, "spectator() and local_player() exclude each other");
+    b = relay();
+    ASSERT_EQ(lockroll_builder_server_spectator(b), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_spectators(b, 1), LOCKROLL_OK);
+    fails_naming(b, "spectators(1) and server() exclude each other");
+    b = relay();
+    ASSERT_EQ(lockroll_builder_server_spectator(b), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_join(b), LOCKROLL_OK);
+    fails_naming(b, "spectator() and join() exclude each other");
+    // Without a server: nothing to watch through; a token for nobody.
+    b = lockroll_builder_new();
+    ASSERT_EQ(lockroll_builder_input_size(b, 1), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_server_spectator(b), LOCKROLL_OK);
+    fails_naming(b, "spectator() without server()");
+    b = one_player(20);
+    ASSERT_EQ(lockroll_builder_connect_token(b, token, 3), LOCKROLL_OK);
+    fails_naming(b, "connect_token() without server()");
+    // Accepted: a spectator with a token; no local player, so its input is 0 bytes.
+    b = relay();
+    ASSERT_EQ(lockroll_builder_server_spectator(b), LOCKROLL_OK);
+    ASSERT_EQ(lockroll_builder_connect_token(b, token, 3), LOCKROLL_OK);
+    lockroll_session* s = lockroll_builder_start(b, &c, &g);
+    lockroll_builder_free(b);
+    ASSERT_NE(s, nullptr) << error();
+    lockroll_update_result r{};
+    EXPECT_EQ(lockroll_update(s, nullptr, 0, &r), LOCKROLL_OK) << error();
+    EXPECT_EQ(r.outcome, LOCKROLL_RUNNING);
+    const std::uint8_t one = 1;
+    EXPECT_EQ(lockroll_update(s, &one, 1, &r), LOCKROLL_INVALID_ARGUMENT);
+    EXPECT_NE(error().find("want 0"), std::string::npos) << error();
+    lockroll_session_free(s);
+    EXPECT_EQ(g.advances, 0);
+}
+
 // record_replay through the C ABI: the file is written when the run ends, a replay file
 // (docs/replay-format.md: "LRRP" first) with every frame; desync_report_dir is created at start.
 TEST(CApi, RecordReplayWritesTheReplayWhenTheRunEnds) {

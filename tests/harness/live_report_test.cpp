@@ -92,6 +92,32 @@ TEST(LiveJson, ThePartitionedSideIsASplitNotAFailure) {
     EXPECT_TRUE(j["ok"].get<bool>());
 }
 
+// Issue 21, healed: the process cut off from the majority rejoined its view by snapshot and
+// completed. It counts as completed (no split side), its record says when it had been cut off
+// and when it rejoined, and live is ok only if its final is everyone's: a rejoined process on
+// another final fails the run like any two completed finals that differ.
+TEST(LiveJson, AProcessThatRejoinedAfterTheHealCountsAsCompletedOnTheMajoritysFinal) {
+    const auto rejoined = [](const std::string& final_checksum) {
+        ProcessRecord r = player(2, "completed", final_checksum, 0);
+        r.summary["partitioned_since_frame"] = 200;
+        r.summary["rejoined_at_frame"] = 640;
+        return r;
+    };
+    const ProcessRecord p0 = player(0, "completed", "00000000000000aa", 0), p1 = player(1, "completed", "00000000000000aa", 0);
+    const json j = live_json({p0, p1, rejoined("00000000000000aa")}, kNoDir);
+    EXPECT_TRUE(j["ok"].get<bool>());
+    EXPECT_TRUE(j["final_checksums_equal"].get<bool>());
+    EXPECT_EQ(j["split"]["completed"].get<int>(), 3);
+    EXPECT_EQ(j["split"]["partitioned"].get<int>(), 0);
+    EXPECT_EQ(j["processes"][2]["partitioned_since_frame"].get<int>(), 200);
+    ASSERT_TRUE(j["processes"][2].contains("rejoined_at_frame"));
+    EXPECT_EQ(j["processes"][2]["rejoined_at_frame"].get<int>(), 640);
+    EXPECT_TRUE(j["processes"][0]["rejoined_at_frame"].is_null());
+    const json differ = live_json({p0, p1, rejoined("00000000000000bb")}, kNoDir);
+    EXPECT_FALSE(differ["final_checksums_equal"].get<bool>());
+    EXPECT_FALSE(differ["ok"].get<bool>());
+}
+
 TEST(LiveRunResult, ProcessesThatLeftNothingAreNamedAndEveryFigureIsNa) {
     LivePlan p;
     p.o.players = 2;

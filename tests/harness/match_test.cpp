@@ -2,6 +2,10 @@
 // named to body and field, many players over a bad network.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <string_view>
+#include <vector>
+
 #include "harness/match/cli_error.h"
 #include "harness/match/match.h"
 #include "harness/report/report.h"
@@ -276,6 +280,89 @@ TEST(Match, APartitionCutsOnlyAcrossItsSetsInsideItsWindow) {
     // the ticks of the clients' phase that fall at the edges.
     EXPECT_GE(r.partitioned_datagrams, 4u * 28);
     EXPECT_LE(r.partitioned_datagrams, 4u * 32);
+}
+
+// Issue 21, "when the network heals it rejoins the majority's view by snapshot": `minority` is
+// cut off from the others from 2 s into the match for `cut_s` seconds, longer than the 5 s
+// silence after which the majority drops it. Healed, it learns it was dropped (kicked), and the
+// match starts it again as a joiner of the same slot: it loads the majority's vetted snapshot,
+// catches up and ends on the majority's final checksum, every client completed, nobody paused
+// for it. The cut-off clients say since when they had been partitioned and at which frame they
+// rejoined; the others say neither.
+void healed_split(int players, const std::vector<transport::PeerId>& minority, double cut_s, int frames, Mode mode = Mode::Rollback,
+                  std::uint64_t seed = 7, double latency_ms = 28.5, double loss = 0) {
+    SCOPED_TRACE(std::string(mode_name(mode)) + " seed " + std::to_string(seed) + " latency " + std::to_string(latency_ms) +
+                 " loss " + std::to_string(loss));
+    RunConfig c = base(mode, frames);
+    c.players = players;
+    c.seed = seed;
+    c.net.latency_ms = latency_ms;
+    c.net.loss = loss;
+    std::vector<transport::PeerId> majority;
+    for (int p = 0; p < players; ++p)
+        if (std::find(minority.begin(), minority.end(), static_cast<transport::PeerId>(p)) == minority.end())
+            majority.push_back(static_cast<transport::PeerId>(p));
+    c.partitions.add({{majority, minority}, 2'000'000, 2'000'000 + static_cast<std::uint64_t>(cut_s * 1e6)});
+    const RunResult r = run_match(c);
+    EXPECT_TRUE(r.completed) << "a client never confirmed the last frame";
+    EXPECT_EQ(r.confirmed_mismatches, 0u);
+    EXPECT_GT(r.confirmed_compared, 0u);
+    EXPECT_EQ(r.desync_count(), 0u);
+    EXPECT_EQ(r.clients.size(), static_cast<std::size_t>(players));
+    const double heal_s = 2.0 + cut_s;
+    const auto cut_frame = static_cast<std::uint32_t>(2.0 * c.tick_rate), heal_frame = static_cast<std::uint32_t>(heal_s * c.tick_rate);
+    for (std::size_t k = 0; k < r.clients.size(); ++k) {
+        const ClientResult& cl = r.clients[k];
+        EXPECT_TRUE(cl.final_confirmed) << "client " << k;
+        EXPECT_EQ(cl.final_checksum, r.clients[0].final_checksum) << "client " << k << " ends on another final";
+        if (std::find(minority.begin(), minority.end(), static_cast<transport::PeerId>(k)) == minority.end()) {
+            EXPECT_FALSE(cl.rejoined_at_frame) << "client " << k << " of the majority";
+            EXPECT_FALSE(cl.partitioned_since_frame) << "client " << k << " of the majority";
+            continue;
+        }
+        // Partitioned since about the cut (its confirmed frame then), rejoined from a frame the
+        // majority confirmed after the heal: it stalled for the 5 s before dropping the cut-off
+        // clients, then played on for the rest of the cut.
+        if (!cl.partitioned_since_frame || !cl.rejoined_at_frame) {
+            ADD_FAILURE() << "client " << k << " did not rejoin";
+            continue;
+        }
+        EXPECT_LE(*cl.partitioned_since_frame, cut_frame + 4) << "client " << k;
+        EXPECT_GE(*cl.partitioned_since_frame, cut_frame - 30) << "client " << k;
+        EXPECT_GT(*cl.rejoined_at_frame, *cl.partitioned_since_frame + static_cast<std::uint32_t>((cut_s - 6) * c.tick_rate))
+            << "client " << k;
+        EXPECT_LT(*cl.rejoined_at_frame, heal_frame) << "client " << k;
+        const nlohmann::json j = summary_json(r)["clients"][k];
+        EXPECT_EQ(j["rejoined_at_frame"], *cl.rejoined_at_frame);
+        EXPECT_EQ(j["partitioned_since_frame"], *cl.partitioned_since_frame);
+    }
+    EXPECT_FALSE(summary_json(r)["clients"][0].contains("rejoined_at_frame"));
+    // Nobody paused for the rejoin: from a second after the heal (the cut-off clients heard
+    // again, dropped as they were, and said hello as joiners) no client of the majority stalled
+    // (over a lossless network: under loss lockstep stalls on lost inputs anyway).
+    std::size_t rejoins = 0;
+    for (const RunEvent& e : r.events) {
+        if (std::string_view(e.kind) == "rejoin") ++rejoins;
+        const bool of_majority = std::find(minority.begin(), minority.end(), static_cast<transport::PeerId>(e.client)) == minority.end();
+        if (std::string_view(e.kind) == "stall" && of_majority && loss == 0) {
+            EXPECT_LT(e.time_s, heal_s + 1.0) << "client " << e.client << " stalled at frame " << e.frame << " for the rejoin";
+        }
+    }
+    EXPECT_EQ(rejoins, minority.size());
+}
+
+TEST(Match, ATwoOneSplitHealsAndTheOneRejoinsBySnapshot) {
+    healed_split(3, {2}, 8.0, 1200);
+    healed_split(3, {2}, 8.0, 1200, Mode::Lockstep);
+}
+
+// (Seeds 4, 11 and 12 at these conditions froze before joiners stopped sending their frames
+// before the handoff as their own: see Lifecycle.SplitFiveThreeHealedTheThreeRejoinBySnapshot.)
+TEST(Match, AFiveThreeSplitHealsAndTheThreeRejoinBySnapshot) {
+    healed_split(8, {5, 6, 7}, 10.0, 1500);
+    healed_split(8, {5, 6, 7}, 10.0, 1500, Mode::Rollback, 4, 32.5);
+    healed_split(8, {5, 6, 7}, 10.0, 1500, Mode::Rollback, 11, 39.5);
+    healed_split(8, {5, 6, 7}, 10.0, 1500, Mode::Lockstep, 12, 40.5, 0.05);
 }
 
 // Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set

@@ -63,6 +63,28 @@ TEST(OutcomeClaims, ACompletionFromAnUnhealedPartitionIsAnOverclaim) {
     EXPECT_EQ(c[0], "p1: outcome completed, but partitioned since frame 200 and not healed");
 }
 
+// Issue 21, healed: a process the majority dropped while it was cut off rejoins its view by
+// snapshot and may then complete; it says since when it had been partitioned and at which frame
+// it rejoined. A rejoin frame that is not after the partition's is no rejoin of that episode.
+TEST(OutcomeClaims, ACompletionAfterRejoiningTheMajoritysViewHolds) {
+    ProcessSeen p = completed(900);
+    p.summary["partitioned_since_frame"] = 200;
+    p.summary["rejoined_at_frame"] = 640;
+    EXPECT_TRUE(overclaims(p, 900).empty());
+    ProcessSeen restarted = completed(900);  // rejoined without a partition (a restart)
+    restarted.summary["rejoined_at_frame"] = 120;
+    EXPECT_TRUE(overclaims(restarted, 900).empty());
+    const auto claims_with_rejoin_at = [&p](const nlohmann::json& frame) {
+        ProcessSeen q = p;
+        q.summary["rejoined_at_frame"] = frame;
+        return overclaims(q, 900);
+    };
+    EXPECT_EQ(claims_with_rejoin_at(150),
+              std::vector<std::string>{"p1: outcome completed, but partitioned since frame 200 and rejoined at frame 150, not after it"});
+    EXPECT_EQ(claims_with_rejoin_at(nullptr),
+              std::vector<std::string>{"p1: outcome completed, but partitioned since frame 200 and not healed"});
+}
+
 TEST(OutcomeClaims, AloneIsTheTwoPlayerRuleOnly) {
     ProcessSeen two = completed(300);
     two.summary["players"] = 2;

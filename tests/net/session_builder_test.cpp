@@ -12,9 +12,9 @@
 #include <string>
 #include <thread>
 
-#include "harness/live/child_process.h"
 #include "net/peer_runner.h"
 #include "net/session_builder.h"
+#include "builder_test_support.h"
 #include "rollback/simulation.h"
 #include "udp_socket_transport.h"
 
@@ -195,22 +195,7 @@ TEST(SessionBuilder, StartUpRoundTripDoesNotCountHellosHeldBeforeTheConnection) 
     EXPECT_LE(sb->session().input_delay(), 5) << detail;
 }
 
-// A real `lockroll-server` on 127.0.0.1 (a free port it picks), bounded to 60 s; port 0 when
-// it did not get ready within 4 s.
-struct RelayServerProcess {
-    explicit RelayServerProcess(const std::string& name)
-        : process({LOCKROLL_SERVER_EXE, "--listen", "127.0.0.1:0", "--ready-file", ::testing::TempDir() + "/" + name + "-ready",
-                   "--run-seconds", "60"},
-                  ::testing::TempDir() + "/" + name + "-server.log", true) {
-        for (int i = 0; i < 200 && port == 0; ++i) {
-            for (const auto& line : process.read_lines())
-                if (line.rfind("ready ", 0) == 0) port = static_cast<std::uint16_t>(std::stoi(line.substr(6)));
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
-    }
-    harness::ChildProcess process;
-    std::uint16_t port = 0;
-};
+using test_support::RelayServerProcess;  // a real `lockroll-server` on 127.0.0.1 (builder_test_support.h)
 
 // Runs both sessions on threads to the end: both complete, on every frame's equal checksum.
 void play_through_server(NetSession& a, NetSession& b, InputSource in_a, InputSource in_b, std::uint32_t frames) {

@@ -1,9 +1,9 @@
-// EventQueue (rollback/session_event.h): the one bounded event stream both sessions use.
+// EventQueue (rollback/session_core.h): the one bounded event stream both sessions use.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "rollback/session_event.h"
+#include "rollback/session_core.h"
 
 namespace lockroll::rollback {
 namespace {

@@ -137,6 +137,9 @@ void kill_and_rejoin(int window) {
     expect_equal_at(cluster, 1000);
     // The joiner's own inputs count after the handoff: its player moved.
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    // Its stream before the handoff is the owner's neutral input: it never sends those frames as
+    // its own (they differed in the absent flag: a malformed message at every peer per join).
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().malformed_packets, 0u);
 }
 
 TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
@@ -425,6 +428,7 @@ TEST(Lifecycle, LateJoinIntoAbsentSlotAndSpectator) {
     expect_equal_at(cluster, 700);
     // Before the join, slot 2 was absent from frame 0 on every peer.
     EXPECT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame, 0u);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().malformed_packets, 0u);
 }
 
 TEST(Lifecycle, CorruptedSnapshotChunkIsRejectedAndAskedAgain) {
@@ -674,11 +678,24 @@ void expect_no_disagreement(const Client& a, const Client& b, int& compared) {
     }
 }
 
+// A client whose session the others dropped starts again as a joiner of its slot, as
+// net::PeerRunner and the in-process match do (Session::restart_as_joiner), and catches up.
+void rejoin_when_dropped(Cluster& cluster) {
+    cluster.before_tick = [](PlayerId, Client& c) {
+        if (c.session->phase() != SessionPhase::Failed || !c.session->can_rejoin()) return;
+        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);  // the kick, first
+        ASSERT_TRUE(c.session->restart_as_joiner());
+        c.catches_up = true;
+    };
+}
+
 // Issue 21, "split matches": three players, {0, 1} and {2} cannot hear each other for 10 s. The
 // pair is a majority: it drops 2 and plays on. 2 drops nobody, says Partitioned and never
 // confirms a frame the pair confirmed differently. Healed, it hears it was dropped (a majority
-// says so) and is Kicked: rejoining by snapshot is the next step. (window: rollback or lockstep;
-// the one's clock runs drift_ppm fast; the cut comes at cut_frame.)
+// says so) and is Kicked; started again as a joiner of its slot it rejoins the pair's view by
+// a snapshot they both vouch for, catches up without the pair pausing, and all three end on
+// one checksum. (window: rollback or lockstep; the one's clock runs drift_ppm fast; the cut
+// comes at cut_frame.)
 void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::uint32_t cut_frame) {
     const auto scene = make_scene(3, 10);
     const SessionConfig cfg = real_config(3, window);
@@ -694,29 +711,44 @@ void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::
     ASSERT_EQ(events_of(lone, Kind::Partitioned).size(), 1u);
     EXPECT_TRUE(events_of(lone, Kind::Disconnected).empty()) << "the minority drops nobody";
     for (PlayerId p : {0u, 1u}) EXPECT_EQ(lone.session->slot_state(p), SlotState::Running);
+    const std::uint32_t partitioned_at = events_of(lone, Kind::Partitioned)[0]->frame;
+    const std::uint64_t stalled_before[2] = {cluster.clients[0]->session->stats().stall_time_us,
+                                             cluster.clients[1]->session->stats().stall_time_us};
     cut = false;
+    rejoin_when_dropped(cluster);
     cluster.run_frames(1200, 60'000'000);
     cluster.settle(1200);
     for (PlayerId p : {0u, 1u}) {
         const Client& c = *cluster.clients[p];
         ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
-        EXPECT_EQ(c.session->slot_state(2), SlotState::Disconnected) << "client " << p;
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Running) << "client " << p << ": slot 2 did not rejoin";
         EXPECT_EQ(events_of(c, Kind::Disconnected).size(), 1u) << "client " << p;
+        EXPECT_FALSE(events_of(c, Kind::Joined).empty()) << "client " << p;
         EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
         EXPECT_GE(c.session->confirmed_frame(), 1200u) << "client " << p;
+        // Nobody paused for the rejoin (a stall is a tick that could not step).
+        EXPECT_LT(c.session->stats().stall_time_us - stalled_before[p], 100'000u) << "client " << p;
     }
     EXPECT_EQ(events_of(*cluster.clients[0], Kind::NeutralFrom)[0]->frame,
               events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame);
-    expect_equal_at(cluster, 1200);
-    // The lone one learned it was dropped, and never confirmed anything else than the pair.
+    // The lone one learned it was dropped, rejoined by one vetted snapshot of a frame the pair
+    // confirmed after the heal, and never confirmed anything else than the pair.
     EXPECT_EQ(events_of(lone, Kind::Kicked).size(), 1u);
     EXPECT_TRUE(events_of(lone, Kind::Disconnected).empty());
+    ASSERT_EQ(lone.session->phase(), SessionPhase::Running) << lone.session->failure();
+    EXPECT_EQ(lone.session->config().role, Role::Joiner);
+    ASSERT_EQ(events_of(lone, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_GT(events_of(lone, Kind::SnapshotLoaded)[0]->frame, partitioned_at);
+    EXPECT_NE(events_of(lone, Kind::SnapshotLoaded)[0]->detail.find(": 2 of 2 peers agree, 0 differ"), std::string::npos)
+        << events_of(lone, Kind::SnapshotLoaded)[0]->detail;
+    expect_equal_at(cluster, 1200);
     int compared = 0;
     expect_no_disagreement(lone, *cluster.clients[0], compared);
-    EXPECT_GE(compared, 150);
+    EXPECT_GE(compared, 150 + 600);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
-TEST(Lifecycle, SplitTwoOneTheMajorityPlaysOnTheOneDropsNobody) { split_two_one(8, 43, 0, 200); }
+TEST(Lifecycle, SplitTwoOneTheOneDropsNobodyThenRejoinsBySnapshot) { split_two_one(8, 43, 0, 200); }
 // The same over seeds, lockstep too, and with the one's clock 2 % slow or fast: cut off while
 // a few frames behind the pair, it held the pair's inputs of frames the pair then played with
 // its neutral input, and confirmed them (a frame is now confirmed only once a majority holds our
@@ -729,6 +761,41 @@ TEST(Lifecycle, SplitTwoOneTheOneNeverConfirmsOtherwiseEvenWhenBehind) {
                              std::to_string(drift));
                 split_two_one(window, seed, drift, 200 + static_cast<std::uint32_t>(seed * 7));
             }
+}
+
+// Eight players split 5/3 for 10 s: the five drop the three and play on; the three drop nobody
+// and stall. Healed, each of the three is kicked, starts again as a joiner of its slot and
+// rejoins by a snapshot a majority of the five vouches for, all three at once; every client
+// ends on one checksum, nobody in error (issue 21; three joiners at once used to send each
+// other their pre-handoff frames as their own until one ignored another for good).
+TEST(Lifecycle, SplitFiveThreeHealedTheThreeRejoinBySnapshot) {
+    for (std::uint64_t seed : {51u, 52u, 53u}) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const auto scene = make_scene(8, 10);
+        Cluster cluster(scene, real_config(8, 8), {15000, 3000}, seed);
+        cluster.run_frames(200);
+        bool cut = true;
+        split(cluster, {5, 6, 7}, cut);
+        cluster.run([](const Cluster&) { return false; }, 10'000'000);
+        for (PlayerId p = 5; p < 8; ++p) EXPECT_TRUE(cluster.clients[p]->session->partitioned()) << "client " << p;
+        cut = false;
+        rejoin_when_dropped(cluster);
+        cluster.run_frames(1600, 60'000'000);
+        cluster.settle(1600);
+        for (PlayerId p = 0; p < 8; ++p) {
+            const Client& c = *cluster.clients[p];
+            ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+            EXPECT_GE(c.session->confirmed_frame(), 1600u) << "client " << p;
+            EXPECT_EQ(c.session->stats().malformed_packets, 0u) << "client " << p;
+            EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << p;
+            for (PlayerId s = 0; s < 8; ++s) EXPECT_EQ(c.session->slot_state(s), SlotState::Running) << "client " << p << " slot " << s;
+            const bool cut_off = p >= 5;
+            EXPECT_EQ(events_of(c, Kind::Kicked).size(), cut_off ? 1u : 0u) << "client " << p;
+            EXPECT_EQ(events_of(c, Kind::SnapshotLoaded).size(), cut_off ? 1u : 0u) << "client " << p;
+            EXPECT_EQ(c.session->config().role, cut_off ? Role::Joiner : Role::Player) << "client " << p;
+        }
+        expect_equal_at(cluster, 1600);
+    }
 }
 
 // Four players split 2/2 for 10 s: neither side is a majority, so nobody is dropped; all four

@@ -1,6 +1,6 @@
-// validate(SessionConfig) (rollback/session_config.h) on its own: the defaults pass, and each
+// validate(SessionConfig) (rollback/session.h) on its own: the defaults pass, and each
 // unusable field is refused by a message that names it.
-#include "rollback/session_config.h"
+#include "rollback/session.h"
 
 #include <gtest/gtest.h>
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <set>
 #include <string>
 
 #include "tests/rollback/test_support.h"
@@ -97,12 +98,16 @@ std::uint64_t rss_kib() {
     return 0;
 }
 
-// The harsh network with churn: every `kill_every_s` of virtual time one player's
-// process dies, and a new process rejoins its slot 20 s later by snapshot. Every 10 s every
-// running process must have confirmed the same checksum and the same inputs of a recent frame
-// (so no confirmed input was lost or changed by a drop or a join), nobody may desync, and the
+// The harsh network with churn: every 2 minutes of virtual time one player's process
+// dies, and a new process rejoins its slot 20 s later by snapshot; a minute after each kill,
+// three slots (1..7, rotating) are cut off from the other five for 20 s: the five drop them and
+// play on, the three say Partitioned and confirm nothing otherwise, and once healed each is
+// told it was dropped and rejoins its slot by snapshot in place (Session::restart_as_joiner, as
+// net::PeerRunner does). Every 10 s every running process must have confirmed the same
+// checksum and the same inputs of a recent frame (so no confirmed input was lost or changed by
+// a drop, a partition or a join), nobody may desync, every process runs at the end, and the
 // process's memory must not grow between the 10-minute mark and the end. SOAK_MINUTES sets the
-// length (60 by hand; the CI's short form in lifecycle_test runs 2 minutes).
+// length (60 by hand; the default tier's churn_soak_short runs 3: one partition, one kill).
 TEST(Soak, EightPlayersWithKillsAndRejoins) {
     const int minutes = std::getenv("SOAK_MINUTES") ? std::atoi(std::getenv("SOAK_MINUTES")) : 60;
     const auto scene = make_scene(8, 50);
@@ -121,12 +126,39 @@ TEST(Soak, EightPlayersWithKillsAndRejoins) {
     const std::uint64_t end_us = static_cast<std::uint64_t>(minutes) * 60'000'000;
     std::uint64_t next_kill = kill_every_us, next_check = 10'000'000, rss_at_10 = 0;
     std::optional<std::pair<PlayerId, std::uint64_t>> pending_rejoin;
-    int kills = 0, rejoins = 0, checks = 0;
+    int kills = 0, rejoins = 0, checks = 0, partitions = 0, healed_rejoins = 0;
     std::uint64_t seed = 1;
+    // The partition: while `cut_until` is ahead, no datagram crosses between `minority` and the
+    // rest. A kicked minority member starts again as a joiner of its slot.
+    // SOAK_PARTITIONS=0: kills and rejoins only (the soak as it was before partitions).
+    const bool no_partitions = std::getenv("SOAK_PARTITIONS") && std::string(std::getenv("SOAK_PARTITIONS")) == "0";
+    std::uint64_t next_cut = kill_every_us / 2, cut_until = 0;
+    std::set<PlayerId> minority;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return cluster.now() >= cut_until || minority.count(from) == minority.count(to);
+    };
+    cluster.before_tick = [&](PlayerId, testing::Client& c) {
+        if (c.session->phase() != SessionPhase::Failed || !c.session->can_rejoin()) return;
+        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);
+        if (c.session->restart_as_joiner()) {
+            c.catches_up = true;
+            ++healed_rejoins;
+        }
+    };
     while (cluster.now() < end_us) {
-        cluster.run([&](const Cluster& c) { return c.now() >= std::min({next_kill, next_check, end_us}) ||
+        cluster.run([&](const Cluster& c) { return c.now() >= std::min({next_kill, next_check, next_cut, end_us}) ||
                                                     (pending_rejoin && c.now() >= pending_rejoin->second); },
                     end_us);
+        if (cluster.now() >= next_cut) {
+            next_cut += kill_every_us;
+            // Healed at least 40 s before the end, so the three are back when it comes.
+            if (cluster.now() + 60'000'000 <= end_us && !no_partitions) {
+                minority.clear();
+                for (int k = 0; k < 3; ++k) minority.insert(static_cast<PlayerId>(1 + (partitions + k) % 7));
+                cut_until = cluster.now() + 20'000'000;
+                ++partitions;
+            }
+        }
         if (pending_rejoin && cluster.now() >= pending_rejoin->second) {
             SessionConfig again = cfg;
             again.local_player = pending_rejoin->first;
@@ -176,15 +208,20 @@ TEST(Soak, EightPlayersWithKillsAndRejoins) {
         EXPECT_EQ(cluster.clients[i]->session->phase(), SessionPhase::Running) << "client " << i;
         if (std::getenv("SOAK_EVENTS"))
             for (const auto& e : cluster.clients[i]->events)
-                if (e.kind != SessionEvent::Kind::Synchronizing && (i < 2))
+                if (e.kind != SessionEvent::Kind::Synchronizing && (i < 2 || cluster.clients[i]->session->phase() != SessionPhase::Running))
                     std::printf("%zu %s peer %u frame %u t %.2f %s\n", i, event_name(e.kind), e.peer, e.frame, e.at_us / 1e6, e.detail.c_str());
     }
     const std::uint64_t rss_end = rss_kib();
-    std::printf("churn soak: %d min virtual, %d kills, %d rejoins, %d agreement checks, RSS %llu KiB at 10 min, "
-                "%llu KiB at the end\n",
-                minutes, kills, rejoins, checks, static_cast<unsigned long long>(rss_at_10),
-                static_cast<unsigned long long>(rss_end));
+    std::printf("churn soak: %d min virtual, %d kills, %d rejoins, %d partitions, %d rejoins after a partition, "
+                "%d agreement checks, RSS %llu KiB at 10 min, %llu KiB at the end\n",
+                minutes, kills, rejoins, partitions, healed_rejoins, checks,
+                static_cast<unsigned long long>(rss_at_10), static_cast<unsigned long long>(rss_end));
     EXPECT_GT(kills, 0);
+    if (!no_partitions) {
+        EXPECT_GT(partitions, 0);
+    }
+    // Each partition's three were dropped by the five and came back by snapshot.
+    EXPECT_EQ(healed_rejoins, 3 * partitions);
     EXPECT_GT(checks, 0);
     if (rss_at_10 != 0) {
         EXPECT_LE(rss_end, rss_at_10 + rss_at_10 / 10 + 8192);

@@ -4,9 +4,9 @@
 
 #include "rollback/input_queue.h"
 #include "rollback/predictor.h"
+#include "rollback/session_core.h"
 #include "rollback/snapshot_ring.h"
 #include "rollback/snapshot_transfer.h"
-#include "rollback/telemetry.h"
 #include "rollback/time_sync.h"
 
 namespace lockroll::rollback {

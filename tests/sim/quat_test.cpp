@@ -1,9 +1,9 @@
-// sim/quat.h: products, rotations, the exponential-map step and deterministic renormalisation.
+// sim/vec3.h's Quat: products, rotations, the exponential-map step and deterministic renormalisation.
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "sim/quat.h"
+#include "sim/vec3.h"
 
 namespace lockroll::sim {
 namespace {

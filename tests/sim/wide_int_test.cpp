@@ -1,11 +1,11 @@
-// The portable 128-bit integers (sim/wide_int.h) against the compiler's __int128.
+// The portable 128-bit integers (sim/fixed.h's integer layer) against the compiler's __int128.
 //
 // Every operation of UInt128 / Int128 and the helpers sim/ computes with (mul_wide, divmod,
 // add/sub/mul_overflow) is run on seeded random operands and on every pair of edge values, and
 // each result must equal the builtin's bit for bit. The class is tested in every build; the
 // helpers are whichever implementation this build uses (LOCKROLL_PORTABLE_MATH=ON makes them
 // the portable ones, and the rest of the suite then runs on them too).
-#include "sim/wide_int.h"
+#include "sim/fixed.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,4 @@
-#include "rollback/session_event.h"
-
-#include <utility>
+#include "rollback/events.h"
 
 namespace lockroll::rollback {
 
@@ -28,21 +26,6 @@ const char* event_name(SessionEvent::Kind k) {
         case K::ServerLost: return "server_lost";
     }
     return "unknown";
-}
-
-void EventQueue::push(SessionEvent e) {
-    if (events_.size() >= kCapacity) {
-        events_.pop_front();
-        ++dropped_;
-    }
-    events_.push_back(std::move(e));
-}
-
-bool EventQueue::pop(SessionEvent& out) noexcept {
-    if (events_.empty()) return false;
-    out = std::move(events_.front());
-    events_.pop_front();
-    return true;
 }
 
 }  // namespace lockroll::rollback
