@@ -17,11 +17,21 @@
 // lockroll-server: recvmmsg / sendmmsg) or --syscalls enet (ENet's own, one per datagram, counted).
 // Without valgrind it also prints the wall time per datagram (indicative only).
 //
+// ENet's clock is the driver's too: this executable defines enet_time_get (libenet calls its own
+// through the PLT, as it does its socket functions), returning the virtual time. ENet's
+// enet_time_set only rebased its wall clock, which went on running while a step ran: under
+// callgrind a step of a thousand rooms takes seconds, and acknowledgements stamped "in the
+// future" of their host's clock were dropped (connections timed out, rooms did not start once
+// the server serviced its hosts at different points of a step). It still reads the clock as
+// ENet's does (gettimeofday), so the count keeps that cost.
+//
 // The bots behave like relay_bench's: one RelayInput per client per tick with an input delay
 // of 2 frames, the unacknowledged own inputs resent, the room's clients sending in the same
 // tick phase; rooms are spread over --phases phases of the tick, one server pass per phase.
 #include <CLI/CLI.hpp>
 #include <enet/enet.h>
+
+#include <sys/time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -35,6 +45,7 @@
 #include "server/enet_socket_batching.h"
 #include "server/relay_server.h"
 #include "server/server_pass.h"
+#include "server/server_process.h"
 #include "transport/enet_server.h"
 
 namespace {
@@ -62,9 +73,22 @@ struct Bot {
 
 struct Counts {
     std::uint64_t relay_in = 0, relay_out = 0, udp_in = 0, udp_out = 0, passes = 0, syscalls = 0;
+    std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
 };
 
 }  // namespace
+
+namespace {
+enet_uint32 g_enet_ms = 0;  // ENet's clock (enet_time_get below), in ms of the driver's time
+}  // namespace
+
+extern "C" enet_uint32 enet_time_get(void) {
+    timeval tv;
+    gettimeofday(&tv, nullptr);  // ENet's own reads the wall clock: its cost stays in the count
+    asm volatile("" : : "r"(&tv) : "memory");
+    return g_enet_ms;
+}
+extern "C" void enet_time_set(enet_uint32 ms) { g_enet_ms = ms; }
 
 namespace {
 // One poll of the server's socket and one pass of its loop, as lockroll-server without a pass
@@ -88,13 +112,21 @@ namespace {
 
 class Driver {
 public:
-    Driver(int rooms, int phases, server::enet_socket_batching::Mode mode) : rooms_(rooms), phases_(std::max(1, std::min(phases, rooms))) {
+    Driver(int rooms, int phases, server::enet_socket_batching::Mode mode, std::size_t per_host)
+        : rooms_(rooms), phases_(std::max(1, std::min(phases, rooms))) {
         transport::EnetServerConfig ec;
         ec.max_connections = static_cast<std::size_t>(std::min(4095, 2 * rooms + 64));
         ec.max_connections_per_address = 4095;
+        if (mode == server::enet_socket_batching::Mode::Batch && per_host > 0) {  // as lockroll-server
+            ec.fanout = &server::enet_socket_batching::fanout();
+            ec.connections_per_host = per_host;
+        }
         enet_ = std::make_unique<transport::EnetServer>(ec);
-        const std::string why = server::enet_socket_batching::install(enet_->socket_fd(), mode);
-        if (!why.empty()) throw std::runtime_error("cannot count the server socket's syscalls: " + why);
+        if (!enet_->fanout_refused().empty()) throw std::runtime_error("cannot share the server socket: " + enet_->fanout_refused());
+        if (enet_->host_count() == 1) {
+            const std::string why = server::enet_socket_batching::install(enet_->socket_fd(), mode);
+            if (!why.empty()) throw std::runtime_error("cannot count the server socket's syscalls: " + why);
+        }
         server::ServerConfig sc;
         sc.max_rooms = static_cast<std::size_t>(rooms + 16);
         sc.max_connections = ec.max_connections;
@@ -179,6 +211,9 @@ public:
         c.relay_in = relay_->counters().datagrams_in;
         c.relay_out = relay_->counters().datagrams_out;
         c.passes = passes_;
+        c.host_services = enet_->counters().host_services;
+        c.host_flushes = enet_->counters().host_flushes;
+        c.idle_services = enet_->counters().idle_services;
         for (auto* h : hosts_) {
             c.udp_in += h->totalSentPackets;
             c.udp_out += h->totalReceivedPackets;
@@ -186,6 +221,15 @@ public:
         return c;
     }
     std::uint64_t replaced() const { return replaced_; }
+    std::size_t hosts() const { return enet_->host_count(); }
+    std::size_t connections() const { return enet_->connection_count(); }
+    const transport::EnetServer& enet() const { return *enet_; }
+    const server::RelayServer& relay() const { return *relay_; }
+    std::size_t bots_welcomed() const {
+        std::size_t n = 0;
+        for (const auto& b : bots_) n += b.welcomed && b.has_clock;
+        return n;
+    }
     std::uint64_t disconnects() const { return disconnects_; }
 
 private:
@@ -277,6 +321,7 @@ private:
 
 int main(int argc, char** argv) {
     int rooms = 200, phases = 16, warm_ticks = 60, ticks = 300;
+    std::size_t per_host = server::kDefaultConnectionsPerHost;
     std::string syscalls = "batch";
     CLI::App app{"relay_cost: the server's work per relayed datagram, under a virtual clock (docs/performance.md)"};
     app.add_option("--rooms", rooms, "two-player rooms")->check(CLI::Range(1, 2000))->capture_default_str();
@@ -286,14 +331,22 @@ int main(int argc, char** argv) {
     app.add_option("--syscalls", syscalls, "the server socket's syscalls: batch (recvmmsg / sendmmsg, as lockroll-server) or enet (one per datagram)")
         ->check(CLI::IsMember({"batch", "enet"}))
         ->capture_default_str();
+    app.add_option("--connections-per-host", per_host,
+                   "connections per ENet host behind the server's socket, as lockroll-server's option (batch only; 0: one host)")
+        ->check(CLI::Range(0, 4095))
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
     const auto mode = syscalls == "batch" ? server::enet_socket_batching::Mode::Batch : server::enet_socket_batching::Mode::Count;
     if (enet_initialize() != 0) return 1;
     int status = 0;
     {
-        Driver d(rooms, phases, mode);
+        Driver d(rooms, phases, mode, per_host);
         if (!d.start()) {
-            std::fprintf(stderr, "relay_cost: the rooms did not all start\n");
+            std::fprintf(stderr, "relay_cost: the rooms did not all start (server connections %zu, bots welcomed %zu; server connects %llu, "
+                         "disconnects %llu, kicks %llu)\n",
+                         d.connections(), d.bots_welcomed(), static_cast<unsigned long long>(d.enet().counters().connections),
+                         static_cast<unsigned long long>(d.enet().counters().disconnects),
+                         static_cast<unsigned long long>(d.relay().counters().kicks));
             return 1;
         }
         for (int t = 0; t < warm_ticks; ++t) d.tick(false);
@@ -304,6 +357,7 @@ int main(int argc, char** argv) {
         const Counts b = d.counts();
         const std::uint64_t relay = (b.relay_in - a.relay_in) + (b.relay_out - a.relay_out);
         const std::uint64_t udp = (b.udp_in - a.udp_in) + (b.udp_out - a.udp_out);
+        std::printf("ENet hosts behind the server's socket: %zu\n", d.hosts());
         std::printf("rooms %d, phases %d, ticks %d: relay datagrams in %llu out %llu (%.1f per room-tick), UDP datagrams %llu, "
                     "server passes %llu, inputs replaced while measured %llu, disconnects %llu\n",
                     rooms, phases, ticks, static_cast<unsigned long long>(b.relay_in - a.relay_in),
@@ -314,6 +368,10 @@ int main(int argc, char** argv) {
                     static_cast<unsigned long long>(relay));
         std::printf("server socket syscalls (%s) while measured: %llu, %.3f per relay datagram\n", syscalls.c_str(),
                     static_cast<unsigned long long>(b.syscalls - a.syscalls), static_cast<double>(b.syscalls - a.syscalls) / static_cast<double>(relay));
+        std::printf("ENet host services per pass %.1f (idle %.1f), host flushes per pass %.1f\n",
+                    static_cast<double>(b.host_services - a.host_services) / static_cast<double>(b.passes - a.passes),
+                    static_cast<double>(b.idle_services - a.idle_services) / static_cast<double>(b.passes - a.passes),
+                    static_cast<double>(b.host_flushes - a.host_flushes) / static_cast<double>(b.passes - a.passes));
         std::printf("wall time (bots included, indicative): %.2f us per relay datagram\n", wall_us / static_cast<double>(relay));
         if (d.replaced() || d.disconnects()) status = 1;
     }

@@ -1,6 +1,8 @@
 #include "rollback/relay_messages.h"
 
 #include <algorithm>
+#include <bit>
+#include <cstring>
 #include <stdexcept>
 
 #include "rollback/bytes.h"
@@ -230,13 +232,12 @@ const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, Rela
     return finish(r, "relay input: truncated checksums");
 }
 
-void encode(const RelayFrames& m, std::vector<std::uint8_t>& out) {
+namespace {
+// frame(f) gives frame f's flags (players bytes) and inputs (players x n bytes).
+template <class Frame>
+void encode_frames_with(const RelayFrames& m, Frame&& frame, std::vector<std::uint8_t>& out) {
     const std::size_t n = m.input_size;
     const std::size_t slots = m.players;
-    if (m.players < 1 || m.players > kRelayMaxPlayers || n < 1 || n > kRelayMaxInputSize ||
-        m.frame_count > relay_max_frames(m.players, n) || m.flags.size() != m.frame_count * slots ||
-        m.inputs.size() != m.frame_count * slots * n)
-        throw std::invalid_argument("RelayFrames: counts out of range");
     // The relay server encodes one of these per client per tick: written through a pointer into
     // space sized for the most it can take (the header, then per frame a mask and every slot's
     // flag and input), then trimmed; no per-byte growth checks.
@@ -244,43 +245,84 @@ void encode(const RelayFrames& m, std::vector<std::uint8_t>& out) {
     const std::size_t at = out.size();
     out.resize(at + kFramesHeaderBytes + m.frame_count * (mb + slots * (1 + n)));
     std::uint8_t* p = out.data() + at;
-    auto put = [&p](std::uint64_t v, int bytes) {
-        for (int i = 0; i < bytes; ++i) *p++ = static_cast<std::uint8_t>(v >> (8 * i));
+    // Little-endian fields: on a little-endian machine each is its bytes in memory order.
+    auto put = [&p]<class T>(T v) {
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(p, &v, sizeof v);
+            p += sizeof v;
+        } else {
+            for (std::size_t i = 0; i < sizeof v; ++i) *p++ = static_cast<std::uint8_t>(static_cast<std::uint64_t>(v) >> (8 * i));
+        }
     };
-    put(kind_byte(RelayKind::Frames), 1);
-    put(m.server_frame, 4);
-    put(m.server_subframe, 2);
-    put(m.input_ack, 4);
-    put(m.first_frame, 4);
-    put(m.frame_count, 2);
-    put(m.players, 1);
-    put(m.input_size, 1);
-    put(m.stamp, 2);
-    put(m.echo, 2);
-    put(m.hold, 2);
-    const std::uint8_t* flags = m.flags.data();
-    const std::uint8_t* inputs = m.inputs.data();
+    put(kind_byte(RelayKind::Frames));
+    put(std::uint32_t{m.server_frame});
+    put(std::uint16_t{m.server_subframe});
+    put(std::uint32_t{m.input_ack});
+    put(std::uint32_t{m.first_frame});
+    put(std::uint16_t{m.frame_count});
+    put(std::uint8_t{m.players});
+    put(std::uint8_t{m.input_size});
+    put(std::uint16_t{m.stamp});
+    put(std::uint16_t{m.echo});
+    put(std::uint16_t{m.hold});
+    const std::uint8_t* prev_flags = nullptr;
+    const std::uint8_t* prev_inputs = nullptr;
     for (std::size_t f = 0; f < m.frame_count; ++f) {
+        const auto [flags, inputs] = frame(f);
         // Delta against the frame before (all zero before the first): a mask, then the changes.
         std::uint8_t* mask = p;
         std::fill_n(mask, mb, std::uint8_t{0});
         p += mb;
         for (std::size_t s = 0; s < slots; ++s) {
-            const std::uint8_t flag = flags[f * slots + s];
-            const std::uint8_t* cur = inputs + (f * slots + s) * n;
+            const std::uint8_t flag = flags[s];
+            const std::uint8_t* cur = inputs + s * n;
             bool same;
             if (f == 0) {
                 same = flag == 0 && std::all_of(cur, cur + n, [](std::uint8_t v) { return v == 0; });
             } else {
-                same = flag == flags[(f - 1) * slots + s] && std::equal(cur, cur + n, cur - slots * n);
+                same = flag == prev_flags[s] && std::equal(cur, cur + n, prev_inputs + s * n);
             }
             if (same) continue;
             mask[s / 8] = static_cast<std::uint8_t>(mask[s / 8] | (1u << (s % 8)));
             *p++ = flag;
             p = std::copy_n(cur, n, p);
         }
+        prev_flags = flags;
+        prev_inputs = inputs;
     }
     out.resize(static_cast<std::size_t>(p - out.data()));
+}
+
+struct FramePointers {
+    const std::uint8_t* flags;
+    const std::uint8_t* inputs;
+};
+}  // namespace
+
+void encode(const RelayFrames& m, std::vector<std::uint8_t>& out) {
+    const std::size_t n = m.input_size;
+    const std::size_t slots = m.players;
+    if (m.players < 1 || m.players > kRelayMaxPlayers || n < 1 || n > kRelayMaxInputSize ||
+        m.frame_count > relay_max_frames(m.players, n) || m.flags.size() != m.frame_count * slots ||
+        m.inputs.size() != m.frame_count * slots * n)
+        throw std::invalid_argument("RelayFrames: counts out of range");
+    encode_frames_with(
+        m, [&](std::size_t f) { return FramePointers{m.flags.data() + f * slots, m.inputs.data() + f * slots * n}; }, out);
+}
+
+void encode_frames(const RelayFrames& m, const void* context, RelayFrameRecord record, std::vector<std::uint8_t>& out) {
+    const std::size_t n = m.input_size;
+    if (m.players < 1 || m.players > kRelayMaxPlayers || n < 1 || n > kRelayMaxInputSize ||
+        m.frame_count > relay_max_frames(m.players, n))
+        throw std::invalid_argument("RelayFrames: counts out of range");
+    const std::size_t slots = m.players;
+    encode_frames_with(
+        m,
+        [&](std::size_t f) {
+            const std::uint8_t* rec = record(context, static_cast<std::uint32_t>(f));
+            return FramePointers{rec, rec + slots};
+        },
+        out);
 }
 
 const char* decode(std::span<const std::uint8_t> d, int players, std::size_t input_size, RelayFrames& m) {

@@ -193,6 +193,11 @@ void encode(const RelayHello& m, std::vector<std::uint8_t>& out);
 void encode(const RelayWelcome& m, std::vector<std::uint8_t>& out);
 void encode(const RelayInput& m, std::size_t input_size, std::vector<std::uint8_t>& out);
 void encode(const RelayFrames& m, std::vector<std::uint8_t>& out);
+// The same bytes, the frames read in place (the relay server's history, no copy into m first):
+// record(context, i) is frame first_frame + i as m.players flags then m.players x input_size
+// inputs; m's flags and inputs are not read.
+using RelayFrameRecord = const std::uint8_t* (*)(const void* context, std::uint32_t i);
+void encode_frames(const RelayFrames& m, const void* context, RelayFrameRecord record, std::vector<std::uint8_t>& out);
 void encode(const RelayForward& m, std::vector<std::uint8_t>& out);
 void encode(const RelayNotice& m, std::vector<std::uint8_t>& out);
 

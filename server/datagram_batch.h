@@ -18,6 +18,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace lockroll::server {
@@ -49,6 +50,12 @@ public:
     // kMaxBytes (nothing queued).
     int send(const sockaddr_in& to, const iovec* bufs, std::size_t count);
     std::size_t queued() const { return queued_; }
+    // The bytes of the datagram send() queued last (empty when none is queued), to amend in place.
+    std::span<std::uint8_t> last_queued() {
+        if (queued_ == 0) return {};
+        Slot& s = send_slots_[queued_ - 1];
+        return {static_cast<std::uint8_t*>(s.iov.iov_base), s.iov.iov_len};
+    }
     // Sends everything queued (one sendmmsg per run of accepted datagrams; a refused one is
     // dropped and the rest sent).
     void flush();

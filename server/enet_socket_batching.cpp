@@ -4,11 +4,15 @@
 #include <enet/enet.h>
 #include <poll.h>
 
+#include <algorithm>
 #include <cstring>
+#include <span>
 #include <memory>
 #include <vector>
 
 #include "server/datagram_batch.h"
+#include "server/datagram_demux.h"
+#include "transport/enet_server.h"
 
 namespace lockroll::server::enet_socket_batching {
 namespace {
@@ -41,7 +45,39 @@ struct Installed {
     std::unique_ptr<DatagramBatch> batch;  // Batch mode only
 };
 
+// Several ENet hosts over one installed socket (fanout()): the socket is read in batches into a
+// pool of slots, each datagram routed to its host's queue (DatagramDemux); host k reads its
+// queue through enet_socket_receive(ids[k]) and sends through the socket's batch.
+constexpr int kFirstSharedId = -16;  // host k >= 1 gets the id kFirstSharedId - (k - 1): never a descriptor
+constexpr std::size_t kReceiveChunk = 64;     // datagrams per recvmmsg
+constexpr std::size_t kPoolSlots = 1024;      // datagrams read per receive() at most
+
+struct Shared {
+    int fd = -1;  // the socket (host 0's); -1: no fanout
+    std::unique_ptr<DatagramDemux> demux;
+    std::vector<std::uint8_t> bytes;
+    std::vector<sockaddr_in> from;
+    std::vector<iovec> iov;
+    std::vector<mmsghdr> headers;
+    std::size_t used = 0;
+    std::vector<std::vector<std::uint32_t>> queue;  // per host: pool slots, in arrival order
+    std::vector<std::size_t> next;                  // per host: the next slot of its queue to read
+    std::vector<std::size_t> listed;                // hosts whose queues were filled by the last receive
+    std::vector<std::uint8_t> is_listed;
+    std::uint64_t receive_calls = 0, datagrams_in = 0, dropped = 0;
+
+    // The host reading through socket id s, or -1 when s is none of the fanout's.
+    int host_of(int s) const {
+        if (fd < 0) return -1;
+        if (s == fd) return 0;
+        if (s > kFirstSharedId) return -1;
+        const std::size_t k = static_cast<std::size_t>(kFirstSharedId - s) + 1;
+        return k < queue.size() ? static_cast<int>(k) : -1;
+    }
+};
+
 struct State {
+    Shared shared;
     std::vector<Installed> sockets;
     Counts counts;           // the Count-mode sockets' calls, and the closed Batch-mode ones'
     std::uint64_t seen_send = 0, seen_receive = 0;  // every call that reached this file (self-check)
@@ -129,7 +165,150 @@ Counts counts() {
     Counts c = state().counts;
     for (const auto& s : state().sockets)
         if (s.batch) add_batch_counts(c, s.batch->counters());
+    const Shared& sh = state().shared;
+    c.receive_syscalls += sh.receive_calls;
+    c.datagrams_in += sh.datagrams_in;
+    c.dropped += sh.dropped;
     return c;
+}
+
+namespace {
+
+class Fanout final : public transport::SocketFanout {
+public:
+    std::vector<int> attach(int socket, std::size_t hosts, std::size_t capacity, std::size_t connections,
+                            std::size_t max_per_address, std::string& why) override {
+        Shared& sh = state().shared;
+        if (sh.fd >= 0) {
+            why = "the fanout already serves a socket";
+            return {};
+        }
+        if (hosts == 0 || capacity == 0) {
+            why = "no hosts";
+            return {};
+        }
+        DatagramDemuxConfig dc;
+        dc.hosts = hosts;
+        dc.capacity_per_host = capacity;
+        dc.connections = connections;
+        dc.max_per_ip = max_per_address;
+        try {
+            sh.demux = std::make_unique<DatagramDemux>(dc);
+        } catch (const std::invalid_argument& e) {
+            why = e.what();
+            return {};
+        }
+        why = install(socket, Mode::Batch);
+        if (!why.empty()) {
+            sh.demux.reset();
+            return {};
+        }
+        sh.bytes.assign(kPoolSlots * DatagramBatch::kMaxBytes, 0);
+        sh.from.assign(kPoolSlots, {});
+        sh.iov.resize(kPoolSlots);
+        sh.headers.resize(kPoolSlots);
+        for (std::size_t i = 0; i < kPoolSlots; ++i) {
+            sh.iov[i] = {&sh.bytes[i * DatagramBatch::kMaxBytes], DatagramBatch::kMaxBytes};
+            msghdr& h = sh.headers[i].msg_hdr;
+            h = {};
+            h.msg_name = &sh.from[i];
+            h.msg_namelen = sizeof(sockaddr_in);
+            h.msg_iov = &sh.iov[i];
+            h.msg_iovlen = 1;
+        }
+        sh.used = 0;
+        sh.queue.assign(hosts, {});
+        sh.next.assign(hosts, 0);
+        sh.is_listed.assign(hosts, 0);
+        sh.listed.clear();
+        sh.fd = socket;
+        std::vector<int> ids(hosts);
+        ids[0] = socket;
+        for (std::size_t k = 1; k < hosts; ++k) ids[k] = kFirstSharedId - static_cast<int>(k - 1);
+        return ids;
+    }
+
+    void receive(std::uint64_t now_us, std::vector<std::size_t>& ready) override {
+        Shared& sh = state().shared;
+        if (sh.fd < 0) return;
+        for (std::size_t h : sh.listed) {
+            sh.queue[h].clear();
+            sh.next[h] = 0;
+            sh.is_listed[h] = 0;
+        }
+        sh.listed.clear();
+        // The kernel rewrites msg_namelen, msg_flags and msg_len of the headers it filled: reset
+        // the name lengths of those, the rest was set once (attach).
+        for (std::size_t i = 0; i < sh.used; ++i) sh.headers[i].msg_hdr.msg_namelen = sizeof(sockaddr_in);
+        sh.used = 0;
+        while (sh.used + kReceiveChunk <= kPoolSlots) {
+            ++sh.receive_calls;
+            const int n = recvmmsg(sh.fd, &sh.headers[sh.used], static_cast<unsigned>(kReceiveChunk), MSG_DONTWAIT, nullptr);
+            if (n <= 0) break;
+            const std::size_t end = sh.used + static_cast<std::size_t>(n);
+            for (std::size_t i = sh.used; i < end; ++i) {
+                const mmsghdr& m = sh.headers[i];
+                if ((m.msg_hdr.msg_flags & MSG_TRUNC) != 0) {
+                    ++sh.dropped;
+                    continue;
+                }
+                const std::span<std::uint8_t> d(&sh.bytes[i * DatagramBatch::kMaxBytes], m.msg_len);
+                const int h = sh.demux->route(sh.from[i].sin_addr.s_addr, ENET_NET_TO_HOST_16(sh.from[i].sin_port), d, now_us);
+                if (h < 0) {
+                    ++sh.dropped;
+                    continue;
+                }
+                ++sh.datagrams_in;
+                const auto k = static_cast<std::size_t>(h);
+                sh.queue[k].push_back(static_cast<std::uint32_t>(i));
+                if (!sh.is_listed[k]) {
+                    sh.is_listed[k] = 1;
+                    sh.listed.push_back(k);
+                    ready.push_back(k);
+                }
+            }
+            sh.used = end;
+            if (static_cast<std::size_t>(n) < kReceiveChunk) break;
+        }
+    }
+
+    bool holds(std::size_t host) const override {
+        const Shared& sh = state().shared;
+        return host < sh.queue.size() && sh.next[host] < sh.queue[host].size();
+    }
+
+    void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) override {
+        if (state().shared.demux) state().shared.demux->connected(host, ip, port, connect_id);
+    }
+    void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) override {
+        if (state().shared.demux) state().shared.demux->disconnected(host, ip, port, connect_id);
+    }
+};
+
+// Host k's next routed datagram into ENet's buffers; 0 when its queue is empty.
+int shared_receive(Shared& sh, std::size_t k, ENetAddress* address, ENetBuffer* buffers, size_t count) {
+    if (sh.next[k] >= sh.queue[k].size()) return 0;
+    const std::uint32_t i = sh.queue[k][sh.next[k]++];
+    const auto* src = &sh.bytes[i * DatagramBatch::kMaxBytes];
+    std::size_t left = sh.headers[i].msg_len, copied = 0;
+    for (std::size_t b = 0; b < count && left > 0; ++b) {
+        const std::size_t n = left < buffers[b].dataLength ? left : buffers[b].dataLength;
+        std::memcpy(buffers[b].data, src + copied, n);
+        copied += n;
+        left -= n;
+    }
+    if (address != nullptr) {
+        address->host = sh.from[i].sin_addr.s_addr;
+        address->port = ENET_NET_TO_HOST_16(sh.from[i].sin_port);
+    }
+    return static_cast<int>(copied);
+}
+
+}  // namespace
+
+transport::SocketFanout& fanout() {
+    static Fanout f;
+    return f;
 }
 
 }  // namespace lockroll::server::enet_socket_batching
@@ -142,6 +321,14 @@ using namespace lockroll::server::enet_socket_batching;
 extern "C" int enet_socket_send(ENetSocket socket, const ENetAddress* address, const ENetBuffer* buffers, size_t count) {
     State& st = state();
     ++st.seen_send;
+    if (const int k = st.shared.host_of(socket); k > 0) {
+        // A host of the fanout: the shared socket, its VERIFY_CONNECT naming the server's peer id.
+        Installed* s = find(st.shared.fd);
+        if (s == nullptr || !s->batch || address == nullptr) return -1;
+        const int n = s->batch->send(to_sockaddr(*address), as_iovec(buffers), count);
+        if (n > 0) st.shared.demux->outgoing(static_cast<std::size_t>(k), s->batch->last_queued());
+        return n;
+    }
     Installed* s = find(socket);
     if (s != nullptr && s->batch && address != nullptr) return s->batch->send(to_sockaddr(*address), as_iovec(buffers), count);
     const int n = enet_own().send(socket, address, buffers, count);
@@ -152,6 +339,7 @@ extern "C" int enet_socket_send(ENetSocket socket, const ENetAddress* address, c
 extern "C" int enet_socket_receive(ENetSocket socket, ENetAddress* address, ENetBuffer* buffers, size_t count) {
     State& st = state();
     ++st.seen_receive;
+    if (const int k = st.shared.host_of(socket); k >= 0) return shared_receive(st.shared, static_cast<std::size_t>(k), address, buffers, count);
     Installed* s = find(socket);
     if (s != nullptr && s->batch) {
         sockaddr_in from{};
@@ -182,6 +370,13 @@ extern "C" int enet_socket_wait(ENetSocket socket, enet_uint32* condition, enet_
 
 extern "C" void enet_socket_destroy(ENetSocket socket) {
     State& st = state();
+    if (st.shared.host_of(socket) > 0) return;  // an id of the fanout's, no descriptor
+    if (st.shared.fd >= 0 && socket == st.shared.fd) {
+        st.counts.receive_syscalls += st.shared.receive_calls;
+        st.counts.datagrams_in += st.shared.datagrams_in;
+        st.counts.dropped += st.shared.dropped;
+        st.shared = Shared{};
+    }
     for (auto it = st.sockets.begin(); it != st.sockets.end(); ++it) {
         if (it->fd != socket) continue;
         if (it->batch) {

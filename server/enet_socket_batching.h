@@ -19,6 +19,10 @@
 #include <cstdint>
 #include <string>
 
+namespace lockroll::transport {
+class SocketFanout;
+}
+
 namespace lockroll::server::enet_socket_batching {
 
 enum class Mode : std::uint8_t {
@@ -41,5 +45,11 @@ std::string install(int fd, Mode mode);
 void flush();
 // The installed sockets' syscalls and datagrams so far.
 Counts counts();
+// Several ENet hosts over one socket (transport::SocketFanout; EnetServerConfig::fanout): its
+// attach() installs the socket in Batch mode, then reads it in batches of up to 1,024 datagrams
+// per receive() and routes each to its host by the sender's address (server/datagram_demux.h);
+// the other hosts get socket ids that are no descriptors (enet_socket_destroy ignores them).
+// One socket at a time.
+transport::SocketFanout& fanout();
 
 }  // namespace lockroll::server::enet_socket_batching

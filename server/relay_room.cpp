@@ -25,6 +25,7 @@ RelayRoom::RelayRoom(std::uint64_t id, const RelayHello& first, const RoomConfig
       scene_checksum_(first.scene_checksum),
       absent_at_start_(first.absent_slots),
       period_us_(1000000u / std::max<unsigned>(1, first.tick_rate)),
+      max_frames_(relay_max_frames(first.players, first.input_size)),
       history_(static_cast<std::size_t>(first.players) * (1 + first.input_size),
                static_cast<std::size_t>(std::min(std::max(1.0, config.history_s * first.tick_rate), 1e9))) {
 
@@ -293,15 +294,18 @@ void RelayRoom::confirm_ready(std::uint64_t now_us) {
     const auto deadline = static_cast<std::uint32_t>(config_.input_deadline);
     for (;;) {
         const std::uint32_t f = confirmed_next_;
-        bool ready = true;
-        for (const auto& s : slots_)
-            if (s.state == SlotState::Running && f >= s.input_from && !has_input(s, f)) ready = false;
+        bool ready = true, anyone = false;
+        for (const auto& s : slots_) {
+            if (s.state != SlotState::Running || f < s.input_from) continue;
+            anyone = true;
+            if (!has_input(s, f)) {
+                ready = false;
+                break;
+            }
+        }
         // Nobody waits on a late slot past the deadline; and never beyond the clock otherwise
         // (a room where nobody plays confirms nothing ahead of time).
         const bool due = started_ && clock >= f + deadline;
-        bool anyone = false;
-        for (const auto& s : slots_)
-            if (s.state == SlotState::Running && f >= s.input_from) anyone = true;
         if (!(due || (ready && anyone))) break;
         confirm_one(now_us);
     }
@@ -326,23 +330,24 @@ void RelayRoom::send_frames(Client& cl, std::uint32_t ack, std::uint64_t now_us,
     m.players = static_cast<std::uint8_t>(players_);
     m.input_size = static_cast<std::uint8_t>(input_size_);
     const std::uint32_t from = std::max(cl.ack, history_base());
-    const std::uint32_t count = std::min<std::uint32_t>(confirmed_next_ > from ? confirmed_next_ - from : 0,
-                                                        relay_max_frames(players_, input_size_));
+    const std::uint32_t count = std::min<std::uint32_t>(confirmed_next_ > from ? confirmed_next_ - from : 0, max_frames_);
     m.first_frame = from;
     m.frame_count = static_cast<std::uint16_t>(count);
-    const std::size_t slots = static_cast<std::size_t>(players_);
-    m.flags.resize(count * slots);
-    m.inputs.resize(count * slots * input_size_);
-    for (std::uint32_t i = 0; i < count; ++i) {
-        const auto rec = history_.at(from + i - history_base());
-        std::copy_n(rec.begin(), slots, m.flags.begin() + static_cast<std::ptrdiff_t>(i * slots));
-        std::copy_n(rec.begin() + static_cast<std::ptrdiff_t>(slots), slots * input_size_,
-                    m.inputs.begin() + static_cast<std::ptrdiff_t>(i * slots * input_size_));
-    }
     m.stamp = static_cast<std::uint16_t>(now_us / 100);
     m.echo = cl.has_stamp ? cl.stamp : 0;
     m.hold = cl.has_stamp ? stamp_hold(cl.stamp_at_us, now_us) : 0xFFFF;
-    encode(m, out.add(cl.connection, false).bytes);
+    // Straight from the history (records of flags then inputs: the message's layout per frame).
+    struct Source {
+        const FrameHistory* history;
+        std::size_t first;
+    } source{&history_, from - history_base()};
+    encode_frames(
+        m, &source,
+        [](const void* c, std::uint32_t i) {
+            const auto* s = static_cast<const Source*>(c);
+            return s->history->at(s->first + i).data();
+        },
+        out.add(cl.connection, false).bytes);
     cl.last_send_us = now_us;
 }
 

@@ -153,6 +153,7 @@ public:
     bool ended_without_majority() const { return ended_without_majority_; }
     // Connections in the minority max_minority_rounds in a row since the last call, to kick.
     void take_kicks(std::vector<ConnectionId>& out);
+    bool has_kicks() const { return !kicks_.empty(); }
     // The confirmed input set of a frame still in the history: flags then inputs.
     bool confirmed_inputs(std::uint32_t frame, std::vector<std::uint8_t>& flags, std::vector<std::uint8_t>& inputs) const;
 
@@ -230,6 +231,7 @@ private:
     std::uint64_t scene_checksum_;
     std::uint16_t absent_at_start_;
     std::uint64_t period_us_;
+    std::uint32_t max_frames_;  // frames one Frames message holds
     bool started_ = false;
     std::uint64_t start_us_ = 0;
     std::uint64_t next_tick_us_ = 0;

@@ -55,7 +55,7 @@ void RelayServer::emit(ServerEvent e) {
 
 const RelayRoom* RelayServer::room(std::uint64_t id) const {
     auto it = rooms_.find(id);
-    return it == rooms_.end() ? nullptr : it->second.get();
+    return it == rooms_.end() ? nullptr : it->second.room.get();
 }
 
 void RelayServer::on_connect(ConnectionId c, std::uint64_t now_us) {
@@ -80,9 +80,9 @@ void RelayServer::on_disconnect(ConnectionId c, std::uint64_t now_us) {
     if (!conn.bound) return;
     auto r = rooms_.find(conn.room);
     if (r == rooms_.end()) return;
-    const int slot = r->second->slot_of(c);
-    r->second->remove(c, now_us);
-    emit({ServerEvent::Kind::Left, conn.room, slot, r->second->confirmed_frames(), c, {}});
+    const int slot = r->second.room->slot_of(c);
+    r->second.room->remove(c, now_us);
+    emit({ServerEvent::Kind::Left, conn.room, slot, r->second.room->confirmed_frames(), c, {}});
     close_room_if_done(conn.room);
 }
 
@@ -94,7 +94,7 @@ void RelayServer::kick(ConnectionId c, Connection& conn, const char* why, std::u
     kicks_.push_back(c);
     int slot = -1;
     if (conn.bound)
-        if (auto r = rooms_.find(conn.room); r != rooms_.end()) slot = r->second->slot_of(c);
+        if (auto r = rooms_.find(conn.room); r != rooms_.end()) slot = r->second.room->slot_of(c);
     emit({ServerEvent::Kind::Kicked, conn.room, slot, 0, c, why});
 }
 
@@ -140,23 +140,23 @@ void RelayServer::receive(ConnectionId c, std::span<const std::uint8_t> d, std::
         // A repeat of its own hello is harmless; a hello for another slot (or another set of
         // slots) is a spoof.
         if (const char* e = decode(d, hello_)) return bad(c, conn, e, now_us);
-        const int id = r->second->slot_of(c);
+        const int id = r->second.room->slot_of(c);
         if (hello_.room_id == conn.room &&
-            (hello_.role == RelayRole::Spectator ? id >= r->second->players()
-                                                 : id == hello_.slot && relay_hello_slots(hello_) == r->second->connection_slots(c)))
-            return r->second->welcome_again(c, hello_, now_us, out_);
+            (hello_.role == RelayRole::Spectator ? id >= r->second.room->players()
+                                                 : id == hello_.slot && relay_hello_slots(hello_) == r->second.room->connection_slots(c)))
+            return r->second.room->welcome_again(c, hello_, now_us, out_);
         refuse(c, RelayRefusal::Spoof, hello_);
         return bad(c, conn, "hello for another slot", now_us);
     }
-    const std::size_t verdicts = r->second->desync_verdicts().size();
-    const bool was_started = r->second->started();
-    const bool was_pending = r->second->frames_pending();
-    if (const char* e = r->second->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
-    if (!was_pending && r->second->frames_pending()) pending_rooms_.push_back(conn.room);
-    report_verdicts(*r->second, conn.room, verdicts, now_us);
-    if (!was_started && r->second->started()) {
+    const std::size_t verdicts = r->second.room->desync_verdicts().size();
+    const bool was_started = r->second.room->started();
+    const bool was_pending = r->second.room->frames_pending();
+    if (const char* e = r->second.room->receive(c, d, now_us, out_)) bad(c, conn, e, now_us);
+    if (!was_pending && r->second.room->frames_pending()) pending_rooms_.push_back(conn.room);
+    report_verdicts(*r->second.room, conn.room, verdicts, now_us);
+    if (!was_started && r->second.room->started()) {
         emit({ServerEvent::Kind::RoomStarted, conn.room, -1, 0, c, {}});
-        schedule(conn.room, r->second->next_tick_us());
+        schedule(conn.room, r->second.room->next_tick_us());
     }
 }
 
@@ -182,7 +182,7 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     // let finish. The room's own admit() still decides whether the slot is its to take.
     if (draining_) {
         const auto running = rooms_.find(h.room_id);
-        if (running == rooms_.end() || !running->second->started()) return refused(RelayRefusal::Draining);
+        if (running == rooms_.end() || !running->second.room->started()) return refused(RelayRefusal::Draining);
     }
     if (h.players < 1 || h.players > kRelayMaxPlayers || h.input_size < 1 || h.input_size > kRelayMaxInputSize ||
         h.tick_rate < 1 || h.tick_rate > 1000)
@@ -191,12 +191,12 @@ void RelayServer::handle_hello(ConnectionId c, Connection& conn, std::span<const
     const bool created = it == rooms_.end();
     if (created) {
         if (rooms_.size() >= config_.max_rooms) return refused(RelayRefusal::Full);
-        it = rooms_.emplace(h.room_id, std::make_unique<RelayRoom>(h.room_id, h, config_.room)).first;
+        it = rooms_.emplace(h.room_id, RoomSlot{std::make_unique<RelayRoom>(h.room_id, h, config_.room), 0}).first;
         schedule(h.room_id, now_us);
         ++counters_.rooms_created;
         emit({ServerEvent::Kind::RoomCreated, h.room_id, -1, 0, c, {}});
     }
-    RelayRoom& room = *it->second;
+    RelayRoom& room = *it->second.room;
     const bool was_started = room.started();
     ConnectionId replaced = 0;
     bool has_replaced = false;
@@ -246,15 +246,15 @@ RelayRefusal RelayServer::check_token(ConnectionId c, const RelayHello& h, std::
         const auto holder = connections_.find(u->second);
         if (holder != connections_.end() && holder->second.bound && !holder->second.kicked &&
             holder->second.token_tag == tag_ && holder->second.incarnation != h.incarnation &&
-            room->second->live(u->second, now_us))
+            room->second.room->live(u->second, now_us))
             return RelayRefusal::TokenInUse;
     }
     // A held slot (its connection live or silent) goes back only to its client id: each slot
     // the hello names.
     const std::uint16_t want = relay_hello_slots(h);
-    for (int s = 0; s < room->second->players(); ++s) {
+    for (int s = 0; s < room->second.room->players(); ++s) {
         ConnectionId held = 0;
-        if ((want & (1u << s)) && room->second->holder(s, held) && held != c)
+        if ((want & (1u << s)) && room->second.room->holder(s, held) && held != c)
             if (const auto hc = connections_.find(held); hc != connections_.end() && hc->second.client_id != grant_.client_id)
                 return RelayRefusal::SlotOwned;
     }
@@ -272,7 +272,7 @@ std::uint64_t RelayServer::unix_s(std::uint64_t now_us) const {
 
 void RelayServer::send_pending() {
     for (std::uint64_t id : pending_rooms_)
-        if (auto r = rooms_.find(id); r != rooms_.end()) r->second->send_pending(out_);
+        if (auto r = rooms_.find(id); r != rooms_.end()) r->second.room->send_pending(out_);
     pending_rooms_.clear();
 }
 
@@ -288,15 +288,32 @@ void RelayServer::tick(std::uint64_t now_us) {
         }
         unbound_.pop_front();
     }
-    while (!due_.empty() && due_.top().first <= now_us) {
-        const auto [due, id] = due_.top();
-        due_.pop();
-        service_room(id, due, now_us);
+    const std::uint64_t now_ms = now_us / 1000;
+    if (!wheel_started_) {
+        wheel_started_ = true;
+        wheel_ms_ = now_ms;
+    }
+    if (now_ms < wheel_ms_) return;  // a clock that went back: nothing new is due
+    if (now_ms >= wheel_ms_ + kWheelSlots) wheel_ms_ = now_ms + 1 - kWheelSlots;  // a long gap: each slot once
+    for (;;) {
+        // The slot's entries: the due ones serviced, the others (later this ms, or a lap ahead) kept.
+        std::vector<DueEntry>& slot = wheel_[wheel_ms_ % kWheelSlots];
+        if (!slot.empty()) {
+            wheel_scratch_.swap(slot);
+            for (const DueEntry& e : wheel_scratch_) {
+                if (e.due <= now_us) service_room(e.room, e.due, now_us);
+                else wheel_[(e.due / 1000 > wheel_ms_ ? e.due / 1000 : wheel_ms_) % kWheelSlots].push_back(e);
+            }
+            wheel_scratch_.clear();
+        }
+        if (wheel_ms_ == now_ms) break;
+        ++wheel_ms_;
     }
 }
 
 void RelayServer::report_verdicts(RelayRoom& room, std::uint64_t id, std::size_t from, std::uint64_t now_us) {
     const auto& v = room.desync_verdicts();
+    if (v.size() == from && !room.has_kicks()) return;  // nothing new (every datagram asks)
     for (std::size_t i = from; i < v.size(); ++i) {
         ConnectionId c = 0;
         room.holder(v[i].second, c);
@@ -311,21 +328,27 @@ void RelayServer::report_verdicts(RelayRoom& room, std::uint64_t id, std::size_t
 }
 
 void RelayServer::schedule(std::uint64_t id, std::uint64_t due_us) {
-    auto [it, fresh] = room_due_.try_emplace(id, due_us);
-    if (!fresh) {
-        if (it->second <= due_us) return;  // already due by then
-        it->second = due_us;
+    auto it = rooms_.find(id);
+    if (it == rooms_.end()) return;
+    schedule(it->second, id, due_us);
+}
+
+void RelayServer::schedule(RoomSlot& r, std::uint64_t id, std::uint64_t due_us) {
+    if (r.due != 0 && r.due <= due_us) return;  // already due by then
+    r.due = due_us;
+    const std::uint64_t ms = due_us / 1000;
+    if (!wheel_started_) {
+        wheel_started_ = true;
+        wheel_ms_ = ms;
     }
-    due_.emplace(due_us, id);
+    wheel_[(ms < wheel_ms_ ? wheel_ms_ : ms) % kWheelSlots].push_back({due_us, id});
 }
 
 void RelayServer::service_room(std::uint64_t id, std::uint64_t due, std::uint64_t now_us) {
-    auto d = room_due_.find(id);
-    if (d == room_due_.end() || d->second != due) return;  // stale entry
-    room_due_.erase(d);
     auto r = rooms_.find(id);
-    if (r == rooms_.end()) return;
-    RelayRoom& room = *r->second;
+    if (r == rooms_.end() || r->second.due != due) return;  // stale entry
+    r->second.due = 0;
+    RelayRoom& room = *r->second.room;
     const std::size_t verdicts = room.desync_verdicts().size();
     room.tick(now_us, out_);
     report_verdicts(room, id, verdicts, now_us);
@@ -344,17 +367,16 @@ void RelayServer::service_room(std::uint64_t id, std::uint64_t due, std::uint64_
         return;
     }
     const std::uint64_t period = 1000000u / static_cast<std::uint64_t>(std::max(1, room.tick_rate()));
-    schedule(id, room.started() ? std::max(room.next_tick_us(), now_us + 1) : now_us + period);
+    schedule(r->second, id, room.started() ? std::max(room.next_tick_us(), now_us + 1) : now_us + period);
 }
 
 void RelayServer::close_room_if_done(std::uint64_t id) {
     auto it = rooms_.find(id);
-    if (it == rooms_.end() || !it->second->empty()) return;
+    if (it == rooms_.end() || !it->second.room->empty()) return;
     // An unstarted room with nobody in it goes too: its creator left before the others came.
-    emit({ServerEvent::Kind::RoomClosed, id, -1, it->second->confirmed_frames(), 0, {}});
+    emit({ServerEvent::Kind::RoomClosed, id, -1, it->second.room->confirmed_frames(), 0, {}});
     ++counters_.rooms_closed;
-    rooms_.erase(it);
-    room_due_.erase(id);  // its heap entry is now stale
+    rooms_.erase(it);  // its wheel entry is now stale
 }
 
 void RelayServer::start_drain(std::uint64_t now_us) {
@@ -363,10 +385,10 @@ void RelayServer::start_drain(std::uint64_t now_us) {
     draining_ = true;
     RelayNotice n;
     n.kind = RelayNoticeKind::Draining;
-    for (auto& [id, room] : rooms_) room->notify_all(n, out_);
+    for (auto& [id, r] : rooms_) r.room->notify_all(n, out_);
     std::vector<std::uint64_t> empty;
-    for (auto& [id, room] : rooms_)
-        if (room->empty()) empty.push_back(id);
+    for (auto& [id, r] : rooms_)
+        if (r.room->empty()) empty.push_back(id);
     for (auto id : empty) close_room_if_done(id);
 }
 

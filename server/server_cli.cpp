@@ -48,16 +48,22 @@ void add_server_options(CLI::App& cmd, const SocketBatching& batching) {
         ->capture_default_str();
     cmd.add_option("--max-rooms", o->server.max_rooms, "Rooms this process accepts at once")->check(CLI::Range(1, 100000))->capture_default_str();
     cmd.add_option("--max-connections", o->server.max_connections,
-                   "Connections this process accepts at once (ENet walks every slot on each pass: size it to rooms x (players + spectators))")
+                   "Connections this process accepts at once (size it to rooms x (players + spectators): with one ENet host, ENet walks every slot on each pass)")
         ->check(CLI::Range(2, 4095))
         ->capture_default_str();
     cmd.add_option("--max-spectators", o->server.room.max_spectators, "Spectator places per room")->check(CLI::Range(0, 64))->capture_default_str();
     cmd.add_option("--per-address", o->max_connections_per_address, "Connections one IP address may hold (raise for a load test)")
         ->check(CLI::Range(1, 4095))
         ->capture_default_str();
+    cmd.add_option("--connections-per-host", o->connections_per_host,
+                   "Connections per ENet host behind the one socket (lockroll-server, batched syscalls only): a pass services only "
+                   "the hosts with traffic, instead of walking every connection; 0: one host for all (as lockroll server)")
+        ->check(CLI::Range(0, 4095))
+        ->capture_default_str();
     cmd.add_option("--pass-interval-us", o->pass_interval_us,
-                   "Shortest time between two passes of the loop (0: a pass per wake-up). Each pass walks every ENet connection "
-                   "slot three times; a longer interval batches more datagrams per pass, for up to this much more relay delay")
+                   "Shortest time between two passes of the loop (0: a pass per wake-up). Each pass services the ENet hosts with "
+                   "traffic (with one host: walks every connection slot three times); a longer interval batches more datagrams "
+                   "per pass, for up to this much more relay delay")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
     // Read here, while parsing: a missing or malformed key file exits 2 before anything binds.

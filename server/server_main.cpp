@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
     lockroll::server::add_server_options(app, {[&plain](int fd) {
                                                    return plain ? std::string("--plain-syscalls") : batching::install(fd, batching::Mode::Batch);
                                                },
-                                               [] { batching::flush(); }});
+                                               [] { batching::flush(); },
+                                               [&plain]() { return plain ? nullptr : &batching::fanout(); }});
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

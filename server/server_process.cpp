@@ -100,13 +100,20 @@ int ServerProcess::run() {
     ec.port = port;
     ec.max_connections = std::min<std::size_t>(options_.server.max_connections, 4095);
     ec.max_connections_per_address = options_.max_connections_per_address;
+    const SocketBatching& batching = options_.socket_batching;
+    if (batching.fanout && options_.connections_per_host > 0 && (ec.fanout = batching.fanout()) != nullptr) {
+        ec.connections_per_host = options_.connections_per_host;
+    }
     transport::EnetServer enet(ec);
     RelayServer server(options_.server);
-    const SocketBatching& batching = options_.socket_batching;
     const auto flush_batch = [&] {
         if (batching.flush) batching.flush();
     };
-    if (batching.install) {
+    if (enet.host_count() > 1) {
+        log->info("socket syscalls batched: recvmmsg / sendmmsg under ENet; {} ENet hosts of {} connections share the socket",
+                  enet.host_count(), options_.connections_per_host);
+    } else if (batching.install) {
+        if (!enet.fanout_refused().empty()) log->warn("one ENet host for every connection ({})", enet.fanout_refused());
         const std::string why = batching.install(enet.socket_fd());
         if (why.empty())
             log->info("socket syscalls batched: recvmmsg / sendmmsg under ENet");

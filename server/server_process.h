@@ -19,6 +19,10 @@
 
 #include "server/relay_server.h"
 
+namespace lockroll::transport {
+class SocketFanout;
+}
+
 namespace spdlog {
 class logger;
 }
@@ -29,10 +33,18 @@ namespace lockroll::server {
 // empty in `lockroll server`, which keeps ENet's one syscall per datagram. install gets the bound
 // socket and returns "" or why batching is off; flush sends what ENet queued (run after each poll
 // and each pass).
+// fanout, when set, lets several ENet hosts share the socket (transport::SocketFanout; it batches
+// the socket itself, install is then not called).
 struct SocketBatching {
     std::function<std::string(int fd)> install;
     std::function<void()> flush;
+    std::function<transport::SocketFanout*()> fanout;
 };
+
+// Connections per ENet host when the socket is shared (ServerProcessOptions::connections_per_host;
+// docs/performance.md, "Density": the walks a pass makes grow with the hosts it services times
+// their size, and each serviced host costs a few hundred instructions of its own).
+inline constexpr std::size_t kDefaultConnectionsPerHost = 4;
 
 struct ServerProcessOptions {
     std::string listen = "127.0.0.1:0";
@@ -42,9 +54,13 @@ struct ServerProcessOptions {
     std::string status_file;   // JSON, rewritten every second
     double drain_timeout_s = 900;
     double run_seconds = 0;    // > 0: drain after this long (tests, soak)
-    // Shortest time between two passes (0: one per wake-up). A pass walks every ENet connection
-    // slot three times whatever it carries; waiting a little batches more datagrams per pass.
+    // Shortest time between two passes (0: one per wake-up). With one ENet host a pass walks every
+    // connection slot three times whatever it carries; with several (connections_per_host) it
+    // services the hosts with traffic, each at a fixed cost: waiting a little batches more
+    // datagrams per pass either way.
     std::uint32_t pass_interval_us = 0;
+    // Connections per ENet host behind the socket, when socket_batching has a fanout (0: one host).
+    std::size_t connections_per_host = kDefaultConnectionsPerHost;
     std::string log_level = "info";
     std::string key_file;      // where server.token_key came from (for the log)
     SocketBatching socket_batching;

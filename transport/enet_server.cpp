@@ -5,6 +5,7 @@
 #include "transport/enet_library.h"
 
 #include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <stdexcept>
 
@@ -40,22 +41,64 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
     if (enet_address_set_host(&address, config.bind_host.c_str()) != 0)
         throw std::runtime_error("ENet: cannot resolve listen address " + where);
     address.port = config.port;
-    host_ = enet_host_create(&address, config.max_connections, 2, 0, 0);
-    if (host_ == nullptr) throw std::runtime_error("ENet: cannot listen on " + where + " (in use, or not a local address)");
-    host_->duplicatePeers = config.max_connections_per_address;
-    host_->maximumPacketSize = config.max_packet_bytes;
-    host_->maximumWaitingData = config.max_waiting_bytes;
-    enet_socket_set_option(host_->socket, ENET_SOCKOPT_RCVBUF, config.socket_receive_bytes);
-    enet_socket_set_option(host_->socket, ENET_SOCKOPT_SNDBUF, config.socket_send_bytes);
+    const bool shared = config.fanout != nullptr && config.connections_per_host > 0 && config.connections_per_host < config.max_connections;
+    const std::size_t per_host = shared ? config.connections_per_host : config.max_connections;
+    const auto configure = [&](ENetHost* h) {
+        h->duplicatePeers = config.max_connections_per_address;
+        h->maximumPacketSize = config.max_packet_bytes;
+        h->maximumWaitingData = config.max_waiting_bytes;
+    };
+    ENetHost* first = enet_host_create(&address, per_host, 2, 0, 0);
+    if (first == nullptr) throw std::runtime_error("ENet: cannot listen on " + where + " (in use, or not a local address)");
+    configure(first);
+    enet_socket_set_option(first->socket, ENET_SOCKOPT_RCVBUF, config.socket_receive_bytes);
+    enet_socket_set_option(first->socket, ENET_SOCKOPT_SNDBUF, config.socket_send_bytes);
+    hosts_.push_back(first);
+    if (shared) {
+        const std::size_t count = (config.max_connections + per_host - 1) / per_host;
+        std::vector<int> ids = config.fanout->attach(static_cast<int>(first->socket), count, per_host, config.max_connections,
+                                                     config.max_connections_per_address, fanout_why_);
+        if (ids.size() == count) {
+            for (std::size_t i = 1; i < count; ++i) {
+                // An unbound host whose own socket is closed at once: it sends and reads through
+                // the fanout, under the id it was given. The last holds what is left.
+                const std::size_t peers = i + 1 < count ? per_host : config.max_connections - i * per_host;
+                ENetHost* h = enet_host_create(nullptr, peers, 2, 0, 0);
+                if (h == nullptr) {
+                    for (auto* made : hosts_) enet_host_destroy(made);
+                    throw std::runtime_error("ENet: cannot create host " + std::to_string(i) + " of " + std::to_string(count));
+                }
+                configure(h);
+                enet_socket_destroy(h->socket);
+                h->socket = static_cast<ENetSocket>(ids[i]);
+                hosts_.push_back(h);
+            }
+            fanout_ = config.fanout;
+        } else {
+            // One host for every connection, as without a fanout.
+            if (fanout_why_.empty()) fanout_why_ = "the fanout gave no socket ids";
+            enet_host_destroy(first);
+            hosts_.clear();
+            first = enet_host_create(&address, config.max_connections, 2, 0, 0);
+            if (first == nullptr) throw std::runtime_error("ENet: cannot listen on " + where + " (in use, or not a local address)");
+            configure(first);
+            enet_socket_set_option(first->socket, ENET_SOCKOPT_RCVBUF, config.socket_receive_bytes);
+            enet_socket_set_option(first->socket, ENET_SOCKOPT_SNDBUF, config.socket_send_bytes);
+            hosts_.push_back(first);
+        }
+    }
+    dirty_.assign(hosts_.size(), 0);
+    serviced_at_.assign(hosts_.size(), 0);
     ENetAddress bound{};
-    port_ = enet_socket_get_address(host_->socket, &bound) == 0 ? bound.port : config.port;
+    port_ = enet_socket_get_address(first->socket, &bound) == 0 ? bound.port : config.port;
 }
 
 EnetServer::~EnetServer() {
     for (auto& r : inbox_) enet_packet_destroy(r.packet);
-    for (auto& [id, peer] : by_id_) enet_peer_disconnect_now(peer, 0);
-    enet_host_flush(host_);
-    enet_host_destroy(host_);
+    for (auto& [id, c] : by_id_) enet_peer_disconnect_now(c.peer, 0);
+    for (auto* h : hosts_) enet_host_flush(h);
+    // The shared socket's host last: the others send through it until then.
+    for (std::size_t i = hosts_.size(); i-- > 0;) enet_host_destroy(hosts_[i]);
 }
 
 void EnetServer::release_taken() {
@@ -64,42 +107,85 @@ void EnetServer::release_taken() {
     inbox_next_ = 0;
 }
 
-void EnetServer::poll(Micros now, std::uint32_t wait_us) {
-    release_taken();
-    // enet_host_service sends what is queued before it reads, unless it has events left over
-    // from the last poll to hand out first: then flush, or queued sends would wait.
-    if (events_left_) enet_host_flush(host_);
-    events_left_ = false;
+void EnetServer::mark_dirty(std::size_t host) {
+    if (dirty_[host]) return;
+    dirty_[host] = 1;
+    dirty_list_.push_back(host);
+}
+
+void EnetServer::service(std::size_t h, Micros now, std::uint32_t wait_ms, int& handled) {
+    ENetHost* host = hosts_[h];
     ENetEvent e;
     int errors = 0;
-    enet_uint32 wait_ms = (wait_us + 999) / 1000;
-    int handled = 0;
-    while (handled < kMaxEventsPerPoll) {
+    // One host: the socket's datagrams stay in the kernel (or the batch) if a poll stops at its
+    // event cap. Several: what the fanout routed to this host is gone at the next receive, so
+    // the host reads until its queue is empty.
+    const int cap = fanout_ ? std::numeric_limits<int>::max() : kMaxEventsPerPoll;
+    while (handled < cap) {
         // Each enet_host_service call walks every peer slot of the host twice (acks, pings,
         // queued sends) around one read of at most kEnetReceiveBatch datagrams; with thousands
         // of slots those walks are most of the server's cost. So one call reads the socket and
         // enet_host_check_events (no walk) dispatches what it read; another call follows only
-        // if that batch may have left datagrams in the socket.
-        const int r = enet_host_service(host_, &e, wait_ms);
+        // if that batch may have left datagrams in the socket (or in the host's queue).
+        const int r = enet_host_service(host, &e, wait_ms);
+        ++counters_.host_services;
         wait_ms = 0;
         if (r < 0) {
             ++counters_.service_errors;
             if (++errors >= kMaxErrorsPerPoll) break;
             continue;
         }
-        if (r == 0) break;
+        if (r == 0) {
+            if (fanout_ && fanout_->holds(h)) continue;
+            break;
+        }
         int batch = 0;
         do {
-            handle(e, now);
+            handle(e, h, now);
             ++handled;
             ++batch;
-        } while (handled < kMaxEventsPerPoll && enet_host_check_events(host_, &e) > 0);
-        if (batch < kEnetReceiveBatch) break;
+        } while (handled < cap && enet_host_check_events(host, &e) > 0);
+        if (batch < kEnetReceiveBatch && !(fanout_ && fanout_->holds(h))) break;
     }
-    events_left_ = handled >= kMaxEventsPerPoll;
+    dirty_[h] = 0;
+    serviced_at_[h] = now;
 }
 
-void EnetServer::handle(const _ENetEvent& ev, Micros now) {
+void EnetServer::poll(Micros now, std::uint32_t wait_us) {
+    release_taken();
+    int handled = 0;
+    if (!fanout_) {
+        // enet_host_service sends what is queued before it reads, unless it has events left over
+        // from the last poll to hand out first: then flush, or queued sends would wait.
+        if (events_left_) enet_host_flush(hosts_[0]);
+        service(0, now, (wait_us + 999) / 1000, handled);
+        events_left_ = handled >= kMaxEventsPerPoll;
+        dirty_list_.clear();
+        return;
+    }
+    // What the hosts queued since the last poll leaves first (one walk of each such host: a
+    // service would walk it twice), and before the wait (the fanout's wait flushes its batch).
+    flush();
+    if (wait_us > 0) {
+        enet_uint32 condition = ENET_SOCKET_WAIT_RECEIVE;
+        enet_socket_wait(hosts_[0]->socket, &condition, (wait_us + 999) / 1000);
+    }
+    ready_.clear();
+    fanout_->receive(now, ready_);
+    for (std::size_t h : ready_) service(h, now, 0, handled);
+    // Hosts without traffic still have timers (pings, resends, timeouts, a disconnect to finish).
+    const Micros idle = Micros{config_.idle_service_ms} * 1000;
+    if (now >= next_idle_scan_) {
+        next_idle_scan_ = now + idle / 4;
+        for (std::size_t h = 0; h < hosts_.size(); ++h)
+            if (now - serviced_at_[h] >= idle) {
+                ++counters_.idle_services;
+                service(h, now, 0, handled);
+            }
+    }
+}
+
+void EnetServer::handle(const _ENetEvent& ev, std::size_t host, Micros now) {
     ENetEvent e = ev;
     switch (e.type) {
         case ENET_EVENT_TYPE_CONNECT: {
@@ -108,15 +194,20 @@ void EnetServer::handle(const _ENetEvent& ev, Micros now) {
             e.peer->data = reinterpret_cast<void*>(static_cast<std::uintptr_t>(id));
             enet_peer_timeout(e.peer, config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
             enet_peer_throttle_configure(e.peer, ENET_PEER_PACKET_THROTTLE_INTERVAL, ENET_PEER_PACKET_THROTTLE_ACCELERATION, 0);
-            by_id_[id] = e.peer;
+            by_id_[id] = {e.peer, host, e.peer->connectID};
             ++counters_.connections;
+            if (fanout_) fanout_->connected(host, e.peer->address.host, e.peer->address.port, e.peer->connectID);
             events_.push_back({ServerConnectionEvent::Type::Connected, id, address_text(e.peer->address)});
             break;
         }
         case ENET_EVENT_TYPE_DISCONNECT: {
             const std::uint32_t id = id_of(e.peer);
-            if (id != 0 && by_id_.erase(id)) {
+            const auto it = id != 0 ? by_id_.find(id) : by_id_.end();
+            if (it != by_id_.end()) {
+                const std::uint32_t connect_id = it->second.connect_id;
+                by_id_.erase(it);
                 ++counters_.disconnects;
+                if (fanout_) fanout_->disconnected(host, e.peer->address.host, e.peer->address.port, connect_id);
                 events_.push_back({ServerConnectionEvent::Type::Disconnected, id, address_text(e.peer->address)});
             }
             e.peer->data = nullptr;
@@ -161,8 +252,9 @@ bool EnetServer::receive(ServerDatagram& out) {
 bool EnetServer::send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable) {
     const auto it = by_id_.find(connection);
     if (it == by_id_.end() || bytes.size() > kMaxDatagramBytes) return false;
+    mark_dirty(it->second.host);
     ENetPacket* p = enet_packet_create(bytes.data(), bytes.size(), reliable ? ENET_PACKET_FLAG_RELIABLE : ENET_PACKET_FLAG_UNSEQUENCED);
-    if (p == nullptr || enet_peer_send(it->second, reliable ? kReliableChannel : kInputChannel, p) != 0) {
+    if (p == nullptr || enet_peer_send(it->second.peer, reliable ? kReliableChannel : kInputChannel, p) != 0) {
         if (p) enet_packet_destroy(p);
         ++counters_.send_failures;
         return false;
@@ -171,15 +263,38 @@ bool EnetServer::send(std::uint32_t connection, std::span<const std::uint8_t> by
     return true;
 }
 
-void EnetServer::flush() { enet_host_flush(host_); }
+void EnetServer::flush() {
+    if (!fanout_) {
+        enet_host_flush(hosts_[0]);
+        ++counters_.host_flushes;
+        return;
+    }
+    for (std::size_t h : dirty_list_)
+        if (dirty_[h]) {
+            enet_host_flush(hosts_[h]);
+            ++counters_.host_flushes;
+            dirty_[h] = 0;
+        }
+    dirty_list_.clear();
+}
 
 void EnetServer::disconnect(std::uint32_t connection) {
     const auto it = by_id_.find(connection);
-    if (it != by_id_.end()) enet_peer_disconnect_later(it->second, 0);
+    if (it == by_id_.end()) return;
+    enet_peer_disconnect_later(it->second.peer, 0);
+    mark_dirty(it->second.host);
 }
 
-int EnetServer::socket_fd() const { return static_cast<int>(host_->socket); }
-std::uint64_t EnetServer::wire_bytes_sent() const { return host_->totalSentData; }
-std::uint64_t EnetServer::wire_bytes_received() const { return host_->totalReceivedData; }
+int EnetServer::socket_fd() const { return static_cast<int>(hosts_[0]->socket); }
+std::uint64_t EnetServer::wire_bytes_sent() const {
+    std::uint64_t n = 0;
+    for (const auto* h : hosts_) n += h->totalSentData;
+    return n;
+}
+std::uint64_t EnetServer::wire_bytes_received() const {
+    std::uint64_t n = 0;
+    for (const auto* h : hosts_) n += h->totalReceivedData;
+    return n;
+}
 
 }  // namespace lockroll::transport

@@ -30,6 +30,35 @@ struct _ENetPacket;
 
 namespace lockroll::transport {
 
+// Several ENet hosts behind the one UDP socket (EnetServerConfig::connections_per_host): ENet walks
+// every connection slot of a host each time it services the host (acks, timeouts, pings, sends),
+// so one host of thousands of connections pays thousands of slot visits per pass whatever the pass
+// carries. With small hosts sharing the socket, a pass services only the hosts that received a
+// datagram, have something queued, or have not been serviced for idle_service_ms; ENet's protocol
+// on the wire is unchanged (every host speaks through the same address). The process provides
+// the routing (lockroll-server: server/enet_socket_batching.h, which reads the socket in batches
+// and routes by the sender's address, server/datagram_demux.h); EnetServer creates the hosts.
+class SocketFanout {
+public:
+    virtual ~SocketFanout() = default;
+    // Takes over `socket` (host 0's, bound) for `hosts` ENet hosts of `capacity` connections each
+    // (`connections` in all: the last holds the rest; at most max_per_address from one IP over all
+    // of them). Returns the socket id each host is
+    // to use (ids[0] == socket; the others are ids of the fanout's, no file descriptor), or an
+    // empty vector and why not in `why` (EnetServer then keeps one host).
+    virtual std::vector<int> attach(int socket, std::size_t hosts, std::size_t capacity, std::size_t connections,
+                                    std::size_t max_per_address, std::string& why) = 0;
+    // Reads what waits on the socket (bounded) and hands each datagram to its host's queue;
+    // appends the hosts that now hold datagrams (each once) to `ready`.
+    virtual void receive(std::uint64_t now_us, std::vector<std::size_t>& ready) = 0;
+    // Datagrams routed to `host` that it has not read yet (they are gone at the next receive()).
+    virtual bool holds(std::size_t host) const = 0;
+    // ENet connected / disconnected a peer of `host` at ip:port (as ENetAddress: the IP in network
+    // byte order, the port in host byte order), whose connect carried connect_id (ENetPeer::connectID).
+    virtual void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
+    virtual void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
+};
+
 struct EnetServerConfig {
     std::string bind_host = "127.0.0.1";
     std::uint16_t port = 0;                       // 0: an ephemeral port (see port())
@@ -50,6 +79,12 @@ struct EnetServerConfig {
     // the value at net.core.rmem_max / wmem_max (docs/deployment.md).
     int socket_receive_bytes = 4 * 1024 * 1024;
     int socket_send_bytes = 1024 * 1024;
+    // Several hosts behind the socket (SocketFanout above): max_connections / connections_per_host
+    // hosts (rounded up), when fanout is given and connections_per_host < max_connections;
+    // otherwise one host holds them all.
+    SocketFanout* fanout = nullptr;
+    std::size_t connections_per_host = 0;
+    std::uint32_t idle_service_ms = 20;  // a host with no traffic is serviced this often (pings, resends, timeouts)
 };
 
 struct ServerConnectionEvent {
@@ -73,6 +108,9 @@ struct EnetServerCounters {
     std::uint64_t datagrams_in = 0, datagrams_out = 0;
     std::uint64_t dropped_oversized = 0, dropped_bad_channel = 0, dropped_inbox_full = 0;
     std::uint64_t send_failures = 0, service_errors = 0;
+    // ENet's walks: enet_host_service calls (each walks its host's slots twice), enet_host_flush
+    // calls (once), and the services of hosts that had no traffic for idle_service_ms.
+    std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
 };
 
 class EnetServer {
@@ -98,12 +136,17 @@ public:
     // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
     void disconnect(std::uint32_t connection);
     std::size_t connection_count() const { return by_id_.size(); }
+    // ENet hosts behind the socket (1 unless the fanout took it), and why not when it did not.
+    std::size_t host_count() const { return hosts_.size(); }
+    const std::string& fanout_refused() const { return fanout_why_; }
     const EnetServerCounters& counters() const { return counters_; }
     std::uint64_t wire_bytes_sent() const;
     std::uint64_t wire_bytes_received() const;
 
 private:
-    void handle(const _ENetEvent& e, Micros now);
+    void handle(const _ENetEvent& e, std::size_t host, Micros now);
+    void service(std::size_t host, Micros now, std::uint32_t wait_ms, int& handled);
+    void mark_dirty(std::size_t host);
     bool events_left_ = false;  // the last poll stopped at its event cap: ENet still holds some
     void release_taken();
 
@@ -114,10 +157,21 @@ private:
     };
 
     EnetServerConfig config_;
-    _ENetHost* host_ = nullptr;
+    std::vector<_ENetHost*> hosts_;  // [0] owns the bound socket; the others share it (fanout)
+    SocketFanout* fanout_ = nullptr;   // set when several hosts share the socket
+    std::string fanout_why_;
+    std::vector<std::uint8_t> dirty_;  // per host: sent to since it was last serviced or flushed
+    std::vector<std::size_t> dirty_list_, ready_;
+    std::vector<Micros> serviced_at_;
+    Micros next_idle_scan_ = 0;
     std::uint16_t port_ = 0;
     std::uint32_t next_id_ = 1;
-    std::unordered_map<std::uint32_t, _ENetPeer*> by_id_;
+    struct Connection {
+        _ENetPeer* peer = nullptr;
+        std::size_t host = 0;
+        std::uint32_t connect_id = 0;  // ENet resets the peer's before its disconnect event
+    };
+    std::unordered_map<std::uint32_t, Connection> by_id_;
     std::deque<ServerConnectionEvent> events_;
     std::vector<Received> inbox_;  // [inbox_next_, size) not yet taken; taken ones are destroyed
     std::size_t inbox_next_ = 0;     // by the next receive() or poll()

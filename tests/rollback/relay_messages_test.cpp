@@ -152,6 +152,40 @@ TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
         EXPECT_NE(decode(std::span(b).first(n), 3, 2, g), nullptr) << "truncated to " << n;
 }
 
+// The relay server encodes Frames straight from its history's records (flags then inputs per
+// frame): the bytes are encode()'s for the same frames, and a record read out of place shows.
+TEST(RelayMessages, FramesFromRecordsAreTheSameBytes) {
+    RelayFrames f;
+    f.players = 3;
+    f.input_size = 2;
+    f.first_frame = 1000;
+    f.frame_count = 4;
+    f.server_frame = 1003;
+    f.input_ack = 1006;
+    f.stamp = 77;
+    f.echo = 5;
+    f.hold = 9;
+    f.flags = {0, kRelayAbsent, 0, 0, kRelayAbsent, 0, 0, kRelayAbsent, kRelayReplaced, 0, kRelayAbsent, kRelayReplaced};
+    f.inputs = {1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 2, 2, 0, 0, 5, 5};
+    std::vector<std::uint8_t> records;  // per frame: 3 flags, then 3 x 2 inputs
+    for (std::size_t i = 0; i < 4; ++i) {
+        records.insert(records.end(), f.flags.begin() + static_cast<std::ptrdiff_t>(i * 3), f.flags.begin() + static_cast<std::ptrdiff_t>(i * 3 + 3));
+        records.insert(records.end(), f.inputs.begin() + static_cast<std::ptrdiff_t>(i * 6), f.inputs.begin() + static_cast<std::ptrdiff_t>(i * 6 + 6));
+    }
+    std::vector<std::uint8_t> want, got;
+    encode(f, want);
+    RelayFrames header = f;
+    header.flags.clear();
+    header.inputs.clear();
+    const auto record = [](const void* c, std::uint32_t i) { return static_cast<const std::uint8_t*>(c) + i * 9; };
+    encode_frames(header, records.data(), record, got);
+    EXPECT_EQ(got, want);
+    records[9 * 3 + 3] ^= 1;  // frame 3, slot 0's first input byte
+    got.clear();
+    encode_frames(header, records.data(), record, got);
+    EXPECT_NE(got, want);
+}
+
 TEST(RelayMessages, InputForwardNoticeRoundTripAndLimits) {
     RelayInput m;
     m.confirmed_ack = kRelayNoFrames;

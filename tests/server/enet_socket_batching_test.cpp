@@ -9,7 +9,12 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstring>
+#include <map>
+#include <set>
 #include <vector>
+
+#include "transport/enet_server.h"
 
 namespace lockroll::server::enet_socket_batching {
 namespace {
@@ -112,6 +117,125 @@ TEST(EnetSocketBatching, RefusesASocketTwice) {
         Pair p(1);
         ASSERT_EQ(install(p.server->socket, Mode::Batch), "");
         EXPECT_NE(install(p.server->socket, Mode::Batch), "");
+    }
+    enet_deinitialize();
+}
+
+// Several ENet hosts behind one socket (fanout(), transport::EnetServer with connections_per_host):
+// clients, one of them holding two connections from one socket, each reach their own host and
+// get back exactly their own datagrams; a connection that leaves frees its host for the next
+// connect; the ENet walks a poll makes are those of the hosts with traffic.
+TEST(EnetSocketBatching, SeveralHostsShareTheSocketAndEachConnectionKeepsItsOwn) {
+    ASSERT_EQ(enet_initialize(), 0);
+    {
+        transport::EnetServerConfig ec;
+        ec.max_connections = 6;
+        ec.max_connections_per_address = 64;
+        ec.connections_per_host = 1;
+        ec.fanout = &fanout();
+        transport::EnetServer server(ec);
+        ASSERT_EQ(server.fanout_refused(), "");
+        ASSERT_EQ(server.host_count(), 6u);
+        ENetAddress a{};
+        enet_address_set_host(&a, "127.0.0.1");
+        a.port = server.port();
+        // Clients 0..2 one connection each; client 3 two from one socket (one address).
+        std::vector<ENetHost*> clients;
+        std::vector<ENetPeer*> peers;
+        for (int i = 0; i < 4; ++i) clients.push_back(enet_host_create(nullptr, 2, 2, 0, 0));
+        for (int i = 0; i < 4; ++i) peers.push_back(enet_host_connect(clients[static_cast<std::size_t>(i)], &a, 2, 0));
+        peers.push_back(enet_host_connect(clients[3], &a, 2, 0));
+        for (std::size_t i = 0; i < peers.size(); ++i) peers[i]->data = reinterpret_cast<void*>(i + 1);
+        std::uint64_t now = 1'000'000;
+        std::map<std::size_t, int> connected;      // client peer index -> events
+        std::map<std::size_t, std::set<std::uint8_t>> got;  // client peer index -> tags it received
+        std::uint64_t bad = 0;
+        const auto clients_service = [&] {
+            ENetEvent e;
+            for (auto* c : clients)
+                while (enet_host_service(c, &e, 0) > 0) {
+                    const auto i = reinterpret_cast<std::size_t>(e.peer->data) - 1;
+                    if (e.type == ENET_EVENT_TYPE_CONNECT) ++connected[i];
+                    if (e.type == ENET_EVENT_TYPE_RECEIVE) {
+                        // The server echoes each datagram to the connection it came from.
+                        if (e.packet->dataLength != 2 || e.packet->data[0] != i) ++bad;
+                        else got[i].insert(e.packet->data[1]);
+                        enet_packet_destroy(e.packet);
+                    }
+                }
+        };
+        std::vector<std::uint32_t> ids;
+        const auto server_pass = [&] {
+            now += 1000;
+            server.poll(now, 0);
+            enet_socket_batching::flush();  // what the hosts sent waits in the batch until then
+            for (transport::ServerConnectionEvent ev; server.next_event(ev);)
+                if (ev.type == transport::ServerConnectionEvent::Type::Connected) ids.push_back(ev.connection);
+            for (transport::ServerDatagram d; server.receive(d);) server.send(d.connection, d.bytes, false);
+            server.flush();
+            enet_socket_batching::flush();
+        };
+        for (int i = 0; i < 2000 && server.connection_count() < peers.size(); ++i) {
+            for (auto* c : clients) enet_host_flush(c);
+            server_pass();
+            clients_service();
+        }
+        ASSERT_EQ(server.connection_count(), peers.size());
+        ASSERT_EQ(connected.size(), peers.size());
+        for (int round = 0; round < 20; ++round) {
+            for (std::size_t i = 0; i < peers.size(); ++i) {
+                const std::uint8_t msg[2] = {static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(round)};
+                enet_peer_send(peers[i], 0, enet_packet_create(msg, sizeof msg, ENET_PACKET_FLAG_UNSEQUENCED));
+            }
+            for (auto* c : clients) enet_host_flush(c);
+            server_pass();
+            clients_service();
+            // Echoed in the same pass: the flush reached each connection's own host.
+            for (std::size_t i = 0; i < peers.size(); ++i)
+                EXPECT_EQ(got[i].count(static_cast<std::uint8_t>(round)), 1u) << "connection " << i << " round " << round;
+        }
+        for (int i = 0; i < 20; ++i) {
+            server_pass();
+            clients_service();
+        }
+        EXPECT_EQ(bad, 0u);
+        for (std::size_t i = 0; i < peers.size(); ++i) EXPECT_EQ(got[i].size(), 20u) << "connection " << i;
+        // Traffic from 5 connections: far fewer services than 6 hosts x every pass, each walking 1 slot.
+        EXPECT_GT(server.counters().host_services, 0u);
+        // One leaves: its host takes the next connect (the only free ones: 1 of 6, plus the
+        // one never used).
+        enet_peer_disconnect(peers[0], 0);
+        for (int i = 0; i < 200 && server.connection_count() == peers.size(); ++i) {
+            for (auto* c : clients) enet_host_flush(c);
+            server_pass();
+            clients_service();
+        }
+        EXPECT_EQ(server.connection_count(), peers.size() - 1);
+        ENetHost* late = enet_host_create(nullptr, 2, 2, 0, 0);
+        ENetPeer* lp = enet_host_connect(late, &a, 2, 0);
+        ENetHost* later = enet_host_create(nullptr, 2, 2, 0, 0);
+        ENetPeer* lp2 = enet_host_connect(later, &a, 2, 0);
+        bool up = false, up2 = false;
+        for (int i = 0; i < 2000 && !(up && up2); ++i) {
+            enet_host_flush(late);
+            enet_host_flush(later);
+            server_pass();
+            clients_service();
+            ENetEvent e;
+            while (enet_host_service(late, &e, 0) > 0) up = up || (e.type == ENET_EVENT_TYPE_CONNECT && e.peer == lp);
+            while (enet_host_service(later, &e, 0) > 0) up2 = up2 || (e.type == ENET_EVENT_TYPE_CONNECT && e.peer == lp2);
+        }
+        EXPECT_TRUE(up);
+        EXPECT_TRUE(up2);
+        for (int i = 0; i < 20; ++i) {  // the server hears their acknowledgements
+            enet_host_flush(late);
+            enet_host_flush(later);
+            server_pass();
+        }
+        EXPECT_EQ(server.connection_count(), peers.size() + 1);  // all 6 hosts full
+        enet_host_destroy(late);
+        enet_host_destroy(later);
+        for (auto* c : clients) enet_host_destroy(c);
     }
     enet_deinitialize();
 }

@@ -190,6 +190,41 @@ TEST_F(Server, FrameIsConfirmedWhenAllInputsAreInOrAtTheDeadline) {
     EXPECT_EQ(room.slot_counters(1).late, 1u);
 }
 
+// The rooms' timer (a timing wheel of 1 ms slots, two seconds a lap): each room is ticked at
+// its time, every tick() visits only the rooms due, and a gap longer than the wheel's lap (a
+// stalled process) still ticks every room once it is due, then on its schedule again.
+TEST_F(Server, RoomsAreTickedOnTimeAcrossGapsLongerThanTheTimersLap) {
+    start_room(7, 1, 2);
+    start_room(8, 3, 4);
+    drain();
+    const RelayRoom& a = *server->room(7);
+    const RelayRoom& b = *server->room(8);
+    // The room's ticks send each client a Frames message (the clock), nothing confirmed yet: one
+    // per tick, less the ticks that find the last one not a full period old (1 ms steps).
+    sent.clear();
+    advance(100'000);
+    drain();
+    EXPECT_GE(sent[1], 4);
+    EXPECT_LE(sent[1], 7);
+    EXPECT_EQ(sent[1], sent[3]);
+    // 3 s in one step: both rooms confirm up to the deadline (180 - 8 frames) at the first tick.
+    now += 3'000'000;
+    server->tick(now);
+    EXPECT_GE(a.confirmed_frames(), 170u);
+    EXPECT_GE(b.confirmed_frames(), 170u);
+    const std::uint32_t after_gap = a.confirmed_frames();
+    advance(100'000);  // and on schedule after it: 6 more ticks
+    EXPECT_GE(a.confirmed_frames(), after_gap + 5);
+    EXPECT_LE(a.confirmed_frames(), after_gap + 7);
+    // Silent for 5 s: every connection is dropped, found at the rooms' own ticks.
+    now += 6'000'000;
+    server->tick(now);
+    drain();
+    for (ConnectionId c : {1u, 2u, 3u, 4u}) EXPECT_TRUE(was_kicked(c)) << c;
+    advance(20'000);
+    EXPECT_EQ(server->room_count(), 0u);
+}
+
 // Several local players (issue 23): one connection plays slots 0 and 1 of a 3-player room, a
 // second plays slot 2. Each slot's input comes from the connection's records, in slot order.
 TEST_F(Server, OneConnectionPlaysSeveralSlotsEachFromItsRecords) {
