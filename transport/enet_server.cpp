@@ -5,6 +5,7 @@
 #include "transport/enet_library.h"
 
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -249,9 +250,49 @@ bool EnetServer::receive(ServerDatagram& out) {
     return true;
 }
 
+bool EnetServer::send_unsequenced_now(ENetPeer* peer, std::span<const std::uint8_t> bytes) {
+    // The datagram ENet's flush would build for one unsequenced packet: the protocol header (the
+    // client's peer id, its session, no sent time: nothing reliable rides along), then one
+    // SEND_UNSEQUENCED command with the peer's next unsequenced group, then the bytes. All of
+    // it is ENet's public protocol (enet/protocol.h) and the peer's public fields, updated as
+    // enet_peer_send and the flush update them.
+    if (peer->state != ENET_PEER_STATE_CONNECTED || peer->outgoingPeerID >= ENET_PROTOCOL_MAXIMUM_PEER_ID) return false;
+    constexpr std::size_t kHeader = sizeof(enet_uint16) + sizeof(ENetProtocolSendUnsequenced);
+    if (kHeader + bytes.size() > peer->mtu) return false;  // ENet fragments it
+    std::uint8_t head[kHeader];
+    const auto put16 = [&head](std::size_t at, enet_uint16 v) {
+        const enet_uint16 n = ENET_HOST_TO_NET_16(v);
+        std::memcpy(head + at, &n, sizeof n);
+    };
+    put16(0, static_cast<enet_uint16>(peer->outgoingPeerID | (peer->outgoingSessionID << ENET_PROTOCOL_HEADER_SESSION_SHIFT)));
+    head[2] = static_cast<std::uint8_t>(static_cast<unsigned>(ENET_PROTOCOL_COMMAND_SEND_UNSEQUENCED) | static_cast<unsigned>(ENET_PROTOCOL_COMMAND_FLAG_UNSEQUENCED));
+    head[3] = kInputChannel;
+    put16(4, 0);  // reliableSequenceNumber: none
+    put16(6, static_cast<enet_uint16>(peer->outgoingUnsequencedGroup + 1));
+    put16(8, static_cast<enet_uint16>(bytes.size()));
+    ENetBuffer buffers[2];
+    buffers[0].data = head;
+    buffers[0].dataLength = kHeader;
+    buffers[1].data = const_cast<std::uint8_t*>(bytes.data());
+    buffers[1].dataLength = bytes.size();
+    ENetHost* host = peer->host;
+    const int sent = enet_socket_send(host->socket, &peer->address, buffers, 2);
+    if (sent < 0) return false;
+    ++peer->outgoingUnsequencedGroup;  // as enet_peer_setup_outgoing_command
+    peer->outgoingDataTotal += static_cast<enet_uint32>(bytes.size());
+    host->totalSentData += static_cast<enet_uint32>(kHeader + bytes.size());
+    ++host->totalSentPackets;
+    ++counters_.datagrams_direct;
+    return true;  // sent == 0 (the socket would block): lost, as an unreliable datagram may be
+}
+
 bool EnetServer::send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable) {
     const auto it = by_id_.find(connection);
     if (it == by_id_.end() || bytes.size() > kMaxDatagramBytes) return false;
+    if (!reliable && config_.direct_unsequenced && send_unsequenced_now(it->second.peer, bytes)) {
+        ++counters_.datagrams_out;
+        return true;
+    }
     mark_dirty(it->second.host);
     ENetPacket* p = enet_packet_create(bytes.data(), bytes.size(), reliable ? ENET_PACKET_FLAG_RELIABLE : ENET_PACKET_FLAG_UNSEQUENCED);
     if (p == nullptr || enet_peer_send(it->second.peer, reliable ? kReliableChannel : kInputChannel, p) != 0) {

@@ -2,10 +2,11 @@
 // which names every connection by the peer id its owner claims (a mesh of cooperating peers),
 // it names connections by ids it assigns itself, in order of arrival: nothing a client sends
 // decides who it is. Built for thousands of connections on one host:
-//  - send() queues; flush() sends everything queued in one pass over the host (EnetTransport
-//    flushes on every send, which is a pass over every connection each time), and so does the
-//    next poll() before it waits: a loop that polls again at once need not flush (ENet walks
-//    every connection slot on each flush, used or not);
+//  - send() queues reliable datagrams; flush() sends everything queued in one pass over the
+//    host (EnetTransport flushes on every send, which is a pass over every connection each
+//    time), and so does the next poll() before it waits: a loop that polls again at once need
+//    not flush (ENet walks every connection slot on each flush, used or not). Unreliable ones
+//    leave at once, as the datagram ENet would send (EnetServerConfig::direct_unsequenced);
 //  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
 //    no sleep granularity added to the relay delay), then drains what is there, bounded;
 //  - connections are limited in number, per address, in packet size and in waiting data, as
@@ -85,6 +86,11 @@ struct EnetServerConfig {
     SocketFanout* fanout = nullptr;
     std::size_t connections_per_host = 0;
     std::uint32_t idle_service_ms = 20;  // a host with no traffic is serviced this often (pings, resends, timeouts)
+    // Unreliable sends leave at once as their own datagram (send() below), not through ENet's
+    // queue and the next flush: the flush walks the host's connections and ENet allocates a
+    // packet and a command per datagram, ~600 instructions per relayed datagram at 1,000 rooms
+    // (docs/performance.md, "Density, third pass"). The datagram is the one ENet would send.
+    bool direct_unsequenced = true;
 };
 
 struct ServerConnectionEvent {
@@ -111,6 +117,7 @@ struct EnetServerCounters {
     // ENet's walks: enet_host_service calls (each walks its host's slots twice), enet_host_flush
     // calls (once), and the services of hosts that had no traffic for idle_service_ms.
     std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
+    std::uint64_t datagrams_direct = 0;  // unreliable sends written to the socket at once (direct_unsequenced)
 };
 
 class EnetServer {
@@ -131,6 +138,10 @@ public:
     // The next datagram (see ServerDatagram: a view valid until the next receive() or poll()).
     bool receive(ServerDatagram& out);
     // Queues a datagram (sent by the next flush() or poll()); false when the connection is gone.
+    // Unreliable ones, with config.direct_unsequenced, go to the socket at once instead (through
+    // enet_socket_send: lockroll-server's batch holds them until its flush), as the unsequenced
+    // datagram ENet itself would send, when the connection is up and the datagram fits its MTU;
+    // otherwise they are queued in ENet as before.
     bool send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable);
     void flush();
     // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
@@ -147,6 +158,7 @@ private:
     void handle(const _ENetEvent& e, std::size_t host, Micros now);
     void service(std::size_t host, Micros now, std::uint32_t wait_ms, int& handled);
     void mark_dirty(std::size_t host);
+    bool send_unsequenced_now(_ENetPeer* peer, std::span<const std::uint8_t> bytes);
     bool events_left_ = false;  // the last poll stopped at its event cap: ENet still holds some
     void release_taken();
 
