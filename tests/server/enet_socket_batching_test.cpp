@@ -202,6 +202,9 @@ TEST(EnetSocketBatching, SeveralHostsShareTheSocketAndEachConnectionKeepsItsOwn)
         for (std::size_t i = 0; i < peers.size(); ++i) EXPECT_EQ(got[i].size(), 20u) << "connection " << i;
         // Traffic from 5 connections: far fewer services than 6 hosts x every pass, each walking 1 slot.
         EXPECT_GT(server.counters().host_services, 0u);
+        // The echoes were written straight to the shared socket under each host's id (direct
+        // unreliable sends), and each still reached its own connection (above).
+        EXPECT_GE(server.counters().datagrams_direct, 20u * peers.size());
         // One leaves: its host takes the next connect (the only free ones: 1 of 6, plus the
         // one never used).
         enet_peer_disconnect(peers[0], 0);
