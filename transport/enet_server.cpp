@@ -257,6 +257,9 @@ bool EnetServer::send_unsequenced_now(ENetPeer* peer, std::span<const std::uint8
     // it is ENet's public protocol (enet/protocol.h) and the peer's public fields, updated as
     // enet_peer_send and the flush update them.
     if (peer->state != ENET_PEER_STATE_CONNECTED || peer->outgoingPeerID >= ENET_PROTOCOL_MAXIMUM_PEER_ID) return false;
+    ENetHost* host = peer->host;
+    // A host that checksums or compresses its datagrams builds them itself (EnetServer sets neither).
+    if (host->checksum != nullptr || host->compressor.context != nullptr) return false;
     constexpr std::size_t kHeader = sizeof(enet_uint16) + sizeof(ENetProtocolSendUnsequenced);
     if (kHeader + bytes.size() > peer->mtu) return false;  // ENet fragments it
     std::uint8_t head[kHeader];
@@ -275,11 +278,12 @@ bool EnetServer::send_unsequenced_now(ENetPeer* peer, std::span<const std::uint8
     buffers[0].dataLength = kHeader;
     buffers[1].data = const_cast<std::uint8_t*>(bytes.data());
     buffers[1].dataLength = bytes.size();
-    ENetHost* host = peer->host;
     const int sent = enet_socket_send(host->socket, &peer->address, buffers, 2);
     if (sent < 0) return false;
     ++peer->outgoingUnsequencedGroup;  // as enet_peer_setup_outgoing_command
     peer->outgoingDataTotal += static_cast<enet_uint32>(bytes.size());
+    ++peer->packetsSent;  // as the flush counts each command it sends (ENet's packet loss statistics)
+    peer->lastSendTime = host->serviceTime;
     host->totalSentData += static_cast<enet_uint32>(kHeader + bytes.size());
     ++host->totalSentPackets;
     ++counters_.datagrams_direct;
