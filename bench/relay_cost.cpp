@@ -42,7 +42,6 @@
 #include <vector>
 
 #include "rollback/relay_messages.h"
-#include "server/enet_block_pool.h"
 #include "server/enet_socket_batching.h"
 #include "server/relay_server.h"
 #include "server/server_pass.h"
@@ -336,17 +335,8 @@ int main(int argc, char** argv) {
                    "connections per ENet host behind the server's socket, as lockroll-server's option (batch only; 0: one host)")
         ->check(CLI::Range(0, 4095))
         ->capture_default_str();
-    bool use_malloc = false;
-    app.add_flag("--malloc", use_malloc, "ENet allocates with malloc, not lockroll-server's block pool (server/enet_block_pool.h)");
     CLI11_PARSE(app, argc, argv);
     const auto mode = syscalls == "batch" ? server::enet_socket_batching::Mode::Batch : server::enet_socket_batching::Mode::Count;
-    // ENet's allocator as lockroll-server's (server/server_main.cpp), unless --malloc.
-    if (!use_malloc) {
-        if (const std::string why = server::enet_block_pool::install(); !why.empty()) {
-            std::fprintf(stderr, "relay_cost: %s\n", why.c_str());
-            return 1;
-        }
-    }
     if (enet_initialize() != 0) return 1;
     int status = 0;
     {

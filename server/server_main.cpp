@@ -8,14 +8,10 @@
 #include <exception>
 #include <string>
 
-#include "server/enet_block_pool.h"
 #include "server/enet_socket_batching.h"
 #include "server/server_cli.h"
 
 int main(int argc, char** argv) {
-    // ENet's packets and commands from free lists (before anything uses ENet); without it, malloc's.
-    if (const std::string why = lockroll::server::enet_block_pool::install(); !why.empty())
-        std::fprintf(stderr, "lockroll-server: ENet keeps malloc (%s)\n", why.c_str());
     CLI::App app{"lockroll relay server: rooms that collect, confirm and broadcast inputs; runs no simulation"};
     namespace batching = lockroll::server::enet_socket_batching;
     bool plain = false;
