@@ -6,7 +6,9 @@
 // once, and no length in the input can make it read outside the buffer.
 #pragma once
 
+#include <bit>
 #include <cstddef>
+#include <cstring>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -38,12 +40,12 @@ class ByteReader {
 public:
     explicit ByteReader(std::span<const std::uint8_t> in) : in_(in) {}
 
-    std::uint8_t u8() { return static_cast<std::uint8_t>(get(1)); }
-    std::int8_t i8() { return static_cast<std::int8_t>(static_cast<std::uint8_t>(get(1))); }
-    std::uint16_t u16() { return static_cast<std::uint16_t>(get(2)); }
-    std::uint32_t u32() { return static_cast<std::uint32_t>(get(4)); }
-    std::uint64_t u64() { return get(8); }
-    std::int64_t i64() { return static_cast<std::int64_t>(get(8)); }
+    std::uint8_t u8() { return static_cast<std::uint8_t>(get<1>()); }
+    std::int8_t i8() { return static_cast<std::int8_t>(static_cast<std::uint8_t>(get<1>())); }
+    std::uint16_t u16() { return static_cast<std::uint16_t>(get<2>()); }
+    std::uint32_t u32() { return static_cast<std::uint32_t>(get<4>()); }
+    std::uint64_t u64() { return get<8>(); }
+    std::int64_t i64() { return static_cast<std::int64_t>(get<8>()); }
     // A view of the next n bytes (empty and failed when fewer remain).
     std::span<const std::uint8_t> bytes(std::size_t n) {
         if (!ok_ || n > remaining()) {
@@ -61,14 +63,21 @@ public:
     bool at_end() const { return pos_ == in_.size(); }
 
 private:
-    std::uint64_t get(std::size_t n) {
-        if (!ok_ || n > remaining()) {
+    // Little-endian: on a little-endian machine the value is its bytes in memory order (one
+    // load; the relay server decodes an input per datagram).
+    template <std::size_t N>
+    std::uint64_t get() {
+        if (!ok_ || N > remaining()) {
             ok_ = false;
             return 0;
         }
         std::uint64_t v = 0;
-        for (std::size_t i = 0; i < n; ++i) v |= std::uint64_t{in_[pos_ + i]} << (8 * i);
-        pos_ += n;
+        if constexpr (std::endian::native == std::endian::little) {
+            std::memcpy(&v, in_.data() + pos_, N);
+        } else {
+            for (std::size_t i = 0; i < N; ++i) v |= std::uint64_t{in_[pos_ + i]} << (8 * i);
+        }
+        pos_ += N;
         return v;
     }
     std::span<const std::uint8_t> in_;

@@ -1,6 +1,8 @@
 // ServerPass: one pass of the relay server's loop, after the socket was polled: connection
 // events, datagrams, the rooms' tick, sending what they queued, kicks, then the server's events
-// to the log. The datagrams leave at the next EnetServer::poll (ENet sends what is queued before
+// to the log. Unreliable datagrams (the Frames) are written to the socket as they are sent
+// (EnetServer's direct_unsequenced; lockroll-server's batch flush after the pass sends them);
+// the others leave at the next EnetServer::poll (ENet sends what is queued before
 // it reads; with several hosts, the poll flushes the hosts that have sends first) or, with
 // flush, at once: a loop that polls again right away saves a walk of a single host's connection
 // slots per pass by not flushing; one that sleeps first must flush. The process (server/server_process.cpp) runs it after every poll;

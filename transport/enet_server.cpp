@@ -5,6 +5,7 @@
 #include "transport/enet_library.h"
 
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <stdexcept>
@@ -74,6 +75,7 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
                 hosts_.push_back(h);
             }
             fanout_ = config.fanout;
+            if (config.direct_unsequenced) fanout_->set_claim(&EnetServer::claim_thunk, this);
         } else {
             // One host for every connection, as without a fanout.
             if (fanout_why_.empty()) fanout_why_ = "the fanout gave no socket ids";
@@ -94,7 +96,9 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
 }
 
 EnetServer::~EnetServer() {
-    for (auto& r : inbox_) enet_packet_destroy(r.packet);
+    if (fanout_) fanout_->set_claim(nullptr, nullptr);
+    for (auto& r : inbox_)
+        if (r.packet) enet_packet_destroy(r.packet);
     for (auto& [id, c] : by_id_) enet_peer_disconnect_now(c.peer, 0);
     for (auto* h : hosts_) enet_host_flush(h);
     // The shared socket's host last: the others send through it until then.
@@ -102,7 +106,8 @@ EnetServer::~EnetServer() {
 }
 
 void EnetServer::release_taken() {
-    for (std::size_t i = 0; i < inbox_next_; ++i) enet_packet_destroy(inbox_[i].packet);
+    for (std::size_t i = 0; i < inbox_next_; ++i)
+        if (inbox_[i].packet) enet_packet_destroy(inbox_[i].packet);
     inbox_.erase(inbox_.begin(), inbox_.begin() + static_cast<std::ptrdiff_t>(inbox_next_));
     inbox_next_ = 0;
 }
@@ -171,6 +176,7 @@ void EnetServer::poll(Micros now, std::uint32_t wait_us) {
         enet_socket_wait(hosts_[0]->socket, &condition, (wait_us + 999) / 1000);
     }
     ready_.clear();
+    poll_now_ = now;  // for claim(), which receive() calls
     fanout_->receive(now, ready_);
     for (std::size_t h : ready_) service(h, now, 0, handled);
     // Hosts without traffic still have timers (pings, resends, timeouts, a disconnect to finish).
@@ -213,21 +219,76 @@ void EnetServer::handle(const _ENetEvent& ev, std::size_t host, Micros now) {
             e.peer->data = nullptr;
             break;
         }
-        case ENET_EVENT_TYPE_RECEIVE: {
-            const std::uint32_t id = id_of(e.peer);
-            if (e.channelID > kReliableChannel) ++counters_.dropped_bad_channel;
-            else if (e.packet->dataLength > kMaxDatagramBytes) ++counters_.dropped_oversized;
-            else if (inbox_.size() - inbox_next_ >= config_.max_inbox) ++counters_.dropped_inbox_full;
-            else if (id != 0) {
-                inbox_.push_back({id, e.packet, now});  // destroyed once taken (release_taken)
-                ++counters_.datagrams_in;
-                break;
-            }
-            enet_packet_destroy(e.packet);
+        case ENET_EVENT_TYPE_RECEIVE:
+            deliver(e.peer, e.channelID, {e.packet->data, e.packet->dataLength}, e.packet, now);
             break;
-        }
         default: break;
     }
+}
+
+void EnetServer::deliver(ENetPeer* peer, std::uint8_t channel, std::span<const std::uint8_t> bytes, ENetPacket* packet, Micros now) {
+    const std::uint32_t id = id_of(peer);
+    if (channel > kReliableChannel) ++counters_.dropped_bad_channel;
+    else if (bytes.size() > kMaxDatagramBytes) ++counters_.dropped_oversized;
+    else if (inbox_.size() - inbox_next_ >= config_.max_inbox) ++counters_.dropped_inbox_full;
+    else if (id != 0) {
+        inbox_.push_back({id, packet, now, bytes});  // a packet is destroyed once taken (release_taken)
+        ++counters_.datagrams_in;
+        return;
+    }
+    if (packet) enet_packet_destroy(packet);
+}
+
+bool EnetServer::claim_thunk(void* self, std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d) {
+    return static_cast<EnetServer*>(self)->claim(host, ip, port, d);
+}
+
+bool EnetServer::claim(std::size_t h, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d) {
+    // Only the common case is taken: a datagram that is one SEND_UNSEQUENCED command, no sent
+    // time (nothing reliable inside), not compressed, from its connected peer's address and
+    // session. Anything else (connects, acknowledgements, reliable messages, pings, several
+    // commands, a stranger's datagram) goes to the host's ENet as before, which drops what it
+    // must. ENet's checks for this case (protocol.c, enet_protocol_handle_incoming_commands and
+    // _handle_send_unsequenced) are repeated here on the peer's public fields.
+    constexpr std::size_t kHeader = sizeof(enet_uint16) + sizeof(ENetProtocolSendUnsequenced);
+    if (d.size() < kHeader || h >= hosts_.size()) return false;
+    const auto read16 = [&d](std::size_t at) { return static_cast<enet_uint16>((d[at] << 8) | d[at + 1]); };
+    const enet_uint16 word = read16(0);
+    if ((word & ENET_PROTOCOL_HEADER_FLAG_MASK) != 0) return false;
+    if (d[2] != (static_cast<unsigned>(ENET_PROTOCOL_COMMAND_SEND_UNSEQUENCED) | static_cast<unsigned>(ENET_PROTOCOL_COMMAND_FLAG_UNSEQUENCED)))
+        return false;
+    const std::size_t length = read16(8);
+    if (length != d.size() - kHeader) return false;  // exactly one command
+    ENetHost* host = hosts_[h];
+    const std::size_t index = word & ENET_PROTOCOL_MAXIMUM_PEER_ID;
+    if (index >= host->peerCount) return false;
+    ENetPeer* peer = &host->peers[index];
+    if (peer->state != ENET_PEER_STATE_CONNECTED || peer->address.host != ip || peer->address.port != port) return false;
+    const auto session = static_cast<enet_uint8>((word & ENET_PROTOCOL_HEADER_SESSION_MASK) >> ENET_PROTOCOL_HEADER_SESSION_SHIFT);
+    if (peer->outgoingPeerID < ENET_PROTOCOL_MAXIMUM_PEER_ID && session != peer->incomingSessionID) return false;
+    const std::uint8_t channel = d[3];
+    if (channel >= peer->channelCount || length > host->maximumPacketSize) return false;
+    // The unsequenced window (enet_protocol_handle_send_unsequenced): a group seen is a repeat.
+    enet_uint32 group = read16(6);
+    const enet_uint32 slot = group % ENET_PEER_UNSEQUENCED_WINDOW_SIZE;
+    if (group < peer->incomingUnsequencedGroup) group += 0x10000;
+    if (group >= static_cast<enet_uint32>(peer->incomingUnsequencedGroup) + ENET_PEER_FREE_UNSEQUENCED_WINDOWS * ENET_PEER_UNSEQUENCED_WINDOW_SIZE)
+        return false;  // too far ahead: ENet drops it
+    group &= 0xFFFF;
+    if (group - slot != peer->incomingUnsequencedGroup) {
+        peer->incomingUnsequencedGroup = static_cast<enet_uint16>(group - slot);
+        std::memset(peer->unsequencedWindow, 0, sizeof peer->unsequencedWindow);
+    } else if (peer->unsequencedWindow[slot / 32] & (1u << (slot % 32))) {
+        ++counters_.repeats_direct;
+        return true;  // a repeat: dropped, as ENet drops it
+    }
+    peer->unsequencedWindow[slot / 32] |= 1u << (slot % 32);
+    host->totalReceivedData += static_cast<enet_uint32>(d.size());
+    ++host->totalReceivedPackets;
+    peer->incomingDataTotal += static_cast<enet_uint32>(d.size());
+    ++counters_.datagrams_in_direct;
+    deliver(peer, channel, d.subspan(kHeader), nullptr, poll_now_);
+    return true;
 }
 
 bool EnetServer::next_event(ServerConnectionEvent& out) {
@@ -244,14 +305,58 @@ bool EnetServer::receive(ServerDatagram& out) {
     }
     const Received& r = inbox_[inbox_next_++];
     out.connection = r.connection;
-    out.bytes = {r.packet->data, r.packet->dataLength};
+    out.bytes = r.bytes;
     out.time_us = r.time_us;
     return true;
+}
+
+bool EnetServer::send_unsequenced_now(ENetPeer* peer, std::span<const std::uint8_t> bytes) {
+    // The datagram ENet's flush would build for one unsequenced packet: the protocol header (the
+    // client's peer id, its session, no sent time: nothing reliable rides along), then one
+    // SEND_UNSEQUENCED command with the peer's next unsequenced group, then the bytes. All of
+    // it is ENet's public protocol (enet/protocol.h) and the peer's public fields, updated as
+    // enet_peer_send and the flush update them.
+    if (peer->state != ENET_PEER_STATE_CONNECTED || peer->outgoingPeerID >= ENET_PROTOCOL_MAXIMUM_PEER_ID) return false;
+    ENetHost* host = peer->host;
+    // A host that checksums or compresses its datagrams builds them itself (EnetServer sets neither).
+    if (host->checksum != nullptr || host->compressor.context != nullptr) return false;
+    constexpr std::size_t kHeader = sizeof(enet_uint16) + sizeof(ENetProtocolSendUnsequenced);
+    if (kHeader + bytes.size() > peer->mtu) return false;  // ENet fragments it
+    std::uint8_t head[kHeader];
+    const auto put16 = [&head](std::size_t at, enet_uint16 v) {
+        const enet_uint16 n = ENET_HOST_TO_NET_16(v);
+        std::memcpy(head + at, &n, sizeof n);
+    };
+    put16(0, static_cast<enet_uint16>(peer->outgoingPeerID | (peer->outgoingSessionID << ENET_PROTOCOL_HEADER_SESSION_SHIFT)));
+    head[2] = static_cast<std::uint8_t>(static_cast<unsigned>(ENET_PROTOCOL_COMMAND_SEND_UNSEQUENCED) | static_cast<unsigned>(ENET_PROTOCOL_COMMAND_FLAG_UNSEQUENCED));
+    head[3] = kInputChannel;
+    put16(4, 0);  // reliableSequenceNumber: none
+    put16(6, static_cast<enet_uint16>(peer->outgoingUnsequencedGroup + 1));
+    put16(8, static_cast<enet_uint16>(bytes.size()));
+    ENetBuffer buffers[2];
+    buffers[0].data = head;
+    buffers[0].dataLength = kHeader;
+    buffers[1].data = const_cast<std::uint8_t*>(bytes.data());
+    buffers[1].dataLength = bytes.size();
+    const int sent = enet_socket_send(host->socket, &peer->address, buffers, 2);
+    if (sent < 0) return false;
+    ++peer->outgoingUnsequencedGroup;  // as enet_peer_setup_outgoing_command
+    peer->outgoingDataTotal += static_cast<enet_uint32>(bytes.size());
+    ++peer->packetsSent;  // as the flush counts each command it sends (ENet's packet loss statistics)
+    peer->lastSendTime = host->serviceTime;
+    host->totalSentData += static_cast<enet_uint32>(kHeader + bytes.size());
+    ++host->totalSentPackets;
+    ++counters_.datagrams_direct;
+    return true;  // sent == 0 (the socket would block): lost, as an unreliable datagram may be
 }
 
 bool EnetServer::send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable) {
     const auto it = by_id_.find(connection);
     if (it == by_id_.end() || bytes.size() > kMaxDatagramBytes) return false;
+    if (!reliable && config_.direct_unsequenced && send_unsequenced_now(it->second.peer, bytes)) {
+        ++counters_.datagrams_out;
+        return true;
+    }
     mark_dirty(it->second.host);
     ENetPacket* p = enet_packet_create(bytes.data(), bytes.size(), reliable ? ENET_PACKET_FLAG_RELIABLE : ENET_PACKET_FLAG_UNSEQUENCED);
     if (p == nullptr || enet_peer_send(it->second.peer, reliable ? kReliableChannel : kInputChannel, p) != 0) {

@@ -2,10 +2,12 @@
 // which names every connection by the peer id its owner claims (a mesh of cooperating peers),
 // it names connections by ids it assigns itself, in order of arrival: nothing a client sends
 // decides who it is. Built for thousands of connections on one host:
-//  - send() queues; flush() sends everything queued in one pass over the host (EnetTransport
-//    flushes on every send, which is a pass over every connection each time), and so does the
-//    next poll() before it waits: a loop that polls again at once need not flush (ENet walks
-//    every connection slot on each flush, used or not);
+//  - send() queues reliable datagrams; flush() sends everything queued in one pass over the
+//    host (EnetTransport flushes on every send, which is a pass over every connection each
+//    time), and so does the next poll() before it waits: a loop that polls again at once need
+//    not flush (ENet walks every connection slot on each flush, used or not). Unreliable ones
+//    leave at once, as the datagram ENet would send, and with a fanout a client's unsequenced
+//    datagrams are taken before their host's ENet reads them (EnetServerConfig::direct_unsequenced);
 //  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
 //    no sleep granularity added to the relay delay), then drains what is there, bounded;
 //  - connections are limited in number, per address, in packet size and in waiting data, as
@@ -57,6 +59,16 @@ public:
     // byte order, the port in host byte order), whose connect carried connect_id (ENetPeer::connectID).
     virtual void connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
     virtual void disconnected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) = 0;
+    // A datagram its host's ENet need not read (EnetServerConfig::direct_unsequenced): once set,
+    // receive() offers each datagram it routed to `host` to claim(context, host, ip, port, bytes)
+    // first (ip in network byte order, port in host byte order, the header already rewritten
+    // to the host's own peer index); one claimed (true) is not queued for the host, and its
+    // bytes stay valid until the next receive(). nullptr: none offered. Default: no claims.
+    using Claim = bool (*)(void* context, std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> datagram);
+    virtual void set_claim(Claim claim, void* context) {
+        (void)claim;
+        (void)context;
+    }
 };
 
 struct EnetServerConfig {
@@ -85,6 +97,15 @@ struct EnetServerConfig {
     SocketFanout* fanout = nullptr;
     std::size_t connections_per_host = 0;
     std::uint32_t idle_service_ms = 20;  // a host with no traffic is serviced this often (pings, resends, timeouts)
+    // Unreliable sends leave at once as their own datagram (send() below), not through ENet's
+    // queue and the next flush: the flush walks the host's connections and ENet allocates a
+    // packet and a command per datagram, ~600 instructions per relayed datagram at 1,000 rooms
+    // (docs/performance.md, "Density, third pass"). The datagram is the one ENet would send.
+    // With a fanout, the other way too: a datagram that is exactly one unsequenced packet from a
+    // connected peer's address and session is taken from the fanout (SocketFanout::set_claim)
+    // with ENet's own checks (its unsequenced window drops repeats), so a host whose clients
+    // only send inputs is serviced only for its timers (idle_service_ms).
+    bool direct_unsequenced = true;
 };
 
 struct ServerConnectionEvent {
@@ -111,6 +132,8 @@ struct EnetServerCounters {
     // ENet's walks: enet_host_service calls (each walks its host's slots twice), enet_host_flush
     // calls (once), and the services of hosts that had no traffic for idle_service_ms.
     std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
+    std::uint64_t datagrams_direct = 0;  // unreliable sends written to the socket at once (direct_unsequenced)
+    std::uint64_t datagrams_in_direct = 0, repeats_direct = 0;  // unsequenced datagrams taken from the fanout; repeats dropped
 };
 
 class EnetServer {
@@ -131,6 +154,10 @@ public:
     // The next datagram (see ServerDatagram: a view valid until the next receive() or poll()).
     bool receive(ServerDatagram& out);
     // Queues a datagram (sent by the next flush() or poll()); false when the connection is gone.
+    // Unreliable ones, with config.direct_unsequenced, go to the socket at once instead (through
+    // enet_socket_send: lockroll-server's batch holds them until its flush), as the unsequenced
+    // datagram ENet itself would send, when the connection is up and the datagram fits its MTU;
+    // otherwise they are queued in ENet as before.
     bool send(std::uint32_t connection, std::span<const std::uint8_t> bytes, bool reliable);
     void flush();
     // Closes a connection after what is queued for it (a kick); a Disconnected event follows.
@@ -147,13 +174,20 @@ private:
     void handle(const _ENetEvent& e, std::size_t host, Micros now);
     void service(std::size_t host, Micros now, std::uint32_t wait_ms, int& handled);
     void mark_dirty(std::size_t host);
+    bool send_unsequenced_now(_ENetPeer* peer, std::span<const std::uint8_t> bytes);
+    static bool claim_thunk(void* self, std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d);
+    bool claim(std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d);
+    // A received packet's bytes (from ENet's packet, or taken from the fanout) into the inbox.
+    void deliver(_ENetPeer* peer, std::uint8_t channel, std::span<const std::uint8_t> bytes, _ENetPacket* packet, Micros now);
+    Micros poll_now_ = 0;
     bool events_left_ = false;  // the last poll stopped at its event cap: ENet still holds some
     void release_taken();
 
     struct Received {
         std::uint32_t connection = 0;
-        _ENetPacket* packet = nullptr;
+        _ENetPacket* packet = nullptr;  // nullptr: bytes are the fanout's (valid until its next receive)
         Micros time_us = 0;
+        std::span<const std::uint8_t> bytes;
     };
 
     EnetServerConfig config_;

@@ -202,6 +202,11 @@ TEST(EnetSocketBatching, SeveralHostsShareTheSocketAndEachConnectionKeepsItsOwn)
         for (std::size_t i = 0; i < peers.size(); ++i) EXPECT_EQ(got[i].size(), 20u) << "connection " << i;
         // Traffic from 5 connections: far fewer services than 6 hosts x every pass, each walking 1 slot.
         EXPECT_GT(server.counters().host_services, 0u);
+        // The echoes were written straight to the shared socket under each host's id (direct
+        // unreliable sends), and each still reached its own connection (above); the clients'
+        // unsequenced datagrams were taken from the fanout without their host's ENet.
+        EXPECT_GE(server.counters().datagrams_direct, 20u * peers.size());
+        EXPECT_GE(server.counters().datagrams_in_direct, 20u * peers.size());
         // One leaves: its host takes the next connect (the only free ones: 1 of 6, plus the
         // one never used).
         enet_peer_disconnect(peers[0], 0);
@@ -236,6 +241,81 @@ TEST(EnetSocketBatching, SeveralHostsShareTheSocketAndEachConnectionKeepsItsOwn)
         enet_host_destroy(late);
         enet_host_destroy(later);
         for (auto* c : clients) enet_host_destroy(c);
+    }
+    enet_deinitialize();
+}
+
+// The datagrams EnetServer takes from the fanout itself (one unsequenced packet each) pass ENet's
+// own checks: a repeat of a group is dropped, the same bytes from another address go to the
+// host's ENet (which drops them: that connection is not theirs), and the connection's ENet
+// traffic goes on after them.
+TEST(EnetSocketBatching, TakenDatagramsKeepEnetsChecks) {
+    ASSERT_EQ(enet_initialize(), 0);
+    {
+        transport::EnetServerConfig ec;
+        ec.max_connections = 4;
+        ec.connections_per_host = 2;
+        ec.fanout = &fanout();
+        transport::EnetServer server(ec);
+        ASSERT_EQ(server.host_count(), 2u);
+        ENetAddress a{};
+        enet_address_set_host(&a, "127.0.0.1");
+        a.port = server.port();
+        ENetHost* client = enet_host_create(nullptr, 1, 2, 0, 0);
+        ENetPeer* peer = enet_host_connect(client, &a, 2, 0);
+        std::uint64_t now = 1'000'000;
+        std::vector<std::vector<std::uint8_t>> got;
+        const auto pass = [&] {
+            now += 1000;
+            server.poll(now, 0);
+            enet_socket_batching::flush();
+            for (transport::ServerConnectionEvent ev; server.next_event(ev);) {}
+            for (transport::ServerDatagram d; server.receive(d);) got.emplace_back(d.bytes.begin(), d.bytes.end());
+            server.flush();
+            enet_socket_batching::flush();
+            ENetEvent e;
+            while (enet_host_service(client, &e, 0) > 0)
+                if (e.type == ENET_EVENT_TYPE_RECEIVE) enet_packet_destroy(e.packet);
+        };
+        for (int i = 0; i < 2000 && !(server.connection_count() == 1 && peer->state == ENET_PEER_STATE_CONNECTED); ++i) pass();
+        ASSERT_EQ(peer->state, ENET_PEER_STATE_CONNECTED);
+        for (int i = 0; i < 20; ++i) pass();  // the handshake's last acknowledgement reaches the server
+        // One unsequenced packet as the client's ENet would send it, under its next group.
+        const auto datagram = [&](std::uint16_t group, std::uint8_t tag) {
+            const std::uint16_t id = static_cast<std::uint16_t>(peer->outgoingPeerID | (peer->outgoingSessionID << ENET_PROTOCOL_HEADER_SESSION_SHIFT));
+            return std::vector<std::uint8_t>{static_cast<std::uint8_t>(id >> 8), static_cast<std::uint8_t>(id), 9 | 64, 0, 0, 0,
+                                             static_cast<std::uint8_t>(group >> 8), static_cast<std::uint8_t>(group), 0, 2, 'x', tag};
+        };
+        const auto send_raw = [&](ENetSocket from, const std::vector<std::uint8_t>& bytes) {
+            ENetBuffer b;
+            b.data = const_cast<std::uint8_t*>(bytes.data());
+            b.dataLength = bytes.size();
+            ASSERT_EQ(enet_socket_send(from, &a, &b, 1), static_cast<int>(bytes.size()));
+        };
+        const std::uint16_t group = static_cast<std::uint16_t>(peer->outgoingUnsequencedGroup + 1);
+        peer->outgoingUnsequencedGroup = group;  // the client's ENet goes on after it
+        const std::uint64_t before = server.counters().datagrams_in_direct;
+        send_raw(client->socket, datagram(group, 1));
+        send_raw(client->socket, datagram(group, 2));  // the same group again: a repeat
+        ENetSocket stranger = enet_socket_create(ENET_SOCKET_TYPE_DATAGRAM);
+        ASSERT_NE(stranger, ENET_SOCKET_NULL);
+        send_raw(stranger, datagram(static_cast<std::uint16_t>(group + 1), 3));  // right id and session, wrong address
+        for (int i = 0; i < 20; ++i) pass();
+        enet_socket_destroy(stranger);
+        ASSERT_EQ(got.size(), 1u);
+        EXPECT_EQ(got[0], (std::vector<std::uint8_t>{'x', 1}));
+        EXPECT_EQ(server.counters().datagrams_in_direct, before + 1);
+        EXPECT_EQ(server.counters().repeats_direct, 1u);
+        // The client's own ENet sends still arrive.
+        const std::uint8_t bytes[2] = {'y', 4};
+        enet_peer_send(peer, 0, enet_packet_create(bytes, sizeof bytes, ENET_PACKET_FLAG_UNSEQUENCED));
+        enet_host_flush(client);
+        for (int i = 0; i < 200 && got.size() < 2; ++i) pass();
+        ASSERT_EQ(got.size(), 2u);
+        EXPECT_EQ(got[1], (std::vector<std::uint8_t>{'y', 4}));
+        EXPECT_EQ(server.counters().datagrams_in_direct, before + 2);
+        EXPECT_EQ(server.connection_count(), 1u);
+        enet_host_destroy(client);
     }
     enet_deinitialize();
 }
