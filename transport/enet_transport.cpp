@@ -27,8 +27,14 @@ constexpr int kMaxEventsPerPoll = 4096;
 constexpr int kMaxErrorsPerPoll = 1024;
 constexpr int kIdleCallsPerPoll = 2;
 
+// ENet timeouts an established connection never reaches (EnetConfig::dead_after_us ends it):
+// a retry count whose power of two no send attempt count reaches, and an hour.
+constexpr enet_uint32 kNeverTimeoutLimit = 1u << 30;
+constexpr enet_uint32 kNeverTimeoutMs = 3'600'000;
+
 // Disconnect data we send, so the other side can say why (0 is ENet's: timeout or plain close).
 enum CloseCode : enet_uint32 {
+    kTimedOut = 0,          // silent for dead_after_us (ENet's own timeout sends nothing: also 0)
     kClosed = 1,            // orderly shutdown (destructor)
     kRefusedOwnId = 2,      // you claimed my own id
     kRefusedDuplicate = 3,  // your id is held by a live connection
@@ -313,8 +319,12 @@ void EnetTransport::poll(Micros now) {
     last_now_ = now;
     // ENet restores its default timeouts (30 s) whenever it resets a slot, and half-open
     // connections take a slot without ever producing an event: set ours on every slot, always.
+    // Established connections are ended by our silence rule instead (dead_after_us), so theirs
+    // are out of reach: no more retries than ENet can count, an hour.
     for (std::size_t i = 0; i < host_->peerCount; ++i)
         enet_peer_timeout(&host_->peers[i], config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
+    for (const auto& [id, c] : by_id_)
+        if (c.established) enet_peer_timeout(c.peer, kNeverTimeoutLimit, kNeverTimeoutMs, kNeverTimeoutMs);
 
     t_servicing = this;
     ENetEvent event;
@@ -337,11 +347,19 @@ void EnetTransport::poll(Micros now) {
 
     // Anything ENet heard from a connection (datagrams, pings, acknowledgements) moves its
     // lastReceiveTime; we only compare it for change and time silence on the caller's clock.
+    std::vector<PeerId> dead;
     for (auto& [id, c] : by_id_) {
         if (c.peer->lastReceiveTime != c.enet_last_receive) {
             c.enet_last_receive = c.peer->lastReceiveTime;
             c.last_heard_us = now;
         }
+        if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= config_.dead_after_us) dead.push_back(id);
+    }
+    for (const PeerId id : dead) {
+        const Micros silent_us = now - by_id_.at(id).last_heard_us;
+        drop_connection(id, kTimedOut);
+        ++enet_counters_.disconnects;
+        push_event(TransportEvent::Type::Disconnected, id, "timed out: silent for " + std::to_string(silent_us / 1000) + " ms");
     }
 }
 

@@ -61,9 +61,17 @@ struct EnetConfig {
     std::size_t max_connections_per_address = 16;
     // A connection silent this long (caller's time) may be replaced by a new claim to its id.
     Micros silent_after_us = 1'000'000;
-    // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable
-    // command (ping, handshake) goes unacknowledged past timeout_max_ms, or past timeout_min_ms
-    // after timeout_limit retries. ENet's defaults are 32 / 5000 / 30000.
+    // An established connection from which nothing (datagram, ping, acknowledgement) was heard
+    // for this long (caller's time) is closed as timed out (Disconnected). This, not ENet's own
+    // timeout, ends established connections: ENet's retransmission time doubles after each loss
+    // and it gives up after a few, so under 30 % loss it closed live connections every few
+    // seconds (one ping and its ack both get through only half the time).
+    Micros dead_after_us = 5'000'000;
+    // ENet's timeouts for slots not yet established (enet_peer_timeout): half-open and
+    // connecting slots are dropped once a reliable command (the handshake) goes unacknowledged
+    // past timeout_max_ms, or past timeout_min_ms after timeout_limit retries. ENet's defaults
+    // are 32 / 5000 / 30000. Established connections get ENet timeouts it never reaches (see
+    // dead_after_us).
     std::uint32_t timeout_limit = 4;
     std::uint32_t timeout_min_ms = 2'000;
     std::uint32_t timeout_max_ms = 5'000;
