@@ -4,6 +4,7 @@
 
 #include "transport/enet_library.h"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
@@ -217,6 +218,8 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
         Connection& c = by_id_.at(it->second);
         c.established = true;
         c.last_heard_us = now;
+        c.enet_last_receive = peer->lastReceiveTime;  // the handshake itself is not a first word
+        c.up_us = now;
         configure_peer(peer);
         push_event(TransportEvent::Type::Connected, it->second, "connected (we connected)");
         return;
@@ -256,7 +259,7 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
             return;
         }
     }
-    by_id_[remote] = Connection{peer, true, false, now, peer->lastReceiveTime};
+    by_id_[remote] = Connection{peer, true, false, now, peer->lastReceiveTime, true};
     by_peer_[peer] = remote;
     configure_peer(peer);
     push_event(TransportEvent::Type::Connected, remote, reason);
@@ -285,6 +288,7 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
                 ++counters_.rejected;
             } else {
                 c->last_heard_us = now;
+                c->heard_since_up = true;
                 Datagram d;
                 d.from = it->second;
                 d.time_us = now;
@@ -352,14 +356,21 @@ void EnetTransport::poll(Micros now) {
         if (c.peer->lastReceiveTime != c.enet_last_receive) {
             c.enet_last_receive = c.peer->lastReceiveTime;
             c.last_heard_us = now;
+            // ENet moves it once more while finishing the handshake, in the poll that reports
+            // the connection up: not a word from the peer yet.
+            c.heard_since_up = c.heard_since_up || (c.established && now != c.up_us);
         }
-        if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= config_.dead_after_us) dead.push_back(id);
+        const bool first_word_due = c.outgoing && !c.heard_since_up && config_.first_word_after_us > 0;
+        const Micros limit = first_word_due ? std::min(config_.first_word_after_us, config_.dead_after_us) : config_.dead_after_us;
+        if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= limit) dead.push_back(id);
     }
     for (const PeerId id : dead) {
-        const Micros silent_us = now - by_id_.at(id).last_heard_us;
+        const Connection& c = by_id_.at(id);
+        const std::string why = (c.heard_since_up ? "timed out: silent for " : "timed out: not a word since connected, ") +
+                                std::to_string((now - c.last_heard_us) / 1000) + " ms";
         drop_connection(id, kTimedOut);
         ++enet_counters_.disconnects;
-        push_event(TransportEvent::Type::Disconnected, id, "timed out: silent for " + std::to_string(silent_us / 1000) + " ms");
+        push_event(TransportEvent::Type::Disconnected, id, why);
     }
 }
 
