@@ -612,13 +612,14 @@ int do_client(const PeerPlan& p, rollback::WorldSimulation& sim, PeerRecorder& r
         if (session.rtt_us() > 0) m.rtt(-1, static_cast<double>(session.rtt_us()) / 1000.0);
     };
     inject_faults(p, session);
-    // One connection, to the server: ENet's own (long) timeouts, so a lossy link never closes
-    // it under a live server (a reconnect resumes, but costs seconds); the session watches the
+    // One connection, to the server: closed only after 30 s of silence (and long ENet timeouts
+    // while it connects), so a lossy link never closes it under a live server (a reconnect resumes, but costs seconds); the session watches the
     // server's silence itself.
     transport::EnetTransport enet({.local_id = static_cast<transport::PeerId>(p.o.slot),
                                    .bind_host = "127.0.0.1",
                                    .port = 0,
                                    .max_peers = 4,
+                                   .dead_after_us = 30'000'000,
                                    .timeout_limit = 32,
                                    .timeout_min_ms = 5000,
                                    .timeout_max_ms = 30000});

@@ -18,8 +18,9 @@
 //    joiner after its snapshot; players are evened out by time sync instead) -> drain Session::next_event() -> Session::poll -> transport
 //    send (send_reliable for datagrams the session marks reliable; those for a peer not yet
 //    connected -- snapshot requests and chunks -- are held, the newest 64 per peer, and sent in
-//    order once it connects; hellos are not: they carry their send time for the round trip, and
-//    the session resends them until welcomed, so the start-up RTT is the network's).
+//    order once it connects; hellos and welcomes are unreliable and never held: they carry their
+//    send time for the round trip, and the session resends hellos until welcomed, so the
+//    start-up RTT is the network's from the connection's start).
 //  - Time sync without hitches: the session's tick_stretch_ppm lengthens the next tick (at most
 //    max_stretch); a session that only says wait_frames has that many frames of time repaid by
 //    lengthening the following ticks by at most max_stretch -- never by skipping whole ticks (a

@@ -606,11 +606,12 @@ std::unique_ptr<NetSession> SessionBuilder::start(rollback::Simulation& simulati
         s->engine_->retry_for_us = rc.connect_timeout_us;
         s->engine_->server_host = server_->first;
         s->engine_->server_port = server_->second;
-        // ENet's own long timeouts on the one connection to the server (as `lockroll client`).
+        // Long timeouts on the one connection to the server (30 s of silence; as `lockroll client`).
         attach_transport(*s, rs.local_slot,
                          transport::EnetConfig{.local_id = static_cast<transport::PeerId>(rs.local_slot),
                                                .bind_host = listen_host_,
                                                .port = listen_port_,
+                                               .dead_after_us = 30'000'000,
                                                .timeout_limit = 32,
                                                .timeout_min_ms = 5000,
                                                .timeout_max_ms = 30000});

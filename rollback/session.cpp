@@ -168,7 +168,14 @@ void SessionImpl::poll(std::uint64_t now_us, std::vector<Datagram>& out) noexcep
 }
 
 void SessionImpl::send_control(PlayerId to, std::vector<std::uint8_t> bytes) {
-    Datagram d{to, std::move(bytes), true};
+    // Hellos and welcomes go unreliable: a hello is said again every hello_resend_us until
+    // answered and every one is answered, and they carry the round trip's stamp. On a reliable
+    // channel (ENet's: retransmission backing off, in order) a lost one would hold back those
+    // behind it, turning 30 % loss into round trips of seconds and into retransmissions that
+    // make ENet close the connection. The rest (snapshot transfer) is reliable where possible.
+    const auto kind = peek_kind(bytes);
+    const bool reliable = kind != MessageKind::Hello && kind != MessageKind::Welcome;
+    Datagram d{to, std::move(bytes), reliable};
     pending_out_.push_back(std::move(d));
 }
 

@@ -65,8 +65,9 @@ struct AdvanceResult {
 struct Datagram {
     PlayerId peer = 0;
     std::vector<std::uint8_t> bytes;
-    // Control and snapshot messages: a transport with a reliable channel should use it (the
-    // session re-asks what is lost anyway, so an unreliable one works too).
+    // Snapshot-transfer messages: a transport with a reliable channel should use it (the
+    // session re-asks what is lost anyway, so an unreliable one works too). Hellos and welcomes
+    // are never marked: resent until answered, they carry the round trip's stamp.
     bool reliable = false;
 };
 

@@ -4,6 +4,7 @@
 
 #include "transport/enet_library.h"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
@@ -27,8 +28,14 @@ constexpr int kMaxEventsPerPoll = 4096;
 constexpr int kMaxErrorsPerPoll = 1024;
 constexpr int kIdleCallsPerPoll = 2;
 
+// ENet timeouts an established connection never reaches (EnetConfig::dead_after_us ends it):
+// a retry count whose power of two no send attempt count reaches, and an hour.
+constexpr enet_uint32 kNeverTimeoutLimit = 1u << 30;
+constexpr enet_uint32 kNeverTimeoutMs = 3'600'000;
+
 // Disconnect data we send, so the other side can say why (0 is ENet's: timeout or plain close).
 enum CloseCode : enet_uint32 {
+    kTimedOut = 0,          // silent for dead_after_us (ENet's own timeout sends nothing: also 0)
     kClosed = 1,            // orderly shutdown (destructor)
     kRefusedOwnId = 2,      // you claimed my own id
     kRefusedDuplicate = 3,  // your id is held by a live connection
@@ -211,6 +218,8 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
         Connection& c = by_id_.at(it->second);
         c.established = true;
         c.last_heard_us = now;
+        c.enet_last_receive = peer->lastReceiveTime;  // the handshake itself is not a first word
+        c.up_us = now;
         configure_peer(peer);
         push_event(TransportEvent::Type::Connected, it->second, "connected (we connected)");
         return;
@@ -250,7 +259,7 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
             return;
         }
     }
-    by_id_[remote] = Connection{peer, true, false, now, peer->lastReceiveTime};
+    by_id_[remote] = Connection{peer, true, false, now, peer->lastReceiveTime, true};
     by_peer_[peer] = remote;
     configure_peer(peer);
     push_event(TransportEvent::Type::Connected, remote, reason);
@@ -279,6 +288,7 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
                 ++counters_.rejected;
             } else {
                 c->last_heard_us = now;
+                c->heard_since_up = true;
                 Datagram d;
                 d.from = it->second;
                 d.time_us = now;
@@ -313,8 +323,12 @@ void EnetTransport::poll(Micros now) {
     last_now_ = now;
     // ENet restores its default timeouts (30 s) whenever it resets a slot, and half-open
     // connections take a slot without ever producing an event: set ours on every slot, always.
+    // Established connections are ended by our silence rule instead (dead_after_us), so theirs
+    // are out of reach: no more retries than ENet can count, an hour.
     for (std::size_t i = 0; i < host_->peerCount; ++i)
         enet_peer_timeout(&host_->peers[i], config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
+    for (const auto& [id, c] : by_id_)
+        if (c.established) enet_peer_timeout(c.peer, kNeverTimeoutLimit, kNeverTimeoutMs, kNeverTimeoutMs);
 
     t_servicing = this;
     ENetEvent event;
@@ -337,11 +351,26 @@ void EnetTransport::poll(Micros now) {
 
     // Anything ENet heard from a connection (datagrams, pings, acknowledgements) moves its
     // lastReceiveTime; we only compare it for change and time silence on the caller's clock.
+    std::vector<PeerId> dead;
     for (auto& [id, c] : by_id_) {
         if (c.peer->lastReceiveTime != c.enet_last_receive) {
             c.enet_last_receive = c.peer->lastReceiveTime;
             c.last_heard_us = now;
+            // ENet moves it once more while finishing the handshake, in the poll that reports
+            // the connection up: not a word from the peer yet.
+            c.heard_since_up = c.heard_since_up || (c.established && now != c.up_us);
         }
+        const bool first_word_due = c.outgoing && !c.heard_since_up && config_.first_word_after_us > 0;
+        const Micros limit = first_word_due ? std::min(config_.first_word_after_us, config_.dead_after_us) : config_.dead_after_us;
+        if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= limit) dead.push_back(id);
+    }
+    for (const PeerId id : dead) {
+        const Connection& c = by_id_.at(id);
+        const std::string why = (c.heard_since_up ? "timed out: silent for " : "timed out: not a word since connected, ") +
+                                std::to_string((now - c.last_heard_us) / 1000) + " ms";
+        drop_connection(id, kTimedOut);
+        ++enet_counters_.disconnects;
+        push_event(TransportEvent::Type::Disconnected, id, why);
     }
 }
 

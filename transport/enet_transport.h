@@ -20,7 +20,8 @@
 // Host limits (each against a demonstrated attack; see docs/network-model.md):
 //  - at most max_connections_per_address connections (half-open included) from one IP address,
 //    so a flood of connection requests from one address leaves slots for real peers; half-open
-//    and dead connections time out in seconds (timeout_*_ms on every slot, not ENet's 30 s);
+//    connections time out in seconds (timeout_*_ms, not ENet's 30 s), established ones after
+//    dead_after_us of silence (first_word_after_us for ours that never heard a word);
 //  - ENet's maximumPacketSize / maximumWaitingData are set to max_packet_bytes (4 KB) and
 //    max_waiting_bytes (256 KB per connection), so no client can make us reassemble megabytes;
 //  - poll() drains every event ENet has, keeps going past receive errors (a UDP datagram over
@@ -61,9 +62,23 @@ struct EnetConfig {
     std::size_t max_connections_per_address = 16;
     // A connection silent this long (caller's time) may be replaced by a new claim to its id.
     Micros silent_after_us = 1'000'000;
-    // ENet's timeouts for every slot (enet_peer_timeout): a peer is dropped once a reliable
-    // command (ping, handshake) goes unacknowledged past timeout_max_ms, or past timeout_min_ms
-    // after timeout_limit retries. ENet's defaults are 32 / 5000 / 30000.
+    // An established connection from which nothing (datagram, ping, acknowledgement) was heard
+    // for this long (caller's time) is closed as timed out (Disconnected). This, not ENet's own
+    // timeout, ends established connections: ENet's retransmission time doubles after each loss
+    // and it gives up after a few, so under 30 % loss it closed live connections every few
+    // seconds (one ping and its ack both get through only half the time).
+    Micros dead_after_us = 5'000'000;
+    // A connection we initiated that has been silent ever since it was established is closed
+    // after this long instead (0: only dead_after_us), so the caller connects again: the other
+    // side may never have received our last handshake acknowledgement and given up (3 lost in a
+    // row, 1 connect in 8 at 30 % loss), and nothing it sends will then reach us. A live peer's
+    // session says hello every 50 ms at the start; an idle link hears ENet's ping answered.
+    Micros first_word_after_us = 2'000'000;
+    // ENet's timeouts for slots not yet established (enet_peer_timeout): half-open and
+    // connecting slots are dropped once a reliable command (the handshake) goes unacknowledged
+    // past timeout_max_ms, or past timeout_min_ms after timeout_limit retries. ENet's defaults
+    // are 32 / 5000 / 30000. Established connections get ENet timeouts it never reaches (see
+    // dead_after_us).
     std::uint32_t timeout_limit = 4;
     std::uint32_t timeout_min_ms = 2'000;
     std::uint32_t timeout_max_ms = 5'000;
@@ -154,6 +169,8 @@ private:
         bool outgoing = false;             // we initiated it
         Micros last_heard_us = 0;          // caller's time when ENet last heard from it
         std::uint32_t enet_last_receive = 0;  // ENet's lastReceiveTime when we last looked
+        bool heard_since_up = false;       // anything heard since it was established
+        Micros up_us = 0;                  // caller's time when our connect completed
     };
 
     void handle(const _ENetEvent& event, Micros now);

@@ -246,6 +246,77 @@ TEST(EnetTransport, EventsAndARestartedPeerGetsItsIdBack) {
     EXPECT_GE(a.enet_counters().disconnects, 1u);
 }
 
+TEST(EnetTransport, AnEstablishedConnectionEndsOnlyBySilenceOnTheCallersClock) {
+    // ENet's own timeout closed a connection after 3 unacknowledged sends and 2 s of its clock:
+    // on a lossy link (30 %, 250 ms) that closed live connections every few seconds. Now only
+    // dead_after_us of the caller's time without a word ends an established connection. Here b
+    // freezes while a's caller says little time passes: 5 s of real time (ENet used to give up
+    // after 3-4 s) and the connection stands; then the caller's clock passes dead_after_us and
+    // a reports b gone, saying so.
+    EnetTransport a({.local_id = 0, .dead_after_us = 2'000'000});
+    EnetTransport b({.local_id = 1});
+    ASSERT_TRUE(a.connect(1, "127.0.0.1", b.port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({&a, &b}, [&] { return a.is_connected(1) && b.is_connected(0); }, now));
+    ASSERT_TRUE(b.send(0, bytes_of(7, 8), now));  // a word from b: the link was live
+    Datagram d;
+    ASSERT_TRUE(pump({&a, &b}, [&] { return a.receive(d, now); }, now));
+    const Micros frozen = now;
+    for (int i = 0; i < 500; ++i) {  // 5 s of real time, 0.5 s of the caller's
+        a.poll(now);
+        now += 1'000;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_TRUE(a.is_connected(1)) << "ENet's own timeout closed an established connection";
+    EXPECT_FALSE(has_event(events_of(a), TransportEvent::Type::Disconnected, 1));
+    std::vector<TransportEvent> gone;
+    ASSERT_TRUE(pump({&a}, [&] {
+        for (TransportEvent e; a.next_event(e);) gone.push_back(e);
+        return !a.is_connected(1);
+    }, now));
+    EXPECT_GE(now - frozen, Micros{2'000'000});
+    ASSERT_FALSE(gone.empty());
+    EXPECT_EQ(gone.back().type, TransportEvent::Type::Disconnected);
+    EXPECT_NE(gone.back().reason.find("silent"), std::string::npos) << gone.back().reason;
+    EXPECT_EQ(a.enet_counters().disconnects, 1u);
+}
+
+TEST(EnetTransport, AConnectionWeOpenedThatNeverHearsAWordIsClosedSoonerAndAnIdleOneStays) {
+    // Under loss the accepting side may never get our last handshake acknowledgement and give
+    // up, leaving us "connected" to nobody: first_word_after_us of the caller's time without a
+    // word since it came up closes it (not dead_after_us), so the runner connects again. Here
+    // b freezes the moment a is connected: nothing from b reaches a after the handshake.
+    EnetTransport a({.local_id = 0, .dead_after_us = 5'000'000, .first_word_after_us = 1'000'000});
+    {
+        EnetTransport b({.local_id = 1});
+        ASSERT_TRUE(a.connect(1, "127.0.0.1", b.port()));
+        Micros now = 0;
+        ASSERT_TRUE(pump({&a, &b}, [&] { return a.is_connected(1); }, now));
+        const Micros up = now;
+        std::vector<TransportEvent> gone;
+        ASSERT_TRUE(pump({&a}, [&] {
+            for (TransportEvent e; a.next_event(e);)
+                if (e.type == TransportEvent::Type::Disconnected) gone.push_back(e);
+            return !gone.empty();
+        }, now));
+        EXPECT_GE(now - up, Micros{1'000'000});
+        EXPECT_LT(now - up, Micros{5'000'000}) << "closed only by dead_after_us";
+        EXPECT_NE(gone.back().reason.find("not a word since connected"), std::string::npos) << gone.back().reason;
+    }
+    // A live link that carries nothing of ours is not closed: ENet's pings are answered.
+    EnetTransport c({.local_id = 2});
+    ASSERT_TRUE(a.connect(2, "127.0.0.1", c.port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({&a, &c}, [&] { return a.is_connected(2) && c.is_connected(0); }, now));
+    for (int i = 0; i < 1500; ++i) {  // 3 s of both clocks, no datagram sent
+        a.poll(now);
+        c.poll(now);
+        now += 2'000;
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    EXPECT_TRUE(a.is_connected(2) && c.is_connected(0)) << "an idle live link was closed";
+}
+
 TEST(EnetTransport, APeerRestartedWithinASecondGetsInOnItsRetry) {
     // 0 connected to 1; 1's process dies and restarts at once, before 0's connection to it has
     // been silent for a second. 0 takes the new connection for the losing half of a crossed
