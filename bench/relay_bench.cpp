@@ -80,6 +80,10 @@ constexpr int kTickRate = 60;
 constexpr std::uint64_t kPeriodUs = 1000000 / kTickRate;
 constexpr std::uint32_t kRing = 1024;           // frames of send times kept per room
 constexpr std::uint32_t kMaxResend = 8;         // unacknowledged own inputs carried per message
+// A replaced input is the generator's own doing when it left 100 ms or more behind its tick (of
+// the ~167 ms a bot's input has before the server's deadline: input delay 2 + deadline 8 ticks),
+// or had not left at all when its frame was confirmed.
+constexpr std::uint64_t kGeneratorLateUs = 100'000;
 
 struct Options {
     std::string server;
@@ -105,18 +109,19 @@ struct Options {
 
 // The replaced slot-frames of the measurement window, summed per wall-clock second (the
 // system clock: the soak script stamps its hostile clients with `date`), room and slot:
-//   time_ms,run,room,slot,frames,unsent
+//   time_ms,run,room,slot,frames,generator_late
 // time_ms the second's start (ms since the epoch), room the index 0..R-1, frames the slot's
-// replaced frames confirmed in that second, unsent how many of them the generator itself had not
-// sent yet when they were confirmed (it fell behind: no one else's doing). A second is written
-// once the next one begins, and at the end of the run.
+// replaced frames confirmed in that second, generator_late how many of them were the generator's
+// own lateness (kGeneratorLateUs: sent that far behind their tick, or not yet sent when
+// confirmed): no one else's doing. A second is written once the next one begins, and at the end
+// of the run.
 class ReplacedLog {
 public:
     explicit ReplacedLog(const std::string& path) {
         if (path.empty()) return;
         f_ = std::fopen(path.c_str(), "w");
         if (!f_) throw std::runtime_error("cannot write " + path);
-        std::fprintf(f_, "time_ms,run,room,slot,frames,unsent\n");
+        std::fprintf(f_, "time_ms,run,room,slot,frames,generator_late\n");
     }
     ~ReplacedLog() {
         if (!f_) return;
@@ -130,7 +135,7 @@ public:
         flush();
         run_ = run;
     }
-    void note(int room, int slot, bool unsent) {
+    void note(int room, int slot, bool generator_late) {
         if (!f_) return;
         const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
         const long long second = ms / 1000 * 1000;
@@ -138,7 +143,7 @@ public:
         second_ = second;
         auto& [frames, late] = counts_[{room, slot}];
         ++frames;
-        late += unsent ? 1 : 0;
+        late += generator_late ? 1 : 0;
     }
     void flush() {
         if (!f_) return;
@@ -177,6 +182,7 @@ struct Room {
     std::uint32_t next_frame = 0;       // next frame to send
     std::array<std::uint64_t, kRing> sent_us{};
     std::array<std::uint32_t, kRing> sent_frame{};  // frame + 1 held in each entry
+    std::array<std::uint32_t, kRing> sent_late_us{};  // how far behind its tick the frame's first send fired
 };
 
 struct RunResult {
@@ -423,7 +429,7 @@ public:
                 auto& nf = next_fire[static_cast<std::size_t>(h)];
                 while (now >= nf) {
                     if (measuring_) late_.push_back(static_cast<std::uint32_t>(now - nf));
-                    fire(h, now);
+                    fire(h, now, now - nf);
                     nf += kPeriodUs;
                 }
             }
@@ -568,7 +574,7 @@ private:
         enet_peer_send(c.peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
     }
 
-    void fire(int h, std::uint64_t now) {
+    void fire(int h, std::uint64_t now, std::uint64_t late_us) {
         bool queued = false;
         for (std::size_t r = static_cast<std::size_t>(h); r < rooms_.size(); r += hosts_.size()) {
             Room& room = rooms_[r];
@@ -601,6 +607,7 @@ private:
             }
             room.sent_frame[f % kRing] = f + 1;
             room.sent_us[f % kRing] = 0;  // stamped at the flush below
+            room.sent_late_us[f % kRing] = static_cast<std::uint32_t>(std::min<std::uint64_t>(late_us, 0xFFFFFFFF));
         }
         if (!queued) return;
         const std::uint64_t t = now_us();
@@ -634,7 +641,7 @@ private:
                 for (int p = 0; p < kPlayers; ++p)
                     if (frames_.flags[i * kPlayers + static_cast<std::uint32_t>(p)] & kRelayReplaced) {
                         ++replaced_;
-                        log_.note(c.room, p, unsent);
+                        log_.note(c.room, p, unsent || room.sent_late_us[f % kRing] >= kGeneratorLateUs);
                     }
             if (unsent) {
                 if (c.slot == 0) ++unsent_;
@@ -830,7 +837,7 @@ int main(int argc, char** argv) {
     app.add_flag("--verbose", o.verbose, "print the ramp's progress every second");
     app.add_option("--csv", o.csv, "append one row per run here");
     app.add_option("--replaced-log", o.replaced_log,
-                   "write the replaced slot-frames here, per second, room and slot (CSV: time_ms,run,room,slot,frames,unsent)");
+                   "write the replaced slot-frames here, per second, room and slot (CSV: time_ms,run,room,slot,frames,generator_late)");
     app.add_option("--server-arg", o.server_args, "extra lockroll-server flag (repeatable)");
     app.add_option("--echo", o.echo,
                    "bench/udp_echo binary: after each server run, the bare echo (one syscall per datagram) at that run's UDP "

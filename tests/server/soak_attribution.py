@@ -15,11 +15,19 @@ within the one run, whether the hostiles added any, by comparing like with like:
                    honest `lockroll client`s, started beside them: a joining client's first
                    frames are replaced in any room (about 9 of 600 each, measured 2026-12-06),
                    so the bots, who join the room clock at once, are no baseline for them.
-  any time         the bots' rate in all rooms while any hostile was active (its window) against
-                   their rate outside every window, from the first attack on: a flood that
-                   starved the server would show here, in rooms no hostile named.
+  any time         (information, no verdict) the bots' rate in all rooms while any hostile was
+                   active (its window) against their rate outside every window, from the first
+                   attack on, all replaced inputs and those the bots sent on time (not
+                   generator_late), and per kind of hostile. A flood that starved the server
+                   would show here, but so does the test machine: the soak's hostile rounds start
+                   a dozen processes (python included) on the cores the server and the bots'
+                   generator use, and rest during its sleeps, so "outside" is the quiet time of
+                   the machine too (2026-12-06: the steals' windows, python and two process
+                   starts, showed the highest rate in every room, targeted or not; the liar
+                   rounds', five lockroll clients, the lowest). Only the like-for-like
+                   comparisons above decide.
 
-Each comparison is "significant" when its observed count exceeds FACTOR (2) times the count the
+Each deciding comparison is "significant" when its observed count exceeds FACTOR (2) times the count the
 baseline rate predicts plus SLACK (60 slot-frames: half a second of one room's two slots, so that
 a lone hiccup on a quiet run is not called an attack). The replaced inputs attributable to
 hostiles are the observed counts beyond the prediction of the first two comparisons (the rooms
@@ -27,7 +35,8 @@ where a hostile could act on the bots' behalf). With --strict the exit status is
 comparison is significant or any honest client was kicked.
 
 Inputs (CSV with a header):
-  --replaced  relay_bench --replaced-log: time_ms,run,room,slot,frames,unsent (per second)
+  --replaced  relay_bench --replaced-log: time_ms,run,room,slot,frames,generator_late (per
+              second; an older log's unsent column stands for generator_late)
   --attacks   the soak's hostile actions: start_ms,end_ms,kind,room (room: a bots' room index
               for kind steal, else the hostile's own room name)
   --honest    honest lockroll clients: room,slot,role,frames,replaced,outcome (role neighbour:
@@ -94,7 +103,8 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
     # A second bucket counts at its middle: replaced[(room)] = [(t_ms, frames)].
     samples = []
     for r in replaced_rows:
-        samples.append((int(r["time_ms"]) + 500, int(r["room"]), int(r["frames"]), int(r["unsent"])))
+        late = r["generator_late"] if "generator_late" in r else r["unsent"]
+        samples.append((int(r["time_ms"]) + 500, int(r["room"]), int(r["frames"]), int(late)))
     starts = [int(a["start_ms"]) for a in attacks]
     begin = min(starts) - margin_ms if starts else 0
     windows = merge([(int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)) for a in attacks])
@@ -119,14 +129,18 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
                     o_obs += n
     comparisons = [Comparison("targeted rooms in their windows", int(t_obs), t_exp, int(o_obs), o_exp, factor, slack)]
 
-    # The bots' rate while hostiles were active, and outside, from the first attack on.
-    during = sum(n for t, _, n, _ in samples if begin <= t < end_ms and inside(t, windows))
-    outside = sum(n for t, _, n, _ in samples if begin <= t < end_ms and not inside(t, windows))
+    # The bots' rate while hostiles were active, and outside, from the first attack on: all
+    # replaced inputs, and those the bots sent on time (the decision's).
+    def in_span(active, on_time):
+        return sum(n - (late if on_time else 0) for t, _, n, late in samples
+                   if begin <= t < end_ms and inside(t, windows) == active)
     during_s = span_s(windows)
     outside_s = max(0.0, (end_ms - begin) / 1000.0 - during_s) if starts else 0.0
     per_s = rooms * SLOTS * FPS
-    during_cmp = Comparison("all bots' rooms while hostiles were active", during, during_s * per_s, outside,
-                            outside_s * per_s, factor, slack)
+    during_all = Comparison("all bots' rooms while hostiles were active, every replaced input", in_span(True, False),
+                            during_s * per_s, in_span(False, False), outside_s * per_s, factor, slack)
+    during_cmp = Comparison("all bots' rooms while hostiles were active, inputs the bots sent on time", in_span(True, True),
+                            during_s * per_s, in_span(False, True), outside_s * per_s, factor, slack)
 
     # Honest slots in the hostiles' own rooms (the liar's neighbours), against the control rooms.
     def honest_sum(role, field):
@@ -134,22 +148,33 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
     comparisons.append(Comparison("honest slots in hostiles' rooms", honest_sum("neighbour", "replaced"),
                                   honest_sum("neighbour", "frames"), honest_sum("control", "replaced"),
                                   honest_sum("control", "frames"), factor, slack))
-    comparisons.append(during_cmp)
+
+    # Per kind of hostile (information: which kind's windows carry the replaced inputs).
+    by_kind = []
+    for kind in sorted({a["kind"] for a in attacks}):
+        iv = merge([(int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)) for a in attacks if a["kind"] == kind])
+        n_all = sum(n for t, _, n, _ in samples if inside(t, iv))
+        n_on_time = sum(n - g for t, _, n, g in samples if inside(t, iv))
+        exposure = span_s(iv) * per_s
+        by_kind.append(f"{kind} {span_s(iv):.0f} s: {n_all / exposure if exposure else 0:.2e} all, "
+                       f"{n_on_time / exposure if exposure else 0:.2e} on time")
 
     total = sum(n for _, _, n, _ in samples)
-    unsent = sum(u for _, _, _, u in samples)
+    late = sum(u for _, _, _, u in samples)
     attributable = comparisons[0].excess + comparisons[1].excess
     lines = [
-        f"replaced slot-frames logged: {total} ({unsent} confirmed before the bots' generator had sent them: it fell behind); "
+        f"replaced slot-frames logged: {total} ({late} the bots' generator sent late or not at all: it fell behind); "
         f"{len(attacks)} hostile actions, {sum(1 for a in attacks if a['kind'] == 'steal')} of them steals in "
         f"{len(targeted)} bots' rooms; windows ±{margin_ms / 1000:g} s, {during_s:.0f} s with hostiles active, {outside_s:.0f} s without",
         comparisons[0].line("other bots' rooms in the same windows"),
         comparisons[1].line("honest clients in the control rooms"),
-        during_cmp.line("outside every window"),
+        during_all.line("outside every window").replace(": SIGNIFICANT", ": above the bound (information)"),
+        during_cmp.line("outside every window").replace(": SIGNIFICANT", ": above the bound (information)"),
+        "  the bots' rate in each kind's windows: " + "; ".join(by_kind),
         f"replaced inputs attributable to hostiles: {attributable} (targeted-room rate {comparisons[0].rate:.2e} vs others "
         f"{comparisons[0].base_rate:.2e} in the same windows, {int(t_obs)} vs {int(o_obs)} slot-frames)",
     ]
-    return comparisons, attributable, lines
+    return comparisons, attributable, lines, during_cmp
 
 
 def verdict(comparisons, honest_kicked, strict):
@@ -185,7 +210,7 @@ def main(argv):
         replaced = read_rows(a.replaced)
         attacks = read_rows(a.attacks)
         honest = read_rows(a.honest) if a.honest else []
-        comparisons, _, lines = analyse(replaced, attacks, honest, a.rooms, a.end_ms, a.margin_ms, a.factor, a.slack)
+        comparisons, _, lines, _ = analyse(replaced, attacks, honest, a.rooms, a.end_ms, a.margin_ms, a.factor, a.slack)
     except (OSError, KeyError, ValueError) as e:
         print(f"soak_attribution: {e}", file=sys.stderr)
         return 2
@@ -197,29 +222,34 @@ def main(argv):
 
 # --- selftest: synthetic runs, no processes ---------------------------------------------------
 
-def synthetic(directory, name, extra_in_victims, honest_replaced=9, kicked=0, flood_everywhere=0):
+def synthetic(directory, name, extra_in_victims, honest_replaced=9, kicked=0, flood_everywhere=0, generator_behind=0,
+              loaded=0):
     """A 20-room, 200 s run: background replacements in every room (2 slot-frames a second in
     rooms 0..19, in turn), steals every 20 s at rooms 3, 5, ... with extra_in_victims slot-frames
     added to the victim in the second after each steal, and flood_everywhere added to every room
-    while each round's flooder runs; a liar round whose two honest clients had honest_replaced
+    while each round's flooder runs (generator_behind: as many, all generator_late); loaded more in
+    every room every second (a loaded machine, hostiles or not); a liar round whose two honest clients had honest_replaced
     own inputs replaced each, and its control room's three 9 each."""
     rooms, t0 = 20, 1_700_000_000_000
     rows, attacks = [], []
     for s in range(200):
-        rows.append((t0 + s * 1000, s % rooms, 2))
+        rows.append((t0 + s * 1000, s % rooms, 2, 0))
+        rows.extend((t0 + s * 1000, r, loaded, 0) for r in range(rooms) if loaded)
     for k in range(8):
         start = t0 + 20_000 + k * 20_000
         victim = (3 + 2 * k) % rooms
         attacks.append((start, start + 1500, "steal", victim))
         attacks.append((start + 2000, start + 9000, "flood", f"hostile-{k}-flood"))
         if extra_in_victims:
-            rows.append((start + 1000, victim, extra_in_victims))
-        if flood_everywhere:
-            for r in range(rooms):
-                rows.append((start + 4000, r, flood_everywhere))
+            rows.append((start + 1000, victim, extra_in_victims, 0))
+        for r in range(rooms):
+            if flood_everywhere:
+                rows.append((start + 4000, r, flood_everywhere, 0))
+            if generator_behind:
+                rows.append((start + 5000, r, generator_behind, generator_behind))
     paths = {}
     for kind, header, data in (
-            ("replaced", "time_ms,run,room,slot,frames,unsent", [f"{t},0,{r},{r % 2},{n},0" for t, r, n in rows]),
+            ("replaced", "time_ms,run,room,slot,frames,generator_late", [f"{t},0,{r},{r % 2},{n},{g}" for t, r, n, g in rows]),
             ("attacks", "start_ms,end_ms,kind,room", [f"{a},{b},{k},{r}" for a, b, k, r in attacks]),
             ("honest", "room,slot,role,frames,replaced,outcome",
              [f"liar-1,{s},neighbour,600,{honest_replaced},completed" for s in (0, 1)] +
@@ -231,6 +261,12 @@ def synthetic(directory, name, extra_in_victims, honest_replaced=9, kicked=0, fl
             "--end-ms", str(t0 + 200_000), "--honest-kicked", str(kicked), "--strict"]
 
 
+def analyse_synthetic(argv):
+    kv = dict(zip(argv[0:-1:2], argv[1::2]))
+    return analyse(read_rows(kv["--replaced"]), read_rows(kv["--attacks"]), read_rows(kv["--honest"]), int(kv["--rooms"]),
+                   int(kv["--end-ms"]))
+
+
 def selftest():
     failures = []
     with tempfile.TemporaryDirectory(prefix="lockroll-soak-") as d:
@@ -238,24 +274,31 @@ def selftest():
             ("background only", synthetic(d, "quiet", 0), 0),
             # 8 steals x 40 extra slot-frames in the victims: 320 beyond a background of ~0.1 per window.
             ("victims hit", synthetic(d, "hit", 40), 1),
+            # A loaded machine: 10 replaced a second in every room, the victims' as the others'.
+            ("loaded machine, victims as the others", synthetic(d, "loaded", 0, loaded=10), 0),
+            ("loaded machine, victims hit", synthetic(d, "loaded-hit", 200, loaded=10), 1),
             # A handful in the victims is within the slack: not called an attack.
             ("victims noise", synthetic(d, "noise", 2), 0),
             ("honest neighbour of a liar hit", synthetic(d, "neighbour", 0, honest_replaced=75), 1),
             ("an honest client kicked", synthetic(d, "kicked", 0, kicked=1), 1),
-            # Every room hit while the flooders run: not the victims' rooms, the time.
-            ("flood starves everyone", synthetic(d, "flood", 0, flood_everywhere=20), 1),
+            # Every room hit while the flooders run: not the victims' rooms, the time; reported
+            # (below), but the machine's own load looks the same: no verdict.
+            ("flood starves everyone", synthetic(d, "flood", 0, flood_everywhere=20), 0),
         ]
         for name, argv, want in cases:
             got = main(argv)
             if got != want:
                 failures.append(f"{name}: exit {got}, expected {want}")
         # The attributable count: 8 x 40 extra, less the few the background predicts.
-        args = synthetic(d, "count", 40)
-        kv = dict(zip(args[0:-1:2], args[1::2]))
-        comparisons, attributable, _ = analyse(read_rows(kv["--replaced"]), read_rows(kv["--attacks"]),
-                                               read_rows(kv["--honest"]), 20, int(kv["--end-ms"]))
+        attributable = analyse_synthetic(synthetic(d, "count", 40))[1]
         if not 300 <= attributable <= 320:
             failures.append(f"attributable {attributable}, expected about 320")
+        # The time comparison counts the inputs the bots sent on time: a generator that fell
+        # behind while hostiles ran is not above its bound, a starved server is.
+        for name, kw, want in (("flood", {"flood_everywhere": 20}, True), ("behind", {"generator_behind": 20}, False)):
+            during = analyse_synthetic(synthetic(d, name, 0, **kw))[3]
+            if during.significant != want:
+                failures.append(f"{name}: while hostiles were active, on time: above the bound {during.significant}, expected {want}")
         if main(["--rooms", "3"]) != 2:
             failures.append("missing inputs not refused with status 2")
     for f in failures:
