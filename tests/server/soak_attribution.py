@@ -41,7 +41,8 @@ Inputs (CSV with a header):
               for kind steal, else the hostile's own room name)
   --honest    honest lockroll clients: room,slot,role,frames,replaced,outcome (role neighbour:
               beside a liar; control: in the all-honest room started with it)
-  --rooms     the bots' room count; --end-ms when the bots stopped; --honest-kicked how many
+  --rooms     the bots' room count; --end-ms when the bots stopped (or the server first kicked
+              one: their rooms replace nothing after); --honest-kicked how many
               honest clients (bots or the liar's neighbours) were disconnected or failed.
 `soak_attribution.py --selftest` checks the rules on synthetic runs (ctest: unit tier).
 """
@@ -99,22 +100,25 @@ class Comparison:
 
 
 def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, factor=2.0, slack=60.0):
-    """Returns (comparisons, attributable, lines)."""
-    # A second bucket counts at its middle: replaced[(room)] = [(t_ms, frames)].
+    """Returns (comparisons, attributable, lines, the time comparison). Only the time before
+    end_ms counts (the bots' end, or their first kick: after it their rooms replace nothing)."""
+    def window(a):
+        return int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)
+    attacks = [a for a in attacks if window(a)[0] < end_ms]
+    # A second bucket counts at its middle.
     samples = []
     for r in replaced_rows:
         late = r["generator_late"] if "generator_late" in r else r["unsent"]
         samples.append((int(r["time_ms"]) + 500, int(r["room"]), int(r["frames"]), int(late)))
     starts = [int(a["start_ms"]) for a in attacks]
     begin = min(starts) - margin_ms if starts else 0
-    windows = merge([(int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)) for a in attacks])
+    windows = merge([window(a) for a in attacks])
 
     # Targeted rooms: each steal's victim in its windows, against the other rooms then.
     targeted = {}
     for a in attacks:
         if a["kind"] == "steal":
-            targeted.setdefault(int(a["room"]), []).append((int(a["start_ms"]) - margin_ms,
-                                                            min(end_ms, int(a["end_ms"]) + margin_ms)))
+            targeted.setdefault(int(a["room"]), []).append(window(a))
     t_obs = t_exp = o_obs = o_exp = 0.0
     for room, iv in targeted.items():
         iv = merge(iv)
@@ -152,7 +156,7 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
     # Per kind of hostile (information: which kind's windows carry the replaced inputs).
     by_kind = []
     for kind in sorted({a["kind"] for a in attacks}):
-        iv = merge([(int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)) for a in attacks if a["kind"] == kind])
+        iv = merge([window(a) for a in attacks if a["kind"] == kind])
         n_all = sum(n for t, _, n, _ in samples if inside(t, iv))
         n_on_time = sum(n - g for t, _, n, g in samples if inside(t, iv))
         exposure = span_s(iv) * per_s
@@ -164,7 +168,7 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
     attributable = comparisons[0].excess + comparisons[1].excess
     lines = [
         f"replaced slot-frames logged: {total} ({late} the bots' generator sent late or not at all: it fell behind); "
-        f"{len(attacks)} hostile actions, {sum(1 for a in attacks if a['kind'] == 'steal')} of them steals in "
+        f"{len(attacks)} hostile actions before the end, {sum(1 for a in attacks if a['kind'] == 'steal')} of them steals in "
         f"{len(targeted)} bots' rooms; windows ±{margin_ms / 1000:g} s, {during_s:.0f} s with hostiles active, {outside_s:.0f} s without",
         comparisons[0].line("other bots' rooms in the same windows"),
         comparisons[1].line("honest clients in the control rooms"),
