@@ -20,7 +20,8 @@
 // alone as its kernel share) and
 // its RSS at the end. With --replaced-log FILE, every replaced slot-frame is also written there,
 // summed per wall-clock second, room and slot (the relay soak, tests/server/relay_soak.sh, sets
-// them beside the times and rooms of its hostile clients to tell whether those caused any). A run "sustains" R when every room played, p99 <= --goal-us and nothing
+// them beside the times and rooms of its hostile clients to tell whether those caused any).
+// A run "sustains" R when every room played, p99 <= --goal-us and nothing
 // was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
 // whose generator fell behind measures the generator, not the server.
 //
