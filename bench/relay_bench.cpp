@@ -18,7 +18,10 @@
 // datagrams the generator sent and received (ENet's counters: pings and acks included), the
 // server's CPU (utime + stime from /proc/PID/stat over the window, as a share of one core; stime
 // alone as its kernel share) and
-// its RSS at the end. A run "sustains" R when every room played, p99 <= --goal-us and nothing
+// its RSS at the end. With --replaced-log FILE, every replaced slot-frame is also written there,
+// summed per wall-clock second, room and slot (the relay soak, tests/server/relay_soak.sh, sets
+// them beside the times and rooms of its hostile clients to tell whether those caused any).
+// A run "sustains" R when every room played, p99 <= --goal-us and nothing
 // was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
 // whose generator fell behind measures the generator, not the server.
 //
@@ -51,6 +54,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -77,6 +81,10 @@ constexpr int kTickRate = 60;
 constexpr std::uint64_t kPeriodUs = 1000000 / kTickRate;
 constexpr std::uint32_t kRing = 1024;           // frames of send times kept per room
 constexpr std::uint32_t kMaxResend = 8;         // unacknowledged own inputs carried per message
+// A replaced input is the generator's own doing when it left 100 ms or more behind its tick (of
+// the ~167 ms a bot's input has before the server's deadline: input delay 2 + deadline 8 ticks),
+// or had not left at all when its frame was confirmed.
+constexpr std::uint64_t kGeneratorLateUs = 100'000;
 
 struct Options {
     std::string server;
@@ -97,6 +105,60 @@ struct Options {
     std::string csv;
     std::vector<std::string> server_args;
     std::string echo;  // bench/udp_echo: the one-syscall-per-datagram baseline, run after each server run
+    std::string replaced_log;  // CSV of replaced slot-frames per second, room and slot
+};
+
+// The replaced slot-frames of the measurement window, summed per wall-clock second (the
+// system clock: the soak script stamps its hostile clients with `date`), room and slot:
+//   time_ms,run,room,slot,frames,generator_late
+// time_ms the second's start (ms since the epoch), room the index 0..R-1, frames the slot's
+// replaced frames confirmed in that second, generator_late how many of them were the generator's
+// own lateness (kGeneratorLateUs: sent that far behind their tick, or not yet sent when
+// confirmed): no one else's doing. A second is written once the next one begins, and at the end
+// of the run.
+class ReplacedLog {
+public:
+    explicit ReplacedLog(const std::string& path) {
+        if (path.empty()) return;
+        f_ = std::fopen(path.c_str(), "w");
+        if (!f_) throw std::runtime_error("cannot write " + path);
+        std::fprintf(f_, "time_ms,run,room,slot,frames,generator_late\n");
+    }
+    ~ReplacedLog() {
+        if (!f_) return;
+        flush();
+        std::fclose(f_);
+    }
+    ReplacedLog(const ReplacedLog&) = delete;
+    ReplacedLog& operator=(const ReplacedLog&) = delete;
+
+    void begin_run(int run) {
+        flush();
+        run_ = run;
+    }
+    void note(int room, int slot, bool generator_late) {
+        if (!f_) return;
+        const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+        const long long second = ms / 1000 * 1000;
+        if (second != second_) flush();
+        second_ = second;
+        auto& [frames, late] = counts_[{room, slot}];
+        ++frames;
+        late += generator_late ? 1 : 0;
+    }
+    void flush() {
+        if (!f_) return;
+        for (const auto& [key, n] : counts_)
+            std::fprintf(f_, "%lld,%d,%d,%d,%u,%u\n", second_, run_, key.first, key.second, n.first, n.second);
+        counts_.clear();
+        std::fflush(f_);
+    }
+
+private:
+    std::FILE* f_ = nullptr;
+    int run_ = 0;
+    long long second_ = 0;
+    std::map<std::pair<int, int>, std::pair<std::uint32_t, std::uint32_t>> counts_;
 };
 
 struct Client {
@@ -121,6 +183,7 @@ struct Room {
     std::uint32_t next_frame = 0;       // next frame to send
     std::array<std::uint64_t, kRing> sent_us{};
     std::array<std::uint32_t, kRing> sent_frame{};  // frame + 1 held in each entry
+    std::array<std::uint32_t, kRing> sent_late_us{};  // how far behind its tick the frame's first send fired
 };
 
 struct RunResult {
@@ -279,8 +342,8 @@ void stop_server(const ServerChild& s) {
 
 class Generator {
 public:
-    Generator(const Options& o, int rooms, const std::string& host, std::uint16_t port, std::uint64_t run_id)
-        : o_(o), rooms_(static_cast<std::size_t>(rooms)), clients_(static_cast<std::size_t>(rooms) * kPlayers) {
+    Generator(const Options& o, int rooms, const std::string& host, std::uint16_t port, std::uint64_t run_id, ReplacedLog& log)
+        : o_(o), log_(log), rooms_(static_cast<std::size_t>(rooms)), clients_(static_cast<std::size_t>(rooms) * kPlayers) {
         const int hosts = std::max(1, std::min(o.hosts, rooms));
         std::vector<int> per_host(static_cast<std::size_t>(hosts), 0);
         for (int r = 0; r < rooms; ++r) per_host[static_cast<std::size_t>(r % hosts)] += kPlayers;
@@ -367,7 +430,7 @@ public:
                 auto& nf = next_fire[static_cast<std::size_t>(h)];
                 while (now >= nf) {
                     if (measuring_) late_.push_back(static_cast<std::uint32_t>(now - nf));
-                    fire(h, now);
+                    fire(h, now, now - nf);
                     nf += kPeriodUs;
                 }
             }
@@ -512,7 +575,7 @@ private:
         enet_peer_send(c.peer, 0, enet_packet_create(bytes_.data(), bytes_.size(), ENET_PACKET_FLAG_UNSEQUENCED));
     }
 
-    void fire(int h, std::uint64_t now) {
+    void fire(int h, std::uint64_t now, std::uint64_t late_us) {
         bool queued = false;
         for (std::size_t r = static_cast<std::size_t>(h); r < rooms_.size(); r += hosts_.size()) {
             Room& room = rooms_[r];
@@ -545,6 +608,7 @@ private:
             }
             room.sent_frame[f % kRing] = f + 1;
             room.sent_us[f % kRing] = 0;  // stamped at the flush below
+            room.sent_late_us[f % kRing] = static_cast<std::uint32_t>(std::min<std::uint64_t>(late_us, 0xFFFFFFFF));
         }
         if (!queued) return;
         const std::uint64_t t = now_us();
@@ -573,10 +637,14 @@ private:
         for (std::uint32_t f = std::max(c.confirmed_next, frames_.first_frame); f < end; ++f) {
             if (!measuring_ || !room.live || f < room.first_frame) continue;
             const std::uint32_t i = f - frames_.first_frame;
+            const bool unsent = room.sent_frame[f % kRing] != f + 1 || room.sent_us[f % kRing] == 0;
             if (c.slot == 0)
                 for (int p = 0; p < kPlayers; ++p)
-                    if (frames_.flags[i * kPlayers + static_cast<std::uint32_t>(p)] & kRelayReplaced) ++replaced_;
-            if (room.sent_frame[f % kRing] != f + 1 || room.sent_us[f % kRing] == 0) {
+                    if (frames_.flags[i * kPlayers + static_cast<std::uint32_t>(p)] & kRelayReplaced) {
+                        ++replaced_;
+                        log_.note(c.room, p, unsent || room.sent_late_us[f % kRing] >= kGeneratorLateUs);
+                    }
+            if (unsent) {
                 if (c.slot == 0) ++unsent_;
                 continue;
             }
@@ -625,6 +693,7 @@ private:
     }
 
     const Options& o_;
+    ReplacedLog& log_;
     ENetAddress address_{};
     std::size_t connected_rooms_ = 0;
     std::vector<Room> rooms_;
@@ -768,6 +837,8 @@ int main(int argc, char** argv) {
     app.add_option("--goal-us", o.goal_us, "p99 relay delay a sustained run stays within")->capture_default_str();
     app.add_flag("--verbose", o.verbose, "print the ramp's progress every second");
     app.add_option("--csv", o.csv, "append one row per run here");
+    app.add_option("--replaced-log", o.replaced_log,
+                   "write the replaced slot-frames here, per second, room and slot (CSV: time_ms,run,room,slot,frames,generator_late)");
     app.add_option("--server-arg", o.server_args, "extra lockroll-server flag (repeatable)");
     app.add_option("--echo", o.echo,
                    "bench/udp_echo binary: after each server run, the bare echo (one syscall per datagram) at that run's UDP "
@@ -794,6 +865,8 @@ int main(int argc, char** argv) {
     const std::string dir = std::filesystem::temp_directory_path() / ("relay_bench." + std::to_string(getpid()));
     std::filesystem::create_directories(dir);
     FILE* csv = o.csv.empty() ? nullptr : std::fopen(o.csv.c_str(), "a");
+    ReplacedLog replaced_log(o.replaced_log);
+    int run_number = 0;
     if (csv && std::ftell(csv) == 0)
         std::fprintf(csv, "rooms,run,rooms_live,p50_us,p99_us,max_us,samples,replaced,unsent,relay_in_per_s,relay_out_per_s,"
                           "udp_in_per_s,udp_out_per_s,server_cpu,server_rss_mib,generator_cpu,generator_late_p99_us,loadavg,sustained,"
@@ -817,8 +890,9 @@ int main(int argc, char** argv) {
                 server = start_server(o, rooms, dir);
             }
             RunResult r;
+            replaced_log.begin_run(run_number++);
             {
-                Generator g(o, rooms, host, server.port, ++run_id);
+                Generator g(o, rooms, host, server.port, ++run_id, replaced_log);
                 r = g.run(server);
             }
             if (!o.server.empty()) stop_server(server);
