@@ -187,42 +187,27 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     }
 
     // Walk cell by cell, in ascending linear index (per range of occupied cells when parallel,
-    // each range into its own scratch), then concatenate the blocks by body id.
-    if (block_.size() < box_.size()) block_.resize(box_.size());
+    // each range into its own scratch). The canonical order (docs/determinism.md) is the
+    // walk's own: the cells ascending, in each cell its bodies by ascending id, each body's
+    // pairs as its walk finds them. Ranges are runs of consecutive occupied cells, so their
+    // lists concatenated in range order are the one-range walk's list, whatever the cut.
     const std::size_t pieces = tasks.piece_count(occupied_.size(), kCellGrain);
     if (scratch_.size() < pieces) {
         scratch_.resize(pieces);
         found_.resize(pieces);
     }
     if (pieces <= 1) {
-        found_[0] = walk(0, occupied_.size(), 0, block_.data(), false);
+        found_[0] = walk(0, occupied_.size(), 0);
     } else {
-        // Each range writes its blocks by slot (its cells' slots are one contiguous run), not
-        // by body id: ids lie all over a cell range, and two threads writing block_ by id
-        // fought over its cache lines (2 workers used 1.5x the CPU of one on bodies_10k).
-        if (slot_block_.size() < sorted_id_.size()) slot_block_.resize(sorted_id_.size());
         tasks.run(pieces, [&](std::size_t k) {
             const std::size_t n_occ = occupied_.size();
-            found_[k] = walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k),
-                             slot_block_.data(), true);
+            found_[k] = walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k));
         });
-        for (std::size_t slot = 0; slot < sorted_id_.size(); ++slot) block_[sorted_id_[slot]] = slot_block_[slot];
     }
-    // The canonical order (docs/determinism.md): blocks by ascending body id. It is the order a
-    // walk over the bodies by id produces, so the walk's order of memory accesses is free, and
-    // so is the cut into ranges.
-    std::size_t total = 0;
-    for (std::size_t k = 0; k < pieces; ++k) total += found_[k];
-    std::size_t at = out.size();
-    out.resize(at + total);
-    for (BodyId a : gridded_) {
-        const Block b = block_[a];
-        const BodyPair* from = scratch_[b.piece].data() + b.begin;
-        for (std::uint32_t i = 0; i < b.size; ++i) out[at++] = from[i];
-    }
+    for (std::size_t k = 0; k < pieces; ++k) out.insert(out.end(), scratch_[k].begin(), scratch_[k].begin() + found_[k]);
 }
 
-std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece, Block* blocks, bool by_slot) {
+std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) {
     std::vector<BodyPair>& scratch = scratch_[piece];
     std::uint32_t used = 0;  // pairs in scratch (its size only grows: no clearing per body)
     for (std::size_t oi = first; oi < last; ++oi) {
@@ -270,7 +255,6 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
         for (std::uint32_t s = here.start, e = here.start + here.count; s < e; ++s) {
             const BodyId a = sorted_id_[s];
             const Box ba = sorted_box_[s];
-            const std::uint32_t begin = used;
             // Room for every candidate, so the scans store unconditionally and keep a pair only
             // when the boxes overlap: no branch on the test (a coin toss in a pile).
             std::uint32_t room = row_end - s - 1;
@@ -295,7 +279,6 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
             for (int r = 0; r < 4; ++r) {
                 if ((kRowNeed[r] & ~reach) == 0) scan(rows[r].start, rows[r].start + rows[r].count);
             }
-            blocks[by_slot ? s : a] = Block{begin, used - begin, piece};
         }
     }
     return used;
