@@ -93,7 +93,7 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
         const Box b = make_box(Vec3{}, extent[id], margin.raw);
         for (int k = 0; k < 3; ++k) widest_ = std::max(widest_, static_cast<i128>(b.hi[k]) - b.lo[k]);
     }
-    cell_.assign(static_cast<std::size_t>(px * py * pz), Cell{0, 0});
+    cell_.assign(static_cast<std::size_t>(px * py * pz), kEmptyCell);
     key_bits_ = 0;
     while ((std::uint64_t{1} << key_bits_) < cell_.size()) ++key_bits_;
     occupied_.clear();
@@ -146,7 +146,7 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
 }
 
 void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
-    for (std::uint32_t c : occupied_) cell_[c].count = 0;
+    for (std::uint32_t c : occupied_) cell_[c] = kEmptyCell;
     occupied_.clear();
 
     // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
@@ -180,10 +180,11 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
         sorted_id_[s] = id;
         sorted_box_[s] = box_[id];
         Cell& cell = cell_[c];
-        if (cell.count++ == 0) {
+        if (cell.end == 0) {
             cell.start = static_cast<std::uint32_t>(s);
             occupied_.push_back(c);
         }
+        cell.end = static_cast<std::uint32_t>(s + 1);
     }
 
     // Walk cell by cell, in ascending linear index (per range of occupied cells when parallel,
@@ -233,32 +234,23 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
         // contiguous run of slots, in the (z, y, x) order of its cells; a run is scanned whole
         // and the overlap test decides along x.
         auto run = [&](std::int64_t middle) {
-            Cell r{0, 0};
-            std::uint32_t end = 0;
-            for (std::int64_t c = middle - 1; c <= middle + 1; ++c) {
-                const Cell& cell = cell_[static_cast<std::size_t>(c)];
-                if (cell.count == 0) continue;
-                if (end == 0) r.start = cell.start;
-                end = cell.start + cell.count;
-            }
-            if (end != 0) r.count = end - r.start;
-            return r;
+            const Cell* c = &cell_[static_cast<std::size_t>(middle - 1)];
+            return Cell{std::min({c[0].start, c[1].start, c[2].start}), std::max({c[0].end, c[1].end, c[2].end})};
         };
         const auto o = static_cast<std::int64_t>(own);
-        const Cell along_x = cell_[static_cast<std::size_t>(o + 1)];
-        const std::uint32_t row_end = along_x.count != 0 ? along_x.start + along_x.count : here.start + here.count;
+        const std::uint32_t row_end = std::max(here.end, cell_[static_cast<std::size_t>(o + 1)].end);
         // Rows (dy, dz) = (1, 0), (-1, 1), (0, 1), (1, 1), and the reach each needs.
         const Cell rows[4] = {run(o + stride_y_), run(o - stride_y_ + stride_z_), run(o + stride_z_),
                               run(o + stride_y_ + stride_z_)};
         constexpr unsigned kRowNeed[4] = {2u, 16u | 4u, 4u, 2u | 4u};
 
-        for (std::uint32_t s = here.start, e = here.start + here.count; s < e; ++s) {
+        for (std::uint32_t s = here.start; s < here.end; ++s) {
             const BodyId a = sorted_id_[s];
             const Box ba = sorted_box_[s];
             // Room for every candidate, so the scans store unconditionally and keep a pair only
             // when the boxes overlap: no branch on the test (a coin toss in a pile).
             std::uint32_t room = row_end - s - 1;
-            for (const Cell& row : rows) room += row.count;
+            for (const Cell& row : rows) room += row.end > row.start ? row.end - row.start : 0;
             if (scratch.size() < std::size_t{used} + room) scratch.resize(2 * (std::size_t{used} + room));
             BodyPair* w = scratch.data();
             auto scan = [&](std::uint32_t t, std::uint32_t te) {
@@ -276,9 +268,9 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
                 reach |= static_cast<unsigned>(ba.hi[k] >= up_edge[k]) << k;
                 reach |= static_cast<unsigned>(ba.lo[k] < down_edge[k]) << (3 + k);
             }
-            for (int r = 0; r < 4; ++r) {
-                if ((kRowNeed[r] & ~reach) == 0) scan(rows[r].start, rows[r].start + rows[r].count);
-            }
+            // A row out of reach scans nothing ([start, start)); no branch on the reach, which
+            // is data-dependent when the cell edge has slack over the boxes.
+            for (int r = 0; r < 4; ++r) scan(rows[r].start, (kRowNeed[r] & ~reach) == 0 ? rows[r].end : rows[r].start);
         }
     }
     return used;

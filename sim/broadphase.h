@@ -98,9 +98,13 @@ private:
     // Spatially ordered layout, rebuilt each step: gridded bodies radix-sorted by linear cell
     // index (stable, so ascending id within a cell), their boxes copied into that order, so
     // a cell's bodies are contiguous and cells are walked in memory order.
+    // Slots [start, end) in sorted_id_ / sorted_box_. An empty cell (any cell outside
+    // occupied_) is {UINT32_MAX, 0}, so the bodies of a run of cells are [min start, max end)
+    // with no test for empty cells (a branch on occupancy was a coin toss in a sparse grid).
     struct Cell {
-        std::uint32_t start, count;  // slots in sorted_id_ / sorted_box_; count is 0 outside occupied_
+        std::uint32_t start, end;
     };
+    static constexpr Cell kEmptyCell{UINT32_MAX, 0};
     std::vector<Cell> cell_;                 // by linear cell index
     std::vector<std::uint32_t> occupied_;    // cells with bodies this step, ascending index
     std::vector<std::uint64_t> keys_, keys_tmp_;  // (cell << 32 | id) for the radix sort
