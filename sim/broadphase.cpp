@@ -93,7 +93,7 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
         const Box b = make_box(Vec3{}, extent[id], margin.raw);
         for (int k = 0; k < 3; ++k) widest_ = std::max(widest_, static_cast<i128>(b.hi[k]) - b.lo[k]);
     }
-    cell_.assign(static_cast<std::size_t>(px * py * pz), Cell{0, 0});
+    cell_.assign(static_cast<std::size_t>(px * py * pz), kEmptyCell);
     key_bits_ = 0;
     while ((std::uint64_t{1} << key_bits_) < cell_.size()) ++key_bits_;
     occupied_.clear();
@@ -146,7 +146,7 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
 }
 
 void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
-    for (std::uint32_t c : occupied_) cell_[c].count = 0;
+    for (std::uint32_t c : occupied_) cell_[c] = kEmptyCell;
     occupied_.clear();
 
     // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
@@ -180,49 +180,35 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
         sorted_id_[s] = id;
         sorted_box_[s] = box_[id];
         Cell& cell = cell_[c];
-        if (cell.count++ == 0) {
+        if (cell.end == 0) {
             cell.start = static_cast<std::uint32_t>(s);
             occupied_.push_back(c);
         }
+        cell.end = static_cast<std::uint32_t>(s + 1);
     }
 
     // Walk cell by cell, in ascending linear index (per range of occupied cells when parallel,
-    // each range into its own scratch), then concatenate the blocks by body id.
-    if (block_.size() < box_.size()) block_.resize(box_.size());
+    // each range into its own scratch). The canonical order (docs/determinism.md) is the
+    // walk's own: the cells ascending, in each cell its bodies by ascending id, each body's
+    // pairs as its walk finds them. Ranges are runs of consecutive occupied cells, so their
+    // lists concatenated in range order are the one-range walk's list, whatever the cut.
     const std::size_t pieces = tasks.piece_count(occupied_.size(), kCellGrain);
     if (scratch_.size() < pieces) {
         scratch_.resize(pieces);
         found_.resize(pieces);
     }
     if (pieces <= 1) {
-        found_[0] = walk(0, occupied_.size(), 0, block_.data(), false);
+        found_[0] = walk(0, occupied_.size(), 0);
     } else {
-        // Each range writes its blocks by slot (its cells' slots are one contiguous run), not
-        // by body id: ids lie all over a cell range, and two threads writing block_ by id
-        // fought over its cache lines (2 workers used 1.5x the CPU of one on bodies_10k).
-        if (slot_block_.size() < sorted_id_.size()) slot_block_.resize(sorted_id_.size());
         tasks.run(pieces, [&](std::size_t k) {
             const std::size_t n_occ = occupied_.size();
-            found_[k] = walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k),
-                             slot_block_.data(), true);
+            found_[k] = walk(n_occ * k / pieces, n_occ * (k + 1) / pieces, static_cast<std::uint32_t>(k));
         });
-        for (std::size_t slot = 0; slot < sorted_id_.size(); ++slot) block_[sorted_id_[slot]] = slot_block_[slot];
     }
-    // The canonical order (docs/determinism.md): blocks by ascending body id. It is the order a
-    // walk over the bodies by id produces, so the walk's order of memory accesses is free, and
-    // so is the cut into ranges.
-    std::size_t total = 0;
-    for (std::size_t k = 0; k < pieces; ++k) total += found_[k];
-    std::size_t at = out.size();
-    out.resize(at + total);
-    for (BodyId a : gridded_) {
-        const Block b = block_[a];
-        const BodyPair* from = scratch_[b.piece].data() + b.begin;
-        for (std::uint32_t i = 0; i < b.size; ++i) out[at++] = from[i];
-    }
+    for (std::size_t k = 0; k < pieces; ++k) out.insert(out.end(), scratch_[k].begin(), scratch_[k].begin() + found_[k]);
 }
 
-std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece, Block* blocks, bool by_slot) {
+std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) {
     std::vector<BodyPair>& scratch = scratch_[piece];
     std::uint32_t used = 0;  // pairs in scratch (its size only grows: no clearing per body)
     for (std::size_t oi = first; oi < last; ++oi) {
@@ -248,33 +234,23 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
         // contiguous run of slots, in the (z, y, x) order of its cells; a run is scanned whole
         // and the overlap test decides along x.
         auto run = [&](std::int64_t middle) {
-            Cell r{0, 0};
-            std::uint32_t end = 0;
-            for (std::int64_t c = middle - 1; c <= middle + 1; ++c) {
-                const Cell& cell = cell_[static_cast<std::size_t>(c)];
-                if (cell.count == 0) continue;
-                if (end == 0) r.start = cell.start;
-                end = cell.start + cell.count;
-            }
-            if (end != 0) r.count = end - r.start;
-            return r;
+            const Cell* c = &cell_[static_cast<std::size_t>(middle - 1)];
+            return Cell{std::min({c[0].start, c[1].start, c[2].start}), std::max({c[0].end, c[1].end, c[2].end})};
         };
         const auto o = static_cast<std::int64_t>(own);
-        const Cell along_x = cell_[static_cast<std::size_t>(o + 1)];
-        const std::uint32_t row_end = along_x.count != 0 ? along_x.start + along_x.count : here.start + here.count;
+        const std::uint32_t row_end = std::max(here.end, cell_[static_cast<std::size_t>(o + 1)].end);
         // Rows (dy, dz) = (1, 0), (-1, 1), (0, 1), (1, 1), and the reach each needs.
         const Cell rows[4] = {run(o + stride_y_), run(o - stride_y_ + stride_z_), run(o + stride_z_),
                               run(o + stride_y_ + stride_z_)};
         constexpr unsigned kRowNeed[4] = {2u, 16u | 4u, 4u, 2u | 4u};
 
-        for (std::uint32_t s = here.start, e = here.start + here.count; s < e; ++s) {
+        for (std::uint32_t s = here.start; s < here.end; ++s) {
             const BodyId a = sorted_id_[s];
             const Box ba = sorted_box_[s];
-            const std::uint32_t begin = used;
             // Room for every candidate, so the scans store unconditionally and keep a pair only
             // when the boxes overlap: no branch on the test (a coin toss in a pile).
             std::uint32_t room = row_end - s - 1;
-            for (const Cell& row : rows) room += row.count;
+            for (const Cell& row : rows) room += row.end > row.start ? row.end - row.start : 0;
             if (scratch.size() < std::size_t{used} + room) scratch.resize(2 * (std::size_t{used} + room));
             BodyPair* w = scratch.data();
             auto scan = [&](std::uint32_t t, std::uint32_t te) {
@@ -292,10 +268,9 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
                 reach |= static_cast<unsigned>(ba.hi[k] >= up_edge[k]) << k;
                 reach |= static_cast<unsigned>(ba.lo[k] < down_edge[k]) << (3 + k);
             }
-            for (int r = 0; r < 4; ++r) {
-                if ((kRowNeed[r] & ~reach) == 0) scan(rows[r].start, rows[r].start + rows[r].count);
-            }
-            blocks[by_slot ? s : a] = Block{begin, used - begin, piece};
+            // A row out of reach scans nothing ([start, start)); no branch on the reach, which
+            // is data-dependent when the cell edge has slack over the boxes.
+            for (int r = 0; r < 4; ++r) scan(rows[r].start, (kRowNeed[r] & ~reach) == 0 ? rows[r].end : rows[r].start);
         }
     }
     return used;

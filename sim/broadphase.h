@@ -53,11 +53,9 @@ private:
 
     void sweep_and_prune(std::vector<BodyPair>& out);
     void grid(std::vector<BodyPair>& out, const ParallelTasks& tasks);
-    // The grid walk over occupied_[first, last), into scratch_[piece], each body's pairs a
-    // block, written to blocks[slot] when by_slot, else blocks[id]; returns how many pairs it
-    // found.
-    struct Block;
-    std::uint32_t walk(std::size_t first, std::size_t last, std::uint32_t piece, Block* blocks, bool by_slot);
+    // The grid walk over occupied_[first, last), into scratch_[piece] in walk order; returns
+    // how many pairs it found.
+    std::uint32_t walk(std::size_t first, std::size_t last, std::uint32_t piece);
     // Interior cell coordinate 1..dims along axis k of a box's min corner (0 and dims + 1 are
     // the empty border).
     // Inline (it was a lambda in grid(); out of line it cost bodies_10k's step ~4 %).
@@ -100,13 +98,13 @@ private:
     // Spatially ordered layout, rebuilt each step: gridded bodies radix-sorted by linear cell
     // index (stable, so ascending id within a cell), their boxes copied into that order, so
     // a cell's bodies are contiguous and cells are walked in memory order.
+    // Slots [start, end) in sorted_id_ / sorted_box_. An empty cell (any cell outside
+    // occupied_) is {UINT32_MAX, 0}, so the bodies of a run of cells are [min start, max end)
+    // with no test for empty cells (a branch on occupancy was a coin toss in a sparse grid).
     struct Cell {
-        std::uint32_t start, count;  // slots in sorted_id_ / sorted_box_; count is 0 outside occupied_
+        std::uint32_t start, end;
     };
-    struct Block {
-        std::uint32_t begin, size;  // one body's pairs in scratch_[piece]
-        std::uint32_t piece;
-    };
+    static constexpr Cell kEmptyCell{UINT32_MAX, 0};
     std::vector<Cell> cell_;                 // by linear cell index
     std::vector<std::uint32_t> occupied_;    // cells with bodies this step, ascending index
     std::vector<std::uint64_t> keys_, keys_tmp_;  // (cell << 32 | id) for the radix sort
@@ -114,8 +112,6 @@ private:
     std::vector<Box> sorted_box_;            // its box, copied so neighbour scans are contiguous
     std::vector<std::vector<BodyPair>> scratch_;  // per walk range: pairs as found, by the body whose walk found them
     std::vector<std::uint32_t> found_;       // per walk range: how many
-    std::vector<Block> block_;               // by body id: where its pairs sit in scratch_
-    std::vector<Block> slot_block_;          // parallel walk: the same by slot
     std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests
 };
 
