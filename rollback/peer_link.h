@@ -208,6 +208,10 @@ public:
         has_count.assign(slots, false);
         pin_from.reset();
         has_stamp = false;
+        // Heard only once the new process speaks (its accepted hello, its join, its spectate):
+        // the previous one's silence is not its own (a spectator back after its timeout was
+        // timed out again at once, its predecessor's last word the newest heard).
+        heard = false;
         interrupted = false;
         remote_ack = 0;
         has_remote_frame = false;

@@ -15,13 +15,23 @@ bool hosts_guests(const SessionConfig& c) {
 }
 }  // namespace
 
-bool can_rejoin(const SessionConfig& c, bool kicked) {
-    return kicked && c.role != Role::Spectator && !hosts_guests(c);
+bool can_rejoin(const SessionConfig& c, bool kicked) { return kicked && rejoin_refusal(c).empty(); }
+
+std::string rejoin_refusal(const SessionConfig& c) {
+    if (c.role != Role::Spectator && hosts_guests(c))
+        return "this process plays several slots (slot_hosts), and a joiner cannot host guest slots yet";
+    return {};
+}
+
+std::string drop_failure(const SessionConfig& c) {
+    std::string why = "dropped from the match by the other peers";
+    if (const std::string no = rejoin_refusal(c); !no.empty()) why += "; it cannot rejoin: " + no;
+    return why;
 }
 
 SessionConfig rejoin_config(const SessionConfig& c, std::uint64_t scene_checksum) {
     SessionConfig j = c;
-    j.role = Role::Joiner;
+    if (j.role != Role::Spectator) j.role = Role::Joiner;
     j.handshake = true;
     j.scene_checksum = scene_checksum;
     j.incarnation = 0;

@@ -11,15 +11,24 @@
 //    Session::can_rejoin() / restart_as_joiner(), which ask can_rejoin() below; none decides it
 //    again.
 //  - can_rejoin(c, kicked): the others dropped this session (kicked: it emitted `kicked`, and has
-//    failed) and its process can play its slot again as a joiner: a player or a joiner, not a
-//    spectator, and not a process that hosts other slots (a joiner cannot host guests yet).
-//    Any other failure (refused, desync beyond the recoveries, the game threw) is no drop.
+//    failed) and its process can come back: a player or a joiner into its slot, as a joiner; a
+//    spectator (the players stopped serving it: cut off from every one of them past
+//    disconnect_us) as a spectator again, by a fresh snapshot. Not a process that hosts other
+//    slots: rejoin_refusal() says why. Any other failure (refused, desync beyond the
+//    recoveries, the game threw) is no drop.
+//  - rejoin_refusal(c): why a dropped process of this config cannot come back (empty: it can),
+//    for its outcome: one that hosts guest slots (SessionConfig::slot_hosts) cannot, since a
+//    joiner cannot host guests yet (each guest would need its own handoff and stream start).
+//  - drop_failure(c): what a session of this config fails with when the others dropped it
+//    (after its `kicked`): that, and rejoin_refusal()'s reason when there is one, so a run's
+//    outcome says why no rejoin followed.
 //  - rejoin_config(c, scene_checksum): the config it starts again with: everything as it was
-//    (slot, match id, delays, window, timeouts, the two-player rule), but role Joiner, the
-//    handshake on (a joiner needs it, also where the match runs without one), the match's scene
-//    checksum (the hello carries it, and the simulation has moved on from the state it was taken
-//    from), and a new incarnation (0: the session derives one from its first hello's time), so
-//    the others tell the new process from the one they dropped.
+//    (slot, match id, delays, window, timeouts, the two-player rule), but role Joiner (a
+//    spectator stays Spectator), the handshake on (a newcomer needs it, also where the match
+//    runs without one), the match's scene checksum (the hello carries it, and the simulation has
+//    moved on from the state it was taken from), and a new incarnation (0: the session derives
+//    one from its first hello's time), so the others tell the new process from the one they
+//    dropped.
 //  - SessionImpl::continue_from(before): what the successor keeps of the session it replaces,
 //    so that one process's figures and settings go on: its counters (stats(): ticks, frames,
 //    rollbacks, bytes, ... summed; per-peer counters too; not the state fields -- round trips,
@@ -43,6 +52,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "rollback/session.h"  // SessionConfig
 #include "rollback/session_types.h"  // SessionStats
@@ -50,6 +60,8 @@
 namespace lockroll::rollback {
 
 bool can_rejoin(const SessionConfig& c, bool kicked);
+std::string rejoin_refusal(const SessionConfig& c);
+std::string drop_failure(const SessionConfig& c);
 SessionConfig rejoin_config(const SessionConfig& c, std::uint64_t scene_checksum);
 // Adds the counters of `before` to `into` (see continue_from above).
 void carry_counters(const SessionStats& before, SessionStats& into);

@@ -205,6 +205,8 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
             if (!was_running) {  // it had left: its inputs count again from a little ahead
                 s.input_from = std::max(confirmed_next_, clock_frame(now_us)) + static_cast<std::uint32_t>(config_.handoff_ticks);
                 std::fill(s.pending_frame.begin(), s.pending_frame.end(), 0);
+                s.awaiting_handoff = true;
+                s.lapsed = false;
             }
             continue;
         }
@@ -215,6 +217,8 @@ RelayRefusal RelayRoom::admit(ConnectionId c, const RelayHello& h, std::uint64_t
         late = late || started_;
         const bool was_running = s.state == SlotState::Running;
         s.state = SlotState::Running;
+        s.awaiting_handoff = started_;
+        s.lapsed = false;
         if (!started_) {
             s.input_from = 0;
         } else {
@@ -273,7 +277,7 @@ void RelayRoom::confirm_one(std::uint64_t now_us) {
     for (int p = 0; p < players_; ++p) {
         Slot& s = slots_[static_cast<std::size_t>(p)];
         std::uint8_t* dst = inputs + static_cast<std::size_t>(p) * input_size_;
-        if (s.state != SlotState::Running || f < s.input_from) {
+        if (plays_absent(s, f)) {
             rec[static_cast<std::size_t>(p)] = kRelayAbsent;
         } else if (has_input(s, f)) {
             std::copy_n(input_at(s, f), input_size_, dst);
@@ -296,7 +300,7 @@ void RelayRoom::confirm_ready(std::uint64_t now_us) {
         const std::uint32_t f = confirmed_next_;
         bool ready = true, anyone = false;
         for (const auto& s : slots_) {
-            if (s.state != SlotState::Running || f < s.input_from) continue;
+            if (plays_absent(s, f)) continue;
             anyone = true;
             if (!has_input(s, f)) {
                 ready = false;
@@ -378,6 +382,7 @@ void RelayRoom::tick(std::uint64_t now_us, Outbox& out) {
     if (!started_ || now_us < next_tick_us_) return;
     next_tick_us_ += period_us_;
     if (next_tick_us_ <= now_us) next_tick_us_ = now_us + period_us_;
+    lapse_handoffs(now_us);
     confirm_ready(now_us);
     send_pending(out);
     broadcast(now_us, true, out);
@@ -387,6 +392,15 @@ void RelayRoom::tick(std::uint64_t now_us, Outbox& out) {
         decide(checks_.front(), out);
         checks_.pop_front();
     }
+}
+
+void RelayRoom::lapse_handoffs(std::uint64_t now_us) {
+    // The same wait as a silent connection's, counted from the frame its inputs were due.
+    const std::uint64_t lapse = config_.silence_drop_us * static_cast<std::uint64_t>(tick_rate_) / 1000000u;
+    const std::uint64_t clock = clock_frame(now_us);
+    for (auto& s : slots_)
+        if (s.state == SlotState::Running && s.awaiting_handoff && !s.lapsed && clock >= s.input_from + lapse)
+            s.lapsed = true;
 }
 
 void RelayRoom::notify_all(const RelayNotice& n, Outbox& out) {
@@ -505,6 +519,13 @@ const char* RelayRoom::receive(ConnectionId c, std::span<const std::uint8_t> d, 
                     continue;
                 }
                 if (has_input(s, frame)) continue;
+                if (s.lapsed) {
+                    // Its handoff starts after all: its inputs count from this frame (the ones
+                    // before it, confirmed or not, stay absent).
+                    s.input_from = frame;
+                    s.lapsed = false;
+                }
+                s.awaiting_handoff = false;
                 std::copy_n(in_.inputs.begin() + at, input_size_,
                             s.pending.begin() + static_cast<std::ptrdiff_t>((frame % kWindow) * input_size_));
                 s.pending_frame[frame % kWindow] = frame + 1;

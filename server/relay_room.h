@@ -38,6 +38,11 @@
 //    silent for replace_silent_us: a restarted process) binds it with a handoff frame a little
 //    ahead of the clock; its inputs count from there. Spectators take places after the slots.
 //    Both are told which slot to pull a snapshot from (the lowest connected player).
+//  - Lapse: a slot bound to a running room whose connection sends no input of its own by
+//    input_from + silence_drop_us (a joiner that never loads, however alive its keepalives)
+//    plays the absent input from then on, as if nobody held it: nobody waits for it at every
+//    frame's deadline. The first input it sends later (a frame not confirmed yet) makes that
+//    frame its new input_from; a connection that stays silent leaves as any silent one does.
 //  - Several slots per connection (couch + online): a hello names its slots (RelayHello::slot,
 //    the lowest, and also_slots). It is admitted whole or refused whole: every slot in range,
 //    each free, its own (the same incarnation: a resume), or held by one silent connection
@@ -178,6 +183,12 @@ private:
         bool late = false;                 // bound after the start: begins from a snapshot
         std::uint64_t incarnation = 0;
         std::uint32_t input_from = 0;      // its own inputs count from this frame
+        // Bound to a running room (a join, a takeover, a return) and no input of its own at or
+        // after input_from taken yet: its handoff has not started.
+        bool awaiting_handoff = false;
+        // Its handoff did not start within silence_drop_us of input_from: it plays the absent
+        // input until its first input comes (which re-hands it from that frame).
+        bool lapsed = false;
         std::vector<std::uint8_t> last_input;
         std::vector<std::uint8_t> pending;  // ring of kWindow inputs
         std::vector<std::uint32_t> pending_frame;  // frame held in each ring entry (+1; 0 = none)
@@ -206,6 +217,11 @@ private:
     void send_welcome(ConnectionId c, int id, RelayRefusal r, std::uint64_t echo_us, std::uint64_t now_us,
                       Outbox& out);
     bool id_joined_late(int id) const;
+    // Slot s plays no input of its own at frame f (absent: nobody plays it, not yet, or lapsed).
+    bool plays_absent(const Slot& s, std::uint32_t f) const {
+        return s.state != SlotState::Running || f < s.input_from || s.lapsed;
+    }
+    void lapse_handoffs(std::uint64_t now_us);
     bool has_input(const Slot& s, std::uint32_t frame) const;
     const std::uint8_t* input_at(const Slot& s, std::uint32_t frame) const;
     std::uint32_t input_ack(const Slot& s) const;

@@ -803,6 +803,75 @@ void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
+// Issue 21: a spectator cut off from every player for 10 s (past disconnect_us: they stop
+// serving it, it hears nobody). Healed, it must follow the match again -- by a fresh snapshot,
+// its old view being gone -- and end on the players' checksums. Before, it stayed on the frame
+// it was cut off at: the players ignored it for good, and it never learned it was dropped.
+// DISABLED until the session change lands (rollback/session.cpp is being split; not edited here):
+// /work/rejoin-gaps-followup.patch. It fails without it, passes with it.
+TEST(Lifecycle, DISABLED_SpectatorCutOffFromEveryPlayerFollowsAgainOnceHealed) {
+    SessionConfig cfg = real_config(3, 8);
+    cfg.max_spectators = 1;
+    const auto scene = make_scene(3, 10);
+    Cluster cluster(scene, cfg, {15000, 3000}, 47);
+    cluster.run_frames(100);
+    Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1);
+    cluster.run_frames(300, 30'000'000);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    bool cut = true;
+    split(cluster, {3}, cut);
+    cluster.run([](const Cluster&) { return false; }, 10'000'000);
+    cut = false;
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(1500, 60'000'000);
+    cluster.settle(1500);
+    const Client& watcher = *cluster.clients[3];
+    ASSERT_EQ(watcher.session->phase(), SessionPhase::Running) << watcher.session->failure();
+    EXPECT_EQ(watcher.session->config().role, Role::Spectator);
+    EXPECT_EQ(events_of(watcher, Kind::SnapshotLoaded).size(), 2u);  // the first, then after the heal
+    EXPECT_GE(watcher.session->confirmed_frame(), 1500u);
+    expect_equal_at(cluster, 1500);
+    for (PlayerId p : {0u, 1u, 2u}) {
+        EXPECT_TRUE(events_of(*cluster.clients[p], Kind::Partitioned).empty()) << "client " << p;
+        EXPECT_EQ(cluster.clients[p]->session->slot_state(0), SlotState::Running);
+    }
+}
+
+// Issue 21: a process playing two slots (slot_hosts: process 2 hosts slot 3) cut off from the
+// other two for 10 s. The two are a majority of the three processes: they drop it (and its
+// guest) and play on. Healed, it is kicked; a joiner cannot host guest slots yet, so it cannot
+// rejoin, and its failure must say so (before, it said only that it was dropped, like a
+// process that could rejoin and did not).
+// DISABLED until the session change lands (rollback/session.cpp is being split; not edited here):
+// /work/rejoin-gaps-followup.patch. It fails without it, passes with it.
+TEST(Lifecycle, DISABLED_HostOfTwoSlotsDroppedByAPartitionSaysWhyItCannotRejoin) {
+    const auto scene = make_scene(4, 10);
+    SessionConfig cfg = real_config(4, 8);
+    cfg.slot_hosts = {0, 1, 2, 2};
+    Cluster cluster(scene, cfg, {15000, 3000}, 57);
+    cluster.run_frames(200);
+    bool cut = true;
+    split(cluster, {2}, cut);
+    cluster.run([](const Cluster&) { return false; }, 10'000'000);
+    cut = false;
+    rejoin_when_dropped(cluster);  // rejoins whoever can: not the couch
+    cluster.run_frames(900, 60'000'000);
+    cluster.settle(900);
+    const Client& couch = *cluster.clients[2];
+    ASSERT_EQ(couch.session->phase(), SessionPhase::Failed);
+    EXPECT_EQ(events_of(couch, Kind::Kicked).size(), 1u);
+    EXPECT_FALSE(couch.session->can_rejoin());
+    EXPECT_NE(couch.session->failure().find("cannot rejoin"), std::string::npos) << couch.session->failure();
+    EXPECT_NE(couch.session->failure().find("several slots"), std::string::npos) << couch.session->failure();
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << c.session->failure();
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Disconnected);
+        EXPECT_EQ(c.session->slot_state(3), SlotState::Disconnected);
+    }
+    expect_equal_at(cluster, 900);
+}
+
 TEST(Lifecycle, SplitTwoOneTheOneDropsNobodyThenRejoinsBySnapshot) { split_two_one(8, 43, 0, 200); }
 // The same over seeds, lockstep too, and with the one's clock 2 % slow or fast: cut off while
 // a few frames behind the pair, it held the pair's inputs of frames the pair then played with

@@ -137,6 +137,23 @@ TEST(PeerLink, LateWelcomeAndAcceptedHelloMakeTheLinkLive) {
     EXPECT_EQ(b.welcomed_epoch, 3);
 }
 
+// A new process for the id (a spectator back after the players timed it out): its
+// predecessor's silence is not its own. The accepted hello marks it heard now; before, the old
+// last_heard_us stayed, and the next silence check timed the newcomer out at once, again after
+// every hello (issue 21, a spectator after a healed partition).
+TEST(PeerLink, ANewProcessIsHeardFromItsOwnHelloNotItsPredecessorsLastWord) {
+    PeerLink l(8, 60);
+    l.accept_hello(Role::Spectator, 7, std::nullopt, 1'000'000);
+    EXPECT_TRUE(l.check_silence(12'000'000, 750'000, 5'000'000).timed_out);
+    l.welcomed = false;  // timed out: no longer served
+    l.reset_lifecycle(3);  // its next process says hello
+    l.accept_hello(Role::Spectator, 8, std::nullopt, 12'000'000);
+    EXPECT_EQ(l.last_heard_us, 12'000'000u);
+    const PeerLink::Silence s = l.check_silence(12'100'000, 750'000, 5'000'000);
+    EXPECT_FALSE(s.timed_out);
+    EXPECT_FALSE(s.interrupted_now);
+}
+
 TEST(PeerLink, AcksOnlyMoveForwardAndItsFrameIsEstimatedFromTheReport) {
     PeerLink l(8, 60);
     EXPECT_TRUE(l.take_ack(10));

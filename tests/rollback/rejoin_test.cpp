@@ -64,5 +64,42 @@ TEST(Rejoin, AJoinerALeadAheadHoldsItsInputUntilItsFrameComesWithinIt) {
     EXPECT_EQ(joiner_input(true, 1'000 + kLead, 1'000, kLead).min_frame, 1'000 + kLead);
 }
 
+// Issue 21: a spectator the players stopped serving (cut off from all of them past
+// disconnect_us, then told it was dropped) comes back as a spectator, by a fresh snapshot; it
+// used to be no drop at all, and it stayed on the frame it was cut off at.
+TEST(Rejoin, ADroppedSpectatorComesBackAsASpectator) {
+    SessionConfig c;
+    c.players = 3;
+    c.local_player = 3;
+    c.role = Role::Spectator;
+    c.handshake = false;
+    EXPECT_FALSE(can_rejoin(c, false));
+    EXPECT_TRUE(can_rejoin(c, true));
+    EXPECT_EQ(rejoin_refusal(c), "");
+    const SessionConfig again = rejoin_config(c, 0x1234);
+    EXPECT_EQ(again.role, Role::Spectator);
+    EXPECT_EQ(again.local_player, 3u);
+    EXPECT_TRUE(again.handshake);
+    EXPECT_EQ(again.scene_checksum, 0x1234u);
+    c.role = Role::Player;
+    c.local_player = 1;
+    EXPECT_EQ(rejoin_config(c, 0).role, Role::Joiner);
+}
+
+// A process hosting guest slots cannot rejoin yet, and says why (its outcome carries it).
+TEST(Rejoin, AHostOfGuestSlotsCannotRejoinAndSaysWhy) {
+    SessionConfig c;
+    c.players = 3;
+    c.slot_hosts = {0, 0, 2};
+    c.local_player = 0;
+    EXPECT_FALSE(can_rejoin(c, true));
+    EXPECT_NE(rejoin_refusal(c).find("several slots"), std::string::npos) << rejoin_refusal(c);
+    EXPECT_EQ(drop_failure(c), "dropped from the match by the other peers; it cannot rejoin: " + rejoin_refusal(c));
+    c.local_player = 2;  // the other process plays one slot
+    EXPECT_TRUE(can_rejoin(c, true));
+    EXPECT_EQ(rejoin_refusal(c), "");
+    EXPECT_EQ(drop_failure(c), "dropped from the match by the other peers");
+}
+
 }  // namespace
 }  // namespace lockroll::rollback

@@ -211,6 +211,11 @@ public:
     Cluster(const sim::SceneDesc& scene, SessionConfig base, NetParams net, std::uint64_t seed)
         : net_(net, seed ^ 0x5eed), tick_rate_(base.tick_rate) {
         for (int p = 0; p < base.players; ++p) {
+            // A guest slot (SessionConfig::slot_hosts) is played by its host's client: no client.
+            if (!base.slot_hosts.empty() && base.slot_hosts[static_cast<std::size_t>(p)] != static_cast<PlayerId>(p)) {
+                clients.push_back(nullptr);
+                continue;
+            }
             SessionConfig c = base;
             c.local_player = static_cast<PlayerId>(p);
             if (c.absent_slots >> p & 1) c.role = Role::Joiner;  // its own slot absent: a joiner-to-be
@@ -313,8 +318,13 @@ private:
         if (c.skip_ticks > 0) {
             --c.skip_ticks;
         } else {
-            const auto in = c.bot.next();
-            const AdvanceResult r = c.session->advance(in, now_);
+            // One bot input per local slot (a host plays its guests' too).
+            in_.clear();
+            for (std::size_t k = 0; k < c.session->local_slots().size(); ++k) {
+                const auto one = c.bot.next();
+                in_.insert(in_.end(), one.begin(), one.end());
+            }
+            const AdvanceResult r = c.session->advance(in_, now_);
             c.last_advance = r;
             if (obey_time_sync) c.skip_ticks = r.wait_frames;
             if (c.catches_up) c.session->catch_up(now_, 16);
@@ -334,6 +344,7 @@ private:
     int tick_rate_;
     std::uint64_t now_ = 0;
     std::vector<Datagram> out_;
+    std::vector<std::uint8_t> in_;  // a tick's local input: one bot input per local slot
 };
 
 // A new process comes into the match `cfg` describes: a joiner for slot `id`, or a spectator.

@@ -45,6 +45,7 @@ struct RelayClient : rollback::SessionObserver {
     bool alive = true;
     bool frozen = false;  // sends nothing, ticks nothing (a hung process)
     bool lies = false;    // a modified client: every checksum it reports is flipped on the way out
+    bool deaf_to_forwards = false;  // gets no snapshot messages: a joiner whose load never starts
     int catch_ups = 0;
 };
 
@@ -117,7 +118,9 @@ private:
                 if (cl.alive && server_alive_ && !kicked_.count(cl.connection)) server_->receive(cl.connection, b, at);
             });
             cl.down_net.deliver(now_, [&](rollback::PlayerId, rollback::PlayerId, const std::vector<std::uint8_t>& b, std::uint64_t at) {
-                if (cl.alive && !cl.frozen) cl.session->receive(b, at);
+                if (!cl.alive || cl.frozen) return;
+                if (cl.deaf_to_forwards && rollback::peek_relay_kind(b) == rollback::RelayKind::Forward) return;
+                cl.session->receive(b, at);
             });
         }
         if (server_alive_) {

@@ -297,6 +297,97 @@ TEST(RelayMatch, KilledPlayerRejoinsItsSlot) {
     EXPECT_LT(cl.client(0).longest_stall_us, 200000u);
 }
 
+// Frames [from, to) of the room's history: how many carry `flag` for `slot`.
+int flagged(const RelayRoom& room, int slot, std::uint32_t from, std::uint32_t to, std::uint8_t flag) {
+    std::vector<std::uint8_t> flags, in;
+    int n = 0;
+    for (std::uint32_t f = from; f < to; ++f)
+        if (room.confirmed_inputs(f, flags, in)) n += (flags[static_cast<std::size_t>(slot)] & flag) != 0;
+    return n;
+}
+
+// Three slots, the third absent until a joiner takes it.
+rollback::RelaySessionConfig third_absent(int slot) {
+    auto c = player(3, slot);
+    c.absent_slots = 1u << 2;
+    return c;
+}
+
+const rollback::testing::NetParams kCleanLink{20000, 2000, 0, 0, 0};
+
+// Slots 0 and 1 of that room 200 frames in, on clean links, with a joiner's config for slot 2;
+// the server drops a connection silent for 2 s.
+std::unique_ptr<RelayCluster> pair_with_a_free_third(std::uint64_t seed, rollback::RelaySessionConfig& joiner) {
+    ServerConfig sc;
+    sc.room.silence_drop_us = 2'000'000;
+    auto cl = std::make_unique<RelayCluster>(rollback::testing::make_scene(3, 20), sc);
+    cl->add(third_absent(0), kCleanLink, seed);
+    cl->add(third_absent(1), kCleanLink, seed + 1);
+    EXPECT_TRUE(cl->run_until_frame(200));
+    joiner = third_absent(2);
+    joiner.role = rollback::RelayRole::Joiner;
+    return cl;
+}
+
+// A joiner welcomed with a handoff frame whose snapshot never arrives (it lives: its keepalives
+// reach the room, so the silence never drops it). Its handoff lapses silence_drop_us after the
+// handoff frame: the slot's input is the flagged absent (neutral) input again, confirmed without
+// waiting for the deadline. Before, the room replaced its input at every frame's deadline for as
+// long as the joiner's keepalives came (here for ever: its transfer never times out). When the
+// same process's load does come, its inputs count again from the first the room receives.
+TEST(RelayMatch, HandoffThatNeverStartsLapsesAndTheJoinerMayStillComeIn) {
+    rollback::RelaySessionConfig joiner;
+    const auto cluster = pair_with_a_free_third(91, joiner);
+    RelayCluster& cl = *cluster;
+    joiner.transfer_timeout_us = 0;  // it waits for its snapshot for ever
+    const int j = cl.add(joiner, kCleanLink, 93);
+    cl.client(j).deaf_to_forwards = true;
+    cl.run_for(6'000'000);
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_EQ(cl.client(j).session->phase(), rollback::SessionPhase::Transferring);
+    EXPECT_EQ(room->slot_state(2), RelayRoom::SlotState::Running);  // its connection still holds the slot
+    const std::uint32_t now_frame = room->confirmed_frames();
+    // The last second is the absent input, no longer replaced at the deadline.
+    EXPECT_EQ(flagged(*room, 2, now_frame - 60, now_frame, rollback::kRelayAbsent), 60);
+    EXPECT_EQ(flagged(*room, 2, now_frame - 60, now_frame, rollback::kRelayReplaced), 0);
+    EXPECT_GE(count(cl.client(0), Kind::Disconnected), 1);  // the others are told
+    // Its snapshot comes after all: it loads and plays; its inputs are confirmed as it sent them.
+    cl.client(j).deaf_to_forwards = false;
+    ASSERT_TRUE(cl.run_until_frame(cl.client(0).session->frame() + 400));
+    cl.run_for(2'000'000);
+    EXPECT_EQ(count(cl.client(j), Kind::SnapshotLoaded), 1);
+    const std::uint32_t end = room->confirmed_frames();
+    EXPECT_EQ(flagged(*room, 2, end - 120, end, rollback::kRelayAbsent | rollback::kRelayReplaced), 0);
+    expect_equal_at(cl, {0, 1, j}, cl.client(j).session->confirmed_frame() - 10);
+}
+
+// A joiner killed right after its welcome: the honest players never wait on it beyond the input
+// deadline, its slot leaves with its silence, and a new process of that slot joins again.
+TEST(RelayMatch, JoinerKilledAfterItsWelcomeFreezesNobodyAndItsSlotCanBeJoinedAgain) {
+    rollback::RelaySessionConfig joiner;
+    const auto cluster = pair_with_a_free_third(94, joiner);
+    RelayCluster& cl = *cluster;
+    const int dead = cl.add(joiner, kCleanLink, 96);
+    for (int i = 0; i < 1000 && cl.client(dead).session->phase() != rollback::SessionPhase::Transferring; ++i)
+        cl.run_for(1000);
+    ASSERT_EQ(cl.client(dead).session->phase(), rollback::SessionPhase::Transferring);
+    cl.kill(dead);
+    const std::uint32_t at = cl.client(0).session->frame();
+    ASSERT_TRUE(cl.run_until_frame(at + 300));
+    EXPECT_LT(cl.client(0).longest_stall_us, 200000u);
+    EXPECT_LT(cl.client(1).longest_stall_us, 200000u);
+    const RelayRoom* room = cl.server().room(42);
+    ASSERT_NE(room, nullptr);
+    EXPECT_EQ(room->slot_state(2), RelayRoom::SlotState::Left);
+    const int again = cl.add(joiner, kCleanLink, 97);
+    ASSERT_TRUE(cl.run_until_frame(cl.client(0).session->frame() + 400));
+    cl.run_for(2'000'000);
+    EXPECT_EQ(count(cl.client(again), Kind::SnapshotLoaded), 1);
+    EXPECT_EQ(room->slot_state(2), RelayRoom::SlotState::Running);
+    expect_equal_at(cl, {0, 1, again}, cl.client(again).session->confirmed_frame() - 10);
+}
+
 TEST(RelayMatch, ServerNamesTheOddClientWhichReloadsTheMajorityState) {
     const auto scene = rollback::testing::make_scene(3, 20);
     ServerConfig sc;
