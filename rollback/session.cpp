@@ -575,12 +575,7 @@ void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t no
     const SlotState before = slot_state(slot);
     membership_.set(slot, e.state, e.epoch);
     authority_->reset_slot(slot);
-    v.kick_vote = false;
-    v.lapsed = false;
-    v.pending_since_us = 0;
-    v.authoring = false;
-    v.neutral_reported = false;
-    v.handed_off_by_me = false;
+    v.new_epoch();
     if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
         e.state != SlotState::Running) {
         emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
@@ -801,12 +796,7 @@ void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why
     }
     membership_.leave(slot);
     authority_->reset_slot(slot);
-    v.kick_vote = false;
-    v.lapsed = false;
-    v.pending_since_us = 0;
-    v.authoring = false;
-    v.neutral_reported = false;
-    v.handed_off_by_me = false;
+    v.new_epoch();
     links_[slot].interrupted = false;
     detector_->peer_failed(slot);
     emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
@@ -1231,11 +1221,7 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
                     return;  // queue full: not now
             SlotView& v = slots_[from];
             membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
-            v.kick_vote = false;
-            v.lapsed = false;
-            v.pending_since_us = 0;
-            v.authoring = false;
-            v.neutral_reported = false;
+            v.new_epoch();
             v.handoff = handoff;
             v.handed_off_by_me = true;
             PeerLink& l = links_[from];
@@ -1365,10 +1351,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     for (const SlotEntry& e : offer.slots) {
         SlotView& v = slots_[e.slot];
         membership_.set(e.slot, e.state, e.epoch);
-        v.kick_vote = false;
-        v.lapsed = false;
-        v.pending_since_us = 0;
-        v.authoring = false;
+        v.new_epoch();  // a newcomer has handed nothing over
         v.neutral_reported = e.state != SlotState::Running;
     }
     for (auto& link : links_) {

@@ -26,6 +26,7 @@
 #include "rollback/session_core.h"
 #include "rollback/session_types.h"
 #include "rollback/simulation.h"
+#include "rollback/slot_view.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/sync.h"
 
@@ -126,25 +127,6 @@ public:
 
 private:
     class Tap;  // sees the detector's and sync's callbacks first, then forwards them
-    // What this session does about each slot beyond the view (membership_ holds state and epoch).
-    struct SlotView {
-        bool authoring = false;           // owner: writing its neutral inputs
-        bool neutral_reported = false;    // NeutralFrom event fired for this epoch
-        std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
-        bool handed_off_by_me = false;
-        bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
-        // A handed-over slot whose own stream has not started (its newest input is the owner's
-        // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
-        // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
-        std::uint64_t pending_since_us = 0;
-        bool lapsed = false;
-        // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
-        // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
-        // at most disconnect_us per attempt, and ever more rarely).
-        int lapses = 0;
-        std::uint64_t next_handoff_us = 0;
-    };
-
     void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
     AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
