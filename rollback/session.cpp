@@ -27,19 +27,6 @@ constexpr int kMaxChunksPerPoll = 64;
 // A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
 // server a whole state packed and sent, so a peer that keeps asking must not multiply that.
 constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
-// The slot table's schedule once every slot simply runs (issue 21: it had ridden every 8th
-// message, 22 bytes at 4 players, though it never changed). A change of what we tell a peer
-// goes in kTableCopies copies spread over ~1 s (PeerLink::table_due): a vote then survives 30 %
-// loss or a short burst. Once it changed, a refresh every kTableRefreshUs (at most half the
-// disconnect timeout) repairs a change all of whose copies were lost: the one that matters is
-// a withdrawn "gone" vote (a healed partition), which is then back at every peer before another
-// voter's silence timer, started when the change was made, could complete a majority with the
-// stale one. A table that never changed needs no refresh: it says "runs" in the view's epoch
-// about every slot, which counts for no more than saying nothing (only "gone" votes drop), and
-// the peer's relays ask for themselves (lags_on_a_stream). Two players need no refresh either:
-// there one vote is a majority or nothing (TwoPlayerRule).
-constexpr int kTableCopies = 8;
-constexpr std::uint64_t kTableRefreshUs = 2'000'000;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -124,7 +111,6 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     local_advantage_.assign(peers, 0);
     replies_this_poll_.assign(peers, 0);
     slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
-    for (int s = 0; s < config_.players; ++s) any_guest_ = any_guest_ || is_guest(static_cast<PlayerId>(s));
     guest_scratch_.assign(kMaxInputSize, 0);
     if (config_.role != Role::Spectator)
         for (int s = 0; s < config_.players; ++s)
@@ -141,8 +127,9 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
         for (std::size_t p = 0; p < static_cast<std::size_t>(config_.players); ++p) links_[p].welcomed = true;
     }
     // The starting view is every peer's (the same config): it is no change to anyone.
+    const StreamRelay relay(stream_view());
     for (std::size_t p = 0; p < peers; ++p) {
-        table_entries_for(static_cast<PlayerId>(p), table_entries_);
+        relay.table_entries_for(static_cast<PlayerId>(p), table_entries_);
         links_[p].table_assumed(table_entries_, 0);
     }
     refresh_resend_floor();
@@ -1425,144 +1412,8 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
 
-bool SessionImpl::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
-                               bool lagging) const {
-    if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
-    // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
-    if (any_guest_) return true;
-    if (any_slot_not_running()) return true;
-    if (membership_.votes_any_gone()) return true;  // our votes must reach the voters
-    for (const SlotView& v : slots_)
-        if (v.handed_off_by_me) return true;
-    // Every slot simply runs: the table when what we tell this peer changed, and the refresh.
-    const PeerLink& link = links_[to];
-    if (link.table_due(entries, now_us, table_refresh_us())) return true;
-    // Three or more players: a peer stuck on a gap gets relays. Our counts go now and then while
-    // we lag on some stream (they ask for relays), and the relays to a peer whose counts say it
-    // lags.
-    if (config_.players < 3 || link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) != 0) return false;
-    return lagging || relay_wanted(to, now_us);
-}
-
-std::uint64_t SessionImpl::table_refresh_us() const {
-    if (config_.players < 3) return 0;
-    return config_.disconnect_us == 0 ? kTableRefreshUs : std::min(kTableRefreshUs, config_.disconnect_us / 2);
-}
-
-// What our table says about slot s to peer `to`: to a player our vote where we cast one ("gone"
-// in the next epoch), else the view; a spectator, which follows our view, gets the view.
-SlotEntry SessionImpl::table_entry(PlayerId to, PlayerId s) const {
-    const bool vote = is_slot(to);
-    return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
-            vote ? membership_.advertised_epoch(s) : membership_.epoch(s),
-            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
-}
-
-void SessionImpl::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
-    out.clear();
-    for (int s = 0; s < config_.players; ++s) {
-        const SlotEntry e = table_entry(to, static_cast<PlayerId>(s));
-        out.push_back(static_cast<std::uint16_t>(static_cast<unsigned>(e.state) << 8 | e.epoch));
-    }
-}
-
-// We lag on a running stream by about as much as lets us predict no further (or half the relay
-// lag, if less): our counts should reach the peers, which relay what they hold.
-bool SessionImpl::lags_on_a_stream() const {
-    if (config_.role != Role::Player || config_.players < 3) return false;
-    const std::uint32_t mine = count_of(config_.local_player);
-    const auto lag = static_cast<std::uint32_t>(
-        std::max(1, std::min(config_.relay_lag / 2, config_.prediction_window + input_delay_)));
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || my_guest(slot) || !slot_running(slot)) continue;
-        if (count_of(slot) + lag <= mine) return true;
-    }
-    return false;
-}
-
-// Its counts are recent: it sent a table within a time-sync period (and a tick), as often as a
-// peer that lags sends one. Counts are read bare, as they always were: a peer stuck on a gap
-// shows a lag of the frames since its table on top of its own, which is what lets relays start
-// before relay_lag is reached for real -- everyone stalls on the stuck peer's inputs first. But
-// counts of seconds ago (the refresh, a lag that ended) would show a lag of seconds.
-bool SessionImpl::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t window = (static_cast<std::uint64_t>(config_.time_sync_every) + 1) * 1'000'000 /
-                                 static_cast<std::uint64_t>(config_.tick_rate);
-    return now_us <= link.counts_at_us + window;
-}
-
-// A running stream on which `to`'s recent counts say it lags by more than relay_lag (what
-// fill_extension relays to a player when every slot simply runs).
-bool SessionImpl::relay_wanted(PlayerId to, std::uint64_t now_us) const {
-    const PeerLink& link = links_[to];
-    if (!counts_fresh(link, now_us)) return false;
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || slot == to || !link.has_count[slot]) continue;
-        if (count_of(slot) > link.counts[slot] + static_cast<std::uint32_t>(config_.relay_lag)) return true;
-    }
-    return false;
-}
-
-// The slot table with our counts, and blocks of streams the receiver lacks and will not get
-// from anyone else soon: non-running slots (the owner's neutral inputs, or a dropped player's
-// last inputs some peers missed), a joiner's stream up to its handoff, everything for a
-// spectator, and any stream on which it lags by more than relay_lag.
-void SessionImpl::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) {
-    m.has_extension = true;
-    m.slots.clear();
-    m.blocks.clear();
-    for (int s = 0; s < config_.players; ++s) m.slots.push_back(table_entry(to, static_cast<PlayerId>(s)));
-    const std::size_t table_bytes = 2 + m.slots.size() * 5;
-    if (budget <= table_bytes) return;
-    budget -= table_bytes;
-    if (config_.role == Role::Spectator) return;  // spectators relay nothing
-    const PeerLink& link = links_[to];
-    const std::size_t n = config_.input_size;
-    const std::uint8_t max_frames = max_frames_per_message(n);
-    for (int s = 0; s < config_.players && m.blocks.size() < static_cast<std::size_t>(kMaxStreamBlocks); ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || (is_slot(to) && slot == to) || !link.has_count[slot]) continue;
-        const InputQueue& q = sync_->queue(slot);
-        const std::uint32_t theirs = link.counts[slot];
-        std::uint32_t mine = q.confirmed_count();
-        // Only what the owner's own stream delivered is relayed onward, never another's claim.
-        if (const auto f = authority_->first_unverified_of(slot, theirs)) mine = std::min(mine, *f);
-        if (mine <= theirs) continue;
-        const SlotView& v = slots_[slot];
-        // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
-        // refresh) every stream would look far behind.
-        const bool relay = !is_slot(to) || !slot_running(slot) || my_guest(slot) ||
-                           (v.handed_off_by_me && theirs < v.handoff) ||
-                           (mine > theirs + static_cast<std::uint32_t>(config_.relay_lag) && counts_fresh(link, now_us));
-        if (!relay) continue;
-        const std::uint32_t from = std::max(theirs, q.floor());
-        if (from >= mine) continue;
-        StreamBlock b;
-        b.slot = static_cast<std::uint8_t>(slot);
-        b.absent = q.confirmed_absent(from);
-        b.first_frame = static_cast<std::uint16_t>(from);
-        std::uint32_t count = 0;
-        while (from + count < mine && count < max_frames && q.confirmed_absent(from + count) == b.absent) ++count;
-        // Shrink until it fits what is left of the datagram.
-        for (;;) {
-            b.frame_count = static_cast<std::uint8_t>(count);
-            b.inputs.resize(std::size_t{count} * n);
-            for (std::uint32_t k = 0; k < count; ++k) {
-                const auto in = q.confirmed(from + k);
-                std::copy(in.begin(), in.end(), b.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{k} * n));
-            }
-            const std::size_t bytes = encoded_block_bytes(b, n);
-            if (bytes <= budget) {
-                budget -= bytes;
-                m.blocks.push_back(std::move(b));
-                break;
-            }
-            if (count <= 1) return;
-            count /= 2;
-        }
-    }
+StreamView SessionImpl::stream_view() const {
+    return {config_, membership_, sync_->queues(), *authority_, slots_, links_, sync_->confirmed_frame(), input_delay_, joining_};
 }
 
 void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
@@ -1598,7 +1449,8 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     const bool spectator = config_.role == Role::Spectator;
     const std::size_t n = config_.input_size;
     const std::uint32_t cp = checkpoint();
-    const bool lagging = lags_on_a_stream();
+    const StreamRelay relay(stream_view());
+    const bool lagging = relay.lags_on_a_stream();
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
         PeerLink& link = links_[p];
@@ -1608,7 +1460,7 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.has_extension = false;
         m.slots.clear();
         m.blocks.clear();
-        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(owner_count(pid)) : 0;
+        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(relay.owner_count(pid)) : 0;
         std::uint32_t count = 0;
         m.inputs.clear();
         if (!spectator) {
@@ -1634,10 +1486,10 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
                                : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
                                                      kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
                                                      m.checksum_frames, m.checksums);
-        table_entries_for(pid, table_entries_);
-        if (extension_needed(pid, table_entries_, now_us, lagging)) {
+        relay.table_entries_for(pid, table_entries_);
+        if (relay.extension_needed(pid, table_entries_, now_us, lagging)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
-            fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
+            relay.fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
             link.table_sent(table_entries_, now_us, kTableCopies);
         }
         ++link.messages_sent;
@@ -1686,15 +1538,6 @@ bool SessionImpl::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std
 // sends its guests' streams as blocks), or a relay's claim that fills only what the owner's
 // stream has not delivered. True when handled here; false for every other block (absent
 // streams, spectators' views), which apply_blocks takes as before.
-// What we tell slot s's owner we hold of its stream (ack and table count): up to the first
-// input a relay filled in that the owner has not verified yet, so it resends from there and its
-// own copy settles the relay's (frames a confirmed frame already rests on are past settling).
-std::uint32_t SessionImpl::owner_count(PlayerId s) const {
-    const std::uint32_t count = count_of(s);
-    const auto f = authority_->first_unverified_of(s, sync_->confirmed_frame());
-    return f ? std::min(count, *f) : count;
-}
-
 bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
     if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
     const std::size_t n = config_.input_size;

@@ -28,6 +28,7 @@
 #include "rollback/simulation.h"
 #include "rollback/slot_view.h"
 #include "rollback/snapshot_transfer.h"
+#include "rollback/stream_relay.h"
 #include "rollback/sync.h"
 
 namespace lockroll::rollback {
@@ -163,15 +164,8 @@ private:
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
     void consider_recovery(std::uint64_t now_us);
-    // entries: our table's entries to `to` now (table_entries_for); lagging: lags_on_a_stream().
-    bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us, bool lagging) const;
-    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us);
-    std::uint64_t table_refresh_us() const;
-    SlotEntry table_entry(PlayerId to, PlayerId s) const;
-    void table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const;
-    bool lags_on_a_stream() const;
-    bool counts_fresh(const PeerLink& link, std::uint64_t now_us) const;
-    bool relay_wanted(PlayerId to, std::uint64_t now_us) const;
+    // The slot table and relays on the wire (rollback/stream_relay.h) read the session through this.
+    StreamView stream_view() const;
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     // A slot played by another slot's process: no peer id, no link of its own.
     bool is_guest(PlayerId p) const { return host_of(p) != p; }
@@ -210,7 +204,6 @@ private:
     bool partitioned_ = false;
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
-    bool any_guest_ = false;
     std::vector<std::uint8_t> guest_scratch_;
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
@@ -250,7 +243,6 @@ private:
     std::unique_ptr<InputAuthority> authority_;
     bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
     bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
-    std::uint32_t owner_count(PlayerId slot) const;
     // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
     // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
     std::unique_ptr<SnapshotVetting> vetting_;
