@@ -4,7 +4,6 @@
 #include "rollback/input_delay.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
-#include "rollback/snapshot_vetting.h"
 
 #include <algorithm>
 #include <array>
@@ -75,7 +74,8 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     : SessionCore(SessionPhase::Running, config.local_player, config.input_delay, observer),
       config_(config),
       sim_(simulation),
-      membership_(0, 0, config.two_player_rule) {
+      membership_(0, 0, config.two_player_rule),
+      fetch_(config_, simulation.state_size()) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
     default_to_zero(config_.cpu_clock);
@@ -99,7 +99,6 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
     authority_ = std::make_unique<InputAuthority>(config_.players, peers_total());
-    vetting_ = std::make_unique<SnapshotVetting>();
     if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
@@ -251,12 +250,9 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         default: break;
     }
     // A newcomer vetting its snapshot: the peers' confirmed checksums of its frame.
-    if (*kind == MessageKind::Reply && vetting_->active()) {
+    if (*kind == MessageKind::Reply && fetch_.vetting()) {
         if (const char* e = decode(datagram, reply_msg_)) return malformed(from, e);
-        if (reply_msg_.what == QueryWhat::FrameChecksums && reply_msg_.count == 1)
-            vetting_->on_reply(from, reply_msg_.frame, reply_msg_.available && reply_msg_.values.size() == 1,
-                               reply_msg_.values.empty() ? 0 : reply_msg_.values[0]);
-        return;
+        return fetch_.take_reply(from, reply_msg_);
     }
     // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
     // snapshot is loaded; a player still synchronizing already does (frame 0).
@@ -1091,62 +1087,25 @@ void SessionImpl::poll_handshake(std::uint64_t now_us) {
     // the others had a moment to answer), a desynced peer from the majority peer it picked.
     const bool recovering = phase_ == SessionPhase::Running && recover_from_.has_value();
     if (!(newcomer && syncing) && !recovering) return;
-    if (incoming_) return;
-    if (offer_requested_ && now_us < last_offer_request_us_ + 2 * config_.transfer_resend_us) return;
+    if (!fetch_.may_ask(now_us)) return;
     std::vector<PlayerId> ask;
-    if (recovering) {
-        ask.push_back(*recover_from_);
-    } else {
-        bool ready = false;
-        for (int p = 0; p < config_.players; ++p) {
-            const PeerLink& l = links_[static_cast<std::size_t>(p)];
-            if (l.welcomed && l.has_remote_frame && l.roundtrips >= config_.sync_roundtrips) ready = true;
-        }
-        if (!ready || now_us < first_welcome_us_ + 3 * config_.hello_resend_us) return;
-        for (int p = 0; p < config_.players; ++p) {
-            const auto pid = static_cast<PlayerId>(p);
-            const PeerLink& l = links_[pid];
-            if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
-            ask.push_back(pid);
-        }
-        // One host is enough for a spectator: the first that did not serve a rejected snapshot.
-        if (config_.role == Role::Spectator && ask.size() > 1) {
-            const auto good = std::find_if(ask.begin(), ask.end(), [&](PlayerId p) { return p != rejected_provider_; });
-            ask = {good != ask.end() ? *good : ask.front()};
-        }
-    }
-    offer_requested_ = true;
-    last_offer_request_us_ = now_us;
-    for (PlayerId pid : ask) {
-        SnapshotRequestMessage r;
-        r.reason = recovering ? TransferReason::Recover
-                              : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join);
-        std::vector<std::uint8_t> b;
-        encode(r, b);
-        send_control(pid, std::move(b));
-    }
+    if (recovering) ask.push_back(*recover_from_);
+    else fetch_.newcomer_providers(links_, first_welcome_us_, now_us, ask);
+    if (ask.empty()) return;
+    fetch_.ask(ask, recovering ? TransferReason::Recover
+                               : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join),
+               now_us, pending_out_);
 }
 
 void SessionImpl::poll_transfer(std::uint64_t now_us) {
-    if (!incoming_) return;
-    if (vetting_->active()) return poll_vetting(now_us);
-    std::vector<std::uint32_t> due;
-    incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
-    for (std::uint32_t c : due) {
-        SnapshotRequestMessage r;
-        r.reason = incoming_->offer().reason;
-        r.transfer_id = incoming_->offer().transfer_id;
-        r.chunk = c;
-        std::vector<std::uint8_t> b;
-        encode(r, b);
-        send_control(incoming_from_, std::move(b));
-    }
-    // A provider that went silent: start over with whoever answers.
-    if (now_us > incoming_->started_us + 20'000'000) {
-        emit(SessionEvent::Kind::SnapshotRejected, incoming_from_, incoming_->offer().frame, now_us,
-             "transfer timed out; asking again");
-        incoming_.reset();
-        offer_requested_ = false;
+    switch (fetch_.poll(now_us, pending_out_)) {
+        case SnapshotFetch::Poll::Decided: return finish_transfer(now_us);
+        case SnapshotFetch::Poll::TimedOut:
+            // A provider that went silent: start over with whoever answers.
+            emit(SessionEvent::Kind::SnapshotRejected, fetch_.provider(), fetch_.incoming()->offer().frame, now_us,
+                 "transfer timed out; asking again");
+            return fetch_.restart();
+        case SnapshotFetch::Poll::Nothing: return;
     }
 }
 
@@ -1255,75 +1214,40 @@ void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessag
                                   (phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring);
     const bool recovering = phase_ == SessionPhase::Running && recover_from_ == from && m.reason == TransferReason::Recover;
     if (!newcomer_waiting && !recovering) return void(++stats_.peers[from].ignored_packets);
-    if (incoming_) return;  // one transfer at a time; a repeat of the current offer changes nothing
-    if (m.size > config_.max_snapshot_bytes) {
-        fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
-                 std::to_string(config_.max_snapshot_bytes),
-             now_us);
-        return;
+    switch (fetch_.take_offer(from, m, now_us)) {
+        case SnapshotFetch::OfferTaken::Busy: return;  // one transfer at a time
+        case SnapshotFetch::OfferTaken::TooLarge:
+            return fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
+                            std::to_string(config_.max_snapshot_bytes),
+                        now_us);
+        case SnapshotFetch::OfferTaken::BadSlotTable: return malformed(from, "snapshot offer: slot table size");
+        case SnapshotFetch::OfferTaken::Started:
+            if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
+            return;
     }
-    if (m.slots.size() != static_cast<std::size_t>(config_.players)) return malformed(from, "snapshot offer: slot table size");
-    incoming_ = std::make_unique<TransferReceiver>(m);
-    incoming_->started_us = now_us;
-    incoming_from_ = from;
-    if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
 }
 
 void SessionImpl::handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us) {
-    if (!incoming_ || from != incoming_from_ || !incoming_->add(m)) return void(++stats_.peers[from].ignored_packets);
-    if (incoming_->complete()) finish_transfer(now_us);
+    if (!fetch_.take_chunk(from, m)) return void(++stats_.peers[from].ignored_packets);
+    if (fetch_.complete()) finish_transfer(now_us);
 }
 
 void SessionImpl::finish_transfer(std::uint64_t now_us) {
-    const SnapshotOfferMessage offer = incoming_->offer();
-    const PlayerId from = incoming_from_;
+    SnapshotFetch::Result got;
+    const auto verdict =
+        fetch_.finish(now_us, links_, [&](std::span<const std::uint8_t> state) { return sim_.checksum(state); }, got);
+    if (verdict == SnapshotFetch::Verdict::Pending) return;
+    const PlayerId from = got.from;
+    const SnapshotOfferMessage& offer = got.offer;
+    const TransferContents& t = got.contents;
     const auto reject = [&](const std::string& why) {
         emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
-        incoming_.reset();
-        offer_requested_ = false;
-        vetting_->reset();
     };
-    const auto blob = incoming_->verified();
-    if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
-    TransferContents t;
-    if (std::string e = unpack_transfer(*blob, sim_.state_size(), config_.players, config_.input_size,
-                                        config_.input_capacity / 2, t);
-        !e.empty())
-        return reject(e);
-    if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
-    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
-    // same checksum of that frame (a recovery already follows the majority's checksums).
-    std::string vetted;
-    if (offer.reason != TransferReason::Recover) {
-        if (!vetting_->active() || vetting_->frame() != t.frame || vetting_->provider() != from) {
-            std::vector<PlayerId> voters;
-            for (const SlotEntry& e : offer.slots) {
-                const PlayerId p = e.slot;
-                if (!is_slot(p) || p == config_.local_player || host_of(p) != p) continue;
-                if (e.state == SlotState::Running || links_[p].welcomed) voters.push_back(p);
-            }
-            // Short: the slot is handed over already, and a newcomer silent to the others for
-            // disconnect_us would be voted gone again.
-            const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
-            vetting_->start(t.frame, sim_.checksum(t.state), from, std::move(voters), now_us, wait_us);
-            return;  // poll_vetting asks, and comes back here once decided
-        }
-        const SnapshotVetting::Verdict v = vetting_->verdict(now_us);
-        // A repeated last chunk completes the transfer again while the answers are still coming:
-        // that is no verdict (it was taken for a rejection, and a joiner under loss never joined).
-        if (v == SnapshotVetting::Verdict::Pending) return;
-        vetted = vetting_->detail(now_us);
-        if (v != SnapshotVetting::Verdict::Accepted) {
-            rejected_provider_ = from;
-            return reject("snapshot rejected: " + vetted);
-        }
-        vetting_->reset();
-    }
+    if (verdict == SnapshotFetch::Verdict::Rejected) return reject(got.why);
+    // The fetch forgot the transfer: a failed load asks again like any rejection.
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
-    incoming_.reset();
-    offer_requested_ = false;
     next_time_sync_frame_ = t.frame;
     for (auto& link : links_) link.time_sync().clear();
     if (offer.reason == TransferReason::Recover) {
@@ -1355,7 +1279,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     started_us_ = now_us;
     emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
          (config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating") +
-             "; " + vetted);
+             "; " + got.why);
     emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
     refresh_resend_floor();
 }
@@ -1407,7 +1331,7 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
         return;
     }
     recover_from_ = best->front();
-    offer_requested_ = false;
+    fetch_.ask_again();
     emit(SessionEvent::Kind::DesyncDetected, *recover_from_, f, now_us,
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
@@ -1575,23 +1499,3 @@ bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32
 
 }  // namespace lockroll::rollback
 
-namespace lockroll::rollback {
-
-// Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
-// answer), and finishes the transfer once the vetting is decided either way.
-void SessionImpl::poll_vetting(std::uint64_t now_us) {
-    std::vector<PlayerId> ask;
-    vetting_->due(now_us, config_.query_resend_us, ask);
-    for (PlayerId p : ask) {
-        QueryMessage q;
-        q.what = QueryWhat::FrameChecksums;
-        q.frame = vetting_->frame();
-        q.count = 1;
-        Datagram d{p, {}, false};
-        encode(q, d.bytes);
-        pending_out_.push_back(std::move(d));
-    }
-    if (vetting_->verdict(now_us) != SnapshotVetting::Verdict::Pending) finish_transfer(now_us);
-}
-
-}  // namespace lockroll::rollback

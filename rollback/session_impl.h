@@ -26,7 +26,9 @@
 #include "rollback/session_core.h"
 #include "rollback/session_types.h"
 #include "rollback/simulation.h"
+#include "rollback/slot_hosts.h"
 #include "rollback/slot_view.h"
+#include "rollback/snapshot_fetch.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/stream_relay.h"
 #include "rollback/sync.h"
@@ -34,7 +36,6 @@
 namespace lockroll::rollback {
 
 class InputAuthority;   // rollback/input_authority.h
-class SnapshotVetting;  // rollback/snapshot_vetting.h
 
 class SessionImpl : public SessionCore {
 public:
@@ -91,9 +92,7 @@ public:
     // (config.slot_hosts). Empty for a spectator. advance() takes one input per entry.
     std::span<const PlayerId> local_slots() const { return local_slots_; }
     // The slot whose process plays `slot` (itself unless config.slot_hosts says otherwise).
-    PlayerId host_of(PlayerId slot) const {
-        return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
-    }
+    PlayerId host_of(PlayerId slot) const { return lockroll::rollback::host_of(config_, slot); }
     SlotState slot_state(PlayerId slot) const { return membership_.state(slot); }
     // The view and the votes (who plays, who says whom is gone).
     const Membership& membership() const { return membership_; }
@@ -210,11 +209,8 @@ private:
     std::uint64_t started_us_ = 0;
     std::uint64_t last_now_us_ = 0;
     std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
-    // the newcomer's side of a transfer
-    std::unique_ptr<TransferReceiver> incoming_;
-    PlayerId incoming_from_ = 0;
-    std::uint64_t last_offer_request_us_ = 0;
-    bool offer_requested_ = false;
+    // the newcomer's (or a recovering peer's) side of a transfer
+    SnapshotFetch fetch_;
     std::optional<PlayerId> recover_from_;
     std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
@@ -243,11 +239,6 @@ private:
     std::unique_ptr<InputAuthority> authority_;
     bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
     bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
-    // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
-    // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
-    std::unique_ptr<SnapshotVetting> vetting_;
-    std::optional<PlayerId> rejected_provider_;
-    void poll_vetting(std::uint64_t now_us);
 };
 
 }  // namespace lockroll::rollback

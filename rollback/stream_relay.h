@@ -30,6 +30,7 @@
 #include "rollback/peer_link.h"
 #include "rollback/protocol.h"
 #include "rollback/session.h"
+#include "rollback/slot_hosts.h"
 #include "rollback/slot_view.h"
 
 namespace lockroll::rollback {
@@ -74,9 +75,7 @@ public:
 
 private:
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(v_.config.players); }
-    PlayerId host_of(PlayerId s) const {
-        return v_.config.slot_hosts.empty() || !is_slot(s) ? s : v_.config.slot_hosts[s];
-    }
+    PlayerId host_of(PlayerId s) const { return lockroll::rollback::host_of(v_.config, s); }
     bool my_guest(PlayerId p) const {
         return v_.config.role != Role::Spectator && host_of(p) != p && host_of(p) == v_.config.local_player;
     }
