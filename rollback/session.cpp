@@ -23,9 +23,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
 constexpr int kMaxChunksPerPoll = 64;
-// A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
-// server a whole state packed and sent, so a peer that keeps asking must not multiply that.
-constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -1111,17 +1108,15 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
 
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     if (m.transfer_id != 0) {
-        const TransferSender::Transfer* t = outgoing_.find(m.transfer_id, from);
-        if (!t) return void(++stats_.peers[from].ignored_packets);  // an old transfer, or not ours
         SnapshotChunkMessage c;
-        if (!TransferSender::chunk(*t, m.chunk, c)) return malformed(from, "snapshot request: chunk out of range");
+        switch (server_.chunk(from, m, c)) {
+            case SnapshotServer::Chunk::NotOurs: return void(++stats_.peers[from].ignored_packets);
+            case SnapshotServer::Chunk::OutOfRange: return malformed(from, "snapshot request: chunk out of range");
+            case SnapshotServer::Chunk::Ready: break;
+        }
         if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
         ++replies_this_poll_[from];
-        if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
-            if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
-            else c.bytes.pop_back();
-            ++damaged_chunks_;
-        }
+        server_.damage_next(c);
         std::vector<std::uint8_t> b;
         encode(c, b);
         send_control(from, std::move(b));
@@ -1134,20 +1129,16 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
     if (m.reason == TransferReason::Recover &&
         (config_.max_recoveries == 0 || !is_slot(from) || !slot_running(from) || !detector_->desynced(from)))
         return void(++stats_.peers[from].ignored_packets);
-    // The same peer asking again while its offer is young: send the same offer.
-    // (A recovery wants a fresh frame, so its offer is reused only against duplicates, and a new
-    // one is packed at most every kRecoveryIntervalUs.)
-    const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
-    for (const TransferSender::Transfer& t : outgoing_.transfers()) {
-        if (t.peer != from || t.offer.reason != m.reason) continue;
-        if (now_us < t.created_us + reuse_us) {
+    // The same peer asking again while its offer is young: the same offer (SnapshotServer).
+    const SnapshotOfferMessage* repeat = nullptr;
+    switch (server_.consider(from, m.reason, now_us, &repeat)) {
+        case SnapshotServer::Ask::Repeat: {
             std::vector<std::uint8_t> b;
-            encode(t.offer, b);
-            send_control(from, std::move(b));
-            return;
+            encode(*repeat, b);
+            return send_control(from, std::move(b));
         }
-        if (m.reason == TransferReason::Recover && now_us < t.created_us + kRecoveryIntervalUs)
-            return void(++stats_.peers[from].ignored_packets);
+        case SnapshotServer::Ask::TooSoon: return void(++stats_.peers[from].ignored_packets);
+        case SnapshotServer::Ask::Pack: break;
     }
     const std::uint32_t c = sync_->confirmed_frame();
     std::uint32_t handoff = 0;
@@ -1192,7 +1183,7 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
     if (!sync_->transfer_contents(c, true, t)) return;
     const std::size_t n = config_.input_size;
     // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
-    TransferSender::Transfer& out = outgoing_.offer(from, m.reason, t, n, now_us);
+    TransferSender::Transfer& out = server_.offer(from, m.reason, t, n, now_us);
     out.offer.handoff_frame = handoff;
     for (int s = 0; s < config_.players; ++s)
         out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
@@ -1433,9 +1424,7 @@ void SessionImpl::set_input_delay(int frames) {
     input_delay_ = frames;
 }
 
-void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) {
-    if (count > 0) chunk_damage_.insert(chunk_damage_.end(), static_cast<std::size_t>(count), how);
-}
+void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) { server_.damage(count, how); }
 
 }  // namespace lockroll::rollback
 

@@ -29,6 +29,7 @@
 #include "rollback/slot_hosts.h"
 #include "rollback/slot_view.h"
 #include "rollback/snapshot_fetch.h"
+#include "rollback/snapshot_server.h"
 #include "rollback/snapshot_transfer.h"
 #include "rollback/stream_relay.h"
 #include "rollback/sync.h"
@@ -85,7 +86,7 @@ public:
     // the blob it keeps stay intact, so a chunk asked for again goes out whole once the count is
     // used up. damaged_chunks() counts the chunks damaged so far.
     void damage_outgoing_chunks(int count, ChunkDamage how);
-    std::uint64_t damaged_chunks() const { return damaged_chunks_; }
+    std::uint64_t damaged_chunks() const { return server_.damaged_chunks(); }
 
     const SessionConfig& config() const { return config_; }
     // The slots this session plays, ascending: local_player first, then the slots it hosts
@@ -220,7 +221,7 @@ private:
     // and with several joining at once, max_bad_packets, after which the joiner was ignored).
     std::uint32_t own_inputs_from_ = 0;
     // the provider's side
-    TransferSender outgoing_{60'000'000};  // offers, each kept for this long (us)
+    SnapshotServer server_;
     // desync recovery
     std::optional<std::uint32_t> mismatch_frame_;
     std::uint64_t mismatch_since_us_ = 0;
@@ -231,9 +232,6 @@ private:
     SnapshotRequestMessage snap_req_msg_;
     SnapshotOfferMessage snap_offer_msg_;
     SnapshotChunkMessage snap_chunk_msg_;
-    // fault injection on sent chunks (damage_outgoing_chunks), in order
-    std::vector<ChunkDamage> chunk_damage_;
-    std::uint64_t damaged_chunks_ = 0;
     // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
     // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
     std::unique_ptr<InputAuthority> authority_;
