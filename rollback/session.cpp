@@ -2,6 +2,7 @@
 
 #include "rollback/input_authority.h"
 #include "rollback/input_delay.h"
+#include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
 
@@ -1288,30 +1289,19 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
         mismatch_frame_.reset();
         return;
     }
-    // value (low 32 bits) -> slots holding it
-    std::map<std::uint32_t, std::vector<PlayerId>> groups;
-    groups[static_cast<std::uint32_t>(*mine)].push_back(config_.local_player);
+    std::vector<std::pair<PlayerId, std::uint64_t>> theirs;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
         if (!live_peer(pid)) continue;
-        const auto theirs = detector_->remote_checksum(pid, f);
-        if (!theirs) {
+        const auto value = detector_->remote_checksum(pid, f);
+        if (!value) {
             if (now_us < mismatch_since_us_ + 5'000'000) return;  // wait for everyone's word
             continue;
         }
-        groups[static_cast<std::uint32_t>(*theirs)].push_back(pid);
+        theirs.emplace_back(pid, *value);
     }
-    const std::vector<PlayerId>* best = nullptr;
-    for (auto& [value, slots] : groups) {
-        std::sort(slots.begin(), slots.end());
-        if (!best || slots.size() > best->size()) {
-            best = &slots;
-        } else if (slots.size() == best->size()) {
-            const bool lower = slots.front() < best->front();
-            if (lower == (config_.two_player_keep == DesyncKeep::LowestSlot)) best = &slots;
-        }
-    }
-    if (std::find(best->begin(), best->end(), config_.local_player) != best->end()) {
+    const auto source = recovery_source(config_.local_player, *mine, theirs, config_.two_player_keep);
+    if (!source) {
         mismatch_frame_.reset();  // we are in the majority: the odd ones reload
         return;
     }
@@ -1321,7 +1311,7 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
              now_us);
         return;
     }
-    recover_from_ = best->front();
+    recover_from_ = *source;
     fetch_.ask_again();
     emit(SessionEvent::Kind::DesyncDetected, *recover_from_, f, now_us,
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
