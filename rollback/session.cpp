@@ -771,13 +771,9 @@ std::uint32_t SessionImpl::local_target() const { return sync_->frame() + static
 void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
-    if (v.lapsed) {  // a handoff that lapsed: the next one waits (check_handoff)
-        v.lapses = std::min(v.lapses + 1, 3);
-        v.next_handoff_us = now_us + (config_.disconnect_us << v.lapses);
-    }
     membership_.leave(slot);
     authority_->reset_slot(slot);
-    v.new_epoch();
+    v.dropped(now_us, config_.disconnect_us);
     links_[slot].interrupted = false;
     detector_->peer_failed(slot);
     emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
@@ -859,32 +855,10 @@ void SessionImpl::check_silence(std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
-// A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
-// never drops it, yet the match stalls at its handoff frame for inputs that never come: the
-// 16-minute soak froze for good (issue 21). The contract for a running slot that stalls the
-// others is a stall of at most disconnect_us (docs/sessions.md, "Cost"); so a handed-over slot
-// whose own stream has not started -- the newest input we hold of it is still the owner's
-// neutral one, flagged absent -- for disconnect_us after we first need its input is voted gone
-// here, and the vote is not withdrawn by hearing it (it is heard; it does not play). A majority
-// drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
-// slot over again only after 2, 4, then 8 x disconnect_us (drop_slot), so one that never loads
-// costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
-// resets the backoff.
+// A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
 void SessionImpl::check_handoff(PlayerId slot, std::uint64_t now_us) {
-    SlotView& v = slots_[slot];
-    const InputQueue& q = sync_->queue(slot);
-    const bool started = q.confirmed_count() > 0 && !q.last_absent();
-    if (slot_running(slot) && started) v.lapses = 0;  // its own stream started: the join succeeded
-    // Pending: running, its newest input the owner's neutral one, and needed (we are at or past
-    // its stream's end, predicting or stalled on it): the stall the contract bounds starts here.
-    if (!slot_running(slot) || started || q.confirmed_count() == 0 || count_of(slot) > sync_->frame()) {
-        v.pending_since_us = 0;
-        return;
-    }
-    if (v.pending_since_us == 0) v.pending_since_us = now_us;
-    if (v.lapsed || config_.disconnect_us == 0 || now_us - v.pending_since_us < config_.disconnect_us) return;
-    v.lapsed = true;
-    membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
+    if (slots_[slot].watch_handoff(slot_running(slot), sync_->queue(slot), sync_->frame(), now_us, config_.disconnect_us))
+        membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
 }
 
 // The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot

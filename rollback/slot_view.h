@@ -7,9 +7,13 @@
 //    loaded from a snapshot): every per-epoch flag starts over. The handoff backoff (lapses,
 //    next_handoff_us) and the handoff frame outlive epochs: they belong to the slot, not to the
 //    process that played it.
+//  - dropped(): a new epoch, and if the slot's handoff had lapsed, the next handoff waits 2, 4,
+//    then 8 x disconnect_us; watch_handoff() says when a handoff lapses (true once: vote it gone).
 #pragma once
 
 #include <cstdint>
+
+#include "rollback/input_queue.h"
 
 namespace lockroll::rollback {
 
@@ -38,6 +42,24 @@ struct SlotView {
         neutral_reported = false;
         handed_off_by_me = false;
     }
+    // The slot left the view (its epoch ended); a lapsed handoff backs off the next one.
+    void dropped(std::uint64_t now_us, std::uint64_t disconnect_us);
+
+    // A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
+    // never drops it, yet the match stalls at its handoff frame for inputs that never come: the
+    // 16-minute soak froze for good (issue 21). The contract for a running slot that stalls the
+    // others is a stall of at most disconnect_us (docs/sessions.md, "Cost"); so a handed-over slot
+    // whose own stream has not started -- the newest input we hold of it is still the owner's
+    // neutral one, flagged absent -- for disconnect_us after we first need its input is voted gone
+    // here, and the vote is not withdrawn by hearing it (it is heard; it does not play). A majority
+    // drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
+    // slot over again only after 2, 4, then 8 x disconnect_us (dropped), so one that never loads
+    // costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
+    // resets the backoff.
+    // Called per tick for a slot with a live peer: running, its stream (q) and our frame. True
+    // when the handoff lapses now: the caller votes the slot gone (the vote stays until the drop).
+    bool watch_handoff(bool running, const InputQueue& q, std::uint32_t frame, std::uint64_t now_us,
+                       std::uint64_t disconnect_us);
 };
 
 }  // namespace lockroll::rollback
