@@ -1,6 +1,7 @@
 #include "rollback/session_impl.h"
 
 #include "rollback/input_authority.h"
+#include "rollback/frame_pacing.h"
 #include "rollback/input_delay.h"
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
@@ -73,7 +74,8 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
       config_(config),
       sim_(simulation),
       membership_(0, 0, config.two_player_rule),
-      fetch_(config_, simulation.state_size()) {
+      fetch_(config_, simulation.state_size()),
+      pacing_(config_) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
     default_to_zero(config_.cpu_clock);
@@ -495,7 +497,7 @@ void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
         // An honest peer is never farther from us than input delay plus prediction window (plus
         // the time sync's own slack); a claim beyond that is clipped, so one forged message
         // cannot make us wait thousands of frames.
-        const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
+        const std::int64_t bound = pacing_.advantage_bound(input_delay_);
         link.note_remote_frame(*sender_frame, clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound)), now_us);
         link.take_stamps(m.stamp, m.echo, m.hold, now_us);
     }
@@ -699,40 +701,17 @@ void SessionImpl::confirm_frames() {
         authority_->forget_before(static_cast<PlayerId>(s), sync_->queue(static_cast<PlayerId>(s)).floor());
 }
 
-// A peer's frame now: what it last reported plus the time since then and half a round trip. A
-// peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
-// there (unbounded, a stuck peer read as tens of thousands of frames ahead).
-// Local advantage against each peer: (its frame now, estimated) - our frame.
+// Time sync against the live player peers (rollback/frame_pacing.h).
+bool SessionImpl::paces(PlayerId p) const { return live_peer(p) && is_slot(p); }
+
 void SessionImpl::sample_time_sync(std::uint64_t now_us) {
-    const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
-    for (std::size_t p = 0; p < links_.size(); ++p) {
-        PeerLink& link = links_[p];
-        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame)
-            continue;
-        const std::int64_t adv = link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()};
-        local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -bound, bound));
-        link.time_sync().add_sample(local_advantage_[p], link.remote_advantage);
-        stats_.peers[p].frame_advantage_x100 = link.time_sync().local_advantage_x100();
-        stats_.peers[p].rtt_us = link.rtt_us();
-    }
+    pacing_.sample(links_, pacer(), sync_->frame(), input_delay_, now_us, local_advantage_, stats_.peers);
 }
 
-std::int32_t SessionImpl::frames_ahead_x100() const {
-    std::int32_t ahead = 0;
-    for (std::size_t p = 0; p < links_.size(); ++p)
-        if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
-            ahead = std::max(ahead, links_[p].time_sync().frames_ahead_x100());
-    return ahead;
-}
+std::int32_t SessionImpl::frames_ahead_x100() const { return pacing_.frames_ahead_x100(links_, pacer()); }
 
 std::int32_t SessionImpl::behind(std::uint64_t now_us) const {
-    std::int64_t most = 0;
-    for (std::size_t p = 0; p < links_.size(); ++p) {
-        const PeerLink& link = links_[p];
-        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame) continue;
-        most = std::max(most, link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()});
-    }
-    return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
+    return pacing_.behind(links_, pacer(), sync_->frame(), now_us);
 }
 
 NetworkStats SessionImpl::network_stats(PlayerId p, std::uint64_t now_us) const {
@@ -984,26 +963,13 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
     }
     if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     result.frame = sync_->frame();
-    // Time sync: at most one recommendation per window, from fresh samples only.
-    if (result.frame >= next_time_sync_frame_) {
-        int wait_frames = 0;
-        for (std::size_t p = 0; p < links_.size(); ++p)
-            if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
-                wait_frames = std::max(wait_frames, links_[p].time_sync().recommended_wait(config_.time_sync_min_frames));
-        wait_frames = std::min(wait_frames, input_delay_ + config_.prediction_window + 2);
-        if (wait_frames > 0) {
-            result.wait_frames = wait_frames;
-            ++stats_.time_sync_waits;
-            stats_.time_sync_wait_frames += static_cast<std::uint64_t>(wait_frames);
-            for (auto& link : links_) link.time_sync().clear();
-            next_time_sync_frame_ = result.frame + static_cast<std::uint32_t>(config_.time_sync_window);
-        }
+    // Time sync: at most one recommendation per window, and the same advice as a gentle slowdown.
+    result.wait_frames = pacing_.recommend_wait(links_, pacer(), result.frame, input_delay_);
+    if (result.wait_frames > 0) {
+        ++stats_.time_sync_waits;
+        stats_.time_sync_wait_frames += static_cast<std::uint64_t>(result.wait_frames);
     }
-    // The same advice as a gentle slowdown: 2 % per frame ahead, at most kMaxTickStretchPpm
-    // (time_sync.h says why 10 %). Equal clocks stay within a frame and barely stretch.
-    const std::int32_t ahead = frames_ahead_x100();
-    if (ahead > 50)
-        result.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(std::int64_t{ahead} * 200, kMaxTickStretchPpm));
+    result.tick_stretch_ppm = FramePacing::tick_stretch_ppm(frames_ahead_x100());
     return result;
 }
 
@@ -1214,7 +1180,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
-    next_time_sync_frame_ = t.frame;
+    pacing_.restart_at(t.frame);
     for (auto& link : links_) link.time_sync().clear();
     if (offer.reason == TransferReason::Recover) {
         ++recoveries_;

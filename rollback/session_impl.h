@@ -18,6 +18,7 @@
 #include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
+#include "rollback/frame_pacing.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/predictor.h"
@@ -135,6 +136,9 @@ private:
     void handle_input(PlayerId from, std::uint64_t now_us);
     void check_handoff(PlayerId slot, std::uint64_t now_us);
     std::uint32_t lead_frames(std::uint64_t rtt_us) const;
+    // A live player peer: its pace counts for time sync (pacing_).
+    bool paces(PlayerId p) const;
+    FramePacing::Paces pacer() const { return [this](PlayerId p) { return paces(p); }; }
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
     void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
@@ -189,7 +193,6 @@ private:
     std::vector<std::int32_t> local_advantage_;   // per peer, latest estimate (frames)
     std::vector<int> replies_this_poll_;
     std::vector<Datagram> pending_out_;
-    std::uint32_t next_time_sync_frame_ = 0;
     // decode scratch, reused
     InputMessage in_msg_;
     QueryMessage query_msg_;
@@ -212,6 +215,7 @@ private:
     std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
     // the newcomer's (or a recovering peer's) side of a transfer
     SnapshotFetch fetch_;
+    FramePacing pacing_;  // declared after config_, which it reads
     std::optional<PlayerId> recover_from_;
     std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
