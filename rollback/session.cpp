@@ -2,6 +2,7 @@
 
 #include "rollback/input_authority.h"
 #include "rollback/frame_pacing.h"
+#include "rollback/handshake.h"
 #include "rollback/input_delay.h"
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
@@ -75,7 +76,8 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
       sim_(simulation),
       membership_(0, 0, config.two_player_rule),
       fetch_(config_, simulation.state_size()),
-      pacing_(config_) {
+      pacing_(config_),
+      handshake_(config_, membership_) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
     default_to_zero(config_.cpu_clock);
@@ -278,7 +280,7 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
             if (phase_ == SessionPhase::Synchronizing && is_slot(from)) {
-                peer_started_ = true;  // it plays already: follow it
+                handshake_.peer_started();  // it plays already: follow it
                 maybe_start(now_us);
             }
             return handle_input(from, now_us);
@@ -387,9 +389,8 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
     }
     if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
     if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
-    if (link.sync_welcome(m.echo_us, m.running, now_us) && first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
+    handshake_.sync_welcome(link, is_slot(from), m, now_us);
     if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
-    if (m.running && is_slot(from)) peer_started_ = true;
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
     maybe_start(now_us);
@@ -408,30 +409,15 @@ void SessionImpl::welcomed_while_running(PlayerId from, const WelcomeMessage& m,
     refresh_resend_floor();
 }
 
-// A player starts frame 0 once every slot present at start has answered enough hellos, or, as
-// soon as another player has started (it says so in a welcome or sends inputs), once every one
-// has answered at least once: following the first starter at once keeps the starts a one-way
-// trip apart instead of a whole sync phase, so time sync has little to even out.
+// The start rule is the Handshake's (rollback/handshake.h).
 void SessionImpl::maybe_start(std::uint64_t now_us) {
-    if (config_.role != Role::Player || phase_ != SessionPhase::Synchronizing) return;
-    const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
-    for (int p = 0; p < config_.players; ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
-        if (links_[pid].roundtrips < needed) return;
-    }
-    start_running(now_us);
+    if (handshake_.ready_to_start(links_, phase_)) start_running(now_us);
 }
 
 void SessionImpl::start_running(std::uint64_t now_us) {
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
-    std::uint64_t worst = 0;
-    for (int p = 0; p < config_.players; ++p)
-        if (static_cast<PlayerId>(p) != config_.local_player) {
-            worst = std::max(worst, links_[static_cast<std::size_t>(p)].max_sync_rtt_us);
-            links_[static_cast<std::size_t>(p)].mark_heard(now_us);
-        }
+    const std::uint64_t worst = handshake_.start(links_, now_us);
     if (config_.auto_input_delay && config_.role == Role::Player) {
         // The one policy (rollback/input_delay.h); a P2P input reaches its peers in half the worst round trip.
         const int d = auto_input_delay(config_.prediction_window, worst / 2, config_.tick_rate);
@@ -997,30 +983,10 @@ std::uint32_t SessionImpl::checkpoint() const {
 }
 
 void SessionImpl::poll_handshake(std::uint64_t now_us) {
-    if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
+    handshake_.poll_hellos(links_, phase_, scene_checksum_, now_us, pending_out_);
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
-    // Hellos: a player until frame 0; a newcomer until every running slot has welcomed it.
-    for (int p = 0; p < config_.players; ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
-        PeerLink& l = links_[pid];
-        const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
-                                   : phase_ == SessionPhase::Synchronizing;
-        if (!want) continue;
-        if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
-        if (!l.hello_due(now_us, config_.hello_resend_us)) continue;
-        HelloMessage h;
-        h.incarnation = incarnation_;
-        h.match_id = config_.match_id;
-        h.scene_checksum = scene_checksum_;
-        h.role = config_.role;
-        h.stamp_us = now_us;
-        std::vector<std::uint8_t> b;
-        encode(h, b);
-        send_control(pid, std::move(b));
-    }
     // Asking for a snapshot: a newcomer once some running peer has welcomed it enough times (and
     // the others had a moment to answer), a desynced peer from the majority peer it picked.
     const bool recovering = phase_ == SessionPhase::Running && recover_from_.has_value();
@@ -1028,7 +994,7 @@ void SessionImpl::poll_handshake(std::uint64_t now_us) {
     if (!fetch_.may_ask(now_us)) return;
     std::vector<PlayerId> ask;
     if (recovering) ask.push_back(*recover_from_);
-    else fetch_.newcomer_providers(links_, first_welcome_us_, now_us, ask);
+    else fetch_.newcomer_providers(links_, handshake_.first_welcome_us(), now_us, ask);
     if (ask.empty()) return;
     fetch_.ask(ask, recovering ? TransferReason::Recover
                                : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join),

@@ -19,6 +19,7 @@
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
 #include "rollback/frame_pacing.h"
+#include "rollback/handshake.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/predictor.h"
@@ -216,8 +217,8 @@ private:
     // the newcomer's (or a recovering peer's) side of a transfer
     SnapshotFetch fetch_;
     FramePacing pacing_;  // declared after config_, which it reads
+    Handshake handshake_;  // after config_ and membership_
     std::optional<PlayerId> recover_from_;
-    std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
     // A joiner's handoff frame. Its stream before it is the owner's neutral input, flagged
     // absent, which every peer holds or gets from the owner: never sent as its own (it differed
@@ -229,8 +230,6 @@ private:
     // desync recovery
     std::optional<std::uint32_t> mismatch_frame_;
     std::uint64_t mismatch_since_us_ = 0;
-    std::uint64_t incarnation_ = 0;
-    bool peer_started_ = false;  // another player has started frame 0 (sync phase ends early)
     HelloMessage hello_msg_;
     WelcomeMessage welcome_msg_;
     SnapshotRequestMessage snap_req_msg_;
