@@ -4,6 +4,7 @@
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
 #include "rollback/input_delay.h"
+#include "rollback/input_frames.h"
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
@@ -434,34 +435,17 @@ void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
     const bool i_play = config_.role != Role::Spectator;
     const PlayerId me = config_.local_player;
     // Unwrap every frame before applying anything, so a bad packet changes nothing.
-    std::optional<std::uint32_t> ack;
-    if (from_player && i_play) {
-        const InputQueue& local = sync_->queue(me);
-        ack = unwrap_frame(m.ack, local.confirmed_count());
-        if (!ack) return malformed(from, "input message: ack frame out of range");
-        if (*ack > local.confirmed_count()) return malformed(from, "input message: acknowledges inputs never sent");
-    }
-    std::optional<std::uint32_t> first;
-    if (m.frame_count > 0) {
-        if (!from_player) return malformed(from, "input message: a spectator sent inputs");
-        first = unwrap_frame(m.first_frame, sync_->queue(from).confirmed_count());
-        if (!first) return malformed(from, "input message: first frame out of range");
-    }
-    std::optional<std::uint32_t> sender_frame;
-    if (m.has_time_sync) {
-        sender_frame = unwrap_frame(m.sender_frame, sync_->frame());
-        if (!sender_frame) return malformed(from, "input message: sender frame out of range");
-    }
-    std::uint32_t checksum_frames[kMaxChecksumsPerMessage];
-    for (int i = 0; i < m.checksum_count; ++i) {
-        const auto f = unwrap_frame(m.checksum_frames[i], detector_->newest_local());
-        if (!f) return malformed(from, "input message: checksum frame out of range");
-        checksum_frames[i] = *f;
-    }
-    for (const SlotEntry& e : m.slots)
-        if (e.slot >= config_.players) return malformed(from, "input message: slot entry out of range");
-    for (const StreamBlock& b : m.blocks)
-        if (b.slot >= config_.players) return malformed(from, "input message: stream block slot out of range");
+    InputReferences refs;
+    refs.from_player = from_player;
+    refs.takes_ack = from_player && i_play;
+    refs.our_count = i_play ? count_of(me) : 0;
+    refs.its_count = from_player ? count_of(from) : 0;
+    refs.frame = sync_->frame();
+    refs.newest_checksum = detector_->newest_local();
+    refs.players = config_.players;
+    InputFrames frames;
+    if (const char* e = unwrap_input(m, refs, frames)) return malformed(from, e);
+    const auto& [ack, first, sender_frame, checksum_frames] = frames;
 
     if (ack && link.take_ack(*ack)) refresh_resend_floor();
     if (first) {
