@@ -1,10 +1,13 @@
 #include "rollback/session_impl.h"
 
 #include "rollback/input_authority.h"
+#include "rollback/frame_pacing.h"
+#include "rollback/handshake.h"
 #include "rollback/input_delay.h"
+#include "rollback/input_frames.h"
+#include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
-#include "rollback/snapshot_vetting.h"
 
 #include <algorithm>
 #include <array>
@@ -24,22 +27,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
 
 constexpr int kMaxChunksPerPoll = 64;
-// A peer gets at most one fresh recovery snapshot this often: a request of a few bytes costs the
-// server a whole state packed and sent, so a peer that keeps asking must not multiply that.
-constexpr std::uint64_t kRecoveryIntervalUs = 1'000'000;
-// The slot table's schedule once every slot simply runs (issue 21: it had ridden every 8th
-// message, 22 bytes at 4 players, though it never changed). A change of what we tell a peer
-// goes in kTableCopies copies spread over ~1 s (PeerLink::table_due): a vote then survives 30 %
-// loss or a short burst. Once it changed, a refresh every kTableRefreshUs (at most half the
-// disconnect timeout) repairs a change all of whose copies were lost: the one that matters is
-// a withdrawn "gone" vote (a healed partition), which is then back at every peer before another
-// voter's silence timer, started when the change was made, could complete a majority with the
-// stale one. A table that never changed needs no refresh: it says "runs" in the view's epoch
-// about every slot, which counts for no more than saying nothing (only "gone" votes drop), and
-// the peer's relays ask for themselves (lags_on_a_stream). Two players need no refresh either:
-// there one vote is a majority or nothing (TwoPlayerRule).
-constexpr int kTableCopies = 8;
-constexpr std::uint64_t kTableRefreshUs = 2'000'000;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -88,7 +75,10 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     : SessionCore(SessionPhase::Running, config.local_player, config.input_delay, observer),
       config_(config),
       sim_(simulation),
-      membership_(0, 0, config.two_player_rule) {
+      membership_(0, 0, config.two_player_rule),
+      fetch_(config_, simulation.state_size()),
+      pacing_(config_),
+      handshake_(config_, membership_) {
     validate(config_);
     membership_ = Membership(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
     default_to_zero(config_.cpu_clock);
@@ -112,7 +102,6 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     detector_ = std::make_unique<DesyncDetector>(dc, peers_total(), config_.local_player, sim_, sync_->ring(),
                                                  tap_.get(), stats_);
     authority_ = std::make_unique<InputAuthority>(config_.players, peers_total());
-    vetting_ = std::make_unique<SnapshotVetting>();
     if (stats_.oversized_states > 0) throw std::invalid_argument(oversized_message(sim_));
     detector_->add_local(0, sync_->initial_checksum());
     scene_checksum_ = config_.scene_checksum != 0 ? config_.scene_checksum : sync_->initial_checksum();
@@ -124,7 +113,6 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     local_advantage_.assign(peers, 0);
     replies_this_poll_.assign(peers, 0);
     slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
-    for (int s = 0; s < config_.players; ++s) any_guest_ = any_guest_ || is_guest(static_cast<PlayerId>(s));
     guest_scratch_.assign(kMaxInputSize, 0);
     if (config_.role != Role::Spectator)
         for (int s = 0; s < config_.players; ++s)
@@ -141,8 +129,9 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
         for (std::size_t p = 0; p < static_cast<std::size_t>(config_.players); ++p) links_[p].welcomed = true;
     }
     // The starting view is every peer's (the same config): it is no change to anyone.
+    const StreamRelay relay(stream_view());
     for (std::size_t p = 0; p < peers; ++p) {
-        table_entries_for(static_cast<PlayerId>(p), table_entries_);
+        relay.table_entries_for(static_cast<PlayerId>(p), table_entries_);
         links_[p].table_assumed(table_entries_, 0);
     }
     refresh_resend_floor();
@@ -264,12 +253,9 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         default: break;
     }
     // A newcomer vetting its snapshot: the peers' confirmed checksums of its frame.
-    if (*kind == MessageKind::Reply && vetting_->active()) {
+    if (*kind == MessageKind::Reply && fetch_.vetting()) {
         if (const char* e = decode(datagram, reply_msg_)) return malformed(from, e);
-        if (reply_msg_.what == QueryWhat::FrameChecksums && reply_msg_.count == 1)
-            vetting_->on_reply(from, reply_msg_.frame, reply_msg_.available && reply_msg_.values.size() == 1,
-                               reply_msg_.values.empty() ? 0 : reply_msg_.values[0]);
-        return;
+        return fetch_.take_reply(from, reply_msg_);
     }
     // Input, query, reply: game traffic. A newcomer has no frame to relate it to until its
     // snapshot is loaded; a player still synchronizing already does (frame 0).
@@ -295,7 +281,7 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         case MessageKind::Input:
             if (const char* e = decode(datagram, config_.input_size, in_msg_)) return malformed(from, e);
             if (phase_ == SessionPhase::Synchronizing && is_slot(from)) {
-                peer_started_ = true;  // it plays already: follow it
+                handshake_.peer_started();  // it plays already: follow it
                 maybe_start(now_us);
             }
             return handle_input(from, now_us);
@@ -404,9 +390,8 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
     }
     if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
     if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
-    if (link.sync_welcome(m.echo_us, m.running, now_us) && first_welcome_us_ == 0) first_welcome_us_ = now_us == 0 ? 1 : now_us;
+    handshake_.sync_welcome(link, is_slot(from), m, now_us);
     if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
-    if (m.running && is_slot(from)) peer_started_ = true;
     if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
     emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
     maybe_start(now_us);
@@ -425,30 +410,15 @@ void SessionImpl::welcomed_while_running(PlayerId from, const WelcomeMessage& m,
     refresh_resend_floor();
 }
 
-// A player starts frame 0 once every slot present at start has answered enough hellos, or, as
-// soon as another player has started (it says so in a welcome or sends inputs), once every one
-// has answered at least once: following the first starter at once keeps the starts a one-way
-// trip apart instead of a whole sync phase, so time sync has little to even out.
+// The start rule is the Handshake's (rollback/handshake.h).
 void SessionImpl::maybe_start(std::uint64_t now_us) {
-    if (config_.role != Role::Player || phase_ != SessionPhase::Synchronizing) return;
-    const int needed = peer_started_ ? 1 : config_.sync_roundtrips;
-    for (int p = 0; p < config_.players; ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
-        if (links_[pid].roundtrips < needed) return;
-    }
-    start_running(now_us);
+    if (handshake_.ready_to_start(links_, phase_)) start_running(now_us);
 }
 
 void SessionImpl::start_running(std::uint64_t now_us) {
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
-    std::uint64_t worst = 0;
-    for (int p = 0; p < config_.players; ++p)
-        if (static_cast<PlayerId>(p) != config_.local_player) {
-            worst = std::max(worst, links_[static_cast<std::size_t>(p)].max_sync_rtt_us);
-            links_[static_cast<std::size_t>(p)].mark_heard(now_us);
-        }
+    const std::uint64_t worst = handshake_.start(links_, now_us);
     if (config_.auto_input_delay && config_.role == Role::Player) {
         // The one policy (rollback/input_delay.h); a P2P input reaches its peers in half the worst round trip.
         const int d = auto_input_delay(config_.prediction_window, worst / 2, config_.tick_rate);
@@ -465,34 +435,17 @@ void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
     const bool i_play = config_.role != Role::Spectator;
     const PlayerId me = config_.local_player;
     // Unwrap every frame before applying anything, so a bad packet changes nothing.
-    std::optional<std::uint32_t> ack;
-    if (from_player && i_play) {
-        const InputQueue& local = sync_->queue(me);
-        ack = unwrap_frame(m.ack, local.confirmed_count());
-        if (!ack) return malformed(from, "input message: ack frame out of range");
-        if (*ack > local.confirmed_count()) return malformed(from, "input message: acknowledges inputs never sent");
-    }
-    std::optional<std::uint32_t> first;
-    if (m.frame_count > 0) {
-        if (!from_player) return malformed(from, "input message: a spectator sent inputs");
-        first = unwrap_frame(m.first_frame, sync_->queue(from).confirmed_count());
-        if (!first) return malformed(from, "input message: first frame out of range");
-    }
-    std::optional<std::uint32_t> sender_frame;
-    if (m.has_time_sync) {
-        sender_frame = unwrap_frame(m.sender_frame, sync_->frame());
-        if (!sender_frame) return malformed(from, "input message: sender frame out of range");
-    }
-    std::uint32_t checksum_frames[kMaxChecksumsPerMessage];
-    for (int i = 0; i < m.checksum_count; ++i) {
-        const auto f = unwrap_frame(m.checksum_frames[i], detector_->newest_local());
-        if (!f) return malformed(from, "input message: checksum frame out of range");
-        checksum_frames[i] = *f;
-    }
-    for (const SlotEntry& e : m.slots)
-        if (e.slot >= config_.players) return malformed(from, "input message: slot entry out of range");
-    for (const StreamBlock& b : m.blocks)
-        if (b.slot >= config_.players) return malformed(from, "input message: stream block slot out of range");
+    InputReferences refs;
+    refs.from_player = from_player;
+    refs.takes_ack = from_player && i_play;
+    refs.our_count = i_play ? count_of(me) : 0;
+    refs.its_count = from_player ? count_of(from) : 0;
+    refs.frame = sync_->frame();
+    refs.newest_checksum = detector_->newest_local();
+    refs.players = config_.players;
+    InputFrames frames;
+    if (const char* e = unwrap_input(m, refs, frames)) return malformed(from, e);
+    const auto& [ack, first, sender_frame, checksum_frames] = frames;
 
     if (ack && link.take_ack(*ack)) refresh_resend_floor();
     if (first) {
@@ -514,7 +467,7 @@ void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
         // An honest peer is never farther from us than input delay plus prediction window (plus
         // the time sync's own slack); a claim beyond that is clipped, so one forged message
         // cannot make us wait thousands of frames.
-        const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
+        const std::int64_t bound = pacing_.advantage_bound(input_delay_);
         link.note_remote_frame(*sender_frame, clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound)), now_us);
         link.take_stamps(m.stamp, m.echo, m.hold, now_us);
     }
@@ -575,12 +528,7 @@ void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t no
     const SlotState before = slot_state(slot);
     membership_.set(slot, e.state, e.epoch);
     authority_->reset_slot(slot);
-    v.kick_vote = false;
-    v.lapsed = false;
-    v.pending_since_us = 0;
-    v.authoring = false;
-    v.neutral_reported = false;
-    v.handed_off_by_me = false;
+    v.new_epoch();
     if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
         e.state != SlotState::Running) {
         emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
@@ -723,40 +671,17 @@ void SessionImpl::confirm_frames() {
         authority_->forget_before(static_cast<PlayerId>(s), sync_->queue(static_cast<PlayerId>(s)).floor());
 }
 
-// A peer's frame now: what it last reported plus the time since then and half a round trip. A
-// peer silent for longer than interrupt_us is not assumed to have run on: its estimate stops
-// there (unbounded, a stuck peer read as tens of thousands of frames ahead).
-// Local advantage against each peer: (its frame now, estimated) - our frame.
+// Time sync against the live player peers (rollback/frame_pacing.h).
+bool SessionImpl::paces(PlayerId p) const { return live_peer(p) && is_slot(p); }
+
 void SessionImpl::sample_time_sync(std::uint64_t now_us) {
-    const std::int64_t bound = input_delay_ + config_.prediction_window + 2 * config_.time_sync_min_frames + 2;
-    for (std::size_t p = 0; p < links_.size(); ++p) {
-        PeerLink& link = links_[p];
-        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame)
-            continue;
-        const std::int64_t adv = link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()};
-        local_advantage_[p] = static_cast<std::int32_t>(std::clamp<std::int64_t>(adv, -bound, bound));
-        link.time_sync().add_sample(local_advantage_[p], link.remote_advantage);
-        stats_.peers[p].frame_advantage_x100 = link.time_sync().local_advantage_x100();
-        stats_.peers[p].rtt_us = link.rtt_us();
-    }
+    pacing_.sample(links_, pacer(), sync_->frame(), input_delay_, now_us, local_advantage_, stats_.peers);
 }
 
-std::int32_t SessionImpl::frames_ahead_x100() const {
-    std::int32_t ahead = 0;
-    for (std::size_t p = 0; p < links_.size(); ++p)
-        if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
-            ahead = std::max(ahead, links_[p].time_sync().frames_ahead_x100());
-    return ahead;
-}
+std::int32_t SessionImpl::frames_ahead_x100() const { return pacing_.frames_ahead_x100(links_, pacer()); }
 
 std::int32_t SessionImpl::behind(std::uint64_t now_us) const {
-    std::int64_t most = 0;
-    for (std::size_t p = 0; p < links_.size(); ++p) {
-        const PeerLink& link = links_[p];
-        if (!live_peer(static_cast<PlayerId>(p)) || !is_slot(static_cast<PlayerId>(p)) || !link.has_remote_frame) continue;
-        most = std::max(most, link.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate) - std::int64_t{sync_->frame()});
-    }
-    return static_cast<std::int32_t>(std::min<std::int64_t>(most, 1 << 30));
+    return pacing_.behind(links_, pacer(), sync_->frame(), now_us);
 }
 
 NetworkStats SessionImpl::network_stats(PlayerId p, std::uint64_t now_us) const {
@@ -795,18 +720,9 @@ std::uint32_t SessionImpl::local_target() const { return sync_->frame() + static
 void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
     SlotView& v = slots_[slot];
     if (!slot_running(slot)) return;
-    if (v.lapsed) {  // a handoff that lapsed: the next one waits (check_handoff)
-        v.lapses = std::min(v.lapses + 1, 3);
-        v.next_handoff_us = now_us + (config_.disconnect_us << v.lapses);
-    }
     membership_.leave(slot);
     authority_->reset_slot(slot);
-    v.kick_vote = false;
-    v.lapsed = false;
-    v.pending_since_us = 0;
-    v.authoring = false;
-    v.neutral_reported = false;
-    v.handed_off_by_me = false;
+    v.dropped(now_us, config_.disconnect_us);
     links_[slot].interrupted = false;
     detector_->peer_failed(slot);
     emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
@@ -888,32 +804,10 @@ void SessionImpl::check_silence(std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
-// A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
-// never drops it, yet the match stalls at its handoff frame for inputs that never come: the
-// 16-minute soak froze for good (issue 21). The contract for a running slot that stalls the
-// others is a stall of at most disconnect_us (docs/sessions.md, "Cost"); so a handed-over slot
-// whose own stream has not started -- the newest input we hold of it is still the owner's
-// neutral one, flagged absent -- for disconnect_us after we first need its input is voted gone
-// here, and the vote is not withdrawn by hearing it (it is heard; it does not play). A majority
-// drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
-// slot over again only after 2, 4, then 8 x disconnect_us (drop_slot), so one that never loads
-// costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
-// resets the backoff.
+// A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
 void SessionImpl::check_handoff(PlayerId slot, std::uint64_t now_us) {
-    SlotView& v = slots_[slot];
-    const InputQueue& q = sync_->queue(slot);
-    const bool started = q.confirmed_count() > 0 && !q.last_absent();
-    if (slot_running(slot) && started) v.lapses = 0;  // its own stream started: the join succeeded
-    // Pending: running, its newest input the owner's neutral one, and needed (we are at or past
-    // its stream's end, predicting or stalled on it): the stall the contract bounds starts here.
-    if (!slot_running(slot) || started || q.confirmed_count() == 0 || count_of(slot) > sync_->frame()) {
-        v.pending_since_us = 0;
-        return;
-    }
-    if (v.pending_since_us == 0) v.pending_since_us = now_us;
-    if (v.lapsed || config_.disconnect_us == 0 || now_us - v.pending_since_us < config_.disconnect_us) return;
-    v.lapsed = true;
-    membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
+    if (slots_[slot].watch_handoff(slot_running(slot), sync_->queue(slot), sync_->frame(), now_us, config_.disconnect_us))
+        membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
 }
 
 // The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot
@@ -1039,26 +933,13 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
     }
     if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
     result.frame = sync_->frame();
-    // Time sync: at most one recommendation per window, from fresh samples only.
-    if (result.frame >= next_time_sync_frame_) {
-        int wait_frames = 0;
-        for (std::size_t p = 0; p < links_.size(); ++p)
-            if (live_peer(static_cast<PlayerId>(p)) && is_slot(static_cast<PlayerId>(p)))
-                wait_frames = std::max(wait_frames, links_[p].time_sync().recommended_wait(config_.time_sync_min_frames));
-        wait_frames = std::min(wait_frames, input_delay_ + config_.prediction_window + 2);
-        if (wait_frames > 0) {
-            result.wait_frames = wait_frames;
-            ++stats_.time_sync_waits;
-            stats_.time_sync_wait_frames += static_cast<std::uint64_t>(wait_frames);
-            for (auto& link : links_) link.time_sync().clear();
-            next_time_sync_frame_ = result.frame + static_cast<std::uint32_t>(config_.time_sync_window);
-        }
+    // Time sync: at most one recommendation per window, and the same advice as a gentle slowdown.
+    result.wait_frames = pacing_.recommend_wait(links_, pacer(), result.frame, input_delay_);
+    if (result.wait_frames > 0) {
+        ++stats_.time_sync_waits;
+        stats_.time_sync_wait_frames += static_cast<std::uint64_t>(result.wait_frames);
     }
-    // The same advice as a gentle slowdown: 2 % per frame ahead, at most kMaxTickStretchPpm
-    // (time_sync.h says why 10 %). Equal clocks stay within a frame and barely stretch.
-    const std::int32_t ahead = frames_ahead_x100();
-    if (ahead > 50)
-        result.tick_stretch_ppm = static_cast<int>(std::min<std::int64_t>(std::int64_t{ahead} * 200, kMaxTickStretchPpm));
+    result.tick_stretch_ppm = FramePacing::tick_stretch_ppm(frames_ahead_x100());
     return result;
 }
 
@@ -1086,106 +967,47 @@ std::uint32_t SessionImpl::checkpoint() const {
 }
 
 void SessionImpl::poll_handshake(std::uint64_t now_us) {
-    if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     maybe_start(now_us);  // alone at start (every other slot absent): nothing to wait for
+    handshake_.poll_hellos(links_, phase_, scene_checksum_, now_us, pending_out_);
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
-    // Hellos: a player until frame 0; a newcomer until every running slot has welcomed it.
-    for (int p = 0; p < config_.players; ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (pid == config_.local_player || !slot_running(pid) || is_guest(pid)) continue;
-        PeerLink& l = links_[pid];
-        const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
-                                   : phase_ == SessionPhase::Synchronizing;
-        if (!want) continue;
-        if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
-        if (!l.hello_due(now_us, config_.hello_resend_us)) continue;
-        HelloMessage h;
-        h.incarnation = incarnation_;
-        h.match_id = config_.match_id;
-        h.scene_checksum = scene_checksum_;
-        h.role = config_.role;
-        h.stamp_us = now_us;
-        std::vector<std::uint8_t> b;
-        encode(h, b);
-        send_control(pid, std::move(b));
-    }
     // Asking for a snapshot: a newcomer once some running peer has welcomed it enough times (and
     // the others had a moment to answer), a desynced peer from the majority peer it picked.
     const bool recovering = phase_ == SessionPhase::Running && recover_from_.has_value();
     if (!(newcomer && syncing) && !recovering) return;
-    if (incoming_) return;
-    if (offer_requested_ && now_us < last_offer_request_us_ + 2 * config_.transfer_resend_us) return;
+    if (!fetch_.may_ask(now_us)) return;
     std::vector<PlayerId> ask;
-    if (recovering) {
-        ask.push_back(*recover_from_);
-    } else {
-        bool ready = false;
-        for (int p = 0; p < config_.players; ++p) {
-            const PeerLink& l = links_[static_cast<std::size_t>(p)];
-            if (l.welcomed && l.has_remote_frame && l.roundtrips >= config_.sync_roundtrips) ready = true;
-        }
-        if (!ready || now_us < first_welcome_us_ + 3 * config_.hello_resend_us) return;
-        for (int p = 0; p < config_.players; ++p) {
-            const auto pid = static_cast<PlayerId>(p);
-            const PeerLink& l = links_[pid];
-            if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
-            ask.push_back(pid);
-        }
-        // One host is enough for a spectator: the first that did not serve a rejected snapshot.
-        if (config_.role == Role::Spectator && ask.size() > 1) {
-            const auto good = std::find_if(ask.begin(), ask.end(), [&](PlayerId p) { return p != rejected_provider_; });
-            ask = {good != ask.end() ? *good : ask.front()};
-        }
-    }
-    offer_requested_ = true;
-    last_offer_request_us_ = now_us;
-    for (PlayerId pid : ask) {
-        SnapshotRequestMessage r;
-        r.reason = recovering ? TransferReason::Recover
-                              : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join);
-        std::vector<std::uint8_t> b;
-        encode(r, b);
-        send_control(pid, std::move(b));
-    }
+    if (recovering) ask.push_back(*recover_from_);
+    else fetch_.newcomer_providers(links_, handshake_.first_welcome_us(), now_us, ask);
+    if (ask.empty()) return;
+    fetch_.ask(ask, recovering ? TransferReason::Recover
+                               : (config_.role == Role::Spectator ? TransferReason::Spectate : TransferReason::Join),
+               now_us, pending_out_);
 }
 
 void SessionImpl::poll_transfer(std::uint64_t now_us) {
-    if (!incoming_) return;
-    if (vetting_->active()) return poll_vetting(now_us);
-    std::vector<std::uint32_t> due;
-    incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
-    for (std::uint32_t c : due) {
-        SnapshotRequestMessage r;
-        r.reason = incoming_->offer().reason;
-        r.transfer_id = incoming_->offer().transfer_id;
-        r.chunk = c;
-        std::vector<std::uint8_t> b;
-        encode(r, b);
-        send_control(incoming_from_, std::move(b));
-    }
-    // A provider that went silent: start over with whoever answers.
-    if (now_us > incoming_->started_us + 20'000'000) {
-        emit(SessionEvent::Kind::SnapshotRejected, incoming_from_, incoming_->offer().frame, now_us,
-             "transfer timed out; asking again");
-        incoming_.reset();
-        offer_requested_ = false;
+    switch (fetch_.poll(now_us, pending_out_)) {
+        case SnapshotFetch::Poll::Decided: return finish_transfer(now_us);
+        case SnapshotFetch::Poll::TimedOut:
+            // A provider that went silent: start over with whoever answers.
+            emit(SessionEvent::Kind::SnapshotRejected, fetch_.provider(), fetch_.incoming()->offer().frame, now_us,
+                 "transfer timed out; asking again");
+            return fetch_.restart();
+        case SnapshotFetch::Poll::Nothing: return;
     }
 }
 
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     if (m.transfer_id != 0) {
-        const TransferSender::Transfer* t = outgoing_.find(m.transfer_id, from);
-        if (!t) return void(++stats_.peers[from].ignored_packets);  // an old transfer, or not ours
         SnapshotChunkMessage c;
-        if (!TransferSender::chunk(*t, m.chunk, c)) return malformed(from, "snapshot request: chunk out of range");
+        switch (server_.chunk(from, m, c)) {
+            case SnapshotServer::Chunk::NotOurs: return void(++stats_.peers[from].ignored_packets);
+            case SnapshotServer::Chunk::OutOfRange: return malformed(from, "snapshot request: chunk out of range");
+            case SnapshotServer::Chunk::Ready: break;
+        }
         if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
         ++replies_this_poll_[from];
-        if (damaged_chunks_ < chunk_damage_.size() && !c.bytes.empty()) {
-            if (chunk_damage_[damaged_chunks_] == ChunkDamage::FlipBit) c.bytes.back() ^= 0x01;
-            else c.bytes.pop_back();
-            ++damaged_chunks_;
-        }
+        server_.damage_next(c);
         std::vector<std::uint8_t> b;
         encode(c, b);
         send_control(from, std::move(b));
@@ -1198,20 +1020,16 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
     if (m.reason == TransferReason::Recover &&
         (config_.max_recoveries == 0 || !is_slot(from) || !slot_running(from) || !detector_->desynced(from)))
         return void(++stats_.peers[from].ignored_packets);
-    // The same peer asking again while its offer is young: send the same offer.
-    // (A recovery wants a fresh frame, so its offer is reused only against duplicates, and a new
-    // one is packed at most every kRecoveryIntervalUs.)
-    const std::uint64_t reuse_us = m.reason == TransferReason::Recover ? 300'000 : 2'000'000;
-    for (const TransferSender::Transfer& t : outgoing_.transfers()) {
-        if (t.peer != from || t.offer.reason != m.reason) continue;
-        if (now_us < t.created_us + reuse_us) {
+    // The same peer asking again while its offer is young: the same offer (SnapshotServer).
+    const SnapshotOfferMessage* repeat = nullptr;
+    switch (server_.consider(from, m.reason, now_us, &repeat)) {
+        case SnapshotServer::Ask::Repeat: {
             std::vector<std::uint8_t> b;
-            encode(t.offer, b);
-            send_control(from, std::move(b));
-            return;
+            encode(*repeat, b);
+            return send_control(from, std::move(b));
         }
-        if (m.reason == TransferReason::Recover && now_us < t.created_us + kRecoveryIntervalUs)
-            return void(++stats_.peers[from].ignored_packets);
+        case SnapshotServer::Ask::TooSoon: return void(++stats_.peers[from].ignored_packets);
+        case SnapshotServer::Ask::Pack: break;
     }
     const std::uint32_t c = sync_->confirmed_frame();
     std::uint32_t handoff = 0;
@@ -1231,11 +1049,7 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
                     return;  // queue full: not now
             SlotView& v = slots_[from];
             membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
-            v.kick_vote = false;
-            v.lapsed = false;
-            v.pending_since_us = 0;
-            v.authoring = false;
-            v.neutral_reported = false;
+            v.new_epoch();
             v.handoff = handoff;
             v.handed_off_by_me = true;
             PeerLink& l = links_[from];
@@ -1260,7 +1074,7 @@ void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMe
     if (!sync_->transfer_contents(c, true, t)) return;
     const std::size_t n = config_.input_size;
     // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
-    TransferSender::Transfer& out = outgoing_.offer(from, m.reason, t, n, now_us);
+    TransferSender::Transfer& out = server_.offer(from, m.reason, t, n, now_us);
     out.offer.handoff_frame = handoff;
     for (int s = 0; s < config_.players; ++s)
         out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
@@ -1282,76 +1096,41 @@ void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessag
                                   (phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring);
     const bool recovering = phase_ == SessionPhase::Running && recover_from_ == from && m.reason == TransferReason::Recover;
     if (!newcomer_waiting && !recovering) return void(++stats_.peers[from].ignored_packets);
-    if (incoming_) return;  // one transfer at a time; a repeat of the current offer changes nothing
-    if (m.size > config_.max_snapshot_bytes) {
-        fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
-                 std::to_string(config_.max_snapshot_bytes),
-             now_us);
-        return;
+    switch (fetch_.take_offer(from, m, now_us)) {
+        case SnapshotFetch::OfferTaken::Busy: return;  // one transfer at a time
+        case SnapshotFetch::OfferTaken::TooLarge:
+            return fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
+                            std::to_string(config_.max_snapshot_bytes),
+                        now_us);
+        case SnapshotFetch::OfferTaken::BadSlotTable: return malformed(from, "snapshot offer: slot table size");
+        case SnapshotFetch::OfferTaken::Started:
+            if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
+            return;
     }
-    if (m.slots.size() != static_cast<std::size_t>(config_.players)) return malformed(from, "snapshot offer: slot table size");
-    incoming_ = std::make_unique<TransferReceiver>(m);
-    incoming_->started_us = now_us;
-    incoming_from_ = from;
-    if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
 }
 
 void SessionImpl::handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us) {
-    if (!incoming_ || from != incoming_from_ || !incoming_->add(m)) return void(++stats_.peers[from].ignored_packets);
-    if (incoming_->complete()) finish_transfer(now_us);
+    if (!fetch_.take_chunk(from, m)) return void(++stats_.peers[from].ignored_packets);
+    if (fetch_.complete()) finish_transfer(now_us);
 }
 
 void SessionImpl::finish_transfer(std::uint64_t now_us) {
-    const SnapshotOfferMessage offer = incoming_->offer();
-    const PlayerId from = incoming_from_;
+    SnapshotFetch::Result got;
+    const auto verdict =
+        fetch_.finish(now_us, links_, [&](std::span<const std::uint8_t> state) { return sim_.checksum(state); }, got);
+    if (verdict == SnapshotFetch::Verdict::Pending) return;
+    const PlayerId from = got.from;
+    const SnapshotOfferMessage& offer = got.offer;
+    const TransferContents& t = got.contents;
     const auto reject = [&](const std::string& why) {
         emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
-        incoming_.reset();
-        offer_requested_ = false;
-        vetting_->reset();
     };
-    const auto blob = incoming_->verified();
-    if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
-    TransferContents t;
-    if (std::string e = unpack_transfer(*blob, sim_.state_size(), config_.players, config_.input_size,
-                                        config_.input_capacity / 2, t);
-        !e.empty())
-        return reject(e);
-    if (t.frame != offer.frame) return reject("snapshot transfer: frame differs from the offer");
-    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
-    // same checksum of that frame (a recovery already follows the majority's checksums).
-    std::string vetted;
-    if (offer.reason != TransferReason::Recover) {
-        if (!vetting_->active() || vetting_->frame() != t.frame || vetting_->provider() != from) {
-            std::vector<PlayerId> voters;
-            for (const SlotEntry& e : offer.slots) {
-                const PlayerId p = e.slot;
-                if (!is_slot(p) || p == config_.local_player || host_of(p) != p) continue;
-                if (e.state == SlotState::Running || links_[p].welcomed) voters.push_back(p);
-            }
-            // Short: the slot is handed over already, and a newcomer silent to the others for
-            // disconnect_us would be voted gone again.
-            const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
-            vetting_->start(t.frame, sim_.checksum(t.state), from, std::move(voters), now_us, wait_us);
-            return;  // poll_vetting asks, and comes back here once decided
-        }
-        const SnapshotVetting::Verdict v = vetting_->verdict(now_us);
-        // A repeated last chunk completes the transfer again while the answers are still coming:
-        // that is no verdict (it was taken for a rejection, and a joiner under loss never joined).
-        if (v == SnapshotVetting::Verdict::Pending) return;
-        vetted = vetting_->detail(now_us);
-        if (v != SnapshotVetting::Verdict::Accepted) {
-            rejected_provider_ = from;
-            return reject("snapshot rejected: " + vetted);
-        }
-        vetting_->reset();
-    }
+    if (verdict == SnapshotFetch::Verdict::Rejected) return reject(got.why);
+    // The fetch forgot the transfer: a failed load asks again like any rejection.
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
     authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
-    incoming_.reset();
-    offer_requested_ = false;
-    next_time_sync_frame_ = t.frame;
+    pacing_.restart_at(t.frame);
     for (auto& link : links_) link.time_sync().clear();
     if (offer.reason == TransferReason::Recover) {
         ++recoveries_;
@@ -1365,10 +1144,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     for (const SlotEntry& e : offer.slots) {
         SlotView& v = slots_[e.slot];
         membership_.set(e.slot, e.state, e.epoch);
-        v.kick_vote = false;
-        v.lapsed = false;
-        v.pending_since_us = 0;
-        v.authoring = false;
+        v.new_epoch();  // a newcomer has handed nothing over
         v.neutral_reported = e.state != SlotState::Running;
     }
     for (auto& link : links_) {
@@ -1385,7 +1161,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     started_us_ = now_us;
     emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
          (config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating") +
-             "; " + vetted);
+             "; " + got.why);
     emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
     refresh_resend_floor();
 }
@@ -1403,30 +1179,19 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
         mismatch_frame_.reset();
         return;
     }
-    // value (low 32 bits) -> slots holding it
-    std::map<std::uint32_t, std::vector<PlayerId>> groups;
-    groups[static_cast<std::uint32_t>(*mine)].push_back(config_.local_player);
+    std::vector<std::pair<PlayerId, std::uint64_t>> theirs;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
         if (!live_peer(pid)) continue;
-        const auto theirs = detector_->remote_checksum(pid, f);
-        if (!theirs) {
+        const auto value = detector_->remote_checksum(pid, f);
+        if (!value) {
             if (now_us < mismatch_since_us_ + 5'000'000) return;  // wait for everyone's word
             continue;
         }
-        groups[static_cast<std::uint32_t>(*theirs)].push_back(pid);
+        theirs.emplace_back(pid, *value);
     }
-    const std::vector<PlayerId>* best = nullptr;
-    for (auto& [value, slots] : groups) {
-        std::sort(slots.begin(), slots.end());
-        if (!best || slots.size() > best->size()) {
-            best = &slots;
-        } else if (slots.size() == best->size()) {
-            const bool lower = slots.front() < best->front();
-            if (lower == (config_.two_player_keep == DesyncKeep::LowestSlot)) best = &slots;
-        }
-    }
-    if (std::find(best->begin(), best->end(), config_.local_player) != best->end()) {
+    const auto source = recovery_source(config_.local_player, *mine, theirs, config_.two_player_keep);
+    if (!source) {
         mismatch_frame_.reset();  // we are in the majority: the odd ones reload
         return;
     }
@@ -1436,150 +1201,14 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
              now_us);
         return;
     }
-    recover_from_ = best->front();
-    offer_requested_ = false;
+    recover_from_ = *source;
+    fetch_.ask_again();
     emit(SessionEvent::Kind::DesyncDetected, *recover_from_, f, now_us,
          "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
 }
 
-bool SessionImpl::extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
-                               bool lagging) const {
-    if (config_.role != Role::Player || joining_ || !is_slot(to)) return true;
-    // Guest streams travel as blocks, and their hosts learn from the tables what we lack.
-    if (any_guest_) return true;
-    if (any_slot_not_running()) return true;
-    if (membership_.votes_any_gone()) return true;  // our votes must reach the voters
-    for (const SlotView& v : slots_)
-        if (v.handed_off_by_me) return true;
-    // Every slot simply runs: the table when what we tell this peer changed, and the refresh.
-    const PeerLink& link = links_[to];
-    if (link.table_due(entries, now_us, table_refresh_us())) return true;
-    // Three or more players: a peer stuck on a gap gets relays. Our counts go now and then while
-    // we lag on some stream (they ask for relays), and the relays to a peer whose counts say it
-    // lags.
-    if (config_.players < 3 || link.messages_sent % static_cast<std::uint64_t>(config_.time_sync_every) != 0) return false;
-    return lagging || relay_wanted(to, now_us);
-}
-
-std::uint64_t SessionImpl::table_refresh_us() const {
-    if (config_.players < 3) return 0;
-    return config_.disconnect_us == 0 ? kTableRefreshUs : std::min(kTableRefreshUs, config_.disconnect_us / 2);
-}
-
-// What our table says about slot s to peer `to`: to a player our vote where we cast one ("gone"
-// in the next epoch), else the view; a spectator, which follows our view, gets the view.
-SlotEntry SessionImpl::table_entry(PlayerId to, PlayerId s) const {
-    const bool vote = is_slot(to);
-    return {static_cast<std::uint8_t>(s), vote ? membership_.advertised_state(s) : slot_state(s),
-            vote ? membership_.advertised_epoch(s) : membership_.epoch(s),
-            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
-}
-
-void SessionImpl::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
-    out.clear();
-    for (int s = 0; s < config_.players; ++s) {
-        const SlotEntry e = table_entry(to, static_cast<PlayerId>(s));
-        out.push_back(static_cast<std::uint16_t>(static_cast<unsigned>(e.state) << 8 | e.epoch));
-    }
-}
-
-// We lag on a running stream by about as much as lets us predict no further (or half the relay
-// lag, if less): our counts should reach the peers, which relay what they hold.
-bool SessionImpl::lags_on_a_stream() const {
-    if (config_.role != Role::Player || config_.players < 3) return false;
-    const std::uint32_t mine = count_of(config_.local_player);
-    const auto lag = static_cast<std::uint32_t>(
-        std::max(1, std::min(config_.relay_lag / 2, config_.prediction_window + input_delay_)));
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || my_guest(slot) || !slot_running(slot)) continue;
-        if (count_of(slot) + lag <= mine) return true;
-    }
-    return false;
-}
-
-// Its counts are recent: it sent a table within a time-sync period (and a tick), as often as a
-// peer that lags sends one. Counts are read bare, as they always were: a peer stuck on a gap
-// shows a lag of the frames since its table on top of its own, which is what lets relays start
-// before relay_lag is reached for real -- everyone stalls on the stuck peer's inputs first. But
-// counts of seconds ago (the refresh, a lag that ended) would show a lag of seconds.
-bool SessionImpl::counts_fresh(const PeerLink& link, std::uint64_t now_us) const {
-    const std::uint64_t window = (static_cast<std::uint64_t>(config_.time_sync_every) + 1) * 1'000'000 /
-                                 static_cast<std::uint64_t>(config_.tick_rate);
-    return now_us <= link.counts_at_us + window;
-}
-
-// A running stream on which `to`'s recent counts say it lags by more than relay_lag (what
-// fill_extension relays to a player when every slot simply runs).
-bool SessionImpl::relay_wanted(PlayerId to, std::uint64_t now_us) const {
-    const PeerLink& link = links_[to];
-    if (!counts_fresh(link, now_us)) return false;
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || slot == to || !link.has_count[slot]) continue;
-        if (count_of(slot) > link.counts[slot] + static_cast<std::uint32_t>(config_.relay_lag)) return true;
-    }
-    return false;
-}
-
-// The slot table with our counts, and blocks of streams the receiver lacks and will not get
-// from anyone else soon: non-running slots (the owner's neutral inputs, or a dropped player's
-// last inputs some peers missed), a joiner's stream up to its handoff, everything for a
-// spectator, and any stream on which it lags by more than relay_lag.
-void SessionImpl::fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) {
-    m.has_extension = true;
-    m.slots.clear();
-    m.blocks.clear();
-    for (int s = 0; s < config_.players; ++s) m.slots.push_back(table_entry(to, static_cast<PlayerId>(s)));
-    const std::size_t table_bytes = 2 + m.slots.size() * 5;
-    if (budget <= table_bytes) return;
-    budget -= table_bytes;
-    if (config_.role == Role::Spectator) return;  // spectators relay nothing
-    const PeerLink& link = links_[to];
-    const std::size_t n = config_.input_size;
-    const std::uint8_t max_frames = max_frames_per_message(n);
-    for (int s = 0; s < config_.players && m.blocks.size() < static_cast<std::size_t>(kMaxStreamBlocks); ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        if (slot == config_.local_player || (is_slot(to) && slot == to) || !link.has_count[slot]) continue;
-        const InputQueue& q = sync_->queue(slot);
-        const std::uint32_t theirs = link.counts[slot];
-        std::uint32_t mine = q.confirmed_count();
-        // Only what the owner's own stream delivered is relayed onward, never another's claim.
-        if (const auto f = authority_->first_unverified_of(slot, theirs)) mine = std::min(mine, *f);
-        if (mine <= theirs) continue;
-        const SlotView& v = slots_[slot];
-        // A lag only by counts it sent lately (counts_fresh): by a table of seconds ago (the
-        // refresh) every stream would look far behind.
-        const bool relay = !is_slot(to) || !slot_running(slot) || my_guest(slot) ||
-                           (v.handed_off_by_me && theirs < v.handoff) ||
-                           (mine > theirs + static_cast<std::uint32_t>(config_.relay_lag) && counts_fresh(link, now_us));
-        if (!relay) continue;
-        const std::uint32_t from = std::max(theirs, q.floor());
-        if (from >= mine) continue;
-        StreamBlock b;
-        b.slot = static_cast<std::uint8_t>(slot);
-        b.absent = q.confirmed_absent(from);
-        b.first_frame = static_cast<std::uint16_t>(from);
-        std::uint32_t count = 0;
-        while (from + count < mine && count < max_frames && q.confirmed_absent(from + count) == b.absent) ++count;
-        // Shrink until it fits what is left of the datagram.
-        for (;;) {
-            b.frame_count = static_cast<std::uint8_t>(count);
-            b.inputs.resize(std::size_t{count} * n);
-            for (std::uint32_t k = 0; k < count; ++k) {
-                const auto in = q.confirmed(from + k);
-                std::copy(in.begin(), in.end(), b.inputs.begin() + static_cast<std::ptrdiff_t>(std::size_t{k} * n));
-            }
-            const std::size_t bytes = encoded_block_bytes(b, n);
-            if (bytes <= budget) {
-                budget -= bytes;
-                m.blocks.push_back(std::move(b));
-                break;
-            }
-            if (count <= 1) return;
-            count /= 2;
-        }
-    }
+StreamView SessionImpl::stream_view() const {
+    return {config_, membership_, sync_->queues(), *authority_, slots_, links_, sync_->confirmed_frame(), input_delay_, joining_};
 }
 
 void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
@@ -1615,7 +1244,8 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
     const bool spectator = config_.role == Role::Spectator;
     const std::size_t n = config_.input_size;
     const std::uint32_t cp = checkpoint();
-    const bool lagging = lags_on_a_stream();
+    const StreamRelay relay(stream_view());
+    const bool lagging = relay.lags_on_a_stream();
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
         PeerLink& link = links_[p];
@@ -1625,7 +1255,7 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         m.has_extension = false;
         m.slots.clear();
         m.blocks.clear();
-        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(owner_count(pid)) : 0;
+        m.ack = is_slot(pid) ? static_cast<std::uint16_t>(relay.owner_count(pid)) : 0;
         std::uint32_t count = 0;
         m.inputs.clear();
         if (!spectator) {
@@ -1651,10 +1281,10 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
                                : link.pick_checksums(cp, static_cast<std::uint32_t>(config_.checksum_interval), config_.checksum_repeats,
                                                      kMaxChecksumsPerMessage, [&](std::uint32_t f) { return detector_->local_checksum(f); },
                                                      m.checksum_frames, m.checksums);
-        table_entries_for(pid, table_entries_);
-        if (extension_needed(pid, table_entries_, now_us, lagging)) {
+        relay.table_entries_for(pid, table_entries_);
+        if (relay.extension_needed(pid, table_entries_, now_us, lagging)) {
             const std::size_t base = 6 + std::size_t{count} * (1 + n) + 9 + 6 * std::size_t{m.checksum_count};
-            fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
+            relay.fill_extension(pid, m, kMaxDatagramBytes > base ? kMaxDatagramBytes - base : 0, now_us);
             link.table_sent(table_entries_, now_us, kTableCopies);
         }
         ++link.messages_sent;
@@ -1674,9 +1304,7 @@ void SessionImpl::set_input_delay(int frames) {
     input_delay_ = frames;
 }
 
-void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) {
-    if (count > 0) chunk_damage_.insert(chunk_damage_.end(), static_cast<std::size_t>(count), how);
-}
+void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) { server_.damage(count, how); }
 
 }  // namespace lockroll::rollback
 
@@ -1703,15 +1331,6 @@ bool SessionImpl::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std
 // sends its guests' streams as blocks), or a relay's claim that fills only what the owner's
 // stream has not delivered. True when handled here; false for every other block (absent
 // streams, spectators' views), which apply_blocks takes as before.
-// What we tell slot s's owner we hold of its stream (ack and table count): up to the first
-// input a relay filled in that the owner has not verified yet, so it resends from there and its
-// own copy settles the relay's (frames a confirmed frame already rests on are past settling).
-std::uint32_t SessionImpl::owner_count(PlayerId s) const {
-    const std::uint32_t count = count_of(s);
-    const auto f = authority_->first_unverified_of(s, sync_->confirmed_frame());
-    return f ? std::min(count, *f) : count;
-}
-
 bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
     if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
     const std::size_t n = config_.input_size;
@@ -1749,23 +1368,3 @@ bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32
 
 }  // namespace lockroll::rollback
 
-namespace lockroll::rollback {
-
-// Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
-// answer), and finishes the transfer once the vetting is decided either way.
-void SessionImpl::poll_vetting(std::uint64_t now_us) {
-    std::vector<PlayerId> ask;
-    vetting_->due(now_us, config_.query_resend_us, ask);
-    for (PlayerId p : ask) {
-        QueryMessage q;
-        q.what = QueryWhat::FrameChecksums;
-        q.frame = vetting_->frame();
-        q.count = 1;
-        Datagram d{p, {}, false};
-        encode(q, d.bytes);
-        pending_out_.push_back(std::move(d));
-    }
-    if (vetting_->verdict(now_us) != SnapshotVetting::Verdict::Pending) finish_transfer(now_us);
-}
-
-}  // namespace lockroll::rollback

@@ -18,6 +18,8 @@
 #include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
+#include "rollback/frame_pacing.h"
+#include "rollback/handshake.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/predictor.h"
@@ -26,13 +28,17 @@
 #include "rollback/session_core.h"
 #include "rollback/session_types.h"
 #include "rollback/simulation.h"
+#include "rollback/slot_hosts.h"
+#include "rollback/slot_view.h"
+#include "rollback/snapshot_fetch.h"
+#include "rollback/snapshot_server.h"
 #include "rollback/snapshot_transfer.h"
+#include "rollback/stream_relay.h"
 #include "rollback/sync.h"
 
 namespace lockroll::rollback {
 
 class InputAuthority;   // rollback/input_authority.h
-class SnapshotVetting;  // rollback/snapshot_vetting.h
 
 class SessionImpl : public SessionCore {
 public:
@@ -82,16 +88,14 @@ public:
     // the blob it keeps stay intact, so a chunk asked for again goes out whole once the count is
     // used up. damaged_chunks() counts the chunks damaged so far.
     void damage_outgoing_chunks(int count, ChunkDamage how);
-    std::uint64_t damaged_chunks() const { return damaged_chunks_; }
+    std::uint64_t damaged_chunks() const { return server_.damaged_chunks(); }
 
     const SessionConfig& config() const { return config_; }
     // The slots this session plays, ascending: local_player first, then the slots it hosts
     // (config.slot_hosts). Empty for a spectator. advance() takes one input per entry.
     std::span<const PlayerId> local_slots() const { return local_slots_; }
     // The slot whose process plays `slot` (itself unless config.slot_hosts says otherwise).
-    PlayerId host_of(PlayerId slot) const {
-        return config_.slot_hosts.empty() || !is_slot(slot) ? slot : config_.slot_hosts[slot];
-    }
+    PlayerId host_of(PlayerId slot) const { return lockroll::rollback::host_of(config_, slot); }
     SlotState slot_state(PlayerId slot) const { return membership_.state(slot); }
     // The view and the votes (who plays, who says whom is gone).
     const Membership& membership() const { return membership_; }
@@ -126,25 +130,6 @@ public:
 
 private:
     class Tap;  // sees the detector's and sync's callbacks first, then forwards them
-    // What this session does about each slot beyond the view (membership_ holds state and epoch).
-    struct SlotView {
-        bool authoring = false;           // owner: writing its neutral inputs
-        bool neutral_reported = false;    // NeutralFrom event fired for this epoch
-        std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
-        bool handed_off_by_me = false;
-        bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
-        // A handed-over slot whose own stream has not started (its newest input is the owner's
-        // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
-        // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
-        std::uint64_t pending_since_us = 0;
-        bool lapsed = false;
-        // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
-        // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
-        // at most disconnect_us per attempt, and ever more rarely).
-        int lapses = 0;
-        std::uint64_t next_handoff_us = 0;
-    };
-
     void receive_impl(PlayerId from, std::span<const std::uint8_t> datagram, std::uint64_t now_us);
     AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
@@ -152,6 +137,9 @@ private:
     void handle_input(PlayerId from, std::uint64_t now_us);
     void check_handoff(PlayerId slot, std::uint64_t now_us);
     std::uint32_t lead_frames(std::uint64_t rtt_us) const;
+    // A live player peer: its pace counts for time sync (pacing_).
+    bool paces(PlayerId p) const;
+    FramePacing::Paces pacer() const { return [this](PlayerId p) { return paces(p); }; }
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
     void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
@@ -181,15 +169,8 @@ private:
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
     void consider_recovery(std::uint64_t now_us);
-    // entries: our table's entries to `to` now (table_entries_for); lagging: lags_on_a_stream().
-    bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us, bool lagging) const;
-    void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us);
-    std::uint64_t table_refresh_us() const;
-    SlotEntry table_entry(PlayerId to, PlayerId s) const;
-    void table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const;
-    bool lags_on_a_stream() const;
-    bool counts_fresh(const PeerLink& link, std::uint64_t now_us) const;
-    bool relay_wanted(PlayerId to, std::uint64_t now_us) const;
+    // The slot table and relays on the wire (rollback/stream_relay.h) read the session through this.
+    StreamView stream_view() const;
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     // A slot played by another slot's process: no peer id, no link of its own.
     bool is_guest(PlayerId p) const { return host_of(p) != p; }
@@ -213,7 +194,6 @@ private:
     std::vector<std::int32_t> local_advantage_;   // per peer, latest estimate (frames)
     std::vector<int> replies_this_poll_;
     std::vector<Datagram> pending_out_;
-    std::uint32_t next_time_sync_frame_ = 0;
     // decode scratch, reused
     InputMessage in_msg_;
     QueryMessage query_msg_;
@@ -228,20 +208,17 @@ private:
     bool partitioned_ = false;
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
-    bool any_guest_ = false;
     std::vector<std::uint8_t> guest_scratch_;
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;
     std::uint64_t last_now_us_ = 0;
     std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
-    // the newcomer's side of a transfer
-    std::unique_ptr<TransferReceiver> incoming_;
-    PlayerId incoming_from_ = 0;
-    std::uint64_t last_offer_request_us_ = 0;
-    bool offer_requested_ = false;
+    // the newcomer's (or a recovering peer's) side of a transfer
+    SnapshotFetch fetch_;
+    FramePacing pacing_;  // declared after config_, which it reads
+    Handshake handshake_;  // after config_ and membership_
     std::optional<PlayerId> recover_from_;
-    std::uint64_t first_welcome_us_ = 0;
     bool joining_ = false;          // local stream starts ahead of the shown frame
     // A joiner's handoff frame. Its stream before it is the owner's neutral input, flagged
     // absent, which every peer holds or gets from the owner: never sent as its own (it differed
@@ -249,31 +226,20 @@ private:
     // and with several joining at once, max_bad_packets, after which the joiner was ignored).
     std::uint32_t own_inputs_from_ = 0;
     // the provider's side
-    TransferSender outgoing_{60'000'000};  // offers, each kept for this long (us)
+    SnapshotServer server_;
     // desync recovery
     std::optional<std::uint32_t> mismatch_frame_;
     std::uint64_t mismatch_since_us_ = 0;
-    std::uint64_t incarnation_ = 0;
-    bool peer_started_ = false;  // another player has started frame 0 (sync phase ends early)
     HelloMessage hello_msg_;
     WelcomeMessage welcome_msg_;
     SnapshotRequestMessage snap_req_msg_;
     SnapshotOfferMessage snap_offer_msg_;
     SnapshotChunkMessage snap_chunk_msg_;
-    // fault injection on sent chunks (damage_outgoing_chunks), in order
-    std::vector<ChunkDamage> chunk_damage_;
-    std::uint64_t damaged_chunks_ = 0;
     // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
     // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
     std::unique_ptr<InputAuthority> authority_;
     bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
     bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
-    std::uint32_t owner_count(PlayerId slot) const;
-    // A newcomer's snapshot waits for the majority's confirmed checksum of its frame
-    // (rollback/snapshot_vetting.h); a provider whose snapshot was rejected is asked last.
-    std::unique_ptr<SnapshotVetting> vetting_;
-    std::optional<PlayerId> rejected_provider_;
-    void poll_vetting(std::uint64_t now_us);
 };
 
 }  // namespace lockroll::rollback

@@ -65,6 +65,7 @@ public:
     std::uint32_t frame() const { return frame_; }                    // displayed frame
     std::uint32_t confirmed_frame() const { return confirmed_frame_; }  // newest handed out
     const InputQueue& queue(PlayerId p) const { return queues_[p]; }
+    std::span<const InputQueue> queues() const { return queues_; }
     int players() const { return config_.players; }
     std::size_t input_size() const { return config_.input_size; }
     int prediction_window() const { return config_.prediction_window; }

@@ -1,0 +1,65 @@
+// SlotView: what a P2P session does about one slot beyond the view (Membership holds state and
+// epoch): whether it writes the slot's neutral inputs, handed it over, voted it gone, and the
+// backoff of handoffs that lapsed. One per slot, owned by SessionImpl (rollback/session_impl.h).
+//
+// Contract
+//  - new_epoch(): the slot changed hands (dropped, adopted from a peer's table, handed over, or
+//    loaded from a snapshot): every per-epoch flag starts over. The handoff backoff (lapses,
+//    next_handoff_us) and the handoff frame outlive epochs: they belong to the slot, not to the
+//    process that played it.
+//  - dropped(): a new epoch, and if the slot's handoff had lapsed, the next handoff waits 2, 4,
+//    then 8 x disconnect_us; watch_handoff() says when a handoff lapses (true once: vote it gone).
+#pragma once
+
+#include <cstdint>
+
+#include "rollback/input_queue.h"
+
+namespace lockroll::rollback {
+
+struct SlotView {
+    bool authoring = false;           // owner: writing its neutral inputs
+    bool neutral_reported = false;    // NeutralFrom event fired for this epoch
+    std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
+    bool handed_off_by_me = false;
+    bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
+    // A handed-over slot whose own stream has not started (its newest input is the owner's
+    // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
+    // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
+    std::uint64_t pending_since_us = 0;
+    bool lapsed = false;
+    // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
+    // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
+    // at most disconnect_us per attempt, and ever more rarely).
+    int lapses = 0;
+    std::uint64_t next_handoff_us = 0;
+
+    void new_epoch() {
+        kick_vote = false;
+        lapsed = false;
+        pending_since_us = 0;
+        authoring = false;
+        neutral_reported = false;
+        handed_off_by_me = false;
+    }
+    // The slot left the view (its epoch ended); a lapsed handoff backs off the next one.
+    void dropped(std::uint64_t now_us, std::uint64_t disconnect_us);
+
+    // A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
+    // never drops it, yet the match stalls at its handoff frame for inputs that never come: the
+    // 16-minute soak froze for good (issue 21). The contract for a running slot that stalls the
+    // others is a stall of at most disconnect_us (docs/sessions.md, "Cost"); so a handed-over slot
+    // whose own stream has not started -- the newest input we hold of it is still the owner's
+    // neutral one, flagged absent -- for disconnect_us after we first need its input is voted gone
+    // here, and the vote is not withdrawn by hearing it (it is heard; it does not play). A majority
+    // drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
+    // slot over again only after 2, 4, then 8 x disconnect_us (dropped), so one that never loads
+    // costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
+    // resets the backoff.
+    // Called per tick for a slot with a live peer: running, its stream (q) and our frame. True
+    // when the handoff lapses now: the caller votes the slot gone (the vote stays until the drop).
+    bool watch_handoff(bool running, const InputQueue& q, std::uint32_t frame, std::uint64_t now_us,
+                       std::uint64_t disconnect_us);
+};
+
+}  // namespace lockroll::rollback

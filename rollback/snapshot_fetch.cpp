@@ -1,0 +1,158 @@
+#include "rollback/snapshot_fetch.h"
+
+#include <algorithm>
+
+#include "rollback/slot_hosts.h"
+
+namespace lockroll::rollback {
+
+bool SnapshotFetch::may_ask(std::uint64_t now_us) const {
+    if (incoming_) return false;
+    return !offer_requested_ || now_us >= last_ask_us_ + 2 * config_.transfer_resend_us;
+}
+
+void SnapshotFetch::newcomer_providers(std::span<const PeerLink> links, std::uint64_t first_welcome_us,
+                                       std::uint64_t now_us, std::vector<PlayerId>& out) const {
+    out.clear();
+    bool ready = false;
+    for (int p = 0; p < config_.players; ++p) {
+        const PeerLink& l = links[static_cast<std::size_t>(p)];
+        if (l.welcomed && l.has_remote_frame && l.roundtrips >= config_.sync_roundtrips) ready = true;
+    }
+    if (!ready || now_us < first_welcome_us + 3 * config_.hello_resend_us) return;
+    for (int p = 0; p < config_.players; ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        const PeerLink& l = links[pid];
+        if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
+        out.push_back(pid);
+    }
+    // One host is enough for a spectator: the first that did not serve a rejected snapshot.
+    if (config_.role == Role::Spectator && out.size() > 1) {
+        const auto good = std::find_if(out.begin(), out.end(), [&](PlayerId p) { return p != rejected_provider_; });
+        out = {good != out.end() ? *good : out.front()};
+    }
+}
+
+void SnapshotFetch::ask(std::span<const PlayerId> peers, TransferReason reason, std::uint64_t now_us,
+                        std::vector<Datagram>& out) {
+    offer_requested_ = true;
+    last_ask_us_ = now_us;
+    for (PlayerId pid : peers) {
+        SnapshotRequestMessage r;
+        r.reason = reason;
+        Datagram d{pid, {}, true};
+        encode(r, d.bytes);
+        out.push_back(std::move(d));
+    }
+}
+
+SnapshotFetch::OfferTaken SnapshotFetch::take_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
+    if (incoming_) return OfferTaken::Busy;  // a repeat of the current offer changes nothing
+    if (m.size > config_.max_snapshot_bytes) return OfferTaken::TooLarge;
+    if (m.slots.size() != static_cast<std::size_t>(config_.players)) return OfferTaken::BadSlotTable;
+    incoming_ = std::make_unique<TransferReceiver>(m);
+    incoming_->started_us = now_us;
+    from_ = from;
+    return OfferTaken::Started;
+}
+
+bool SnapshotFetch::take_chunk(PlayerId from, const SnapshotChunkMessage& m) {
+    return incoming_ && from == from_ && incoming_->add(m);
+}
+
+void SnapshotFetch::take_reply(PlayerId from, const ReplyMessage& r) {
+    if (r.what == QueryWhat::FrameChecksums && r.count == 1)
+        vetting_.on_reply(from, r.frame, r.available && r.values.size() == 1, r.values.empty() ? 0 : r.values[0]);
+}
+
+SnapshotFetch::Poll SnapshotFetch::poll(std::uint64_t now_us, std::vector<Datagram>& out) {
+    if (!incoming_) return Poll::Nothing;
+    if (vetting_.active()) {
+        // Asks the voters for their confirmed checksum of the snapshot's frame (resent until they
+        // answer); decided either way, finish() takes it from there.
+        std::vector<PlayerId> ask;
+        vetting_.due(now_us, config_.query_resend_us, ask);
+        for (PlayerId p : ask) {
+            QueryMessage q;
+            q.what = QueryWhat::FrameChecksums;
+            q.frame = vetting_.frame();
+            q.count = 1;
+            Datagram d{p, {}, false};
+            encode(q, d.bytes);
+            out.push_back(std::move(d));
+        }
+        return vetting_.verdict(now_us) != SnapshotVetting::Verdict::Pending ? Poll::Decided : Poll::Nothing;
+    }
+    std::vector<std::uint32_t> due;
+    incoming_->due_requests(now_us, config_.transfer_resend_us, config_.transfer_window, due);
+    for (std::uint32_t c : due) {
+        SnapshotRequestMessage r;
+        r.reason = incoming_->offer().reason;
+        r.transfer_id = incoming_->offer().transfer_id;
+        r.chunk = c;
+        Datagram d{from_, {}, true};
+        encode(r, d.bytes);
+        out.push_back(std::move(d));
+    }
+    return now_us > incoming_->started_us + kTimeoutUs ? Poll::TimedOut : Poll::Nothing;
+}
+
+void SnapshotFetch::restart() {
+    incoming_.reset();
+    offer_requested_ = false;
+    vetting_.reset();
+}
+
+SnapshotFetch::Verdict SnapshotFetch::finish(std::uint64_t now_us, std::span<const PeerLink> links,
+                                             const std::function<std::uint64_t(std::span<const std::uint8_t>)>& checksum,
+                                             Result& out) {
+    out.from = from_;
+    out.offer = incoming_->offer();
+    out.why.clear();
+    const auto reject = [&](std::string why) {
+        out.why = std::move(why);
+        restart();
+        return Verdict::Rejected;
+    };
+    const auto blob = incoming_->verified();
+    if (!blob) return reject("snapshot transfer: hash mismatch (corrupted or truncated)");
+    TransferContents& t = out.contents;
+    if (std::string e = unpack_transfer(*blob, state_size_, config_.players, config_.input_size,
+                                        config_.input_capacity / 2, t);
+        !e.empty())
+        return reject(e);
+    if (t.frame != out.offer.frame) return reject("snapshot transfer: frame differs from the offer");
+    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
+    // same checksum of that frame (a recovery already follows the majority's checksums).
+    if (out.offer.reason != TransferReason::Recover) {
+        if (!vetting_.active() || vetting_.frame() != t.frame || vetting_.provider() != from_) {
+            std::vector<PlayerId> voters;
+            for (const SlotEntry& e : out.offer.slots) {
+                const PlayerId p = e.slot;
+                if (p >= static_cast<PlayerId>(config_.players) || p == config_.local_player || host_of(config_, p) != p) continue;
+                if (e.state == SlotState::Running || links[p].welcomed) voters.push_back(p);
+            }
+            // Short: the slot is handed over already, and a newcomer silent to the others for
+            // disconnect_us would be voted gone again.
+            const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
+            vetting_.start(t.frame, checksum(t.state), from_, std::move(voters), now_us, wait_us);
+            return Verdict::Pending;  // poll() asks, and says Decided once it is
+        }
+        const SnapshotVetting::Verdict v = vetting_.verdict(now_us);
+        // A repeated last chunk completes the transfer again while the answers are still coming:
+        // that is no verdict (it was taken for a rejection, and a joiner under loss never joined).
+        if (v == SnapshotVetting::Verdict::Pending) return Verdict::Pending;
+        std::string vetted = vetting_.detail(now_us);
+        if (v != SnapshotVetting::Verdict::Accepted) {
+            rejected_provider_ = from_;
+            return reject("snapshot rejected: " + vetted);
+        }
+        out.why = std::move(vetted);
+        vetting_.reset();
+    }
+    incoming_.reset();
+    offer_requested_ = false;
+    return Verdict::Ready;
+}
+
+}  // namespace lockroll::rollback

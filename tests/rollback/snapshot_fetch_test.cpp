@@ -1,0 +1,182 @@
+// SnapshotFetch (rollback/snapshot_fetch.h) on its own, against a TransferSender playing the
+// provider (no session, no network): one offer at a time, chunks only from its sender, the
+// majority's vetting before a join loads, rejections that ask again, the silent provider.
+#include "rollback/snapshot_fetch.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+namespace lockroll::rollback {
+namespace {
+
+constexpr std::size_t kStateSize = 2000;  // two chunks
+
+std::uint64_t sum(std::span<const std::uint8_t> s) {
+    std::uint64_t v = 0;
+    for (std::uint8_t b : s) v = v * 31 + b;
+    return v;
+}
+
+// A joiner in slot 2 of three; slots 0 and 1 run and welcomed it; slot 0 provides.
+struct Fixture {
+    SessionConfig config;
+    std::vector<PeerLink> links;
+    TransferSender sender{60'000'000};
+    TransferContents contents;
+    std::vector<Datagram> out;
+
+    Fixture(TransferReason reason = TransferReason::Join, Role role = Role::Joiner) {
+        config.players = 3;
+        config.local_player = 2;
+        config.role = role;
+        config.input_size = 1;
+        config.input_capacity = 64;
+        for (int p = 0; p < 3; ++p) {
+            links.emplace_back(10, 8);
+            links.back().reset_lifecycle(3);
+        }
+        links[0].welcomed = links[1].welcomed = true;
+        contents.frame = 10;
+        contents.state.assign(kStateSize, 7);
+        contents.streams.resize(3);
+        SnapshotOfferMessage& o = sender.offer(0, reason, contents, 1, 0).offer;
+        for (std::uint8_t s = 0; s < 3; ++s)
+            o.slots.push_back({s, SlotState::Running, static_cast<std::uint8_t>(s == 2 ? 1 : 0), 0});
+    }
+    const TransferSender::Transfer& transfer() const { return sender.transfers().front(); }
+    void deliver(SnapshotFetch& f, bool damage_last = false) {
+        const auto& t = transfer();
+        ASSERT_EQ(f.take_offer(0, t.offer, 1000), SnapshotFetch::OfferTaken::Started);
+        for (std::uint32_t i = 0;; ++i) {
+            SnapshotChunkMessage c;
+            if (!TransferSender::chunk(t, i, c)) break;
+            if (damage_last && i == 1) c.bytes.back() ^= 1;
+            EXPECT_TRUE(f.take_chunk(0, c));
+        }
+        ASSERT_TRUE(f.complete());
+    }
+    SnapshotFetch::Verdict finish(SnapshotFetch& f, std::uint64_t now, SnapshotFetch::Result& r) {
+        return f.finish(now, links, sum, r);
+    }
+    static ReplyMessage reply(std::uint64_t value) {
+        ReplyMessage r;
+        r.what = QueryWhat::FrameChecksums;
+        r.available = true;
+        r.frame = 10;
+        r.count = 1;
+        r.values = {value};
+        return r;
+    }
+};
+
+TEST(SnapshotFetch, TakesOneOfferAtATimeWithinTheLimits) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    SnapshotOfferMessage bad = x.transfer().offer;
+    bad.slots.pop_back();
+    EXPECT_EQ(f.take_offer(0, bad, 0), SnapshotFetch::OfferTaken::BadSlotTable);
+    x.config.max_snapshot_bytes = x.transfer().offer.size - 1;
+    EXPECT_EQ(f.take_offer(0, x.transfer().offer, 0), SnapshotFetch::OfferTaken::TooLarge);
+    x.config.max_snapshot_bytes = x.transfer().offer.size;
+    EXPECT_EQ(f.take_offer(0, x.transfer().offer, 0), SnapshotFetch::OfferTaken::Started);
+    EXPECT_EQ(f.take_offer(1, x.transfer().offer, 0), SnapshotFetch::OfferTaken::Busy);
+    SnapshotChunkMessage c;
+    ASSERT_TRUE(TransferSender::chunk(x.transfer(), 0, c));
+    EXPECT_FALSE(f.take_chunk(1, c)) << "a chunk from someone but the offer's sender";
+    EXPECT_TRUE(f.take_chunk(0, c));
+}
+
+TEST(SnapshotFetch, AsksForOffersAtMostEveryTwoResendPeriods) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    EXPECT_TRUE(f.may_ask(0));
+    const std::vector<PlayerId> peers{0, 1};
+    f.ask(peers, TransferReason::Join, 1000, x.out);
+    ASSERT_EQ(x.out.size(), 2u);
+    EXPECT_TRUE(x.out[0].reliable);
+    EXPECT_FALSE(f.may_ask(1000 + 2 * x.config.transfer_resend_us - 1));
+    EXPECT_TRUE(f.may_ask(1000 + 2 * x.config.transfer_resend_us));
+    f.ask_again();
+    EXPECT_TRUE(f.may_ask(1001));
+}
+
+TEST(SnapshotFetch, JoinLoadsOnlyOnceTheMajorityConfirmsItsChecksum) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    x.deliver(f);
+    SnapshotFetch::Result r;
+    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Pending);
+    EXPECT_EQ(f.poll(2000, x.out), SnapshotFetch::Poll::Nothing);
+    ASSERT_EQ(x.out.size(), 2u) << "one checksum query to each voter";
+    f.take_reply(0, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(3000, x.out), SnapshotFetch::Poll::Nothing) << "one of two voters is no majority";
+    f.take_reply(1, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(4000, x.out), SnapshotFetch::Poll::Decided);
+    ASSERT_EQ(x.finish(f, 4000, r), SnapshotFetch::Verdict::Ready);
+    EXPECT_EQ(r.contents.frame, 10u);
+    EXPECT_EQ(r.contents.state, x.contents.state);
+    EXPECT_EQ(r.from, 0);
+    EXPECT_EQ(f.incoming(), nullptr);
+}
+
+TEST(SnapshotFetch, MajorityAgainstRejectsAndAsksThatProviderLast) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    x.deliver(f);
+    SnapshotFetch::Result r;
+    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Pending);
+    f.take_reply(0, Fixture::reply(1));
+    f.take_reply(1, Fixture::reply(2));
+    EXPECT_EQ(f.poll(3000, x.out), SnapshotFetch::Poll::Decided);
+    EXPECT_EQ(x.finish(f, 3000, r), SnapshotFetch::Verdict::Rejected);
+    EXPECT_NE(r.why.find("snapshot rejected"), std::string::npos) << r.why;
+    EXPECT_EQ(f.rejected_provider(), PlayerId{0});
+    EXPECT_TRUE(f.may_ask(3000)) << "a rejection asks again at once";
+    // A spectator asks one host: not the one whose snapshot was rejected.
+    for (auto& l : x.links) {
+        l.has_remote_frame = true;
+        l.roundtrips = x.config.sync_roundtrips;
+    }
+    x.config.role = Role::Spectator;
+    std::vector<PlayerId> ask;
+    f.newcomer_providers(x.links, 1, 1 + 3 * x.config.hello_resend_us, ask);
+    EXPECT_EQ(ask, std::vector<PlayerId>{1});
+}
+
+TEST(SnapshotFetch, CorruptedTransferIsRejectedWithoutVetting) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    x.deliver(f, true);
+    SnapshotFetch::Result r;
+    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Rejected);
+    EXPECT_NE(r.why.find("hash mismatch"), std::string::npos) << r.why;
+    EXPECT_FALSE(f.vetting());
+    EXPECT_TRUE(f.may_ask(2000));
+}
+
+TEST(SnapshotFetch, RecoveryLoadsWithoutVetting) {
+    Fixture x(TransferReason::Recover, Role::Player);
+    SnapshotFetch f(x.config, kStateSize);
+    x.deliver(f);
+    SnapshotFetch::Result r;
+    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Ready);
+    EXPECT_TRUE(r.why.empty());
+}
+
+TEST(SnapshotFetch, RequestsMissingChunksAndDropsASilentProvider) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    ASSERT_EQ(f.take_offer(0, x.transfer().offer, 1000), SnapshotFetch::OfferTaken::Started);
+    EXPECT_EQ(f.poll(1000, x.out), SnapshotFetch::Poll::Nothing);
+    ASSERT_EQ(x.out.size(), 2u) << "both chunks asked for";
+    EXPECT_EQ(x.out[0].peer, 0);
+    EXPECT_TRUE(x.out[0].reliable);
+    EXPECT_EQ(f.poll(1000 + SnapshotFetch::kTimeoutUs, x.out), SnapshotFetch::Poll::Nothing);
+    EXPECT_EQ(f.poll(1001 + SnapshotFetch::kTimeoutUs, x.out), SnapshotFetch::Poll::TimedOut);
+    f.restart();
+    EXPECT_TRUE(f.may_ask(1001 + SnapshotFetch::kTimeoutUs));
+}
+
+}  // namespace
+}  // namespace lockroll::rollback

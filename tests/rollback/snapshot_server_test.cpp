@@ -1,0 +1,76 @@
+// SnapshotServer (rollback/snapshot_server.h) on its own: what a request for an offer costs the
+// provider (the young offer again, a recovery packed at most once a second), chunks only of a
+// peer's own transfer, and the fault injection on sent chunks.
+#include "rollback/snapshot_server.h"
+
+#include <gtest/gtest.h>
+
+namespace lockroll::rollback {
+namespace {
+
+TransferContents contents() {
+    TransferContents t;
+    t.frame = 5;
+    t.state.assign(1500, 3);  // two chunks
+    t.streams.resize(2);
+    return t;
+}
+
+TEST(SnapshotServer, RepeatsAYoungOfferAndPacksAgainOnceItAged) {
+    SnapshotServer s;
+    const SnapshotOfferMessage* repeat = nullptr;
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 0, &repeat), SnapshotServer::Ask::Pack);
+    const std::uint32_t id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
+    ASSERT_EQ(s.consider(1, TransferReason::Join, 1'999'999, &repeat), SnapshotServer::Ask::Repeat);
+    EXPECT_EQ(repeat->transfer_id, id);
+    EXPECT_EQ(s.consider(2, TransferReason::Join, 1'000, &repeat), SnapshotServer::Ask::Pack) << "another peer";
+    EXPECT_EQ(s.consider(1, TransferReason::Spectate, 1'000, &repeat), SnapshotServer::Ask::Pack) << "another reason";
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 2'000'000, &repeat), SnapshotServer::Ask::Pack);
+}
+
+TEST(SnapshotServer, PacksARecoveryAtMostOnceASecond) {
+    SnapshotServer s;
+    const SnapshotOfferMessage* repeat = nullptr;
+    s.offer(1, TransferReason::Recover, contents(), 1, 0);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, 299'999, &repeat), SnapshotServer::Ask::Repeat);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, 300'000, &repeat), SnapshotServer::Ask::TooSoon);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs - 1, &repeat),
+              SnapshotServer::Ask::TooSoon);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs, &repeat),
+              SnapshotServer::Ask::Pack);
+}
+
+TEST(SnapshotServer, ServesChunksOnlyOfThePeersOwnTransfer) {
+    SnapshotServer s;
+    SnapshotRequestMessage r;
+    r.transfer_id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
+    SnapshotChunkMessage c;
+    EXPECT_EQ(s.chunk(1, r, c), SnapshotServer::Chunk::Ready);
+    EXPECT_EQ(s.chunk(2, r, c), SnapshotServer::Chunk::NotOurs);
+    r.chunk = 1000;
+    EXPECT_EQ(s.chunk(1, r, c), SnapshotServer::Chunk::OutOfRange);
+}
+
+TEST(SnapshotServer, DamagesTheNextChunksInOrderThenNoMore) {
+    SnapshotServer s;
+    SnapshotRequestMessage r;
+    r.transfer_id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
+    SnapshotChunkMessage whole;
+    ASSERT_EQ(s.chunk(1, r, whole), SnapshotServer::Chunk::Ready);
+    s.damage(1, ChunkDamage::FlipBit);
+    s.damage(1, ChunkDamage::Truncate);
+    SnapshotChunkMessage c = whole;
+    s.damage_next(c);
+    EXPECT_EQ(c.bytes.size(), whole.bytes.size());
+    EXPECT_NE(c.bytes, whole.bytes);
+    c = whole;
+    s.damage_next(c);
+    EXPECT_EQ(c.bytes.size(), whole.bytes.size() - 1);
+    c = whole;
+    s.damage_next(c);
+    EXPECT_EQ(c.bytes, whole.bytes) << "the count is used up";
+    EXPECT_EQ(s.damaged_chunks(), 2u);
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
