@@ -263,8 +263,11 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
     // A welcomed joiner's query (its snapshot's vetting) is answered before its slot runs.
     if (!link.welcomed || (is_slot(from) && !slot_running(from) && *kind != MessageKind::Query)) {
         ++ps.ignored_packets;
-        // A dropped slot's process still talking: tell it, now and then.
-        if (is_slot(from) && slot_state(from) == SlotState::Disconnected && link.refusal_quiet_for(now_us, 500000)) {
+        // A dropped slot's process still talking, or a spectator we stopped serving (it timed
+        // out: cut off from us past disconnect_us): tell it, now and then. The spectator then
+        // starts again, by a fresh snapshot (rollback/rejoin.h).
+        const bool dropped = is_slot(from) ? slot_state(from) == SlotState::Disconnected : link.role == Role::Spectator;
+        if (dropped && link.refusal_quiet_for(now_us, 500000)) {
             WelcomeMessage w;
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
@@ -369,7 +372,7 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
         if (config_.role == Role::Spectator) {
             emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
                  "peer " + std::to_string(from) + " says this spectator was dropped");
-            fail("dropped from the match by the other peers", now_us);
+            fail(drop_failure(config_), now_us);
         } else if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
             // The sender's vote that our slot is gone (in the epoch it dropped it into): one
             // voice, which makes us Kicked only together with a majority.
@@ -532,7 +535,7 @@ void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t no
     if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
         e.state != SlotState::Running) {
         emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
-        fail("dropped from the match by the other peers", now_us);
+        fail(drop_failure(config_), now_us);
         return;
     }
     PeerLink& link = links_[slot];
@@ -750,7 +753,7 @@ void SessionImpl::settle_membership(std::uint64_t now_us) {
             emit(SessionEvent::Kind::Kicked, s, frame(), now_us,
                  std::to_string(membership_.gone_votes(s)) + " of " + std::to_string(membership_.running_voters()) +
                      " players voted this slot gone");
-            fail("dropped from the match by the other peers", now_us);
+            fail(drop_failure(config_), now_us);
             return;
         }
         const std::string why = slots_[s].kick_vote ? "kicked" : slots_[s].lapsed ? "handoff lapsed" : "timed out";

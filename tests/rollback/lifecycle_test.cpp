@@ -807,9 +807,7 @@ void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::
 // serving it, it hears nobody). Healed, it must follow the match again -- by a fresh snapshot,
 // its old view being gone -- and end on the players' checksums. Before, it stayed on the frame
 // it was cut off at: the players ignored it for good, and it never learned it was dropped.
-// DISABLED until the session change lands (rollback/session.cpp is being split; not edited here):
-// /work/rejoin-gaps-followup.patch. It fails without it, passes with it.
-TEST(Lifecycle, DISABLED_SpectatorCutOffFromEveryPlayerFollowsAgainOnceHealed) {
+TEST(Lifecycle, SpectatorCutOffFromEveryPlayerFollowsAgainOnceHealed) {
     SessionConfig cfg = real_config(3, 8);
     cfg.max_spectators = 1;
     const auto scene = make_scene(3, 10);
@@ -842,9 +840,7 @@ TEST(Lifecycle, DISABLED_SpectatorCutOffFromEveryPlayerFollowsAgainOnceHealed) {
 // guest) and play on. Healed, it is kicked; a joiner cannot host guest slots yet, so it cannot
 // rejoin, and its failure must say so (before, it said only that it was dropped, like a
 // process that could rejoin and did not).
-// DISABLED until the session change lands (rollback/session.cpp is being split; not edited here):
-// /work/rejoin-gaps-followup.patch. It fails without it, passes with it.
-TEST(Lifecycle, DISABLED_HostOfTwoSlotsDroppedByAPartitionSaysWhyItCannotRejoin) {
+TEST(Lifecycle, HostOfTwoSlotsDroppedByAPartitionSaysWhyItCannotRejoin) {
     const auto scene = make_scene(4, 10);
     SessionConfig cfg = real_config(4, 8);
     cfg.slot_hosts = {0, 1, 2, 2};
