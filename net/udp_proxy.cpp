@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <cerrno>
 #include <cstring>
 #include <ctime>
@@ -20,6 +22,9 @@ namespace {
 constexpr std::size_t kBufferBytes = 65'536;     // any UDP datagram
 constexpr int kReadsPerSocketPerStep = 256;       // one busy socket cannot starve the others
 constexpr std::uint64_t kStopCheckUs = 50'000;
+// How long a stopped proxy goes on delivering what it holds (latency + jitter of every test and
+// harness run is well under it; a queue of datagrams held longer is dropped at exit).
+constexpr std::uint64_t kDrainUs = 1'000'000;
 constexpr std::uint64_t kIdleCheckUs = 1'000'000;
 
 int udp_socket(int family) {
@@ -223,6 +228,18 @@ void UdpProxy::run(const std::atomic<bool>& stop, std::uint64_t deadline_us) {
             wait = std::min(wait, deadline_us - now);
         }
         step(wait);
+    }
+    // Stopped: what is already in flight still arrives, for at most kDrainUs. A wire does not
+    // lose a datagram because the run ends: the last one a finished process sent (its ENet
+    // goodbye, held here for its latency) was lost when `lockroll live` stopped the proxies
+    // just after the processes ended, and the relay server then logged that finished client as
+    // kicked for silence.
+    const std::uint64_t until = now_us() + kDrainUs;
+    for (std::uint64_t now = now_us(); now < until; now = now_us()) {
+        deliver_due(now);
+        if (queue_.empty()) return;
+        const std::uint64_t next = std::min(queue_.top().due_us, until);
+        if (next > now) std::this_thread::sleep_for(std::chrono::microseconds(next - now));
     }
 }
 

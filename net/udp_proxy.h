@@ -81,7 +81,8 @@ public:
     const UdpProxyCounters& counters() const { return counters_; }
 
     // Serves until `stop` is set or the clock reaches deadline_us (0: no deadline). Wakes at
-    // least every 50 ms to look at `stop`, so a signal handler can end it.
+    // least every 50 ms to look at `stop`, so a signal handler can end it. Once `stop` is set it
+    // still delivers the datagrams it holds (due within 1 s), reading nothing new, then returns.
     void run(const std::atomic<bool>& stop, std::uint64_t deadline_us = 0);
 
     // One round: sends what is due, waits up to max_wait_us for traffic or the next delivery,

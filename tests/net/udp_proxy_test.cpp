@@ -191,6 +191,35 @@ TEST(UdpProxy, DelayAndLossMatchTheFlagsBothWays) {
     EXPECT_LT(median(round_trip), 180'000u);
 }
 
+// A stopped proxy still delivers what it holds: a datagram sent just before SIGTERM, held for
+// its 300 ms of latency, arrives. Before, it was dropped at exit -- the ENet goodbye of a
+// finished `lockroll live` client then never reached the relay server, which logged the client
+// as kicked for silence.
+TEST(UdpProxy, DatagramsInFlightArriveAfterTheStop) {
+    std::uint16_t server_port = 0, client_port = 0;
+    const int server = loopback_socket(&server_port);
+    const int client = loopback_socket(&client_port);
+    ProxyProcess proxy({"--listen", "0", "--to", "127.0.0.1:" + std::to_string(server_port), "--latency", "300",
+                        "--seed", "3", "--duration-s", "60"});
+    ASSERT_NE(proxy.port(), 0) << "proxy did not report its port";
+    const sockaddr_in to_proxy = loopback(proxy.port());
+    const std::uint8_t goodbye[5] = {'b', 'y', 'e', '!', 0};
+    ::sendto(client, goodbye, sizeof goodbye, 0, reinterpret_cast<const sockaddr*>(&to_proxy), sizeof to_proxy);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the proxy has read it, and holds it
+    EXPECT_EQ(proxy.stop(), 0);
+    // Bounded: the datagram was due 300 ms after it was sent; give the socket a second more.
+    std::uint8_t b[16];
+    ssize_t n = -1;
+    for (int i = 0; i < 100 && n < 0; ++i) {
+        n = ::recv(server, b, sizeof b, 0);
+        if (n < 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ::close(server);
+    ::close(client);
+    ASSERT_EQ(n, static_cast<ssize_t>(sizeof goodbye)) << "the datagram in flight was lost when the proxy stopped";
+    EXPECT_EQ(std::memcmp(b, goodbye, sizeof goodbye), 0);
+}
+
 TEST(UdpProxy, EnetPairConnectsAndExchangesDatagramsThroughIt) {
     using transport::Datagram;
     using transport::EnetTransport;
