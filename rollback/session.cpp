@@ -272,7 +272,7 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
             w.refusal = Refusal::Disconnected;
             w.match_id = config_.match_id;
             w.scene_checksum = scene_checksum_;
-            w.slot_epoch = membership_.epoch(from);
+            w.slot_epoch = is_slot(from) ? membership_.epoch(from) : 0;  // a spectator has no slot epoch
             std::vector<std::uint8_t> b;
             encode(w, b);
             send_control(from, std::move(b));
