@@ -64,6 +64,30 @@ private:
     SessionObserver* next_;
 };
 
+// The rest of the session as the membership changes and the authored streams see it.
+class SessionImpl::Effects final : public MembershipEffects, public AuthoringEffects {
+public:
+    explicit Effects(SessionImpl& s) : s_(s) {}
+    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) override {
+        s_.emit(kind, peer, frame, now_us, std::move(detail));
+    }
+    void fail_dropped(std::uint64_t now_us) override { s_.fail(drop_failure(s_.config_), now_us); }
+    void slot_changed_hands(PlayerId slot) override { s_.authority_->reset_slot(slot); }
+    void peer_failed(PlayerId peer) override { s_.detector_->peer_failed(peer); }
+    void peer_replaced(PlayerId peer) override { s_.detector_->reset_peer(peer); }
+    void live_peers_changed() override { s_.refresh_resend_floor(); }
+    bool live_peer(PlayerId peer) const override { return s_.live_peer(peer); }
+    std::uint32_t frame() const override { return s_.frame(); }
+    std::uint32_t confirmed_frame() const override { return s_.confirmed_frame(); }
+    const InputQueue& stream(PlayerId slot) const override { return s_.sync_->queue(slot); }
+    InputQueue::Add write(PlayerId slot, std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) override {
+        return s_.sync_->add_remote_input(slot, frame, input, absent);
+    }
+
+private:
+    SessionImpl& s_;
+};
+
 // A game that saved more than it declared: its states cannot be kept, so the session stops.
 static std::string oversized_message(const Simulation& sim) {
     return "the simulation saved " + std::to_string(sim.saved_size()) + " bytes, more than its state_size() of " +
@@ -76,6 +100,9 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
       config_(config),
       sim_(simulation),
       membership_(0, 0, config.two_player_rule),
+      effects_(std::make_unique<Effects>(*this)),
+      changes_(config_, membership_, slots_, links_, stats_, *effects_),
+      authored_(config_, membership_, slots_, links_, *effects_),
       fetch_(config_, simulation.state_size()),
       pacing_(config_),
       handshake_(config_, membership_) {
@@ -113,7 +140,6 @@ SessionImpl::SessionImpl(const SessionConfig& config, Simulation& simulation, Se
     local_advantage_.assign(peers, 0);
     replies_this_poll_.assign(peers, 0);
     slots_.assign(static_cast<std::size_t>(config_.players), SlotView{});
-    guest_scratch_.assign(kMaxInputSize, 0);
     if (config_.role != Role::Spectator)
         for (int s = 0; s < config_.players; ++s)
             if (static_cast<PlayerId>(s) == config_.local_player || my_guest(static_cast<PlayerId>(s)))
@@ -174,18 +200,6 @@ bool SessionImpl::live_peer(PlayerId p) const {
     if (!l.welcomed || l.error()) return false;
     if (is_slot(p)) return slot_running(p);
     return l.role == Role::Spectator;
-}
-
-std::optional<PlayerId> SessionImpl::owner() const {
-    for (int s = 0; s < config_.players; ++s)
-        if (slot_running(static_cast<PlayerId>(s))) return static_cast<PlayerId>(s);
-    return std::nullopt;
-}
-
-bool SessionImpl::any_slot_not_running() const {
-    for (int s = 0; s < config_.players; ++s)
-        if (!slot_running(static_cast<PlayerId>(s))) return true;
-    return false;
 }
 
 void SessionImpl::malformed(PlayerId from, const char* why) {
@@ -336,7 +350,7 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
     // Drop it now; welcome a joiner once the drop is agreed. A player is refused as dropped in
     // the drop's epoch (newer than its view's, so its vote counts there and it rejoins).
     if (a.restarted) {
-        drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
+        changes_.drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
         w.slot_epoch = membership_.epoch(from);
     }
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
@@ -376,8 +390,8 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
         } else if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
             // The sender's vote that our slot is gone (in the epoch it dropped it into): one
             // voice, which makes us Kicked only together with a majority.
-            if (is_slot(from)) count_vote(from, config_.local_player, Vote::Gone, m.slot_epoch);
-            settle_membership(now_us);
+            if (is_slot(from)) changes_.count_vote(from, config_.local_player, Vote::Gone, m.slot_epoch);
+            changes_.settle_membership(now_us);
         }
         return;
     }
@@ -524,36 +538,6 @@ void SessionImpl::apply_slot_table(PlayerId from, std::uint64_t now_us) {
         link.remote_ack = link.counts[me];
         refresh_resend_floor();
     }
-}
-
-void SessionImpl::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
-    SlotView& v = slots_[slot];
-    const SlotState before = slot_state(slot);
-    membership_.set(slot, e.state, e.epoch);
-    authority_->reset_slot(slot);
-    v.new_epoch();
-    if ((slot == config_.local_player || my_guest(slot)) && config_.role != Role::Spectator &&
-        e.state != SlotState::Running) {
-        emit(SessionEvent::Kind::Kicked, slot, frame(), now_us, "the other peers dropped this slot");
-        fail(drop_failure(config_), now_us);
-        return;
-    }
-    PeerLink& link = links_[slot];
-    if (e.state == SlotState::Running && before != SlotState::Running) {
-        // Someone handed the slot to a (re)joining process: listen to it from now on, and forget
-        // what its predecessor told us.
-        link.reset_lifecycle(static_cast<std::size_t>(config_.players));
-        link.clear_error();
-        detector_->reset_peer(slot);
-        link.mark_heard(now_us);
-        link.interrupted = false;
-        emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
-    } else if (e.state != SlotState::Running && before == SlotState::Running) {
-        emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, "learned from a peer");
-        detector_->peer_failed(slot);
-        link.interrupted = false;
-    }
-    refresh_resend_floor();
 }
 
 // Inputs of other slots' streams, forwarded by the sender. Accepted only for streams whose
@@ -720,159 +704,6 @@ std::uint32_t SessionImpl::lead_frames(std::uint64_t rtt) const {
 
 std::uint32_t SessionImpl::local_target() const { return sync_->frame() + static_cast<std::uint32_t>(input_delay_); }
 
-void SessionImpl::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
-    SlotView& v = slots_[slot];
-    if (!slot_running(slot)) return;
-    membership_.leave(slot);
-    authority_->reset_slot(slot);
-    v.dropped(now_us, config_.disconnect_us);
-    links_[slot].interrupted = false;
-    detector_->peer_failed(slot);
-    emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
-    // The slots its process played go with it.
-    for (int s = slot + 1; s < config_.players; ++s)
-        if (host_of(static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, "its host was dropped");
-    refresh_resend_floor();
-}
-
-// A peer's vote (or the local one): counted by Membership, which ignores what does not count.
-void SessionImpl::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) {
-    const Tally t = membership_.vote(voter, slot, vote, epoch);
-    if (t == Tally::Counted && vote == Vote::Gone && voter != config_.local_player &&
-        membership_.vote_of(config_.local_player, slot) != Vote::Gone)
-        ++stats_.drop_votes_unheeded;
-}
-
-// Drops every running slot a majority has voted gone (this session's own slot: it was kicked),
-// then notes whether this session is cut off from a majority (Partitioned, once per episode).
-void SessionImpl::settle_membership(std::uint64_t now_us) {
-    if (config_.role == Role::Spectator) return;
-    const auto players = static_cast<PlayerId>(config_.players);
-    for (PlayerId s = membership_.next_gone(); s < players; s = membership_.next_gone()) {
-        if (s == config_.local_player) {
-            emit(SessionEvent::Kind::Kicked, s, frame(), now_us,
-                 std::to_string(membership_.gone_votes(s)) + " of " + std::to_string(membership_.running_voters()) +
-                     " players voted this slot gone");
-            fail(drop_failure(config_), now_us);
-            return;
-        }
-        const std::string why = slots_[s].kick_vote ? "kicked" : slots_[s].lapsed ? "handoff lapsed" : "timed out";
-        drop_slot(s, now_us, (why + ", by " + std::to_string(membership_.gone_votes(s)) + " of " +
-                              std::to_string(membership_.running_voters()) + " votes").c_str());
-    }
-    const bool cut_off = membership_.partitioned();
-    if (cut_off && !partitioned_) {
-        int heard = 0;
-        for (int s = 0; s < config_.players; ++s) {
-            const auto pid = static_cast<PlayerId>(s);
-            if (membership_.running(pid) && host_of(pid) == pid && membership_.vote_of(config_.local_player, pid) != Vote::Gone)
-                ++heard;
-        }
-        emit(SessionEvent::Kind::Partitioned, config_.local_player, sync_->confirmed_frame(), now_us,
-             "hears " + std::to_string(heard) + " of " + std::to_string(membership_.running_voters()) +
-                 " players: no majority, nobody is dropped");
-    }
-    partitioned_ = cut_off;
-}
-
-// A kick is this session's vote, as if the slot had been silent for disconnect_us; it is not
-// withdrawn by hearing the slot. With three or more players the others must agree.
-void SessionImpl::disconnect_player(PlayerId slot, std::uint64_t now_us) {
-    if (!is_slot(slot) || slot == config_.local_player || my_guest(slot))
-        throw std::invalid_argument("disconnect_player: not a remote slot");
-    if (membership_.vote_local(slot, true) == Tally::AboutAGuest)
-        throw std::invalid_argument("disconnect_player: a guest goes with its host");
-    slots_[slot].kick_vote = slot_running(slot);
-    settle_membership(now_us);
-}
-
-void SessionImpl::check_silence(std::uint64_t now_us) {
-    for (std::size_t p = 0; p < links_.size(); ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (!live_peer(pid)) continue;
-        PeerLink& l = links_[p];
-        const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
-        if (silence.interrupted_now)
-            emit(SessionEvent::Kind::Interrupted, pid, frame(), now_us, std::to_string(silence.silent_us / 1000) + " ms silent");
-        if (is_slot(pid)) check_handoff(pid, now_us);
-        if (silence.timed_out) {
-            if (is_slot(pid)) {
-                membership_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
-            } else {
-                l.welcomed = false;  // a spectator that went away: stop serving it
-                emit(SessionEvent::Kind::Disconnected, pid, frame(), now_us, "spectator timed out");
-            }
-        }
-    }
-    settle_membership(now_us);
-}
-
-// A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
-void SessionImpl::check_handoff(PlayerId slot, std::uint64_t now_us) {
-    if (slots_[slot].watch_handoff(slot_running(slot), sync_->queue(slot), sync_->frame(), now_us, config_.disconnect_us))
-        membership_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
-}
-
-// The owner (lowest running slot) writes every non-running slot's neutral inputs. For a slot
-// just dropped it first waits until every running peer has reported the drop with what it holds
-// of the slot's stream, and holds at least as much itself (peers relay what it lacks): then the
-// neutral inputs start right after the last real input anyone received, and nobody has confirmed
-// anything else.
-void SessionImpl::author_absent_streams(std::uint64_t now_us) {
-    const auto own = owner();
-    if (!own || *own != config_.local_player || config_.role == Role::Spectator) return;
-    const std::uint32_t target = local_target();
-    static const std::vector<std::uint8_t> neutral_storage(kMaxInputSize, 0);
-    const std::span<const std::uint8_t> neutral(neutral_storage.data(), config_.input_size);
-    for (int s = 0; s < config_.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        SlotView& v = slots_[static_cast<std::size_t>(s)];
-        if (slot_running(slot)) continue;
-        if (!v.authoring) {
-            bool ready = true;
-            for (std::size_t p = 0; p < links_.size() && ready; ++p) {
-                const auto pid = static_cast<PlayerId>(p);
-                if (!live_peer(pid) || !is_slot(pid)) continue;
-                const PeerLink& l = links_[p];
-                ready = l.table_seen[slot] && l.table[slot].epoch == membership_.epoch(slot) &&
-                        l.table[slot].state == slot_state(slot) &&
-                        l.has_count[slot] && l.counts[slot] <= count_of(slot);
-            }
-            if (!ready) continue;
-            v.authoring = true;
-            if (!v.neutral_reported) {
-                v.neutral_reported = true;
-                emit(SessionEvent::Kind::NeutralFrom, slot, count_of(slot), now_us, "this peer writes the neutral input");
-            }
-        }
-        while (count_of(slot) <= target) {
-            if (sync_->add_remote_input(slot, count_of(slot), neutral, true) != InputQueue::Add::Stored) break;
-        }
-    }
-}
-
-// The slots this session hosts follow its own stream frame for frame: their inputs are
-// confirmed at once (the gap a longer input delay opens repeats each one's last input, as the
-// local stream does) and reach the peers as stream blocks (fill_extension).
-void SessionImpl::author_guest_streams(std::span<const std::uint8_t> inputs) {
-    const std::size_t n = config_.input_size;
-    const std::uint32_t want = count_of(config_.local_player);
-    for (std::size_t i = 1; i < local_slots_.size(); ++i) {
-        const PlayerId g = local_slots_[i];
-        if (!slot_running(g)) continue;
-        const auto input = inputs.subspan((i - 1) * n, n);
-        const InputQueue& q = sync_->queue(g);
-        while (count_of(g) < want) {
-            const std::uint32_t f = count_of(g);
-            const auto last = q.last_confirmed();
-            std::copy(input.begin(), input.end(), guest_scratch_.begin());
-            if (f + 1 < want && !last.empty()) std::copy(last.begin(), last.end(), guest_scratch_.begin());
-            if (f + 1 < want && last.empty()) std::fill(guest_scratch_.begin(), guest_scratch_.end(), std::uint8_t{0});
-            if (sync_->add_remote_input(g, f, std::span(guest_scratch_).first(n)) != InputQueue::Add::Stored) break;
-        }
-    }
-}
-
 AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us) {
     AdvanceResult result;
     result.frame = sync_->frame();
@@ -884,10 +715,10 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
     last_now_us_ = std::max(last_now_us_, now_us);
     if (phase_ != SessionPhase::Running) return result;
     ++stats_.ticks;
-    check_silence(now_us);
+    changes_.check_silence(now_us);
     if (phase_ != SessionPhase::Running) return result;
     consider_recovery(now_us);
-    author_absent_streams(now_us);
+    authored_.author_absent_streams(local_target(), now_us);
     const std::uint64_t resim_before = stats_.resim_ns;
     result.rollback_depth = sync_->rollback_if_needed();
     result.resim_ns = stats_.resim_ns - resim_before;
@@ -916,7 +747,7 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
         const std::size_t n = config_.input_size;
         if (std::uint64_t{target} < std::uint64_t{local.floor()} + local.capacity())
             input_taken = sync_->add_local_input(local_input.first(n), input_delay_, min_frame);
-        author_guest_streams(local_input.subspan(n));
+        authored_.author_guest_streams(local_slots_, local_input.subspan(n));
     }
     const bool wait = spectator ? sync_->frame() >= sync_->inputs_complete()
                                 : sync_->must_wait(input_delay_);

@@ -15,12 +15,14 @@
 #include <string>
 #include <vector>
 
+#include "rollback/authored_streams.h"
 #include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
 #include "rollback/membership.h"
+#include "rollback/membership_changes.h"
 #include "rollback/peer_link.h"
 #include "rollback/predictor.h"
 #include "rollback/protocol.h"
@@ -71,7 +73,7 @@ public:
     void set_prediction_window(int frames);
     int prediction_window() const { return sync_->prediction_window(); }
     // Drops a slot on purpose (a kick): as if it had been silent for disconnect_us.
-    void disconnect_player(PlayerId slot, std::uint64_t now_us);
+    void disconnect_player(PlayerId slot, std::uint64_t now_us) { changes_.disconnect_player(slot, now_us); }
     // A joiner that loaded a snapshot is behind the match: step up to max_frames without taking
     // input (call after advance() while behind() > 0). Returns the frames stepped.
     int catch_up(std::uint64_t now_us, int max_frames) noexcept;
@@ -100,7 +102,7 @@ public:
     // The view and the votes (who plays, who says whom is gone).
     const Membership& membership() const { return membership_; }
     // Reported Partitioned and not yet heard a majority again.
-    bool partitioned() const { return partitioned_; }
+    bool partitioned() const { return changes_.partitioned(); }
     // Silent longer than interrupt_us (and not dropped yet).
     bool interrupted(PlayerId peer) const { return links_[peer].interrupted; }
     std::uint64_t foreign_packets() const { return foreign_packets_; }  // other match or version
@@ -135,7 +137,6 @@ private:
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
     int catch_up_impl(std::uint64_t now_us, int max_frames);
     void handle_input(PlayerId from, std::uint64_t now_us);
-    void check_handoff(PlayerId slot, std::uint64_t now_us);
     std::uint32_t lead_frames(std::uint64_t rtt_us) const;
     // A live player peer: its pace counts for time sync (pacing_).
     bool paces(PlayerId p) const;
@@ -158,13 +159,10 @@ private:
     void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
     void poll_handshake(std::uint64_t now_us);
     void poll_transfer(std::uint64_t now_us);
-    void check_silence(std::uint64_t now_us);
-    void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
-    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
-    void settle_membership(std::uint64_t now_us);
-    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
-    void author_absent_streams(std::uint64_t now_us);
-    void author_guest_streams(std::span<const std::uint8_t> inputs);
+    // The view's changes are MembershipChanges' (rollback/membership_changes.h); apply_slot_table's calls.
+    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) { changes_.count_vote(voter, slot, vote, epoch); }
+    void settle_membership(std::uint64_t now_us) { changes_.settle_membership(now_us); }
+    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) { changes_.adopt_slot(slot, e, now_us); }
     void start_running(std::uint64_t now_us);
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
@@ -181,8 +179,6 @@ private:
     bool slot_running(PlayerId s) const { return membership_.running(s); }
     // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
     bool live_peer(PlayerId p) const;
-    std::optional<PlayerId> owner() const;
-    bool any_slot_not_running() const;
     std::uint32_t count_of(PlayerId slot) const { return sync_->queue(slot).confirmed_count(); }
     int peers_total() const { return config_.players + config_.max_spectators; }
     std::uint32_t local_target() const;
@@ -205,10 +201,14 @@ private:
     // lifecycle
     std::unique_ptr<Tap> tap_;
     Membership membership_;
-    bool partitioned_ = false;
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
-    std::vector<std::uint8_t> guest_scratch_;
+    // What the session does about the view, and the streams it writes besides its own (after the
+    // state they borrow); Effects (session.cpp) is the rest of the session as they see it.
+    class Effects;
+    std::unique_ptr<Effects> effects_;
+    MembershipChanges changes_;
+    AuthoredStreams authored_;
     std::uint64_t foreign_packets_ = 0;
     std::uint64_t scene_checksum_ = 0;
     std::uint64_t started_us_ = 0;

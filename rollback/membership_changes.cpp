@@ -1,0 +1,137 @@
+#include "rollback/membership_changes.h"
+
+#include <stdexcept>
+
+#include "rollback/slot_hosts.h"
+
+namespace lockroll::rollback {
+
+bool MembershipChanges::mine(PlayerId slot) const {
+    if (config_.role == Role::Spectator) return false;
+    return slot == config_.local_player || (host_of(config_, slot) != slot && host_of(config_, slot) == config_.local_player);
+}
+
+void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
+    SlotView& v = slots_[slot];
+    if (!view_.running(slot)) return;
+    view_.leave(slot);
+    effects_.slot_changed_hands(slot);
+    v.dropped(now_us, config_.disconnect_us);
+    links_[slot].interrupted = false;
+    effects_.peer_failed(slot);
+    effects_.emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
+    // The slots its process played go with it.
+    for (int s = slot + 1; s < config_.players; ++s)
+        if (host_of(config_, static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, "its host was dropped");
+    effects_.live_peers_changed();
+}
+
+// A peer's vote (or the local one): counted by Membership, which ignores what does not count.
+void MembershipChanges::count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) {
+    const Tally t = view_.vote(voter, slot, vote, epoch);
+    if (t == Tally::Counted && vote == Vote::Gone && voter != config_.local_player &&
+        view_.vote_of(config_.local_player, slot) != Vote::Gone)
+        ++stats_.drop_votes_unheeded;
+}
+
+// Drops every running slot a majority has voted gone (this session's own slot: it was kicked),
+// then notes whether this session is cut off from a majority (Partitioned, once per episode).
+void MembershipChanges::settle_membership(std::uint64_t now_us) {
+    if (config_.role == Role::Spectator) return;
+    const auto players = static_cast<PlayerId>(config_.players);
+    for (PlayerId s = view_.next_gone(); s < players; s = view_.next_gone()) {
+        if (s == config_.local_player) {
+            effects_.emit(SessionEvent::Kind::Kicked, s, effects_.frame(), now_us,
+                          std::to_string(view_.gone_votes(s)) + " of " + std::to_string(view_.running_voters()) +
+                              " players voted this slot gone");
+            effects_.fail_dropped(now_us);
+            return;
+        }
+        const std::string why = slots_[s].kick_vote ? "kicked" : slots_[s].lapsed ? "handoff lapsed" : "timed out";
+        drop_slot(s, now_us, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
+                              std::to_string(view_.running_voters()) + " votes").c_str());
+    }
+    const bool cut_off = view_.partitioned();
+    if (cut_off && !partitioned_) {
+        int heard = 0;
+        for (int s = 0; s < config_.players; ++s) {
+            const auto pid = static_cast<PlayerId>(s);
+            if (view_.running(pid) && host_of(config_, pid) == pid && view_.vote_of(config_.local_player, pid) != Vote::Gone)
+                ++heard;
+        }
+        effects_.emit(SessionEvent::Kind::Partitioned, config_.local_player, effects_.confirmed_frame(), now_us,
+                      "hears " + std::to_string(heard) + " of " + std::to_string(view_.running_voters()) +
+                          " players: no majority, nobody is dropped");
+    }
+    partitioned_ = cut_off;
+}
+
+void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
+    SlotView& v = slots_[slot];
+    const SlotState before = view_.state(slot);
+    view_.set(slot, e.state, e.epoch);
+    effects_.slot_changed_hands(slot);
+    v.new_epoch();
+    if (mine(slot) && e.state != SlotState::Running) {
+        effects_.emit(SessionEvent::Kind::Kicked, slot, effects_.frame(), now_us, "the other peers dropped this slot");
+        effects_.fail_dropped(now_us);
+        return;
+    }
+    PeerLink& link = links_[slot];
+    if (e.state == SlotState::Running && before != SlotState::Running) {
+        // Someone handed the slot to a (re)joining process: listen to it from now on, and forget
+        // what its predecessor told us.
+        link.reset_lifecycle(static_cast<std::size_t>(config_.players));
+        link.clear_error();
+        effects_.peer_replaced(slot);
+        link.mark_heard(now_us);
+        link.interrupted = false;
+        effects_.emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
+    } else if (e.state != SlotState::Running && before == SlotState::Running) {
+        effects_.emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, "learned from a peer");
+        effects_.peer_failed(slot);
+        link.interrupted = false;
+    }
+    effects_.live_peers_changed();
+}
+
+// A kick is this session's vote, as if the slot had been silent for disconnect_us; it is not
+// withdrawn by hearing the slot. With three or more players the others must agree.
+void MembershipChanges::disconnect_player(PlayerId slot, std::uint64_t now_us) {
+    if (!is_slot(slot) || slot == config_.local_player || mine(slot))
+        throw std::invalid_argument("disconnect_player: not a remote slot");
+    if (view_.vote_local(slot, true) == Tally::AboutAGuest)
+        throw std::invalid_argument("disconnect_player: a guest goes with its host");
+    slots_[slot].kick_vote = view_.running(slot);
+    settle_membership(now_us);
+}
+
+void MembershipChanges::check_silence(std::uint64_t now_us) {
+    for (std::size_t p = 0; p < links_.size(); ++p) {
+        const auto pid = static_cast<PlayerId>(p);
+        if (!effects_.live_peer(pid)) continue;
+        PeerLink& l = links_[p];
+        const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
+        if (silence.interrupted_now)
+            effects_.emit(SessionEvent::Kind::Interrupted, pid, effects_.frame(), now_us,
+                          std::to_string(silence.silent_us / 1000) + " ms silent");
+        if (is_slot(pid)) check_handoff(pid, now_us);
+        if (silence.timed_out) {
+            if (is_slot(pid)) {
+                view_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
+            } else {
+                l.welcomed = false;  // a spectator that went away: stop serving it
+                effects_.emit(SessionEvent::Kind::Disconnected, pid, effects_.frame(), now_us, "spectator timed out");
+            }
+        }
+    }
+    settle_membership(now_us);
+}
+
+void MembershipChanges::check_handoff(PlayerId slot, std::uint64_t now_us) {
+    if (slots_[slot].watch_handoff(view_.running(slot), effects_.stream(slot), effects_.frame(), now_us,
+                                   config_.disconnect_us))
+        view_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
+}
+
+}  // namespace lockroll::rollback

@@ -1,0 +1,106 @@
+// MembershipChanges: the P2P session's side of the view (issue 21). Membership (rollback/
+// membership.h) holds who plays and every voter's word and decides; this is what the session does
+// about it: the votes it counts (a peer's table, a refusal's), the slots it drops once a majority
+// says they are gone (their guests with them) or adopts when a peer's table hands them over, its
+// own vote on silence, a kick and a lapsed handoff, and whether it is cut off from a majority
+// (Partitioned). One per session, owned by SessionImpl (rollback/session_impl.h).
+//
+// Contract
+//  - Borrows the session's long-lived state (config, view, the per-slot SlotViews, the per-peer
+//    links, the stats; all outlive it) and does everything else through MembershipEffects, which
+//    SessionImpl implements and a test fakes: events, failing when dropped, who authored a slot's
+//    inputs, checksum comparison with a peer, the resend floor, frames and streams read. No clock
+//    (now_us comes in), nothing sent from here; slots and peers are ids.
+//  - count_vote(): Membership decides what counts (an old epoch, a guest, a voter not running are
+//    ignored). A counted "gone" from another player about a slot we do not vote gone ourselves is
+//    counted in stats.drop_votes_unheeded.
+//  - settle_membership(): drops every running slot a majority voted gone (drop_slot); when the
+//    majority says this session's own slot: emits `kicked` and fails (fail_dropped), nothing more.
+//    Then `partitioned` once per episode of being cut off from a majority (partitioned()).
+//    Spectators never settle: they follow the players' view (adopt_slot).
+//  - drop_slot(): a running slot leaves the view into its next epoch with every slot its process
+//    hosts; `disconnected` with its stream's count. A slot not running: nothing.
+//  - adopt_slot(): a peer's table says a slot changed hands (a join handed over, a drop we
+//    missed): the view takes its state and epoch. Our own slot or guest not running in it:
+//    `kicked`, and the session fails.
+//  - check_silence(): per tick, over live peers: `interrupted` once per silence; a player silent
+//    for disconnect_us, or whose handoff lapsed (SlotView::watch_handoff), gets our vote (kept
+//    until heard again; a lapse's until the drop); a spectator silent that long is no longer
+//    served. Then settle_membership().
+//  - disconnect_player(): a kick is our vote, as if the slot had been silent, kept until the drop.
+//    Throws std::invalid_argument for a slot that is not another process's (the caller's bug).
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rollback/events.h"
+#include "rollback/input_queue.h"
+#include "rollback/membership.h"
+#include "rollback/peer_link.h"
+#include "rollback/protocol.h"
+#include "rollback/session.h"
+#include "rollback/slot_view.h"
+
+namespace lockroll::rollback {
+
+// What a change of the view does to the rest of the session (SessionImpl implements it).
+class MembershipEffects {
+public:
+    virtual void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+                      std::string detail) = 0;
+    // The others dropped this session's slot: it fails (rollback/rejoin.h, drop_failure).
+    virtual void fail_dropped(std::uint64_t now_us) = 0;
+    // The slot changed hands: who authored its unverified inputs starts over (InputAuthority).
+    virtual void slot_changed_hands(PlayerId slot) = 0;
+    // The peer left: its checksums are no longer compared (DesyncDetector::peer_failed).
+    virtual void peer_failed(PlayerId peer) = 0;
+    // A new process plays the slot: its predecessor's checksums are forgotten.
+    virtual void peer_replaced(PlayerId peer) = 0;
+    // The set of live peers changed: the floor our stream is kept back to moves.
+    virtual void live_peers_changed() = 0;
+    // Welcomed, not in error, and a running slot or a spectator.
+    virtual bool live_peer(PlayerId peer) const = 0;
+    virtual std::uint32_t frame() const = 0;            // displayed
+    virtual std::uint32_t confirmed_frame() const = 0;
+    virtual const InputQueue& stream(PlayerId slot) const = 0;
+
+protected:
+    ~MembershipEffects() = default;
+};
+
+class MembershipChanges {
+public:
+    MembershipChanges(const SessionConfig& config, Membership& view, std::vector<SlotView>& slots,
+                      std::vector<PeerLink>& links, SessionStats& stats, MembershipEffects& effects)
+        : config_(config), view_(view), slots_(slots), links_(links), stats_(stats), effects_(effects) {}
+
+    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
+    void settle_membership(std::uint64_t now_us);
+    void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
+    // e: the peer's table entry about `slot` (its state and a newer epoch).
+    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
+    void check_silence(std::uint64_t now_us);
+    void disconnect_player(PlayerId slot, std::uint64_t now_us);
+    // Reported Partitioned and not yet heard a majority again.
+    bool partitioned() const { return partitioned_; }
+
+private:
+    // A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
+    void check_handoff(PlayerId slot, std::uint64_t now_us);
+    bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
+    bool mine(PlayerId slot) const;  // this session's slot or one of its guests
+    std::uint32_t count_of(PlayerId slot) const { return effects_.stream(slot).confirmed_count(); }
+
+    const SessionConfig& config_;
+    Membership& view_;
+    std::vector<SlotView>& slots_;
+    std::vector<PeerLink>& links_;
+    SessionStats& stats_;
+    MembershipEffects& effects_;
+    bool partitioned_ = false;
+};
+
+}  // namespace lockroll::rollback

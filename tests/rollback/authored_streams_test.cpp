@@ -1,0 +1,155 @@
+// AuthoredStreams (rollback/authored_streams.h) on its own, over hand-built streams, view and
+// links (no session, no network): only the owner writes a dropped slot's neutral input, and only
+// once every live player peer reported the drop holding no more of its stream than we do; a
+// host's guests follow its own stream frame for frame.
+#include "rollback/authored_streams.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace lockroll::rollback {
+namespace {
+
+using Kind = SessionEvent::Kind;
+
+// Streams and events of the rest of the session; every link welcomed is live while its slot runs.
+struct FakeStreams final : AuthoringEffects {
+    std::vector<InputQueue> queues;
+    std::vector<std::pair<PlayerId, std::uint32_t>> neutral_from;  // NeutralFrom events: slot, frame
+    const Membership* view = nullptr;
+    const std::vector<PeerLink>* links = nullptr;
+
+    void emit(Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string) override {
+        if (kind == Kind::NeutralFrom) neutral_from.emplace_back(peer, frame);
+    }
+    bool live_peer(PlayerId p) const override {
+        return p != view->local() && (*links)[p].welcomed && view->running(p);
+    }
+    const InputQueue& stream(PlayerId slot) const override { return queues[slot]; }
+    InputQueue::Add write(PlayerId slot, std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) override {
+        return queues[slot].add_confirmed(frame, input, absent);
+    }
+};
+
+struct Fixture {
+    SessionConfig config;
+    Membership view;
+    std::vector<SlotView> slots;
+    std::vector<PeerLink> links;
+    FakeStreams fake;
+    AuthoredStreams authored;
+
+    Fixture(int players, PlayerId local, std::vector<PlayerId> hosts = {})
+        : view(players, local, TwoPlayerRule::PlayOnAlone, hosts), slots(static_cast<std::size_t>(players)),
+          authored(config, view, slots, links, fake) {
+        config.players = players;
+        config.local_player = local;
+        config.input_size = 1;
+        config.slot_hosts = std::move(hosts);
+        for (int p = 0; p < players; ++p) {
+            links.emplace_back(10, 8);
+            links.back().reset_lifecycle(static_cast<std::size_t>(players));
+            links.back().welcomed = true;
+            fake.queues.emplace_back(1, 64);
+        }
+        fake.view = &view;
+        fake.links = &links;
+    }
+    void fill(PlayerId slot, std::uint32_t frames, std::uint8_t value) {
+        for (std::uint32_t f = fake.queues[slot].confirmed_count(); f < frames; ++f)
+            fake.queues[slot].add_confirmed(f, std::span(&value, 1));
+    }
+    // Peer p's table reports `slot` as our view has it, holding `count` of its stream.
+    void reports(PlayerId p, PlayerId slot, std::uint32_t count) {
+        links[p].table[slot] = {static_cast<std::uint8_t>(slot), view.state(slot), view.epoch(slot), 0};
+        links[p].table_seen[slot] = true;
+        links[p].counts[slot] = count;
+        links[p].has_count[slot] = true;
+    }
+    std::uint32_t count(PlayerId slot) const { return fake.queues[slot].confirmed_count(); }
+};
+
+TEST(AuthoredStreams, TheOwnerWaitsForEveryPlayersReportThenWritesNeutralFromThere) {
+    Fixture f(4, 0);
+    f.fill(3, 5, 9);
+    f.view.leave(3);
+    f.authored.author_absent_streams(20, 100);
+    EXPECT_EQ(f.count(3), 5u) << "nobody reported the drop yet";
+    f.reports(1, 3, 5);
+    f.reports(2, 3, 6);  // holds more than we do: we get it relayed first
+    f.authored.author_absent_streams(20, 100);
+    EXPECT_EQ(f.count(3), 5u);
+    EXPECT_TRUE(f.fake.neutral_from.empty());
+    f.fill(3, 6, 9);  // the relayed input arrived
+    f.authored.author_absent_streams(20, 100);
+    EXPECT_EQ(f.count(3), 21u) << "neutral up to the target, inclusive";
+    EXPECT_TRUE(f.fake.queues[3].confirmed_absent(6));
+    EXPECT_TRUE(f.fake.queues[3].confirmed_absent(20));
+    EXPECT_FALSE(f.fake.queues[3].confirmed_absent(5));
+    ASSERT_EQ(f.fake.neutral_from.size(), 1u);
+    EXPECT_EQ(f.fake.neutral_from[0], (std::pair<PlayerId, std::uint32_t>{3, 6}));
+
+    // Authoring once begun goes on without asking again, and the frame is told once per epoch.
+    f.links[1].table_seen[3] = false;
+    f.authored.author_absent_streams(25, 200);
+    EXPECT_EQ(f.count(3), 26u);
+    EXPECT_EQ(f.fake.neutral_from.size(), 1u);
+}
+
+TEST(AuthoredStreams, ATableInAnotherEpochIsNoReportOfTheDrop) {
+    Fixture f(3, 0);
+    f.view.leave(2);
+    f.reports(1, 2, 0);
+    f.links[1].table[2].epoch = 0;  // it still has slot 2 running in its old epoch
+    f.links[1].table[2].state = SlotState::Running;
+    f.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(f.count(2), 0u);
+}
+
+TEST(AuthoredStreams, OnlyTheLowestRunningSlotWritesAndNeverASpectator) {
+    Fixture f(3, 1);
+    f.view.leave(2);
+    f.reports(0, 2, 0);
+    EXPECT_EQ(f.authored.owner(), PlayerId{0});
+    f.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(f.count(2), 0u) << "slot 0 owns";
+    f.view.leave(0);
+    f.reports(0, 0, 0);
+    EXPECT_EQ(f.authored.owner(), PlayerId{1});
+    f.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(f.count(0), 11u);
+    EXPECT_EQ(f.count(2), 11u);
+
+    Fixture spectator(2, 0);
+    spectator.config.role = Role::Spectator;
+    spectator.view.leave(1);
+    spectator.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(spectator.count(1), 0u);
+}
+
+TEST(AuthoredStreams, GuestsFollowTheLocalStreamRepeatingTheirLastInputInTheGap) {
+    Fixture f(3, 0, {0, 0, 2});  // this process plays slots 0 and 1
+    const std::vector<PlayerId> local_slots{0, 1};
+    const auto guest = [&] {
+        std::vector<int> out;
+        for (std::uint32_t fr = 0; fr < f.count(1); ++fr) out.push_back(f.fake.queues[1].confirmed(fr)[0]);
+        return out;
+    };
+    f.fill(0, 3, 5);
+    f.authored.author_guest_streams(local_slots, std::vector<std::uint8_t>{7});
+    EXPECT_EQ(guest(), (std::vector<int>{0, 0, 7})) << "neutral before its first input, the newest frame takes it";
+    f.fill(0, 5, 5);
+    f.authored.author_guest_streams(local_slots, std::vector<std::uint8_t>{9});
+    EXPECT_EQ(guest(), (std::vector<int>{0, 0, 7, 7, 9})) << "the gap repeats its last input";
+    EXPECT_FALSE(f.fake.queues[1].confirmed_absent(4));
+
+    f.view.leave(1);
+    f.fill(0, 8, 5);
+    f.authored.author_guest_streams(local_slots, std::vector<std::uint8_t>{9});
+    EXPECT_EQ(f.count(1), 5u) << "a guest that does not run is not written";
+}
+
+}  // namespace
+}  // namespace lockroll::rollback

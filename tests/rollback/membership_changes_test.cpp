@@ -1,0 +1,312 @@
+// MembershipChanges (rollback/membership_changes.h) on its own, over a hand-built view, slots and
+// links and a fake of the rest of the session (no session, no network): votes counted, a slot
+// dropped only when a majority says so (its guests with it), our own slot kicked, silence and a
+// lapsed handoff as our vote, a kick, Partitioned once per episode, a peer's table adopted.
+#include "rollback/membership_changes.h"
+
+#include <gtest/gtest.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace lockroll::rollback {
+namespace {
+
+using Kind = SessionEvent::Kind;
+constexpr std::uint64_t kInterrupt = 250'000;
+constexpr std::uint64_t kDisconnect = 1'000'000;
+
+// The rest of the session, recorded.
+struct FakeSession final : MembershipEffects {
+    struct Event {
+        Kind kind;
+        PlayerId peer;
+        std::uint32_t frame;
+        std::string detail;
+    };
+    std::vector<Event> events;
+    bool failed = false;
+    std::vector<PlayerId> changed_hands, failed_peers, replaced_peers;
+    int floor_moves = 0;
+    std::uint32_t shown = 10, confirmed = 7;
+    const Membership* view = nullptr;
+    const std::vector<PeerLink>* links = nullptr;
+    std::vector<InputQueue> queues;
+
+    void emit(Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string detail) override {
+        events.push_back({kind, peer, frame, std::move(detail)});
+    }
+    void fail_dropped(std::uint64_t) override { failed = true; }
+    void slot_changed_hands(PlayerId slot) override { changed_hands.push_back(slot); }
+    void peer_failed(PlayerId peer) override { failed_peers.push_back(peer); }
+    void peer_replaced(PlayerId peer) override { replaced_peers.push_back(peer); }
+    void live_peers_changed() override { ++floor_moves; }
+    bool live_peer(PlayerId p) const override {
+        const PeerLink& l = (*links)[p];
+        if (p == view->local() || !l.welcomed || l.error()) return false;
+        return p < static_cast<PlayerId>(view->players()) ? view->running(p) : l.role == Role::Spectator;
+    }
+    std::uint32_t frame() const override { return shown; }
+    std::uint32_t confirmed_frame() const override { return confirmed; }
+    const InputQueue& stream(PlayerId slot) const override { return queues[slot]; }
+
+    std::vector<Event> of(Kind k) const {
+        std::vector<Event> out;
+        for (const Event& e : events)
+            if (e.kind == k) out.push_back(e);
+        return out;
+    }
+};
+
+// `players` slots, this session slot 0, and one spectator (the last peer id).
+struct Fixture {
+    SessionConfig config;
+    Membership view;
+    std::vector<SlotView> slots;
+    std::vector<PeerLink> links;
+    SessionStats stats;
+    FakeSession fake;
+    MembershipChanges changes;
+
+    explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone)
+        : view(players, 0, rule, hosts), slots(static_cast<std::size_t>(players)),
+          changes(config, view, slots, links, stats, fake) {
+        config.players = players;
+        config.max_spectators = 1;
+        config.input_size = 1;
+        config.slot_hosts = std::move(hosts);
+        config.two_player_rule = rule;
+        config.interrupt_us = kInterrupt;
+        config.disconnect_us = kDisconnect;
+        for (int p = 0; p <= players; ++p) {
+            links.emplace_back(10, 8);
+            links.back().reset_lifecycle(static_cast<std::size_t>(players));
+            links.back().welcomed = true;
+            fake.queues.emplace_back(1, 64);
+        }
+        links.back().role = Role::Spectator;
+        fake.view = &view;
+        fake.links = &links;
+    }
+    // Every peer but `silent` (and this session) heard now.
+    void hear_all_but(PlayerId silent, std::uint64_t now_us) {
+        for (std::size_t p = 1; p < links.size(); ++p)
+            if (p != silent) links[p].mark_heard(now_us);
+    }
+};
+
+TEST(MembershipChanges, OneVoteOfThreeDropsNobodyAMajorityDropsTheSlot) {
+    Fixture f(3);
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.changes.settle_membership(100);
+    EXPECT_TRUE(f.view.running(2)) << "one voter of three is no majority";
+    EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
+    EXPECT_EQ(f.stats.drop_votes_unheeded, 1u) << "a counted gone we do not share";
+
+    f.view.vote_local(2, true);
+    f.changes.settle_membership(200);
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+    EXPECT_EQ(f.view.epoch(2), 1);
+    const auto dropped = f.fake.of(Kind::Disconnected);
+    ASSERT_EQ(dropped.size(), 1u);
+    EXPECT_EQ(dropped[0].peer, 2);
+    EXPECT_EQ(dropped[0].detail, "timed out, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.changed_hands, std::vector<PlayerId>{2});
+    EXPECT_EQ(f.fake.failed_peers, std::vector<PlayerId>{2});
+    EXPECT_GT(f.fake.floor_moves, 0);
+    EXPECT_FALSE(f.fake.failed);
+}
+
+TEST(MembershipChanges, AVoteInAnOldEpochIsIgnored) {
+    Fixture f(3);
+    f.view.set(2, SlotState::Running, 1);  // slot 2 rejoined: epoch 1
+    f.changes.count_vote(1, 2, Vote::Gone, 1);  // "gone into epoch 1": about its previous process
+    f.view.vote_local(2, true);
+    f.changes.settle_membership(100);
+    EXPECT_TRUE(f.view.running(2));
+    EXPECT_EQ(f.stats.drop_votes_unheeded, 0u);
+    f.changes.count_vote(1, 2, Vote::Gone, 2);
+    f.changes.settle_membership(200);
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+}
+
+TEST(MembershipChanges, AVoteWeShareIsNotUnheeded) {
+    Fixture f(4);
+    f.view.vote_local(3, true);
+    f.changes.count_vote(1, 3, Vote::Gone, 1);
+    EXPECT_EQ(f.stats.drop_votes_unheeded, 0u);
+    f.changes.count_vote(1, 3, Vote::Gone, 1);  // repeated: not counted again
+    f.changes.count_vote(2, 2, Vote::Gone, 1);  // about itself: ignored
+    EXPECT_EQ(f.stats.drop_votes_unheeded, 0u);
+}
+
+TEST(MembershipChanges, TwoPlayersPlayOnAloneDropsOnOurVoteNoDropNever) {
+    Fixture alone(2);
+    alone.view.vote_local(1, true);
+    alone.changes.settle_membership(100);
+    EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
+
+    Fixture never(2, {}, TwoPlayerRule::NoDrop);
+    never.view.vote_local(1, true);
+    never.changes.settle_membership(100);
+    EXPECT_TRUE(never.view.running(1));
+    EXPECT_TRUE(never.fake.of(Kind::Disconnected).empty());
+}
+
+TEST(MembershipChanges, OurOwnSlotVotedGoneByAMajorityIsKicked) {
+    Fixture f(3);
+    f.changes.count_vote(1, 0, Vote::Gone, 1);
+    f.changes.count_vote(2, 0, Vote::Gone, 1);
+    f.changes.settle_membership(100);
+    const auto kicked = f.fake.of(Kind::Kicked);
+    ASSERT_EQ(kicked.size(), 1u);
+    EXPECT_EQ(kicked[0].peer, 0);
+    EXPECT_EQ(kicked[0].frame, f.fake.shown);
+    EXPECT_EQ(kicked[0].detail, "2 of 3 players voted this slot gone");
+    EXPECT_TRUE(f.fake.failed);
+    EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty()) << "nothing more once kicked";
+}
+
+TEST(MembershipChanges, AHostDroppedTakesItsGuests) {
+    Fixture f(4, {0, 1, 1, 3});  // slot 2 is played by slot 1's process
+    f.view.vote_local(1, true);
+    f.changes.count_vote(3, 1, Vote::Gone, 1);
+    f.changes.settle_membership(100);
+    const auto dropped = f.fake.of(Kind::Disconnected);
+    ASSERT_EQ(dropped.size(), 2u);
+    EXPECT_EQ(dropped[0].peer, 1);
+    EXPECT_EQ(dropped[1].peer, 2);
+    EXPECT_EQ(dropped[1].detail, "its host was dropped");
+    EXPECT_FALSE(f.view.running(2));
+}
+
+TEST(MembershipChanges, SilenceIsOurVoteInterruptedOnceBefore) {
+    Fixture f(3);
+    f.hear_all_but(99, 0);
+    f.fake.queues[2].add_confirmed(0, std::vector<std::uint8_t>{1});  // its own stream runs
+    f.hear_all_but(2, kInterrupt);
+    f.changes.check_silence(kInterrupt);
+    ASSERT_EQ(f.fake.of(Kind::Interrupted).size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::Interrupted)[0].peer, 2);
+    f.hear_all_but(2, kInterrupt + 1);
+    f.changes.check_silence(kInterrupt + 1);
+    EXPECT_EQ(f.fake.of(Kind::Interrupted).size(), 1u) << "once per silence";
+    EXPECT_NE(f.view.vote_of(0, 2), Vote::Gone) << "not silent for disconnect_us yet";
+
+    f.hear_all_but(2, kDisconnect);
+    f.changes.check_silence(kDisconnect);
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone);
+    EXPECT_TRUE(f.view.running(2)) << "our vote alone is no majority of three";
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.hear_all_but(2, kDisconnect + 1);
+    f.changes.check_silence(kDisconnect + 1);  // settles
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "timed out, by 2 of 3 votes");
+}
+
+TEST(MembershipChanges, ASilentSpectatorIsNoLongerServed) {
+    Fixture f(3);
+    f.hear_all_but(99, 0);
+    f.hear_all_but(3, kDisconnect);
+    f.changes.check_silence(kDisconnect);
+    EXPECT_FALSE(f.links[3].welcomed);
+    const auto gone = f.fake.of(Kind::Disconnected);
+    ASSERT_EQ(gone.size(), 1u);
+    EXPECT_EQ(gone[0].peer, 3);
+    EXPECT_EQ(gone[0].detail, "spectator timed out");
+    for (PlayerId s = 0; s < 3; ++s) EXPECT_TRUE(f.view.running(s));
+}
+
+TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
+    Fixture f(3);
+    const std::vector<std::uint8_t> zero{0};
+    for (std::uint32_t fr = 0; fr < 10; ++fr) f.fake.queues[2].add_confirmed(fr, zero, true);  // the owner's neutral input
+    f.fake.shown = 10;
+    f.hear_all_but(99, 100);
+    f.changes.check_silence(100);
+    f.hear_all_but(99, 100 + kDisconnect - 1);
+    f.changes.check_silence(100 + kDisconnect - 1);
+    EXPECT_NE(f.view.vote_of(0, 2), Vote::Gone) << "stalled on it for less than disconnect_us";
+    f.hear_all_but(99, 100 + kDisconnect);
+    f.changes.check_silence(100 + kDisconnect);
+    EXPECT_TRUE(f.slots[2].lapsed);
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone) << "heard all along, yet it does not play";
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.changes.settle_membership(200 + kDisconnect);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "handoff lapsed, by 2 of 3 votes");
+}
+
+TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
+    Fixture f(3);
+    f.changes.disconnect_player(2, 100);
+    EXPECT_TRUE(f.slots[2].kick_vote);
+    EXPECT_TRUE(f.view.running(2)) << "the other player must agree";
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.changes.settle_membership(200);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "kicked, by 2 of 3 votes");
+    EXPECT_THROW(f.changes.disconnect_player(0, 300), std::invalid_argument) << "our own slot";
+    EXPECT_THROW(f.changes.disconnect_player(3, 300), std::invalid_argument) << "not a slot";
+
+    Fixture hosted(3, {0, 0, 2});
+    EXPECT_THROW(hosted.changes.disconnect_player(1, 100), std::invalid_argument) << "our own guest";
+    Fixture other(3, {0, 1, 1});
+    EXPECT_THROW(other.changes.disconnect_player(2, 100), std::invalid_argument) << "a guest goes with its host";
+}
+
+TEST(MembershipChanges, PartitionedOncePerEpisode) {
+    Fixture f(3);
+    f.view.vote_local(1, true);
+    f.view.vote_local(2, true);  // we hear nobody: one of three
+    f.changes.settle_membership(100);
+    EXPECT_TRUE(f.changes.partitioned());
+    for (PlayerId s = 0; s < 3; ++s) EXPECT_TRUE(f.view.running(s)) << "a minority drops nobody";
+    ASSERT_EQ(f.fake.of(Kind::Partitioned).size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::Partitioned)[0].frame, f.fake.confirmed);
+    EXPECT_EQ(f.fake.of(Kind::Partitioned)[0].detail, "hears 1 of 3 players: no majority, nobody is dropped");
+    f.changes.settle_membership(200);
+    EXPECT_EQ(f.fake.of(Kind::Partitioned).size(), 1u) << "once per episode";
+
+    f.view.vote_local(1, false);  // heard again: two of three
+    f.changes.settle_membership(300);
+    EXPECT_FALSE(f.changes.partitioned());
+    f.view.vote_local(1, true);
+    f.changes.settle_membership(400);
+    EXPECT_EQ(f.fake.of(Kind::Partitioned).size(), 2u) << "a new episode";
+}
+
+TEST(MembershipChanges, APeersTableHandsASlotOverOrTellsADropWeMissed) {
+    Fixture f(3);
+    f.changes.adopt_slot(2, {2, SlotState::Disconnected, 1, 0}, 100);
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+    ASSERT_EQ(f.fake.of(Kind::Disconnected).size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected)[0].detail, "learned from a peer");
+    EXPECT_EQ(f.fake.failed_peers, std::vector<PlayerId>{2});
+
+    // The owner handed it to a new process: listen to it from now on, its predecessor forgotten.
+    for (int i = 0; i < 10; ++i) f.links[2].note_malformed("garbage");
+    ASSERT_TRUE(f.links[2].error());
+    f.fake.queues[2].add_confirmed(0, std::vector<std::uint8_t>{1});
+    f.changes.adopt_slot(2, {2, SlotState::Running, 2, 0}, 200);
+    EXPECT_TRUE(f.view.running(2));
+    EXPECT_EQ(f.view.epoch(2), 2);
+    const auto joined = f.fake.of(Kind::Joined);
+    ASSERT_EQ(joined.size(), 1u);
+    EXPECT_EQ(joined[0].frame, 1u) << "its stream's count";
+    EXPECT_FALSE(f.links[2].error());
+    EXPECT_TRUE(f.links[2].heard);
+    EXPECT_EQ(f.fake.replaced_peers, std::vector<PlayerId>{2});
+    EXPECT_EQ(f.fake.changed_hands, (std::vector<PlayerId>{2, 2}));
+    EXPECT_FALSE(f.fake.failed);
+}
+
+TEST(MembershipChanges, APeersTableThatDropsOurOwnSlotKicksUs) {
+    Fixture f(3);
+    f.changes.adopt_slot(0, {0, SlotState::Disconnected, 1, 0}, 100);
+    ASSERT_EQ(f.fake.of(Kind::Kicked).size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::Kicked)[0].detail, "the other peers dropped this slot");
+    EXPECT_TRUE(f.fake.failed);
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
