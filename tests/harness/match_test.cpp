@@ -365,6 +365,36 @@ TEST(Match, AFiveThreeSplitHealsAndTheThreeRejoinBySnapshot) {
     healed_split(8, {5, 6, 7}, 10.0, 1500, Mode::Lockstep, 12, 40.5, 0.05);
 }
 
+// Issue 21, "8 players split 4/4 for 10 s and then healed": neither half is a strict majority of
+// the view, so nobody is dropped. Every client stops confirming (it stalls) during the cut, and
+// once healed all eight play on in the view they started with and end on one final: nobody
+// rejoins, nobody was partitioned-and-dropped.
+TEST(Match, AFourFourSplitDropsNobodyAndAllEightCompleteOnOneFinal) {
+    RunConfig c = base(Mode::Rollback, 1200);
+    c.players = 8;
+    c.partitions.add({{{0, 1, 2, 3}, {4, 5, 6, 7}}, 2'000'000, 12'000'000});
+    const RunResult r = run_match(c);
+    EXPECT_TRUE(r.completed) << "a client never confirmed the last frame";
+    EXPECT_EQ(r.confirmed_mismatches, 0u);
+    EXPECT_GT(r.confirmed_compared, 0u);
+    EXPECT_EQ(r.desync_count(), 0u);
+    ASSERT_EQ(r.clients.size(), 8u);
+    for (std::size_t k = 0; k < r.clients.size(); ++k) {
+        const ClientResult& cl = r.clients[k];
+        EXPECT_TRUE(cl.final_confirmed) << "client " << k;
+        EXPECT_EQ(cl.final_checksum, r.clients[0].final_checksum) << "client " << k << " ends on another final";
+        EXPECT_FALSE(cl.rejoined_at_frame) << "client " << k << " was dropped although no side is a majority";
+    }
+    std::vector<bool> stalled_in_cut(8, false);
+    for (const RunEvent& e : r.events) {
+        EXPECT_STRNE(e.kind, "rejoin") << "client " << e.client;
+        if (std::string_view(e.kind) == "stall" && e.time_s > 2.0 && e.time_s < 12.0)
+            stalled_in_cut[static_cast<std::size_t>(e.client)] = true;
+    }
+    for (std::size_t k = 0; k < stalled_in_cut.size(); ++k)
+        EXPECT_TRUE(stalled_in_cut[k]) << "client " << k << " played on through a cut with no majority on its side";
+}
+
 // Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set
 // after the row had been reduced), so tick_rate.png said "min 0" on frames that ran at 60.
 TEST(Match, EveryFrameRowCarriesTheTickRate) {
