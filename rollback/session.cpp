@@ -4,6 +4,7 @@
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
 #include "rollback/input_delay.h"
+#include "rollback/join_handoff.h"
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
@@ -24,8 +25,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 }
 
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
-
-constexpr int kMaxChunksPerPoll = 64;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -904,98 +903,35 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
     }
 }
 
+// Who may be served and which offer goes out are JoinHandoff's (rollback/join_handoff.h); what
+// the session does about it -- sending, events, the resend floor -- stays here.
+class SessionImpl::JoinFx final : public JoinEffects {
+public:
+    explicit JoinFx(SessionImpl& s) : s_(s) {}
+    void send(PlayerId to, std::vector<std::uint8_t> bytes) override { s_.send_control(to, std::move(bytes)); }
+    void malformed(PlayerId from, const char* why) override { s_.malformed(from, why); }
+    bool desynced(PlayerId peer) const override { return s_.detector_->desynced(peer); }
+    std::uint32_t handoff_target(PlayerId slot) const override {
+        return s_.local_target() + s_.lead_frames(s_.links_[slot].rtt_us());
+    }
+    void joined(PlayerId slot, std::uint32_t handoff, std::uint32_t frame, std::uint64_t now_us) override {
+        s_.detector_->reset_peer(slot);
+        s_.emit(SessionEvent::Kind::Joined, slot, handoff, now_us, "snapshot of frame " + std::to_string(frame));
+    }
+    void spectator_joined(PlayerId peer, std::uint32_t frame, std::uint64_t now_us) override {
+        s_.emit(SessionEvent::Kind::SpectatorJoined, peer, frame, now_us);
+    }
+    void acked() override { s_.refresh_resend_floor(); }
+
+private:
+    SessionImpl& s_;
+};
+
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
-    if (m.transfer_id != 0) {
-        SnapshotChunkMessage c;
-        switch (server_.chunk(from, m, c)) {
-            case SnapshotServer::Chunk::NotOurs: return void(++stats_.peers[from].ignored_packets);
-            case SnapshotServer::Chunk::OutOfRange: return malformed(from, "snapshot request: chunk out of range");
-            case SnapshotServer::Chunk::Ready: break;
-        }
-        if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
-        ++replies_this_poll_[from];
-        server_.damage_next(c);
-        std::vector<std::uint8_t> b;
-        encode(c, b);
-        send_control(from, std::move(b));
-        return;
-    }
-    if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
-    // A recovery is served only to a running player whose confirmed checksums this session has
-    // seen differ from its own, and only when recoveries are on: a request is a claim, and
-    // answering every one would turn a few bytes into a whole snapshot (an amplifier).
-    if (m.reason == TransferReason::Recover &&
-        (config_.max_recoveries == 0 || !is_slot(from) || !slot_running(from) || !detector_->desynced(from)))
-        return void(++stats_.peers[from].ignored_packets);
-    // The same peer asking again while its offer is young: the same offer (SnapshotServer).
-    const SnapshotOfferMessage* repeat = nullptr;
-    switch (server_.consider(from, m.reason, now_us, &repeat)) {
-        case SnapshotServer::Ask::Repeat: {
-            std::vector<std::uint8_t> b;
-            encode(*repeat, b);
-            return send_control(from, std::move(b));
-        }
-        case SnapshotServer::Ask::TooSoon: return void(++stats_.peers[from].ignored_packets);
-        case SnapshotServer::Ask::Pack: break;
-    }
-    const std::uint32_t c = sync_->confirmed_frame();
-    std::uint32_t handoff = 0;
-    switch (m.reason) {
-        case TransferReason::Join: {
-            // Only the owner hands a slot over, and only once it writes the slot's neutral input
-            // (the drop is agreed): it picks the handoff frame, far enough ahead that the
-            // joiner's first input reaches everyone before they need it.
-            if (!is_slot(from) || slot_running(from) || !slots_[from].authoring) return;
-            // Its last handoff lapsed (check_handoff): not again before the backoff ends.
-            if (now_us < slots_[from].next_handoff_us) return;
-            handoff = std::max(count_of(from), local_target() + lead_frames(links_[from].rtt_us()));
-            static const std::vector<std::uint8_t> zeros(kMaxInputSize, 0);
-            while (count_of(from) < handoff)
-                if (sync_->add_remote_input(from, count_of(from), std::span(zeros.data(), config_.input_size), true) !=
-                    InputQueue::Add::Stored)
-                    return;  // queue full: not now
-            SlotView& v = slots_[from];
-            membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
-            v.new_epoch();
-            v.handoff = handoff;
-            v.handed_off_by_me = true;
-            PeerLink& l = links_[from];
-            l.reset_lifecycle(static_cast<std::size_t>(config_.players));
-            l.welcomed = true;
-            l.welcomed_epoch = membership_.epoch(from);
-            l.mark_heard(now_us);
-            detector_->reset_peer(from);
-            emit(SessionEvent::Kind::Joined, from, handoff, now_us, "snapshot of frame " + std::to_string(c));
-            break;
-        }
-        case TransferReason::Spectate:
-            if (is_slot(from)) return;
-            links_[from].reset_lifecycle(static_cast<std::size_t>(config_.players));
-            links_[from].mark_heard(now_us);
-            emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
-            break;
-        case TransferReason::Recover:
-            break;  // checked above
-    }
-    TransferContents t;
-    if (!sync_->transfer_contents(c, true, t)) return;
-    const std::size_t n = config_.input_size;
-    // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
-    TransferSender::Transfer& out = server_.offer(from, m.reason, t, n, now_us);
-    out.offer.handoff_frame = handoff;
-    for (int s = 0; s < config_.players; ++s)
-        out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
-                                   membership_.epoch(static_cast<PlayerId>(s)), 0});
-    // Keep what the newcomer will ask us for next: every stream from the snapshot on.
-    PeerLink& l = links_[from];
-    l.pin_from = c;
-    l.pin_until_us = now_us + 30'000'000;
-    if (config_.role != Role::Spectator && m.reason != TransferReason::Recover)
-        l.remote_ack = count_of(config_.local_player);
-    std::vector<std::uint8_t> b;
-    encode(out.offer, b);
-    send_control(from, std::move(b));
-    refresh_resend_floor();
+    JoinFx fx(*this);
+    const JoinState state{config_, membership_, *sync_, server_, links_, slots_, stats_.peers, replies_this_poll_,
+                          phase_ == SessionPhase::Running};
+    JoinHandoff(state, fx).request(from, m, now_us);
 }
 
 void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
@@ -1048,17 +984,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
         refresh_resend_floor();
         return;
     }
-    for (const SlotEntry& e : offer.slots) {
-        SlotView& v = slots_[e.slot];
-        membership_.set(e.slot, e.state, e.epoch);
-        v.new_epoch();  // a newcomer has handed nothing over
-        v.neutral_reported = e.state != SlotState::Running;
-    }
-    for (auto& link : links_) {
-        link.heard = link.welcomed;
-        link.last_heard_us = now_us;
-        link.interrupted = false;
-    }
+    JoinHandoff::take_view(offer, membership_, slots_, links_, now_us);
     if (config_.role == Role::Joiner) {
         joining_ = true;
         own_inputs_from_ = offer.handoff_frame;

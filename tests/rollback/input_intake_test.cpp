@@ -10,10 +10,7 @@
 #include <vector>
 
 #include "rollback/input_authority.h"
-#include "rollback/predictor.h"
-#include "rollback/sync.h"
-#include "rollback/world_simulation.h"
-#include "tests/rollback/test_support.h"
+#include "tests/rollback/session_parts.h"
 
 namespace lockroll::rollback {
 namespace {
@@ -49,41 +46,13 @@ constexpr std::size_t kN = kWorldInputSize;
 Bytes inputs(std::uint8_t v, int frames) { return Bytes(kN * static_cast<std::size_t>(frames), v); }
 
 // Three players (this session is slot 0, or a spectator) and one spectator peer (3).
-struct Fixture {
-    SessionConfig config;
-    WorldSimulation sim{testing::make_scene(3, 0), 3};
-    RepeatLastPredictor predictor;
-    SessionStats stats;
-    Sync sync;
-    Membership membership{3, 0, TwoPlayerRule::PlayOnAlone};
+struct Fixture : testing::SessionParts {
     InputAuthority authority{3, 4};
-    std::vector<SlotView> slots{3};
-    std::vector<PeerLink> links;
     RecordingEffects fx;
 
-    static SessionConfig make_config(Role role) {
-        SessionConfig c;
-        c.players = 3;
-        c.max_spectators = 1;
-        c.input_size = kN;
-        c.role = role;
-        c.local_player = role == Role::Spectator ? 3 : 0;
-        return c;
-    }
-    static SyncConfig sync_config() {
-        SyncConfig s;
-        s.players = 3;
-        s.input_size = kN;
-        s.input_capacity = 64;
-        return s;
-    }
-    explicit Fixture(Role role = Role::Player)
-        : config(make_config(role)), sync(sync_config(), sim, predictor, nullptr, stats, [] { return 0ull; }) {
-        stats.peers.resize(4);
-        for (int p = 0; p < 4; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(3);
-        }
+    explicit Fixture(Role role = Role::Player) {
+        config.role = role;
+        if (role == Role::Spectator) config.local_player = 3;
     }
     void apply(PlayerId from, const InputMessage& m) {
         InputIntake(IntakeState{config, membership, sync, authority, links, slots, stats.peers, 0, 20}, fx)
