@@ -4,7 +4,7 @@
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
 #include "rollback/input_delay.h"
-#include "rollback/input_frames.h"
+#include "rollback/join_handoff.h"
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
@@ -25,8 +25,6 @@ std::uint32_t next_pow2(std::uint64_t v) {
 }
 
 std::int8_t clamp_i8(std::int64_t v) { return static_cast<std::int8_t>(std::clamp<std::int64_t>(v, -127, 127)); }
-
-constexpr int kMaxChunksPerPoll = 64;
 }  // namespace
 
 // Forwards every callback to the owner's observer, and lets the session react to desyncs.
@@ -202,6 +200,30 @@ bool SessionImpl::live_peer(PlayerId p) const {
     return l.role == Role::Spectator;
 }
 
+// What a peer's input message changes is InputIntake's (rollback/input_intake.h); what the
+// session does about it -- membership actions, a malformed message, events -- stays here.
+class SessionImpl::IntakeFx final : public IntakeEffects {
+public:
+    explicit IntakeFx(SessionImpl& s) : s_(s) {}
+    void malformed(PlayerId from, const char* why) override { s_.malformed(from, why); }
+    void acked() override { s_.refresh_resend_floor(); }
+    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) override { s_.adopt_slot(slot, e, now_us); }
+    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) override {
+        s_.count_vote(voter, slot, vote, epoch);
+    }
+    void settle_membership(std::uint64_t now_us) override { s_.settle_membership(now_us); }
+    void remote_checksum(PlayerId from, std::uint32_t frame, std::uint64_t checksum) override {
+        s_.detector_->add_remote(from, frame, checksum);
+    }
+    void neutral_from(PlayerId slot, std::uint32_t frame) override {
+        s_.emit(SessionEvent::Kind::NeutralFrom, slot, frame, s_.last_now_us_);
+    }
+    bool failed() const override { return s_.phase_ == SessionPhase::Failed; }
+
+private:
+    SessionImpl& s_;
+};
+
 void SessionImpl::malformed(PlayerId from, const char* why) {
     ++stats_.malformed_packets;
     ++stats_.peers[from].malformed_packets;
@@ -301,7 +323,10 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
                 handshake_.peer_started();  // it plays already: follow it
                 maybe_start(now_us);
             }
-            return handle_input(from, now_us);
+            {
+                IntakeFx fx(*this);
+                return InputIntake(intake_state(), fx).apply(from, in_msg_, now_us);
+            }
         case MessageKind::Query: {
             if (const char* e = decode(datagram, query_msg_)) return malformed(from, e);
             if (replies_this_poll_[from] >= config_.max_replies_per_poll) {
@@ -445,131 +470,9 @@ void SessionImpl::start_running(std::uint64_t now_us) {
          "input delay " + std::to_string(input_delay_) + ", worst sync rtt " + std::to_string(worst / 1000) + " ms");
 }
 
-void SessionImpl::handle_input(PlayerId from, std::uint64_t now_us) {
-    const InputMessage& m = in_msg_;
-    PeerLink& link = links_[from];
-    const bool from_player = is_slot(from);
-    const bool i_play = config_.role != Role::Spectator;
-    const PlayerId me = config_.local_player;
-    // Unwrap every frame before applying anything, so a bad packet changes nothing.
-    InputReferences refs;
-    refs.from_player = from_player;
-    refs.takes_ack = from_player && i_play;
-    refs.our_count = i_play ? count_of(me) : 0;
-    refs.its_count = from_player ? count_of(from) : 0;
-    refs.frame = sync_->frame();
-    refs.newest_checksum = detector_->newest_local();
-    refs.players = config_.players;
-    InputFrames frames;
-    if (const char* e = unwrap_input(m, refs, frames)) return malformed(from, e);
-    const auto& [ack, first, sender_frame, checksum_frames] = frames;
-
-    if (ack && link.take_ack(*ack)) refresh_resend_floor();
-    if (first) {
-        const std::size_t n = config_.input_size;
-        for (std::uint32_t k = 0; k < m.frame_count; ++k) {
-            const std::uint32_t f = *first + k;
-            const auto in = std::span(m.inputs).subspan(k * n, n);
-            const auto r = sync_->add_remote_input(from, f, in);
-            if (!owner_copy(from, f, in, r)) return malformed(from, "input message: rewrites a confirmed input");
-            if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;  // resent later
-        }
-    }
-    if (m.has_extension) {
-        apply_slot_table(from, now_us);
-        if (phase_ == SessionPhase::Failed) return;
-        apply_blocks(from);
-    }
-    if (sender_frame) {
-        // An honest peer is never farther from us than input delay plus prediction window (plus
-        // the time sync's own slack); a claim beyond that is clipped, so one forged message
-        // cannot make us wait thousands of frames.
-        const std::int64_t bound = pacing_.advantage_bound(input_delay_);
-        link.note_remote_frame(*sender_frame, clamp_i8(std::clamp<std::int64_t>(m.advantage, -bound, bound)), now_us);
-        link.take_stamps(m.stamp, m.echo, m.hold, now_us);
-    }
-    for (int i = 0; i < m.checksum_count; ++i) detector_->add_remote(from, checksum_frames[i], m.checksums[i]);
-}
-
-// The sender's table: its counts (relays, agreement), and its vote about every running slot.
-// About a running slot, "disconnected" in a newer epoch is the sender's vote that it is gone and
-// "running" in our epoch its vote that it runs; only a majority of such votes drops the slot
-// (settle_membership). "Running" in a newer epoch is a hand-over to a new process (the owner's
-// word, adopted as before), and so is any newer epoch of a slot that does not run here (a join,
-// or a drop we missed). The sender's entries about itself and its guests say nothing new, and
-// nobody but this session's own process hands over this session's slots.
-void SessionImpl::apply_slot_table(PlayerId from, std::uint64_t now_us) {
-    PeerLink& link = links_[from];
-    for (const SlotEntry& e : in_msg_.slots) {
-        const std::size_t s = e.slot;
-        const auto count = unwrap_frame(e.count, count_of(e.slot));
-        link.table[s] = e;
-        link.table_seen[s] = true;
-        link.counts_at_us = now_us;
-        if (count) {
-            link.counts[s] = *count;
-            link.has_count[s] = true;
-        }
-        if (!is_slot(from)) continue;            // spectators report counts, never vote
-        if (host_of(e.slot) == from) continue;   // a player's own entry says nothing new
-        if (config_.role == Role::Spectator) {
-            // A spectator follows the view of the players that serve it (they send it the view,
-            // not their votes).
-            if (newer_epoch(e.epoch, membership_.epoch(e.slot))) adopt_slot(e.slot, e, now_us);
-            continue;
-        }
-        const bool mine = config_.role != Role::Spectator && (e.slot == config_.local_player || my_guest(e.slot));
-        const bool newer = newer_epoch(e.epoch, membership_.epoch(e.slot));
-        if (!slot_running(e.slot)) {
-            if (newer && !mine) adopt_slot(e.slot, e, now_us);
-        } else if (e.state == SlotState::Running && newer) {
-            if (!mine) adopt_slot(e.slot, e, now_us);
-        } else {
-            count_vote(from, e.slot, e.state == SlotState::Running ? Vote::Runs : Vote::Gone, e.epoch);
-        }
-        if (phase_ == SessionPhase::Failed) return;
-    }
-    settle_membership(now_us);
-    if (phase_ == SessionPhase::Failed) return;
-    if (config_.role == Role::Spectator) return;
-    // What the sender holds of our stream (a spectator or joiner reports it here).
-    const PlayerId me = config_.local_player;
-    if (link.has_count[me] && link.counts[me] > link.remote_ack && link.counts[me] <= count_of(me)) {
-        link.remote_ack = link.counts[me];
-        refresh_resend_floor();
-    }
-}
-
-// Inputs of other slots' streams, forwarded by the sender. Accepted only for streams whose
-// player is not the sender's connection itself (that is the base message's job) and, for a
-// running slot, never from anyone while the slot's own process sends them: only gaps are filled,
-// and a forwarded input that contradicts a confirmed one is a protocol violation like any other.
-void SessionImpl::apply_blocks(PlayerId from) {
-    const std::size_t n = config_.input_size;
-    for (const StreamBlock& b : in_msg_.blocks) {
-        if (is_slot(from) && b.slot == from) continue;
-        if (config_.role != Role::Spectator && (b.slot == config_.local_player || my_guest(b.slot))) continue;
-        const auto first = unwrap_frame(b.first_frame, count_of(b.slot));
-        if (!first) continue;
-        if (relayed_block(from, b, *first)) {
-            if (phase_ == SessionPhase::Failed || links_[from].error()) return;
-            continue;
-        }
-        for (std::uint32_t k = 0; k < b.frame_count; ++k) {
-            const auto r = sync_->add_remote_input(b.slot, *first + k, std::span(b.inputs).subspan(k * n, n), b.absent);
-            if (r == InputQueue::Add::Conflict) return malformed(from, "input message: relayed input contradicts a confirmed one");
-            if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
-        }
-        SlotView& v = slots_[b.slot];
-        if (b.absent && !v.neutral_reported && !slot_running(b.slot)) {
-            v.neutral_reported = true;
-            // The first absent input of this epoch tells the agreed frame.
-            std::uint32_t f = count_of(b.slot);
-            const InputQueue& q = sync_->queue(b.slot);
-            while (f > q.floor() && q.confirmed_absent(f - 1)) --f;
-            emit(SessionEvent::Kind::NeutralFrom, b.slot, f, last_now_us_);
-        }
-    }
+IntakeState SessionImpl::intake_state() {
+    return {config_, membership_, *sync_, *authority_, links_, slots_, stats_.peers, detector_->newest_local(),
+            pacing_.advantage_bound(input_delay_)};
 }
 
 // Our stream is kept back to the oldest input a live peer has not acknowledged. With no live
@@ -831,98 +734,35 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
     }
 }
 
+// Who may be served and which offer goes out are JoinHandoff's (rollback/join_handoff.h); what
+// the session does about it -- sending, events, the resend floor -- stays here.
+class SessionImpl::JoinFx final : public JoinEffects {
+public:
+    explicit JoinFx(SessionImpl& s) : s_(s) {}
+    void send(PlayerId to, std::vector<std::uint8_t> bytes) override { s_.send_control(to, std::move(bytes)); }
+    void malformed(PlayerId from, const char* why) override { s_.malformed(from, why); }
+    bool desynced(PlayerId peer) const override { return s_.detector_->desynced(peer); }
+    std::uint32_t handoff_target(PlayerId slot) const override {
+        return s_.local_target() + s_.lead_frames(s_.links_[slot].rtt_us());
+    }
+    void joined(PlayerId slot, std::uint32_t handoff, std::uint32_t frame, std::uint64_t now_us) override {
+        s_.detector_->reset_peer(slot);
+        s_.emit(SessionEvent::Kind::Joined, slot, handoff, now_us, "snapshot of frame " + std::to_string(frame));
+    }
+    void spectator_joined(PlayerId peer, std::uint32_t frame, std::uint64_t now_us) override {
+        s_.emit(SessionEvent::Kind::SpectatorJoined, peer, frame, now_us);
+    }
+    void acked() override { s_.refresh_resend_floor(); }
+
+private:
+    SessionImpl& s_;
+};
+
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
-    if (m.transfer_id != 0) {
-        SnapshotChunkMessage c;
-        switch (server_.chunk(from, m, c)) {
-            case SnapshotServer::Chunk::NotOurs: return void(++stats_.peers[from].ignored_packets);
-            case SnapshotServer::Chunk::OutOfRange: return malformed(from, "snapshot request: chunk out of range");
-            case SnapshotServer::Chunk::Ready: break;
-        }
-        if (replies_this_poll_[from] >= kMaxChunksPerPoll) return void(++stats_.peers[from].ignored_packets);
-        ++replies_this_poll_[from];
-        server_.damage_next(c);
-        std::vector<std::uint8_t> b;
-        encode(c, b);
-        send_control(from, std::move(b));
-        return;
-    }
-    if (phase_ != SessionPhase::Running || config_.role == Role::Spectator) return;
-    // A recovery is served only to a running player whose confirmed checksums this session has
-    // seen differ from its own, and only when recoveries are on: a request is a claim, and
-    // answering every one would turn a few bytes into a whole snapshot (an amplifier).
-    if (m.reason == TransferReason::Recover &&
-        (config_.max_recoveries == 0 || !is_slot(from) || !slot_running(from) || !detector_->desynced(from)))
-        return void(++stats_.peers[from].ignored_packets);
-    // The same peer asking again while its offer is young: the same offer (SnapshotServer).
-    const SnapshotOfferMessage* repeat = nullptr;
-    switch (server_.consider(from, m.reason, now_us, &repeat)) {
-        case SnapshotServer::Ask::Repeat: {
-            std::vector<std::uint8_t> b;
-            encode(*repeat, b);
-            return send_control(from, std::move(b));
-        }
-        case SnapshotServer::Ask::TooSoon: return void(++stats_.peers[from].ignored_packets);
-        case SnapshotServer::Ask::Pack: break;
-    }
-    const std::uint32_t c = sync_->confirmed_frame();
-    std::uint32_t handoff = 0;
-    switch (m.reason) {
-        case TransferReason::Join: {
-            // Only the owner hands a slot over, and only once it writes the slot's neutral input
-            // (the drop is agreed): it picks the handoff frame, far enough ahead that the
-            // joiner's first input reaches everyone before they need it.
-            if (!is_slot(from) || slot_running(from) || !slots_[from].authoring) return;
-            // Its last handoff lapsed (check_handoff): not again before the backoff ends.
-            if (now_us < slots_[from].next_handoff_us) return;
-            handoff = std::max(count_of(from), local_target() + lead_frames(links_[from].rtt_us()));
-            static const std::vector<std::uint8_t> zeros(kMaxInputSize, 0);
-            while (count_of(from) < handoff)
-                if (sync_->add_remote_input(from, count_of(from), std::span(zeros.data(), config_.input_size), true) !=
-                    InputQueue::Add::Stored)
-                    return;  // queue full: not now
-            SlotView& v = slots_[from];
-            membership_.set(from, SlotState::Running, static_cast<std::uint8_t>(membership_.epoch(from) + 1));
-            v.new_epoch();
-            v.handoff = handoff;
-            v.handed_off_by_me = true;
-            PeerLink& l = links_[from];
-            l.reset_lifecycle(static_cast<std::size_t>(config_.players));
-            l.welcomed = true;
-            l.welcomed_epoch = membership_.epoch(from);
-            l.mark_heard(now_us);
-            detector_->reset_peer(from);
-            emit(SessionEvent::Kind::Joined, from, handoff, now_us, "snapshot of frame " + std::to_string(c));
-            break;
-        }
-        case TransferReason::Spectate:
-            if (is_slot(from)) return;
-            links_[from].reset_lifecycle(static_cast<std::size_t>(config_.players));
-            links_[from].mark_heard(now_us);
-            emit(SessionEvent::Kind::SpectatorJoined, from, c, now_us);
-            break;
-        case TransferReason::Recover:
-            break;  // checked above
-    }
-    TransferContents t;
-    if (!sync_->transfer_contents(c, true, t)) return;
-    const std::size_t n = config_.input_size;
-    // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
-    TransferSender::Transfer& out = server_.offer(from, m.reason, t, n, now_us);
-    out.offer.handoff_frame = handoff;
-    for (int s = 0; s < config_.players; ++s)
-        out.offer.slots.push_back({static_cast<std::uint8_t>(s), slot_state(static_cast<PlayerId>(s)),
-                                   membership_.epoch(static_cast<PlayerId>(s)), 0});
-    // Keep what the newcomer will ask us for next: every stream from the snapshot on.
-    PeerLink& l = links_[from];
-    l.pin_from = c;
-    l.pin_until_us = now_us + 30'000'000;
-    if (config_.role != Role::Spectator && m.reason != TransferReason::Recover)
-        l.remote_ack = count_of(config_.local_player);
-    std::vector<std::uint8_t> b;
-    encode(out.offer, b);
-    send_control(from, std::move(b));
-    refresh_resend_floor();
+    JoinFx fx(*this);
+    const JoinState state{config_, membership_, *sync_, server_, links_, slots_, stats_.peers, replies_this_poll_,
+                          phase_ == SessionPhase::Running};
+    JoinHandoff(state, fx).request(from, m, now_us);
 }
 
 void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {
@@ -975,17 +815,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
         refresh_resend_floor();
         return;
     }
-    for (const SlotEntry& e : offer.slots) {
-        SlotView& v = slots_[e.slot];
-        membership_.set(e.slot, e.state, e.epoch);
-        v.new_epoch();  // a newcomer has handed nothing over
-        v.neutral_reported = e.state != SlotState::Running;
-    }
-    for (auto& link : links_) {
-        link.heard = link.welcomed;
-        link.last_heard_us = now_us;
-        link.interrupted = false;
-    }
+    JoinHandoff::take_view(offer, membership_, slots_, links_, now_us);
     if (config_.role == Role::Joiner) {
         joining_ = true;
         own_inputs_from_ = offer.handoff_frame;
@@ -1141,64 +971,3 @@ void SessionImpl::set_input_delay(int frames) {
 void SessionImpl::damage_outgoing_chunks(int count, ChunkDamage how) { server_.damage(count, how); }
 
 }  // namespace lockroll::rollback
-
-namespace lockroll::rollback {
-
-// The owner's own input of `slot` at frame f came in (added: what the queue made of it). Equal to
-// a relayed copy: verified. Different from a relayed copy: the owner wins -- its input replaces
-// the relay's where no confirmed frame rests on it yet, and the relay is counted and ignored; if
-// a confirmed frame already rests on it, it stands (the checksums tell; recovery repairs) and
-// the owner is not blamed. False only when the owner contradicts an input nobody relayed: it
-// rewrote its own past.
-bool SessionImpl::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
-    if (added == InputQueue::Add::Duplicate) authority_->verified(slot, f);
-    if (added != InputQueue::Add::Conflict) return true;
-    const auto relay = authority_->relay_of(slot, f);
-    if (!relay) return false;
-    const bool replaced = sync_->replace_remote_input(slot, f, input);
-    if (authority_->owner_disagrees(slot, f, replaced) && *relay < stats_.peers.size())
-        stats_.peers[*relay].relay_disagreements = authority_->disagreements(*relay);
-    return true;
-}
-
-// A block of a running slot's stream, not from this session's own streams: its owner's (a host
-// sends its guests' streams as blocks), or a relay's claim that fills only what the owner's
-// stream has not delivered. True when handled here; false for every other block (absent
-// streams, spectators' views), which apply_blocks takes as before.
-bool SessionImpl::relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first) {
-    if (config_.role == Role::Spectator || b.absent || !slot_running(b.slot)) return false;
-    const std::size_t n = config_.input_size;
-    const bool owner = is_slot(from) && host_of(b.slot) == from;
-    if (!owner && authority_->ignored(from)) {
-        ++stats_.peers[from].ignored_packets;
-        return true;
-    }
-    for (std::uint32_t k = 0; k < b.frame_count; ++k) {
-        const std::uint32_t f = first + k;
-        const auto in = std::span(b.inputs).subspan(k * n, n);
-        const auto r = sync_->add_remote_input(b.slot, f, in, false);
-        if (owner) {
-            if (!owner_copy(b.slot, f, in, r)) {
-                malformed(from, "input message: rewrites a confirmed input of its guest");
-                return true;
-            }
-        } else if (r == InputQueue::Add::Stored) {
-            authority_->note_relayed(b.slot, f, from);
-        } else if (r == InputQueue::Add::Duplicate) {
-            authority_->vouch(b.slot, f, from);
-        } else if (r == InputQueue::Add::Conflict) {
-            // Against another relay's claim the owner decides later; against the owner's own
-            // input this relay is wrong: counted and ignored, never a drop of the owner.
-            if (!authority_->relay_of(b.slot, f)) {
-                authority_->relay_disagrees(from);
-                stats_.peers[from].relay_disagreements = authority_->disagreements(from);
-            }
-            return true;
-        }
-        if (r == InputQueue::Add::Gap || r == InputQueue::Add::TooFarAhead) break;
-    }
-    return true;
-}
-
-}  // namespace lockroll::rollback
-

@@ -21,6 +21,7 @@
 #include "rollback/events.h"
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
+#include "rollback/input_intake.h"
 #include "rollback/membership.h"
 #include "rollback/membership_changes.h"
 #include "rollback/peer_link.h"
@@ -136,7 +137,8 @@ private:
     AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
     int catch_up_impl(std::uint64_t now_us, int max_frames);
-    void handle_input(PlayerId from, std::uint64_t now_us);
+    class IntakeFx;  // what a peer's input message asks of the session (rollback/input_intake.h)
+    IntakeState intake_state();
     std::uint32_t lead_frames(std::uint64_t rtt_us) const;
     // A live player peer: its pace counts for time sync (pacing_).
     bool paces(PlayerId p) const;
@@ -144,11 +146,10 @@ private:
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
     void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
+    class JoinFx;  // what a snapshot request asks of the session (rollback/join_handoff.h)
     void handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us);
     void handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us);
     void handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us);
-    void apply_slot_table(PlayerId from, std::uint64_t now_us);
-    void apply_blocks(PlayerId from);
     void malformed(PlayerId from, const char* why);
     void confirm_frames();
     std::uint32_t confirm_limit() const;
@@ -236,10 +237,8 @@ private:
     SnapshotOfferMessage snap_offer_msg_;
     SnapshotChunkMessage snap_chunk_msg_;
     // Relayed inputs only fill gaps (rollback/input_authority.h): who wrote each running slot's
-    // unverified inputs, and the owner's own copy of frame f of `slot` settling it.
+    // unverified inputs; the owner's own copy settles them (rollback/input_intake.h).
     std::unique_ptr<InputAuthority> authority_;
-    bool owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added);
-    bool relayed_block(PlayerId from, const StreamBlock& b, std::uint32_t first);
 };
 
 }  // namespace lockroll::rollback

@@ -1,7 +1,8 @@
 // SnapshotServer: the providing side of a P2P snapshot transfer -- a running peer serving a
 // joiner, a spectator or a desynced peer -- over the bounded offers of TransferSender
 // (rollback/snapshot_transfer.h). Who may be served at all (the owner's handoff, a recovery only
-// to a peer seen desynced) is the session's rule; this is what a served request costs.
+// to a peer seen desynced) is JoinHandoff's rule (rollback/join_handoff.h); this is what a served
+// request costs.
 //
 // Contract
 //  - A request for an offer is a claim of a few bytes that costs a whole state packed: the same
