@@ -66,7 +66,7 @@
 //    (catch_up()), and plays. Nobody pauses.
 //  - Desync recovery (max_recoveries > 0): after narrowing, the peer whose confirmed checksum is
 //    in the minority (two players: config.two_player_keep decides) reloads the majority's
-//    snapshot the same way.
+//    snapshot the same way (the rule is rollback/arbitration.h's, the relay server's too).
 //  - Events for every transition come out of next_event() (requests, not callbacks).
 //
 // Session is a facade: it owns its state machine (SessionImpl, rollback/session_impl.h, not
