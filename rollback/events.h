@@ -6,6 +6,10 @@
 //    the session ended) is never lost.
 //  - SessionObserver: callbacks for every frame simulated, rollback, confirmation and desync,
 //    the hooks the harness measures with and a replay records from (rollback/replay.h).
+// A desync is reported once: one DesyncDetected event per (peer, frame), and on_desync is that
+// same event delivered as a callback (with both checksums), at the same moment -- not a second
+// report. Later facts about it go to its own kinds: DesyncRecovered (this session was the
+// minority and reloaded), and NetSession's DesyncReport (narrowing ended).
 //
 // Frame numbers are state numbers throughout rollback/: "frame n" is the state after n steps
 // (sim::World::frame() == n; frame 0 is the initial state), and "the input of frame n" is what
@@ -41,8 +45,12 @@ struct SessionEvent {
         SpectatorJoined,
         SnapshotLoaded,  // this session loaded a snapshot of `frame`
         SnapshotRejected,  // a transfer failed verification; asked again
-        DesyncDetected,  // frame: first mismatching confirmed frame with `peer`
-        DesyncRecovered, // this session reloaded the majority's state at `frame`
+        DesyncDetected,  // frame: first mismatching confirmed frame with `peer`; once per
+                         // (peer, frame), the same desync on_desync delivers (relay: one per
+                         // server verdict; `peer` is this client's own slot, while on_desync's
+                         // is the slot the verdict names to reload from)
+        DesyncRecovered, // this session reloaded the majority's state at `frame` (`peer`: whose);
+                         // detail: the frame at which it was the minority (or a tie's other side)
         Kicked,          // the others dropped this session's slot
         Failed,          // the session cannot go on; detail says why
         Draining,        // relay: the server is shutting down (the match may finish)
@@ -91,6 +99,7 @@ struct FrameConfirmed {
 
 // The checksums of a confirmed frame differ between this client and `peer`. Fired once per
 // peer (the first mismatch; every later one is counted in the stats), then narrowing starts.
+// It is the DesyncDetected event of the same (peer, frame) as a callback, not a second report.
 struct DesyncEvent {
     PlayerId peer = 0;
     std::uint32_t frame = 0;

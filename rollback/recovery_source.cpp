@@ -1,29 +1,31 @@
 #include "rollback/recovery_source.h"
 
-#include <algorithm>
-#include <map>
-#include <vector>
+#include <array>
+#include <bit>
+
+#include "rollback/arbitration.h"
 
 namespace lockroll::rollback {
 
 std::optional<PlayerId> recovery_source(PlayerId me, std::uint64_t mine,
                                         std::span<const std::pair<PlayerId, std::uint64_t>> theirs, DesyncKeep keep) {
-    // value (low 32 bits) -> slots holding it
-    std::map<std::uint32_t, std::vector<PlayerId>> groups;
-    groups[static_cast<std::uint32_t>(mine)].push_back(me);
-    for (const auto& [slot, value] : theirs) groups[static_cast<std::uint32_t>(value)].push_back(slot);
-    const std::vector<PlayerId>* best = nullptr;
-    for (auto& [value, slots] : groups) {
-        std::sort(slots.begin(), slots.end());
-        if (!best || slots.size() > best->size()) {
-            best = &slots;
-        } else if (slots.size() == best->size()) {
-            const bool lower = slots.front() < best->front();
-            if (lower == (keep == DesyncKeep::LowestSlot)) best = &slots;
-        }
-    }
-    if (std::find(best->begin(), best->end(), me) != best->end()) return std::nullopt;  // the odd ones reload
-    return best->front();
+    // An input message carries the low 32 bits of a checksum: compare only those.
+    std::array<std::uint64_t, kMaxPlayers> values{};
+    std::uint64_t voted = 0;
+    const auto vote = [&](PlayerId slot, std::uint64_t value) {
+        if (slot >= kMaxPlayers) return;
+        values[slot] = static_cast<std::uint32_t>(value);
+        voted |= std::uint64_t{1} << slot;
+    };
+    vote(me, mine);
+    for (const auto& [slot, value] : theirs)
+        if (slot != me) vote(slot, value);
+    // P2P always keeps one side of a tie (two players included): two_player_keep names it.
+    const ArbitrationRule rule{keep == DesyncKeep::LowestSlot ? ArbitrationTie::LowestSlot : ArbitrationTie::HighestSlot,
+                               false};
+    const ArbitrationVerdict v = arbitrate(values, voted, std::popcount(voted), rule);
+    if (v.is_winner(me)) return std::nullopt;  // the odd ones reload
+    return static_cast<PlayerId>(v.lowest_winner());
 }
 
 }  // namespace lockroll::rollback

@@ -4,7 +4,8 @@
 // highest, DesyncKeep::HighestSlot). Only the low 32 bits of a checksum are compared.
 //
 // Contract: nullopt when `me` is in the group kept (the others reload); else the lowest slot of
-// that group, whose state `me` reloads. Pure: no session, no time.
+// that group, whose state `me` reloads. Pure: no session, no time. The rule itself is
+// rollback/arbitration.h's, the one the relay server's rooms decide with.
 #pragma once
 
 #include <cstdint>

@@ -808,10 +808,13 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     for (auto& link : links_) link.time_sync().clear();
     if (offer.reason == TransferReason::Recover) {
         ++recoveries_;
+        const std::uint32_t odd_at = mismatch_frame_.value_or(t.frame);
         recover_from_.reset();
         mismatch_frame_.reset();
         emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us,
-             "reloaded peer " + std::to_string(from) + "'s confirmed frame " + std::to_string(t.frame));
+             "this peer was in the minority at frame " + std::to_string(odd_at) +
+                 " (or a tie's other side: two_player_keep); reloaded peer " + std::to_string(from) +
+                 "'s confirmed frame " + std::to_string(t.frame));
         refresh_resend_floor();
         return;
     }
@@ -866,9 +869,7 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
         return;
     }
     recover_from_ = *source;
-    fetch_.ask_again();
-    emit(SessionEvent::Kind::DesyncDetected, *recover_from_, f, now_us,
-         "this peer is in the minority; reloading peer " + std::to_string(*recover_from_) + "'s state");
+    fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd
 }
 
 StreamView SessionImpl::stream_view() const {

@@ -29,7 +29,9 @@
 //  - Inputs travel unreliably and redundantly: each poll() sends every peer all local inputs it
 //    has not acknowledged, plus an ack, so loss costs latency, never correctness.
 //  - Confirmed-frame checksums ride along every checksum_interval frames; a mismatch fires
-//    SessionObserver::on_desync and then a DesyncReport naming the first differing body/field.
+//    one DesyncDetected event per (peer, frame), delivered also as SessionObserver::on_desync
+//    (the same event, not a second report), then a DesyncReport naming the first differing
+//    body/field.
 //  - Malformed datagrams are counted; after max_bad_packets the peer is ignored for good.
 //  - No exceptions across per-tick calls: receive, advance, poll, catch_up and next_event are
 //    noexcept. Errors come back as values (counters in stats(), AdvanceResult) or events; what
@@ -66,7 +68,7 @@
 //    (catch_up()), and plays. Nobody pauses.
 //  - Desync recovery (max_recoveries > 0): after narrowing, the peer whose confirmed checksum is
 //    in the minority (two players: config.two_player_keep decides) reloads the majority's
-//    snapshot the same way.
+//    snapshot the same way (the rule is rollback/arbitration.h's, the relay server's too).
 //  - Events for every transition come out of next_event() (requests, not callbacks).
 //
 // Session is a facade: it owns its state machine (SessionImpl, rollback/session_impl.h, not

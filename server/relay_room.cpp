@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rollback/arbitration.h"
+
 namespace lockroll::server {
 
 using namespace lockroll::rollback;
@@ -580,27 +582,15 @@ void RelayRoom::decide(Check& c, Outbox& out) {
     decided_.push_back(c.frame);
     if (decided_.size() > kMaxPendingChecks) decided_.pop_front();
     if (ended_without_majority_) return;  // the match is over: nothing left to settle
-    // The value most slots report; on a tie, the one of the lowest slot among the tied values.
-    int best_count = 0;
-    int voters = 0;
-    std::uint64_t best = 0;
-    for (int p = 0; p < players_; ++p) {
-        if (!(c.have & (1u << p))) continue;
-        ++voters;
-        int n = 0;
-        for (int q = 0; q < players_; ++q)
-            if ((c.have & (1u << q)) && c.value[static_cast<std::size_t>(q)] == c.value[static_cast<std::size_t>(p)]) ++n;
-        if (n > best_count) {
-            best_count = n;
-            best = c.value[static_cast<std::size_t>(p)];
-        }
-    }
     int running = 0;
     for (int p = 0; p < players_; ++p)
         if (is_primary(p) && slots_[static_cast<std::size_t>(p)].state == SlotState::Running) ++running;
-    const bool strict_majority = 2 * best_count > voters;
-    if (voters == 2 && running == 2 && !strict_majority &&
-        config_.two_player_desync == TwoPlayerDesync::EndMatch) {
+    // The value most slots report; on a tie, the one of the lowest slot among the tied values;
+    // two disagreeing voters alone under EndMatch: nobody (rollback/arbitration.h, P2P's rule).
+    const rollback::ArbitrationRule rule{rollback::ArbitrationTie::LowestSlot,
+                                         config_.two_player_desync == TwoPlayerDesync::EndMatch};
+    const rollback::ArbitrationVerdict verdict = rollback::arbitrate(c.value, c.have, running, rule);
+    if (verdict.no_majority) {
         // Neither can be shown wrong: reloading one from the other would let a liar make its
         // honest peer reload for ever. Both are told, and the match ends for both.
         ended_without_majority_ = true;
@@ -619,16 +609,19 @@ void RelayRoom::decide(Check& c, Outbox& out) {
         }
         return;
     }
+    const std::uint64_t best = verdict.value;
+    const int voters = verdict.voters;
+    const bool strict_majority = verdict.strict_majority;
     int source = kNoSlot;
     for (int p = 0; p < players_; ++p)
-        if ((c.have & (1u << p)) && c.value[static_cast<std::size_t>(p)] == best && slots_[static_cast<std::size_t>(p)].connected) {
+        if (verdict.is_winner(p) && slots_[static_cast<std::size_t>(p)].connected) {
             source = p;
             break;
         }
     for (int p = 0; p < players_; ++p) {
         if (!(c.have & (1u << p))) continue;
         Slot& s = slots_[static_cast<std::size_t>(p)];
-        if (c.value[static_cast<std::size_t>(p)] == best) {
+        if (verdict.is_winner(p)) {
             s.counters.minority_streak = 0;
             continue;
         }

@@ -20,13 +20,15 @@
 //    joiner, a reconnecting player or a spectator that loaded a snapshot of a recent frame gets
 //    every frame after it from the room.
 //  - Checksums: clients report confirmed checksums of multiples of checksum_interval. Once every
-//    running slot reported a frame (or checksum_timeout_frames later), the majority value wins;
+//    running slot reported a frame (or checksum_timeout_frames later), the checksums are
+//    arbitrated by rollback/arbitration.h (the rule P2P recovery uses): the majority value wins;
 //    a slot in the minority is sent a Desync notice naming a majority slot to reload from.
 //    No majority between two voters (a round whose only two reports disagree, in a room of two
 //    running connections): RoomConfig::two_player_desync decides. EndMatch (the default): both
 //    are sent a Desync notice naming kRelayNoMajority, and fail "no majority"; the room decides
 //    no more rounds. KeepLowestSlot: P2P's DesyncKeep::LowestSlot, the higher slot reloads from
-//    the lower. Three or more voters split with no strict majority: the lowest slot's group.
+//    the lower. Three or more voters split with no strict majority: the biggest group wins, and
+//    among equally big ones the group of the lowest slot.
 //  - Liars: a connection in the minority against a strict majority (3+ voters) in
 //    max_minority_rounds decided rounds in a row is handed to the server to kick
 //    (take_kicks()), after a Kicked notice. Its slots are then banned for the rest of the

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <map>
 #include <set>
 
@@ -523,7 +524,9 @@ TEST(Lifecycle, AJoinerThatCannotLoadLapsesAndTheOthersPlayOn) {
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
-TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
+// Three players, one recovery allowed; client 2's body is kicked at frame 150, so client 2 is
+// the odd one. Runs to frame 600, settled, then hands the cluster and the body to `check`.
+void run_injected_desync(const std::function<void(const Cluster&, std::uint32_t body)>& check) {
     const auto scene = make_scene(3, 20);
     SessionConfig cfg = real_config(3, 8);
     cfg.max_recoveries = 1;
@@ -533,15 +536,49 @@ TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
     ASSERT_EQ(cluster.clients[2]->session->inject_fault(150, body, 0, 20), "");
     cluster.run_frames(600, 60'000'000);
     cluster.settle(600);
-    const Client& odd = *cluster.clients[2];
-    ASSERT_FALSE(odd.reports.empty());
-    EXPECT_EQ(odd.reports[0].frame, 150u);
-    EXPECT_EQ(odd.reports[0].body_id, body);
-    EXPECT_EQ(odd.session->recoveries(), 1);
-    EXPECT_EQ(events_of(odd, Kind::DesyncRecovered).size(), 1u);
-    EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
-    EXPECT_EQ(cluster.clients[1]->session->recoveries(), 0);
+    check(cluster, body);
     expect_equal_at(cluster, 600);
+}
+
+TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
+    run_injected_desync([](const Cluster& cluster, std::uint32_t body) {
+        const Client& odd = *cluster.clients[2];
+        ASSERT_FALSE(odd.reports.empty());
+        EXPECT_EQ(odd.reports[0].frame, 150u);
+        EXPECT_EQ(odd.reports[0].body_id, body);
+        EXPECT_EQ(odd.session->recoveries(), 1);
+        EXPECT_EQ(events_of(odd, Kind::DesyncRecovered).size(), 1u);
+        EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
+        EXPECT_EQ(cluster.clients[1]->session->recoveries(), 0);
+    });
+}
+
+// A desync is reported once (issue 21: one event stream): one `DesyncDetected` per peer whose
+// confirmed checksums differ, the same (peer, frame) the observer's on_desync callback gets; that
+// this peer was the minority is said by its `DesyncRecovered`. Before, the odd one emitted a
+// second DesyncDetected, naming the peer it reloads from, when it decided to reload.
+TEST(Lifecycle, ADesyncIsReportedOncePerPeerAndTheRecoveryNamesTheMinority) {
+    run_injected_desync([](const Cluster& cluster, std::uint32_t) {
+        for (PlayerId id = 0; id < 3; ++id) {
+            const Client& c = *cluster.clients[id];
+            const auto detected = events_of(c, Kind::DesyncDetected);
+            const std::vector<PlayerId> expected = id == 2 ? std::vector<PlayerId>{0, 1} : std::vector<PlayerId>{2};
+            ASSERT_EQ(detected.size(), expected.size()) << "client " << id;
+            ASSERT_EQ(c.desyncs.size(), expected.size()) << "client " << id;
+            std::set<PlayerId> peers;
+            for (std::size_t i = 0; i < detected.size(); ++i) {
+                peers.insert(detected[i]->peer);
+                EXPECT_EQ(detected[i]->peer, c.desyncs[i].peer) << "client " << id << ": the callback is the same event";
+                EXPECT_EQ(detected[i]->frame, c.desyncs[i].frame) << "client " << id;
+            }
+            EXPECT_EQ(peers, std::set<PlayerId>(expected.begin(), expected.end())) << "client " << id;
+        }
+        const Client& odd = *cluster.clients[2];
+        const auto recovered = events_of(odd, Kind::DesyncRecovered);
+        ASSERT_EQ(recovered.size(), 1u);
+        EXPECT_NE(recovered[0]->detail.find("minority at frame " + std::to_string(odd.desyncs[0].frame)), std::string::npos)
+            << recovered[0]->detail;
+    });
 }
 
 // A snapshot request is a claim. "Recover" from a peer whose confirmed checksums agree with
