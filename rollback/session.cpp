@@ -8,6 +8,7 @@
 #include "rollback/recovery_source.h"
 #include "rollback/rejoin.h"
 #include "rollback/session_admission.h"
+#include "rollback/session_effects.h"
 
 #include <algorithm>
 #include <array>
@@ -60,30 +61,6 @@ public:
 private:
     SessionImpl& s_;
     SessionObserver* next_;
-};
-
-// The rest of the session as the membership changes and the authored streams see it.
-class SessionImpl::Effects final : public MembershipEffects, public AuthoringEffects {
-public:
-    explicit Effects(SessionImpl& s) : s_(s) {}
-    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) override {
-        s_.emit(kind, peer, frame, now_us, std::move(detail));
-    }
-    void fail_dropped(std::uint64_t now_us) override { s_.fail(drop_failure(s_.config_), now_us); }
-    void slot_changed_hands(PlayerId slot) override { s_.authority_->reset_slot(slot); }
-    void peer_failed(PlayerId peer) override { s_.detector_->peer_failed(peer); }
-    void peer_replaced(PlayerId peer) override { s_.detector_->reset_peer(peer); }
-    void live_peers_changed() override { s_.refresh_resend_floor(); }
-    bool live_peer(PlayerId peer) const override { return s_.live_peer(peer); }
-    std::uint32_t frame() const override { return s_.frame(); }
-    std::uint32_t confirmed_frame() const override { return s_.confirmed_frame(); }
-    const InputQueue& stream(PlayerId slot) const override { return s_.sync_->queue(slot); }
-    InputQueue::Add write(PlayerId slot, std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) override {
-        return s_.sync_->add_remote_input(slot, frame, input, absent);
-    }
-
-private:
-    SessionImpl& s_;
 };
 
 // A game that saved more than it declared: its states cannot be kept, so the session stops.

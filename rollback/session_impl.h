@@ -205,7 +205,7 @@ private:
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
     // What the session does about the view, and the streams it writes besides its own (after the
-    // state they borrow); Effects (session.cpp) is the rest of the session as they see it.
+    // state they borrow); Effects (rollback/session_effects.h) is the rest of the session as they see it.
     class Effects;
     std::unique_ptr<Effects> effects_;
     MembershipChanges changes_;
