@@ -1,5 +1,6 @@
 #include "rollback/session_impl.h"
 
+#include "rollback/confirm_floors.h"
 #include "rollback/input_authority.h"
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
@@ -452,79 +453,34 @@ IntakeState SessionImpl::intake_state() {
             pacing_.advantage_bound(input_delay_)};
 }
 
-// Our stream is kept back to the oldest input a live peer has not acknowledged. With no live
-// peer (every other slot dropped or absent, or a one-player match) nothing is owed to anyone:
-// the floor stays "no limit", and only Sync's retain window holds inputs back. It must not be
-// pinned to a frame instead (it was: confirmed_count() at the moment the last peer went): acks
-// stop when nobody else is left, so a pinned floor never moved again and the local queue filled
-// input_capacity frames later -- the lone survivor froze for good (issue 21). A peer that
-// becomes live again (a joiner) counts from its own acks on; floors never move back, and what
-// it lacks from before the floor comes with its snapshot.
+// The floors' rules are rollback/confirm_floors.h's; the session applies them to Sync.
 void SessionImpl::refresh_resend_floor() {
     if (config_.role == Role::Spectator) return;
-    std::uint32_t floor = std::numeric_limits<std::uint32_t>::max();
-    for (std::size_t p = 0; p < links_.size(); ++p)
-        if (live_peer(static_cast<PlayerId>(p))) floor = std::min(floor, links_[p].remote_ack);
-    sync_->set_keep_from(config_.local_player, floor);
+    sync_->set_keep_from(config_.local_player, resend_floor(links_, live()));
 }
 
-// Other streams are kept back to what a peer we may relay to still lacks, and while we serve a
-// snapshot, from its frame. Never more than half the ring, so a peer that stops acknowledging
-// cannot stall us: it is then beyond relaying and must fetch a snapshot.
 void SessionImpl::refresh_keep_floors(std::uint64_t now_us) {
     for (int s = 0; s < config_.players; ++s) {
         const auto slot = static_cast<PlayerId>(s);
         if (config_.role != Role::Spectator && slot == config_.local_player) continue;
-        std::uint32_t keep = std::numeric_limits<std::uint32_t>::max();
-        for (std::size_t p = 0; p < links_.size(); ++p) {
-            const auto pid = static_cast<PlayerId>(p);
-            PeerLink& l = links_[p];
-            if (!live_peer(pid)) continue;
-            if (l.pin_from && now_us > l.pin_until_us) l.pin_from.reset();
-            if (l.pin_from) keep = std::min(keep, *l.pin_from);
-            if (pid != slot && l.has_count[slot]) keep = std::min(keep, l.counts[slot]);
-        }
-        const std::uint32_t confirmed = sync_->confirmed_frame();
-        const std::uint32_t lowest = confirmed > config_.input_capacity / 2 ? confirmed - config_.input_capacity / 2 : 0;
-        sync_->set_keep_from(slot, std::max(keep, lowest));
+        sync_->set_keep_from(slot, keep_floor(slot, links_, live(), now_us, sync_->confirmed_frame(), config_.input_capacity));
     }
 }
 
-// The newest frame this session may confirm. Frame n is stepped from the inputs of frames
-// before n, and ours among them must be held by a majority of the view (this session included;
-// the others' acks say what they hold). So if that majority drops us while we cannot hear it (a
-// partition), the neutral input it agrees on for our slot starts after every frame we confirmed,
-// and nothing we confirmed can differ from what it confirmed (issue 21). Once we lose the
-// majority, confirmation stops there. A view of two under PlayOnAlone needs nobody else. Never
-// so far back that the state of the next frame to confirm is no longer saved.
 std::uint32_t SessionImpl::confirm_limit() const {
-    const std::uint32_t confirmable = sync_->confirmable_frame();
-    const int others = membership_.majority_size() - 1;
-    if (config_.role == Role::Spectator || others <= 0) return confirmable;
+    ConfirmBounds b;
+    b.confirmable = sync_->confirmable_frame();
+    b.others = config_.role == Role::Spectator ? 0 : membership_.majority_size() - 1;
+    if (b.others <= 0) return b.confirmable;
     std::array<std::uint32_t, kMaxPlayers> held{};
-    int n = 0;
-    for (int p = 0; p < config_.players; ++p) {
-        const auto pid = static_cast<PlayerId>(p);
-        if (!live_peer(pid)) continue;
-        const PeerLink& l = links_[pid];
-        std::uint32_t h = l.remote_ack;
-        for (std::size_t i = 1; i < local_slots_.size(); ++i) {
-            const PlayerId g = local_slots_[i];  // our guests travel as blocks: the table's counts
-            h = std::min(h, l.has_count[g] ? l.counts[g] : 0u);
-        }
-        held[static_cast<std::size_t>(n++)] = h;
-    }
-    std::uint32_t majority_holds = 0;
-    if (n >= others) {
-        std::nth_element(held.begin(), held.begin() + (others - 1), held.begin() + n, std::greater<>());
-        majority_holds = held[static_cast<std::size_t>(others - 1)];
-    }
-    const auto span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
-    const std::uint32_t oldest = sync_->frame() > span ? sync_->frame() - span : 0;
-    // A relayed input of a running slot waits for its owner's own copy (which wins if it
-    // differs), as long as the saved states allow: frame n rests on the inputs before n.
-    const std::uint32_t unverified = authority_->first_unverified(sync_->confirmed_frame()).value_or(confirmable);
-    return std::min(confirmable, std::max(std::min(majority_holds, unverified), oldest));
+    std::size_t n = 0;
+    const auto guests = std::span<const PlayerId>(local_slots_).subspan(std::min<std::size_t>(1, local_slots_.size()));
+    for (int p = 0; p < config_.players; ++p)
+        if (live_peer(static_cast<PlayerId>(p))) held[n++] = held_of_ours(links_[static_cast<std::size_t>(p)], guests);
+    b.frame = sync_->frame();
+    b.saved_span = static_cast<std::uint32_t>(config_.prediction_window + config_.evidence_frames / 2);
+    b.unverified = authority_->first_unverified(sync_->confirmed_frame()).value_or(b.confirmable);
+    return rollback::confirm_limit(b, std::span<const std::uint32_t>(held.data(), n));
 }
 
 void SessionImpl::confirm_frames() {

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "rollback/authored_streams.h"
+#include "rollback/confirm_floors.h"
 #include "rollback/control_messages.h"
 #include "rollback/desync_detector.h"
 #include "rollback/events.h"
@@ -180,6 +181,7 @@ private:
     bool slot_running(PlayerId s) const { return membership_.running(s); }
     // A peer whose traffic matters now: welcomed, not in error, and a running slot or spectator.
     bool live_peer(PlayerId p) const;
+    LivePeer live() const { return [this](PlayerId p) { return live_peer(p); }; }
     std::uint32_t count_of(PlayerId slot) const { return sync_->queue(slot).confirmed_count(); }
     int peers_total() const { return config_.players + config_.max_spectators; }
     std::uint32_t local_target() const;
