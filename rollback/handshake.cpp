@@ -41,6 +41,77 @@ void Handshake::sync_welcome(PeerLink& link, bool from_slot, const WelcomeMessag
     if (m.running && from_slot) peer_started_ = true;
 }
 
+HelloContext Handshake::hello_context(PlayerId from, const PeerLink& link, bool running, std::uint64_t scene_checksum,
+                                      bool handed_off_by_me) const {
+    HelloContext c;
+    c.match_id = config_.match_id;
+    c.scene_checksum = scene_checksum;
+    c.from = from;
+    c.from_slot = is_slot(from);
+    c.running = running;
+    c.welcomed = link.welcomed;
+    c.incarnation = link.incarnation;
+    if (c.from_slot) {
+        c.slot_running = view_.running(from);
+        c.welcomed_in_this_epoch = link.welcomed_epoch == view_.epoch(from);
+        c.handed_off_by_me = handed_off_by_me;
+    }
+    return c;
+}
+
+WelcomeMessage Handshake::answer(PlayerId from, const HelloMessage& m, bool running, std::uint64_t scene_checksum,
+                                 Refusal refusal) const {
+    WelcomeMessage w;
+    w.match_id = config_.match_id;
+    w.scene_checksum = scene_checksum;
+    w.echo_us = m.stamp_us;
+    w.running = running;
+    if (is_slot(from)) w.slot_epoch = view_.epoch(from);
+    w.refusal = refusal;
+    return w;
+}
+
+// A player's hellos come from the process welcomed at start (a restarted one is refused and
+// rejoins as a joiner), so only a newcomer's link starts over.
+bool Handshake::new_process(PlayerId from, const PeerLink& link, Role role) const {
+    if (role == Role::Player) return false;
+    return !link.welcomed || link.role != role ||
+           (is_slot(from) && role == Role::Joiner && !view_.running(from) && link.welcomed_epoch != view_.epoch(from));
+}
+
+Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeMessage& m, SessionPhase phase,
+                                                   const PeerLink& link, std::uint64_t scene_checksum) const {
+    using Act = WelcomeVerdict::Act;
+    const bool running = phase == SessionPhase::Running;
+    if (m.refusal == Refusal::Retry) return {};
+    if (m.refusal == Refusal::Disconnected) {
+        if (config_.role == Role::Spectator) return {Act::SpectatorDropped, {}};
+        // One voice, which makes us Kicked only together with a majority. A joiner still
+        // synchronizing has no slot in the view to lose yet.
+        if (config_.role == Role::Player || running) return {Act::VoteGone, {}};
+        return {};
+    }
+    if (m.refusal != Refusal::None) {
+        std::string why = std::string("peer ") + std::to_string(from) + " refused: " + refusal_name(m.refusal);
+        if (m.refusal == Refusal::MatchId)
+            why += " (theirs " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id) + ")";
+        if (m.refusal == Refusal::Scene)
+            why += " (theirs " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum) + ")";
+        return {Act::Refused, std::move(why)};
+    }
+    if (running) {
+        // A joiner that loaded its snapshot from one peer may reach another only afterwards
+        // (between processes: that peer's connection came up late). Its hellos go on until every
+        // running slot has welcomed it; the late welcome makes the link live, so the two exchange
+        // inputs from now on (without it each would ignore the other and the peer would drop the
+        // slot for silence).
+        if (config_.role != Role::Joiner || !is_slot(from) || !view_.running(from) || !m.running || link.welcomed) return {};
+        return {Act::LateWelcome, {}};
+    }
+    if (phase != SessionPhase::Synchronizing && phase != SessionPhase::Transferring) return {};
+    return {Act::SyncRoundTrip, {}};
+}
+
 bool Handshake::ready_to_start(std::span<const PeerLink> links, SessionPhase phase) const {
     if (config_.role != Role::Player || phase != SessionPhase::Synchronizing) return false;
     const int needed = peer_started_ ? 1 : config_.sync_roundtrips;

@@ -7,24 +7,36 @@
 // of a whole sync phase, so time sync has little to even out.
 //
 // Contract
-//  - Which hellos a session welcomes is rollback/session_admission.h; refusals, the late welcome
-//    of a running joiner and the phase change stay with the session (SessionImpl).
+//  - Which hellos a session welcomes is rollback/session_admission.h; what is done about a hello
+//    or a welcome (events, votes, failing, the links changed, the phase change) stays with the
+//    session (SessionImpl), which asks the functions below what it means.
 //  - Reads the config and the view (both outlive it) and the links it is given; time comes in,
 //    hellos go out as datagrams appended to `out`, at most every hello_resend_us per peer
 //    (PeerLink::hello_due), unreliable: a hello is said again until answered, and on a reliable
 //    channel a lost one would hold back those behind it (SessionImpl::send_control).
 //  - The incarnation (which process this is, the same in all its hellos) is config.incarnation,
 //    else drawn once from the first poll's time and the local slot.
+//  - Hellos received: hello_context() is what admit_hello() (rollback/session_admission.h) is
+//    told of the sender, answer() the welcome or refusal it gets (the sender's slot epoch as it
+//    is after any drop of a restarted process), new_process() whether a welcomed newcomer's link
+//    starts over (another process, another role, a joiner of a slot that changed epoch). A
+//    refusal other than Retry is answered at most every 100 ms per peer and reported at most once
+//    a second (refusal_answered(), refusal_reported()).
+//  - Welcomes received: judge_welcome() says what one means (ignore it, our spectator or slot
+//    dropped, refused with the text of the event, one more sync round trip, a running joiner's
+//    late welcome); the session does it.
 #pragma once
 
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "rollback/control_messages.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/session.h"
+#include "rollback/session_admission.h"
 
 namespace lockroll::rollback {
 
@@ -44,6 +56,38 @@ public:
     // When the first welcome came (0: none yet): a newcomer gives the others a moment from there.
     std::uint64_t first_welcome_us() const { return first_welcome_us_; }
 
+    // ---- a hello received ----
+    // What admit_hello() is told of the sender. running: this session is past its sync phase.
+    HelloContext hello_context(PlayerId from, const PeerLink& link, bool running, std::uint64_t scene_checksum,
+                               bool handed_off_by_me) const;
+    // The answer to hello m: a welcome, or `refusal`.
+    WelcomeMessage answer(PlayerId from, const HelloMessage& m, bool running, std::uint64_t scene_checksum,
+                          Refusal refusal) const;
+    // A welcomed hello of `role` from a process the link does not stand for: forget the previous one.
+    bool new_process(PlayerId from, const PeerLink& link, Role role) const;
+    static bool refusal_answered(Refusal r, const PeerLink& link, std::uint64_t now_us) {
+        return r == Refusal::Retry || link.refusal_quiet_for(now_us, 100'000);
+    }
+    static bool refusal_reported(const PeerLink& link, std::uint64_t now_us) {
+        return link.refusal_quiet_for(now_us, 1'000'000);
+    }
+
+    // ---- a welcome received ----
+    struct WelcomeVerdict {
+        enum class Act {
+            Ignore,
+            SpectatorDropped,  // the peer says this spectator was dropped: kicked, the session fails
+            VoteGone,          // the peer's vote that our slot is gone (count_vote if from a slot), then settle
+            Refused,           // `why` is the event's text; the session fails unless it runs
+            SyncRoundTrip,     // one more sync round trip (sync_welcome), then maybe start
+            LateWelcome,       // a running joiner welcomed by a slot it had not reached yet
+        };
+        Act act = Act::Ignore;
+        std::string why;
+    };
+    WelcomeVerdict judge_welcome(PlayerId from, const WelcomeMessage& m, SessionPhase phase, const PeerLink& link,
+                                 std::uint64_t scene_checksum) const;
+
     // A player that synchronizes may start frame 0 now.
     bool ready_to_start(std::span<const PeerLink> links, SessionPhase phase) const;
     // Frame 0 starts now: every other player counts as heard now. Returns the worst round trip
@@ -51,6 +95,7 @@ public:
     std::uint64_t start(std::span<PeerLink> links, std::uint64_t now_us) const;
 
 private:
+    bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     bool counts(PlayerId p) const;  // a slot whose own process must answer: running, not us, no guest
 
     const SessionConfig& config_;

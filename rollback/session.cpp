@@ -325,48 +325,25 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
     }
 }
 
+// What a hello or welcome means is the Handshake's (rollback/handshake.h) and admit_hello's
+// (rollback/session_admission.h); the session does it.
 void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
-    WelcomeMessage w;
-    w.match_id = config_.match_id;
-    w.scene_checksum = scene_checksum_;
-    w.echo_us = m.stamp_us;
-    w.running = phase_ == SessionPhase::Running;
-    if (is_slot(from)) w.slot_epoch = membership_.epoch(from);
-    HelloContext c;
-    c.match_id = config_.match_id;
-    c.scene_checksum = scene_checksum_;
-    c.from = from;
-    c.from_slot = is_slot(from);
-    c.running = phase_ == SessionPhase::Running;
-    c.welcomed = link.welcomed;
-    c.incarnation = link.incarnation;
-    if (c.from_slot) {
-        c.slot_running = slot_running(from);
-        c.welcomed_in_this_epoch = link.welcomed_epoch == membership_.epoch(from);
-        c.handed_off_by_me = slots_[from].handed_off_by_me;
-    }
-    const HelloAdmission a = admit_hello(m, c);
-    w.refusal = a.refusal;
-    const std::string& why = a.why;
+    const bool running = phase_ == SessionPhase::Running;
+    const HelloAdmission a =
+        admit_hello(m, handshake_.hello_context(from, link, running, scene_checksum_, is_slot(from) && slots_[from].handed_off_by_me));
     // Another process for a slot whose process we know: the old one restarted and is gone.
     // Drop it now; welcome a joiner once the drop is agreed. A player is refused as dropped in
     // the drop's epoch (newer than its view's, so its vote counts there and it rejoins).
-    if (a.restarted) {
-        changes_.drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
-        w.slot_epoch = membership_.epoch(from);
-    }
+    if (a.restarted) changes_.drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
+    const WelcomeMessage w = handshake_.answer(from, m, running, scene_checksum_, a.refusal);
     if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
         ++foreign_packets_;
-        if (link.refusal_quiet_for(now_us, 1000000))
-            emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + why);
+        if (Handshake::refusal_reported(link, now_us))
+            emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + a.why);
     }
     if (w.refusal == Refusal::None) {
-        const bool fresh = !link.welcomed || link.role != m.role ||
-                           (is_slot(from) && m.role == Role::Joiner && !slot_running(from) &&
-                            link.welcomed_epoch != membership_.epoch(from));
-        if (fresh && m.role != Role::Player) {
-            // A new process for this id: forget everything about the previous one.
+        if (handshake_.new_process(from, link, m.role)) {
             link.reset_lifecycle(static_cast<std::size_t>(config_.players));
             link.clear_error();
             detector_->reset_peer(from);
@@ -374,7 +351,7 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
         link.accept_hello(m.role, m.incarnation, is_slot(from) ? std::optional(membership_.epoch(from)) : std::nullopt, now_us);
     }
     if (w.refusal != Refusal::None) {
-        if (w.refusal != Refusal::Retry && !link.refusal_quiet_for(now_us, 100000)) return;
+        if (!Handshake::refusal_answered(w.refusal, link, now_us)) return;
         link.mark_refusal(now_us);
     }
     std::vector<std::uint8_t> b;
@@ -384,50 +361,33 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
 
 void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
-    if (m.refusal == Refusal::Retry) return;
-    if (m.refusal == Refusal::Disconnected) {
-        if (config_.role == Role::Spectator) {
+    using Act = Handshake::WelcomeVerdict::Act;
+    const Handshake::WelcomeVerdict v = handshake_.judge_welcome(from, m, phase_, link, scene_checksum_);
+    switch (v.act) {
+        case Act::Ignore: return;
+        case Act::SpectatorDropped:
             emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
                  "peer " + std::to_string(from) + " says this spectator was dropped");
-            fail(drop_failure(config_), now_us);
-        } else if (config_.role == Role::Player || phase_ == SessionPhase::Running) {
-            // The sender's vote that our slot is gone (in the epoch it dropped it into): one
-            // voice, which makes us Kicked only together with a majority.
+            return fail(drop_failure(config_), now_us);
+        case Act::VoteGone:  // in the epoch the sender dropped our slot into
             if (is_slot(from)) changes_.count_vote(from, config_.local_player, Vote::Gone, m.slot_epoch);
-            changes_.settle_membership(now_us);
-        }
-        return;
+            return changes_.settle_membership(now_us);
+        case Act::Refused:
+            emit(SessionEvent::Kind::Refused, from, frame(), now_us, v.why);
+            if (phase_ != SessionPhase::Running) fail(v.why, now_us);
+            return;
+        case Act::LateWelcome:
+            link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
+            if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
+            emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
+            return refresh_resend_floor();
+        case Act::SyncRoundTrip:
+            handshake_.sync_welcome(link, is_slot(from), m, now_us);
+            if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
+            if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
+            emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
+            return maybe_start(now_us);
     }
-    if (m.refusal != Refusal::None) {
-        std::string why = std::string("peer ") + std::to_string(from) + " refused: " + refusal_name(m.refusal);
-        if (m.refusal == Refusal::MatchId)
-            why += " (theirs " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id) + ")";
-        if (m.refusal == Refusal::Scene)
-            why += " (theirs " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum_) + ")";
-        emit(SessionEvent::Kind::Refused, from, frame(), now_us, why);
-        if (phase_ != SessionPhase::Running) fail(why, now_us);
-        return;
-    }
-    if (phase_ == SessionPhase::Running) return welcomed_while_running(from, m, now_us);
-    if (phase_ != SessionPhase::Synchronizing && phase_ != SessionPhase::Transferring) return;
-    handshake_.sync_welcome(link, is_slot(from), m, now_us);
-    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
-    if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
-    emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
-    maybe_start(now_us);
-}
-
-// A joiner that loaded its snapshot from one peer may reach another only afterwards (between
-// processes: that peer's connection came up late). Its hellos go on until every running slot
-// has welcomed it; the late welcome makes the link live, so the two exchange inputs from now on
-// (without it each would ignore the other and the peer would drop the slot for silence).
-void SessionImpl::welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us) {
-    PeerLink& link = links_[from];
-    if (config_.role != Role::Joiner || !is_slot(from) || !slot_running(from) || !m.running || link.welcomed) return;
-    link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
-    if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
-    emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
-    refresh_resend_floor();
 }
 
 // The start rule is the Handshake's (rollback/handshake.h).

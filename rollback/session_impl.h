@@ -146,7 +146,6 @@ private:
     FramePacing::Paces pacer() const { return [this](PlayerId p) { return paces(p); }; }
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
-    void welcomed_while_running(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
     class JoinFx;  // what a snapshot request asks of the session (rollback/join_handoff.h)
     void handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us);
     void handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us);

@@ -103,5 +103,109 @@ TEST(Handshake, StartReturnsTheWorstSyncRoundTripAndHearsEveryone) {
     EXPECT_EQ(h.first_welcome_us(), 30'000u);
 }
 
+TEST(Handshake, AHellosAnswerCarriesOurMatchSceneItsStampAndItsSlotsEpoch) {
+    Fixture f;
+    f.config.match_id = 42;
+    Handshake h(f.config, f.view);
+    HelloMessage m;
+    m.stamp_us = 1234;
+    f.view.set(1, SlotState::Running, 3);
+    const WelcomeMessage w = h.answer(1, m, true, 9, Refusal::None);
+    EXPECT_EQ(w.match_id, 42u);
+    EXPECT_EQ(w.scene_checksum, 9u);
+    EXPECT_EQ(w.echo_us, 1234u);
+    EXPECT_TRUE(w.running);
+    EXPECT_EQ(w.slot_epoch, 3);
+    EXPECT_EQ(w.refusal, Refusal::None);
+    EXPECT_EQ(h.answer(5, m, false, 9, Refusal::Retry).slot_epoch, 0) << "a spectator's id has no slot";
+}
+
+TEST(Handshake, AdmissionIsToldTheSendersLinkAndSlot) {
+    Fixture f;
+    Handshake h(f.config, f.view);
+    f.links[1].accept_hello(Role::Player, 555, std::uint8_t{0}, 10);
+    HelloContext c = h.hello_context(1, f.links[1], true, 9, true);
+    EXPECT_TRUE(c.from_slot && c.running && c.welcomed && c.slot_running && c.welcomed_in_this_epoch && c.handed_off_by_me);
+    EXPECT_EQ(c.incarnation, 555u);
+    EXPECT_EQ(c.scene_checksum, 9u);
+    f.view.set(1, SlotState::Running, 1);  // handed over since: another epoch
+    EXPECT_FALSE(h.hello_context(1, f.links[1], true, 9, false).welcomed_in_this_epoch);
+    c = h.hello_context(4, f.links[1], true, 9, true);  // a spectator's id: nothing of a slot
+    EXPECT_FALSE(c.from_slot || c.slot_running || c.handed_off_by_me);
+}
+
+TEST(Handshake, OnlyANewcomersLinkStartsOverForAnotherProcess) {
+    Fixture f;
+    Handshake h(f.config, f.view);
+    EXPECT_TRUE(h.new_process(1, f.links[1], Role::Joiner)) << "never welcomed";
+    EXPECT_FALSE(h.new_process(1, f.links[1], Role::Player)) << "a player's link never starts over here";
+    f.links[1].accept_hello(Role::Joiner, 7, std::uint8_t{0}, 10);
+    EXPECT_FALSE(h.new_process(1, f.links[1], Role::Joiner)) << "its slot still runs: the same joiner";
+    EXPECT_TRUE(h.new_process(1, f.links[1], Role::Spectator)) << "another role";
+    f.view.set(1, SlotState::Disconnected, 1);
+    EXPECT_TRUE(h.new_process(1, f.links[1], Role::Joiner)) << "dropped into a new epoch: the next joiner";
+}
+
+TEST(Handshake, ARefusalIsAnsweredEvery100MsAndReportedOnceASecond) {
+    Fixture f;
+    PeerLink& l = f.links[1];
+    l.mark_refusal(1'000'000);
+    EXPECT_TRUE(Handshake::refusal_answered(Refusal::Retry, l, 1'000'001)) << "retry: always";
+    EXPECT_FALSE(Handshake::refusal_answered(Refusal::MatchId, l, 1'050'000));
+    EXPECT_TRUE(Handshake::refusal_answered(Refusal::MatchId, l, 1'100'000));
+    EXPECT_FALSE(Handshake::refusal_reported(l, 1'500'000));
+    EXPECT_TRUE(Handshake::refusal_reported(l, 2'000'000));
+}
+
+TEST(Handshake, WhatAWelcomeMeans) {
+    using Act = Handshake::WelcomeVerdict::Act;
+    Fixture f;
+    f.config.match_id = 42;
+    Handshake h(f.config, f.view);
+    WelcomeMessage w;
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Synchronizing, f.links[1], 9).act, Act::SyncRoundTrip);
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Transferring, f.links[1], 9).act, Act::SyncRoundTrip);
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, f.links[1], 9).act, Act::Ignore) << "a player runs already";
+    w.refusal = Refusal::Retry;
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Synchronizing, f.links[1], 9).act, Act::Ignore);
+    w.refusal = Refusal::Disconnected;
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, f.links[1], 9).act, Act::VoteGone);
+    w.refusal = Refusal::Scene;
+    w.scene_checksum = 8;
+    const auto refused = h.judge_welcome(1, w, SessionPhase::Synchronizing, f.links[1], 9);
+    EXPECT_EQ(refused.act, Act::Refused);
+    EXPECT_NE(refused.why.find("peer 1 refused"), std::string::npos) << refused.why;
+    EXPECT_NE(refused.why.find("theirs 8, ours 9"), std::string::npos) << refused.why;
+    w.refusal = Refusal::MatchId;
+    w.match_id = 41;
+    EXPECT_NE(h.judge_welcome(1, w, SessionPhase::Running, f.links[1], 9).why.find("theirs 41, ours 42"), std::string::npos);
+
+    Fixture s(Role::Spectator, 2);
+    Handshake hs(s.config, s.view);
+    w.refusal = Refusal::Disconnected;
+    EXPECT_EQ(hs.judge_welcome(0, w, SessionPhase::Running, s.links[0], 9).act, Act::SpectatorDropped);
+    Fixture j(Role::Joiner, 2);
+    Handshake hj(j.config, j.view);
+    EXPECT_EQ(hj.judge_welcome(0, w, SessionPhase::Synchronizing, j.links[0], 9).act, Act::Ignore)
+        << "a joiner still synchronizing has no slot to lose yet";
+    EXPECT_EQ(hj.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::VoteGone);
+}
+
+TEST(Handshake, ARunningJoinerTakesALateWelcomeOnceFromARunningSlot) {
+    using Act = Handshake::WelcomeVerdict::Act;
+    Fixture j(Role::Joiner, 2);
+    Handshake h(j.config, j.view);
+    WelcomeMessage w;
+    w.running = true;
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::LateWelcome);
+    j.links[1].late_welcome(0, 0, 10);
+    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::Ignore) << "welcomed already";
+    w.running = false;
+    EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "not running itself";
+    w.running = true;
+    j.view.set(0, SlotState::Disconnected, 1);
+    EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "a dropped slot";
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
