@@ -2,6 +2,7 @@
 
 #include <array>
 #include <bit>
+#include <vector>
 
 #include "rollback/arbitration.h"
 
@@ -26,6 +27,24 @@ std::optional<PlayerId> recovery_source(PlayerId me, std::uint64_t mine,
     const ArbitrationVerdict v = arbitrate(values, voted, std::popcount(voted), rule);
     if (v.is_winner(me)) return std::nullopt;  // the odd ones reload
     return static_cast<PlayerId>(v.lowest_winner());
+}
+
+RecoveryStep next_recovery_step(const RecoveryCase& c) {
+    using Act = RecoveryStep::Act;
+    if (c.investigating && c.now_us < c.mismatch_since_us + 3'000'000) return {};
+    if (!c.mine) return {Act::Forget};
+    std::vector<std::pair<PlayerId, std::uint64_t>> theirs;
+    for (const auto& [peer, value] : c.peers) {
+        if (!value) {
+            if (c.now_us < c.mismatch_since_us + 5'000'000) return {};  // wait for everyone's word
+            continue;
+        }
+        theirs.emplace_back(peer, *value);
+    }
+    const auto source = recovery_source(c.me, *c.mine, theirs, c.keep);
+    if (!source) return {Act::Forget};  // we are in the majority: the odd ones reload
+    if (c.recoveries >= c.max_recoveries) return {Act::GiveUp};
+    return {Act::Reload, *source};
 }
 
 }  // namespace lockroll::rollback

@@ -3,9 +3,16 @@
 // tie between groups (always so with two players) keeps the group of the lowest slot (or the
 // highest, DesyncKeep::HighestSlot). Only the low 32 bits of a checksum are compared.
 //
-// Contract: nullopt when `me` is in the group kept (the others reload); else the lowest slot of
-// that group, whose state `me` reloads. Pure: no session, no time. The rule itself is
-// rollback/arbitration.h's, the one the relay server's rooms decide with.
+// Contract
+//  - recovery_source(): nullopt when `me` is in the group kept (the others reload); else the
+//    lowest slot of that group, whose state `me` reloads. Pure: no session, no time. The rule
+//    itself is rollback/arbitration.h's, the one the relay server's rooms decide with.
+//  - next_recovery_step(): what a session that saw a mismatch does about it now. It waits while
+//    it still narrows the mismatch with a peer (3 s at most from the mismatch) and while a live
+//    player has not told its checksum of the frame (5 s at most; one silent longer is left out).
+//    It forgets the mismatch when its own checksum of the frame is gone or it is in the group
+//    kept; it gives up (fails) when it would reload once more than max_recoveries allows; else
+//    it reloads from recovery_source(). Pure: time comes in as values.
 #pragma once
 
 #include <cstdint>
@@ -20,5 +27,27 @@ namespace lockroll::rollback {
 // theirs: (slot, its confirmed checksum of that frame) of every peer that answered.
 std::optional<PlayerId> recovery_source(PlayerId me, std::uint64_t mine,
                                         std::span<const std::pair<PlayerId, std::uint64_t>> theirs, DesyncKeep keep);
+
+// A desynced session's case as it stands now.
+struct RecoveryCase {
+    PlayerId me = 0;
+    std::optional<std::uint64_t> mine;  // our confirmed checksum of the mismatched frame, while kept
+    // Every live player peer and its confirmed checksum of that frame, once it told it.
+    std::span<const std::pair<PlayerId, std::optional<std::uint64_t>>> peers;
+    bool investigating = false;  // the desync detector still narrows a mismatch with some peer
+    std::uint64_t mismatch_since_us = 0;
+    std::uint64_t now_us = 0;
+    int recoveries = 0;  // reloads so far
+    int max_recoveries = 0;
+    DesyncKeep keep = DesyncKeep::LowestSlot;
+};
+
+struct RecoveryStep {
+    enum class Act { Wait, Forget, Reload, GiveUp };
+    Act act = Act::Wait;
+    PlayerId from = 0;  // Reload: whose state
+};
+
+RecoveryStep next_recovery_step(const RecoveryCase& c);
 
 }  // namespace lockroll::rollback

@@ -729,40 +729,38 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
 // After narrowing (or a few seconds), decide who is odd: the peers whose checksum of the first
 // mismatching frame is in the minority reload the majority's state; a tie between two groups
 // (always so with two players) keeps the group of the lowest (or highest) slot.
+// What to do about a mismatch is next_recovery_step's (rollback/recovery_source.h).
 void SessionImpl::consider_recovery(std::uint64_t now_us) {
     if (config_.max_recoveries == 0 || !mismatch_frame_ || recover_from_ || config_.role == Role::Spectator) return;
-    for (std::size_t p = 0; p < links_.size(); ++p)
-        if (detector_->investigating(static_cast<PlayerId>(p)) && now_us < mismatch_since_us_ + 3'000'000) return;
     const std::uint32_t f = *mismatch_frame_;
-    const auto mine = detector_->local_checksum(f);
-    if (!mine) {
-        mismatch_frame_.reset();
-        return;
-    }
-    std::vector<std::pair<PlayerId, std::uint64_t>> theirs;
+    std::vector<std::pair<PlayerId, std::optional<std::uint64_t>>> peers;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (!live_peer(pid)) continue;
-        const auto value = detector_->remote_checksum(pid, f);
-        if (!value) {
-            if (now_us < mismatch_since_us_ + 5'000'000) return;  // wait for everyone's word
-            continue;
-        }
-        theirs.emplace_back(pid, *value);
+        if (live_peer(pid)) peers.emplace_back(pid, detector_->remote_checksum(pid, f));
     }
-    const auto source = recovery_source(config_.local_player, *mine, theirs, config_.two_player_keep);
-    if (!source) {
-        mismatch_frame_.reset();  // we are in the majority: the odd ones reload
-        return;
+    RecoveryCase c;
+    c.me = config_.local_player;
+    c.mine = detector_->local_checksum(f);
+    c.peers = peers;
+    for (std::size_t p = 0; p < links_.size(); ++p) c.investigating = c.investigating || detector_->investigating(static_cast<PlayerId>(p));
+    c.mismatch_since_us = mismatch_since_us_;
+    c.now_us = now_us;
+    c.recoveries = recoveries_;
+    c.max_recoveries = config_.max_recoveries;
+    c.keep = config_.two_player_keep;
+    const RecoveryStep step = next_recovery_step(c);
+    switch (step.act) {
+        case RecoveryStep::Act::Wait: return;
+        case RecoveryStep::Act::Forget: return mismatch_frame_.reset();
+        case RecoveryStep::Act::GiveUp:
+            return fail("desync at frame " + std::to_string(f) + " and the recovery limit (" +
+                            std::to_string(config_.max_recoveries) + ") is reached",
+                        now_us);
+        case RecoveryStep::Act::Reload:
+            recover_from_ = step.from;
+            fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd
+            return;
     }
-    if (recoveries_ >= config_.max_recoveries) {
-        fail("desync at frame " + std::to_string(f) + " and the recovery limit (" + std::to_string(config_.max_recoveries) +
-                 ") is reached",
-             now_us);
-        return;
-    }
-    recover_from_ = *source;
-    fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd
 }
 
 StreamView SessionImpl::stream_view() const {

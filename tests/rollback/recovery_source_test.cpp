@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <optional>
 #include <vector>
 
 namespace lockroll::rollback {
@@ -30,6 +31,62 @@ TEST(RecoverySource, ATieKeepsTheGroupOfTheLowestOrHighestSlot) {
 TEST(RecoverySource, OnlyTheLow32BitsCount) {
     const Answers other{{1, 0x1'0000'0005}, {2, 0x2'0000'0005}};
     EXPECT_EQ(recovery_source(0, 5, other, DesyncKeep::LowestSlot), std::nullopt) << "all three agree";
+}
+
+using Told = std::vector<std::pair<PlayerId, std::optional<std::uint64_t>>>;
+using Act = RecoveryStep::Act;
+
+// Slot 1 saw checksum 9 where slots 0 and 2 confirmed 7, at 10 s; one recovery allowed.
+RecoveryCase minority(const Told& peers, std::uint64_t now_us) {
+    RecoveryCase c;
+    c.me = 1;
+    c.mine = 9;
+    c.peers = peers;
+    c.mismatch_since_us = 10'000'000;
+    c.now_us = now_us;
+    c.max_recoveries = 1;
+    return c;
+}
+
+TEST(RecoveryStep, TheMinorityReloadsFromTheMajority) {
+    const Told told{{0, 7}, {2, 7}};
+    const RecoveryStep s = next_recovery_step(minority(told, 10'000'000));
+    EXPECT_EQ(s.act, Act::Reload);
+    EXPECT_EQ(s.from, PlayerId{0});
+    RecoveryCase in_majority = minority(told, 10'000'000);
+    in_majority.mine = 7;
+    EXPECT_EQ(next_recovery_step(in_majority).act, Act::Forget) << "the odd ones reload, not us";
+}
+
+TEST(RecoveryStep, WaitsWhileNarrowingForAtMostThreeSeconds) {
+    const Told told{{0, 7}, {2, 7}};
+    RecoveryCase c = minority(told, 12'999'999);
+    c.investigating = true;
+    EXPECT_EQ(next_recovery_step(c).act, Act::Wait);
+    c.now_us = 13'000'000;
+    EXPECT_EQ(next_recovery_step(c).act, Act::Reload);
+}
+
+TEST(RecoveryStep, WaitsForEveryLivePlayersWordForAtMostFiveSeconds) {
+    const Told told{{0, 7}, {2, std::nullopt}, {3, 7}};
+    EXPECT_EQ(next_recovery_step(minority(told, 14'999'999)).act, Act::Wait);
+    const RecoveryStep s = next_recovery_step(minority(told, 15'000'000));  // slot 2 left out
+    EXPECT_EQ(s.act, Act::Reload);
+    EXPECT_EQ(s.from, PlayerId{0});
+}
+
+TEST(RecoveryStep, ForgetsAMismatchWhoseFrameItNoLongerHolds) {
+    const Told told{{0, 7}, {2, 7}};
+    RecoveryCase c = minority(told, 10'000'000);
+    c.mine.reset();
+    EXPECT_EQ(next_recovery_step(c).act, Act::Forget);
+}
+
+TEST(RecoveryStep, GivesUpBeyondTheRecoveryLimit) {
+    const Told told{{0, 7}, {2, 7}};
+    RecoveryCase c = minority(told, 10'000'000);
+    c.recoveries = 1;
+    EXPECT_EQ(next_recovery_step(c).act, Act::GiveUp);
 }
 
 }  // namespace
