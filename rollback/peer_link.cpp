@@ -130,4 +130,20 @@ void PeerLink::take_stamps(std::uint16_t their_stamp, std::uint16_t echo, std::u
     stamp_at_us = now_us;
 }
 
+NetworkStats network_stats(const PeerLink& link, const PeerStats& traffic, const OverlayClock& at,
+                           std::optional<std::uint32_t> sent) {
+    NetworkStats n;
+    n.ping_us = link.rtt_us();
+    n.jitter_us = link.rtt_var_us();
+    if (at.seconds > 0) {
+        n.kbps_sent = static_cast<double>(traffic.bytes_sent) * 8 / 1000 / at.seconds;
+        n.kbps_received = static_cast<double>(traffic.bytes_received) * 8 / 1000 / at.seconds;
+    }
+    if (link.has_remote_frame)
+        n.frames_behind = static_cast<std::int32_t>(std::int64_t{at.frame} - link.estimated_frame(at.now_us, at.interrupt_us, at.tick_rate));
+    if (sent) n.send_queue = *sent > link.remote_ack ? *sent - link.remote_ack : 0;
+    n.interrupted = link.interrupted;
+    return n;
+}
+
 }  // namespace lockroll::rollback

@@ -3,8 +3,8 @@
 // the sync-phase round trips, refusals rate-limited), liveness (heard, interrupted, timed out),
 // round trip (smoothed samples, echoed stamps), input exchange (its acks of our inputs, its
 // reported frame and advantage, our estimate of its frame now), which confirmed checksums ride
-// on the next message to it and when our slot table does; and whether it is still worth
-// listening to. The session decides
+// on the next message to it and when our slot table does; whether it is still worth
+// listening to; and its numbers for an overlay (network_stats(), below). The session decides
 // what the answers mean for the match (votes, events, membership); the link holds no session
 // state and reads no clock (time is passed in).
 //
@@ -20,6 +20,7 @@
 
 #include "rollback/control_messages.h"
 #include "rollback/protocol.h"
+#include "rollback/session.h"
 #include "rollback/time_sync.h"
 
 namespace lockroll::rollback {
@@ -269,5 +270,19 @@ int PeerLink::pick_checksums(std::uint32_t cp, std::uint32_t k, int repeats, std
     }
     return n;
 }
+
+// One peer's numbers for an overlay (Session::network_stats): its round trip and jitter, the
+// payload rates since the match started (`seconds` ago; 0: none yet), how far it is estimated
+// behind our `frame` (once it reported one), and how many of our inputs it has not acknowledged
+// (`sent`: our stream's count; none for a spectator, which sends no inputs).
+struct OverlayClock {
+    std::uint32_t frame = 0;
+    double seconds = 0;
+    std::uint64_t now_us = 0;
+    std::uint64_t interrupt_us = 0;
+    int tick_rate = 60;
+};
+NetworkStats network_stats(const PeerLink& link, const PeerStats& traffic, const OverlayClock& at,
+                           std::optional<std::uint32_t> sent);
 
 }  // namespace lockroll::rollback

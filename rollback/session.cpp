@@ -468,23 +468,11 @@ std::int32_t SessionImpl::behind(std::uint64_t now_us) const {
 }
 
 NetworkStats SessionImpl::network_stats(PlayerId p, std::uint64_t now_us) const {
-    NetworkStats n;
-    if (p >= links_.size() || p == config_.local_player) return n;
-    const PeerLink& l = links_[p];
-    n.ping_us = l.rtt_us();
-    n.jitter_us = l.rtt_var_us();
+    if (p >= links_.size() || p == config_.local_player) return {};
     const double seconds = now_us > started_us_ ? static_cast<double>(now_us - started_us_) / 1e6 : 0;
-    if (seconds > 0) {
-        n.kbps_sent = static_cast<double>(stats_.peers[p].bytes_sent) * 8 / 1000 / seconds;
-        n.kbps_received = static_cast<double>(stats_.peers[p].bytes_received) * 8 / 1000 / seconds;
-    }
-    if (l.has_remote_frame) n.frames_behind = static_cast<std::int32_t>(std::int64_t{sync_->frame()} - l.estimated_frame(now_us, config_.interrupt_us, config_.tick_rate));
-    if (config_.role != Role::Spectator) {
-        const std::uint32_t sent = count_of(config_.local_player);
-        n.send_queue = sent > l.remote_ack ? sent - l.remote_ack : 0;
-    }
-    n.interrupted = l.interrupted;
-    return n;
+    const OverlayClock at{sync_->frame(), seconds, now_us, config_.interrupt_us, config_.tick_rate};
+    const auto sent = config_.role != Role::Spectator ? std::optional(count_of(config_.local_player)) : std::nullopt;
+    return rollback::network_stats(links_[p], stats_.peers[p], at, sent);
 }
 
 // How far ahead of local_target() an input must go to reach everyone before they need it: the

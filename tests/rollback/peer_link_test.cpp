@@ -240,3 +240,33 @@ TEST(PeerLink, SlotTableGoesOnChangeInSpreadCopiesThenOnTheRefresh) {
     EXPECT_FALSE(quiet.table_due(vote, 10'000'000, 0));
     EXPECT_TRUE(quiet.table_due(vote, 10'000'000, kRefresh));
 }
+
+TEST(PeerLink, NetworkStatsForAnOverlay) {
+    PeerLink l(8, 60);
+    l.add_rtt_sample(40'000);
+    l.remote_ack = 90;
+    l.interrupted = true;
+    PeerStats traffic;
+    traffic.bytes_sent = 125'000;  // a megabit
+    traffic.bytes_received = 250'000;
+    OverlayClock at;
+    at.frame = 100;
+    at.seconds = 2;
+    at.now_us = 5'000'000;
+    at.interrupt_us = 500'000;
+    NetworkStats n = network_stats(l, traffic, at, 95u);
+    EXPECT_EQ(n.ping_us, 40'000u);
+    EXPECT_DOUBLE_EQ(n.kbps_sent, 500);
+    EXPECT_DOUBLE_EQ(n.kbps_received, 1000);
+    EXPECT_EQ(n.send_queue, 5u) << "our inputs it has not acknowledged";
+    EXPECT_EQ(n.frames_behind, 0) << "no frame reported yet";
+    EXPECT_TRUE(n.interrupted);
+    EXPECT_EQ(network_stats(l, traffic, at, std::nullopt).send_queue, 0u) << "a spectator sends no inputs";
+    EXPECT_EQ(network_stats(l, traffic, at, 80u).send_queue, 0u);
+    l.has_remote_frame = true;  // frame 90 reported now, half a round trip (1.2 frames) ago
+    l.remote_frame = 90;
+    l.remote_frame_time_us = at.now_us;
+    EXPECT_EQ(network_stats(l, traffic, at, 95u).frames_behind, 100 - 91);
+    at.seconds = 0;
+    EXPECT_EQ(network_stats(l, traffic, at, 95u).kbps_sent, 0) << "not started";
+}
