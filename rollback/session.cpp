@@ -178,30 +178,6 @@ bool SessionImpl::live_peer(PlayerId p) const {
     return l.role == Role::Spectator;
 }
 
-// What a peer's input message changes is InputIntake's (rollback/input_intake.h); what the
-// session does about it -- membership actions, a malformed message, events -- stays here.
-class SessionImpl::IntakeFx final : public IntakeEffects {
-public:
-    explicit IntakeFx(SessionImpl& s) : s_(s) {}
-    void malformed(PlayerId from, const char* why) override { s_.malformed(from, why); }
-    void acked() override { s_.refresh_resend_floor(); }
-    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) override { s_.adopt_slot(slot, e, now_us); }
-    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) override {
-        s_.count_vote(voter, slot, vote, epoch);
-    }
-    void settle_membership(std::uint64_t now_us) override { s_.settle_membership(now_us); }
-    void remote_checksum(PlayerId from, std::uint32_t frame, std::uint64_t checksum) override {
-        s_.detector_->add_remote(from, frame, checksum);
-    }
-    void neutral_from(PlayerId slot, std::uint32_t frame) override {
-        s_.emit(SessionEvent::Kind::NeutralFrom, slot, frame, s_.last_now_us_);
-    }
-    bool failed() const override { return s_.phase_ == SessionPhase::Failed; }
-
-private:
-    SessionImpl& s_;
-};
-
 void SessionImpl::malformed(PlayerId from, const char* why) {
     ++stats_.malformed_packets;
     ++stats_.peers[from].malformed_packets;
@@ -302,6 +278,9 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
                 maybe_start(now_us);
             }
             {
+                // What the message changes is InputIntake's; what the session does about it --
+                // membership actions, a malformed message, events -- is IntakeFx's forwards
+                // (rollback/session_effects.h).
                 IntakeFx fx(*this);
                 return InputIntake(intake_state(), fx).apply(from, in_msg_, now_us);
             }
@@ -616,29 +595,8 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
 }
 
 // Who may be served and which offer goes out are JoinHandoff's (rollback/join_handoff.h); what
-// the session does about it -- sending, events, the resend floor -- stays here.
-class SessionImpl::JoinFx final : public JoinEffects {
-public:
-    explicit JoinFx(SessionImpl& s) : s_(s) {}
-    void send(PlayerId to, std::vector<std::uint8_t> bytes) override { s_.send_control(to, std::move(bytes)); }
-    void malformed(PlayerId from, const char* why) override { s_.malformed(from, why); }
-    bool desynced(PlayerId peer) const override { return s_.detector_->desynced(peer); }
-    std::uint32_t handoff_target(PlayerId slot) const override {
-        return s_.local_target() + s_.lead_frames(s_.links_[slot].rtt_us());
-    }
-    void joined(PlayerId slot, std::uint32_t handoff, std::uint32_t frame, std::uint64_t now_us) override {
-        s_.detector_->reset_peer(slot);
-        s_.emit(SessionEvent::Kind::Joined, slot, handoff, now_us, "snapshot of frame " + std::to_string(frame));
-    }
-    void spectator_joined(PlayerId peer, std::uint32_t frame, std::uint64_t now_us) override {
-        s_.emit(SessionEvent::Kind::SpectatorJoined, peer, frame, now_us);
-    }
-    void acked() override { s_.refresh_resend_floor(); }
-
-private:
-    SessionImpl& s_;
-};
-
+// the session does about it -- sending, events, the resend floor -- stays here (JoinFx,
+// rollback/session_effects.h).
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
     JoinFx fx(*this);
     const JoinState state{config_, membership_, *sync_, server_, links_, slots_, stats_.peers, replies_this_poll_,
