@@ -105,12 +105,34 @@ constexpr std::uint64_t div_128_64(std::uint64_t hi, std::uint64_t lo, std::uint
     r = (un21 * b + un0 - q0 * d) >> s;
     return q1 * b + q0;
 }
+
+// The compound assignments and increments of a 128-bit integer T, each the assignment of T's
+// own binary operator, written once for UInt128 and Int128 (a CRTP base: T derives from
+// CompoundOps<T>; hidden friends, found through T by argument-dependent lookup; empty, so
+// T's layout is its two words alone).
+template <class T>
+struct CompoundOps {
+    // Nothing to compare: what lets T's defaulted == compare its words alone.
+    friend constexpr bool operator==(const CompoundOps&, const CompoundOps&) = default;
+    friend constexpr T& operator+=(T& a, const T& b) { return a = a + b; }
+    friend constexpr T& operator-=(T& a, const T& b) { return a = a - b; }
+    friend constexpr T& operator*=(T& a, const T& b) { return a = a * b; }
+    friend constexpr T& operator/=(T& a, const T& b) { return a = a / b; }
+    friend constexpr T& operator%=(T& a, const T& b) { return a = a % b; }
+    friend constexpr T& operator&=(T& a, const T& b) { return a = a & b; }
+    friend constexpr T& operator|=(T& a, const T& b) { return a = a | b; }
+    friend constexpr T& operator^=(T& a, const T& b) { return a = a ^ b; }
+    friend constexpr T& operator<<=(T& a, int s) { return a = a << s; }
+    friend constexpr T& operator>>=(T& a, int s) { return a = a >> s; }
+    friend constexpr T& operator++(T& a) { return a += 1; }
+    friend constexpr T& operator--(T& a) { return a -= 1; }
+};
 }  // namespace wide_detail
 
 class Int128;
 
 // Unsigned 128-bit integer in two 64-bit words, portable standard C++20.
-class UInt128 {
+class UInt128 : public wide_detail::CompoundOps<UInt128> {
 public:
     constexpr UInt128() = default;
     // Implicit from every integer type, like the builtin: signed values are sign-extended.
@@ -189,19 +211,6 @@ public:
         return from_words(a.hi_ >> s, (a.lo_ >> s) | (a.hi_ << (64 - s)));
     }
 
-    constexpr UInt128& operator+=(const UInt128& b) { return *this = *this + b; }
-    constexpr UInt128& operator-=(const UInt128& b) { return *this = *this - b; }
-    constexpr UInt128& operator*=(const UInt128& b) { return *this = *this * b; }
-    constexpr UInt128& operator/=(const UInt128& b) { return *this = *this / b; }
-    constexpr UInt128& operator%=(const UInt128& b) { return *this = *this % b; }
-    constexpr UInt128& operator&=(const UInt128& b) { return *this = *this & b; }
-    constexpr UInt128& operator|=(const UInt128& b) { return *this = *this | b; }
-    constexpr UInt128& operator^=(const UInt128& b) { return *this = *this ^ b; }
-    constexpr UInt128& operator<<=(int s) { return *this = *this << s; }
-    constexpr UInt128& operator>>=(int s) { return *this = *this >> s; }
-    constexpr UInt128& operator++() { return *this += 1; }
-    constexpr UInt128& operator--() { return *this -= 1; }
-
     // n / d and n % d (d != 0). A 64-bit divisor takes one or two 128/64 steps; a wider one
     // has a quotient below 2^64, estimated from the divisor's top 64 bits and corrected once.
     friend constexpr void divmod(const UInt128& n, const UInt128& d, UInt128& q, UInt128& r) {
@@ -240,7 +249,7 @@ private:
 };
 
 // Signed 128-bit integer (two's complement) over the same two words.
-class Int128 {
+class Int128 : public wide_detail::CompoundOps<Int128> {
 public:
     constexpr Int128() = default;
     template <class T>
@@ -298,19 +307,6 @@ public:
         if (s >= 64) return from_words(fill, s == 64 ? hi : (hi >> (s - 64)) | (fill << (128 - s)));
         return from_words((hi >> s) | (fill << (64 - s)), (lo >> s) | (hi << (64 - s)));
     }
-
-    constexpr Int128& operator+=(const Int128& b) { return *this = *this + b; }
-    constexpr Int128& operator-=(const Int128& b) { return *this = *this - b; }
-    constexpr Int128& operator*=(const Int128& b) { return *this = *this * b; }
-    constexpr Int128& operator/=(const Int128& b) { return *this = *this / b; }
-    constexpr Int128& operator%=(const Int128& b) { return *this = *this % b; }
-    constexpr Int128& operator&=(const Int128& b) { return *this = *this & b; }
-    constexpr Int128& operator|=(const Int128& b) { return *this = *this | b; }
-    constexpr Int128& operator^=(const Int128& b) { return *this = *this ^ b; }
-    constexpr Int128& operator<<=(int s) { return *this = *this << s; }
-    constexpr Int128& operator>>=(int s) { return *this = *this >> s; }
-    constexpr Int128& operator++() { return *this += 1; }
-    constexpr Int128& operator--() { return *this -= 1; }
 
 private:
     constexpr UInt128 magnitude() const { return negative() ? -bits_ : bits_; }

@@ -9,6 +9,10 @@ report: it reads only the files.
     live_report_check.py RUN_DIR MODE REPORT           check another report file (a doctored one)
     live_report_check.py RUN_DIR MODE REPORT COLUMN    the run's column of a several-run table
                                                        (compare's: 1 lockstep, 2 rollback, 3 rollback-delay0)
+
+Exit 1 also when a file it recomputes from is missing (a run where no process played has no
+bodies.csv and no samples.json): one line, "CANNOT CHECK", naming the file and the directory,
+and no traceback. A report cannot be shown to match data that is not there.
 """
 import json
 import math
@@ -43,6 +47,17 @@ def tick_figures(shown, tick_rate):
     return rate, (stalled / (stalled + intervals) if stalled + intervals else 0.0)
 
 
+class Missing(Exception):
+    """A file the report is checked against is not there: nothing to recompute from."""
+
+
+def need(path, why=""):
+    """path, if it exists; else Missing naming the file, where it should be, and why it may not be."""
+    if not os.path.exists(path):
+        raise Missing("%s is missing%s" % (path, why))
+    return path
+
+
 def read_csv(path):
     with open(path) as f:
         lines = f.read().splitlines()
@@ -55,24 +70,34 @@ class Process:
         self.role = entry["role"]
         self.slot = entry["slot"]
         d = os.path.join(mode_dir, self.name)
-        self.summary = json.load(open(os.path.join(d, "summary.json")))
-        self.samples = json.load(open(os.path.join(d, "samples.json")))
+        self.summary = json.load(open(need(os.path.join(d, "summary.json"))))
+        self.samples = json.load(open(need(os.path.join(d, "samples.json"))))
         self.positions = {}
-        for row in read_csv(os.path.join(d, "positions.csv")):
+        for row in read_csv(need(os.path.join(d, "positions.csv"))):
             self.positions.setdefault(int(row[0]), []).append((int(row[6]), int(row[7]), int(row[8])))
 
 
 def recompute(run_dir, mode):
     """Every row of the report's figures table: row name -> the cell the raw data gives."""
     mode_dir = os.path.join(run_dir, mode)
-    live = json.load(open(os.path.join(run_dir, "live.json")))["modes"][mode]
-    mode_summary = json.load(open(os.path.join(mode_dir, "summary.json")))
+    modes = json.load(open(need(os.path.join(run_dir, "live.json"))))["modes"]
+    if mode not in modes:
+        raise Missing("no mode %r in %s (it has: %s)" % (mode, os.path.join(run_dir, "live.json"), ", ".join(modes)))
+    live = modes[mode]
+    mode_summary = json.load(open(need(os.path.join(mode_dir, "summary.json"))))
     frames, tick_rate = mode_summary["frames"], mode_summary["tick_rate"]
     n_players = mode_summary["players"]
     procs = [Process(mode_dir, e) for e in live["processes"]
              if e["outcome"] != "killed" and os.path.exists(os.path.join(mode_dir, e["name"], "samples.json"))]
     players = [p for p in procs if p.role != "spectator"]
-    bodies = read_csv(os.path.join(mode_dir, "bodies.csv"))
+    # live writes bodies.csv only when some process showed positions, and the figures below need
+    # at least one player's samples: a run in which no process played has neither.
+    outcomes = ", ".join("%s %s" % (e["name"], e["outcome"]) for e in live["processes"])
+    if not players:
+        bodies_csv = os.path.join(mode_dir, "bodies.csv")
+        raise Missing("no player played in %s: no player's samples.json there%s (%s)" % (
+            mode_dir, "" if os.path.exists(bodies_csv) else ", and %s is missing" % bodies_csv, outcomes))
+    bodies = read_csv(need(os.path.join(mode_dir, "bodies.csv"), " (processes: %s)" % outcomes))
     body_player = {int(b[0]): int(b[2]) for b in bodies if b[3] == "1"}
     n_bodies = len(body_player)
     rows = {}
@@ -217,7 +242,12 @@ def main():
     run_dir, mode = sys.argv[1], sys.argv[2]
     report = sys.argv[3] if len(sys.argv) > 3 else os.path.join(run_dir, "report.md")
     column = int(sys.argv[4]) if len(sys.argv) > 4 else 1
-    bad = check(open(report).read(), recompute(run_dir, mode), column)
+    try:
+        expected = recompute(run_dir, mode)
+        bad = check(open(need(report)).read(), expected, column)
+    except Missing as e:
+        print("CANNOT CHECK %s: %s" % (report, e))
+        return 1
     for b in bad:
         print("MISMATCH " + b)
     if not bad:

@@ -6,25 +6,22 @@
 
 #include <vector>
 
+#include "tests/rollback/peer_links.h"
+
 namespace lockroll::rollback {
 namespace {
 
 struct Fixture {
     SessionConfig config;
-    Membership view{3, 0, TwoPlayerRule::PlayOnAlone};
-    std::vector<PeerLink> links;
+    Membership view;
+    std::vector<PeerLink> links = testing::fresh_links(3);
     std::vector<Datagram> out;
 
-    explicit Fixture(Role role = Role::Player, PlayerId me = 0) {
+    explicit Fixture(Role role = Role::Player, PlayerId me = 0) : view(3, me, TwoPlayerRule::PlayOnAlone) {
         config.players = 3;
         config.local_player = me;
         config.role = role;
         config.incarnation = 77;
-        view = Membership(3, me, TwoPlayerRule::PlayOnAlone);
-        for (int p = 0; p < 3; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(3);
-        }
     }
     std::vector<PlayerId> hellos(Handshake& h, SessionPhase phase, std::uint64_t now) {
         out.clear();

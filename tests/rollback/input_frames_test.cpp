@@ -10,15 +10,8 @@ namespace lockroll::rollback {
 namespace {
 
 InputReferences refs() {
-    InputReferences r;
-    r.from_player = true;
-    r.takes_ack = true;
-    r.our_count = 70'000;
-    r.its_count = 70'010;
-    r.frame = 70'005;
-    r.newest_checksum = 69'990;
-    r.players = 3;
-    return r;
+    return {.from_player = true, .takes_ack = true, .our_count = 70'000, .its_count = 70'010, .frame = 70'005,
+            .newest_checksum = 69'990, .players = 3};
 }
 
 InputMessage message() {

@@ -7,6 +7,8 @@
 
 #include <vector>
 
+#include "tests/rollback/peer_links.h"
+
 namespace lockroll::rollback {
 namespace {
 
@@ -21,7 +23,7 @@ std::uint64_t sum(std::span<const std::uint8_t> s) {
 // A joiner in slot 2 of three; slots 0 and 1 run and welcomed it; slot 0 provides.
 struct Fixture {
     SessionConfig config;
-    std::vector<PeerLink> links;
+    std::vector<PeerLink> links = testing::fresh_links(3);
     TransferSender sender{60'000'000};
     TransferContents contents;
     std::vector<Datagram> out;
@@ -32,10 +34,6 @@ struct Fixture {
         config.role = role;
         config.input_size = 1;
         config.input_capacity = 64;
-        for (int p = 0; p < 3; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(3);
-        }
         links[0].welcomed = links[1].welcomed = true;
         contents.frame = 10;
         contents.state.assign(kStateSize, 7);
@@ -58,6 +56,11 @@ struct Fixture {
     }
     SnapshotFetch::Verdict finish(SnapshotFetch& f, std::uint64_t now, SnapshotFetch::Result& r) {
         return f.finish(now, links, sum, r);
+    }
+    // The whole join transfer delivered, and finished at 2000 before any voter answered: pending.
+    void deliver_unvetted(SnapshotFetch& f, SnapshotFetch::Result& r) {
+        deliver(f);
+        EXPECT_EQ(finish(f, 2000, r), SnapshotFetch::Verdict::Pending);
     }
     static ReplyMessage reply(std::uint64_t value) {
         ReplyMessage r;
@@ -104,9 +107,8 @@ TEST(SnapshotFetch, AsksForOffersAtMostEveryTwoResendPeriods) {
 TEST(SnapshotFetch, JoinLoadsOnlyOnceTheMajorityConfirmsItsChecksum) {
     Fixture x;
     SnapshotFetch f(x.config, kStateSize);
-    x.deliver(f);
     SnapshotFetch::Result r;
-    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Pending);
+    x.deliver_unvetted(f, r);
     EXPECT_EQ(f.poll(2000, x.out), SnapshotFetch::Poll::Nothing);
     ASSERT_EQ(x.out.size(), 2u) << "one checksum query to each voter";
     f.take_reply(0, Fixture::reply(sum(x.contents.state)));
@@ -123,9 +125,8 @@ TEST(SnapshotFetch, JoinLoadsOnlyOnceTheMajorityConfirmsItsChecksum) {
 TEST(SnapshotFetch, MajorityAgainstRejectsAndAsksThatProviderLast) {
     Fixture x;
     SnapshotFetch f(x.config, kStateSize);
-    x.deliver(f);
     SnapshotFetch::Result r;
-    EXPECT_EQ(x.finish(f, 2000, r), SnapshotFetch::Verdict::Pending);
+    x.deliver_unvetted(f, r);
     f.take_reply(0, Fixture::reply(1));
     f.take_reply(1, Fixture::reply(2));
     EXPECT_EQ(f.poll(3000, x.out), SnapshotFetch::Poll::Decided);

@@ -16,6 +16,13 @@ TransferContents contents() {
     return t;
 }
 
+// A server that offered contents() to peer 1, and peer 1's request for that transfer's chunk 0.
+struct Offered {
+    SnapshotServer s;
+    SnapshotRequestMessage r;
+    Offered() { r.transfer_id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id; }
+};
+
 TEST(SnapshotServer, RepeatsAYoungOfferAndPacksAgainOnceItAged) {
     SnapshotServer s;
     const SnapshotOfferMessage* repeat = nullptr;
@@ -41,35 +48,31 @@ TEST(SnapshotServer, PacksARecoveryAtMostOnceASecond) {
 }
 
 TEST(SnapshotServer, ServesChunksOnlyOfThePeersOwnTransfer) {
-    SnapshotServer s;
-    SnapshotRequestMessage r;
-    r.transfer_id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
+    Offered x;
     SnapshotChunkMessage c;
-    EXPECT_EQ(s.chunk(1, r, c), SnapshotServer::Chunk::Ready);
-    EXPECT_EQ(s.chunk(2, r, c), SnapshotServer::Chunk::NotOurs);
-    r.chunk = 1000;
-    EXPECT_EQ(s.chunk(1, r, c), SnapshotServer::Chunk::OutOfRange);
+    EXPECT_EQ(x.s.chunk(1, x.r, c), SnapshotServer::Chunk::Ready);
+    EXPECT_EQ(x.s.chunk(2, x.r, c), SnapshotServer::Chunk::NotOurs);
+    x.r.chunk = 1000;
+    EXPECT_EQ(x.s.chunk(1, x.r, c), SnapshotServer::Chunk::OutOfRange);
 }
 
 TEST(SnapshotServer, DamagesTheNextChunksInOrderThenNoMore) {
-    SnapshotServer s;
-    SnapshotRequestMessage r;
-    r.transfer_id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
+    Offered x;
     SnapshotChunkMessage whole;
-    ASSERT_EQ(s.chunk(1, r, whole), SnapshotServer::Chunk::Ready);
-    s.damage(1, ChunkDamage::FlipBit);
-    s.damage(1, ChunkDamage::Truncate);
+    ASSERT_EQ(x.s.chunk(1, x.r, whole), SnapshotServer::Chunk::Ready);
+    x.s.damage(1, ChunkDamage::FlipBit);
+    x.s.damage(1, ChunkDamage::Truncate);
     SnapshotChunkMessage c = whole;
-    s.damage_next(c);
+    x.s.damage_next(c);
     EXPECT_EQ(c.bytes.size(), whole.bytes.size());
     EXPECT_NE(c.bytes, whole.bytes);
     c = whole;
-    s.damage_next(c);
+    x.s.damage_next(c);
     EXPECT_EQ(c.bytes.size(), whole.bytes.size() - 1);
     c = whole;
-    s.damage_next(c);
+    x.s.damage_next(c);
     EXPECT_EQ(c.bytes, whole.bytes) << "the count is used up";
-    EXPECT_EQ(s.damaged_chunks(), 2u);
+    EXPECT_EQ(x.s.damaged_chunks(), 2u);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rollback/input_authority.h"
+#include "tests/rollback/peer_links.h"
 
 namespace lockroll::rollback {
 namespace {
@@ -19,7 +20,7 @@ struct Fixture {
     std::vector<InputQueue> queues;
     InputAuthority authority{3, 4};
     std::vector<SlotView> slots{3};
-    std::vector<PeerLink> links;
+    std::vector<PeerLink> links = testing::fresh_links(4);  // the three players' and the spectator's
 
     Fixture() {
         config.players = 3;
@@ -28,10 +29,6 @@ struct Fixture {
         config.relay_lag = 4;
         config.prediction_window = 8;
         for (int s = 0; s < 3; ++s) queues.emplace_back(1, 64);
-        for (int p = 0; p < 4; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(3);
-        }
     }
     void fill(PlayerId slot, std::uint32_t frames) {
         for (std::uint32_t f = queues[slot].confirmed_count(); f < frames; ++f) {

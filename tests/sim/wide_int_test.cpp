@@ -146,6 +146,48 @@ TEST(WideInt, ConversionsKeepLowBitsAndSignExtend) {
     static_assert(((UInt128(1) << 100) >> 99) == 2, "usable in constant expressions");
 }
 
+// The compound assignments and increments (one CRTP base, wide_detail::CompoundOps, for both
+// classes) are their binary operators assigned, and return the object they changed; the base
+// adds nothing to either class's two words.
+template <class T>
+void check_compound(T a, T b, int s) {
+    const auto same = [](T& r, T& x, T want) { return &r == &x && r == want; };
+    T x = a;
+    EXPECT_TRUE(same(x += b, x, a + b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x -= b, x, a - b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x *= b, x, a * b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x &= b, x, a & b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x |= b, x, a | b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x ^= b, x, a ^ b));
+    EXPECT_TRUE(same(x = a, x, a) && same(x <<= s, x, a << s));
+    EXPECT_TRUE(same(x = a, x, a) && same(x >>= s, x, a >> s));
+    EXPECT_TRUE(same(x = a, x, a) && same(++x, x, a + T(1)));
+    EXPECT_TRUE(same(x = a, x, a) && same(--x, x, a - T(1)));
+    if (b != T(0)) {
+        EXPECT_TRUE(same(x = a, x, a) && same(x /= b, x, a / b));
+        EXPECT_TRUE(same(x = a, x, a) && same(x %= b, x, a % b));
+    }
+}
+
+TEST(WideInt, CompoundAssignmentsAreTheirOperators) {
+    static_assert(sizeof(UInt128) == 16 && sizeof(Int128) == 16);
+    static_assert(std::is_trivially_copyable_v<UInt128> && std::is_trivially_copyable_v<Int128>);
+    static_assert(std::is_standard_layout_v<UInt128> && std::is_standard_layout_v<Int128>);
+    static_assert([] {
+        UInt128 u = 5;
+        u <<= 70;
+        u += 3;
+        ++u;
+        return u == ((UInt128(5) << 70) + 4);
+    }(), "usable in constant expressions");
+    const auto edges = edge_values();
+    for (BU x : edges)
+        for (BU y : edges) {
+            check_compound(UInt128(x), UInt128(y), static_cast<int>(y % 128));
+            check_compound(Int128(static_cast<B>(x)), Int128(static_cast<B>(y)), static_cast<int>(x % 128));
+        }
+}
+
 // The helpers in the implementation this build uses (builtin or portable) against __int128.
 TEST(WideInt, ActiveHelpersMatchBuiltin) {
     std::mt19937_64 g(99);
