@@ -342,18 +342,21 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
         c.slot_running = slot_running(from);
         c.welcomed_in_this_epoch = link.welcomed_epoch == membership_.epoch(from);
         c.handed_off_by_me = slots_[from].handed_off_by_me;
+        c.silent_us = now_us > link.last_heard_us ? now_us - link.last_heard_us : 0;
+        c.interrupt_us = config_.interrupt_us;
     }
     const HelloAdmission a = admit_hello(m, c);
     w.refusal = a.refusal;
     const std::string& why = a.why;
-    // Another process for a slot whose process we know: the old one restarted and is gone.
-    // Drop it now; welcome a joiner once the drop is agreed. A player is refused as dropped in
-    // the drop's epoch (newer than its view's, so its vote counts there and it rejoins).
+    // Another process for a slot whose process we know and hear no more: it restarted. Our vote
+    // that the old one is gone; welcome a joiner once a majority dropped it. A player is refused
+    // as dropped in the drop's epoch (newer than its view's, so its vote counts there and it
+    // rejoins), and asked to retry until then.
     if (a.restarted) {
-        changes_.drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
+        if (!changes_.claim_restart(from, m.role == Role::Player, now_us)) w.refusal = Refusal::Retry;
         w.slot_epoch = membership_.epoch(from);
     }
-    if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
+    if ((w.refusal != Refusal::None && w.refusal != Refusal::Retry) || a.doubted) {
         ++foreign_packets_;
         if (link.refusal_quiet_for(now_us, 1000000))
             emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + why);
