@@ -47,7 +47,12 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
             effects_.fail_dropped(now_us);
             return;
         }
-        const std::string why = slots_[s].kick_vote ? "kicked" : slots_[s].lapsed ? "handoff lapsed" : "timed out";
+        const SlotView& v = slots_[s];
+        const bool restart = v.restart_vote && view_.vote_of(config_.local_player, s) == Vote::Gone;
+        const std::string why = v.kick_vote ? "kicked"
+                                : v.lapsed  ? "handoff lapsed"
+                                : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
+                                            : "timed out";
         drop_slot(s, now_us, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
                               std::to_string(view_.running_voters()) + " votes").c_str());
     }
@@ -106,6 +111,16 @@ void MembershipChanges::disconnect_player(PlayerId slot, std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
+bool MembershipChanges::claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us) {
+    view_.vote_local(slot, true);  // ignored when it does not count (not a voter, a guest, ...)
+    if (view_.vote_of(config_.local_player, slot) == Vote::Gone) {
+        slots_[slot].restart_vote = true;
+        slots_[slot].restart_by_player = as_player;
+    }
+    settle_membership(now_us);
+    return !view_.running(slot);
+}
+
 void MembershipChanges::check_silence(std::uint64_t now_us) {
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
@@ -118,6 +133,8 @@ void MembershipChanges::check_silence(std::uint64_t now_us) {
         if (is_slot(pid)) check_handoff(pid, now_us);
         if (silence.timed_out) {
             if (is_slot(pid)) {
+                // A restart vote withdrawn (its old process was heard again): silence votes now.
+                if (view_.vote_of(config_.local_player, pid) != Vote::Gone) slots_[pid].restart_vote = false;
                 view_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
             } else {
                 l.welcomed = false;  // a spectator that went away: stop serving it

@@ -29,6 +29,14 @@
 //    served. Then settle_membership().
 //  - disconnect_player(): a kick is our vote, as if the slot had been silent, kept until the drop.
 //    Throws std::invalid_argument for a slot that is not another process's (the caller's bug).
+//  - claim_restart(): a hello from another process of a running slot whose own process has gone
+//    quiet (admit_hello's `restarted`, rollback/session_admission.h) is our vote that the slot is
+//    gone, as disconnect_us of silence is, and like that vote it is withdrawn when the old process
+//    is heard again. Then settle_membership(): the slot leaves when a majority agrees (with two
+//    players, under PlayOnAlone, this one vote; a genuine restart says hello to every peer, so the
+//    others' votes follow within a round trip). A hello is a claim, never a fact: it used to drop
+//    the slot at once, and one forged hello froze a 3-player match (issue 21). The drop's detail
+//    is "restarted" (a player's hello) or "rejoining" (a joiner's) and the votes.
 #pragma once
 
 #include <cstdint>
@@ -84,6 +92,8 @@ public:
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void check_silence(std::uint64_t now_us);
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
+    // as_player: the hello's role was Player. True when the slot has left the view.
+    bool claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us);
     // Reported Partitioned and not yet heard a majority again.
     bool partitioned() const { return partitioned_; }
 

@@ -309,14 +309,19 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
 void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us) {
     PeerLink& link = links_[from];
     const bool running = phase_ == SessionPhase::Running;
-    const HelloAdmission a =
-        admit_hello(m, handshake_.hello_context(from, link, running, scene_checksum_, is_slot(from) && slots_[from].handed_off_by_me));
-    // Another process for a slot whose process we know: the old one restarted and is gone.
-    // Drop it now; welcome a joiner once the drop is agreed. A player is refused as dropped in
-    // the drop's epoch (newer than its view's, so its vote counts there and it rejoins).
-    if (a.restarted) changes_.drop_slot(from, now_us, m.role == Role::Player ? "restarted" : "rejoining");
-    const WelcomeMessage w = handshake_.answer(from, m, running, scene_checksum_, a.refusal);
-    if (w.refusal != Refusal::None && w.refusal != Refusal::Retry) {
+    HelloContext c =
+        handshake_.hello_context(from, link, running, scene_checksum_, is_slot(from) && slots_[from].handed_off_by_me);
+    c.silent_us = now_us > link.last_heard_us ? now_us - link.last_heard_us : 0;
+    c.interrupt_us = config_.interrupt_us;
+    const HelloAdmission a = admit_hello(m, c);
+    // Another process for a slot whose process we know and hear no more: it restarted. Our vote
+    // that the old one is gone; welcome a joiner once a majority dropped it. A player is refused
+    // as dropped in the drop's epoch (newer than its view's, so its vote counts there and it
+    // rejoins), and asked to retry until then.
+    Refusal refusal = a.refusal;
+    if (a.restarted && !changes_.claim_restart(from, m.role == Role::Player, now_us)) refusal = Refusal::Retry;
+    const WelcomeMessage w = handshake_.answer(from, m, running, scene_checksum_, refusal);
+    if ((w.refusal != Refusal::None && w.refusal != Refusal::Retry) || a.doubted) {
         ++foreign_packets_;
         if (Handshake::refusal_reported(link, now_us))
             emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + a.why);

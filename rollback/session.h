@@ -305,7 +305,9 @@ public:
     bool partitioned() const;
     // Silent longer than interrupt_us (and not dropped yet).
     bool interrupted(PlayerId peer) const;
-    std::uint64_t foreign_packets() const;  // other match or version
+    // Hellos refused: another match, version or scene, a wrong role, a dropped slot, or a restart
+    // claimed for a slot whose process still talks (docs/sessions.md, "A restart is a claim").
+    std::uint64_t foreign_packets() const;
 
     // phase(), failure(), frame(), confirmed_frame(), input_delay(), stalled(), recoveries(),
     // stats(), saved_state(), next_event(): SessionQueries' (above).

@@ -2,6 +2,21 @@
 
 namespace lockroll::rollback {
 
+namespace {
+
+// A restart claimed for a slot whose welcomed process still talks is refused: the claim counts
+// only once that process has gone quiet (the contract). False when it is doubted.
+bool quiet_enough(HelloAdmission& a, const HelloContext& c) {
+    if (c.silent_us >= restart_quiet_us(c.interrupt_us)) return true;
+    a.refusal = Refusal::Retry;
+    a.doubted = true;
+    a.why = "slot " + std::to_string(c.from) + " claimed to restart while its process was heard " +
+            std::to_string(c.silent_us / 1000) + " ms ago";
+    return false;
+}
+
+}  // namespace
+
 HelloAdmission admit_hello(const HelloMessage& m, const HelloContext& c) {
     HelloAdmission a;
     if (m.version != kProtocolVersion) {
@@ -23,17 +38,21 @@ HelloAdmission admit_hello(const HelloMessage& m, const HelloContext& c) {
         a.why = "slot " + std::to_string(c.from) + " was dropped; rejoin as a joiner";
     } else if (m.role == Role::Joiner && c.slot_running && c.running && c.welcomed && c.incarnation != m.incarnation &&
                c.welcomed_in_this_epoch && !c.handed_off_by_me) {
-        a.refusal = Refusal::Retry;
-        a.restarted = true;
+        if (quiet_enough(a, c)) {
+            a.refusal = Refusal::Retry;
+            a.restarted = true;
+        }
     } else if (m.role == Role::Player && c.slot_running && c.running && c.welcomed && c.incarnation != 0 &&
                c.incarnation != m.incarnation) {
         // A player hello from another process than the one welcomed: it restarted with its usual
         // settings. It cannot start at frame 0 of a running match: refused as dropped, it rejoins
         // by snapshot (net::NetSession restarts its session as a joiner). Incarnation 0: we only
         // ever heard its welcomes, never its hello, and cannot tell the processes apart.
-        a.refusal = Refusal::Disconnected;
-        a.why = "slot " + std::to_string(c.from) + " restarted; rejoin as a joiner";
-        a.restarted = true;
+        if (quiet_enough(a, c)) {
+            a.refusal = Refusal::Disconnected;
+            a.why = "slot " + std::to_string(c.from) + " restarted; rejoin as a joiner";
+            a.restarted = true;
+        }
     }
     return a;
 }

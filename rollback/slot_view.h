@@ -23,6 +23,10 @@ struct SlotView {
     std::uint32_t handoff = 0;        // Running after a join: its own inputs start here
     bool handed_off_by_me = false;
     bool kick_vote = false;           // disconnect_player: the local vote stays until the drop
+    // MembershipChanges::claim_restart: our vote came from a hello of another process of the slot
+    // (a player's hello: "restarted", a joiner's: "rejoining"), not from its silence.
+    bool restart_vote = false;
+    bool restart_by_player = false;
     // A handed-over slot whose own stream has not started (its newest input is the owner's
     // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
     // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
@@ -36,6 +40,8 @@ struct SlotView {
 
     void new_epoch() {
         kick_vote = false;
+        restart_vote = false;
+        restart_by_player = false;
         lapsed = false;
         pending_since_us = 0;
         authoring = false;

@@ -145,15 +145,18 @@ void kill_and_rejoin(int window) {
 
 TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
 
-// Slot 1 of two dies at frame 200 and a new process for it says hello `down_us` later, in a new
-// incarnation, as `role`. Its peer drops the old process at once instead of waiting out
-// disconnect_us (detail `drop_detail`), and the game barely stalls. As a joiner it rejoins by
-// snapshot. As a player (restarted with its usual settings) it is refused as dropped, so it is
-// kicked before it runs a frame (it used to be welcomed and start at frame 0 of a running
-// match); started again as a joiner (what net::NetSession does on that kick) it rejoins.
-void restart_after(Role role, std::uint64_t down_us, const char* drop_detail) {
-    const auto scene = make_scene(2, 10);
-    const SessionConfig cfg = real_config(2, 8);
+// Slot 1 of `players` dies at frame 200 and a new process for it says hello `down_us` later, in
+// a new incarnation, as `role`. Each survivor votes the old process gone as soon as that has
+// been silent for half interrupt_us (a hello while it still talks is only a claim: issue 21): a
+// genuine restart says hello to all of them, so a majority forms at once (with two players the
+// one vote) and drops it (detail `drop_detail`, with the votes) long before disconnect_us: the
+// game barely stalls. As a joiner it rejoins by snapshot. As a player (restarted with its usual
+// settings) it is refused as dropped, so it is kicked before it runs a frame (it used to be
+// welcomed and start at frame 0 of a running match); started again as a joiner (what
+// net::NetSession does on that kick) it rejoins.
+void restart_after(Role role, std::uint64_t down_us, const char* drop_detail, int players = 2) {
+    const auto scene = make_scene(players, 10);
+    const SessionConfig cfg = real_config(players, 8);
     Cluster cluster(scene, cfg, {15000}, 12);
     cluster.run_frames(200);
     cluster.kill(1);
@@ -177,18 +180,87 @@ void restart_after(Role role, std::uint64_t down_us, const char* drop_detail) {
     }
     cluster.run_frames(600, 20'000'000);
     cluster.settle(600);
-    const Client& survivor = *cluster.clients[0];
-    ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u);
-    EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, drop_detail);
-    EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000);
-    EXPECT_LT(survivor.session->stats().stall_time_us, 3'000'000u);
+    for (int p = 0; p < players; ++p) {
+        if (p == 1) continue;
+        const Client& survivor = *cluster.clients[static_cast<std::size_t>(p)];
+        ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u) << "survivor " << p;
+        EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, drop_detail) << "survivor " << p;
+        EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000) << "survivor " << p;
+        EXPECT_LT(survivor.session->stats().stall_time_us, 3'000'000u) << "survivor " << p;
+    }
     EXPECT_EQ(joiner->session->phase(), SessionPhase::Running);
     EXPECT_EQ(events_of(*joiner, Kind::SnapshotLoaded).size(), 1u);
     expect_equal_at(cluster, 600);
 }
 
-TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) { restart_after(Role::Joiner, 1'000'000, "rejoining"); }
-TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) { restart_after(Role::Player, 300'000, "restarted"); }
+TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) { restart_after(Role::Joiner, 1'000'000, "rejoining, by 1 of 2 votes"); }
+TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) { restart_after(Role::Player, 300'000, "restarted, by 1 of 2 votes"); }
+TEST(Lifecycle, FastRestartOfOneOfThreeIsDroppedByTheTwoVotesBeforeTheTimeout) {
+    restart_after(Role::Joiner, 1'000'000, "rejoining, by 2 of 3 votes", 3);
+}
+TEST(Lifecycle, RestartAsPlayerOfOneOfThreeIsDroppedByTheTwoVotesThenRejoins) {
+    restart_after(Role::Player, 300'000, "restarted, by 2 of 3 votes", 3);
+}
+
+// Issue 21, "a datagram is a claim, not a fact": an outsider sends one hello with slot 1's id,
+// as a joiner of a new incarnation (what a restarted process says), at frame 200 while slot 1's
+// own process plays on. Nobody may drop slot 1 on that word: it used to drop it at once at
+// every peer it reached, with no vote, and with three players that peer's view left the
+// others' and the whole match froze. A restart claim counts only once the slot's process has
+// gone quiet (admit_hello); the hello is refused, counted and reported at each peer it reached.
+void forged_restart_hello(int players, std::vector<PlayerId> targets) {
+    const auto scene = make_scene(players, 10);
+    const SessionConfig cfg = real_config(players, 8);
+    Cluster cluster(scene, cfg, {15000, 3000}, 41);
+    std::vector<std::uint8_t> hello_bytes;  // slot 1's own first hello to peer 0
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (from == 1 && to == 0 && hello_bytes.empty() && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::Hello))
+            hello_bytes = b;
+        return true;
+    };
+    cluster.run_frames(200);
+    HelloMessage h;
+    ASSERT_EQ(decode(hello_bytes, h), nullptr);
+    h.role = Role::Joiner;
+    h.incarnation += 12345;
+    std::set<PlayerId> sent;
+    cluster.rewrite = [&](PlayerId from, PlayerId to, std::vector<std::uint8_t>& b) {
+        if (from != 1 || sent.count(to) || std::find(targets.begin(), targets.end(), to) == targets.end()) return;
+        b.clear();  // in place of one of slot 1's datagrams: one loss besides
+        encode(h, b);
+        sent.insert(to);
+    };
+    cluster.run_frames(800, 30'000'000);
+    cluster.settle(800, 10'000'000);
+    ASSERT_EQ(sent.size(), targets.size());
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        const Client& c = *cluster.clients[i];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << i << ": " << c.session->failure();
+        EXPECT_GE(c.session->frame(), 800u) << "client " << i;
+        EXPECT_GE(c.session->confirmed_frame(), 800u) << "client " << i;
+        for (int s = 0; s < players; ++s)
+            EXPECT_EQ(c.session->slot_state(static_cast<PlayerId>(s)), SlotState::Running) << "client " << i << " slot " << s;
+        EXPECT_TRUE(events_of(c, Kind::Disconnected).empty()) << "client " << i;
+        EXPECT_TRUE(events_of(c, Kind::Kicked).empty()) << "client " << i;
+        EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << i;
+    }
+    for (PlayerId t : targets) {
+        const Client& c = *cluster.clients[t];
+        EXPECT_EQ(c.session->foreign_packets(), 1u) << "client " << t << ": the forged hello is counted";
+        const auto refused = events_of(c, Kind::Refused);
+        ASSERT_EQ(refused.size(), 1u) << "client " << t;
+        EXPECT_EQ(refused[0]->peer, 1);
+        EXPECT_NE(refused[0]->detail.find("restart"), std::string::npos) << refused[0]->detail;
+    }
+    expect_equal_at(cluster, 800);
+}
+
+TEST(Lifecycle, ForgedRestartHelloToOnePeerOfThreeDropsNobody) { forged_restart_hello(3, {0}); }
+TEST(Lifecycle, ForgedRestartHelloToBothPeersOfThreeDropsNobody) { forged_restart_hello(3, {0, 2}); }
+// Two players: one vote decides a drop (TwoPlayerRule::PlayOnAlone), so the claim alone must
+// not be that vote while slot 1's process plays.
+TEST(Lifecycle, ForgedRestartHelloInATwoPlayerMatchDropsNobody) { forged_restart_hello(2, {0}); }
+
 
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 

@@ -254,6 +254,42 @@ TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     EXPECT_THROW(other.changes.disconnect_player(2, 100), std::invalid_argument) << "a guest goes with its host";
 }
 
+// A restart claim (a hello from another process of a slot whose own has gone quiet) is our vote,
+// not a drop: with three players a second voter must agree; hearing the old process again
+// withdraws it, and silence that follows says "timed out", not "rejoining".
+TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
+    Fixture f(3);
+    EXPECT_FALSE(f.changes.claim_restart(2, false, 100));
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone);
+    EXPECT_TRUE(f.view.running(2)) << "one vote of three is no majority";
+    EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.changes.settle_membership(200);
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "rejoining, by 2 of 3 votes");
+
+    Fixture heard(3);
+    heard.hear_all_but(99, 0);
+    EXPECT_FALSE(heard.changes.claim_restart(2, true, 100));
+    heard.view.vote_local(2, false);  // its old process spoke again (the session withdraws the vote)
+    heard.hear_all_but(2, kDisconnect);
+    heard.changes.check_silence(kDisconnect);
+    heard.changes.count_vote(1, 2, Vote::Gone, 1);
+    heard.changes.settle_membership(kDisconnect + 1);
+    EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).detail, "timed out, by 2 of 3 votes");
+}
+
+TEST(MembershipChanges, TwoPlayersARestartClaimDecidesUnderPlayOnAloneOnly) {
+    Fixture alone(2);
+    EXPECT_TRUE(alone.changes.claim_restart(1, true, 100));
+    EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
+    EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).detail, "restarted, by 1 of 2 votes");
+
+    Fixture never(2, {}, TwoPlayerRule::NoDrop);
+    EXPECT_FALSE(never.changes.claim_restart(1, false, 100));
+    EXPECT_TRUE(never.view.running(1));
+}
+
 TEST(MembershipChanges, PartitionedOncePerEpisode) {
     Fixture f(3);
     f.view.vote_local(1, true);

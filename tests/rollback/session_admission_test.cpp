@@ -20,6 +20,16 @@ HelloContext running_context() {
     c.incarnation = 77;
     c.slot_running = true;
     c.welcomed_in_this_epoch = true;
+    c.interrupt_us = 750000;
+    c.silent_us = 10000;  // it plays: heard 10 ms ago
+    return c;
+}
+
+// The same, but player 1's process has not been heard for half the interruption time: a hello
+// from another process of it may be a restart.
+HelloContext quiet_context() {
+    HelloContext c = running_context();
+    c.silent_us = restart_quiet_us(c.interrupt_us);
     return c;
 }
 
@@ -99,7 +109,7 @@ TEST(SessionAdmission, ADroppedSlotIsToldSoAndMayRejoinAsAJoiner) {
 }
 
 TEST(SessionAdmission, AJoinerFromAnotherProcessOfARunningSlotMeansItRestarted) {
-    const HelloAdmission a = admit_hello(hello(Role::Joiner, 78), running_context());
+    const HelloAdmission a = admit_hello(hello(Role::Joiner, 78), quiet_context());
     EXPECT_EQ(a.refusal, Refusal::Retry);
     EXPECT_TRUE(a.restarted);
     EXPECT_TRUE(a.why.empty());
@@ -119,7 +129,7 @@ TEST(SessionAdmission, AJoinerFromAnotherProcessOfARunningSlotMeansItRestarted) 
 }
 
 TEST(SessionAdmission, APlayerFromAnotherProcessOfARunningSlotMustRejoinAsAJoiner) {
-    const HelloAdmission a = admit_hello(hello(Role::Player, 78), running_context());
+    const HelloAdmission a = admit_hello(hello(Role::Player, 78), quiet_context());
     EXPECT_EQ(a.refusal, Refusal::Disconnected);  // it cannot start at frame 0 of a running match
     EXPECT_TRUE(a.restarted);                     // the old process is dropped first
     EXPECT_EQ(a.why, "slot 1 restarted; rejoin as a joiner");
@@ -132,4 +142,28 @@ TEST(SessionAdmission, APlayerFromAnotherProcessOfARunningSlotMustRejoinAsAJoine
     syncing.running = false;
     EXPECT_EQ(admit_hello(hello(Role::Player, 78), syncing).refusal, Refusal::None);
     EXPECT_FALSE(admit_hello(hello(Role::Player, 78), syncing).restarted);
+}
+
+// Issue 21: anyone can say hello with a slot's id. While the slot's process still talks (heard
+// less than half the interruption time ago), a hello from another process of it is a claim
+// refused "retry", flagged for counting and reported with why; nothing restarted. The same hello
+// once that process has gone quiet is a restart (the session's vote).
+TEST(SessionAdmission, ARestartClaimedWhileTheSlotsProcessStillTalksIsDoubted) {
+    for (Role role : {Role::Joiner, Role::Player}) {
+        const HelloAdmission a = admit_hello(hello(role, 78), running_context());
+        EXPECT_EQ(a.refusal, Refusal::Retry);
+        EXPECT_FALSE(a.restarted);
+        EXPECT_TRUE(a.doubted);
+        EXPECT_EQ(a.why, "slot 1 claimed to restart while its process was heard 10 ms ago");
+        HelloContext almost = running_context();
+        almost.silent_us = restart_quiet_us(almost.interrupt_us) - 1;
+        EXPECT_TRUE(admit_hello(hello(role, 78), almost).doubted);
+        const HelloAdmission q = admit_hello(hello(role, 78), quiet_context());
+        EXPECT_TRUE(q.restarted);
+        EXPECT_FALSE(q.doubted);
+    }
+    EXPECT_EQ(restart_quiet_us(750000), 375000u);
+    // Its own process's hello again is no claim, however quiet the link.
+    EXPECT_FALSE(admit_hello(hello(Role::Joiner, 77), running_context()).doubted);
+    EXPECT_FALSE(admit_hello(hello(Role::Player, 77), quiet_context()).doubted);
 }
