@@ -106,12 +106,22 @@ LivePlan plan(const LiveOptions& o) {
     at_list(o.kills, "--kill", p.kills);
     at_list(o.rejoins, "--rejoin", p.rejoins);
     at_list(o.joins, "--join", p.joins);
-    for (const auto& r : p.rejoins) {
-        const auto k = std::find_if(p.kills.begin(), p.kills.end(), [&](const Kill& x) { return x.slot == r.slot; });
-        if (k == p.kills.end() || k->frame >= r.frame)
-            throw UsageError("--rejoin " + std::to_string(r.slot) + "@" + std::to_string(r.frame) +
-                             ": needs an earlier --kill of the same slot");
-    }
+    at_list(o.restarts, "--restart", p.restarts);
+    const auto after_kill = [&](const std::vector<Kill>& later, const std::string& flag) {
+        for (const auto& r : later) {
+            const auto k = std::find_if(p.kills.begin(), p.kills.end(), [&](const Kill& x) { return x.slot == r.slot; });
+            if (k == p.kills.end() || k->frame >= r.frame)
+                throw UsageError(flag + " " + std::to_string(r.slot) + "@" + std::to_string(r.frame) +
+                                 ": needs an earlier --kill of the same slot");
+        }
+    };
+    after_kill(p.rejoins, "--rejoin");
+    after_kill(p.restarts, "--restart");
+    for (const auto& r : p.restarts)
+        for (const auto& j : p.rejoins)
+            if (j.slot == r.slot)
+                throw UsageError("--restart " + std::to_string(r.slot) + "@" + std::to_string(r.frame) +
+                                 ": the slot also has a --rejoin; one process per slot comes back");
     if (static_cast<int>(p.joins.size()) >= o.players) throw UsageError("--join: at least one slot must play from frame 0");
     for (const auto& j : p.joins)
         for (const auto& k : p.kills)
@@ -300,6 +310,8 @@ void add_live_command(CLI::App& app) {
     cmd->add_option("--prediction", o->prediction, "Prediction window W in rollback mode")->capture_default_str();
     cmd->add_option("--kill", o->kills, "SLOT@FRAME: SIGKILL that process once it shows FRAME (repeatable)");
     cmd->add_option("--rejoin", o->rejoins, "SLOT@FRAME: restart a --kill'ed slot with --join once slot 0 shows FRAME");
+    cmd->add_option("--restart", o->restarts,
+                    "SLOT@FRAME: restart a --kill'ed slot with its usual arguments (no --join) once slot 0 shows FRAME");
     cmd->add_option("--join", o->joins, "SLOT@FRAME: the slot is absent from frame 0 and its process joins at FRAME");
     cmd->add_option("--spectators", o->spectators, "Spectator processes following the match")->capture_default_str();
     cmd->add_option("--spectate-at", o->spectate_at, "Start the spectators once the match shows this frame (0: at once)")

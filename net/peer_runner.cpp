@@ -10,8 +10,6 @@
 namespace lockroll::net {
 
 namespace {
-// How often a lower slot re-tries connecting to a higher slot it is not connected to.
-constexpr std::uint64_t kReconnectEveryUs = 500000;
 // Reliable datagrams kept per unconnected peer (the newest; the session re-asks what is lost).
 constexpr std::size_t kMaxHeldPerPeer = 64;
 }  // namespace
@@ -52,6 +50,7 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
                                         " is out of range, local, or a slot played by another slot's process");
     connected_.assign(ids, false);
     held_.assign(ids, {});
+    redial_ = RedialBackoff(ids);
     // One input per local slot (several players on one machine: SessionConfig::slot_hosts).
     input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
     period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
@@ -70,6 +69,7 @@ void PeerRunner::track_connections(std::uint64_t now) {
         if (e.peer < connected_.size()) {
             if (e.type == transport::TransportEvent::Type::Connected) {
                 connected_[e.peer] = true;
+                redial_.heard(e.peer);  // lost again later: redialed at once, then backing off
                 // Control messages the session sent before the connection existed (snapshot
                 // requests and chunks; never hellos, see tick()): deliver them now, in order.
                 for (const auto& bytes : held_[e.peer]) transport_.send_reliable(e.peer, bytes, now);
@@ -84,16 +84,18 @@ void PeerRunner::track_connections(std::uint64_t now) {
 void PeerRunner::service(std::uint64_t now) {
     transport_.poll(now);
     track_connections(now);
-    if (now - last_reconnect_us_ < kReconnectEveryUs) return;
-    last_reconnect_us_ = now;
     // The lower id connects, one connection per pair: no crossed connects, also when a killed
     // slot comes back (the lower survivors keep retrying it, it retries the higher ones).
     // Spectators have the highest ids but nobody knows their addresses: they connect to everyone.
-    // connect() refuses harmlessly while a connection exists or is pending.
+    // connect() refuses harmlessly while a connection exists or is pending. A peer that stays
+    // away is dialed ever less often, up to a cap (net/redial_backoff.h), never given up.
     const auto& sc = session_.config();
     const bool spectator = sc.role == rollback::Role::Spectator;
     for (const auto& p : config_.peers)
-        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot)) transport_.connect(p.slot, p.host, p.port);
+        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot) && redial_.due(p.slot, now)) {
+            redial_.dialed(p.slot, now);
+            transport_.connect(p.slot, p.host, p.port);
+        }
 }
 
 // Without a handshake the runner is the start barrier: every remote process connected.

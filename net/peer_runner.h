@@ -6,9 +6,13 @@
 //
 // Contract
 //  - Connections: a player (joiners too) connects to every higher peer id it has an address
-//    for, a spectator (highest ids, address known to nobody) to every peer, retrying every half
-//    second for the whole run while not connected (the transport lets a restarted process take
-//    its id back), so a killed and restarted peer is reconnected by the lower survivors.
+//    for, a spectator (highest ids, address known to nobody) to every peer, retrying for the
+//    whole run while not connected (the transport lets a restarted process take its id back),
+//    so a killed and restarted peer is reconnected by the lower survivors. Retries back off
+//    (net/redial_backoff.h): at once, then 0.5 s doubling to a cap of 4 s per peer, starting
+//    over once the peer was connected again; so a gone address costs 18 dials in its first
+//    minute, not 120, and a restarted peer or a healed partition is dialed again at most 4 s
+//    after it is back.
 //  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
 //    phase is the start barrier and the runner ticks from the beginning; without one, the runner
 //    waits until every remote slot is connected and then starts frame 0. Either way the session
@@ -69,6 +73,7 @@
 #include <vector>
 
 #include "net/clock.h"
+#include "net/redial_backoff.h"
 #include "net/update_result.h"
 #include "rollback/session.h"
 #include "transport/transport.h"
@@ -190,7 +195,7 @@ private:
     std::uint64_t ticks_ = 0;
     std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
     StretchTally stretch_;
-    std::uint64_t last_reconnect_us_ = 0;
+    RedialBackoff redial_;             // when to dial each peer id not connected (again)
     std::optional<std::uint32_t> partitioned_since_, alone_since_;
     std::uint32_t confirmed_while_partitioned_ = 0;  // confirmed frame on the last partitioned tick
     bool ran_ = false;                 // the session has run frames (this one or a predecessor)

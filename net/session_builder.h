@@ -19,7 +19,8 @@
 //    delay, prediction window and match id.
 //  - Addresses: every process listens on listen() (default 127.0.0.1, an ephemeral port:
 //    NetSession::port()); remote_player() gives where the others listen. Connections follow
-//    PeerRunner's rules (the lower process connects, retried every 0.5 s).
+//    PeerRunner's rules (the lower process connects, retried
+//    at a backing-off interval of 0.5 s to 4 s: net/redial_backoff.h).
 //  - server(host, port): play through a relay server (`lockroll server`, docs/relay.md) instead
 //    of a mesh: no remote_player(), one or more local_player() (several are several slots on
 //    one connection; the input is then input_size bytes per local slot, ascending slot order,

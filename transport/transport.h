@@ -9,8 +9,9 @@
 //    runner tells the transport where a peer is only through connect(id, host, port), whose
 //    host and port mean whatever the transport's addressing is (ENet and UDP: a host and a UDP
 //    port; Steam: a SteamID as text and a virtual port; WebRTC: a signalling id). The runner
-//    calls connect() for a peer it is not connected to, every half second for the whole run (so
-//    a restarted peer is reached again), and only from one side of each pair (the lower id; a
+//    calls connect() for a peer it is not connected to for the whole run (so a restarted peer
+//    is reached again), backing off from every half second to every 4 s while it stays away
+//    (net/redial_backoff.h), and only from one side of each pair (the lower id; a
 //    spectator to everyone): the other side learns the peer from its incoming connection. A
 //    transport reports a connection that comes up (either side's) as a Connected event and
 //    is_connected() true; one that goes away as Disconnected. A connectionless transport keeps

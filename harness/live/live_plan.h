@@ -28,6 +28,7 @@ struct LiveOptions {
     std::string input_delay = "auto";
     int prediction = 8;
     std::vector<std::string> kills, rejoins, joins, injections;
+    std::vector<std::string> restarts;  // SLOT@FRAME: a killed slot started again without --join
     int spectators = 0;
     int spectate_at = 0;  // frame of the first player at which spectators start (0: at once)
     bool view = false;    // also write each mode's view.html
@@ -54,6 +55,7 @@ struct LivePlan {
     RunConfig base;                        // the same match for the virtual-time run
     std::map<Mode, int> input_delay;
     std::vector<Kill> kills, rejoins, joins;  // SLOT@FRAME
+    std::vector<Kill> restarts;               // SLOT@FRAME: like rejoins, but with its usual arguments
     std::vector<std::string> injections;  // CLIENT:FRAME:BODY[:FIELD:BIT], for every peer
     std::map<int, int> clock_skew_ppm;    // slot -> ppm, for every process of that slot
     bool proxied = false;

@@ -128,16 +128,23 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
     }();
     for (auto& r : recs)
         if (r.joiner) r.after_slot = reference;
-    for (const auto& rj : p.rejoins) {
+    // A rejoin is started with --join; a restart with its usual arguments, as a crashed game is
+    // relaunched (the others refuse it as dropped and it rejoins by snapshot on its own).
+    const auto comes_back = [&](const Kill& rj, bool restart) {
         ProcessRecord r;
         r.slot = rj.slot;
         r.joiner = true;
-        r.name = "p" + std::to_string(rj.slot) + "-rejoin";
+        r.restart = restart;
+        r.name = "p";  // (+= only: GCC 12's -Wrestrict misfires on "p" + std::string here)
+        r.name += std::to_string(rj.slot);
+        r.name += restart ? "-restart" : "-rejoin";
         r.after_slot = rj.slot == reference ? (reference + 1) % n : reference;
         r.after_frame = rj.frame;
         r.after_kill_of = rj.slot;
         recs.push_back(r);
-    }
+    };
+    for (const auto& rj : p.rejoins) comes_back(rj, false);
+    for (const auto& rj : p.restarts) comes_back(rj, true);
     for (int s = 0; s < o.spectators; ++s) {
         ProcessRecord r;
         r.slot = n + s;
@@ -171,7 +178,7 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
                      "--progress", "--recoveries", std::to_string(o.recoveries), "--finish-timeout", num(o.finish_timeout),
                      "--out", (dir / r.name).string()});
         for (const auto& j : p.joins) args.insert(args.end(), {"--absent", std::to_string(j.slot)});
-        if (r.joiner) args.emplace_back("--join");
+        if (r.joiner && !r.restart) args.emplace_back("--join");
         if (r.spectator) args.emplace_back("--spectate");
         if (!r.spectator && !r.joiner) {
             for (const auto& inj : p.injections) args.insert(args.end(), {"--inject-desync", inj});
@@ -209,7 +216,9 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
                                                    (r.after_kill_of < 0 || killed(r.after_kill_of)));
             if (!due) continue;
             procs[i] = launch(r);
-            if (r.joiner) std::fprintf(stderr, "[live %s] started %s (joins slot %d)\n", mode_name(mode), r.name.c_str(), r.slot);
+            if (r.joiner)
+                std::fprintf(stderr, "[live %s] started %s (%s slot %d)\n", mode_name(mode), r.name.c_str(),
+                             r.restart ? "restarts, without --join," : "joins", r.slot);
         }
         std::vector<pollfd> fds;
         for (const auto& c : procs)

@@ -26,7 +26,8 @@ namespace lockroll::harness {
 struct ProcessRecord {
     int slot = 0;                // player slot, or spectator id (>= players)
     bool spectator = false;
-    bool joiner = false;         // started with --join (late join or rejoin)
+    bool joiner = false;         // starts late: --join, --rejoin, or --restart (see restart)
+    bool restart = false;        // a --restart: a killed slot's process again, WITHOUT --join
     std::string name;            // output directory under the mode's directory
     int exit_status = -1;
     bool started = false;

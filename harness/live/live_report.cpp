@@ -248,7 +248,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
         const json& s = r.summary;
         json p = {{"slot", r.slot},
                   {"name", r.name},
-                  {"role", r.spectator ? "spectator" : r.joiner ? "joiner" : "player"},
+                  {"role", r.spectator ? "spectator" : r.restart ? "restarted" : r.joiner ? "joiner" : "player"},
                   {"exit_status", r.exit_status},
                   {"outcome", s.is_object() ? s.value("outcome", "") : (r.killed ? "killed" : "no summary")},
                   {"final_checksum", s.is_object() ? s.value("final_checksum", json(nullptr)) : json(nullptr)},

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `lockroll live` with real processes on 127.0.0.1 (free ports, bounded by live's own time limit
 # and CTest's timeout): 3 players through impairment proxies at 5 % loss; a kill and a rejoin; a
-# two-player kill (the survivor completes "alone since frame F"); a late join with a spectator; an
+# two-player kill (the survivor completes "alone since frame F"), also over 3,000 frames; a
+# restart without --join (--restart) that rejoins by snapshot; a late join with a spectator; an
 # injected desync; bad flags. Outcomes only (checksums, events). Partitions: live_partition_test.sh.
 set -u
 lockroll=$1
@@ -50,6 +51,44 @@ assert p0["outcome"] == "completed" and p0["outcome_detail"] == "completed alone
 s0 = json.load(open(os.path.join(sys.argv[1], "rollback", "p0", "summary.json")))
 assert 100 <= s0["alone_since_frame"] <= 300 and s0["alone_since_frame"] == p0["disconnects"][0]["frame"], s0
 '
+# 2c. Issue 21's lone survivor over real processes, 3,000 frames: slot 1 killed at frame 200, slot
+#     0 plays on alone to the end, well past the old freeze (confirmed frame ~1,234, about 1,000
+#     frames after the drop). At --tick-rate 240 it takes about 15 s instead of 50.
+"$lockroll" live --players 2 --frames 3000 --tick-rate 240 --mode rollback --no-virtual --kill 1@200 \
+    --disconnect-timeout 1 --out "$tmp/alone-long" >"$tmp/alone-long.out" 2>&1 || { fail "alone-long: exit status $?"; tail -5 "$tmp/alone-long.out"; }
+check alone-long "$tmp/alone-long" rollback '
+assert d["ok"] and "overclaims" not in d, d
+p0, p1 = procs["p0"], procs["p1"]
+assert p1["outcome"] == "killed" and p1["killed_at_frame"] >= 200, p1
+assert p0["outcome"] == "completed" and p0["frames_shown"] == 3000 and p0["confirmed_frame"] == 3000, p0
+assert p0["final_checksum"] is not None and p0["exit_status"] == 0, p0
+assert p0["outcome_detail"] == "completed alone since frame %d" % p0["alone_since_frame"], p0
+assert [x["slot"] for x in p0["disconnects"]] == [1] and 200 <= p0["alone_since_frame"] == p0["disconnects"][0]["frame"] < 1000, p0
+'
+
+# 2d. A restart WITHOUT --join (issue 21: a crashed client relaunched with its usual arguments):
+#     slot 2 killed at frame 200 and started again as a player once slot 0 shows frame 400. The
+#     others refuse it as dropped, its runner restarts it as a joiner, it loads a snapshot and
+#     ends on the survivors' final; nobody claims more than happened.
+"$lockroll" live --players 3 --frames 600 --latency 10 --jitter 2 --mode rollback --no-virtual --kill 2@200 \
+    --restart 2@400 --disconnect-timeout 1.5 --out "$tmp/restart" >"$tmp/restart.out" 2>&1 || { fail "restart: exit status $?"; tail -5 "$tmp/restart.out"; }
+check restart "$tmp/restart" rollback '
+assert d["ok"] and d["final_checksums_equal"] and "overclaims" not in d, d
+assert procs["p2"]["outcome"] == "killed" and procs["p2"]["killed_at_frame"] >= 200
+r = procs["p2-restart"]
+assert r["role"] == "restarted" and r["outcome"] == "completed" and r["exit_status"] == 0, r
+assert r["final_checksum"] == procs["p0"]["final_checksum"] == procs["p1"]["final_checksum"], procs
+assert r["rejoined_at_frame"] is not None and 400 <= r["rejoined_at_frame"] <= 600, r
+assert r["frames_shown"] == 600 and r["confirmed_frame"] == 600, r
+assert "rejoined at frame %d" % r["rejoined_at_frame"] in r["outcome_detail"], r
+ev = [e["event"] for e in events("p2-restart")]
+assert "snapshot_loaded" in ev and "kicked" not in ev and "failed" not in ev, ev
+for k in ("p0", "p1"):
+    p = procs[k]
+    assert p["outcome"] == "completed" and p["alone_since_frame"] is None, p
+    assert [x["slot"] for x in p["disconnects"]] == [2] and [x["slot"] for x in p["joins"]] == [2], p
+'
+
 # ... and with three players (case 2) nobody is ever "alone": every drop was a majority's.
 check kill-not-alone "$tmp/kill" rollback '
 assert all(p["alone_since_frame"] is None for p in procs.values()), procs
@@ -100,6 +139,9 @@ expect2() {
 expect2 "--topology: star not in" --topology star
 expect2 "--kill 5@10: SLOT must be" --kill 5@10
 expect2 "--rejoin 1@50: needs an earlier --kill" --rejoin 1@50
+expect2 "--restart 1@50: needs an earlier --kill" --restart 1@50
+expect2 "--restart 5@50: SLOT must be" --restart 5@50
+expect2 "--restart 2@300: the slot also has a --rejoin" --players 3 --kill 2@100 --rejoin 2@200 --restart 2@300
 expect2 "--kill x: expected SLOT@FRAME" --kill x
 expect2 "--loss must be a probability" --loss 3
 expect2 "--finish-timeout must be 0..3600 s" --finish-timeout 0
