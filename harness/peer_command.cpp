@@ -39,6 +39,7 @@
 #include "net/peer_runner.h"
 #include "net/relay_runner.h"
 #include "rollback/desync_evidence.h"
+#include "rollback/playing_alone.h"
 #include "rollback/relay_session.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
@@ -426,14 +427,18 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     const std::optional<std::uint64_t> final_checksum = rec.match.final_checksum();
     const bool ok = outcome == net::RunOutcome::Completed && final_checksum;
     // What the outcome does not say by its name (the P2P runner only; the relay has a server):
-    // a completion played alone (two players, the other dropped), a partition, a rejoin by
+    // a completion played alone (a drop by the two-player rule left this process the only
+    // running player of its view, in a match of two or of more shrunk to two), a partition, a rejoin by
     // snapshot after the others dropped this slot (a healed partition's minority), and why it
     // failed.
     std::optional<std::uint32_t> partitioned_since, alone_since, rejoined_at;
+    std::optional<json> running_voters;  // the view's running processes at the end, by slot
     std::string rejoin;  // "had been partitioned since frame F, rejoined at frame G"
     if constexpr (requires { runner.partitioned_since(); }) {
         partitioned_since = runner.partitioned_since();
         alone_since = runner.alone_since();
+        running_voters = json::array();
+        for (const rollback::PlayerId v : rollback::running_voters(session)) running_voters->push_back(v);
         if (const std::optional<net::RejoinRecord>& rj = runner.rejoined(); rj && rj->at_frame) {
             rejoined_at = rj->at_frame;
             // The episode it was dropped in, healed by the rejoin (unless cut off again since).
@@ -506,6 +511,8 @@ int write_outputs(const PeerPlan& p, PeerRecorder& rec, const SessionT& session,
     if (partitioned_since) s["partitioned_since_frame"] = *partitioned_since;
     if (alone_since) s["alone_since_frame"] = *alone_since;
     if (rejoined_at) s["rejoined_at_frame"] = *rejoined_at;
+    // What a claim of "alone" is checked against (harness/live/outcome_claims.h).
+    if (running_voters) s["running_voters"] = *running_voters;
     s["final_checksum"] = final_checksum ? json(hex16(*final_checksum)) : json(nullptr);
     json cps = json::array();
     for (const auto& [f, c] : m.confirmed) cps.push_back({{"frame", f}, {"checksum", hex16(c)}});

@@ -136,11 +136,7 @@ void PeerRunner::drain_session_events() {
             partitioned_since_ = e.frame;
             confirmed_while_partitioned_ = session_.confirmed_frame();
         }
-        // Alone only by the two-player rule: with three or more, every drop was a majority's.
-        if (sc.players == 2 && sc.two_player_rule == rollback::TwoPlayerRule::PlayOnAlone && sc.role != rollback::Role::Spectator) {
-            if (e.kind == K::Disconnected && e.peer < 2 && e.peer != sc.local_player && !alone_since_) alone_since_ = e.frame;
-            if (e.kind == K::Joined && e.peer < 2 && e.peer != sc.local_player) alone_since_.reset();
-        }
+        alone_.saw(e, sc.players);
         if (e.kind == K::SnapshotLoaded && rejoined_ && !rejoined_->at_frame) rejoined_->at_frame = e.frame;
         // Dropped by the others: not an end but a rejoin, once this drain is over (the session
         // decides whether it can: rollback/rejoin.h). The failure it caused is not one; the drop
@@ -153,6 +149,9 @@ void PeerRunner::drain_session_events() {
         events_.push_back(e);
         if (observer_) observer_->on_session_event(e);
     }
+    // Alone whenever a drop left this process the only running voter of its view (the two-player
+    // rule, in a match of two or one shrunk to two): rollback/playing_alone.h decides.
+    alone_.settle(rollback::running_voters(session_), sc.local_player);
     if (rejoining_) rejoin();
 }
 

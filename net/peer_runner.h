@@ -75,6 +75,7 @@
 #include "net/clock.h"
 #include "net/redial_backoff.h"
 #include "net/update_result.h"
+#include "rollback/playing_alone.h"
 #include "rollback/session.h"
 #include "transport/transport.h"
 
@@ -161,10 +162,10 @@ public:
     // dropped by the majority meanwhile, rejoined by snapshot: rejoined() keeps the frame then).
     // Still set after a Failed run that was kicked out of a partition (rejoin_when_dropped off).
     std::optional<std::uint32_t> partitioned_since() const { return partitioned_since_; }
-    // Two players under TwoPlayerRule::PlayOnAlone: the frame from which the other slot was
-    // dropped (its inputs held here then) and this process played on alone, unless it rejoined.
-    // Never set with three or more players: there a drop is a majority's decision.
-    std::optional<std::uint32_t> alone_since() const { return alone_since_; }
+    // The frame from which this process played on alone: a drop (the two-player rule, in a match
+    // of two or in one of three or more shrunk to two) left it the only running voter of its
+    // view, and nobody joined it since (rollback/playing_alone.h).
+    std::optional<std::uint32_t> alone_since() const { return alone_.since(); }
     // The last rejoin after a drop (rejoin_when_dropped), if the session was ever kicked and
     // started again as a joiner.
     const std::optional<RejoinRecord>& rejoined() const { return rejoined_; }
@@ -196,7 +197,8 @@ private:
     std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
     StretchTally stretch_;
     RedialBackoff redial_;             // when to dial each peer id not connected (again)
-    std::optional<std::uint32_t> partitioned_since_, alone_since_;
+    std::optional<std::uint32_t> partitioned_since_;
+    rollback::AloneSince alone_;       // since when a drop left this process alone in its view
     std::uint32_t confirmed_while_partitioned_ = 0;  // confirmed frame on the last partitioned tick
     bool ran_ = false;                 // the session has run frames (this one or a predecessor)
     bool rejoining_ = false;           // a kick drained this tick: restart as a joiner after the drain

@@ -53,8 +53,15 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
                                 : v.lapsed  ? "handoff lapsed"
                                 : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
                                             : "timed out";
+        // A view of two has no majority of the other's: the two-player rule decided, and this
+        // process now plays on alone (its outcome says so: rollback/playing_alone.h).
+        const bool two_player_rule = view_.running_voters() == 2;
         drop_slot(s, now_us, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
-                              std::to_string(view_.running_voters()) + " votes").c_str());
+                              std::to_string(view_.running_voters()) + " votes" +
+                              (two_player_rule ? std::string(" (the two-player rule, ") + two_player_rule_name(view_.rule()) +
+                                                     ": this process plays on alone)"
+                                               : std::string()))
+                                 .c_str());
     }
     const bool cut_off = view_.partitioned();
     if (cut_off && !partitioned_) {

@@ -7,17 +7,23 @@
 //  - recovery_source(): nullopt when `me` is in the group kept (the others reload); else the
 //    lowest slot of that group, whose state `me` reloads. Pure: no session, no time. The rule
 //    itself is rollback/arbitration.h's, the one the relay server's rooms decide with.
+//  - choose_recovery(): the same, and also which rule kept the group, for the recovery's event
+//    (issue 21: with two players no majority exists, and the report must say the tie rule
+//    decided): "the biggest group, N of M", or with `tie`, "no majority (a tie, N against N):
+//    the tie rule (two_player_keep: lowest_slot) keeps slot S's group".
 //  - next_recovery_step(): what a session that saw a mismatch does about it now. It waits while
 //    it still narrows the mismatch with a peer (3 s at most from the mismatch) and while a live
 //    player has not told its checksum of the frame (5 s at most; one silent longer is left out).
 //    It forgets the mismatch when its own checksum of the frame is gone or it is in the group
 //    kept; it gives up (fails) when it would reload once more than max_recoveries allows; else
-//    it reloads from recovery_source(). Pure: time comes in as values.
+//    it reloads from recovery_source(), the step saying which rule chose it (choose_recovery()).
+//    Pure: time comes in as values.
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <utility>
 
 #include "rollback/session.h"
@@ -27,6 +33,14 @@ namespace lockroll::rollback {
 // theirs: (slot, its confirmed checksum of that frame) of every peer that answered.
 std::optional<PlayerId> recovery_source(PlayerId me, std::uint64_t mine,
                                         std::span<const std::pair<PlayerId, std::uint64_t>> theirs, DesyncKeep keep);
+
+struct RecoveryChoice {
+    std::optional<PlayerId> source;  // as recovery_source()
+    bool tie = false;                // another group was as big: the tie rule, not a count, chose
+    std::string rule;                // which rule kept the group
+};
+RecoveryChoice choose_recovery(PlayerId me, std::uint64_t mine, std::span<const std::pair<PlayerId, std::uint64_t>> theirs,
+                               DesyncKeep keep);
 
 // A desynced session's case as it stands now.
 struct RecoveryCase {
@@ -46,6 +60,8 @@ struct RecoveryStep {
     enum class Act { Wait, Forget, Reload, GiveUp };
     Act act = Act::Wait;
     PlayerId from = 0;  // Reload: whose state
+    bool tie = false;   // Reload: RecoveryChoice's
+    std::string rule;   // Reload: which rule kept from's group (RecoveryChoice's)
 };
 
 RecoveryStep next_recovery_step(const RecoveryCase& c);

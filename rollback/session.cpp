@@ -652,13 +652,11 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     for (auto& link : links_) link.time_sync().clear();
     if (offer.reason == TransferReason::Recover) {
         ++recoveries_;
-        const std::uint32_t odd_at = mismatch_frame_.value_or(t.frame);
         recover_from_.reset();
         mismatch_frame_.reset();
         emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us,
-             "this peer was in the minority at frame " + std::to_string(odd_at) +
-                 " (or a tie's other side: two_player_keep); reloaded peer " + std::to_string(from) +
-                 "'s confirmed frame " + std::to_string(t.frame));
+             "this peer was " + recovery_why_ + "; reloaded peer " + std::to_string(from) + "'s confirmed frame " +
+                 std::to_string(t.frame));
         refresh_resend_floor();
         return;
     }
@@ -709,7 +707,11 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
                         now_us);
         case RecoveryStep::Act::Reload:
             recover_from_ = step.from;
-            fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd
+            // Which rule made this peer the odd one, for its DesyncRecovered (issue 21: with two
+            // players no majority exists, and the tie rule decided).
+            recovery_why_ = std::string(step.tie ? "on a tie's other side" : "in the minority") + " at frame " +
+                            std::to_string(f) + ", by " + step.rule;
+            fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd and why
             return;
     }
 }

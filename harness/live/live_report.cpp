@@ -120,7 +120,8 @@ RunResult live_run_result(const LivePlan& p, Mode mode, const fs::path& dir, con
                               "; its figures count up to then");
         if (s.contains("alone_since_frame") && s.value("outcome", "") == "completed")
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): completed alone since frame " +
-                              s.value("alone_since_frame", json(nullptr)).dump() + " (the other player was dropped)");
+                              s.value("alone_since_frame", json(nullptr)).dump() +
+                              " (a drop left it the only player of its view; it agreed with nobody since)");
         // nlohmann's const operator[] on a missing key is undefined behaviour: a summary.json
         // cut short or written by another version must read as "not collected", never crash.
         const bool final_confirmed = s.value("final_checksum", json(nullptr)).is_string();
@@ -234,7 +235,10 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
     for (const auto& r : recs)
         if (r.killed && (!first_kill || r.killed_mono_us < first_kill)) first_kill = r.killed_mono_us;
     json procs = json::array();
-    std::vector<std::string> finals;
+    // finals: every final of a process not killed; agreeing: those that claim agreement (a
+    // process that says it played alone claims none: issue 21, a view of two cut apart).
+    std::vector<std::string> finals, agreeing;
+    int alone = 0;
     for (const auto& r : recs) {
         if (!r.started) continue;
         // The session's agreed slot changes: dropped (frame: inputs held then) and (re)joined
@@ -268,7 +272,11 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"joins", joins},
                   {"longest_stall_after_kill_ms",
                    first_kill && !r.killed && !r.joiner ? json(longest_stall_after(r, dir, first_kill)) : json(nullptr)}};
-        if (!r.killed && s.is_object() && s.value("final_checksum", json(nullptr)).is_string()) finals.push_back(s["final_checksum"]);
+        if (!r.killed && s.is_object() && s.value("final_checksum", json(nullptr)).is_string()) {
+            finals.push_back(s["final_checksum"]);
+            if (s.contains("alone_since_frame")) ++alone;
+            else agreeing.push_back(s["final_checksum"]);
+        }
         procs.push_back(p);
     }
     // A split run (issue 21): the processes cut off from a majority say "partitioned" and exit 1,
@@ -294,10 +302,17 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
         if (r.started && !r.killed && outcome == "completed" && r.exit_status == 0) ++completed;
         if (!r.killed && (!r.started || r.exit_status != 0)) survivors_ok = false;
     }
-    const bool equal = !finals.empty() && std::all_of(finals.begin(), finals.end(), [&](const auto& f) { return f == finals[0]; });
-    const bool agreed = finals.empty() ? partitioned > 0 : equal;
+    const auto one_final = [](const std::vector<std::string>& v) {
+        return !v.empty() && std::all_of(v.begin(), v.end(), [&](const auto& f) { return f == v[0]; });
+    };
+    const bool equal = one_final(finals);
+    // Completions that claim agreement must agree; one that says "alone" is checked against its
+    // view by the overclaims (outcome_claims.h), not against the others' finals.
+    const bool agreed = agreeing.empty() ? partitioned > 0 || alone > 0 : one_final(agreeing);
     return {{"processes", procs},
             {"final_checksums_equal", equal},
+            {"agreeing_finals_equal", agreed},
+            {"alone", alone},
             {"survivors_completed", survivors_ok},
             // partitioned: processes on the cut-off side (outcome partitioned, or failed: kicked
             // out of a partition once it healed).

@@ -11,7 +11,10 @@
 //  - live_json: live.json's per-mode entry: per process its exit status, outcome, final
 //    checksum, frames, drops and joins, kill frame and the longest stall after a kill; whether
 //    the final checksums agree and the survivors completed (a partition's cut-off side is the
-//    network's doing, not a failure).
+//    network's doing, not a failure). `ok` needs the finals of the completions that claim
+//    agreement to be one; a process that says it played alone (alone_since_frame) claims none
+//    and is exempt (two survivors of a view of two cut apart each end on their own final), its
+//    claim checked against its view by outcome_claims.h instead.
 //  - side_by_side, topology_table: report.md's tables of real processes beside virtual time,
 //    and of peer to peer against the relay server.
 #pragma once

@@ -34,10 +34,26 @@ std::vector<std::string> overclaims(const ProcessSeen& p, int frames) {
         else if (!since.is_number() || rejoined.get<double>() <= since.get<double>())
             why("partitioned since frame " + since.dump() + " and rejoined at frame " + rejoined.dump() + ", not after it");
     }
-    // Playing on alone is the two-player rule; with three or more every drop is a majority's.
-    if (s.contains("alone_since_frame") && s.value("players", 2) > 2)
-        why("alone since frame " + s["alone_since_frame"].dump() + " in a match of " + std::to_string(s.value("players", 2)) +
-            " players");
+    // Playing on alone is the two-player rule: a drop in a view of two left this process the
+    // only running player of its view, in a match of two or of more shrunk to two by drops
+    // (issue 21). It says so with running_voters, its view's running processes at the end; a
+    // view that still held others makes the claim false. An older summary without the list may
+    // say alone only in a match of two.
+    if (s.contains("alone_since_frame")) {
+        const std::string alone = "alone since frame " + s["alone_since_frame"].dump();
+        const json voters = s.value("running_voters", json(nullptr));
+        if (voters.is_array()) {
+            json others = json::array();
+            for (const json& v : voters)
+                if (v != s.value("slot", json(nullptr))) others.push_back(v);
+            if (!others.empty() || voters.empty())
+                why(alone + ", while its view still had " + (voters.empty() ? std::string("no running player") :
+                                                               "slots " + others.dump() + " running"));
+        } else if (s.value("players", 2) > 2) {
+            why(alone + " in a match of " + std::to_string(s.value("players", 2)) +
+                " players, and no running_voters says its view was reduced to itself");
+        }
+    }
     return out;
 }
 

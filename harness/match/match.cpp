@@ -17,6 +17,7 @@
 #include "harness/match/timed_simulation.h"
 #include "rollback/desync_evidence.h"
 #include "rollback/input_delay.h"
+#include "rollback/playing_alone.h"
 #include "rollback/session.h"
 #include "rollback/world_simulation.h"
 #include "sim/rng.h"
@@ -101,6 +102,10 @@ public:
     // by snapshot. partitioned_since_: the open partition episode's frame; the rejoin keeps the
     // one it was dropped in, and the frame of the snapshot it loaded.
     std::optional<std::uint32_t> partitioned_since_, dropped_partitioned_since_, rejoined_at_;
+    // Since when a drop left this client the only running voter of its view (the same rule as a
+    // real process's runner: rollback/playing_alone.h).
+    rollback::AloneSince alone_;
+    std::optional<std::uint32_t> alone_at_final_;  // alone_.since() when it confirmed the final
     bool rejoined_ = false;
     void drain_events();
     std::map<int, std::uint64_t> alert_us_;         // peer -> when its checksum alert fired
@@ -317,7 +322,11 @@ void Client::drain_events() {
         if (e.kind == K::Partitioned && !partitioned_since_) partitioned_since_ = e.frame;
         if (e.kind == K::SnapshotLoaded && rejoined_ && !rejoined_at_) rejoined_at_ = e.frame;
         kicked = kicked || e.kind == K::Kicked;
+        alone_.saw(e, session_->config().players);
     }
+    alone_.settle(rollback::running_voters(*session_), session_->config().local_player);
+    // As of its final, as a real process says it: the match runs on for the others' sake.
+    if (!rec_.final_checksum()) alone_at_final_ = alone_.since();
     if (!session_->partitioned() && session_->running() && partitioned_since_ && session_->confirmed_frame() > *partitioned_since_)
         partitioned_since_.reset();  // healed: confirming frames again
     if (!kicked || !session_->can_rejoin()) return;
@@ -686,6 +695,7 @@ RunResult Match::finish() {
         cr.stall_fraction = tf.stall_fraction;
         cr.final_checksum = c->rec_.final_checksum().value_or(0);
         cr.final_confirmed = c->rec_.final_checksum().has_value();
+        cr.alone_since_frame = c->alone_at_final_;
         if (c->rejoined_at_) {
             cr.rejoined_at_frame = c->rejoined_at_;
             cr.partitioned_since_frame = c->dropped_partitioned_since_;

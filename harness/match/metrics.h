@@ -108,6 +108,9 @@ struct ClientResult {
     // Issue 21: dropped by the others while cut off (partitioned since that frame, if it said
     // so) and rejoined their view by a snapshot of rejoined_at_frame once the network healed.
     std::optional<std::uint32_t> partitioned_since_frame, rejoined_at_frame;
+    // A drop left it the only running voter of its view (the two-player rule, in a match of two
+    // or one shrunk to two) from this frame to the end: it agreed with nobody since.
+    std::optional<std::uint32_t> alone_since_frame;
 };
 
 struct DesyncRecord {

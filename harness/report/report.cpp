@@ -104,6 +104,7 @@ json summary_json(const RunResult& r) {
                            {"desyncs", c.desyncs}});
         // Present only when true of the client (issue 21: rejoined after a healed partition).
         if (c.partitioned_since_frame) clients.back()["partitioned_since_frame"] = *c.partitioned_since_frame;
+        if (c.alone_since_frame) clients.back()["alone_since_frame"] = *c.alone_since_frame;
         if (c.rejoined_at_frame) clients.back()["rejoined_at_frame"] = *c.rejoined_at_frame;
     }
     json desyncs = json::array();

@@ -56,6 +56,37 @@ TEST(LiveJson, DifferentFinalsOrAFailedSurvivorAreNotOk) {
     EXPECT_FALSE(failed["ok"].get<bool>());
 }
 
+// Issue 21: two survivors of a view of two cut apart each play on alone and end on their own
+// final. Saying "alone" they claim no agreement, so their finals are not held against each other
+// (outcome_claims checks the claim against their views). Two plain completions on different
+// finals still fail, with or without an alone one beside them.
+TEST(LiveJson, FinalsOfProcessesThatSayAloneAreNotAnAgreement) {
+    const auto alone = [](int slot, const std::string& final_checksum) {
+        ProcessRecord r = player(slot, "completed", final_checksum, 0);
+        r.summary["alone_since_frame"] = 426;
+        return r;
+    };
+    const json split = live_json({alone(0, "00000000000000aa"), alone(1, "00000000000000bb")}, kNoDir);
+    EXPECT_FALSE(split["final_checksums_equal"].get<bool>()) << "the fact: two finals";
+    EXPECT_TRUE(split["agreeing_finals_equal"].get<bool>());
+    EXPECT_EQ(split["alone"].get<int>(), 2);
+    EXPECT_TRUE(split["ok"].get<bool>());
+
+    const json one_alone = live_json({alone(0, "00000000000000aa")}, kNoDir);  // the 2-player kill
+    EXPECT_TRUE(one_alone["final_checksums_equal"].get<bool>());
+    EXPECT_TRUE(one_alone["ok"].get<bool>());
+
+    const json plain = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000bb", 0),
+                                  alone(2, "00000000000000cc")},
+                                 kNoDir);
+    EXPECT_FALSE(plain["agreeing_finals_equal"].get<bool>()) << "two plain completions on different finals";
+    EXPECT_FALSE(plain["ok"].get<bool>());
+    const json mixed =
+        live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000aa", 0), alone(2, "00000000000000cc")},
+                  kNoDir);
+    EXPECT_TRUE(mixed["ok"].get<bool>());
+}
+
 TEST(LiveJson, AKilledProcessCountsInNoVerdict) {
     ProcessRecord killed = player(1, "", "", 137);
     killed.summary = json();  // a SIGKILLed process leaves no summary

@@ -395,6 +395,39 @@ TEST(Match, AFourFourSplitDropsNobodyAndAllEightCompleteOnOneFinal) {
         EXPECT_TRUE(stalled_in_cut[k]) << "client " << k << " played on through a cut with no majority on its side";
 }
 
+// Issue 21, "no two processes ever report completed with different finals": 3 players, slot 2
+// cut off (0 and 1 drop it, 2 of 3), then 0 and 1 cut apart for 10 s. A view of two plays on
+// alone under the two-player rule, so each drops the other and finishes on a final of its own;
+// that is allowed only if each says so. Before rollback/playing_alone.h only a match of two said
+// "alone": both here ended as plain completions on different finals (audit-21, experiment 2).
+TEST(Match, ThreeShrunkToTwoThenSplitEachSurvivorSaysItPlayedAlone) {
+    RunConfig c = base(Mode::Rollback, 1800);
+    c.players = 3;
+    c.partitions.add({{{0, 1}, {2}}, 2'000'000, 30'000'000});
+    c.partitions.add({{{0}, {1}}, 12'000'000, 22'000'000});
+    const RunResult r = run_match(c);
+    ASSERT_EQ(r.clients.size(), 3u);
+    int alone = 0;
+    for (std::size_t a = 0; a < r.clients.size(); ++a) {
+        if (r.clients[a].alone_since_frame) ++alone;
+        for (std::size_t b = a + 1; b < r.clients.size(); ++b) {
+            const ClientResult &x = r.clients[a], &y = r.clients[b];
+            if (!x.final_confirmed || !y.final_confirmed || x.final_checksum == y.final_checksum) continue;
+            EXPECT_TRUE(x.alone_since_frame && y.alone_since_frame)
+                << "clients " << a << " and " << b << " both completed on different finals without saying they played alone";
+        }
+    }
+    // 0 and 1 each dropped the other during the second cut, before their last frame.
+    EXPECT_EQ(alone, 2);
+    for (std::size_t k = 0; k < 2; ++k) {
+        ASSERT_TRUE(r.clients[k].final_confirmed) << "client " << k;
+        ASSERT_TRUE(r.clients[k].alone_since_frame) << "client " << k;
+        EXPECT_LT(*r.clients[k].alone_since_frame, 1800u) << "client " << k;
+    }
+    EXPECT_NE(r.clients[0].final_checksum, r.clients[1].final_checksum) << "the cut no longer splits 0 and 1";
+    EXPECT_FALSE(r.clients[2].alone_since_frame) << "slot 2 was dropped, not left alone";
+}
+
 // Issue 10: a row whose frame client 0 was the last to show read 0 ticks/s (the rate was set
 // after the row had been reduced), so tick_rate.png said "min 0" on frames that ran at 60.
 TEST(Match, EveryFrameRowCarriesTheTickRate) {

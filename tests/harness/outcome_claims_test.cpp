@@ -1,6 +1,6 @@
 // overclaims on its own: a completed outcome holds only with exit 0, the last frame shown and
-// confirmed, a final checksum and no kill (nor an unhealed partition, nor "alone" beyond two
-// players); a partitioned one names its frame and exits non-zero; others claim nothing to check.
+// confirmed, a final checksum and no kill (nor an unhealed partition, nor "alone" while its view
+// still held others); a partitioned one names its frame and exits non-zero; others claim nothing to check.
 #include <gtest/gtest.h>
 
 #include "harness/live/outcome_claims.h"
@@ -85,7 +85,7 @@ TEST(OutcomeClaims, ACompletionAfterRejoiningTheMajoritysViewHolds) {
               std::vector<std::string>{"p1: outcome completed, but partitioned since frame 200 and not healed"});
 }
 
-TEST(OutcomeClaims, AloneIsTheTwoPlayerRuleOnly) {
+TEST(OutcomeClaims, AloneWithoutItsViewHoldsOnlyInAMatchOfTwo) {
     ProcessSeen two = completed(300);
     two.summary["players"] = 2;
     two.summary["alone_since_frame"] = 150;
@@ -94,7 +94,39 @@ TEST(OutcomeClaims, AloneIsTheTwoPlayerRuleOnly) {
     three.summary["players"] = 3;
     const auto c = overclaims(three, 300);
     ASSERT_EQ(c.size(), 1u);
-    EXPECT_EQ(c[0], "p1: outcome completed, but alone since frame 150 in a match of 3 players");
+    EXPECT_EQ(c[0], "p1: outcome completed, but alone since frame 150 in a match of 3 players, and no running_voters says its "
+                    "view was reduced to itself");
+}
+
+// Issue 21: a match of three or more shrunk to two by drops plays the two-player rule too; a
+// survivor whose view was reduced to itself truthfully says alone, whatever the match's size.
+// While its view still held another running player, "alone" is an overclaim (in a match of two
+// as well).
+TEST(OutcomeClaims, AloneHoldsWhenItsViewWasReducedToItself) {
+    ProcessSeen three = completed(1800);
+    three.summary["players"] = 3;
+    three.summary["slot"] = 1;
+    three.summary["alone_since_frame"] = 426;
+    three.summary["running_voters"] = {1};
+    EXPECT_TRUE(overclaims(three, 1800).empty());
+    ProcessSeen eight = three;
+    eight.summary["players"] = 8;
+    EXPECT_TRUE(overclaims(eight, 1800).empty());
+
+    ProcessSeen others = three;
+    others.summary["running_voters"] = {0, 1};
+    EXPECT_EQ(overclaims(others, 1800),
+              std::vector<std::string>{"p1: outcome completed, but alone since frame 426, while its view still had slots [0] running"});
+    ProcessSeen two = others;
+    two.summary["players"] = 2;
+    EXPECT_EQ(overclaims(two, 1800).size(), 1u) << "a match of two whose view still holds the other is not alone";
+    ProcessSeen none = three;
+    none.summary["running_voters"] = nlohmann::json::array();
+    EXPECT_EQ(overclaims(none, 1800),
+              std::vector<std::string>{"p1: outcome completed, but alone since frame 426, while its view still had no running player"});
+    ProcessSeen plain = three;  // the same view without the claim: a plain completion holds
+    plain.summary.erase("alone_since_frame");
+    EXPECT_TRUE(overclaims(plain, 1800).empty());
 }
 
 TEST(OutcomeClaims, APartitionedProcessNamesTheFrameAndDoesNotExitZero) {

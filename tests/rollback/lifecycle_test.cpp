@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "rollback/playing_alone.h"
 #include "rollback/session.h"
 #include "rollback/session_impl.h"
 #include "tests/rollback/test_support.h"
@@ -307,6 +308,15 @@ void lone_survivor(int players, int window, std::uint32_t input_capacity, std::u
     }
     EXPECT_EQ(events_of(survivor, Kind::Disconnected).size(), static_cast<std::size_t>(players - 1));
     EXPECT_TRUE(events_of(survivor, Kind::Failed).empty());
+    // Its view was reduced to itself, whatever the match's size: its outcome says "alone" from
+    // the last drop (rollback/playing_alone.h), which names the two-player rule.
+    EXPECT_EQ(running_voters(*survivor.session), std::vector<PlayerId>{0});
+    AloneSince alone;
+    for (const SessionEvent& e : survivor.events) alone.saw(e, players);
+    alone.settle(running_voters(*survivor.session), 0);
+    EXPECT_EQ(alone.since(), events_of(survivor, Kind::Disconnected).back()->frame);
+    EXPECT_NE(events_of(survivor, Kind::Disconnected).back()->detail.find("the two-player rule"), std::string::npos)
+        << events_of(survivor, Kind::Disconnected).back()->detail;
     // Stalled only while the dead waited out their timeouts (one after another).
     EXPECT_LT(survivor.session->stats().stall_time_us,
               static_cast<std::uint64_t>(players - 1) * cfg.disconnect_us + 1'000'000);
@@ -596,16 +606,16 @@ TEST(Lifecycle, AJoinerThatCannotLoadLapsesAndTheOthersPlayOn) {
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
-// Three players, one recovery allowed; client 2's body is kicked at frame 150, so client 2 is
+// `players` players, one recovery allowed; client `odd`'s body is kicked at frame 150, so it is
 // the odd one. Runs to frame 600, settled, then hands the cluster and the body to `check`.
-void run_injected_desync(const std::function<void(const Cluster&, std::uint32_t body)>& check) {
-    const auto scene = make_scene(3, 20);
-    SessionConfig cfg = real_config(3, 8);
+void run_injected_desync(int players, PlayerId odd, const std::function<void(const Cluster&, std::uint32_t body)>& check) {
+    const auto scene = make_scene(players, 20);
+    SessionConfig cfg = real_config(players, 8);
     cfg.max_recoveries = 1;
     Cluster cluster(scene, cfg, {20000, 4000}, 6);
     cluster.run_frames(100);
-    const std::uint32_t body = cluster.clients[2]->sim.body_id(5);
-    ASSERT_EQ(cluster.clients[2]->session->inject_fault(150, body, 0, 20), "");
+    const std::uint32_t body = cluster.clients[odd]->sim.body_id(5);
+    ASSERT_EQ(cluster.clients[odd]->session->inject_fault(150, body, 0, 20), "");
     cluster.run_frames(600, 60'000'000);
     cluster.settle(600);
     check(cluster, body);
@@ -613,7 +623,7 @@ void run_injected_desync(const std::function<void(const Cluster&, std::uint32_t 
 }
 
 TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
-    run_injected_desync([](const Cluster& cluster, std::uint32_t body) {
+    run_injected_desync(3, 2, [](const Cluster& cluster, std::uint32_t body) {
         const Client& odd = *cluster.clients[2];
         ASSERT_FALSE(odd.reports.empty());
         EXPECT_EQ(odd.reports[0].frame, 150u);
@@ -630,7 +640,7 @@ TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
 // this peer was the minority is said by its `DesyncRecovered`. Before, the odd one emitted a
 // second DesyncDetected, naming the peer it reloads from, when it decided to reload.
 TEST(Lifecycle, ADesyncIsReportedOncePerPeerAndTheRecoveryNamesTheMinority) {
-    run_injected_desync([](const Cluster& cluster, std::uint32_t) {
+    run_injected_desync(3, 2, [](const Cluster& cluster, std::uint32_t) {
         for (PlayerId id = 0; id < 3; ++id) {
             const Client& c = *cluster.clients[id];
             const auto detected = events_of(c, Kind::DesyncDetected);
@@ -648,8 +658,28 @@ TEST(Lifecycle, ADesyncIsReportedOncePerPeerAndTheRecoveryNamesTheMinority) {
         const Client& odd = *cluster.clients[2];
         const auto recovered = events_of(odd, Kind::DesyncRecovered);
         ASSERT_EQ(recovered.size(), 1u);
-        EXPECT_NE(recovered[0]->detail.find("minority at frame " + std::to_string(odd.desyncs[0].frame)), std::string::npos)
+        EXPECT_NE(recovered[0]->detail.find("minority at frame " + std::to_string(odd.desyncs[0].frame) +
+                                            ", by the biggest group, 2 of 3; reloaded peer 0's"),
+                  std::string::npos)
             << recovered[0]->detail;
+    });
+}
+
+// Issue 21 (Q7): two players that disagree have no majority; the tie rule (two_player_keep)
+// decides, and the reloading side's DesyncRecovered says so, not "the minority". Before it read
+// "this peer was in the minority at frame F (or a tie's other side: two_player_keep)".
+TEST(Lifecycle, TwoPlayerDesyncRecoveryNamesTheTieRule) {
+    run_injected_desync(2, 1, [](const Cluster& cluster, std::uint32_t) {
+        const Client& odd = *cluster.clients[1];
+        EXPECT_EQ(odd.session->recoveries(), 1);
+        EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
+        const auto recovered = events_of(odd, Kind::DesyncRecovered);
+        ASSERT_EQ(recovered.size(), 1u);
+        ASSERT_FALSE(odd.desyncs.empty());
+        EXPECT_EQ(recovered[0]->detail, "this peer was on a tie's other side at frame " + std::to_string(odd.desyncs[0].frame) +
+                                            ", by no majority (a tie, 1 against 1): the tie rule (two_player_keep: "
+                                            "lowest_slot) keeps slot 0's group; reloaded peer 0's confirmed frame " +
+                                            std::to_string(recovered[0]->frame));
     });
 }
 

@@ -146,6 +146,9 @@ TEST(MembershipChanges, TwoPlayersPlayOnAloneDropsOnOurVoteNoDropNever) {
     alone.view.vote_local(1, true);
     alone.changes.settle_membership(100);
     EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
+    ASSERT_EQ(alone.fake.of(Kind::Disconnected).size(), 1u);
+    EXPECT_EQ(alone.fake.of(Kind::Disconnected)[0].detail,
+              "timed out, by 1 of 2 votes (the two-player rule, play_on_alone: this process plays on alone)");
 
     Fixture never(2, {}, TwoPlayerRule::NoDrop);
     never.view.vote_local(1, true);

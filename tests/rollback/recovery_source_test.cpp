@@ -89,5 +89,28 @@ TEST(RecoveryStep, GivesUpBeyondTheRecoveryLimit) {
     EXPECT_EQ(next_recovery_step(c).act, Act::GiveUp);
 }
 
+// Issue 21 (Q7): with two players a disagreement has no majority; the events must say the tie
+// rule decided, not a majority.
+TEST(RecoverySource, TheChoiceNamesTheRuleThatKeptTheGroup) {
+    const Answers other{{1, 5}};
+    const RecoveryChoice tie = choose_recovery(1, 4, Answers{{0, 5}}, DesyncKeep::LowestSlot);
+    EXPECT_EQ(tie.source, PlayerId{0});
+    EXPECT_EQ(tie.rule, "no majority (a tie, 1 against 1): the tie rule (two_player_keep: lowest_slot) keeps slot 0's group");
+    const RecoveryChoice high = choose_recovery(0, 4, other, DesyncKeep::HighestSlot);
+    EXPECT_EQ(high.source, PlayerId{1});
+    EXPECT_EQ(high.rule, "no majority (a tie, 1 against 1): the tie rule (two_player_keep: highest_slot) keeps slot 1's group");
+    const RecoveryChoice most = choose_recovery(1, 9, Answers{{0, 7}, {2, 7}, {3, 7}}, DesyncKeep::LowestSlot);
+    EXPECT_EQ(most.source, PlayerId{0});
+    EXPECT_EQ(most.rule, "the biggest group, 3 of 4");
+    const RecoveryChoice split = choose_recovery(0, 7, Answers{{1, 7}, {2, 9}, {3, 9}}, DesyncKeep::LowestSlot);
+    EXPECT_EQ(split.source, std::nullopt) << "a 2/2 tie keeps slot 0's group";
+    EXPECT_EQ(split.rule, "no majority (a tie, 2 against 2): the tie rule (two_player_keep: lowest_slot) keeps slot 0's group");
+    // The session's step carries it to the recovery's event.
+    const Told told{{0, 7}, {2, 7}};
+    const RecoveryStep step = next_recovery_step(minority(told, 10'000'000));
+    EXPECT_FALSE(step.tie);
+    EXPECT_EQ(step.rule, "the biggest group, 2 of 3");
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
