@@ -155,7 +155,7 @@ TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
 // settings) it is refused as dropped, so it is kicked before it runs a frame (it used to be
 // welcomed and start at frame 0 of a running match); started again as a joiner (what
 // net::NetSession does on that kick) it rejoins.
-void restart_after(Role role, std::uint64_t down_us, const char* drop_detail, int players = 2) {
+void restart_after(Role role, std::uint64_t down_us, const std::string& drop_detail, int players = 2) {
     const auto scene = make_scene(players, 10);
     const SessionConfig cfg = real_config(players, 8);
     Cluster cluster(scene, cfg, {15000}, 12);
@@ -194,8 +194,14 @@ void restart_after(Role role, std::uint64_t down_us, const char* drop_detail, in
     expect_equal_at(cluster, 600);
 }
 
-TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) { restart_after(Role::Joiner, 1'000'000, "rejoining, by 1 of 2 votes"); }
-TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) { restart_after(Role::Player, 300'000, "restarted, by 1 of 2 votes"); }
+// With two players the single vote decides (the two-player rule), and the detail says so.
+constexpr const char* kAloneRule = " (the two-player rule, play_on_alone: this process plays on alone)";
+TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
+    restart_after(Role::Joiner, 1'000'000, std::string("rejoining, by 1 of 2 votes") + kAloneRule);
+}
+TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) {
+    restart_after(Role::Player, 300'000, std::string("restarted, by 1 of 2 votes") + kAloneRule);
+}
 TEST(Lifecycle, FastRestartOfOneOfThreeIsDroppedByTheTwoVotesBeforeTheTimeout) {
     restart_after(Role::Joiner, 1'000'000, "rejoining, by 2 of 3 votes", 3);
 }

@@ -286,7 +286,7 @@ TEST(MembershipChanges, TwoPlayersARestartClaimDecidesUnderPlayOnAloneOnly) {
     Fixture alone(2);
     EXPECT_TRUE(alone.changes.claim_restart(1, true, 100));
     EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
-    EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).detail, "restarted, by 1 of 2 votes");
+    EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).detail, "restarted, by 1 of 2 votes (the two-player rule, play_on_alone: this process plays on alone)");
 
     Fixture never(2, {}, TwoPlayerRule::NoDrop);
     EXPECT_FALSE(never.changes.claim_restart(1, false, 100));
