@@ -21,6 +21,8 @@
 // its RSS at the end. With --replaced-log FILE, every replaced slot-frame is also written there,
 // summed per wall-clock second, room and slot (the relay soak, tests/server/relay_soak.sh, sets
 // them beside the times and rooms of its hostile clients to tell whether those caused any).
+// With --delay-log FILE, the largest relay delay and generator lateness of each second (when a
+// stall happened, and whose it was).
 // A run "sustains" R when every room played, p99 <= --goal-us and nothing
 // was replaced. The generator's own lateness (how late it fired ticks) is reported too: a run
 // whose generator fell behind measures the generator, not the server.
@@ -106,6 +108,7 @@ struct Options {
     std::vector<std::string> server_args;
     std::string echo;  // bench/udp_echo: the one-syscall-per-datagram baseline, run after each server run
     std::string replaced_log;  // CSV of replaced slot-frames per second, room and slot
+    std::string delay_log;     // CSV of the relay delay and the generator's lateness per second
 };
 
 // The replaced slot-frames of the measurement window, summed per wall-clock second (the
@@ -116,14 +119,23 @@ struct Options {
 // own lateness (kGeneratorLateUs: sent that far behind their tick, or not yet sent when
 // confirmed): no one else's doing. A second is written once the next one begins, and at the end
 // of the run.
+// A per-second CSV log: nullptr when path is empty (no log), else the file with its header.
+std::FILE* open_log(const std::string& path, const char* header) {
+    if (path.empty()) return nullptr;
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    if (!f) throw std::runtime_error("cannot write " + path);
+    std::fprintf(f, "%s\n", header);
+    return f;
+}
+
+long long wall_second_ms() {
+    const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
+    return ms / 1000 * 1000;
+}
+
 class ReplacedLog {
 public:
-    explicit ReplacedLog(const std::string& path) {
-        if (path.empty()) return;
-        f_ = std::fopen(path.c_str(), "w");
-        if (!f_) throw std::runtime_error("cannot write " + path);
-        std::fprintf(f_, "time_ms,run,room,slot,frames,generator_late\n");
-    }
+    explicit ReplacedLog(const std::string& path) : f_(open_log(path, "time_ms,run,room,slot,frames,generator_late")) {}
     ~ReplacedLog() {
         if (!f_) return;
         flush();
@@ -138,8 +150,7 @@ public:
     }
     void note(int room, int slot, bool generator_late) {
         if (!f_) return;
-        const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch()).count();
-        const long long second = ms / 1000 * 1000;
+        const long long second = wall_second_ms();
         if (second != second_) flush();
         second_ = second;
         auto& [frames, late] = counts_[{room, slot}];
@@ -159,6 +170,47 @@ private:
     int run_ = 0;
     long long second_ = 0;
     std::map<std::pair<int, int>, std::pair<std::uint32_t, std::uint32_t>> counts_;
+};
+
+// The measurement window's relay delay and generator lateness, per wall-clock second (when a
+// stall happened, not only how long the worst was: tells a stall of the server, whose delay
+// rises while the generator keeps time, from one of the generator):
+//   time_ms,samples,delay_max_us,late_max_us
+class DelayLog {
+public:
+    explicit DelayLog(const std::string& path) : f_(open_log(path, "time_ms,samples,delay_max_us,late_max_us"), &std::fclose) {}
+    ~DelayLog() {
+        if (f_) flush();
+    }
+    DelayLog(const DelayLog&) = delete;
+    DelayLog& operator=(const DelayLog&) = delete;
+
+    void delay(std::uint32_t us) {
+        if (!f_) return;
+        roll();
+        ++samples_;
+        delay_max_ = std::max(delay_max_, us);
+    }
+    void late(std::uint32_t us) {
+        if (!f_) return;
+        roll();
+        late_max_ = std::max(late_max_, us);
+    }
+
+private:
+    void roll() {
+        const long long second = wall_second_ms();
+        if (second != second_) flush();
+        second_ = second;
+    }
+    void flush() {
+        if (second_ && (samples_ || late_max_)) std::fprintf(f_.get(), "%lld,%u,%u,%u\n", second_, samples_, delay_max_, late_max_);
+        samples_ = delay_max_ = late_max_ = 0;
+        std::fflush(f_.get());
+    }
+    std::unique_ptr<std::FILE, int (*)(std::FILE*)> f_;
+    long long second_ = 0;
+    std::uint32_t samples_ = 0, delay_max_ = 0, late_max_ = 0;
 };
 
 struct Client {
@@ -342,8 +394,9 @@ void stop_server(const ServerChild& s) {
 
 class Generator {
 public:
-    Generator(const Options& o, int rooms, const std::string& host, std::uint16_t port, std::uint64_t run_id, ReplacedLog& log)
-        : o_(o), log_(log), rooms_(static_cast<std::size_t>(rooms)), clients_(static_cast<std::size_t>(rooms) * kPlayers) {
+    Generator(const Options& o, int rooms, const std::string& host, std::uint16_t port, std::uint64_t run_id, ReplacedLog& log,
+              DelayLog& delay_log)
+        : o_(o), log_(log), delay_log_(delay_log), rooms_(static_cast<std::size_t>(rooms)), clients_(static_cast<std::size_t>(rooms) * kPlayers) {
         const int hosts = std::max(1, std::min(o.hosts, rooms));
         std::vector<int> per_host(static_cast<std::size_t>(hosts), 0);
         for (int r = 0; r < rooms; ++r) per_host[static_cast<std::size_t>(r % hosts)] += kPlayers;
@@ -429,7 +482,10 @@ public:
             for (int h = 0; h < hosts; ++h) {
                 auto& nf = next_fire[static_cast<std::size_t>(h)];
                 while (now >= nf) {
-                    if (measuring_) late_.push_back(static_cast<std::uint32_t>(now - nf));
+                    if (measuring_) {
+                        late_.push_back(static_cast<std::uint32_t>(now - nf));
+                        delay_log_.late(late_.back());
+                    }
                     fire(h, now, now - nf);
                     nf += kPeriodUs;
                 }
@@ -649,6 +705,7 @@ private:
                 continue;
             }
             delays_.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(at - room.sent_us[f % kRing], 0xFFFFFFFF)));
+            delay_log_.delay(delays_.back());
         }
         // Frames arrive in order on loopback; a gap (a lost datagram) is re-sent by the server
         // from our acknowledgement on.
@@ -694,6 +751,7 @@ private:
 
     const Options& o_;
     ReplacedLog& log_;
+    DelayLog& delay_log_;
     ENetAddress address_{};
     std::size_t connected_rooms_ = 0;
     std::vector<Room> rooms_;
@@ -837,6 +895,7 @@ int main(int argc, char** argv) {
     app.add_option("--goal-us", o.goal_us, "p99 relay delay a sustained run stays within")->capture_default_str();
     app.add_flag("--verbose", o.verbose, "print the ramp's progress every second");
     app.add_option("--csv", o.csv, "append one row per run here");
+    app.add_option("--delay-log", o.delay_log, "write the relay delay's and the generator's lateness's maximum per second here (CSV)");
     app.add_option("--replaced-log", o.replaced_log,
                    "write the replaced slot-frames here, per second, room and slot (CSV: time_ms,run,room,slot,frames,generator_late)");
     app.add_option("--server-arg", o.server_args, "extra lockroll-server flag (repeatable)");
@@ -866,6 +925,7 @@ int main(int argc, char** argv) {
     std::filesystem::create_directories(dir);
     FILE* csv = o.csv.empty() ? nullptr : std::fopen(o.csv.c_str(), "a");
     ReplacedLog replaced_log(o.replaced_log);
+    DelayLog delay_log(o.delay_log);
     int run_number = 0;
     if (csv && std::ftell(csv) == 0)
         std::fprintf(csv, "rooms,run,rooms_live,p50_us,p99_us,max_us,samples,replaced,unsent,relay_in_per_s,relay_out_per_s,"
@@ -892,7 +952,7 @@ int main(int argc, char** argv) {
             RunResult r;
             replaced_log.begin_run(run_number++);
             {
-                Generator g(o, rooms, host, server.port, ++run_id, replaced_log);
+                Generator g(o, rooms, host, server.port, ++run_id, replaced_log, delay_log);
                 r = g.run(server);
             }
             if (!o.server.empty()) stop_server(server);

@@ -6,12 +6,12 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
 #include "server/server_pass.h"
+#include "server/status_writer.h"
 #include "transport/enet_server.h"
 
 namespace lockroll::server {
@@ -32,18 +32,6 @@ std::uint64_t monotonic_us() {
 std::uint64_t unix_us() {
     return static_cast<std::uint64_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
-}
-
-// Written to a temporary name and renamed: a probe never reads half a file.
-void write_atomically(const std::string& path, const std::string& text) {
-    const std::string tmp = path + ".tmp";
-    {
-        std::ofstream f(tmp, std::ios::trunc);
-        f << text;
-        if (!f) return;
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
 }
 
 std::string status_json(const RelayServer& s, const transport::EnetServer& enet, bool draining, double uptime_s) {
@@ -129,7 +117,11 @@ int ServerProcess::run() {
     log->info("listening on {}:{} (room limit {}, input deadline {} ticks, checksum interval {}, history {} s)", host,
               enet.port(), options_.server.max_rooms, options_.server.room.input_deadline,
               options_.server.room.checksum_interval, options_.server.room.history_s);
-    if (!options_.ready_file.empty()) write_atomically(options_.ready_file, std::to_string(enet.port()) + "\n");
+    // Once, before the first pass: the ready file may wait on the filesystem; the status file,
+    // rewritten every second while rooms play, never makes the loop wait (StatusWriter).
+    if (!options_.ready_file.empty()) write_file_replacing(options_.ready_file, std::to_string(enet.port()) + "\n");
+    std::optional<StatusWriter> status;
+    if (!options_.status_file.empty()) status.emplace(options_.status_file);
     std::printf("ready %u\n", enet.port());
     std::fflush(stdout);
 
@@ -158,14 +150,15 @@ int ServerProcess::run() {
         if (now >= next_status) {
             next_status = now + 1000000;
             server.set_wall_clock(unix_us(), now);  // follows wall-clock steps within a second
-            if (!options_.status_file.empty())
-                write_atomically(options_.status_file, status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
+            if (status) status->post(status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
         }
         if (server.drained()) {
             enet.flush();
             flush_batch();
-            if (!options_.status_file.empty())
-                write_atomically(options_.status_file, status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
+            if (status) {
+                status->post(status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
+                status->wait_written();  // the last status is on disk before the exit
+            }
             log->info("drained: every room finished; exiting");
             return 0;
         }

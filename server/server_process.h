@@ -4,6 +4,7 @@
 //  - ready: once listening, a line "ready PORT" on stdout and, if asked, a ready file;
 //  - health: a status file rewritten atomically every second (state, rooms, connections,
 //    counters): a liveness probe checks that it is fresh, a readiness probe that it says ready;
+//    written by a thread of its own (server/status_writer.h): the loop never waits on the disk;
 //  - drain on SIGTERM (or request_drain()): new hellos are refused with the reason, running rooms
 //    play to their end, and the process exits 0 once the last room closed (or after
 //    drain_timeout_s, exiting 3);

@@ -11,17 +11,21 @@
 # hostile clients (tests/server/bad_client.cpp):
 #   steal    a hello for a live bot's slot in a random bots' room: must be refused;
 #   spoof, garbage, flood, future   each in a room of its own: must be kicked;
-#   liar     every fourth round, a 3-player room of two honest `lockroll client`s and a
-#            checksum liar: the liar must be kicked and refused back, the honest two complete
-#            600 frames on one final; beside it, a control room of three honest clients (a
-#            joining client's first frames are replaced in any room: the neighbours' baseline).
+#   liar     every fourth round (1, 5, ...), a 3-player room of two honest `lockroll client`s
+#            and a checksum liar: the liar must be kicked and refused back, the honest two
+#            complete 600 frames on one final; beside it, a control room of three honest clients
+#            (a joining client's first frames are replaced in any room: the neighbours' baseline).
+#   control_only   the rounds between (3, 7, ...): the same two rooms started the same way, an
+#            honest client in the liar's slot (no hostile): every client must complete. Logged in
+#            attacks.csv as their own kind, not a hostile: the bots' baseline for the liar rounds.
 # At the end: every bots' room still live and no bot disconnected (0 kicks of honest clients),
 # the inputs the server replaced for the bots (a late input past the deadline) attributed:
 # relay_bench logs them per second, room and slot (--replaced-log), this script logs every
 # hostile action with its time and room (attacks.csv) and the liar's honest neighbours' own
 # replaced inputs (honest.csv), and tests/server/soak_attribution.py compares, within this run,
 # the rate in the rooms the steals named around each steal with the other bots' rooms' rate in
-# the same windows, the liar's honest neighbours' rate with the control rooms', and the bots' rate while any
+# the same windows, the liar's honest neighbours' rate with the control rooms', the bots' rate in
+# the liar rounds' windows with their rate in the control-only rounds' windows, and the bots' rate while any
 # hostile ran with their rate while none did; a deciding comparison beyond 2x its baseline + 60
 # slot-frames, or an honest client kicked, fails the soak whatever the load (the load replaces
 # inputs in every room alike); the bots' kicks are counted by the reason the server logged (silent:
@@ -49,7 +53,8 @@ start_server "$dir" --per-address 4095 --max-connections $((2 * ROOMS + 256))
 [ -n "$server_port" ] || exit 1
 seconds=$((MINUTES * 60))
 "$relay_bench" --connect "127.0.0.1:$server_port" --server-pid "$server_pid" --rooms "$ROOMS" --seconds "$seconds" \
-    --repeat 1 --warmup 5 --ramp 50 --client-cpu -1 --csv "$dir/bench.csv" --replaced-log "$dir/replaced.csv" >"$dir/bench.out" 2>"$dir/bench.err" &
+    --repeat 1 --warmup 5 --ramp 50 --client-cpu -1 --csv "$dir/bench.csv" --replaced-log "$dir/replaced.csv" \
+    --delay-log "$dir/delay.csv" >"$dir/bench.out" 2>"$dir/bench.err" &
 bench_pid=$!
 pids+=($bench_pid)
 # relay_bench's room ids: ((pid << 8) + run) << 24 | room, its first run being 1.
@@ -64,7 +69,7 @@ echo "room,slot,role,frames,replaced,outcome" >"$dir/honest.csv"
 attack() { echo "$1,$(ms),$2,$3" >>"$dir/attacks.csv"; }
 start=$(date +%s)
 : >"$dir/rss.txt"
-round=0 steals=0 steals_refused=0 kicks_expected=0 kicked=0 liar_rounds=0 liar_ok=0
+round=0 steals=0 steals_refused=0 kicks_expected=0 kicked=0 liar_rounds=0 liar_ok=0 control_rounds=0 control_ok=0
 last_rss=0
 while kill -0 "$bench_pid" 2>/dev/null; do
     now=$(date +%s)
@@ -101,8 +106,12 @@ while kill -0 "$bench_pid" 2>/dev/null; do
         attack "$t0" "$b" "hostile-$round-$b"
         i=$((i + 1))
     done
-    if [ $((round % 4)) = 1 ]; then
-        liar_rounds=$((liar_rounds + 1))
+    # Odd rounds alternate: a liar round (round 1, 5, 9, ...), then a control-only round (3, 7,
+    # 11, ...) of the same shape started the same way, with an honest client in the liar's slot:
+    # the bots' replaced inputs in the liar rounds' windows are compared with the control-only
+    # rounds' (six process starts either way), so that the liar's effect is told from the load.
+    if [ $((round % 2)) = 1 ]; then
+        liar=$((round % 4 == 1))
         t0=$(ms)
         cp=()
         for s in 0 1; do
@@ -111,8 +120,15 @@ while kill -0 "$bench_pid" 2>/dev/null; do
             cp+=($!)
             pids+=($!)
         done
-        timeout 60 "$bad_client" --connect "127.0.0.1:$server_port" --room "liar-$round" --slot 2 --players 3 \
-            --behavior liar --seconds 40 >"$r/liar.out" 2>&1 &
+        if [ "$liar" = 1 ]; then
+            liar_rounds=$((liar_rounds + 1))
+            timeout 60 "$bad_client" --connect "127.0.0.1:$server_port" --room "liar-$round" --slot 2 --players 3 \
+                --behavior liar --seconds 40 >"$r/liar.out" 2>&1 &
+        else
+            control_rounds=$((control_rounds + 1))
+            timeout 60 "$lockroll" client --slot 2 --players 3 --connect "127.0.0.1:$server_port" --room "liar-$round" \
+                --frames 600 --seed $((round + 2)) --out "$r/c2" >"$r/c2.out" 2>&1 &
+        fi
         lp=$!
         pids+=($lp)
         ctl=()
@@ -125,13 +141,17 @@ while kill -0 "$bench_pid" 2>/dev/null; do
         ok=1
         for p in "${cp[@]}"; do wait "$p" || ok=0; done
         wait "$lp" || ok=0
-        attack "$t0" liar "liar-$round"
-        for p in "${ctl[@]}"; do wait "$p"; done
+        for p in "${ctl[@]}"; do wait "$p" || [ "$liar" = 1 ] || ok=0; done
+        # The window covers all six processes, in both kinds of round (like with like).
+        if [ "$liar" = 1 ]; then attack "$t0" liar "liar-$round"; else attack "$t0" control_only "liar-$round"; fi
         # The honest clients' own replaced inputs (frames of theirs the server confirmed without
-        # them) and outcomes, for the attribution; a missing summary is a failed client.
-        python3 - "$r" "$round" >>"$dir/honest.csv" <<'PY'
+        # them) and outcomes, for the attribution; a missing summary is a failed client. The
+        # control-only rounds' six are all role control_only (not the liar rounds' baseline).
+        python3 - "$r" "$round" "$liar" >>"$dir/honest.csv" <<'PY'
 import json, os, sys
-for room, role, out, slots in (("liar", "neighbour", "c", (0, 1)), ("control", "control", "k", (0, 1, 2))):
+rooms = (("liar", "neighbour", "c", (0, 1)), ("control", "control", "k", (0, 1, 2))) if sys.argv[3] == "1" else \
+    (("liar", "control_only", "c", (0, 1, 2)), ("control", "control_only", "k", (0, 1, 2)))
+for room, role, out, slots in rooms:
     for s in slots:
         try:
             c = json.load(open(os.path.join(sys.argv[1], f"{out}{s}", "summary.json")))
@@ -139,13 +159,15 @@ for room, role, out, slots in (("liar", "neighbour", "c", (0, 1)), ("control", "
         except (OSError, KeyError, ValueError):
             print(f"{room}-{sys.argv[2]},{s},{role},0,0,missing")
 PY
-        if [ "$ok" = 1 ] && python3 - "$r" <<'PY'
+        if [ "$liar" = 1 ]; then
+            if [ "$ok" = 1 ] && python3 - "$r" <<'PY'
 import json, os, sys
 c = [json.load(open(os.path.join(sys.argv[1], f"c{s}", "summary.json"))) for s in (0, 1)]
 assert all(x["outcome"] == "completed" for x in c) and c[0]["final_checksum"] == c[1]["final_checksum"]
 assert "kicked from this match" in open(os.path.join(sys.argv[1], "liar.out")).read()
 PY
-        then liar_ok=$((liar_ok + 1)); else fail "liar round $round"; fi
+            then liar_ok=$((liar_ok + 1)); else fail "liar round $round"; fi
+        elif [ "$ok" = 1 ]; then control_ok=$((control_ok + 1)); else fail "control-only round $round"; fi
     fi
     sleep 10
 done
@@ -198,7 +220,7 @@ print(min(int(t), int(sys.argv[2])))" "$first_kick" "$bench_end")
 python3 "$(dirname "$0")/soak_attribution.py" --replaced "$dir/replaced.csv" --attacks "$dir/attacks.csv" --honest "$dir/honest.csv" \
     --rooms "$ROOMS" --end-ms "$bench_end" --honest-kicked $((bots_lost + neighbours_lost)) --strict ||
     fail "replaced inputs attributable to the hostiles, or honest clients kicked (see $dir/replaced.csv, attacks.csv, honest.csv)"
-echo "rounds $round: steals refused $steals_refused/$steals, hostiles kicked $kicked/$kicks_expected, liar rounds ok $liar_ok/$liar_rounds"
+echo "rounds $round: steals refused $steals_refused/$steals, hostiles kicked $kicked/$kicks_expected, liar rounds ok $liar_ok/$liar_rounds, control-only rounds ok $control_ok/$control_rounds"
 [ "$bench_status" = 0 ] || echo "(relay_bench exit $bench_status: it reports 'not sustained' when p99 passes its goal; not a soak failure)"
 [ "$failures" = 0 ] || { show_logs "$dir"; exit 1; }
 echo "relay soak: ok"

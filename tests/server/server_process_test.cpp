@@ -5,7 +5,10 @@
 // is bounded; children are stopped by their pid (harness/live/child_process.h).
 #include <enet/enet.h>
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <filesystem>
@@ -182,6 +185,43 @@ TEST_F(ServerProcessTest, ReadyLineReadyFileAndStatusFile) {
     ASSERT_TRUE(eventually([&] { return !s.child->running(); }, 5000));
     EXPECT_EQ(s.child->poll_exit(), 0);
     EXPECT_NE(read_file(status).find("\"state\": \"draining\""), std::string::npos);
+}
+
+// The status file's write hangs on the filesystem (its temporary name is a FIFO nobody reads: an
+// open that never returns, as a create can wait seconds on a busy ext4 journal): the server
+// still welcomes a client, i.e. its relay loop does not wait for the status file (2026-12-06: a
+// soak's server stalled 1.4-2.2 s while every process around it ran). Then the FIFO is read:
+// the status the writer held is the server's, and the file is written from then on.
+TEST_F(ServerProcessTest, AStatusFileWriteBlockedOnTheFilesystemDoesNotStallTheRelay) {
+    const fs::path status = dir.path / "status.json", fifo = dir.path / "status.json.tmp";
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+    Server s({"--status-file", status.string()}, dir.path / "server.log");
+    ASSERT_NE(s.port, 0) << read_file(dir.path / "server.log");
+    RelayClient a(s.port);
+    const auto w = join(a, 1, 0);
+    // Whatever happened, let the blocked write go on (the server can be stopped then).
+    const int fd = open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+    ASSERT_GE(fd, 0);
+    std::string held;
+    eventually(
+        [&] {
+            char buf[512];
+            for (ssize_t n; (n = read(fd, buf, sizeof buf)) > 0;) held.append(buf, static_cast<std::size_t>(n));
+            return held.find('\n') != std::string::npos;
+        },
+        3000);
+    close(fd);
+    ASSERT_TRUE(w) << "no welcome while the status file's write was blocked";
+    EXPECT_EQ(w->refusal, RelayRefusal::None);
+    EXPECT_NE(held.find("\"state\": \"ready\""), std::string::npos) << held;
+    // The writer renamed the FIFO to status.json; the next second's file replaces it (a FIFO is
+    // not read here: an open for reading would wait for a writer).
+    const auto status_has = [&](const std::string& what) {
+        return fs::is_regular_file(status) && read_file(status).find(what) != std::string::npos;
+    };
+    ASSERT_TRUE(eventually([&] { return status_has("\"rooms\": 1"); }, 5000));
+    a.leave();
+    EXPECT_EQ(s.child->stop(5000), 0);
 }
 
 TEST_F(ServerProcessTest, RoomLimitRefusesTheNextRoom) {

@@ -15,6 +15,13 @@ within the one run, whether the hostiles added any, by comparing like with like:
                    honest `lockroll client`s, started beside them: a joining client's first
                    frames are replaced in any room (about 9 of 600 each, measured 2026-12-06),
                    so the bots, who join the room clock at once, are no baseline for them.
+  liar rounds      the bots' replaced slot-frames, all rooms, in the windows of the liar rounds
+                   (a liar beside two honest clients, and a control room of three: six processes
+                   started at once) against those in the windows of the control-only rounds
+                   (kind control_only: the same two rooms started the same way, an honest client
+                   in the liar's slot, no hostile). Both load the machine alike, so a liar that
+                   stalled the server would show here, the process starts not. Not decided (a
+                   line says so) when the run had no control-only round.
   any time         (information, no verdict) the bots' rate in all rooms while any hostile was
                    active (its window) against their rate outside every window, from the first
                    attack on, all replaced inputs and those the bots sent on time (not
@@ -30,17 +37,18 @@ within the one run, whether the hostiles added any, by comparing like with like:
 Each deciding comparison is "significant" when its observed count exceeds FACTOR (2) times the count the
 baseline rate predicts plus SLACK (60 slot-frames: half a second of one room's two slots, so that
 a lone hiccup on a quiet run is not called an attack). The replaced inputs attributable to
-hostiles are the observed counts beyond the prediction of the first two comparisons (the rooms
-where a hostile could act on the bots' behalf). With --strict the exit status is 1 when any
+hostiles are the observed counts beyond the prediction of the three comparisons. With --strict the exit status is 1 when any
 comparison is significant or any honest client was kicked.
 
 Inputs (CSV with a header):
   --replaced  relay_bench --replaced-log: time_ms,run,room,slot,frames,generator_late (per
               second; an older log's unsent column stands for generator_late)
   --attacks   the soak's hostile actions: start_ms,end_ms,kind,room (room: a bots' room index
-              for kind steal, else the hostile's own room name)
+              for kind steal, else the hostile's own room name); kind control_only is no
+              hostile, but a control-only round's window (the liar rounds' baseline)
   --honest    honest lockroll clients: room,slot,role,frames,replaced,outcome (role neighbour:
-              beside a liar; control: in the all-honest room started with it)
+              beside a liar; control: in the all-honest room started with it; control_only: in
+              a control-only round, counted only for its outcome)
   --rooms     the bots' room count; --end-ms when the bots stopped (or the server first kicked
               one: their rooms replace nothing after); --honest-kicked how many
               honest clients (bots or the liar's neighbours) were disconnected or failed.
@@ -54,6 +62,8 @@ import tempfile
 
 FPS = 60
 SLOTS = 2
+# The kind of the control-only rounds in --attacks: the liar rounds' twins without a liar.
+CONTROL_ONLY = "control_only"
 
 
 def read_rows(path):
@@ -104,7 +114,8 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
     end_ms counts (the bots' end, or their first kick: after it their rooms replace nothing)."""
     def window(a):
         return int(a["start_ms"]) - margin_ms, min(end_ms, int(a["end_ms"]) + margin_ms)
-    attacks = [a for a in attacks if window(a)[0] < end_ms]
+    controls = [a for a in attacks if a["kind"] == CONTROL_ONLY and window(a)[0] < end_ms]
+    attacks = [a for a in attacks if a["kind"] != CONTROL_ONLY and window(a)[0] < end_ms]
     # A second bucket counts at its middle.
     samples = []
     for r in replaced_rows:
@@ -153,10 +164,22 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
                                   honest_sum("neighbour", "frames"), honest_sum("control", "replaced"),
                                   honest_sum("control", "frames"), factor, slack))
 
+    # The bots in the liar rounds' windows against the control-only rounds' windows (every room:
+    # a liar that stalled the server would replace inputs everywhere, as the load does).
+    def all_rooms(kind_rows):
+        iv = merge([window(a) for a in kind_rows])
+        return sum(n for t, _, n, _ in samples if inside(t, iv)), span_s(iv) * rooms * SLOTS * FPS
+    liar_obs, liar_exp = all_rooms([a for a in attacks if a["kind"] == "liar"])
+    ctl_obs, ctl_exp = all_rooms(controls)
+    liar_cmp = Comparison("bots in liar rounds' windows", liar_obs, liar_exp, ctl_obs, ctl_exp, factor, slack)
+    decided = liar_exp > 0 and ctl_exp > 0
+    if decided:
+        comparisons.append(liar_cmp)
+
     # Per kind of hostile (information: which kind's windows carry the replaced inputs).
     by_kind = []
-    for kind in sorted({a["kind"] for a in attacks}):
-        iv = merge([window(a) for a in attacks if a["kind"] == kind])
+    for kind in sorted({a["kind"] for a in attacks + controls}):
+        iv = merge([window(a) for a in attacks + controls if a["kind"] == kind])
         n_all = sum(n for t, _, n, _ in samples if inside(t, iv))
         n_on_time = sum(n - g for t, _, n, g in samples if inside(t, iv))
         exposure = span_s(iv) * per_s
@@ -165,18 +188,25 @@ def analyse(replaced_rows, attacks, honest, rooms, end_ms, margin_ms=3000, facto
 
     total = sum(n for _, _, n, _ in samples)
     late = sum(u for _, _, _, u in samples)
-    attributable = comparisons[0].excess + comparisons[1].excess
+    attributable = sum(c.excess for c in comparisons)
     lines = [
         f"replaced slot-frames logged: {total} ({late} the bots' generator sent late or not at all: it fell behind); "
         f"{len(attacks)} hostile actions before the end, {sum(1 for a in attacks if a['kind'] == 'steal')} of them steals in "
         f"{len(targeted)} bots' rooms; windows ±{margin_ms / 1000:g} s, {during_s:.0f} s with hostiles active, {outside_s:.0f} s without",
         comparisons[0].line("other bots' rooms in the same windows"),
         comparisons[1].line("honest clients in the control rooms"),
+        liar_cmp.line("control-only rounds' windows") if decided else
+        f"  bots in liar rounds' windows: {liar_obs} of {liar_exp:.0f} slot-frames replaced; no control-only round to compare "
+        f"with ({len(controls)} windows): not decided",
         during_all.line("outside every window").replace(": SIGNIFICANT", ": above the bound (information)"),
         during_cmp.line("outside every window").replace(": SIGNIFICANT", ": above the bound (information)"),
         "  the bots' rate in each kind's windows: " + "; ".join(by_kind),
         f"replaced inputs attributable to hostiles: {attributable} (targeted-room rate {comparisons[0].rate:.2e} vs others "
         f"{comparisons[0].base_rate:.2e} in the same windows, {int(t_obs)} vs {int(o_obs)} slot-frames)",
+        (f"liar rounds vs control-only rounds: the bots' rate {liar_cmp.rate:.2e} in {len([a for a in attacks if a['kind'] == 'liar'])} "
+         f"liar rounds' windows vs {liar_cmp.base_rate:.2e} in {len(controls)} control-only rounds' ({liar_obs} vs {ctl_obs} slot-frames): "
+         + ("SIGNIFICANT: the liar's doing" if liar_cmp.significant else "within the bound: no worse than six honest clients' start")
+         if decided else "liar rounds vs control-only rounds: not decided (no control-only round, or no liar round, before the end)"),
     ]
     return comparisons, attributable, lines, during_cmp
 
@@ -227,13 +257,15 @@ def main(argv):
 # --- selftest: synthetic runs, no processes ---------------------------------------------------
 
 def synthetic(directory, name, extra_in_victims, honest_replaced=9, kicked=0, flood_everywhere=0, generator_behind=0,
-              loaded=0):
+              loaded=0, liar_extra=0, control_extra=0):
     """A 20-room, 200 s run: background replacements in every room (2 slot-frames a second in
     rooms 0..19, in turn), steals every 20 s at rooms 3, 5, ... with extra_in_victims slot-frames
     added to the victim in the second after each steal, and flood_everywhere added to every room
     while each round's flooder runs (generator_behind: as many, all generator_late); loaded more in
     every room every second (a loaded machine, hostiles or not); a liar round whose two honest clients had honest_replaced
-    own inputs replaced each, and its control room's three 9 each."""
+    own inputs replaced each, and its control room's three 9 each. Each round ends with a 4.5 s
+    round of six clients' start, a liar round in odd rounds and a control-only round in even ones,
+    with liar_extra or control_extra added to every room in its middle (a stall of the server)."""
     rooms, t0 = 20, 1_700_000_000_000
     rows, attacks = [], []
     for s in range(200):
@@ -244,6 +276,10 @@ def synthetic(directory, name, extra_in_victims, honest_replaced=9, kicked=0, fl
         victim = (3 + 2 * k) % rooms
         attacks.append((start, start + 1500, "steal", victim))
         attacks.append((start + 2000, start + 9000, "flood", f"hostile-{k}-flood"))
+        attacks.append((start + 10500, start + 15000, "liar" if k % 2 else CONTROL_ONLY, f"liar-{k}"))
+        for r in range(rooms):
+            if liar_extra if k % 2 else control_extra:
+                rows.append((start + 12000, r, liar_extra if k % 2 else control_extra, 0))
         if extra_in_victims:
             rows.append((start + 1000, victim, extra_in_victims, 0))
         for r in range(rooms):
@@ -288,6 +324,13 @@ def selftest():
             # Every room hit while the flooders run: not the victims' rooms, the time; reported
             # (below), but the machine's own load looks the same: no verdict.
             ("flood starves everyone", synthetic(d, "flood", 0, flood_everywhere=20), 0),
+            # Six clients' start stalls the server as much in the control-only rounds as in the
+            # liar rounds: the load's, not the liar's.
+            ("liar and control-only rounds alike", synthetic(d, "starts", 0, liar_extra=30, control_extra=30), 0),
+            ("liar rounds a little worse (noise)", synthetic(d, "starts-noise", 0, liar_extra=32, control_extra=30), 0),
+            # The bots replaced in the liar rounds only: the liar's doing (a stall of the server).
+            ("liar rounds worse than control-only", synthetic(d, "liar", 0, liar_extra=30), 1),
+            ("liar rounds worse, control-only loaded too", synthetic(d, "liar-loaded", 0, liar_extra=90, control_extra=30), 1),
         ]
         for name, argv, want in cases:
             got = main(argv)
@@ -299,6 +342,11 @@ def selftest():
             failures.append(f"attributable {attributable}, expected about 320")
         # The time comparison counts the inputs the bots sent on time: a generator that fell
         # behind while hostiles ran is not above its bound, a starved server is.
+        # The liar rounds' excess is attributable: 4 rounds x 20 rooms x 30, over a background of
+        # ~1 slot-frame a window.
+        attributable = analyse_synthetic(synthetic(d, "liar-count", 0, liar_extra=30))[1]
+        if not 2350 <= attributable <= 2400:
+            failures.append(f"liar rounds: attributable {attributable}, expected about 2,400")
         for name, kw, want in (("flood", {"flood_everywhere": 20}, True), ("behind", {"generator_behind": 20}, False)):
             during = analyse_synthetic(synthetic(d, name, 0, **kw))[3]
             if during.significant != want:
