@@ -2,8 +2,6 @@
 
 #include <algorithm>
 
-#include "rollback/slot_hosts.h"
-
 namespace lockroll::rollback {
 
 bool SnapshotFetch::may_ask(std::uint64_t now_us) const {
@@ -122,20 +120,29 @@ SnapshotFetch::Verdict SnapshotFetch::finish(std::uint64_t now_us, std::span<con
         !e.empty())
         return reject(e);
     if (t.frame != out.offer.frame) return reject("snapshot transfer: frame differs from the offer");
-    // Join and spectate: loaded only if a majority of the view's other processes confirmed the
-    // same checksum of that frame (a recovery already follows the majority's checksums).
+    // Join and spectate: loaded only if a strict majority of the view's running processes
+    // confirmed the same checksum of that frame (a recovery already follows the majority's checksums).
     if (out.offer.reason != TransferReason::Recover) {
         if (!vetting_.active() || vetting_.frame() != t.frame || vetting_.provider() != from_) {
-            std::vector<PlayerId> voters;
-            for (const SlotEntry& e : out.offer.slots) {
-                const PlayerId p = e.slot;
-                if (p >= static_cast<PlayerId>(config_.players) || p == config_.local_player || host_of(config_, p) != p) continue;
-                if (e.state == SlotState::Running || links[p].welcomed) voters.push_back(p);
+            // The view as the offer's table gives it, and every peer that welcomed us runs
+            // whatever the table says: a provider cannot shrink the view to a minority of its
+            // own (or to a view of two, where its word alone may decide).
+            Membership view(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
+            for (const SlotEntry& e : out.offer.slots)
+                if (e.slot < static_cast<PlayerId>(config_.players)) view.set(e.slot, e.state, e.epoch);
+            for (int s = 0; s < config_.players; ++s) {
+                const auto p = static_cast<PlayerId>(s);
+                if (p != config_.local_player && links[p].welcomed && !view.running(p))
+                    view.set(p, SlotState::Running, view.epoch(p));
             }
             // Short: the slot is handed over already, and a newcomer silent to the others for
-            // disconnect_us would be voted gone again.
+            // disconnect_us would be voted gone again. Past it without a majority the offer is
+            // rejected and asked for again (never loaded on a minority); a spectator's is not
+            // (SnapshotVetting::AtDeadline: it reaches only its host).
             const std::uint64_t wait_us = config_.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, config_.disconnect_us / 3);
-            vetting_.start(t.frame, checksum(t.state), from_, std::move(voters), now_us, wait_us);
+            vetting_.start(t.frame, checksum(t.state), from_, view, now_us, wait_us,
+                           config_.role == Role::Spectator ? SnapshotVetting::AtDeadline::AcceptUncontested
+                                                           : SnapshotVetting::AtDeadline::Reject);
             return Verdict::Pending;  // poll() asks, and says Decided once it is
         }
         const SnapshotVetting::Verdict v = vetting_.verdict(now_us);

@@ -13,7 +13,9 @@
 //  - Offers are asked for at most every 2 x transfer_resend_us while none arrives (may_ask).
 //    A transfer that takes longer than kTimeoutUs is dropped and asked for again (poll).
 //  - finish(): a complete transfer whose hash, contents or frame are wrong is Rejected, and so is
-//    a vetted one the majority contradicts (its provider is then asked last, rejected_provider);
+//    a vetted one the majority contradicts or, for a joiner, no majority confirmed by the
+//    vetting's deadline (a spectator's uncontested host is enough there: SnapshotVetting) --
+//    its provider is then asked last (rejected_provider), the reason names the silent voters;
 //    every rejection forgets the transfer so the next ask goes out at once. Join and spectate
 //    wait (Pending) for the vetting's verdict; a recovery needs none (it already follows the
 //    majority's checksums). Ready hands out the contents and forgets the transfer.

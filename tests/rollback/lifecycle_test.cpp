@@ -419,11 +419,15 @@ TEST(Lifecycle, BothSidesOfAPartitionPlayOn) {
     }
 }
 
-// Between real processes a survivor's connection to the joiner can come up only after the
-// joiner has loaded its snapshot from another peer and runs (the survivor was still timing out
-// its reconnects to the dead process). Until then nothing passes between the two. The joiner's
-// hello reaches the survivor late, and the survivor's welcome reaches a joiner that already
-// runs: the two must still start exchanging inputs, and nobody is dropped.
+// Between real processes a survivor's welcome can reach the joiner only after the joiner has
+// loaded its snapshot and runs (its connection came up late: the survivor was still timing out
+// its reconnects to the dead process). The survivor's welcome reaches a joiner that already
+// runs: the two must still start exchanging inputs, and nobody is dropped. Since issue 21's
+// strict vetting the joiner loads only once a majority of the view (here the owner and the
+// survivor) confirmed its snapshot's checksum, each on its own connection, so the survivor's
+// answer must have reached it: what comes late is only its welcome. (Before, nothing at all
+// passed between the two until the joiner ran, and it loaded on the owner's word alone; a
+// joiner cut off from the survivor that long is AJoinerCutOffFromTheMajorityIsToldAndWaits.)
 TEST(Lifecycle, SurvivorReachedOnlyAfterTheJoinerRuns) {
     const auto scene = make_scene(3, 20);
     SessionConfig cfg = real_config(3, 8);
@@ -436,10 +440,10 @@ TEST(Lifecycle, SurvivorReachedOnlyAfterTheJoinerRuns) {
     again.local_player = 2;
     again.role = Role::Joiner;
     bool started = false;
-    // Client 1 and the new slot-2 process cannot hear each other until the joiner runs.
-    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
-        const bool pair = (from == 1 && to == 2) || (from == 2 && to == 1);
-        return !(pair && started && cluster.clients[2]->session->phase() != SessionPhase::Running);
+    // Client 1's welcomes do not reach the new slot-2 process until the joiner runs.
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        const bool welcome = from == 1 && to == 2 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::Welcome);
+        return !(welcome && started && cluster.clients[2]->session->phase() != SessionPhase::Running);
     };
     Client& joiner = cluster.start(2, scene, again, 999);
     started = true;
@@ -447,7 +451,9 @@ TEST(Lifecycle, SurvivorReachedOnlyAfterTheJoinerRuns) {
     cluster.settle(1000);
     ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
     ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
-    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded)[0]->peer, 0u) << "the joiner could only reach slot 0";
+    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded)[0]->peer, 0u) << "the owner serves the joiner";
+    EXPECT_NE(events_of(joiner, Kind::SnapshotLoaded)[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos)
+        << events_of(joiner, Kind::SnapshotLoaded)[0]->detail;
     EXPECT_TRUE(events_of(joiner, Kind::Kicked).empty());
     // The scene this test is about did happen: slot 1's first welcome came after the load.
     const auto from_1 = std::find_if(joiner.events.begin(), joiner.events.end(),
@@ -610,6 +616,58 @@ TEST(Lifecycle, AJoinerThatCannotLoadLapsesAndTheOthersPlayOn) {
     EXPECT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Running);
     EXPECT_EQ(cluster.clients[1]->session->slot_state(2), SlotState::Running);
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+// Issue 21: a joiner loads only on a majority's checksum. Cut off from survivor 1 (nothing passes
+// between them), it hears only the owner, which serves it: that is one of the view's three
+// running processes, no majority. Before, the owner's own answer with slot 1 silent was enough
+// at the vetting deadline and it loaded. Now each offer is rejected at the deadline naming the
+// silent peer (never a silent hang), its handoff lapses and the pair plays on, and once the cut
+// heals it asks again and loads on the owner's and slot 1's word.
+TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {10000, 2000}, 17);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(400, 60'000'000);
+    ASSERT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Disconnected);
+    bool cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !(cut && ((from == 1 && to == 2) || (from == 2 && to == 1)));
+    };
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    cluster.start(2, scene, again, 999);
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 3 * cfg.disconnect_us);
+    {
+        const Client& joiner = *cluster.clients[2];
+        EXPECT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty()) << events_of(joiner, Kind::SnapshotLoaded)[0]->detail;
+        const auto rejected = events_of(joiner, Kind::SnapshotRejected);
+        ASSERT_FALSE(rejected.empty()) << "the joiner says why it does not load";
+        EXPECT_EQ(rejected[0]->peer, 0u);
+        EXPECT_NE(rejected[0]->detail.find("cut off from a majority of the view: no answer in time from peer 1"),
+                  std::string::npos)
+            << rejected[0]->detail;
+        for (PlayerId p : {0u, 1u})
+            EXPECT_GT(cluster.clients[p]->session->frame(), before + 60 * 3 * cfg.disconnect_us / 1'000'000 / 3)
+                << "client " << p << " plays on";
+    }
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    const Client& joiner = *cluster.clients[2];
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
 }
 
 // `players` players, one recovery allowed; client `odd`'s body is kicked at frame 150, so it is
@@ -939,7 +997,7 @@ void split_two_one(int window, std::uint64_t seed, std::int64_t drift_ppm, std::
     EXPECT_EQ(lone.session->config().role, Role::Joiner);
     ASSERT_EQ(events_of(lone, Kind::SnapshotLoaded).size(), 1u);
     EXPECT_GT(events_of(lone, Kind::SnapshotLoaded)[0]->frame, partitioned_at);
-    EXPECT_NE(events_of(lone, Kind::SnapshotLoaded)[0]->detail.find(": 2 of 2 peers agree, 0 differ"), std::string::npos)
+    EXPECT_NE(events_of(lone, Kind::SnapshotLoaded)[0]->detail.find(": 2 agree, 0 differ, 2 needed of the view's 3 running processes"), std::string::npos)
         << events_of(lone, Kind::SnapshotLoaded)[0]->detail;
     expect_equal_at(cluster, 1200);
     int compared = 0;

@@ -1,10 +1,12 @@
 // SnapshotFetch (rollback/snapshot_fetch.h) on its own, against a TransferSender playing the
 // provider (no session, no network): one offer at a time, chunks only from its sender, the
-// majority's vetting before a join loads, rejections that ask again, the silent provider.
+// majority's vetting before a join loads (never a minority's word, the two-player rule),
+// rejections that ask again, the silent provider.
 #include "rollback/snapshot_fetch.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <vector>
 
 #include "tests/rollback/peer_links.h"
@@ -20,27 +22,30 @@ std::uint64_t sum(std::span<const std::uint8_t> s) {
     return v;
 }
 
-// A joiner in slot 2 of three; slots 0 and 1 run and welcomed it; slot 0 provides.
+// A joiner in the last slot (2 of three unless told); the others run and welcomed it; slot 0
+// provides.
 struct Fixture {
     SessionConfig config;
-    std::vector<PeerLink> links = testing::fresh_links(3);
+    std::vector<PeerLink> links;
     TransferSender sender{60'000'000};
     TransferContents contents;
     std::vector<Datagram> out;
+    SnapshotOfferMessage* offer = nullptr;  // the one transfer's, as the provider sends it
 
-    Fixture(TransferReason reason = TransferReason::Join, Role role = Role::Joiner) {
-        config.players = 3;
-        config.local_player = 2;
+    explicit Fixture(TransferReason reason = TransferReason::Join, Role role = Role::Joiner, int players = 3)
+        : links(testing::fresh_links(players)) {
+        config.players = players;
+        config.local_player = static_cast<PlayerId>(players - 1);
         config.role = role;
         config.input_size = 1;
         config.input_capacity = 64;
-        links[0].welcomed = links[1].welcomed = true;
+        for (int s = 0; s + 1 < players; ++s) links[static_cast<std::size_t>(s)].welcomed = true;
         contents.frame = 10;
         contents.state.assign(kStateSize, 7);
-        contents.streams.resize(3);
-        SnapshotOfferMessage& o = sender.offer(0, reason, contents, 1, 0).offer;
-        for (std::uint8_t s = 0; s < 3; ++s)
-            o.slots.push_back({s, SlotState::Running, static_cast<std::uint8_t>(s == 2 ? 1 : 0), 0});
+        contents.streams.resize(static_cast<std::size_t>(players));
+        offer = &sender.offer(0, reason, contents, 1, 0).offer;
+        for (std::uint8_t s = 0; s < players; ++s)
+            offer->slots.push_back({s, SlotState::Running, static_cast<std::uint8_t>(s == players - 1 ? 1 : 0), 0});
     }
     const TransferSender::Transfer& transfer() const { return sender.transfers().front(); }
     void deliver(SnapshotFetch& f, bool damage_last = false) {
@@ -120,6 +125,77 @@ TEST(SnapshotFetch, JoinLoadsOnlyOnceTheMajorityConfirmsItsChecksum) {
     EXPECT_EQ(r.contents.state, x.contents.state);
     EXPECT_EQ(r.from, 0);
     EXPECT_EQ(f.incoming(), nullptr);
+}
+
+// The vetting's deadline: min(2 s, disconnect_us / 3) after the transfer completed (at 2000).
+std::uint64_t vetting_deadline(const SessionConfig& c) {
+    return 2000 + (c.disconnect_us == 0 ? 2'000'000 : std::min<std::uint64_t>(2'000'000, c.disconnect_us / 3));
+}
+
+// The transfer delivered, only the provider (slot 0) answers, and the vetting's deadline comes:
+// the verdict.
+SnapshotFetch::Verdict provider_alone_until(Fixture& x, SnapshotFetch& f, std::uint64_t deadline,
+                                            SnapshotFetch::Result& r) {
+    x.deliver_unvetted(f, r);
+    f.take_reply(0, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(deadline - 1, x.out), SnapshotFetch::Poll::Nothing);
+    EXPECT_EQ(f.poll(deadline, x.out), SnapshotFetch::Poll::Decided);
+    return x.finish(f, deadline, r);
+}
+
+// Before, the provider's own answer with slot 1 silent was loaded at the deadline.
+TEST(SnapshotFetch, TheProvidersWordAloneIsRejectedAtTheDeadlineAndAskedAgain) {
+    Fixture x;
+    SnapshotFetch f(x.config, kStateSize);
+    SnapshotFetch::Result r;
+    const std::uint64_t deadline = vetting_deadline(x.config);
+    EXPECT_EQ(provider_alone_until(x, f, deadline, r), SnapshotFetch::Verdict::Rejected);
+    EXPECT_NE(r.why.find("snapshot rejected"), std::string::npos) << r.why;
+    EXPECT_NE(r.why.find("cut off from a majority of the view: no answer in time from peer 1"), std::string::npos)
+        << r.why;
+    EXPECT_TRUE(f.may_ask(deadline)) << "a rejection asks again at once";
+    EXPECT_FALSE(f.vetting());
+}
+
+// A spectator (SessionBuilder: it knows only its host's address) takes its host's uncontested
+// word at the deadline.
+TEST(SnapshotFetch, ASpectatorLoadsOnItsHostsUncontestedWordAtTheDeadline) {
+    Fixture x(TransferReason::Spectate, Role::Spectator);
+    x.config.local_player = 3;  // a spectator id: no slot
+    x.config.max_spectators = 1;
+    SnapshotFetch f(x.config, kStateSize);
+    SnapshotFetch::Result r;
+    ASSERT_EQ(provider_alone_until(x, f, vetting_deadline(x.config), r), SnapshotFetch::Verdict::Ready);
+    EXPECT_NE(r.why.find("a spectator: accepted uncontested"), std::string::npos) << r.why;
+}
+
+// The offer's table is the provider's word: one that says slot 1 left cannot shrink the view
+// to itself and the joiner (a view of two, where its word alone would decide) while slot 1 has
+// welcomed the joiner.
+TEST(SnapshotFetch, AnOfferThatHidesAWelcomedPeerDoesNotShrinkTheView) {
+    Fixture x;
+    x.offer->slots[1].state = SlotState::Disconnected;
+    SnapshotFetch f(x.config, kStateSize);
+    SnapshotFetch::Result r;
+    x.deliver_unvetted(f, r);
+    f.take_reply(0, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(3000, x.out), SnapshotFetch::Poll::Nothing) << "slot 1's answer is still needed";
+    f.take_reply(1, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(4000, x.out), SnapshotFetch::Poll::Decided);
+    EXPECT_EQ(x.finish(f, 4000, r), SnapshotFetch::Verdict::Ready);
+}
+
+// Two players: the joiner's slot and the provider are the view; the two-player rule decides.
+TEST(SnapshotFetch, AViewOfTwoLoadsOnTheProvidersWordUnderPlayOnAloneAndSaysSo) {
+    Fixture x(TransferReason::Join, Role::Joiner, 2);
+    SnapshotFetch f(x.config, kStateSize);
+    SnapshotFetch::Result r;
+    x.deliver_unvetted(f, r);
+    f.take_reply(0, Fixture::reply(sum(x.contents.state)));
+    EXPECT_EQ(f.poll(3000, x.out), SnapshotFetch::Poll::Decided);
+    ASSERT_EQ(x.finish(f, 3000, r), SnapshotFetch::Verdict::Ready);
+    EXPECT_NE(r.why.find("the two-player rule play_on_alone lets the provider's word decide"), std::string::npos)
+        << r.why;
 }
 
 TEST(SnapshotFetch, MajorityAgainstRejectsAndAsksThatProviderLast) {
