@@ -1323,10 +1323,13 @@ bool all_at(const Cluster& cluster, std::initializer_list<PlayerId> ids, std::ui
 
 // Issue 21, what was seen: "after a lockstep peer's kill -9 two survivors dropped each other and
 // both hung (under load)". Three players in lockstep, 5 % loss and 40 ms of jitter; both
-// survivors' ticks are irregular (each stalls up to 400 ms now and then, client 1 the more
-// often). Slot 2 dies at frame 200. The survivors must drop slot 2 and only slot 2, on the same
-// frame; neither may hang; both play on to frame 1,500 and confirm it with one checksum.
-void lockstep_kill_under_load(std::uint64_t seed) {
+// survivors' ticks are irregular (each stalls up to 400 ms now and then), and survivor 1 is
+// starved for starved_us just as slot 2 dies at frame 200. The survivors must drop slot 2 and
+// only slot 2, on the same frame; neither may hang; both play on to frame 1,500 and confirm it
+// with one checksum. With a 1 s starve this passes on the tree before issue 21 (1f05175) as
+// well (so do random stalls alone, even up to 1.3 s): it guards, it did not catch. 1.2 s and
+// more fail there (0 drops 1 too and hangs at frame 1,229), and on main: see the disabled test.
+void lockstep_kill_under_load(std::uint64_t seed, std::uint64_t starved_us) {
     const auto scene = make_scene(3, 10);
     SessionConfig cfg = real_config(3, 0);
     cfg.interrupt_us = 500'000;  // lockroll live's kill cases: 1.5 s to a drop
@@ -1336,6 +1339,11 @@ void lockstep_kill_under_load(std::uint64_t seed) {
     load.run(cluster, [&] { return all_at(cluster, {0, 1, 2}, 200); }, 60'000'000);
     ASSERT_TRUE(all_at(cluster, {0, 1, 2}, 200));
     cluster.kill(2);
+    // Survivor 1 is starved just then (no tick, no poll).
+    const std::uint64_t thaw = cluster.now() + starved_us;
+    cluster.clients[1]->frozen = true;
+    while (cluster.now() < thaw) cluster.step_event();
+    cluster.clients[1]->frozen = false;
     constexpr std::uint32_t kLast = 1500;
     load.run(cluster, [&] { return all_at(cluster, {0, 1}, kLast); }, 120'000'000);
     load.lift(cluster);
@@ -1365,8 +1373,23 @@ void lockstep_kill_under_load(std::uint64_t seed) {
 TEST(Lifecycle, LockstepKillUnderLoadDropsOnlyTheDeadAndBothSurvivorsFinish) {
     for (std::uint64_t seed = 1; seed <= 5; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
-        lockstep_kill_under_load(seed);
+        lockstep_kill_under_load(seed, 1'000'000);
         if (HasFatalFailure()) return;
+    }
+}
+
+// The same with survivor 1 starved for 1.4 s of the 1.5 s timeout at the kill. DISABLED: it
+// fails on main (67925ec) in 4 seeds of 5. Survivor 0 votes 1 gone while it is silent (the
+// silence, with a random stall before and the link's delay, reaches 1.5 s), then hears it
+// again and withdraws the vote; but a table carrying the vote reaches 1 after 2 is dropped,
+// where the view is two and the two-player rule makes one vote a majority: 1 is Kicked ("1 of
+// 2 players voted this slot gone") and fails, and 0 drops it later by the same rule. Two
+// survivors of a three-player match end apart -- the split issue 21 forbids (audit N1/T4). On
+// the tree before issue 21 (1f05175) it fails too: 0 drops 1 and hangs at frame 1,229.
+TEST(Lifecycle, DISABLED_LockstepKillWithASurvivorStarvedAtTheKillDropsOnlyTheDead) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        lockstep_kill_under_load(seed, 1'400'000);
     }
 }
 
