@@ -1397,13 +1397,9 @@ TEST(Lifecycle, DISABLED_LockstepKillWithASurvivorStarvedAtTheKillDropsOnlyTheDe
 // once". lockroll live's kill + rejoin case in virtual time, at 5 % loss with 30 ms of jitter:
 // a spectator comes at frame 150, slot 2 is killed at 200 and a new process rejoins it at 400.
 // The spectator must follow throughout -- never failed, never dropped by the players, one
-// snapshot only -- and end on the players' checksum. Over five seeds.
-//
-// DISABLED: it fails on main (67925ec), 4 seeds of 5, and not for the kill or the loss. A
-// spectator that starts from a snapshot of frame F stops for good at frame F + input_capacity
-// (here 165 + 1024 = 1189) with no event, and the players stop input_capacity frames after it
-// (2211..2221): a silent hang of the whole match. SpectatorBySnapshotOutlivesItsInputCapacity
-// shows the same in a second with no loss, no kill and 64-frame queues. Enable both with the fix.
+// snapshot only -- and end on the players' checksum. Over five seeds. It passes on the tree
+// before issue 21 as well (1f05175: 40 seeds, rollback and lockstep), so it guards and did not
+// catch: the timeout seen over real processes is not reproduced in virtual time.
 void spectator_through_kill_and_rejoin(std::uint64_t seed) {
     const auto scene = make_scene(3, 10);
     SessionConfig cfg = real_config(3, 8);
@@ -1437,25 +1433,35 @@ void spectator_through_kill_and_rejoin(std::uint64_t seed) {
     for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
-TEST(Lifecycle, DISABLED_SpectatorFollowsAKillAndRejoinAtFivePercentLoss) {
+TEST(Lifecycle, SpectatorFollowsAKillAndRejoinAtFivePercentLoss) {
     for (std::uint64_t seed = 1; seed <= 5; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
         spectator_through_kill_and_rejoin(seed);
     }
 }
 
-// The cause of the spectator's hang above, alone: no loss, no kill, 64-frame queues. A spectator
-// comes by a snapshot of frame 165 and must follow the players 300 frames past its queues'
-// capacity; the players must not wait for it. On main (67925ec) it stops at frame 229 (165 +
-// 64) and the three players at 291..301. DISABLED until the fix.
-TEST(Lifecycle, DISABLED_SpectatorBySnapshotOutlivesItsInputCapacity) {
-    const auto scene = make_scene(3, 10);
-    SessionConfig cfg = real_config(3, 8);
-    cfg.max_spectators = 1;
-    cfg.input_capacity = 64;
-    Cluster cluster(scene, cfg, {25000}, 3);
-    cluster.run_frames(150, 30'000'000);
-    Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1);
+// Three players on 64-frame queues reach frame 150; then a spectator comes (by a snapshot).
+struct SpectatorOnSmallQueues {
+    sim::SceneDesc scene = make_scene(3, 10);
+    SessionConfig cfg = [] {
+        SessionConfig c = real_config(3, 8);
+        c.max_spectators = 1;
+        c.input_capacity = 64;
+        return c;
+    }();
+    Cluster cluster{scene, cfg, {25000}, 3};
+    Client& spectator = (cluster.run_frames(150, 30'000'000), start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1));
+};
+
+// A spectator that came by a snapshot of frame 165 follows the players 300 frames past its
+// queues' capacity (64 here), and the players never wait for it. It failed while the Cluster
+// gave a spectator no input at all: Session::advance refused every tick as a bad local input,
+// the spectator moved by catch_up alone, its queues' floors never rose, and it stopped for good
+// at frame 229 (165 + 64) with no event -- and the players, whose resend floor its acks held,
+// stopped 64 frames later. net::PeerRunner passes a spectator one input, as the Cluster now does.
+TEST(Lifecycle, SpectatorBySnapshotOutlivesItsInputCapacity) {
+    SpectatorOnSmallQueues m;
+    auto& [scene, cfg, cluster, spectator] = m;
     constexpr std::uint32_t kLast = 600;
     cluster.run_frames(kLast, 30'000'000);
     cluster.settle(kLast, 10'000'000);
@@ -1464,6 +1470,31 @@ TEST(Lifecycle, DISABLED_SpectatorBySnapshotOutlivesItsInputCapacity) {
     EXPECT_GT(kLast, events_of(spectator, Kind::SnapshotLoaded)[0]->frame + 2 * cfg.input_capacity);
     for (const auto& c : cluster.clients) EXPECT_GE(c->session->confirmed_frame(), kLast);
     expect_equal_at(cluster, kLast);
+}
+
+// Players wait for players only. A spectator whose process still talks but no longer steps (a
+// hung game loop, or a game that passes it input of the wrong size, which advance() refuses)
+// must not stop the players: they play on far past their queues' capacity. DISABLED: it fails
+// on main (67925ec). All three players stop at frame 360 for good, with no event. The
+// spectator's acknowledgements hold each player's resend floor (resend_floor() counts every
+// live link, spectators too, with no bound), so their own queues fill. Enable it with the fix.
+TEST(Lifecycle, DISABLED_PlayersDoNotWaitForASpectatorThatStopsStepping) {
+    SpectatorOnSmallQueues m;
+    auto& [scene, cfg, cluster, spectator] = m;
+    cluster.run_frames(250, 30'000'000);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    cluster.before_tick = [](PlayerId id, Client& c) {
+        if (id == 3) c.skip_ticks = 1;  // polls (and acknowledges) every tick, never steps
+    };
+    const std::uint32_t stuck_at = spectator.session->frame();
+    constexpr std::uint32_t kLast = 800;
+    cluster.run([](const Cluster& c) { return c.clients[0]->session->frame() >= kLast; }, 30'000'000);
+    EXPECT_LE(spectator.session->frame(), stuck_at + 1);
+    for (PlayerId p : {0u, 1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_GE(c.session->frame(), kLast) << "client " << p << " waited for the spectator";
+    }
 }
 
 }  // namespace
