@@ -6,7 +6,10 @@
 #include <algorithm>
 #include <functional>
 #include <map>
+#include <initializer_list>
 #include <set>
+#include <string>
+#include <utility>
 
 #include "rollback/playing_alone.h"
 #include "rollback/session.h"
@@ -1317,6 +1320,240 @@ void relays_through_a_cut(int window) {
 }
 
 TEST(Lifecycle, APeerStuckOnAGapGetsRelaysInASteadyMatch) { relays_through_a_cut(8); }
+
+// A loaded machine, in virtual time: each loaded client stops now and then for a while (no
+// tick, no poll; what arrives meanwhile is taken at its arrival time), as a process the
+// scheduler starves does. Stalls of 50..max_stall_us, every 0.2..1.2 s, from a seed.
+class Load {
+public:
+    Load(std::set<PlayerId> loaded, std::uint64_t max_stall_us, std::uint64_t seed)
+        : loaded_(std::move(loaded)), max_stall_us_(max_stall_us), rng_(seed) {}
+    // Runs `cluster` until `until()` or for at most limit_us more, stalling the loaded clients.
+    void run(Cluster& cluster, const std::function<bool()>& until, std::uint64_t limit_us) {
+        const std::uint64_t end = cluster.now() + limit_us;
+        while (!until() && cluster.now() <= end) {
+            for (PlayerId p : loaded_) apply(cluster, p);
+            cluster.step_event();
+        }
+    }
+    // Every loaded client ticks again.
+    void lift(Cluster& cluster) {
+        for (PlayerId p : loaded_)
+            if (!cluster.dead(p)) cluster.clients[p]->frozen = false;
+        loaded_.clear();
+    }
+    std::uint64_t longest_stall_us() const { return longest_; }
+    int stalls() const { return stalls_; }
+
+private:
+    void apply(Cluster& cluster, PlayerId p) {
+        if (cluster.dead(p)) return;
+        Client& c = *cluster.clients[p];
+        auto& [next_stall, thaw] = at_[p];
+        const std::uint64_t now = cluster.now();
+        if (c.frozen && now >= thaw) {
+            c.frozen = false;
+            next_stall = now + 200'000 + rng_.below(1'000'001);
+        } else if (!c.frozen && next_stall == 0) {
+            next_stall = now + 200'000 + rng_.below(1'000'001);
+        } else if (!c.frozen && now >= next_stall) {
+            const std::uint64_t stall = 50'000 + rng_.below(max_stall_us_ - 50'000 + 1);
+            c.frozen = true;
+            thaw = now + stall;
+            longest_ = std::max(longest_, stall);
+            ++stalls_;
+        }
+    }
+    std::set<PlayerId> loaded_;
+    std::uint64_t max_stall_us_;
+    sim::SplitMix64 rng_;
+    std::map<PlayerId, std::pair<std::uint64_t, std::uint64_t>> at_;  // next stall, thaw
+    std::uint64_t longest_ = 0;
+    int stalls_ = 0;
+};
+
+// Whether every client in `ids` runs and shows `frame`.
+bool all_at(const Cluster& cluster, std::initializer_list<PlayerId> ids, std::uint32_t frame) {
+    for (PlayerId p : ids)
+        if (cluster.clients[p]->session->frame() < frame) return false;
+    return true;
+}
+
+// Issue 21, what was seen: "after a lockstep peer's kill -9 two survivors dropped each other and
+// both hung (under load)". Three players in lockstep, 5 % loss and 40 ms of jitter; both
+// survivors' ticks are irregular (each stalls up to 400 ms now and then), and survivor 1 is
+// starved for starved_us just as slot 2 dies at frame 200. The survivors must drop slot 2 and
+// only slot 2, on the same frame; neither may hang; both play on to frame 1,500 and confirm it
+// with one checksum. With a 1 s starve this passes on the tree before issue 21 (1f05175) as
+// well (so do random stalls alone, even up to 1.3 s): it guards, it did not catch. 1.2 s and
+// more fail there (0 drops 1 too and hangs at frame 1,229), and on main: see the disabled test.
+void lockstep_kill_under_load(std::uint64_t seed, std::uint64_t starved_us) {
+    const auto scene = make_scene(3, 10);
+    SessionConfig cfg = real_config(3, 0);
+    cfg.interrupt_us = 500'000;  // lockroll live's kill cases: 1.5 s to a drop
+    cfg.disconnect_us = 1'500'000;
+    Cluster cluster(scene, cfg, {20000, 40000, 50000}, seed);
+    Load load({0, 1}, 400'000, seed * 31 + 7);
+    load.run(cluster, [&] { return all_at(cluster, {0, 1, 2}, 200); }, 60'000'000);
+    ASSERT_TRUE(all_at(cluster, {0, 1, 2}, 200));
+    cluster.kill(2);
+    // Survivor 1 is starved just then (no tick, no poll).
+    const std::uint64_t thaw = cluster.now() + starved_us;
+    cluster.clients[1]->frozen = true;
+    while (cluster.now() < thaw) cluster.step_event();
+    cluster.clients[1]->frozen = false;
+    constexpr std::uint32_t kLast = 1500;
+    load.run(cluster, [&] { return all_at(cluster, {0, 1}, kLast); }, 120'000'000);
+    load.lift(cluster);
+    cluster.run_frames(kLast, 10'000'000);
+    cluster.settle(kLast, 10'000'000);
+    EXPECT_GT(load.stalls(), 20);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_GE(c.session->frame(), kLast) << "client " << p << " hung";
+        EXPECT_GE(c.session->confirmed_frame(), kLast) << "client " << p << " hung";
+        const auto drops = events_of(c, Kind::Disconnected);
+        ASSERT_EQ(drops.size(), 1u) << "client " << p;
+        EXPECT_EQ(drops[0]->peer, 2u) << "client " << p << " dropped a survivor";
+        EXPECT_TRUE(events_of(c, Kind::Kicked).empty()) << "client " << p;
+        for (PlayerId s : {0u, 1u}) EXPECT_EQ(c.session->slot_state(s), SlotState::Running) << "client " << p << " slot " << s;
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Disconnected) << "client " << p;
+        EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << p;
+    }
+    ASSERT_EQ(events_of(*cluster.clients[0], Kind::NeutralFrom).size(), 1u);
+    ASSERT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom).size(), 1u);
+    EXPECT_EQ(events_of(*cluster.clients[0], Kind::NeutralFrom)[0]->frame,
+              events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame);
+    expect_equal_at(cluster, kLast);
+}
+
+TEST(Lifecycle, LockstepKillUnderLoadDropsOnlyTheDeadAndBothSurvivorsFinish) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        lockstep_kill_under_load(seed, 1'000'000);
+        if (HasFatalFailure()) return;
+    }
+}
+
+// The same with survivor 1 starved for 1.4 s of the 1.5 s timeout at the kill. DISABLED: it
+// fails on main (67925ec) in 4 seeds of 5. Survivor 0 votes 1 gone while it is silent (the
+// silence, with a random stall before and the link's delay, reaches 1.5 s), then hears it
+// again and withdraws the vote; but a table carrying the vote reaches 1 after 2 is dropped,
+// where the view is two and the two-player rule makes one vote a majority: 1 is Kicked ("1 of
+// 2 players voted this slot gone") and fails, and 0 drops it later by the same rule. Two
+// survivors of a three-player match end apart -- the split issue 21 forbids (audit N1/T4). On
+// the tree before issue 21 (1f05175) it fails too: 0 drops 1 and hangs at frame 1,229.
+TEST(Lifecycle, DISABLED_LockstepKillWithASurvivorStarvedAtTheKillDropsOnlyTheDead) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        lockstep_kill_under_load(seed, 1'400'000);
+    }
+}
+
+// Issue 21, what was seen: "a spectator in a kill + rejoin run (3 players, 5 % loss) timed out
+// once". lockroll live's kill + rejoin case in virtual time, at 5 % loss with 30 ms of jitter:
+// a spectator comes at frame 150, slot 2 is killed at 200 and a new process rejoins it at 400.
+// The spectator must follow throughout -- never failed, never dropped by the players, one
+// snapshot only -- and end on the players' checksum. Over five seeds. It passes on the tree
+// before issue 21 as well (1f05175: 40 seeds, rollback and lockstep), so it guards and did not
+// catch: the timeout seen over real processes is not reproduced in virtual time.
+void spectator_through_kill_and_rejoin(std::uint64_t seed) {
+    const auto scene = make_scene(3, 10);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.max_spectators = 1;
+    cfg.interrupt_us = 500'000;  // live_test's kill + rejoin case: 1.5 s disconnect timeout
+    cfg.disconnect_us = 1'500'000;
+    Cluster cluster(scene, cfg, {25000, 30000, 50000}, seed);
+    cluster.run_frames(150, 30'000'000);
+    Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1);
+    cluster.run_frames(200, 30'000'000);
+    cluster.kill(2);
+    cluster.run_frames(400, 30'000'000);
+    start_newcomer(cluster, scene, cfg, Role::Joiner, 2, 999);
+    constexpr std::uint32_t kLast = 1200;
+    cluster.run_frames(kLast, 60'000'000);
+    cluster.settle(kLast);
+    for (PlayerId p : {0u, 1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Running) << "client " << p << ": slot 2 did not rejoin";
+    }
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    EXPECT_TRUE(events_of(spectator, Kind::Failed).empty());
+    EXPECT_TRUE(events_of(spectator, Kind::Kicked).empty()) << events_of(spectator, Kind::Kicked)[0]->detail;
+    EXPECT_EQ(events_of(spectator, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_GE(spectator.session->confirmed_frame(), kLast);
+    expect_equal_at(cluster, kLast);
+    const auto it = spectator.confirmed.find(kLast);
+    ASSERT_NE(it, spectator.confirmed.end());
+    EXPECT_EQ(it->second, cluster.clients[0]->confirmed.at(kLast));
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+TEST(Lifecycle, SpectatorFollowsAKillAndRejoinAtFivePercentLoss) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        spectator_through_kill_and_rejoin(seed);
+    }
+}
+
+// Three players on 64-frame queues reach frame 150; then a spectator comes (by a snapshot).
+struct SpectatorOnSmallQueues {
+    sim::SceneDesc scene = make_scene(3, 10);
+    SessionConfig cfg = [] {
+        SessionConfig c = real_config(3, 8);
+        c.max_spectators = 1;
+        c.input_capacity = 64;
+        return c;
+    }();
+    Cluster cluster{scene, cfg, {25000}, 3};
+    Client& spectator = (cluster.run_frames(150, 30'000'000), start_newcomer(cluster, scene, cfg, Role::Spectator, 3, 1));
+};
+
+// A spectator that came by a snapshot of frame 165 follows the players 300 frames past its
+// queues' capacity (64 here), and the players never wait for it. It failed while the Cluster
+// gave a spectator no input at all: Session::advance refused every tick as a bad local input,
+// the spectator moved by catch_up alone, its queues' floors never rose, and it stopped for good
+// at frame 229 (165 + 64) with no event -- and the players, whose resend floor its acks held,
+// stopped 64 frames later. net::PeerRunner passes a spectator one input, as the Cluster now does.
+TEST(Lifecycle, SpectatorBySnapshotOutlivesItsInputCapacity) {
+    SpectatorOnSmallQueues m;
+    auto& [scene, cfg, cluster, spectator] = m;
+    constexpr std::uint32_t kLast = 600;
+    cluster.run_frames(kLast, 30'000'000);
+    cluster.settle(kLast, 10'000'000);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    ASSERT_EQ(events_of(spectator, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_GT(kLast, events_of(spectator, Kind::SnapshotLoaded)[0]->frame + 2 * cfg.input_capacity);
+    for (const auto& c : cluster.clients) EXPECT_GE(c->session->confirmed_frame(), kLast);
+    expect_equal_at(cluster, kLast);
+}
+
+// Players wait for players only. A spectator whose process still talks but no longer steps (a
+// hung game loop, or a game that passes it input of the wrong size, which advance() refuses)
+// must not stop the players: they play on far past their queues' capacity. DISABLED: it fails
+// on main (67925ec). All three players stop at frame 360 for good, with no event. The
+// spectator's acknowledgements hold each player's resend floor (resend_floor() counts every
+// live link, spectators too, with no bound), so their own queues fill. Enable it with the fix.
+TEST(Lifecycle, DISABLED_PlayersDoNotWaitForASpectatorThatStopsStepping) {
+    SpectatorOnSmallQueues m;
+    auto& [scene, cfg, cluster, spectator] = m;
+    cluster.run_frames(250, 30'000'000);
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+    cluster.before_tick = [](PlayerId id, Client& c) {
+        if (id == 3) c.skip_ticks = 1;  // polls (and acknowledges) every tick, never steps
+    };
+    const std::uint32_t stuck_at = spectator.session->frame();
+    constexpr std::uint32_t kLast = 800;
+    cluster.run([](const Cluster& c) { return c.clients[0]->session->frame() >= kLast; }, 30'000'000);
+    EXPECT_LE(spectator.session->frame(), stuck_at + 1);
+    for (PlayerId p : {0u, 1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_GE(c.session->frame(), kLast) << "client " << p << " waited for the spectator";
+    }
+}
 
 }  // namespace
 }  // namespace lockroll::rollback

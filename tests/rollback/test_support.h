@@ -3,6 +3,7 @@
 // in-process sessions. Deliberately independent of transport/ (tested on its own).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -318,9 +319,12 @@ private:
         if (c.skip_ticks > 0) {
             --c.skip_ticks;
         } else {
-            // One bot input per local slot (a host plays its guests' too).
+            // One bot input per local slot (a host plays its guests' too); a spectator, which
+            // has none, passes one as net::PeerRunner does (Session::advance takes at least
+            // one: with none, every tick was a bad local input that did nothing, and it moved
+            // only by catch_up, which never lets its queues' floors rise).
             in_.clear();
-            for (std::size_t k = 0; k < c.session->local_slots().size(); ++k) {
+            for (std::size_t k = 0; k < std::max<std::size_t>(c.session->local_slots().size(), 1); ++k) {
                 const auto one = c.bot.next();
                 in_.insert(in_.end(), one.begin(), one.end());
             }
