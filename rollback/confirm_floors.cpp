@@ -8,11 +8,28 @@ namespace lockroll::rollback {
 
 // A peer that becomes live again (a joiner) counts from its own acks on; floors never move back
 // (Sync keeps the highest), and what it lacks from before the floor comes with its snapshot.
-std::uint32_t resend_floor(std::span<const PeerLink> links, const LivePeer& live) {
+// A spectator's ack is clamped: a spectator whose process still talks but no longer steps (a
+// hung game loop) acknowledged nothing new, and left unbounded its ack filled our queue and
+// stopped every player for good. Between the session's ticks (which cut such a spectator
+// loose) the clamp alone keeps the floor within reach.
+std::uint32_t resend_floor(std::span<const PeerLink> links, const LivePeer& live, std::uint32_t sent,
+                           std::uint32_t input_capacity) {
+    const std::uint32_t bound = spectator_lag_bound(input_capacity);
+    const std::uint32_t spectator_lowest = sent > bound ? sent - bound : 0;
     std::uint32_t floor = std::numeric_limits<std::uint32_t>::max();
-    for (std::size_t p = 0; p < links.size(); ++p)
-        if (live(static_cast<PlayerId>(p))) floor = std::min(floor, links[p].remote_ack);
+    for (std::size_t p = 0; p < links.size(); ++p) {
+        if (!live(static_cast<PlayerId>(p))) continue;
+        const PeerLink& l = links[p];
+        floor = std::min(floor, l.role == Role::Spectator ? std::max(l.remote_ack, spectator_lowest) : l.remote_ack);
+    }
     return floor;
+}
+
+// Only once it reported our stream: a spectator just welcomed by a peer that did not serve its
+// snapshot has acknowledged nothing yet (ack 0), which is no lag of its own.
+bool spectator_lags(const PeerLink& link, PlayerId me, std::uint32_t sent, std::uint32_t input_capacity) {
+    if (link.role != Role::Spectator || me >= link.has_count.size() || !link.has_count[me]) return false;
+    return sent > link.remote_ack && sent - link.remote_ack > spectator_lag_bound(input_capacity);
 }
 
 // Never more than half the ring, so a peer that stops acknowledging cannot stall us: it is then

@@ -10,7 +10,13 @@
 //    (now_us comes in), nothing changed.
 //  - resend_floor(): the lowest ack among live peers; with no live peer, "no limit" (max): acks
 //    stop when nobody else is left, so a floor pinned to a frame would never move again and the
-//    lone survivor's queue would fill up.
+//    lone survivor's queue would fill up. A spectator's ack holds it at most
+//    spectator_lag_bound() behind what we sent: players never wait for a spectator.
+//  - spectator_lags(): a live spectator that reported our stream and trails what we sent by more
+//    than spectator_lag_bound() (input_capacity - input_capacity / 4: our queue then still has a
+//    quarter of the ring, at least the largest input delay, before it would fill). The session
+//    cuts it loose: no longer live, so its next message is answered "dropped" and it starts
+//    again by a fresh snapshot, as after a timeout.
 //  - keep_floor(): for a slot's stream, the lowest count a live peer other than its player
 //    reported of it, and the pin of a snapshot served to a live peer until it lapses; never
 //    further back than half the input ring behind confirmation.
@@ -33,8 +39,18 @@ namespace lockroll::rollback {
 
 using LivePeer = std::function<bool(PlayerId)>;  // a welcomed, healthy, running slot or spectator
 
-// The first of our own inputs some live peer has not acknowledged: kept for resending.
-std::uint32_t resend_floor(std::span<const PeerLink> links, const LivePeer& live);
+// How far a spectator's ack may trail `sent` (the count of our own stream) and still hold it.
+constexpr std::uint32_t spectator_lag_bound(std::uint32_t input_capacity) {
+    return input_capacity - input_capacity / 4;
+}
+
+// The first of our own inputs some live peer has not acknowledged: kept for resending. `sent`:
+// our own stream's count.
+std::uint32_t resend_floor(std::span<const PeerLink> links, const LivePeer& live, std::uint32_t sent,
+                           std::uint32_t input_capacity);
+
+// `me`'s spectator `link` (live) trails `sent` by more than spectator_lag_bound(): cut it loose.
+bool spectator_lags(const PeerLink& link, PlayerId me, std::uint32_t sent, std::uint32_t input_capacity);
 
 // The first input of `slot`'s stream still kept (not ours: resend_floor is).
 std::uint32_t keep_floor(PlayerId slot, std::span<const PeerLink> links, const LivePeer& live, std::uint64_t now_us,

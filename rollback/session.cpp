@@ -400,7 +400,23 @@ IntakeState SessionImpl::intake_state() {
 // The floors' rules are rollback/confirm_floors.h's; the session applies them to Sync.
 void SessionImpl::refresh_resend_floor() {
     if (config_.role == Role::Spectator) return;
-    sync_->set_keep_from(config_.local_player, resend_floor(links_, live()));
+    sync_->set_keep_from(config_.local_player,
+                         resend_floor(links_, live(), count_of(config_.local_player), config_.input_capacity));
+}
+
+// A spectator too far behind (rollback/confirm_floors.h, spectator_lags) is cut loose as if it
+// had timed out: its next message is answered "dropped", and it starts again by a snapshot.
+void SessionImpl::cut_loose_lagging_spectators(std::uint64_t now_us) {
+    if (config_.role == Role::Spectator) return;
+    for (std::size_t p = static_cast<std::size_t>(config_.players); p < links_.size(); ++p) {
+        PeerLink& l = links_[p];
+        if (!live_peer(static_cast<PlayerId>(p)) ||
+            !spectator_lags(l, config_.local_player, count_of(config_.local_player), config_.input_capacity))
+            continue;
+        l.welcomed = false;
+        emit(SessionEvent::Kind::Disconnected, static_cast<PlayerId>(p), frame(), now_us,
+             "spectator fell " + std::to_string(count_of(config_.local_player) - l.remote_ack) + " inputs behind");
+    }
 }
 
 void SessionImpl::refresh_keep_floors(std::uint64_t now_us) {
@@ -492,6 +508,7 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
     result.resim_ns = stats_.resim_ns - resim_before;
     confirm_frames();
     sample_time_sync(now_us);
+    cut_loose_lagging_spectators(now_us);
     refresh_keep_floors(now_us);
     // Every tick, not only on the acks and lifecycle changes that call it: the set of live peers
     // also changes where no call was made (a spectator timing out), and a floor left on a peer

@@ -156,6 +156,7 @@ private:
     void sample_time_sync(std::uint64_t now_us);
     void refresh_resend_floor();
     void refresh_keep_floors(std::uint64_t now_us);
+    void cut_loose_lagging_spectators(std::uint64_t now_us);
     std::uint32_t checkpoint() const;
     void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
     void poll_handshake(std::uint64_t now_us);

@@ -49,14 +49,49 @@ TEST(ConfirmFloors, ResendFloorIsTheLowestAckOfALivePeer) {
     l[1].remote_ack = 40;
     l[2].remote_ack = 30;
     l[3].remote_ack = 10;  // dropped: no longer holds our inputs back
-    EXPECT_EQ(resend_floor(l, all_but({0, 3})), 30u);
-    EXPECT_EQ(resend_floor(l, all_but({0})), 10u);
+    EXPECT_EQ(resend_floor(l, all_but({0, 3}), 0, 64), 30u);
+    EXPECT_EQ(resend_floor(l, all_but({0}), 0, 64), 10u);
 }
 
 TEST(ConfirmFloors, ResendFloorWithNoLivePeerIsNoLimitNotAPinnedFrame) {
     auto l = links(3, 3);
     l[1].remote_ack = 7;
-    EXPECT_EQ(resend_floor(l, all_but({0, 1, 2})), kNoLimit);
+    EXPECT_EQ(resend_floor(l, all_but({0, 1, 2}), 0, 64), kNoLimit);
+}
+
+// Players never wait for a spectator: one that stopped stepping (its ack stuck at 10 while we
+// sent 200) holds our stream at most spectator_lag_bound() (48 of 64) behind what we sent; a
+// player's ack holds it wherever it is.
+TEST(ConfirmFloors, ASpectatorHoldsTheResendFloorOnlyWithinTheLagBound) {
+    static_assert(spectator_lag_bound(64) == 48);
+    auto l = links(4, 3);  // slots 0..2, a spectator in link 3
+    l[1].remote_ack = 199;
+    l[2].remote_ack = 198;
+    l[3].role = Role::Spectator;
+    l[3].remote_ack = 10;
+    EXPECT_EQ(resend_floor(l, all_but({0}), 200, 64), 200u - 48u);
+    l[3].remote_ack = 190;  // within the bound: it holds like anyone
+    EXPECT_EQ(resend_floor(l, all_but({0}), 200, 64), 190u);
+    l[3].remote_ack = 199;
+    l[2].remote_ack = 10;  // a player far behind still holds it: we need it to have our inputs
+    EXPECT_EQ(resend_floor(l, all_but({0}), 200, 64), 10u);
+}
+
+// A spectator is cut loose once it trails what we sent by more than the bound, and only once it
+// reported our stream (just welcomed by a peer that did not serve its snapshot, its ack is 0).
+TEST(ConfirmFloors, ASpectatorBeyondTheLagBoundIsCutLoose) {
+    auto l = links(4, 3);
+    PeerLink& s = l[3];
+    s.role = Role::Spectator;
+    EXPECT_FALSE(spectator_lags(s, 0, 200, 64));  // nothing reported yet
+    report(s, 0, 152);
+    s.remote_ack = 152;
+    EXPECT_FALSE(spectator_lags(s, 0, 200, 64));  // 48 behind: the bound
+    s.remote_ack = 151;
+    EXPECT_TRUE(spectator_lags(s, 0, 200, 64));
+    l[1].remote_ack = 10;
+    report(l[1], 0, 10);
+    EXPECT_FALSE(spectator_lags(l[1], 0, 200, 64));  // a player is never cut loose for lag
 }
 
 TEST(ConfirmFloors, KeepFloorIsTheLowestCountALivePeerOtherThanItsPlayerReported) {

@@ -1532,11 +1532,14 @@ TEST(Lifecycle, SpectatorBySnapshotOutlivesItsInputCapacity) {
 
 // Players wait for players only. A spectator whose process still talks but no longer steps (a
 // hung game loop, or a game that passes it input of the wrong size, which advance() refuses)
-// must not stop the players: they play on far past their queues' capacity. DISABLED: it fails
-// on main (67925ec). All three players stop at frame 360 for good, with no event. The
-// spectator's acknowledgements hold each player's resend floor (resend_floor() counts every
-// live link, spectators too, with no bound), so their own queues fill. Enable it with the fix.
-TEST(Lifecycle, DISABLED_PlayersDoNotWaitForASpectatorThatStopsStepping) {
+// must not stop the players: they play on far past their queues' capacity. It failed on main
+// (67925ec): all three players stopped at frame 360 for good, with no event, the spectator's
+// acknowledgements holding each player's resend floor (resend_floor() counted every live link,
+// spectators too, with no bound), so their own queues filled. Now a spectator more than
+// spectator_lag_bound() (48 of 64 here) behind is cut loose: the players drop it and answer it
+// "dropped", and the spectator, kicked, says why it stopped; started again, it follows by a
+// fresh snapshot (as after a timeout: SpectatorCutOffFromEveryPlayerFollowsAgainOnceHealed).
+TEST(Lifecycle, PlayersDoNotWaitForASpectatorThatStopsStepping) {
     SpectatorOnSmallQueues m;
     auto& [scene, cfg, cluster, spectator] = m;
     cluster.run_frames(250, 30'000'000);
@@ -1546,13 +1549,39 @@ TEST(Lifecycle, DISABLED_PlayersDoNotWaitForASpectatorThatStopsStepping) {
     };
     const std::uint32_t stuck_at = spectator.session->frame();
     constexpr std::uint32_t kLast = 800;
-    cluster.run([](const Cluster& c) { return c.clients[0]->session->frame() >= kLast; }, 30'000'000);
+    // The players keep their pace: kLast - 250 frames in their time plus 2 s of slack (the
+    // stall before the fix was for good).
+    const std::uint64_t started = cluster.now();
+    const std::uint64_t pace_us = std::uint64_t{kLast - 250} * 1'000'000 / static_cast<std::uint64_t>(cfg.tick_rate);
+    cluster.run([](const Cluster& c) { return c.clients[0]->session->frame() >= kLast; }, 15'000'000);
+    EXPECT_LE(cluster.now() - started, pace_us + 2'000'000) << "the players stalled";
+    cluster.settle(kLast, 10'000'000);
     EXPECT_LE(spectator.session->frame(), stuck_at + 1);
     for (PlayerId p : {0u, 1u, 2u}) {
         const Client& c = *cluster.clients[p];
         ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
         EXPECT_GE(c.session->frame(), kLast) << "client " << p << " waited for the spectator";
+        EXPECT_GE(c.session->confirmed_frame(), kLast) << "client " << p;
+        // It no longer holds them: dropped (told so), not merely outrun.
+        ASSERT_FALSE(events_of(c, Kind::Disconnected).empty()) << "client " << p;
+        EXPECT_EQ(events_of(c, Kind::Disconnected).back()->peer, 3u) << "client " << p;
     }
+    expect_equal_at(cluster, kLast);  // the players: the spectator failed
+    // The spectator says why it stopped: the players dropped it.
+    ASSERT_EQ(spectator.session->phase(), SessionPhase::Failed);
+    EXPECT_NE(spectator.session->failure().find("dropped"), std::string::npos) << spectator.session->failure();
+    // Its game loop back, its runner starts it again: it follows by a fresh snapshot.
+    rejoin_when_dropped(cluster);
+    constexpr std::uint32_t kAfter = 1200;
+    cluster.run_frames(kAfter, 30'000'000);
+    cluster.settle(kAfter, 10'000'000);
+    const Client& watcher = *cluster.clients[3];
+    ASSERT_EQ(watcher.session->phase(), SessionPhase::Running) << watcher.session->failure();
+    EXPECT_EQ(watcher.session->config().role, Role::Spectator);
+    EXPECT_EQ(events_of(watcher, Kind::Kicked).size(), 1u);
+    EXPECT_EQ(events_of(watcher, Kind::SnapshotLoaded).size(), 2u);  // the first, then after the cut
+    EXPECT_GE(watcher.session->confirmed_frame(), kAfter);
+    expect_equal_at(cluster, kAfter);
 }
 
 }  // namespace
