@@ -86,7 +86,8 @@ Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeM
     if (m.refusal == Refusal::Retry) return {};
     if (m.refusal == Refusal::Disconnected) {
         if (config_.role == Role::Spectator) return {Act::SpectatorDropped, {}};
-        // One voice, which makes us Kicked only together with a majority. A joiner still
+        // One voice, which makes us Kicked only together with a majority (in a view of two, the
+        // other's decision made: MembershipChanges::refused_as_dropped). A joiner still
         // synchronizing has no slot in the view to lose yet.
         if (config_.role == Role::Player || running) return {Act::VoteGone, {}};
         return {};

@@ -77,7 +77,7 @@ public:
         enum class Act {
             Ignore,
             SpectatorDropped,  // the peer says this spectator was dropped: kicked, the session fails
-            VoteGone,          // the peer's vote that our slot is gone (count_vote if from a slot), then settle
+            VoteGone,          // the peer dropped our slot: MembershipChanges::refused_as_dropped
             Refused,           // `why` is the event's text; the session fails unless it runs
             SyncRoundTrip,     // one more sync round trip (sync_welcome), then maybe start
             LateWelcome,       // a running joiner welcomed by a slot it had not reached yet

@@ -91,6 +91,13 @@ bool Membership::majority(int votes) const { return votes >= majority_size(); }
 
 bool Membership::decided_gone(PlayerId s) const {
     if (s >= slots_.size() || !voter(s)) return false;
+    // A view of two has no majority: each side decides for itself, on its own evidence. The
+    // other's word about this process's slot is a claim, never a drop (a stale table still
+    // carrying a withdrawn vote kicked a survivor of a three-player match once the third was
+    // dropped: issue 21); if the other really drops this one it stops talking to it, and this
+    // one's own silence vote drops the other.
+    if (running_voters() == 2) return rule_ == TwoPlayerRule::PlayOnAlone && s != local_ &&
+                                      vote_of(local_, s) == Vote::Gone;
     // A majority is at least one vote, so no vote decides nothing; checked first because the
     // session asks about every slot every tick and majority() walks the whole view.
     const int votes = gone_votes(s);

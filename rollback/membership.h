@@ -8,8 +8,9 @@
 // the local one included. So, with one process per slot:
 //
 //   view of   votes needed   e.g.
-//   2         1 / none       TwoPlayerRule: PlayOnAlone (default): either survivor drops the
-//                            other and plays on alone; NoDrop: nobody is ever dropped
+//   2         1 / none       TwoPlayerRule: PlayOnAlone (default): each side decides for
+//                            itself: its own vote drops the other and it plays on alone; the
+//                            other's vote never drops its own slot; NoDrop: nobody is dropped
 //   3         2              one killed: the two survivors drop it; split 2/1: the two drop the
 //                            one, the one drops nobody
 //   4         3              one killed: dropped; split 2/2: nobody reaches 3, nobody is dropped
@@ -21,6 +22,12 @@
 // guests), a word about a guest (it follows its host) and a stale vote (cast about an older
 // epoch of the slot) are ignored. A vote stays until its voter changes it ("runs" withdraws it)
 // or the view changes for that slot or voter.
+//
+// A view of two has no majority, so no vote about another counts there: each process decides
+// for itself, on its own evidence (silence, a restart claim it checked). The other's word about
+// this process's slot is a claim, never a fact: a table still carrying a withdrawn vote, arriving
+// just as a third slot's drop left a view of two, kicked a survivor (issue 21). If the other
+// really dropped this one, it stops talking to it and this one's own silence rule applies.
 //
 // A pure value type: no clock, no I/O. Joins are not votes: whoever hands a slot over (the
 // owner) decides them, and the caller records them with set().
@@ -91,6 +98,7 @@ public:
     // Voters that say s is gone, among the running processes.
     int gone_votes(PlayerId s) const;
     // The votes say running slot s leaves: the caller drops it (and its guests) with leave().
+    // In a view of two (PlayOnAlone): only the local vote about the other slot says so.
     bool decided_gone(PlayerId s) const;
     // The first running host slot the votes say leaves, or players() if none.
     PlayerId next_gone() const;

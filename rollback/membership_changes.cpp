@@ -118,6 +118,20 @@ void MembershipChanges::disconnect_player(PlayerId slot, std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
+void MembershipChanges::refused_as_dropped(PlayerId from, std::uint8_t epoch, std::uint64_t now_us) {
+    const PlayerId me = config_.local_player;
+    const bool other_voter = is_slot(from) && view_.running(from) && host_of(config_, from) == from;
+    if (other_voter && !mine(from) && view_.running_voters() == 2 && view_.rule() == TwoPlayerRule::PlayOnAlone &&
+        view_.running(me) && newer_epoch(epoch, view_.epoch(me))) {
+        effects_.emit(SessionEvent::Kind::Kicked, me, effects_.frame(), now_us,
+                      "peer " + std::to_string(from) + " dropped this slot (the two-player rule: it plays on alone)");
+        effects_.fail_dropped(now_us);
+        return;
+    }
+    if (is_slot(from)) count_vote(from, me, Vote::Gone, epoch);
+    settle_membership(now_us);
+}
+
 bool MembershipChanges::claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us) {
     view_.vote_local(slot, true);  // ignored when it does not count (not a voter, a guest, ...)
     if (view_.vote_of(config_.local_player, slot) == Vote::Gone) {

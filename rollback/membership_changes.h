@@ -29,6 +29,13 @@
 //    served. Then settle_membership().
 //  - disconnect_player(): a kick is our vote, as if the slot had been silent, kept until the drop.
 //    Throws std::invalid_argument for a slot that is not another process's (the caller's bug).
+//  - refused_as_dropped(): a peer's refusal "dropped from the match" (its view dropped our slot
+//    into a newer epoch). With three or more running processes it is that peer's vote
+//    (count_vote, then settle_membership): a majority of them kicks us. In a view of two under
+//    PlayOnAlone it is no vote but the other's own decision made (each side of two decides for
+//    itself): it plays on alone without us, and its refusals are heard, so our silence rule
+//    would never drop it: `kicked` and the session fails (the rejoin path, rollback/rejoin.h).
+//    The other's vote in its slot table never does that (Membership::decided_gone).
 //  - claim_restart(): a hello from another process of a running slot whose own process has gone
 //    quiet (admit_hello's `restarted`, rollback/session_admission.h) is our vote that the slot is
 //    gone, as disconnect_us of silence is, and like that vote it is withdrawn when the old process
@@ -92,6 +99,8 @@ public:
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void check_silence(std::uint64_t now_us);
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
+    // A peer refused our traffic as dropped (its view dropped our slot into `epoch`).
+    void refused_as_dropped(PlayerId from, std::uint8_t epoch, std::uint64_t now_us);
     // as_player: the hello's role was Player. True when the slot has left the view.
     bool claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us);
     // Reported Partitioned and not yet heard a majority again.

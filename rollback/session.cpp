@@ -354,8 +354,7 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
                  "peer " + std::to_string(from) + " says this spectator was dropped");
             return fail(drop_failure(config_), now_us);
         case Act::VoteGone:  // in the epoch the sender dropped our slot into
-            if (is_slot(from)) changes_.count_vote(from, config_.local_player, Vote::Gone, m.slot_epoch);
-            return changes_.settle_membership(now_us);
+            return changes_.refused_as_dropped(from, m.slot_epoch, now_us);
         case Act::Refused:
             emit(SessionEvent::Kind::Refused, from, frame(), now_us, v.why);
             if (phase_ != SessionPhase::Running) fail(v.why, now_us);

@@ -1386,7 +1386,7 @@ bool all_at(const Cluster& cluster, std::initializer_list<PlayerId> ids, std::ui
 // only slot 2, on the same frame; neither may hang; both play on to frame 1,500 and confirm it
 // with one checksum. With a 1 s starve this passes on the tree before issue 21 (1f05175) as
 // well (so do random stalls alone, even up to 1.3 s): it guards, it did not catch. 1.2 s and
-// more fail there (0 drops 1 too and hangs at frame 1,229), and on main: see the disabled test.
+// more fail there (0 drops 1 too and hangs at frame 1,229), and failed on main: see below.
 void lockstep_kill_under_load(std::uint64_t seed, std::uint64_t starved_us) {
     const auto scene = make_scene(3, 10);
     SessionConfig cfg = real_config(3, 0);
@@ -1436,15 +1436,17 @@ TEST(Lifecycle, LockstepKillUnderLoadDropsOnlyTheDeadAndBothSurvivorsFinish) {
     }
 }
 
-// The same with survivor 1 starved for 1.4 s of the 1.5 s timeout at the kill. DISABLED: it
-// fails on main (67925ec) in 4 seeds of 5. Survivor 0 votes 1 gone while it is silent (the
+// The same with survivor 1 starved for 1.4 s of the 1.5 s timeout at the kill. It failed on
+// main (67925ec, c2cee46) in 4 seeds of 5. Survivor 0 votes 1 gone while it is silent (the
 // silence, with a random stall before and the link's delay, reaches 1.5 s), then hears it
-// again and withdraws the vote; but a table carrying the vote reaches 1 after 2 is dropped,
-// where the view is two and the two-player rule makes one vote a majority: 1 is Kicked ("1 of
-// 2 players voted this slot gone") and fails, and 0 drops it later by the same rule. Two
-// survivors of a three-player match end apart -- the split issue 21 forbids (audit N1/T4). On
-// the tree before issue 21 (1f05175) it fails too: 0 drops 1 and hangs at frame 1,229.
-TEST(Lifecycle, DISABLED_LockstepKillWithASurvivorStarvedAtTheKillDropsOnlyTheDead) {
+// again and withdraws the vote; but a table carrying the vote reached 1 after 2 was dropped,
+// where the view is two and the two-player rule made one vote a majority: 1 was Kicked ("1 of
+// 2 players voted this slot gone") and failed, and 0 hung or dropped it later by the same rule.
+// Two survivors of a three-player match ended apart -- the split issue 21 forbids (audit
+// N1/T4). Fixed by the two-player rule as meant: each side of a view of two decides for itself,
+// and the other's vote never drops its own slot (rollback/membership.h). On the tree before
+// issue 21 (1f05175) it fails too: 0 drops 1 and hangs at frame 1,229.
+TEST(Lifecycle, LockstepKillWithASurvivorStarvedAtTheKillDropsOnlyTheDead) {
     for (std::uint64_t seed = 1; seed <= 5; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
         lockstep_kill_under_load(seed, 1'400'000);

@@ -171,6 +171,63 @@ TEST(MembershipChanges, OurOwnSlotVotedGoneByAMajorityIsKicked) {
     EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty()) << "nothing more once kicked";
 }
 
+// Issue 21: in a view of two each side decides for itself. The other's vote that our slot is
+// gone (a table sent while it did not hear us, arriving late) is counted but kicks nobody; our
+// own vote drops the other. Before the rule it was "1 of 2 players voted this slot gone".
+TEST(MembershipChanges, TwoPlayersTheOthersVoteAboutUsKicksNobody) {
+    Fixture f(2);
+    f.changes.count_vote(1, 0, Vote::Gone, 1);
+    f.changes.settle_membership(100);
+    EXPECT_TRUE(f.fake.of(Kind::Kicked).empty());
+    EXPECT_FALSE(f.fake.failed);
+    EXPECT_TRUE(f.view.running(0));
+    EXPECT_TRUE(f.view.running(1));
+    f.view.vote_local(1, true);
+    f.changes.settle_membership(200);
+    EXPECT_TRUE(f.fake.of(Kind::Kicked).empty());
+    EXPECT_EQ(f.view.state(1), SlotState::Disconnected);
+    EXPECT_TRUE(f.view.running(0));
+}
+
+// A slot dropped from a view of three leaves two: a vote about us counted before (no majority
+// of three) is no majority of two either.
+TEST(MembershipChanges, ThreeDownToTwoAVoteAboutUsKicksNobody) {
+    Fixture f(3);
+    f.changes.count_vote(1, 0, Vote::Gone, 1);
+    f.changes.count_vote(1, 2, Vote::Gone, 1);
+    f.view.vote_local(2, true);
+    f.changes.settle_membership(100);
+    EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
+    f.changes.count_vote(1, 0, Vote::Gone, 1);
+    f.changes.settle_membership(200);
+    EXPECT_TRUE(f.fake.of(Kind::Kicked).empty());
+    EXPECT_FALSE(f.fake.failed);
+    EXPECT_TRUE(f.view.running(0));
+}
+
+// A refusal "dropped from the match" is not the other's vote but its decision made: in a view of
+// two it plays on alone without us (and its refusals are heard, so our silence never drops it):
+// kicked, and the rejoin path applies. A stale one (about an older epoch of our slot) says
+// nothing. With three players it is one vote, as before.
+TEST(MembershipChanges, TwoPlayersARefusalAsDroppedKicksUsThreePlayersItIsOneVote) {
+    Fixture two(2);
+    two.view.set(0, SlotState::Running, 1);  // we rejoined: epoch 1
+    two.changes.refused_as_dropped(1, 1, 100);  // about our previous process
+    EXPECT_TRUE(two.fake.of(Kind::Kicked).empty());
+    two.changes.refused_as_dropped(1, 2, 200);
+    ASSERT_EQ(two.fake.of(Kind::Kicked).size(), 1u);
+    EXPECT_EQ(two.fake.of(Kind::Kicked)[0].detail, "peer 1 dropped this slot (the two-player rule: it plays on alone)");
+    EXPECT_TRUE(two.fake.failed);
+
+    Fixture three(3);
+    three.changes.refused_as_dropped(1, 1, 100);
+    EXPECT_TRUE(three.fake.of(Kind::Kicked).empty());
+    EXPECT_EQ(three.view.gone_votes(0), 1);
+    three.changes.refused_as_dropped(2, 1, 200);
+    ASSERT_EQ(three.fake.of(Kind::Kicked).size(), 1u);
+    EXPECT_EQ(three.fake.of(Kind::Kicked)[0].detail, "2 of 3 players voted this slot gone");
+}
+
 TEST(MembershipChanges, AHostDroppedTakesItsGuests) {
     Fixture f(4, {0, 1, 1, 3});  // slot 2 is played by slot 1's process
     f.view.vote_local(1, true);

@@ -49,11 +49,48 @@ TEST(Membership, TwoPlayersPlayOnAloneTheLocalVoteSuffices) {
     EXPECT_EQ(m.state(1), SlotState::Disconnected);
     EXPECT_EQ(m.epoch(1), 1);
     EXPECT_EQ(m.running_voters(), 1);
-    // The other side of the same pair: its word drops this one (and this one plays on alone,
-    // having dropped it first; a survivor whose slot was dropped is the caller's Kicked).
-    Membership other(2, 1, TwoPlayerRule::PlayOnAlone);
-    EXPECT_EQ(other.vote(0, 1, Vote::Gone, 1), Tally::Counted);
-    EXPECT_TRUE(other.decided_gone(1));
+}
+
+// Issue 21: each side of a view of two decides for itself. The other's vote about this
+// process's slot is counted (it is the other's word) but never drops it: only this side's own
+// vote drops the other. Before the rule one vote of the other's was a majority about us.
+TEST(Membership, TwoPlayersTheOthersVoteNeverDropsMyOwnSlot) {
+    Membership m(2, 1, TwoPlayerRule::PlayOnAlone);
+    EXPECT_EQ(m.vote(0, 1, Vote::Gone, 1), Tally::Counted);
+    EXPECT_EQ(m.gone_votes(1), 1);
+    EXPECT_FALSE(m.decided_gone(1));
+    EXPECT_EQ(m.next_gone(), 2);
+    // Our own vote drops the other, whatever it says about us.
+    EXPECT_EQ(m.vote_local(0, true), Tally::Counted);
+    EXPECT_TRUE(m.decided_gone(0));
+    EXPECT_FALSE(m.decided_gone(1));
+    EXPECT_EQ(m.next_gone(), 0);
+}
+
+// The same once a third slot's drop leaves a view of two: a vote counted in the view of three
+// (not a majority there) does not become one about us.
+TEST(Membership, ThreePlayersDownToTwoAStaleVoteAboutMeDropsNobody) {
+    Membership m(3, 1, TwoPlayerRule::PlayOnAlone);
+    m.vote(0, 1, Vote::Gone, 1);  // survivor 0 heard nothing from us for a while
+    EXPECT_FALSE(m.decided_gone(1));
+    m.vote_local(2, true);
+    m.vote(0, 2, Vote::Gone, 1);
+    ASSERT_EQ(m.next_gone(), 2);
+    m.leave(2);
+    EXPECT_EQ(m.running_voters(), 2);
+    m.vote(0, 1, Vote::Gone, 1);  // a table sent before 0 heard us again, arriving late
+    EXPECT_FALSE(m.decided_gone(1));
+    EXPECT_EQ(m.next_gone(), 3);
+}
+
+// With three running voters the strict majority rule stands: two votes against us drop us.
+TEST(Membership, ThreePlayersTwoVotesAgainstMeStillDropMe) {
+    Membership m(3, 2, TwoPlayerRule::PlayOnAlone);
+    m.vote(0, 2, Vote::Gone, 1);
+    EXPECT_FALSE(m.decided_gone(2));
+    m.vote(1, 2, Vote::Gone, 1);
+    EXPECT_TRUE(m.decided_gone(2));
+    EXPECT_EQ(m.next_gone(), 2);
 }
 
 TEST(Membership, TwoPlayersNoDropNobodyLeavesAndTheLoneOneIsPartitioned) {
