@@ -32,6 +32,14 @@ int count(const testing::RelayClient& c, Kind k) {
     return n;
 }
 
+// The reason of client c's last event of kind k (None when there is none).
+rollback::SessionEvent::Reason reason_of(const testing::RelayClient& c, Kind k) {
+    auto r = rollback::SessionEvent::Reason::None;
+    for (const auto& e : c.events)
+        if (e.kind == k) r = e.reason;
+    return r;
+}
+
 // Client i's session failed, its failure naming `why`.
 void expect_failed(RelayCluster& cl, int i, const char* why) {
     const auto& c = cl.client(i);
@@ -101,6 +109,7 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
         const auto& c = cl.client(s);
         EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "slot " << s;
         EXPECT_NE(c.session->failure().find("restarted"), std::string::npos) << c.session->failure();
+        EXPECT_EQ(reason_of(c, Kind::Failed), rollback::SessionEvent::Reason::RoomRestarted) << "slot " << s;
         EXPECT_EQ(cl.kicked(c.connection), 0u) << "slot " << s;
     }
 }
@@ -120,6 +129,8 @@ TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
         expect_failed(cl, s, "silent");
         EXPECT_TRUE(cl.client(s).session->server_lost()) << "slot " << s;
         EXPECT_EQ(count(cl.client(s), Kind::ServerLost), 1) << "slot " << s;
+        EXPECT_EQ(reason_of(cl.client(s), Kind::ServerLost), rollback::SessionEvent::Reason::ServerSilent) << "slot " << s;
+        EXPECT_EQ(reason_of(cl.client(s), Kind::Failed), rollback::SessionEvent::Reason::ServerSilent) << "slot " << s;
         EXPECT_EQ(count(cl.client(s), Kind::Disconnected), 0) << "slot " << s;
     }
 }
@@ -407,6 +418,9 @@ TEST(RelayMatch, ServerNamesTheOddClientWhichReloadsTheMajorityState) {
     for (const auto& v : room->desync_verdicts()) EXPECT_EQ(v.second, 1);
     EXPECT_EQ(count(cl.client(1), Kind::DesyncDetected), 1);
     EXPECT_EQ(count(cl.client(1), Kind::DesyncRecovered), 1);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::DesyncDetected), rollback::SessionEvent::Reason::ServerMinority);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::SnapshotLoaded), rollback::SessionEvent::Reason::Recovering);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::DesyncRecovered), rollback::SessionEvent::Reason::Majority);
     EXPECT_EQ(count(cl.client(0), Kind::DesyncDetected), 0);
     expect_equal_at(cl, {0, 1, 2}, 600);
 }
@@ -427,6 +441,8 @@ TEST(RelayMatch, TwoPlayerLiarEndsTheMatchForBothWithNoEndlessReload) {
         const auto& c = cl.client(s);
         expect_failed(cl, s, "no majority");
         EXPECT_EQ(count(c, Kind::DesyncRecovered), 0) << "slot " << s;
+        EXPECT_EQ(reason_of(c, Kind::DesyncDetected), rollback::SessionEvent::Reason::ServerNoMajority) << "slot " << s;
+        EXPECT_EQ(reason_of(c, Kind::Failed), rollback::SessionEvent::Reason::ServerNoMajority) << "slot " << s;
         EXPECT_LT(c.session->frame(), 120u) << "slot " << s;  // the first checkpoint (30) ended it
     }
     const RelayRoom* room = cl.server().room(42);
