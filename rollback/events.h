@@ -1,6 +1,7 @@
 // What a session (P2P or relay) tells its owner while it runs, in two forms:
 //  - SessionEvent: one stream of typed lifecycle events, each with the slot or peer it concerns,
-//    a frame and a detail, drained with next_event() (requests, not callbacks). The stream is
+//    a frame, a typed reason (SessionEvent::Reason: why, one enum for both sessions) and a
+//    detail (the same for a person), drained with next_event() (requests, not callbacks). The stream is
 //    bounded (4,096 events held): an owner that never drains it cannot make a session grow
 //    without bound; when full the oldest event is dropped, so the newest (the one that says how
 //    the session ended) is never lost.
