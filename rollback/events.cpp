@@ -57,7 +57,16 @@ const char* reason_name(SessionEvent::Reason r) {
         case R::Full: return "full";
         case R::BadRole: return "bad_role";
         case R::RestartDoubted: return "restart_doubted";
-        case R::RelayRefused: return "relay_refused";
+        case R::RoomParams: return "room_params";
+        case R::BadSlot: return "bad_slot";
+        case R::Spoof: return "spoof";
+        case R::MatchEnded: return "match_ended";
+        case R::TokenMissing: return "token_missing";
+        case R::TokenInvalid: return "token_invalid";
+        case R::TokenExpired: return "token_expired";
+        case R::TokenMismatch: return "token_mismatch";
+        case R::TokenInUse: return "token_in_use";
+        case R::SlotOwned: return "slot_owned";
         case R::Silent: return "silent";
         case R::Heard: return "heard";
         case R::Reconnected: return "reconnected";

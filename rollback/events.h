@@ -96,7 +96,19 @@ struct SessionEvent {
         Full,                        // no spectator place left
         BadRole,                     // the role does not fit the peer id
         RestartDoubted,              // a restart claimed while the old process is still heard
-        RelayRefused,                // relay: the server refused the hello (detail: which refusal)
+        // ... and the relay server's refusals (rollback/relay_messages.h, RelayRefusal), beyond
+        // Version, SlotTaken and Full (ServerDraining: it is shutting down; KickedByServer: the
+        // slot was kicked from this room's match)
+        RoomParams,                  // the room exists with other players / input size / tick rate / scene
+        BadSlot,                     // slot out of range, or a spectator role naming a slot
+        Spoof,                       // this connection already holds another slot
+        MatchEnded,                  // the room's match is over
+        TokenMissing,                // connect tokens: the hello carries none
+        TokenInvalid,                // the token does not open under the server's key
+        TokenExpired,                // the token's expiry has passed
+        TokenMismatch,               // the token is for another room, slot, role or parameters
+        TokenInUse,                  // another live process holds the slot with this token
+        SlotOwned,                   // the slot belongs to another client id
         // Interrupted, Resumed, Partitioned
         Silent,                      // nothing heard for interrupt_us
         Heard,                       // heard again

@@ -70,6 +70,30 @@ std::uint16_t relay_local_slots(const RelaySessionConfig& c) {
 }
 
 namespace {
+// The Refused (and Failed) event's reason for the server's refusal of our hello.
+SessionEvent::Reason refusal_reason(RelayRefusal r) {
+    using R = SessionEvent::Reason;
+    switch (r) {
+        case RelayRefusal::None: return R::None;
+        case RelayRefusal::Version: return R::Version;
+        case RelayRefusal::RoomParams: return R::RoomParams;
+        case RelayRefusal::SlotTaken: return R::SlotTaken;
+        case RelayRefusal::BadSlot: return R::BadSlot;
+        case RelayRefusal::Full: return R::Full;
+        case RelayRefusal::Draining: return R::ServerDraining;
+        case RelayRefusal::Spoof: return R::Spoof;
+        case RelayRefusal::Ended: return R::MatchEnded;
+        case RelayRefusal::TokenMissing: return R::TokenMissing;
+        case RelayRefusal::TokenInvalid: return R::TokenInvalid;
+        case RelayRefusal::TokenExpired: return R::TokenExpired;
+        case RelayRefusal::TokenMismatch: return R::TokenMismatch;
+        case RelayRefusal::TokenInUse: return R::TokenInUse;
+        case RelayRefusal::SlotOwned: return R::SlotOwned;
+        case RelayRefusal::Kicked: return R::KickedByServer;
+    }
+    return R::None;
+}
+
 std::vector<PlayerId> slot_list(std::uint16_t mask) {
     std::vector<PlayerId> out;
     for (int s = 0; s < kRelayMaxPlayers; ++s)
@@ -148,8 +172,8 @@ void RelaySessionImpl::handle_welcome(std::uint64_t now_us) {
     if (welcomed_) return;  // a repeat
     if (w.refusal != RelayRefusal::None) {
         const std::string why = std::string("relay server refused: ") + relay_refusal_name(w.refusal);
-        emit(SessionEvent::Kind::Refused, SessionEvent::Reason::RelayRefused, config_.local_slot, 0, now_us, why);
-        return fail(SessionEvent::Reason::RelayRefused, why, now_us);
+        emit(SessionEvent::Kind::Refused, refusal_reason(w.refusal), config_.local_slot, 0, now_us, why);
+        return fail(refusal_reason(w.refusal), why, now_us);
     }
     if (w.players != config_.players || w.input_size != config_.input_size || w.tick_rate != config_.tick_rate)
         return fail(SessionEvent::Reason::RoomMismatch, "relay server: the room's players, input size or tick rate differ", now_us);

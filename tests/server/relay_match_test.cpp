@@ -288,6 +288,23 @@ TEST(RelayMatch, CouchesOfSeveralSlotsPlayAndJoinThroughOneConnectionEach) {
     EXPECT_GT(differ, 100);
 }
 
+// A refused hello's Refused and Failed events say which refusal as their typed reason (the
+// text is for people): here a client whose match has three players, against a room of two.
+TEST(RelayMatch, ARefusedHelloNamesTheRefusalAsItsReason) {
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 70);
+    ASSERT_TRUE(cl.run_until_frame(60));
+    cl.add(player(3, 2), {10000, 1000, 0, 0, 0}, 72);
+    cl.run_for(1'000'000);
+    const auto& stranger = cl.client(2);
+    EXPECT_EQ(stranger.session->phase(), rollback::SessionPhase::Failed);
+    EXPECT_EQ(count(stranger, Kind::Refused), 1);
+    EXPECT_EQ(reason_of(stranger, Kind::Refused), rollback::SessionEvent::Reason::RoomParams)
+        << rollback::reason_name(reason_of(stranger, Kind::Refused));
+    EXPECT_EQ(reason_of(stranger, Kind::Failed), rollback::SessionEvent::Reason::RoomParams);
+    for (int s = 0; s < 2; ++s) EXPECT_TRUE(cl.client(s).session->running()) << "slot " << s;
+}
+
 TEST(RelayMatch, KilledPlayerRejoinsItsSlot) {
     const auto scene = rollback::testing::make_scene(2, 20);
     RelayCluster cl(scene);
