@@ -19,6 +19,7 @@
 
 #include "net/peer_runner.h"
 #include "net/session_builder.h"
+#include "rollback/events.h"
 #include "rollback/relay_messages.h"
 #include "rollback/session_types.h"
 #include "rollback/simulation.h"
@@ -200,6 +201,7 @@ struct lockroll_session {
     std::vector<std::uint8_t> input;          // this update()'s local input
     net::InputSource source;
     std::string detail;                       // the last event's, handed out as a C string
+    rollback::SessionEvent::Reason reason = rollback::SessionEvent::Reason::None;  // the last event's
     mutable std::string output_error;         // lockroll_output_error()'s, handed out likewise
 };
 
@@ -488,10 +490,15 @@ int lockroll_next_event(lockroll_session* s, lockroll_event* out) {
         s->detail = out->kind == LOCKROLL_EVENT_OTHER ? std::string(rollback::event_name(e.kind)) + ": " + e.detail
                                                       : std::move(e.detail);
         out->detail = s->detail.c_str();
+        s->reason = e.reason;
         got = 1;
         return LOCKROLL_OK;
     });
     return got;
+}
+
+const char* lockroll_event_reason(const lockroll_session* s) {
+    return rollback::reason_name(s ? s->reason : rollback::SessionEvent::Reason::None);
 }
 
 lockroll_status lockroll_network_stats(const lockroll_session* s, std::int32_t peer, lockroll_stats* out) {

@@ -263,6 +263,13 @@ LOCKROLL_API void lockroll_request_stop(lockroll_session* session);
 /* The oldest event not taken yet: 1 and *out filled, or 0 when there is none (the newest 1024
  * are kept). */
 LOCKROLL_API int lockroll_next_event(lockroll_session* session, lockroll_event* out);
+/* Why the event lockroll_next_event() last filled in happened, as a stable name: "timed_out",
+ * "kick_vote_two_player_rule", "match_id", "tie_rule", ... (rollback/events.h's
+ * SessionEvent::Reason and reason_name(); docs/sessions.md lists them). "none" when the kind
+ * says it all, before the first event and for a NULL session. Never NULL; the string is
+ * lockroll's for as long as the library is loaded. (A function, not a lockroll_event field:
+ * that struct has no struct_size, so it cannot grow.) */
+LOCKROLL_API const char* lockroll_event_reason(const lockroll_session* session);
 LOCKROLL_API lockroll_status lockroll_network_stats(const lockroll_session* session, int32_t peer,
                                                     lockroll_stats* out);
 /* The confirmed checksum of a recent frame; LOCKROLL_NOT_FOUND when not confirmed (or too old). */

@@ -229,6 +229,7 @@ void use(FuzzedDataProvider& in, lockroll_session*& s, bool& waited) {
             for (int i = 0; i < 64 && lockroll_next_event(s, &e) == 1; ++i) {
                 check(e.detail != nullptr);
                 check(lockroll_event_name(e.kind) != nullptr);
+                check(lockroll_event_reason(s) != nullptr);
             }
             if (in.ConsumeBool()) check(lockroll_next_event(s, nullptr) == 0);
             break;

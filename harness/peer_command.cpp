@@ -324,6 +324,7 @@ public:
                   e.peer, e.frame, e.detail.empty() ? "" : ": ", e.detail);
         json extra = {{"peer", e.peer}, {"event_frame", e.frame}};
         if (!e.detail.empty()) extra["detail"] = e.detail;
+        if (e.reason != rollback::SessionEvent::Reason::None) extra["reason"] = rollback::reason_name(e.reason);
         if (e.kind == K::Synchronized) extra["input_delay"] = view.input_delay();
         event(rollback::event_name(e.kind), e.at_us ? e.at_us : clock_.now_us(), extra);
     }

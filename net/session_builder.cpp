@@ -27,11 +27,10 @@ constexpr std::uint64_t kHelloAgainUs = 500'000;  // a held slot's hello again (
 
 // The relay server's answer when the slot's previous process still holds it: its connection
 // was heard within the server's replace_silent_us (a crashed process not yet silent long
-// enough). The session's Refused event carries the refusal's name (relay_session.cpp).
+// enough). The session's Refused event's reason says which refusal (relay_session.cpp).
 bool slot_still_held(const rollback::SessionEvent& e) {
-    for (const auto r : {rollback::RelayRefusal::SlotTaken, rollback::RelayRefusal::TokenInUse})
-        if (e.detail == std::string("relay server refused: ") + rollback::relay_refusal_name(r)) return true;
-    return false;
+    using R = rollback::SessionEvent::Reason;
+    return e.reason == R::SlotTaken || e.reason == R::TokenInUse;
 }
 
 // Writes `bytes` to `path` whole: a temporary file beside it, then renamed over it. Throws

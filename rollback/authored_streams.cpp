@@ -48,7 +48,7 @@ void AuthoredStreams::author_absent_streams(std::uint32_t target, std::uint64_t 
             v.authoring = true;
             if (!v.neutral_reported) {
                 v.neutral_reported = true;
-                effects_.emit(SessionEvent::Kind::NeutralFrom, slot, count_of(slot), now_us,
+                effects_.emit(SessionEvent::Kind::NeutralFrom, SessionEvent::Reason::WritesNeutral, slot, count_of(slot), now_us,
                               "this peer writes the neutral input");
             }
         }

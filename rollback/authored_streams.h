@@ -39,7 +39,7 @@ namespace lockroll::rollback {
 // What writing a stream reads and does in the rest of the session (SessionImpl implements it).
 class AuthoringEffects {
 public:
-    virtual void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+    virtual void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
                       std::string detail) = 0;
     // Welcomed, not in error, and a running slot or a spectator.
     virtual bool live_peer(PlayerId peer) const = 0;

@@ -1,6 +1,7 @@
 // What a session (P2P or relay) tells its owner while it runs, in two forms:
 //  - SessionEvent: one stream of typed lifecycle events, each with the slot or peer it concerns,
-//    a frame and a detail, drained with next_event() (requests, not callbacks). The stream is
+//    a frame, a typed reason (SessionEvent::Reason: why, one enum for both sessions) and a
+//    detail (the same for a person), drained with next_event() (requests, not callbacks). The stream is
 //    bounded (4,096 events held): an owner that never drains it cannot make a session grow
 //    without bound; when full the oldest event is dropped, so the newest (the one that says how
 //    the session ended) is never lost.
@@ -60,13 +61,104 @@ struct SessionEvent {
         ServerLost,      // relay: nothing from the server for server_timeout_us while in the room
                          // (killed, or cut off); detail says how long. The session then fails.
     };
+    // Why, as a value an owner can switch on (issue 21: one stream with typed reasons); the
+    // detail says the same for a person, with the numbers. Every emit site names one, None
+    // where the kind is the whole story. Values are never reordered (reason_name() is stable,
+    // and the C ABI hands out the name).
+    enum class Reason : std::uint8_t {
+        None,
+        // Disconnected: why a running slot was dropped, and by which rule: a majority of the
+        // view, or (a view of two) the two-player rule, after which this process plays alone.
+        TimedOut,                    // silent for disconnect_us
+        TimedOutTwoPlayerRule,
+        KickVote,                    // disconnect_player(): a kick
+        KickVoteTwoPlayerRule,
+        HandoffLapsed,               // a joiner handed the slot never took it up
+        HandoffLapsedTwoPlayerRule,
+        Restarted,                   // its process restarted (a player hello of another process)
+        RestartedTwoPlayerRule,
+        Rejoining,                   // its process restarted and rejoins by snapshot (a joiner hello)
+        RejoiningTwoPlayerRule,
+        HostDropped,                 // a guest slot goes with its host's process
+        SpectatorTimedOut,           // a spectator went silent (no vote: spectators have none)
+        LearnedFromPeer,             // a peer's slot table says so (Joined, Disconnected or Kicked)
+        ServerInputAbsent,           // relay: the server marks the slot's input absent
+        // Kicked (and the Failed that follows a drop)
+        VotedOut,                    // a majority (or the two-player rule) voted this slot gone
+        SpectatorDropped,            // a peer says this spectator was dropped
+        KickedByServer,              // relay: the server kicked this client
+        Dropped,                     // Failed after being dropped; Refused: "you were dropped"
+        // Refused: why a hello (ours or a peer's) was not welcomed
+        Version,                     // protocol versions differ
+        MatchId,                     // another match
+        Scene,                       // the initial states' checksums differ
+        SlotTaken,                   // the slot is running and the hello is not a rejoin
+        Full,                        // no spectator place left
+        BadRole,                     // the role does not fit the peer id
+        RestartDoubted,              // a restart claimed while the old process is still heard
+        // ... and the relay server's refusals (rollback/relay_messages.h, RelayRefusal), beyond
+        // Version, SlotTaken and Full (ServerDraining: it is shutting down; KickedByServer: the
+        // slot was kicked from this room's match)
+        RoomParams,                  // the room exists with other players / input size / tick rate / scene
+        BadSlot,                     // slot out of range, or a spectator role naming a slot
+        Spoof,                       // this connection already holds another slot
+        MatchEnded,                  // the room's match is over
+        TokenMissing,                // connect tokens: the hello carries none
+        TokenInvalid,                // the token does not open under the server's key
+        TokenExpired,                // the token's expiry has passed
+        TokenMismatch,               // the token is for another room, slot, role or parameters
+        TokenInUse,                  // another live process holds the slot with this token
+        SlotOwned,                   // the slot belongs to another client id
+        // Interrupted, Resumed, Partitioned
+        Silent,                      // nothing heard for interrupt_us
+        Heard,                       // heard again
+        Reconnected,                 // relay: welcomed again on a new connection
+        NoMajority,                  // hears no majority of the view: nobody is dropped
+        // Synchronizing, Synchronized, Joined, NeutralFrom
+        RoundTrip,                   // a welcome answered our hello
+        LateWelcome,                 // a joiner's late welcome from a peer it had not reached
+        RelayWelcome,                // relay: the server welcomed this client
+        Handshake,                   // started after the handshake (frame 0)
+        FromSnapshot,                // started from a loaded snapshot
+        Handoff,                     // a joiner took the slot at its handoff frame
+        ServerInputsStart,           // relay: the server has the slot's inputs again
+        WritesNeutral,               // this peer writes the slot's neutral input
+        NeutralAgreed,               // a peer's inputs say where the neutral input starts
+        // SnapshotLoaded, SnapshotRejected
+        Joining,                     // loaded to join (own inputs from the handoff frame)
+        Spectating,                  // loaded to watch
+        Recovering,                  // loaded to recover from a desync
+        TransferTimedOut,            // the provider went silent; asked again
+        TransferInvalid,             // the transfer failed verification; asked again
+        TransferLoadFailed,          // verified, but the simulation would not load it
+        TransferStalled,             // relay: no progress for too long (Failed)
+        // DesyncDetected, DesyncRecovered: who found it, and which rule chose the source
+        ChecksumMismatch,            // a peer's confirmed checksum differs from ours
+        ServerMinority,              // relay: the server's verdict: this client is in the minority
+        ServerNoMajority,            // relay: two players differ, the server's two-player rule ends it
+        Majority,                    // this peer was in the minority and reloaded the majority's
+        TieRule,                     // no majority (a tie, always so with two): the tie rule chose
+        RecoveryLimit,               // Failed: desync and max_recoveries reached
+        // Failed, Draining, ServerLost
+        RoomMismatch,                // relay: the room's players, input size or tick rate differ
+        RoomRestarted,               // relay: the room restarted under this client
+        StateTooLarge,               // a saved state exceeds the transfer limit
+        OfferTooLarge,               // a snapshot offer exceeds the transfer limit
+        Exception,                   // the game (or an invariant) threw inside a session call
+        ServerDraining,              // relay: the server is shutting down
+        ServerSilent,                // relay: nothing from the server for server_timeout_us
+    };
     Kind kind = Kind::Synchronizing;
     PlayerId peer = 0;        // the slot or peer id concerned
     std::uint32_t frame = 0;
     std::uint64_t at_us = 0;
     std::string detail;
+    Reason reason = Reason::None;
 };
+inline constexpr int kLastReason = static_cast<int>(SessionEvent::Reason::ServerSilent);
 const char* event_name(SessionEvent::Kind k);
+// "timed_out", "kicked_by_server", ...: stable names for logs, the C ABI and its bindings.
+const char* reason_name(SessionEvent::Reason r);
 
 // ---- observer callbacks (SessionObserver) ----
 

@@ -79,6 +79,22 @@ bool Handshake::new_process(PlayerId from, const PeerLink& link, Role role) cons
            (is_slot(from) && role == Role::Joiner && !view_.running(from) && link.welcomed_epoch != view_.epoch(from));
 }
 
+SessionEvent::Reason Handshake::refusal_reason(Refusal r) {
+    using R = SessionEvent::Reason;
+    switch (r) {
+        case Refusal::None:
+        case Refusal::Retry: return R::None;
+        case Refusal::Version: return R::Version;
+        case Refusal::MatchId: return R::MatchId;
+        case Refusal::Scene: return R::Scene;
+        case Refusal::SlotTaken: return R::SlotTaken;
+        case Refusal::Full: return R::Full;
+        case Refusal::Disconnected: return R::Dropped;
+        case Refusal::BadRole: return R::BadRole;
+    }
+    return R::None;
+}
+
 Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeMessage& m, SessionPhase phase,
                                                    const PeerLink& link, std::uint64_t scene_checksum) const {
     using Act = WelcomeVerdict::Act;
@@ -98,7 +114,7 @@ Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeM
             why += " (theirs " + std::to_string(m.match_id) + ", ours " + std::to_string(config_.match_id) + ")";
         if (m.refusal == Refusal::Scene)
             why += " (theirs " + std::to_string(m.scene_checksum) + ", ours " + std::to_string(scene_checksum) + ")";
-        return {Act::Refused, std::move(why)};
+        return {Act::Refused, std::move(why), refusal_reason(m.refusal)};
     }
     if (running) {
         // A joiner that loaded its snapshot from one peer may reach another only afterwards

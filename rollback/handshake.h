@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "rollback/control_messages.h"
+#include "rollback/events.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
 #include "rollback/session.h"
@@ -71,6 +72,8 @@ public:
     static bool refusal_reported(const PeerLink& link, std::uint64_t now_us) {
         return link.refusal_quiet_for(now_us, 1'000'000);
     }
+    // The Refused event's reason for a refusal (sent or received); None for None and Retry.
+    static SessionEvent::Reason refusal_reason(Refusal r);
 
     // ---- a welcome received ----
     struct WelcomeVerdict {
@@ -84,6 +87,7 @@ public:
         };
         Act act = Act::Ignore;
         std::string why;
+        SessionEvent::Reason reason = SessionEvent::Reason::None;  // Refused: refusal_reason()
     };
     WelcomeVerdict judge_welcome(PlayerId from, const WelcomeMessage& m, SessionPhase phase, const PeerLink& link,
                                  std::uint64_t scene_checksum) const;

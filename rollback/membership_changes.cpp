@@ -11,7 +11,7 @@ bool MembershipChanges::mine(PlayerId slot) const {
     return slot == config_.local_player || (host_of(config_, slot) != slot && host_of(config_, slot) == config_.local_player);
 }
 
-void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, const char* why) {
+void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, SessionEvent::Reason reason, const char* why) {
     SlotView& v = slots_[slot];
     if (!view_.running(slot)) return;
     view_.leave(slot);
@@ -19,10 +19,10 @@ void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, const cha
     v.dropped(now_us, config_.disconnect_us);
     links_[slot].interrupted = false;
     effects_.peer_failed(slot);
-    effects_.emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, why);
+    effects_.emit(SessionEvent::Kind::Disconnected, reason, slot, count_of(slot), now_us, why);
     // The slots its process played go with it.
     for (int s = slot + 1; s < config_.players; ++s)
-        if (host_of(config_, static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, "its host was dropped");
+        if (host_of(config_, static_cast<PlayerId>(s)) == slot) drop_slot(static_cast<PlayerId>(s), now_us, SessionEvent::Reason::HostDropped, "its host was dropped");
     effects_.live_peers_changed();
 }
 
@@ -41,7 +41,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
     const auto players = static_cast<PlayerId>(config_.players);
     for (PlayerId s = view_.next_gone(); s < players; s = view_.next_gone()) {
         if (s == config_.local_player) {
-            effects_.emit(SessionEvent::Kind::Kicked, s, effects_.frame(), now_us,
+            effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, s, effects_.frame(), now_us,
                           std::to_string(view_.gone_votes(s)) + " of " + std::to_string(view_.running_voters()) +
                               " players voted this slot gone");
             effects_.fail_dropped(now_us);
@@ -49,6 +49,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
         }
         const SlotView& v = slots_[s];
         const bool restart = v.restart_vote && view_.vote_of(config_.local_player, s) == Vote::Gone;
+        using R = SessionEvent::Reason;
         const std::string why = v.kick_vote ? "kicked"
                                 : v.lapsed  ? "handoff lapsed"
                                 : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
@@ -56,7 +57,12 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
         // A view of two has no majority of the other's: the two-player rule decided, and this
         // process now plays on alone (its outcome says so: rollback/playing_alone.h).
         const bool two_player_rule = view_.running_voters() == 2;
-        drop_slot(s, now_us, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
+        const R reason = v.kick_vote ? (two_player_rule ? R::KickVoteTwoPlayerRule : R::KickVote)
+                         : v.lapsed  ? (two_player_rule ? R::HandoffLapsedTwoPlayerRule : R::HandoffLapsed)
+                         : restart   ? (v.restart_by_player ? (two_player_rule ? R::RestartedTwoPlayerRule : R::Restarted)
+                                                            : (two_player_rule ? R::RejoiningTwoPlayerRule : R::Rejoining))
+                                     : (two_player_rule ? R::TimedOutTwoPlayerRule : R::TimedOut);
+        drop_slot(s, now_us, reason, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
                               std::to_string(view_.running_voters()) + " votes" +
                               (two_player_rule ? std::string(" (the two-player rule, ") + two_player_rule_name(view_.rule()) +
                                                      ": this process plays on alone)"
@@ -71,7 +77,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
             if (view_.running(pid) && host_of(config_, pid) == pid && view_.vote_of(config_.local_player, pid) != Vote::Gone)
                 ++heard;
         }
-        effects_.emit(SessionEvent::Kind::Partitioned, config_.local_player, effects_.confirmed_frame(), now_us,
+        effects_.emit(SessionEvent::Kind::Partitioned, SessionEvent::Reason::NoMajority, config_.local_player, effects_.confirmed_frame(), now_us,
                       "hears " + std::to_string(heard) + " of " + std::to_string(view_.running_voters()) +
                           " players: no majority, nobody is dropped");
     }
@@ -85,7 +91,8 @@ void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint6
     effects_.slot_changed_hands(slot);
     v.new_epoch();
     if (mine(slot) && e.state != SlotState::Running) {
-        effects_.emit(SessionEvent::Kind::Kicked, slot, effects_.frame(), now_us, "the other peers dropped this slot");
+        effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::LearnedFromPeer, slot, effects_.frame(), now_us,
+                      "the other peers dropped this slot");
         effects_.fail_dropped(now_us);
         return;
     }
@@ -98,9 +105,11 @@ void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint6
         effects_.peer_replaced(slot);
         link.mark_heard(now_us);
         link.interrupted = false;
-        effects_.emit(SessionEvent::Kind::Joined, slot, count_of(slot), now_us, "learned from a peer");
+        effects_.emit(SessionEvent::Kind::Joined, SessionEvent::Reason::LearnedFromPeer, slot, count_of(slot), now_us,
+                      "learned from a peer");
     } else if (e.state != SlotState::Running && before == SlotState::Running) {
-        effects_.emit(SessionEvent::Kind::Disconnected, slot, count_of(slot), now_us, "learned from a peer");
+        effects_.emit(SessionEvent::Kind::Disconnected, SessionEvent::Reason::LearnedFromPeer, slot, count_of(slot), now_us,
+                      "learned from a peer");
         effects_.peer_failed(slot);
         link.interrupted = false;
     }
@@ -149,7 +158,7 @@ void MembershipChanges::check_silence(std::uint64_t now_us) {
         PeerLink& l = links_[p];
         const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
         if (silence.interrupted_now)
-            effects_.emit(SessionEvent::Kind::Interrupted, pid, effects_.frame(), now_us,
+            effects_.emit(SessionEvent::Kind::Interrupted, SessionEvent::Reason::Silent, pid, effects_.frame(), now_us,
                           std::to_string(silence.silent_us / 1000) + " ms silent");
         if (is_slot(pid)) check_handoff(pid, now_us);
         if (silence.timed_out) {
@@ -159,7 +168,8 @@ void MembershipChanges::check_silence(std::uint64_t now_us) {
                 view_.vote_local(pid, true);  // our vote; the slot goes when a majority agrees
             } else {
                 l.welcomed = false;  // a spectator that went away: stop serving it
-                effects_.emit(SessionEvent::Kind::Disconnected, pid, effects_.frame(), now_us, "spectator timed out");
+                effects_.emit(SessionEvent::Kind::Disconnected, SessionEvent::Reason::SpectatorTimedOut, pid, effects_.frame(), now_us,
+                              "spectator timed out");
             }
         }
     }

@@ -64,7 +64,7 @@ namespace lockroll::rollback {
 // What a change of the view does to the rest of the session (SessionImpl implements it).
 class MembershipEffects {
 public:
-    virtual void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+    virtual void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
                       std::string detail) = 0;
     // The others dropped this session's slot: it fails (rollback/rejoin.h, drop_failure).
     virtual void fail_dropped(std::uint64_t now_us) = 0;
@@ -94,7 +94,7 @@ public:
 
     void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
     void settle_membership(std::uint64_t now_us);
-    void drop_slot(PlayerId slot, std::uint64_t now_us, const char* why);
+    void drop_slot(PlayerId slot, std::uint64_t now_us, SessionEvent::Reason reason, const char* why);
     // e: the peer's table entry about `slot` (its state and a newer epoch).
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us);
     void check_silence(std::uint64_t now_us);

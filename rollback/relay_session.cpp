@@ -70,6 +70,30 @@ std::uint16_t relay_local_slots(const RelaySessionConfig& c) {
 }
 
 namespace {
+// The Refused (and Failed) event's reason for the server's refusal of our hello.
+SessionEvent::Reason refusal_reason(RelayRefusal r) {
+    using R = SessionEvent::Reason;
+    switch (r) {
+        case RelayRefusal::None: return R::None;
+        case RelayRefusal::Version: return R::Version;
+        case RelayRefusal::RoomParams: return R::RoomParams;
+        case RelayRefusal::SlotTaken: return R::SlotTaken;
+        case RelayRefusal::BadSlot: return R::BadSlot;
+        case RelayRefusal::Full: return R::Full;
+        case RelayRefusal::Draining: return R::ServerDraining;
+        case RelayRefusal::Spoof: return R::Spoof;
+        case RelayRefusal::Ended: return R::MatchEnded;
+        case RelayRefusal::TokenMissing: return R::TokenMissing;
+        case RelayRefusal::TokenInvalid: return R::TokenInvalid;
+        case RelayRefusal::TokenExpired: return R::TokenExpired;
+        case RelayRefusal::TokenMismatch: return R::TokenMismatch;
+        case RelayRefusal::TokenInUse: return R::TokenInUse;
+        case RelayRefusal::SlotOwned: return R::SlotOwned;
+        case RelayRefusal::Kicked: return R::KickedByServer;
+    }
+    return R::None;
+}
+
 std::vector<PlayerId> slot_list(std::uint16_t mask) {
     std::vector<PlayerId> out;
     for (int s = 0; s < kRelayMaxPlayers; ++s)
@@ -148,11 +172,11 @@ void RelaySessionImpl::handle_welcome(std::uint64_t now_us) {
     if (welcomed_) return;  // a repeat
     if (w.refusal != RelayRefusal::None) {
         const std::string why = std::string("relay server refused: ") + relay_refusal_name(w.refusal);
-        emit(SessionEvent::Kind::Refused, config_.local_slot, 0, now_us, why);
-        return fail(why, now_us);
+        emit(SessionEvent::Kind::Refused, refusal_reason(w.refusal), config_.local_slot, 0, now_us, why);
+        return fail(refusal_reason(w.refusal), why, now_us);
     }
     if (w.players != config_.players || w.input_size != config_.input_size || w.tick_rate != config_.tick_rate)
-        return fail("relay server: the room's players, input size or tick rate differ", now_us);
+        return fail(SessionEvent::Reason::RoomMismatch, "relay server: the room's players, input size or tick rate differ", now_us);
     if (phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring) {
         // Welcomed again after a reconnect. A room this client played in has started, and its
         // clock runs on where this client's estimate of it says; a room that has not started,
@@ -163,11 +187,12 @@ void RelaySessionImpl::handle_welcome(std::uint64_t now_us) {
         const auto slack = static_cast<std::int64_t>(config_.tick_rate) +
                            static_cast<std::int64_t>(link_.rtt_us() * static_cast<std::uint64_t>(config_.tick_rate) / 1000000);
         if (!w.started || std::int64_t{w.server_frame} + slack < expected)
-            return fail("relay server: the room restarted (its clock at frame " + std::to_string(w.server_frame) +
+            return fail(SessionEvent::Reason::RoomRestarted,
+                        "relay server: the room restarted (its clock at frame " + std::to_string(w.server_frame) +
                             ", expected about " + std::to_string(expected) + "): the match cannot resume",
                         now_us);
         welcomed_ = true;
-        emit(SessionEvent::Kind::Resumed, static_cast<PlayerId>(w.slot), frame(), now_us, "resumed on a new connection");
+        emit(SessionEvent::Kind::Resumed, SessionEvent::Reason::Reconnected, static_cast<PlayerId>(w.slot), frame(), now_us, "resumed on a new connection");
         return;
     }
     welcomed_ = true;
@@ -175,7 +200,7 @@ void RelaySessionImpl::handle_welcome(std::uint64_t now_us) {
     checksum_interval_ = w.checksum_interval;
     // No round trip from the hello's echo: the hello may have waited for the connection (a
     // runner holds reliable sends until it is up). Frames messages echo input stamps instead.
-    emit(SessionEvent::Kind::Synchronizing, static_cast<PlayerId>(my_id_), 0, now_us,
+    emit(SessionEvent::Kind::Synchronizing, SessionEvent::Reason::RelayWelcome, static_cast<PlayerId>(my_id_), 0, now_us,
          "welcomed by the relay server as id " + std::to_string(my_id_));
     room_started_ = w.started;
     handoff_ = w.handoff_frame;
@@ -191,7 +216,8 @@ void RelaySessionImpl::start_running(std::uint64_t now_us) {
     if (phase_ == SessionPhase::Running) return;
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
-    emit(SessionEvent::Kind::Synchronized, static_cast<PlayerId>(std::max(my_id_, 0)), frame(), now_us,
+    emit(SessionEvent::Kind::Synchronized, SessionEvent::Reason::Handshake, static_cast<PlayerId>(std::max(my_id_, 0)), frame(),
+         now_us,
          "input delay " + std::to_string(input_delay_) + ", rtt " + std::to_string(link_.rtt_us() / 1000) + " ms");
 }
 
@@ -231,7 +257,8 @@ void RelaySessionImpl::handle_frames(std::uint64_t now_us) {
             const bool absent = flags & kRelayAbsent;
             const bool was_absent = slot_flags_[p] & kRelayAbsent;
             if (slot_seen_[p] && absent != was_absent)
-                emit(absent ? SessionEvent::Kind::Disconnected : SessionEvent::Kind::Joined, static_cast<PlayerId>(p), f,
+                emit(absent ? SessionEvent::Kind::Disconnected : SessionEvent::Kind::Joined,
+                     absent ? SessionEvent::Reason::ServerInputAbsent : SessionEvent::Reason::ServerInputsStart, static_cast<PlayerId>(p), f,
                      now_us, absent ? "its input is absent from here (the server)" : "its inputs start here");
             slot_flags_[p] = flags;
             slot_seen_[p] = true;
@@ -314,7 +341,7 @@ void RelaySessionImpl::finish_transfer(std::uint64_t now_us) {
     if (err.empty()) err = sync_->restart_at(t.frame, t.state);
     incoming_.reset();
     if (!err.empty()) {
-        emit(SessionEvent::Kind::SnapshotRejected, *transfer_from_, 0, now_us, err);
+        emit(SessionEvent::Kind::SnapshotRejected, SessionEvent::Reason::TransferInvalid, *transfer_from_, 0, now_us, err);
         last_offer_request_us_ = 0;  // ask for a new offer at once
         return;
     }
@@ -322,11 +349,16 @@ void RelaySessionImpl::finish_transfer(std::uint64_t now_us) {
     transfer_from_.reset();
     std::fill(slot_seen_.begin(), slot_seen_.end(), false);
     clock_offsets_.clear();  // paced afresh from the next frames message
-    emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us, "from id " + std::to_string(from));
+    emit(SessionEvent::Kind::SnapshotLoaded,
+         transfer_reason_ == TransferReason::Recover  ? SessionEvent::Reason::Recovering
+         : transfer_reason_ == TransferReason::Spectate ? SessionEvent::Reason::Spectating
+                                                        : SessionEvent::Reason::Joining,
+         from, t.frame, now_us, "from id " + std::to_string(from));
     if (transfer_reason_ == TransferReason::Recover) {
         recover_after_ = t.frame + 1;
         phase_ = SessionPhase::Running;
-        emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us, "reloaded the majority's state");
+        emit(SessionEvent::Kind::DesyncRecovered, SessionEvent::Reason::Majority, from, t.frame, now_us,
+             "reloaded the majority's state");
         return;
     }
     if (config_.role != RelayRole::Spectator) {
@@ -345,7 +377,8 @@ void RelaySessionImpl::handle_notice(std::uint64_t now_us) {
             ++relay_stats_.desync_notices;
             ++stats_.desyncs;
             const bool no_majority = n.slot == kRelayNoMajority;
-            emit(SessionEvent::Kind::DesyncDetected, static_cast<PlayerId>(std::max(my_id_, 0)), n.frame, now_us,
+            emit(SessionEvent::Kind::DesyncDetected, no_majority ? SessionEvent::Reason::ServerNoMajority : SessionEvent::Reason::ServerMinority,
+                 static_cast<PlayerId>(std::max(my_id_, 0)), n.frame, now_us,
                  no_majority ? "the relay server found the two players' checksums of frame " + std::to_string(n.frame) +
                                    " differ, with no majority to settle it"
                              : "the relay server found this client's checksum of frame " + std::to_string(n.frame) +
@@ -354,12 +387,14 @@ void RelaySessionImpl::handle_notice(std::uint64_t now_us) {
             // The server's two-player rule (docs/relay.md): neither can be shown wrong, the match
             // ends for both; a reload from the other could be a reload from a liar, for ever.
             if (no_majority)
-                return fail("desync at frame " + std::to_string(n.frame) +
+                return fail(SessionEvent::Reason::ServerNoMajority,
+                            "desync at frame " + std::to_string(n.frame) +
                                 ": two players disagree and no majority can settle it (the server's two-player rule "
                                 "ends the match)",
                             now_us);
             if (recoveries_ >= config_.max_recoveries)
-                return fail("desync at frame " + std::to_string(n.frame) + " (the server's verdict) and no recovery left", now_us);
+                return fail(SessionEvent::Reason::RecoveryLimit,
+                            "desync at frame " + std::to_string(n.frame) + " (the server's verdict) and no recovery left", now_us);
             ++recoveries_;
             begin_transfer(n.slot, TransferReason::Recover, now_us);
             return;
@@ -368,11 +403,12 @@ void RelaySessionImpl::handle_notice(std::uint64_t now_us) {
             if (transfer_from_) begin_transfer(n.slot, transfer_reason_, now_us);
             return;
         case RelayNoticeKind::Draining:
-            emit(SessionEvent::Kind::Draining, kRelayServerPeer, frame(), now_us, "the relay server is draining");
+            emit(SessionEvent::Kind::Draining, SessionEvent::Reason::ServerDraining, kRelayServerPeer, frame(), now_us, "the relay server is draining");
             return;
         case RelayNoticeKind::Kicked:
-            emit(SessionEvent::Kind::Kicked, static_cast<PlayerId>(std::max(my_id_, 0)), frame(), now_us, "kicked by the relay server");
-            return fail("kicked by the relay server", now_us);
+            emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::KickedByServer, static_cast<PlayerId>(std::max(my_id_, 0)), frame(),
+                 now_us, "kicked by the relay server");
+            return fail(SessionEvent::Reason::KickedByServer, "kicked by the relay server", now_us);
     }
 }
 
@@ -535,10 +571,10 @@ void RelaySessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& ou
     const bool in_room = phase_ == SessionPhase::Running || phase_ == SessionPhase::Transferring;
     if (in_room && config_.server_timeout_us && last_server_us_ && now_us > last_server_us_ + config_.server_timeout_us) {
         const std::string why = "the relay server is silent for " + std::to_string((now_us - last_server_us_) / 1000) + " ms";
-        emit(SessionEvent::Kind::ServerLost, kRelayServerPeer, frame(), now_us, why);
+        emit(SessionEvent::Kind::ServerLost, SessionEvent::Reason::ServerSilent, kRelayServerPeer, frame(), now_us, why);
         server_lost_ = true;
         pending_out_.clear();
-        return fail(why, now_us);
+        return fail(SessionEvent::Reason::ServerSilent, why, now_us);
     }
     if (!welcomed_ && (!hello_sent_ || now_us - last_hello_us_ >= config_.hello_resend_us)) {
         RelayHello h;
@@ -561,7 +597,8 @@ void RelaySessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& ou
         last_hello_us_ = now_us;
     }
     if (transfer_from_ && config_.transfer_timeout_us && now_us > transfer_progress_us_ + config_.transfer_timeout_us)
-        return fail("snapshot from id " + std::to_string(*transfer_from_) + ": no progress for " +
+        return fail(SessionEvent::Reason::TransferStalled,
+                    "snapshot from id " + std::to_string(*transfer_from_) + ": no progress for " +
                         std::to_string((now_us - transfer_progress_us_) / 1000) + " ms",
                     now_us);
     if (transfer_from_) {

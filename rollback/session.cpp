@@ -46,7 +46,7 @@ public:
         if (next_) next_->on_frame_confirmed(f);
     }
     void on_desync(const DesyncEvent& e) override {
-        s_.emit(SessionEvent::Kind::DesyncDetected, e.peer, e.frame, s_.last_now_us_,
+        s_.emit(SessionEvent::Kind::DesyncDetected, SessionEvent::Reason::ChecksumMismatch, e.peer, e.frame, s_.last_now_us_,
                 "confirmed checksums differ");
         if (!s_.mismatch_frame_ || e.frame < *s_.mismatch_frame_) s_.mismatch_frame_ = e.frame;
         s_.mismatch_since_us_ = s_.last_now_us_;
@@ -219,7 +219,7 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
     PeerLink& link = links_[from];
     // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
     if (link.welcomed && (!is_slot(from) || slot_running(from))) {
-        if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, from, frame(), now_us);
+        if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, SessionEvent::Reason::Heard, from, frame(), now_us);
         // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
         if (is_slot(from) && !slots_[from].kick_vote && !slots_[from].lapsed) membership_.vote_local(from, false);
     }
@@ -324,7 +324,9 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
     if ((w.refusal != Refusal::None && w.refusal != Refusal::Retry) || a.doubted) {
         ++foreign_packets_;
         if (Handshake::refusal_reported(link, now_us))
-            emit(SessionEvent::Kind::Refused, from, frame(), now_us, "refused hello: " + a.why);
+            emit(SessionEvent::Kind::Refused,
+                 a.doubted ? SessionEvent::Reason::RestartDoubted : Handshake::refusal_reason(w.refusal), from, frame(),
+                 now_us, "refused hello: " + a.why);
     }
     if (w.refusal == Refusal::None) {
         if (handshake_.new_process(from, link, m.role)) {
@@ -350,25 +352,26 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
     switch (v.act) {
         case Act::Ignore: return;
         case Act::SpectatorDropped:
-            emit(SessionEvent::Kind::Kicked, config_.local_player, frame(), now_us,
+            emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::SpectatorDropped, config_.local_player, frame(), now_us,
                  "peer " + std::to_string(from) + " says this spectator was dropped");
-            return fail(drop_failure(config_), now_us);
+            return fail(SessionEvent::Reason::Dropped, drop_failure(config_), now_us);
         case Act::VoteGone:  // in the epoch the sender dropped our slot into
             return changes_.refused_as_dropped(from, m.slot_epoch, now_us);
         case Act::Refused:
-            emit(SessionEvent::Kind::Refused, from, frame(), now_us, v.why);
-            if (phase_ != SessionPhase::Running) fail(v.why, now_us);
+            emit(SessionEvent::Kind::Refused, v.reason, from, frame(), now_us, v.why);
+            if (phase_ != SessionPhase::Running) fail(v.reason, v.why, now_us);
             return;
         case Act::LateWelcome:
             link.late_welcome(membership_.epoch(from), m.echo_us, now_us);
             if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
-            emit(SessionEvent::Kind::Synchronizing, from, 1, now_us);
+            emit(SessionEvent::Kind::Synchronizing, SessionEvent::Reason::LateWelcome, from, 1, now_us);
             return refresh_resend_floor();
         case Act::SyncRoundTrip:
             handshake_.sync_welcome(link, is_slot(from), m, now_us);
             if (m.echo_us <= now_us) stats_.peers[from].rtt_us = link.rtt_us();
             if (m.running) link.role = is_slot(from) ? Role::Player : Role::Spectator;
-            emit(SessionEvent::Kind::Synchronizing, from, static_cast<std::uint32_t>(link.roundtrips), now_us);
+            emit(SessionEvent::Kind::Synchronizing, SessionEvent::Reason::RoundTrip, from, static_cast<std::uint32_t>(link.roundtrips),
+                 now_us);
             return maybe_start(now_us);
     }
 }
@@ -387,7 +390,7 @@ void SessionImpl::start_running(std::uint64_t now_us) {
         const int d = auto_input_delay(config_.prediction_window, worst / 2, config_.tick_rate);
         input_delay_ = std::clamp(d, 0, static_cast<int>(config_.input_capacity / 4));
     }
-    emit(SessionEvent::Kind::Synchronized, config_.local_player, frame(), now_us,
+    emit(SessionEvent::Kind::Synchronized, SessionEvent::Reason::Handshake, config_.local_player, frame(), now_us,
          "input delay " + std::to_string(input_delay_) + ", worst sync rtt " + std::to_string(worst / 1000) + " ms");
 }
 
@@ -549,7 +552,7 @@ AdvanceResult SessionImpl::advance_impl(std::span<const std::uint8_t> local_inpu
         result.advanced = true;
         confirm_frames();
     }
-    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
+    if (stats_.oversized_states > 0) fail(SessionEvent::Reason::StateTooLarge, oversized_message(sim_), now_us);
     result.frame = sync_->frame();
     // Time sync: at most one recommendation per window, and the same advice as a gentle slowdown.
     result.wait_frames = pacing_.recommend_wait(links_, pacer(), result.frame, input_delay_);
@@ -575,7 +578,7 @@ int SessionImpl::catch_up_impl(std::uint64_t now_us, int max_frames) {
         confirm_frames();
         ++stepped;
     }
-    if (stats_.oversized_states > 0) fail(oversized_message(sim_), now_us);
+    if (stats_.oversized_states > 0) fail(SessionEvent::Reason::StateTooLarge, oversized_message(sim_), now_us);
     return stepped;
 }
 
@@ -608,7 +611,7 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
         case SnapshotFetch::Poll::Decided: return finish_transfer(now_us);
         case SnapshotFetch::Poll::TimedOut:
             // A provider that went silent: start over with whoever answers.
-            emit(SessionEvent::Kind::SnapshotRejected, fetch_.provider(), fetch_.incoming()->offer().frame, now_us,
+            emit(SessionEvent::Kind::SnapshotRejected, SessionEvent::Reason::TransferTimedOut, fetch_.provider(), fetch_.incoming()->offer().frame, now_us,
                  "transfer timed out; asking again");
             return fetch_.restart();
         case SnapshotFetch::Poll::Nothing: return;
@@ -633,7 +636,7 @@ void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessag
     switch (fetch_.take_offer(from, m, now_us)) {
         case SnapshotFetch::OfferTaken::Busy: return;  // one transfer at a time
         case SnapshotFetch::OfferTaken::TooLarge:
-            return fail("snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
+            return fail(SessionEvent::Reason::OfferTooLarge, "snapshot offer of " + std::to_string(m.size) + " bytes exceeds the limit of " +
                             std::to_string(config_.max_snapshot_bytes),
                         now_us);
         case SnapshotFetch::OfferTaken::BadSlotTable: return malformed(from, "snapshot offer: slot table size");
@@ -656,12 +659,12 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     const PlayerId from = got.from;
     const SnapshotOfferMessage& offer = got.offer;
     const TransferContents& t = got.contents;
-    const auto reject = [&](const std::string& why) {
-        emit(SessionEvent::Kind::SnapshotRejected, from, offer.frame, now_us, why + "; asking again");
+    const auto reject = [&](SessionEvent::Reason reason, const std::string& why) {
+        emit(SessionEvent::Kind::SnapshotRejected, reason, from, offer.frame, now_us, why + "; asking again");
     };
-    if (verdict == SnapshotFetch::Verdict::Rejected) return reject(got.why);
+    if (verdict == SnapshotFetch::Verdict::Rejected) return reject(SessionEvent::Reason::TransferInvalid, got.why);
     // The fetch forgot the transfer: a failed load asks again like any rejection.
-    if (std::string e = sync_->load_transfer(t); !e.empty()) return reject("snapshot transfer: " + e);
+    if (std::string e = sync_->load_transfer(t); !e.empty()) return reject(SessionEvent::Reason::TransferLoadFailed, "snapshot transfer: " + e);
     authority_->reset_all();
     detector_->restart_at(t.frame, sim_.checksum(t.state));
     pacing_.restart_at(t.frame);
@@ -670,7 +673,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
         ++recoveries_;
         recover_from_.reset();
         mismatch_frame_.reset();
-        emit(SessionEvent::Kind::DesyncRecovered, from, t.frame, now_us,
+        emit(SessionEvent::Kind::DesyncRecovered, recovery_reason_, from, t.frame, now_us,
              "this peer was " + recovery_why_ + "; reloaded peer " + std::to_string(from) + "'s confirmed frame " +
                  std::to_string(t.frame));
         refresh_resend_floor();
@@ -684,10 +687,13 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     }
     phase_ = SessionPhase::Running;
     started_us_ = now_us;
-    emit(SessionEvent::Kind::SnapshotLoaded, from, t.frame, now_us,
+    emit(SessionEvent::Kind::SnapshotLoaded,
+         config_.role == Role::Joiner ? SessionEvent::Reason::Joining : SessionEvent::Reason::Spectating, from, t.frame,
+         now_us,
          (config_.role == Role::Joiner ? "own inputs from frame " + std::to_string(offer.handoff_frame) : "spectating") +
              "; " + got.why);
-    emit(SessionEvent::Kind::Synchronized, config_.local_player, t.frame, now_us, "from a snapshot");
+    emit(SessionEvent::Kind::Synchronized, SessionEvent::Reason::FromSnapshot, config_.local_player, t.frame, now_us,
+         "from a snapshot");
     refresh_resend_floor();
 }
 
@@ -718,13 +724,15 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
         case RecoveryStep::Act::Wait: return;
         case RecoveryStep::Act::Forget: return mismatch_frame_.reset();
         case RecoveryStep::Act::GiveUp:
-            return fail("desync at frame " + std::to_string(f) + " and the recovery limit (" +
+            return fail(SessionEvent::Reason::RecoveryLimit,
+                        "desync at frame " + std::to_string(f) + " and the recovery limit (" +
                             std::to_string(config_.max_recoveries) + ") is reached",
                         now_us);
         case RecoveryStep::Act::Reload:
             recover_from_ = step.from;
             // Which rule made this peer the odd one, for its DesyncRecovered (issue 21: with two
             // players no majority exists, and the tie rule decided).
+            recovery_reason_ = step.tie ? SessionEvent::Reason::TieRule : SessionEvent::Reason::Majority;
             recovery_why_ = std::string(step.tie ? "on a tie's other side" : "in the minority") + " at frame " +
                             std::to_string(f) + ", by " + step.rule;
             fetch_.ask_again();  // reported once, as DesyncDetected; DesyncRecovered says who was odd and why

@@ -35,17 +35,18 @@ SessionCore::SessionCore(SessionPhase initial, PlayerId self, int input_delay, S
 
 SessionCore::~SessionCore() = default;
 
-void SessionCore::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail) {
+void SessionCore::emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame,
+                       std::uint64_t now_us, std::string detail) {
     // Only a drop that ends the session counts as its end (not one heard after another failure).
     if (kind == SessionEvent::Kind::Kicked && phase_ != SessionPhase::Failed) kicked_ = true;
-    events_.push({kind, peer, frame, now_us, std::move(detail)});
+    events_.push({kind, peer, frame, now_us, std::move(detail), reason});
 }
 
-void SessionCore::fail(const std::string& why, std::uint64_t now_us) {
+void SessionCore::fail(SessionEvent::Reason reason, const std::string& why, std::uint64_t now_us) {
     if (phase_ == SessionPhase::Failed) return;
     phase_ = SessionPhase::Failed;
     failure_ = why;
-    emit(SessionEvent::Kind::Failed, self_, frame(), now_us, why);
+    emit(SessionEvent::Kind::Failed, reason, self_, frame(), now_us, why);
 }
 
 // Per-tick calls never throw (a game loop has nowhere to catch). What could -- the game's own
@@ -61,7 +62,7 @@ void SessionCore::fail_from_exception(const char* where, std::uint64_t now_us) n
         } catch (...) {
             why = "an exception that is not a std::exception";
         }
-        fail(std::string(where) + ": " + why, now_us);
+        fail(SessionEvent::Reason::Exception, std::string(where) + ": " + why, now_us);
     } catch (...) {
         phase_ = SessionPhase::Failed;  // not even the message could be built
     }

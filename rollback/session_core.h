@@ -110,8 +110,9 @@ protected:
     SessionCore(SessionPhase initial, PlayerId self, int input_delay, SessionObserver* observer);
     ~SessionCore();
 
-    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us, std::string detail = {});
-    void fail(const std::string& why, std::uint64_t now_us);
+    void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+              std::string detail = {});
+    void fail(SessionEvent::Reason reason, const std::string& why, std::uint64_t now_us);
     // The frame loop's config from the fields both sessions' configs share (a spectator passes
     // local 0: its Sync is built as slot 0's, which it never feeds).
     static SyncConfig sync_config(int players, PlayerId local, std::size_t input_size, int prediction_window,

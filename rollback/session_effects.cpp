@@ -5,12 +5,12 @@
 
 namespace lockroll::rollback {
 
-void SessionImpl::Effects::emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+void SessionImpl::Effects::emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
                                 std::string detail) {
-    s_.emit(kind, peer, frame, now_us, std::move(detail));
+    s_.emit(kind, reason, peer, frame, now_us, std::move(detail));
 }
 
-void SessionImpl::Effects::fail_dropped(std::uint64_t now_us) { s_.fail(drop_failure(s_.config_), now_us); }
+void SessionImpl::Effects::fail_dropped(std::uint64_t now_us) { s_.fail(SessionEvent::Reason::Dropped, drop_failure(s_.config_), now_us); }
 
 void SessionImpl::Effects::slot_changed_hands(PlayerId slot) { s_.authority_->reset_slot(slot); }
 

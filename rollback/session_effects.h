@@ -18,7 +18,7 @@ namespace lockroll::rollback {
 class SessionImpl::Effects final : public MembershipEffects, public AuthoringEffects {
 public:
     explicit Effects(SessionImpl& s) : s_(s) {}
-    void emit(SessionEvent::Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
+    void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
               std::string detail) override;
     void fail_dropped(std::uint64_t now_us) override;
     void slot_changed_hands(PlayerId slot) override;
@@ -51,7 +51,7 @@ public:
         s_.detector_->add_remote(from, frame, checksum);
     }
     void neutral_from(PlayerId slot, std::uint32_t frame) override {
-        s_.emit(SessionEvent::Kind::NeutralFrom, slot, frame, s_.last_now_us_);
+        s_.emit(SessionEvent::Kind::NeutralFrom, SessionEvent::Reason::NeutralAgreed, slot, frame, s_.last_now_us_);
     }
     bool failed() const override { return s_.phase_ == SessionPhase::Failed; }
 
@@ -71,10 +71,10 @@ public:
     }
     void joined(PlayerId slot, std::uint32_t handoff, std::uint32_t frame, std::uint64_t now_us) override {
         s_.detector_->reset_peer(slot);
-        s_.emit(SessionEvent::Kind::Joined, slot, handoff, now_us, "snapshot of frame " + std::to_string(frame));
+        s_.emit(SessionEvent::Kind::Joined, SessionEvent::Reason::Handoff, slot, handoff, now_us, "snapshot of frame " + std::to_string(frame));
     }
     void spectator_joined(PlayerId peer, std::uint32_t frame, std::uint64_t now_us) override {
-        s_.emit(SessionEvent::Kind::SpectatorJoined, peer, frame, now_us);
+        s_.emit(SessionEvent::Kind::SpectatorJoined, SessionEvent::Reason::None, peer, frame, now_us);
     }
     void acked() override { s_.refresh_resend_floor(); }
 

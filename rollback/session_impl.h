@@ -222,6 +222,7 @@ private:
     FramePacing pacing_;  // declared after config_, which it reads
     Handshake handshake_;  // after config_ and membership_
     std::optional<PlayerId> recover_from_;
+    SessionEvent::Reason recovery_reason_ = SessionEvent::Reason::None;  // Majority or TieRule, with:
     std::string recovery_why_;  // why this peer reloads from recover_from_: "in the minority at frame F, by RULE"
     bool joining_ = false;          // local stream starts ahead of the shown frame
     // A joiner's handoff frame. Its stream before it is the owner's neutral input, flagged

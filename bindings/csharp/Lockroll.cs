@@ -80,6 +80,8 @@ public static class Native {
     [DllImport(Lib)] public static extern void lockroll_wait(IntPtr s);
     [DllImport(Lib)] public static extern void lockroll_request_stop(IntPtr s);
     [DllImport(Lib)] public static extern int lockroll_next_event(IntPtr s, out Event e);
+    // Why the event just taken happened: a stable name ("timed_out", "tie_rule", "none", ...).
+    [DllImport(Lib)] public static extern IntPtr lockroll_event_reason(IntPtr s);
     [DllImport(Lib)] public static extern Status lockroll_confirmed_checksum(IntPtr s, uint frame, out ulong checksum);
     [DllImport(Lib)] public static extern Status lockroll_final_checksum(IntPtr s, out ulong checksum);
     [DllImport(Lib)] public static extern uint lockroll_frame(IntPtr s);

@@ -109,6 +109,7 @@ def _load_library():
         "lockroll_wait": (None, [P]),
         "lockroll_request_stop": (None, [P]),
         "lockroll_next_event": (ctypes.c_int, [P, ctypes.POINTER(_Event)]),
+        "lockroll_event_reason": (ctypes.c_char_p, [P]),
         "lockroll_network_stats": (ctypes.c_int, [P, ctypes.c_int32, ctypes.POINTER(_Stats)]),
         "lockroll_confirmed_checksum": (ctypes.c_int, [P, ctypes.c_uint32, ctypes.POINTER(ctypes.c_uint64)]),
         "lockroll_final_checksum": (ctypes.c_int, [P, ctypes.POINTER(ctypes.c_uint64)]),
@@ -148,15 +149,17 @@ def outcome_name(outcome):
 
 
 class Event:
-    """One session event: kind (LOCKROLL_EVENT_* value), name, player, frame, at_us, detail."""
+    """One session event: kind (LOCKROLL_EVENT_* value), name, player, frame, at_us, detail, and
+    reason: why, as a stable name ("timed_out", "tie_rule", ...; "none" when the kind says it all)."""
 
-    def __init__(self, e):
+    def __init__(self, e, reason="none"):
         self.kind, self.player, self.frame, self.at_us = e.kind, e.player, e.frame, e.at_us
         self.name = library().lockroll_event_name(e.kind).decode()
         self.detail = e.detail.decode(errors="replace") if e.detail else ""
+        self.reason = reason
 
     def __repr__(self):
-        return f"event {self.name} peer {self.player} frame {self.frame} {self.detail}"
+        return f"event {self.name} ({self.reason}) peer {self.player} frame {self.frame} {self.detail}"
 
 
 class UpdateResult:
@@ -298,7 +301,7 @@ class Session:
         """The events not taken yet, oldest first."""
         out, e = [], _Event()
         while self._lib.lockroll_next_event(self._s, ctypes.byref(e)):
-            out.append(Event(e))
+            out.append(Event(e, self._lib.lockroll_event_reason(self._s).decode()))
         return out
 
     def network_stats(self, peer):

@@ -66,7 +66,8 @@ static class CsharpCounter {
             if (Native.lockroll_update(s, input, (UIntPtr)1, out r) != Status.Ok) return Fail(Native.LastError());
             Event e;
             while (Native.lockroll_next_event(s, out e) != 0)
-                Console.Error.WriteLine("event " + Native.Text(Native.lockroll_event_name(e.kind)) + " peer " + e.player +
+                Console.Error.WriteLine("event " + Native.Text(Native.lockroll_event_name(e.kind)) + " (" +
+                                        Native.Text(Native.lockroll_event_reason(s)) + ") peer " + e.player +
                                         " frame " + e.frame + " " + Native.Text(e.detail));
             if (r.outcome != Outcome.Running) break;
             Thread.Sleep(10);

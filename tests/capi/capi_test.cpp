@@ -146,6 +146,8 @@ TEST(CApi, OnePlayerSessionRunsTheCallbacksToTheFinalChecksum) {
     EXPECT_EQ(lockroll_update(s, two, 2, nullptr), LOCKROLL_INVALID_ARGUMENT);  // one local player: 1 byte
     EXPECT_NE(error().find("want 1"), std::string::npos) << error();
 
+    EXPECT_STREQ(lockroll_event_reason(s), "none") << "no event taken yet";
+    EXPECT_STREQ(lockroll_event_reason(nullptr), "none");
     lockroll_update_result r{};
     int ticks = 0, synchronized = 0;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -158,7 +160,9 @@ TEST(CApi, OnePlayerSessionRunsTheCallbacksToTheFinalChecksum) {
         lockroll_event e;
         while (lockroll_next_event(s, &e)) {
             ASSERT_NE(e.detail, nullptr);
-            if (e.kind == LOCKROLL_EVENT_SYNCHRONIZED) ++synchronized;
+            if (e.kind != LOCKROLL_EVENT_SYNCHRONIZED) continue;
+            ++synchronized;
+            EXPECT_STREQ(lockroll_event_reason(s), "handshake") << "started after the handshake, not from a snapshot";
         }
         if (r.outcome != LOCKROLL_RUNNING) break;
         lockroll_wait(s);

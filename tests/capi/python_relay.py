@@ -65,6 +65,11 @@ def main():
         for e in session.events():
             if e.name == "snapshot_loaded":
                 snapshot = e.frame
+                # The binding's typed reason: a joiner loads to join, a spectator to watch.
+                want = "spectating" if role == "spectator" else "joining"
+                if e.reason != want:
+                    print(f"python_relay: snapshot_loaded reason {e.reason}, want {want}", file=sys.stderr)
+                    return 1
             print(e, file=sys.stderr, flush=True)
         if r.outcome != lockroll.RUNNING:
             break

@@ -21,8 +21,8 @@ struct FakeStreams final : AuthoringEffects {
     const Membership* view = nullptr;
     const std::vector<PeerLink>* links = nullptr;
 
-    void emit(Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string) override {
-        if (kind == Kind::NeutralFrom) neutral_from.emplace_back(peer, frame);
+    void emit(Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string) override {
+        if (kind == Kind::NeutralFrom && reason == SessionEvent::Reason::WritesNeutral) neutral_from.emplace_back(peer, frame);
     }
     bool live_peer(PlayerId p) const override {
         return p != view->local() && (*links)[p].welcomed && view->running(p);

@@ -1,6 +1,7 @@
 // EventQueue (rollback/session_core.h): the one bounded event stream both sessions use.
 #include <gtest/gtest.h>
 
+#include <set>
 #include <string>
 
 #include "rollback/session_core.h"
@@ -50,6 +51,30 @@ TEST(EventQueue, FullQueueDropsTheOldestAndCountsIt) {
 TEST(EventQueue, EveryKindHasAName) {
     for (int k = 0; k <= static_cast<int>(Kind::DesyncReport); ++k)
         EXPECT_STRNE(event_name(static_cast<Kind>(k)), "unknown") << "kind " << k;
+}
+
+// Reasons are switched on by name outside C++ (the C ABI, logs): each has its own, and a value
+// past the last is "unknown", never another's name.
+TEST(EventQueue, EveryReasonHasADistinctName) {
+    using Reason = SessionEvent::Reason;
+    std::set<std::string> names;
+    for (int r = 0; r <= kLastReason; ++r) {
+        const std::string name = reason_name(static_cast<Reason>(r));
+        EXPECT_NE(name, "unknown") << "reason " << r;
+        EXPECT_TRUE(names.insert(name).second) << "reason " << r << " repeats " << name;
+    }
+    EXPECT_STREQ(reason_name(Reason::None), "none");
+    EXPECT_STREQ(reason_name(Reason::TimedOutTwoPlayerRule), "timed_out_two_player_rule");
+    EXPECT_STREQ(reason_name(static_cast<Reason>(kLastReason + 1)), "unknown");
+}
+
+TEST(EventQueue, AnEventKeepsItsReason) {
+    EventQueue q;
+    q.push({Kind::Disconnected, 2, 5, 0, "timed out", SessionEvent::Reason::TimedOut});
+    SessionEvent e;
+    ASSERT_TRUE(q.pop(e));
+    EXPECT_EQ(e.reason, SessionEvent::Reason::TimedOut);
+    EXPECT_EQ(e.detail, "timed out");
 }
 
 }  // namespace

@@ -95,7 +95,10 @@ TEST(Lifecycle, MismatchedMatchIdIsRefusedOnBothSides) {
     for (const auto& c : cluster.clients) {
         EXPECT_EQ(c->session->phase(), SessionPhase::Failed);
         EXPECT_NE(c->session->failure().find("match id"), std::string::npos) << c->session->failure();
-        EXPECT_FALSE(events_of(*c, Kind::Refused).empty());
+        ASSERT_FALSE(events_of(*c, Kind::Refused).empty());
+        for (const SessionEvent* e : events_of(*c, Kind::Refused)) EXPECT_EQ(e->reason, SessionEvent::Reason::MatchId) << e->detail;
+        ASSERT_EQ(events_of(*c, Kind::Failed).size(), 1u);
+        EXPECT_EQ(events_of(*c, Kind::Failed)[0]->reason, SessionEvent::Reason::MatchId);
         EXPECT_GT(c->session->foreign_packets(), 0u);
         EXPECT_EQ(c->session->frame(), 0u);
     }
@@ -158,7 +161,8 @@ TEST(Lifecycle, KillAndRejoinRollback) { kill_and_rejoin(8); }
 // settings) it is refused as dropped, so it is kicked before it runs a frame (it used to be
 // welcomed and start at frame 0 of a running match); started again as a joiner (what
 // net::NetSession does on that kick) it rejoins.
-void restart_after(Role role, std::uint64_t down_us, const std::string& drop_detail, int players = 2) {
+void restart_after(Role role, std::uint64_t down_us, const std::string& drop_detail, SessionEvent::Reason drop_reason,
+                   int players = 2) {
     const auto scene = make_scene(players, 10);
     const SessionConfig cfg = real_config(players, 8);
     Cluster cluster(scene, cfg, {15000}, 12);
@@ -175,7 +179,10 @@ void restart_after(Role role, std::uint64_t down_us, const std::string& drop_det
         cluster.run([&](const Cluster&) { return player.session->phase() == SessionPhase::Failed; }, 3'000'000);
         cluster.run([](const Cluster&) { return false; }, 100'000);  // its events drained by its next ticks
         ASSERT_EQ(player.session->phase(), SessionPhase::Failed) << "the restarted player was let in at frame 0";
-        EXPECT_EQ(events_of(player, Kind::Kicked).size(), 1u);
+        ASSERT_EQ(events_of(player, Kind::Kicked).size(), 1u);
+        EXPECT_EQ(events_of(player, Kind::Kicked)[0]->reason, SessionEvent::Reason::VotedOut);
+        ASSERT_EQ(events_of(player, Kind::Failed).size(), 1u);
+        EXPECT_EQ(events_of(player, Kind::Failed)[0]->reason, SessionEvent::Reason::Dropped);
         EXPECT_TRUE(events_of(player, Kind::Synchronized).empty());
         EXPECT_EQ(player.session->frame(), 0u);
         cluster.kill(1);
@@ -189,6 +196,8 @@ void restart_after(Role role, std::uint64_t down_us, const std::string& drop_det
         const Client& survivor = *cluster.clients[static_cast<std::size_t>(p)];
         ASSERT_EQ(events_of(survivor, Kind::Disconnected).size(), 1u) << "survivor " << p;
         EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->detail, drop_detail) << "survivor " << p;
+        EXPECT_EQ(events_of(survivor, Kind::Disconnected)[0]->reason, drop_reason)
+            << "survivor " << p << ": " << reason_name(events_of(survivor, Kind::Disconnected)[0]->reason);
         EXPECT_LT(events_of(survivor, Kind::Disconnected)[0]->at_us, restarted_at + 500'000) << "survivor " << p;
         EXPECT_LT(survivor.session->stats().stall_time_us, 3'000'000u) << "survivor " << p;
     }
@@ -200,16 +209,18 @@ void restart_after(Role role, std::uint64_t down_us, const std::string& drop_det
 // With two players the single vote decides (the two-player rule), and the detail says so.
 constexpr const char* kAloneRule = " (the two-player rule, play_on_alone: this process plays on alone)";
 TEST(Lifecycle, FastRestartIsNoticedBeforeTheTimeout) {
-    restart_after(Role::Joiner, 1'000'000, std::string("rejoining, by 1 of 2 votes") + kAloneRule);
+    restart_after(Role::Joiner, 1'000'000, std::string("rejoining, by 1 of 2 votes") + kAloneRule,
+                  SessionEvent::Reason::RejoiningTwoPlayerRule);
 }
 TEST(Lifecycle, RestartAsPlayerIsRefusedAsDroppedThenRejoinsAsJoiner) {
-    restart_after(Role::Player, 300'000, std::string("restarted, by 1 of 2 votes") + kAloneRule);
+    restart_after(Role::Player, 300'000, std::string("restarted, by 1 of 2 votes") + kAloneRule,
+                  SessionEvent::Reason::RestartedTwoPlayerRule);
 }
 TEST(Lifecycle, FastRestartOfOneOfThreeIsDroppedByTheTwoVotesBeforeTheTimeout) {
-    restart_after(Role::Joiner, 1'000'000, "rejoining, by 2 of 3 votes", 3);
+    restart_after(Role::Joiner, 1'000'000, "rejoining, by 2 of 3 votes", SessionEvent::Reason::Rejoining, 3);
 }
 TEST(Lifecycle, RestartAsPlayerOfOneOfThreeIsDroppedByTheTwoVotesThenRejoins) {
-    restart_after(Role::Player, 300'000, "restarted, by 2 of 3 votes", 3);
+    restart_after(Role::Player, 300'000, "restarted, by 2 of 3 votes", SessionEvent::Reason::Restarted, 3);
 }
 
 // Issue 21, "a datagram is a claim, not a fact": an outsider sends one hello with slot 1's id,
@@ -261,6 +272,7 @@ void forged_restart_hello(int players, std::vector<PlayerId> targets) {
         ASSERT_EQ(refused.size(), 1u) << "client " << t;
         EXPECT_EQ(refused[0]->peer, 1);
         EXPECT_NE(refused[0]->detail.find("restart"), std::string::npos) << refused[0]->detail;
+        EXPECT_EQ(refused[0]->reason, SessionEvent::Reason::RestartDoubted) << refused[0]->detail;
     }
     expect_equal_at(cluster, 800);
 }
@@ -326,6 +338,10 @@ void lone_survivor(int players, int window, std::uint32_t input_capacity, std::u
     EXPECT_EQ(alone.since(), events_of(survivor, Kind::Disconnected).back()->frame);
     EXPECT_NE(events_of(survivor, Kind::Disconnected).back()->detail.find("the two-player rule"), std::string::npos)
         << events_of(survivor, Kind::Disconnected).back()->detail;
+    EXPECT_EQ(events_of(survivor, Kind::Disconnected).back()->reason, SessionEvent::Reason::TimedOutTwoPlayerRule);
+    if (players > 2) {
+        EXPECT_EQ(events_of(survivor, Kind::Disconnected).front()->reason, SessionEvent::Reason::TimedOut);
+    }
     // Stalled only while the dead waited out their timeouts (one after another).
     EXPECT_LT(survivor.session->stats().stall_time_us,
               static_cast<std::uint64_t>(players - 1) * cfg.disconnect_us + 1'000'000);
@@ -696,7 +712,10 @@ TEST(Lifecycle, InjectedDesyncIsNamedAndTheOddOneRecovers) {
         EXPECT_EQ(odd.reports[0].frame, 150u);
         EXPECT_EQ(odd.reports[0].body_id, body);
         EXPECT_EQ(odd.session->recoveries(), 1);
-        EXPECT_EQ(events_of(odd, Kind::DesyncRecovered).size(), 1u);
+        ASSERT_EQ(events_of(odd, Kind::DesyncRecovered).size(), 1u);
+        EXPECT_EQ(events_of(odd, Kind::DesyncRecovered)[0]->reason, SessionEvent::Reason::Majority);
+        for (const SessionEvent* e : events_of(odd, Kind::DesyncDetected))
+            EXPECT_EQ(e->reason, SessionEvent::Reason::ChecksumMismatch);
         EXPECT_EQ(cluster.clients[0]->session->recoveries(), 0);
         EXPECT_EQ(cluster.clients[1]->session->recoveries(), 0);
     });
@@ -743,6 +762,7 @@ TEST(Lifecycle, TwoPlayerDesyncRecoveryNamesTheTieRule) {
         const auto recovered = events_of(odd, Kind::DesyncRecovered);
         ASSERT_EQ(recovered.size(), 1u);
         ASSERT_FALSE(odd.desyncs.empty());
+        EXPECT_EQ(recovered[0]->reason, SessionEvent::Reason::TieRule);
         EXPECT_EQ(recovered[0]->detail, "this peer was on a tie's other side at frame " + std::to_string(odd.desyncs[0].frame) +
                                             ", by no majority (a tie, 1 against 1): the tie rule (two_player_keep: "
                                             "lowest_slot) keeps slot 0's group; reloaded peer 0's confirmed frame " +

@@ -14,6 +14,7 @@ namespace lockroll::rollback {
 namespace {
 
 using Kind = SessionEvent::Kind;
+using Reason = SessionEvent::Reason;
 constexpr std::uint64_t kInterrupt = 250'000;
 constexpr std::uint64_t kDisconnect = 1'000'000;
 
@@ -24,6 +25,7 @@ struct FakeSession final : MembershipEffects {
         PlayerId peer;
         std::uint32_t frame;
         std::string detail;
+        Reason reason;
     };
     std::vector<Event> events;
     bool failed = false;
@@ -34,8 +36,8 @@ struct FakeSession final : MembershipEffects {
     const std::vector<PeerLink>* links = nullptr;
     std::vector<InputQueue> queues;
 
-    void emit(Kind kind, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string detail) override {
-        events.push_back({kind, peer, frame, std::move(detail)});
+    void emit(Kind kind, Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string detail) override {
+        events.push_back({kind, peer, frame, std::move(detail), reason});
     }
     void fail_dropped(std::uint64_t) override { failed = true; }
     void slot_changed_hands(PlayerId slot) override { changed_hands.push_back(slot); }
@@ -112,6 +114,7 @@ TEST(MembershipChanges, OneVoteOfThreeDropsNobodyAMajorityDropsTheSlot) {
     ASSERT_EQ(dropped.size(), 1u);
     EXPECT_EQ(dropped[0].peer, 2);
     EXPECT_EQ(dropped[0].detail, "timed out, by 2 of 3 votes");
+    EXPECT_EQ(dropped[0].reason, Reason::TimedOut);
     EXPECT_EQ(f.fake.changed_hands, std::vector<PlayerId>{2});
     EXPECT_EQ(f.fake.failed_peers, std::vector<PlayerId>{2});
     EXPECT_GT(f.fake.floor_moves, 0);
@@ -149,6 +152,7 @@ TEST(MembershipChanges, TwoPlayersPlayOnAloneDropsOnOurVoteNoDropNever) {
     ASSERT_EQ(alone.fake.of(Kind::Disconnected).size(), 1u);
     EXPECT_EQ(alone.fake.of(Kind::Disconnected)[0].detail,
               "timed out, by 1 of 2 votes (the two-player rule, play_on_alone: this process plays on alone)");
+    EXPECT_EQ(alone.fake.of(Kind::Disconnected)[0].reason, Reason::TimedOutTwoPlayerRule);
 
     Fixture never(2, {}, TwoPlayerRule::NoDrop);
     never.view.vote_local(1, true);
@@ -167,6 +171,7 @@ TEST(MembershipChanges, OurOwnSlotVotedGoneByAMajorityIsKicked) {
     EXPECT_EQ(kicked[0].peer, 0);
     EXPECT_EQ(kicked[0].frame, f.fake.shown);
     EXPECT_EQ(kicked[0].detail, "2 of 3 players voted this slot gone");
+    EXPECT_EQ(kicked[0].reason, Reason::VotedOut);
     EXPECT_TRUE(f.fake.failed);
     EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty()) << "nothing more once kicked";
 }
@@ -238,6 +243,8 @@ TEST(MembershipChanges, AHostDroppedTakesItsGuests) {
     EXPECT_EQ(dropped[0].peer, 1);
     EXPECT_EQ(dropped[1].peer, 2);
     EXPECT_EQ(dropped[1].detail, "its host was dropped");
+    EXPECT_EQ(dropped[0].reason, Reason::TimedOut) << "our vote and slot 3's";
+    EXPECT_EQ(dropped[1].reason, Reason::HostDropped);
     EXPECT_FALSE(f.view.running(2));
 }
 
@@ -249,6 +256,7 @@ TEST(MembershipChanges, SilenceIsOurVoteInterruptedOnceBefore) {
     f.changes.check_silence(kInterrupt);
     ASSERT_EQ(f.fake.of(Kind::Interrupted).size(), 1u);
     EXPECT_EQ(f.fake.of(Kind::Interrupted)[0].peer, 2);
+    EXPECT_EQ(f.fake.of(Kind::Interrupted)[0].reason, Reason::Silent);
     f.hear_all_but(2, kInterrupt + 1);
     f.changes.check_silence(kInterrupt + 1);
     EXPECT_EQ(f.fake.of(Kind::Interrupted).size(), 1u) << "once per silence";
@@ -275,6 +283,7 @@ TEST(MembershipChanges, ASilentSpectatorIsNoLongerServed) {
     ASSERT_EQ(gone.size(), 1u);
     EXPECT_EQ(gone[0].peer, 3);
     EXPECT_EQ(gone[0].detail, "spectator timed out");
+    EXPECT_EQ(gone[0].reason, Reason::SpectatorTimedOut);
     for (PlayerId s = 0; s < 3; ++s) EXPECT_TRUE(f.view.running(s));
 }
 
@@ -295,6 +304,7 @@ TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.changes.settle_membership(200 + kDisconnect);
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "handoff lapsed, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::HandoffLapsed);
 }
 
 TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
@@ -305,6 +315,7 @@ TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.changes.settle_membership(200);
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "kicked, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::KickVote);
     EXPECT_THROW(f.changes.disconnect_player(0, 300), std::invalid_argument) << "our own slot";
     EXPECT_THROW(f.changes.disconnect_player(3, 300), std::invalid_argument) << "not a slot";
 
@@ -327,6 +338,7 @@ TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
     f.changes.settle_membership(200);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "rejoining, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::Rejoining);
 
     Fixture heard(3);
     heard.hear_all_but(99, 0);
@@ -337,6 +349,7 @@ TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
     heard.changes.count_vote(1, 2, Vote::Gone, 1);
     heard.changes.settle_membership(kDisconnect + 1);
     EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).detail, "timed out, by 2 of 3 votes");
+    EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).reason, Reason::TimedOut);
 }
 
 TEST(MembershipChanges, TwoPlayersARestartClaimDecidesUnderPlayOnAloneOnly) {
@@ -344,6 +357,7 @@ TEST(MembershipChanges, TwoPlayersARestartClaimDecidesUnderPlayOnAloneOnly) {
     EXPECT_TRUE(alone.changes.claim_restart(1, true, 100));
     EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
     EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).detail, "restarted, by 1 of 2 votes (the two-player rule, play_on_alone: this process plays on alone)");
+    EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).reason, Reason::RestartedTwoPlayerRule);
 
     Fixture never(2, {}, TwoPlayerRule::NoDrop);
     EXPECT_FALSE(never.changes.claim_restart(1, false, 100));
@@ -360,6 +374,7 @@ TEST(MembershipChanges, PartitionedOncePerEpisode) {
     ASSERT_EQ(f.fake.of(Kind::Partitioned).size(), 1u);
     EXPECT_EQ(f.fake.of(Kind::Partitioned)[0].frame, f.fake.confirmed);
     EXPECT_EQ(f.fake.of(Kind::Partitioned)[0].detail, "hears 1 of 3 players: no majority, nobody is dropped");
+    EXPECT_EQ(f.fake.of(Kind::Partitioned)[0].reason, Reason::NoMajority);
     f.changes.settle_membership(200);
     EXPECT_EQ(f.fake.of(Kind::Partitioned).size(), 1u) << "once per episode";
 
@@ -377,6 +392,7 @@ TEST(MembershipChanges, APeersTableHandsASlotOverOrTellsADropWeMissed) {
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
     ASSERT_EQ(f.fake.of(Kind::Disconnected).size(), 1u);
     EXPECT_EQ(f.fake.of(Kind::Disconnected)[0].detail, "learned from a peer");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected)[0].reason, Reason::LearnedFromPeer);
     EXPECT_EQ(f.fake.failed_peers, std::vector<PlayerId>{2});
 
     // The owner handed it to a new process: listen to it from now on, its predecessor forgotten.
@@ -389,6 +405,7 @@ TEST(MembershipChanges, APeersTableHandsASlotOverOrTellsADropWeMissed) {
     const auto joined = f.fake.of(Kind::Joined);
     ASSERT_EQ(joined.size(), 1u);
     EXPECT_EQ(joined[0].frame, 1u) << "its stream's count";
+    EXPECT_EQ(joined[0].reason, Reason::LearnedFromPeer);
     EXPECT_FALSE(f.links[2].error());
     EXPECT_TRUE(f.links[2].heard);
     EXPECT_EQ(f.fake.replaced_peers, std::vector<PlayerId>{2});
@@ -401,6 +418,7 @@ TEST(MembershipChanges, APeersTableThatDropsOurOwnSlotKicksUs) {
     f.changes.adopt_slot(0, {0, SlotState::Disconnected, 1, 0}, 100);
     ASSERT_EQ(f.fake.of(Kind::Kicked).size(), 1u);
     EXPECT_EQ(f.fake.of(Kind::Kicked)[0].detail, "the other peers dropped this slot");
+    EXPECT_EQ(f.fake.of(Kind::Kicked)[0].reason, Reason::LearnedFromPeer);
     EXPECT_TRUE(f.fake.failed);
 }
 

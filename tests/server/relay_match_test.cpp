@@ -32,6 +32,14 @@ int count(const testing::RelayClient& c, Kind k) {
     return n;
 }
 
+// The reason of client c's last event of kind k (None when there is none).
+rollback::SessionEvent::Reason reason_of(const testing::RelayClient& c, Kind k) {
+    auto r = rollback::SessionEvent::Reason::None;
+    for (const auto& e : c.events)
+        if (e.kind == k) r = e.reason;
+    return r;
+}
+
 // Client i's session failed, its failure naming `why`.
 void expect_failed(RelayCluster& cl, int i, const char* why) {
     const auto& c = cl.client(i);
@@ -101,6 +109,7 @@ TEST(RelayMatch, ClientsOfARestartedServerFailSayingWhy) {
         const auto& c = cl.client(s);
         EXPECT_EQ(c.session->phase(), rollback::SessionPhase::Failed) << "slot " << s;
         EXPECT_NE(c.session->failure().find("restarted"), std::string::npos) << c.session->failure();
+        EXPECT_EQ(reason_of(c, Kind::Failed), rollback::SessionEvent::Reason::RoomRestarted) << "slot " << s;
         EXPECT_EQ(cl.kicked(c.connection), 0u) << "slot " << s;
     }
 }
@@ -120,6 +129,8 @@ TEST(RelayMatch, ClientsOfADeadServerFailWithinTheTimeout) {
         expect_failed(cl, s, "silent");
         EXPECT_TRUE(cl.client(s).session->server_lost()) << "slot " << s;
         EXPECT_EQ(count(cl.client(s), Kind::ServerLost), 1) << "slot " << s;
+        EXPECT_EQ(reason_of(cl.client(s), Kind::ServerLost), rollback::SessionEvent::Reason::ServerSilent) << "slot " << s;
+        EXPECT_EQ(reason_of(cl.client(s), Kind::Failed), rollback::SessionEvent::Reason::ServerSilent) << "slot " << s;
         EXPECT_EQ(count(cl.client(s), Kind::Disconnected), 0) << "slot " << s;
     }
 }
@@ -277,6 +288,23 @@ TEST(RelayMatch, CouchesOfSeveralSlotsPlayAndJoinThroughOneConnectionEach) {
     EXPECT_GT(differ, 100);
 }
 
+// A refused hello's Refused and Failed events say which refusal as their typed reason (the
+// text is for people): here a client whose match has three players, against a room of two.
+TEST(RelayMatch, ARefusedHelloNamesTheRefusalAsItsReason) {
+    RelayCluster cl(rollback::testing::make_scene(2, 10));
+    add_two_players(cl, 70);
+    ASSERT_TRUE(cl.run_until_frame(60));
+    cl.add(player(3, 2), {10000, 1000, 0, 0, 0}, 72);
+    cl.run_for(1'000'000);
+    const auto& stranger = cl.client(2);
+    EXPECT_EQ(stranger.session->phase(), rollback::SessionPhase::Failed);
+    EXPECT_EQ(count(stranger, Kind::Refused), 1);
+    EXPECT_EQ(reason_of(stranger, Kind::Refused), rollback::SessionEvent::Reason::RoomParams)
+        << rollback::reason_name(reason_of(stranger, Kind::Refused));
+    EXPECT_EQ(reason_of(stranger, Kind::Failed), rollback::SessionEvent::Reason::RoomParams);
+    for (int s = 0; s < 2; ++s) EXPECT_TRUE(cl.client(s).session->running()) << "slot " << s;
+}
+
 TEST(RelayMatch, KilledPlayerRejoinsItsSlot) {
     const auto scene = rollback::testing::make_scene(2, 20);
     RelayCluster cl(scene);
@@ -407,6 +435,9 @@ TEST(RelayMatch, ServerNamesTheOddClientWhichReloadsTheMajorityState) {
     for (const auto& v : room->desync_verdicts()) EXPECT_EQ(v.second, 1);
     EXPECT_EQ(count(cl.client(1), Kind::DesyncDetected), 1);
     EXPECT_EQ(count(cl.client(1), Kind::DesyncRecovered), 1);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::DesyncDetected), rollback::SessionEvent::Reason::ServerMinority);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::SnapshotLoaded), rollback::SessionEvent::Reason::Recovering);
+    EXPECT_EQ(reason_of(cl.client(1), Kind::DesyncRecovered), rollback::SessionEvent::Reason::Majority);
     EXPECT_EQ(count(cl.client(0), Kind::DesyncDetected), 0);
     expect_equal_at(cl, {0, 1, 2}, 600);
 }
@@ -427,6 +458,8 @@ TEST(RelayMatch, TwoPlayerLiarEndsTheMatchForBothWithNoEndlessReload) {
         const auto& c = cl.client(s);
         expect_failed(cl, s, "no majority");
         EXPECT_EQ(count(c, Kind::DesyncRecovered), 0) << "slot " << s;
+        EXPECT_EQ(reason_of(c, Kind::DesyncDetected), rollback::SessionEvent::Reason::ServerNoMajority) << "slot " << s;
+        EXPECT_EQ(reason_of(c, Kind::Failed), rollback::SessionEvent::Reason::ServerNoMajority) << "slot " << s;
         EXPECT_LT(c.session->frame(), 120u) << "slot " << s;  // the first checkpoint (30) ended it
     }
     const RelayRoom* room = cl.server().room(42);
