@@ -100,6 +100,7 @@ const char* reason_name(SessionEvent::Reason r) {
         case R::Exception: return "exception";
         case R::ServerDraining: return "server_draining";
         case R::ServerSilent: return "server_silent";
+        case R::SpectatorLagged: return "spectator_lagged";
     }
     return "unknown";
 }

@@ -147,6 +147,9 @@ struct SessionEvent {
         Exception,                   // the game (or an invariant) threw inside a session call
         ServerDraining,              // relay: the server is shutting down
         ServerSilent,                // relay: nothing from the server for server_timeout_us
+        // Disconnected (a spectator; no vote): it fell spectator_lag_bound inputs behind and no
+        // longer holds the players' resend floor (rollback/confirm_floors.h)
+        SpectatorLagged,
     };
     Kind kind = Kind::Synchronizing;
     PlayerId peer = 0;        // the slot or peer id concerned
@@ -155,7 +158,7 @@ struct SessionEvent {
     std::string detail;
     Reason reason = Reason::None;
 };
-inline constexpr int kLastReason = static_cast<int>(SessionEvent::Reason::ServerSilent);
+inline constexpr int kLastReason = static_cast<int>(SessionEvent::Reason::SpectatorLagged);
 const char* event_name(SessionEvent::Kind k);
 // "timed_out", "kicked_by_server", ...: stable names for logs, the C ABI and its bindings.
 const char* reason_name(SessionEvent::Reason r);

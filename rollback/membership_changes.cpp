@@ -132,7 +132,7 @@ void MembershipChanges::refused_as_dropped(PlayerId from, std::uint8_t epoch, st
     const bool other_voter = is_slot(from) && view_.running(from) && host_of(config_, from) == from;
     if (other_voter && !mine(from) && view_.running_voters() == 2 && view_.rule() == TwoPlayerRule::PlayOnAlone &&
         view_.running(me) && newer_epoch(epoch, view_.epoch(me))) {
-        effects_.emit(SessionEvent::Kind::Kicked, me, effects_.frame(), now_us,
+        effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, me, effects_.frame(), now_us,
                       "peer " + std::to_string(from) + " dropped this slot (the two-player rule: it plays on alone)");
         effects_.fail_dropped(now_us);
         return;

@@ -416,7 +416,7 @@ void SessionImpl::cut_loose_lagging_spectators(std::uint64_t now_us) {
             !spectator_lags(l, config_.local_player, count_of(config_.local_player), config_.input_capacity))
             continue;
         l.welcomed = false;
-        emit(SessionEvent::Kind::Disconnected, static_cast<PlayerId>(p), frame(), now_us,
+        emit(SessionEvent::Kind::Disconnected, SessionEvent::Reason::SpectatorLagged, static_cast<PlayerId>(p), frame(), now_us,
              "spectator fell " + std::to_string(count_of(config_.local_player) - l.remote_ack) + " inputs behind");
     }
 }

@@ -1587,6 +1587,7 @@ TEST(Lifecycle, PlayersDoNotWaitForASpectatorThatStopsStepping) {
         // It no longer holds them: dropped (told so), not merely outrun.
         ASSERT_FALSE(events_of(c, Kind::Disconnected).empty()) << "client " << p;
         EXPECT_EQ(events_of(c, Kind::Disconnected).back()->peer, 3u) << "client " << p;
+        EXPECT_EQ(events_of(c, Kind::Disconnected).back()->reason, SessionEvent::Reason::SpectatorLagged) << "client " << p;
     }
     expect_equal_at(cluster, kLast);  // the players: the spectator failed
     // The spectator says why it stopped: the players dropped it.
