@@ -118,7 +118,14 @@ struct Record {
         if (of == 2) return rule == TwoPlayerRule::PlayOnAlone && votes >= 1;
         return 2 * votes > of;
     }
-    NOT_FUZZED bool decided(PlayerId s) const { return voter(s) && strict_majority(gone(s)); }
+    // A view of two: each side decides for itself -- only the local process's own vote, and
+    // never about its own slot (the other's word about it is a claim: rollback/membership.h).
+    NOT_FUZZED bool decided(PlayerId s) const {
+        if (!voter(s)) return false;
+        if (voters() == 2)
+            return rule == TwoPlayerRule::PlayOnAlone && s != local && counted(local, s) == Vote::Gone;
+        return strict_majority(gone(s));
+    }
     NOT_FUZZED void forget(PlayerId s) {
         for (std::size_t v = 0; v < static_cast<std::size_t>(n); ++v) {
             word[v][s] = Word{};
@@ -199,6 +206,7 @@ NOT_FUZZED void check_slot(const Membership& m, const Record& r, PlayerId s) {
         const int of = m.running_voters();
         CHECK(of <= 2 || gone >= 2);
         CHECK(2 * gone > of || (of == 2 && m.rule() == TwoPlayerRule::PlayOnAlone && gone >= 1));
+        if (of == 2) CHECK(s != r.local && r.counted(r.local, s) == Vote::Gone);  // its own word
     }
     const bool local_gone = r.counted(r.local, s) == Vote::Gone;
     CHECK(m.advertised_state(s) == (local_gone ? SlotState::Disconnected : r.state[s]));
