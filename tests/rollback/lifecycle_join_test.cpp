@@ -1,0 +1,252 @@
+// The session lifecycle in virtual time, part 3 of 6: joiners and late joins, a snapshot
+// checked against the majority, a joiner that lapses or is cut off.
+
+#include "tests/rollback/lifecycle_support.h"
+
+namespace lockroll::rollback {
+namespace {
+
+// Between real processes a survivor's welcome can reach the joiner only after the joiner has
+// loaded its snapshot and runs (its connection came up late: the survivor was still timing out
+// its reconnects to the dead process). The survivor's welcome reaches a joiner that already
+// runs: the two must still start exchanging inputs, and nobody is dropped. Since issue 21's
+// strict vetting the joiner loads only once a majority of the view (here the owner and the
+// survivor) confirmed its snapshot's checksum, each on its own connection, so the survivor's
+// answer must have reached it: what comes late is only its welcome. (Before, nothing at all
+// passed between the two until the joiner ran, and it loaded on the owner's word alone; a
+// joiner cut off from the survivor that long is AJoinerCutOffFromTheMajorityIsToldAndWaits.)
+TEST(Lifecycle, SurvivorReachedOnlyAfterTheJoinerRuns) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.disconnect_us = 1'500'000;
+    Cluster cluster(scene, cfg, {10000, 2000}, 17);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(400, 60'000'000);
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    bool started = false;
+    // Client 1's welcomes do not reach the new slot-2 process until the joiner runs.
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        const bool welcome = from == 1 && to == 2 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::Welcome);
+        return !(welcome && started && cluster.clients[2]->session->phase() != SessionPhase::Running);
+    };
+    Client& joiner = cluster.start(2, scene, again, 999);
+    started = true;
+    cluster.run_frames(1000, 60'000'000);
+    cluster.settle(1000);
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded)[0]->peer, 0u) << "the owner serves the joiner";
+    EXPECT_NE(events_of(joiner, Kind::SnapshotLoaded)[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos)
+        << events_of(joiner, Kind::SnapshotLoaded)[0]->detail;
+    EXPECT_TRUE(events_of(joiner, Kind::Kicked).empty());
+    // The scene this test is about did happen: slot 1's first welcome came after the load.
+    const auto from_1 = std::find_if(joiner.events.begin(), joiner.events.end(),
+                                     [](const SessionEvent& e) { return e.kind == Kind::Synchronizing && e.peer == 1; });
+    ASSERT_NE(from_1, joiner.events.end());
+    EXPECT_GT(from_1->at_us, events_of(joiner, Kind::SnapshotLoaded)[0]->at_us);
+    for (PlayerId p : {0u, 1u}) {
+        EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running) << "client " << p;
+        EXPECT_EQ(events_of(*cluster.clients[p], Kind::Disconnected).size(), 1u) << "only the kill, client " << p;
+    }
+    expect_equal_at(cluster, 1000);
+}
+
+// The owner itself (slot 0, which writes absent slots' inputs) dies while slot 3 is absent: the
+// next lowest running slot takes both streams over from where the peers agree, and a joiner
+// into slot 0 is served by the new owner.
+TEST(Lifecycle, OwnerDiesAndTheNextSlotTakesOver) {
+    const auto scene = make_scene(4, 10);
+    SessionConfig cfg = real_config(4, 8);
+    cfg.absent_slots = 1u << 3;
+    Cluster cluster(scene, cfg, {20000, 10000, 100000}, 21);
+    cluster.kill(3);
+    cluster.run_frames(240);
+    cluster.kill(0);
+    cluster.run_frames(900, 60'000'000);
+    for (PlayerId p : {1u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        EXPECT_EQ(c.session->slot_state(0), SlotState::Disconnected);
+        EXPECT_EQ(c.session->slot_state(3), SlotState::Absent);
+    }
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom).back()->frame,
+              events_of(*cluster.clients[2], Kind::NeutralFrom).back()->frame);
+    cluster.settle(900);
+    expect_equal_at(cluster, 900);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 0;
+    Client& joiner = cluster.start(0, scene, join, 5);
+    cluster.run_frames(1300, 60'000'000);
+    cluster.settle(1300);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    expect_equal_at(cluster, 1300);
+}
+
+TEST(Lifecycle, LateJoinIntoAbsentSlotAndSpectator) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 2;
+    cfg.max_spectators = 1;
+    Cluster cluster(scene, cfg, {25000, 5000}, 8);
+    cluster.kill(2);  // nobody runs slot 2 yet
+    cluster.run_frames(150);
+    SessionConfig spec = cfg;
+    spec.role = Role::Spectator;
+    spec.local_player = 3;
+    Client& spectator = cluster.start(3, scene, spec, 1);
+    cluster.run_frames(300, 30'000'000);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 2;
+    Client& joiner = cluster.start(2, scene, join, 2);
+    cluster.run_frames(700, 60'000'000);
+    cluster.settle(700);
+    EXPECT_EQ(spectator.session->phase(), SessionPhase::Running);
+    EXPECT_EQ(joiner.session->phase(), SessionPhase::Running);
+    EXPECT_FALSE(events_of(*cluster.clients[0], Kind::SpectatorJoined).empty());
+    expect_equal_at(cluster, 700);
+    // Before the join, slot 2 was absent from frame 0 on every peer.
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::NeutralFrom)[0]->frame, 0u);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().malformed_packets, 0u);
+}
+
+TEST(Lifecycle, CorruptedSnapshotChunkIsRejectedAndAskedAgain) {
+    const auto scene = make_scene(2, 30);
+    SessionConfig cfg = real_config(2, 8);
+    cfg.absent_slots = 1u << 1;
+    Cluster cluster(scene, cfg, {10000}, 4);
+    cluster.kill(1);
+    cluster.run_frames(100);
+    int corrupted = 0;
+    cluster.filter = [&](PlayerId from, PlayerId, const std::vector<std::uint8_t>& b) {
+        if (from == 0 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk) && corrupted == 0) {
+            ++corrupted;
+            auto& bytes = const_cast<std::vector<std::uint8_t>&>(b);
+            bytes.back() ^= 0x5A;
+        }
+        return true;
+    };
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 1;
+    Client& joiner = cluster.start(1, scene, join, 3);
+    cluster.run_frames(400, 30'000'000);
+    cluster.settle(400);
+    EXPECT_EQ(corrupted, 1);
+    ASSERT_EQ(events_of(joiner, Kind::SnapshotRejected).size(), 1u);
+    EXPECT_NE(events_of(joiner, Kind::SnapshotRejected)[0]->detail.find("hash mismatch"), std::string::npos);
+    EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+    expect_equal_at(cluster, 400);
+}
+
+// Issue 21, the 16-minute soak: a joiner that cannot load (every snapshot it gets is refused)
+// keeps talking, so silence never drops it, and every player waited at its handoff frame for
+// good. Its handoff lapses instead: a slot handed over whose own stream has not started within
+// disconnect_us is voted gone and dropped (the stall bounded as any drop's), the slot stays
+// neutral, and the joiner, refused as dropped, asks again and gets in once it can load.
+TEST(Lifecycle, AJoinerThatCannotLoadLapsesAndTheOthersPlayOn) {
+    const auto joins_of = [](const Client& c) { return events_of(c, Kind::Joined).size(); };
+    const auto scene = make_scene(3, 20);
+    const SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {30000, 8000, 20000}, 9);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(600, 60'000'000);
+    ASSERT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Disconnected);
+    bool refuse = true;  // every chunk the joiner gets is damaged: it never loads
+    cluster.filter = [&](PlayerId, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (refuse && to == 2 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk))
+            const_cast<std::vector<std::uint8_t>&>(b).back() ^= 0x5A;
+        return true;
+    };
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    Client& joiner = cluster.start(2, scene, again, 999);
+    const std::uint64_t joined_at = cluster.now();
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 6 * cfg.disconnect_us);
+    EXPECT_FALSE(events_of(joiner, Kind::SnapshotRejected).empty());
+    EXPECT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_FALSE(events_of(c, Kind::Joined).empty()) << "client " << p;
+        // Dropped again once its handoff lapsed, and the match went on.
+        const auto drops = events_of(c, Kind::Disconnected);
+        ASSERT_GE(drops.size(), 2u) << "client " << p;
+        EXPECT_NE(drops[1]->detail.find("handoff lapsed"), std::string::npos) << drops[1]->detail;
+        EXPECT_LT(drops[1]->at_us - joined_at, 2 * cfg.disconnect_us) << "client " << p;
+        // 30 s: handed over, lapsed after 5 s, not again for 10 s, lapsed again: it stalled the
+        // others for about a third of the time (before, for good at the first handoff).
+        EXPECT_GT(c.session->frame(), before + 60 * 30 / 2) << "client " << p;
+        EXPECT_LE(joins_of(c), 3u) << "client " << p;
+    }
+    // It can load now: it asks again and plays.
+    refuse = false;
+    cluster.run_frames(cluster.clients[0]->session->frame() + 600, 120'000'000);
+    cluster.settle(cluster.clients[0]->session->frame());
+    EXPECT_EQ(cluster.clients[2]->session->phase(), SessionPhase::Running);
+    EXPECT_FALSE(events_of(*cluster.clients[2], Kind::SnapshotLoaded).empty());
+    EXPECT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Running);
+    EXPECT_EQ(cluster.clients[1]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+// Issue 21: a joiner loads only on a majority's checksum. Cut off from survivor 1 (nothing passes
+// between them), it hears only the owner, which serves it: that is one of the view's three
+// running processes, no majority. Before, the owner's own answer with slot 1 silent was enough
+// at the vetting deadline and it loaded. Now each offer is rejected at the deadline naming the
+// silent peer (never a silent hang), its handoff lapses and the pair plays on, and once the cut
+// heals it asks again and loads on the owner's and slot 1's word.
+TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {10000, 2000}, 17);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(400, 60'000'000);
+    ASSERT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Disconnected);
+    bool cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !(cut && ((from == 1 && to == 2) || (from == 2 && to == 1)));
+    };
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    cluster.start(2, scene, again, 999);
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 3 * cfg.disconnect_us);
+    {
+        const Client& joiner = *cluster.clients[2];
+        EXPECT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty()) << events_of(joiner, Kind::SnapshotLoaded)[0]->detail;
+        const auto rejected = events_of(joiner, Kind::SnapshotRejected);
+        ASSERT_FALSE(rejected.empty()) << "the joiner says why it does not load";
+        EXPECT_EQ(rejected[0]->peer, 0u);
+        EXPECT_NE(rejected[0]->detail.find("cut off from a majority of the view: no answer in time from peer 1"),
+                  std::string::npos)
+            << rejected[0]->detail;
+        for (PlayerId p : {0u, 1u})
+            EXPECT_GT(cluster.clients[p]->session->frame(), before + 60 * 3 * cfg.disconnect_us / 1'000'000 / 3)
+                << "client " << p << " plays on";
+    }
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    const Client& joiner = *cluster.clients[2];
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
+}
+
+}  // namespace
+}  // namespace lockroll::rollback

@@ -1,0 +1,76 @@
+// Helpers shared by the lifecycle tests (tests/rollback/lifecycle_*_test.cpp): events of one
+// kind, "everyone confirmed the same checksum", a dropped client that rejoins, a partition.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <functional>
+#include <initializer_list>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rollback/playing_alone.h"
+#include "rollback/session.h"
+#include "rollback/session_impl.h"
+#include "tests/rollback/test_support.h"
+
+namespace lockroll::rollback {
+
+// The names every lifecycle test uses.
+using testing::Client;
+using testing::Cluster;
+using testing::make_scene;
+using testing::NetParams;
+using testing::real_config;
+using testing::start_newcomer;
+using Kind = SessionEvent::Kind;
+
+inline std::vector<const SessionEvent*> events_of(const testing::Client& c, SessionEvent::Kind k) {
+    std::vector<const SessionEvent*> out;
+    for (const SessionEvent& e : c.events)
+        if (e.kind == k) out.push_back(&e);
+    return out;
+}
+
+
+// Every client that takes part confirmed `frame` with the same checksum.
+inline void expect_equal_at(const testing::Cluster& cluster, std::uint32_t frame) {
+    std::optional<std::uint64_t> first;
+    int compared = 0;
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        if (!cluster.counts(i)) continue;
+        const auto& c = *cluster.clients[i];
+        const auto it = c.confirmed.find(frame);
+        ASSERT_NE(it, c.confirmed.end()) << "client " << i << " never confirmed frame " << frame;
+        if (!first) first = it->second;
+        EXPECT_EQ(it->second, *first) << "client " << i << " differs at confirmed frame " << frame;
+        ++compared;
+    }
+    EXPECT_GE(compared, 2);
+}
+
+// A client whose session the others dropped starts again as a joiner of its slot, as
+// net::PeerRunner and the in-process match do (Session::restart_as_joiner), and catches up.
+inline void rejoin_when_dropped(testing::Cluster& cluster) {
+    cluster.before_tick = [](PlayerId, testing::Client& c) {
+        if (c.session->phase() != SessionPhase::Failed || !c.session->can_rejoin()) return;
+        for (SessionEvent e; c.session->next_event(e);) c.events.push_back(e);  // the kick, first
+        ASSERT_TRUE(c.session->restart_as_joiner());
+        c.catches_up = true;
+    };
+}
+
+// Every datagram between `side` and the rest is lost while `cut` is set.
+inline void split(testing::Cluster& cluster, std::set<PlayerId> side, const bool& cut) {
+    cluster.filter = [side = std::move(side), &cut](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !cut || side.count(from) == side.count(to);
+    };
+}
+
+}  // namespace lockroll::rollback
