@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "rollback/restart_claim.h"
 #include "rollback/slot_hosts.h"
 
 namespace lockroll::rollback {
@@ -141,7 +142,13 @@ void MembershipChanges::refused_as_dropped(PlayerId from, std::uint8_t epoch, st
     settle_membership(now_us);
 }
 
-bool MembershipChanges::claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us) {
+// The claim is noted at every hello and counts only once it has stood, the old process unheard,
+// for restart_confirm_us (rollback/restart_claim.h): an outsider's hello that lands in a genuine
+// loss burst is then no vote unless the burst outlasts that window too.
+bool MembershipChanges::claim_restart(PlayerId slot, bool as_player, bool quiet, std::uint64_t now_us) {
+    const bool stood = slots_[slot].restart_claim.claim(now_us, links_[slot].last_heard_us,
+                                                        restart_confirm_us(config_.interrupt_us));
+    if (!quiet || !stood) return !view_.running(slot);
     view_.vote_local(slot, true);  // ignored when it does not count (not a voter, a guest, ...)
     if (view_.vote_of(config_.local_player, slot) == Vote::Gone) {
         slots_[slot].restart_vote = true;

@@ -36,14 +36,19 @@
 //    itself): it plays on alone without us, and its refusals are heard, so our silence rule
 //    would never drop it: `kicked` and the session fails (the rejoin path, rollback/rejoin.h).
 //    The other's vote in its slot table never does that (Membership::decided_gone).
-//  - claim_restart(): a hello from another process of a running slot whose own process has gone
-//    quiet (admit_hello's `restarted`, rollback/session_admission.h) is our vote that the slot is
-//    gone, as disconnect_us of silence is, and like that vote it is withdrawn when the old process
-//    is heard again. Then settle_membership(): the slot leaves when a majority agrees (with two
+//  - claim_restart(): a hello from another process of a running slot claims its process
+//    restarted. Every such hello (doubted or not) is noted in the slot's RestartClaim
+//    (rollback/restart_claim.h); once the claim has stood for restart_confirm_us with the old
+//    process unheard since it began, a hello that admit_hello lets in (`restarted`: the old
+//    process quiet, rollback/session_admission.h) is our vote that the slot is gone, as
+//    disconnect_us of silence is, and like that vote it is withdrawn when the old process is
+//    heard again. Then settle_membership(): the slot leaves when a majority agrees (with two
 //    players, under PlayOnAlone, this one vote; a genuine restart says hello to every peer, so the
 //    others' votes follow within a round trip). A hello is a claim, never a fact: it used to drop
-//    the slot at once, and one forged hello froze a 3-player match (issue 21). The drop's detail
-//    is "restarted" (a player's hello) or "rejoining" (a joiner's) and the votes.
+//    the slot at once, and one forged hello froze a 3-player match (issue 21); then it was the
+//    vote at once, and a forged hello landing in a genuine loss burst of interrupt_us / 2 dropped
+//    an honest player of two. The drop's detail is "restarted" (a player's hello) or "rejoining"
+//    (a joiner's) and the votes.
 #pragma once
 
 #include <cstdint>
@@ -101,8 +106,11 @@ public:
     void disconnect_player(PlayerId slot, std::uint64_t now_us);
     // A peer refused our traffic as dropped (its view dropped our slot into `epoch`).
     void refused_as_dropped(PlayerId from, std::uint8_t epoch, std::uint64_t now_us);
-    // as_player: the hello's role was Player. True when the slot has left the view.
-    bool claim_restart(PlayerId slot, bool as_player, std::uint64_t now_us);
+    // A hello from another process of running slot `slot` claims it restarted (admit_hello's
+    // `restarted` or `doubted`). as_player: the hello's role was Player; quiet: admit_hello let the
+    // claim in (`restarted`: the old process has been silent for restart_quiet_us). True when the
+    // slot has left the view.
+    bool claim_restart(PlayerId slot, bool as_player, bool quiet, std::uint64_t now_us);
     // Reported Partitioned and not yet heard a majority again.
     bool partitioned() const { return partitioned_; }
 

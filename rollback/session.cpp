@@ -314,12 +314,15 @@ void SessionImpl::handle_hello(PlayerId from, const HelloMessage& m, std::uint64
     c.silent_us = now_us > link.last_heard_us ? now_us - link.last_heard_us : 0;
     c.interrupt_us = config_.interrupt_us;
     const HelloAdmission a = admit_hello(m, c);
-    // Another process for a slot whose process we know and hear no more: it restarted. Our vote
-    // that the old one is gone; welcome a joiner once a majority dropped it. A player is refused
-    // as dropped in the drop's epoch (newer than its view's, so its vote counts there and it
-    // rejoins), and asked to retry until then.
+    // Another process claims the slot restarted. Once the claim has stood, the old process
+    // unheard, for restart_confirm_us (rollback/restart_claim.h), and that process is quiet, it
+    // is our vote that the old one is gone; welcome a joiner once a majority dropped it. A
+    // player is refused as dropped in the drop's epoch (newer than its view's, so its vote counts
+    // there and it rejoins), and asked to retry until then. A doubted claim (the old process
+    // was heard lately) is noted too: the window runs from the claim's first hello.
     Refusal refusal = a.refusal;
-    if (a.restarted && !changes_.claim_restart(from, m.role == Role::Player, now_us)) refusal = Refusal::Retry;
+    if ((a.restarted || a.doubted) && !changes_.claim_restart(from, m.role == Role::Player, a.restarted, now_us))
+        refusal = Refusal::Retry;
     const WelcomeMessage w = handshake_.answer(from, m, running, scene_checksum_, refusal);
     if ((w.refusal != Refusal::None && w.refusal != Refusal::Retry) || a.doubted) {
         ++foreign_packets_;

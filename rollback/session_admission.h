@@ -25,8 +25,10 @@
 //    in a row. Otherwise the hello is refused "retry" with `doubted` and a `why` (the session
 //    counts it as a foreign packet and reports it, rate-limited); a genuine restart is let in
 //    once its predecessor has been quiet that long, by its next hellos. Even then `restarted`
-//    is only this session's vote (MembershipChanges::claim_restart): the slot leaves by the
-//    majority rule, like a silent one.
+//    only lets the claim in: it becomes this session's vote once it has stood, the old process
+//    unheard, for restart_confirm_us after its first hello (doubted or not; rollback/
+//    restart_claim.h, MembershipChanges::claim_restart), and the slot leaves by the majority
+//    rule, like a silent one.
 #pragma once
 
 #include <cstdint>

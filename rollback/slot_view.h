@@ -14,6 +14,7 @@
 #include <cstdint>
 
 #include "rollback/input_queue.h"
+#include "rollback/restart_claim.h"
 
 namespace lockroll::rollback {
 
@@ -27,6 +28,9 @@ struct SlotView {
     // (a player's hello: "restarted", a joiner's: "rejoining"), not from its silence.
     bool restart_vote = false;
     bool restart_by_player = false;
+    // Hellos claiming the slot's process restarted, before the claim counts (rollback/
+    // restart_claim.h): noted when it begins, void once the old process is heard again.
+    RestartClaim restart_claim;
     // A handed-over slot whose own stream has not started (its newest input is the owner's
     // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
     // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
@@ -42,6 +46,7 @@ struct SlotView {
         kick_vote = false;
         restart_vote = false;
         restart_by_player = false;
+        restart_claim.clear();
         lapsed = false;
         pending_since_us = 0;
         authoring = false;

@@ -3,6 +3,8 @@
 
 #include "tests/rollback/lifecycle_support.h"
 
+#include "rollback/restart_claim.h"
+
 namespace lockroll::rollback {
 namespace {
 
@@ -125,6 +127,23 @@ TEST(Lifecycle, RestartAsPlayerOfOneOfThreeIsDroppedByTheTwoVotesThenRejoins) {
     restart_after(Role::Player, 300'000, "restarted, by 2 of 3 votes", SessionEvent::Reason::Restarted, 3);
 }
 
+// Runs `cluster` to frame 200 and writes to `h` what an outsider who overheard slot 1's first
+// hello to peer 0 would forge from it: a joiner's hello of a new incarnation of slot 1, the
+// claim a restarted process makes.
+void run_and_forge_restart_hello(Cluster& cluster, HelloMessage& h) {
+    std::vector<std::uint8_t> hello_bytes;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+        if (from == 1 && to == 0 && hello_bytes.empty() && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::Hello))
+            hello_bytes = b;
+        return true;
+    };
+    cluster.run_frames(200);
+    cluster.filter = nullptr;
+    ASSERT_EQ(decode(hello_bytes, h), nullptr);
+    h.role = Role::Joiner;
+    h.incarnation += 12345;
+}
+
 // Issue 21, "a datagram is a claim, not a fact": an outsider sends one hello with slot 1's id,
 // as a joiner of a new incarnation (what a restarted process says), at frame 200 while slot 1's
 // own process plays on. Nobody may drop slot 1 on that word: it used to drop it at once at
@@ -135,17 +154,8 @@ void forged_restart_hello(int players, std::vector<PlayerId> targets) {
     const auto scene = make_scene(players, 10);
     const SessionConfig cfg = real_config(players, 8);
     Cluster cluster(scene, cfg, {15000, 3000}, 41);
-    std::vector<std::uint8_t> hello_bytes;  // slot 1's own first hello to peer 0
-    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
-        if (from == 1 && to == 0 && hello_bytes.empty() && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::Hello))
-            hello_bytes = b;
-        return true;
-    };
-    cluster.run_frames(200);
     HelloMessage h;
-    ASSERT_EQ(decode(hello_bytes, h), nullptr);
-    h.role = Role::Joiner;
-    h.incarnation += 12345;
+    ASSERT_NO_FATAL_FAILURE(run_and_forge_restart_hello(cluster, h));
     std::set<PlayerId> sent;
     cluster.rewrite = [&](PlayerId from, PlayerId to, std::vector<std::uint8_t>& b) {
         if (from != 1 || sent.count(to) || std::find(targets.begin(), targets.end(), to) == targets.end()) return;
@@ -184,6 +194,116 @@ TEST(Lifecycle, ForgedRestartHelloToBothPeersOfThreeDropsNobody) { forged_restar
 // Two players: one vote decides a drop (TwoPlayerRule::PlayOnAlone), so the claim alone must
 // not be that vote while slot 1's process plays.
 TEST(Lifecycle, ForgedRestartHelloInATwoPlayerMatchDropsNobody) { forged_restart_hello(2, {0}); }
+
+constexpr std::uint64_t kClaimFromUs = 450'000, kClaimEveryUs = 50'000, kClaimAfterUs = 500'000;
+
+// From frame 200 every datagram slot 1 sends is lost for burst_us; from kClaimFromUs into the
+// burst until kClaimAfterUs after it an outsider claims slot 1 restarted to each of `targets`,
+// every kClaimEveryUs, in place of one of slot 1's datagrams. Runs `cluster` until then; returns
+// when the first claim was sent.
+std::uint64_t forge_claims_in_a_loss_burst(Cluster& cluster, const std::vector<PlayerId>& targets, std::uint64_t burst_us) {
+    HelloMessage h;
+    run_and_forge_restart_hello(cluster, h);
+    if (::testing::Test::HasFatalFailure()) return 0;
+    std::vector<std::uint8_t> forged;
+    encode(h, forged);
+    const std::uint64_t burst_from = cluster.now(), burst_to = burst_from + burst_us;
+    std::map<PlayerId, std::uint64_t> last_claim;  // per target
+    std::uint64_t first_claim = 0;
+    cluster.rewrite = [&](PlayerId from, PlayerId to, std::vector<std::uint8_t>& b) {
+        const std::uint64_t now = cluster.now();
+        if (from != 1 || now < burst_from + kClaimFromUs || now >= burst_to + kClaimAfterUs) return;
+        if (std::find(targets.begin(), targets.end(), to) == targets.end()) return;
+        if (last_claim.count(to) && now < last_claim[to] + kClaimEveryUs) return;
+        b = forged;
+        last_claim[to] = now;
+        if (first_claim == 0) first_claim = now;
+    };
+    // Slot 1's own datagrams are lost during the burst; the outsider's hellos get through.
+    cluster.filter = [&](PlayerId from, PlayerId, const std::vector<std::uint8_t>& b) {
+        const std::uint64_t now = cluster.now();
+        return from != 1 || now < burst_from || now >= burst_to || b == forged;
+    };
+    cluster.run([&](const Cluster& c) { return c.now() >= burst_to + kClaimAfterUs; }, burst_us + 2'000'000);
+    cluster.rewrite = nullptr;
+    cluster.filter = nullptr;
+    for (PlayerId t : targets) EXPECT_GE(last_claim[t], burst_to) << "target " << t << ": claimed to the end";
+    return first_claim;
+}
+
+// Issue 21, the gap the ForgedRestartHello tests leave: the outsider's hello lands while slot 1's process is
+// genuinely silent. At frame 200 every datagram slot 1 sends is lost for 650 ms (a loss burst:
+// more than interrupt_us / 2 = 375 ms, so the silence alone lets a restart claim in, and far
+// less than disconnect_us = 5 s, so silence alone drops nobody). From 450 ms into the burst an
+// outsider keeps claiming slot 1 restarted -- a joiner's hello of a new incarnation to each of
+// `targets`, every 50 ms, in place of one of slot 1's datagrams, as a restarted process would --
+// and goes on for 500 ms after the burst, when slot 1 is heard again. Nobody may drop it: an honest
+// player whose silence ends before the drop timeout must not be dropped on a forged claim. On
+// main the first such hello was this peer's vote at once: with two players it decided (0 plays
+// on alone, slot 1 is dropped, and it is refused as dropped and kicked); with three, the two
+// votes were a majority. A claim now counts only once the old process has stayed silent for
+// restart_confirm_us after it began (rollback/restart_claim.h), and slot 1 spoke first.
+void forged_restart_hello_in_a_loss_burst(int players, std::vector<PlayerId> targets) {
+    constexpr std::uint64_t kBurstUs = 650'000;
+    const auto scene = make_scene(players, 10);
+    const SessionConfig cfg = real_config(players, 8);
+    ASSERT_GT(kBurstUs, cfg.interrupt_us / 2);
+    ASSERT_LT(kBurstUs, cfg.disconnect_us);
+    Cluster cluster(scene, cfg, {15000, 3000}, 43);
+    ASSERT_GT(forge_claims_in_a_loss_burst(cluster, targets, kBurstUs), 0u);
+    cluster.run_frames(800, 30'000'000);
+    cluster.settle(800, 10'000'000);
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        const Client& c = *cluster.clients[i];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << i << ": " << c.session->failure();
+        EXPECT_GE(c.session->confirmed_frame(), 800u) << "client " << i;
+        for (int s = 0; s < players; ++s)
+            EXPECT_EQ(c.session->slot_state(static_cast<PlayerId>(s)), SlotState::Running) << "client " << i << " slot " << s;
+        EXPECT_TRUE(events_of(c, Kind::Disconnected).empty())
+            << "client " << i << ": " << events_of(c, Kind::Disconnected)[0]->detail;
+        EXPECT_TRUE(events_of(c, Kind::Kicked).empty()) << "client " << i;
+        EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << i;
+    }
+    expect_equal_at(cluster, 800);
+}
+
+TEST(Lifecycle, ForgedRestartHelloDuringALossBurstInATwoPlayerMatchDropsNobody) {
+    forged_restart_hello_in_a_loss_burst(2, {0});
+}
+TEST(Lifecycle, ForgedRestartHelloDuringALossBurstToBothPeersOfThreeDropsNobody) {
+    forged_restart_hello_in_a_loss_burst(3, {0, 2});
+}
+
+// What a forged claim can still do (docs/sessions.md, "A restart is a claim"): the burst lasts
+// 1.5 s, longer than the window after the first claim, and the outsider keeps claiming. With
+// two players peer 0's vote is the decision: slot 1 is dropped long before disconnect_us -- but
+// never before the claim has stood restart_confirm_us -- and when its process is heard again it
+// is refused as dropped, kicked, and rejoins by snapshot: a rejoin, not a split of the match.
+TEST(Lifecycle, ForgedRestartHelloDuringALongerSilenceIsAVoteOnlyAfterTheWindowAndTheHonestPlayerRejoins) {
+    const auto scene = make_scene(2, 10);
+    const SessionConfig cfg = real_config(2, 8);
+    Cluster cluster(scene, cfg, {15000, 3000}, 43);
+    rejoin_when_dropped(cluster);
+    const std::uint64_t first_claim = forge_claims_in_a_loss_burst(cluster, {0}, 1'500'000);
+    ASSERT_GT(first_claim, 0u);
+    cluster.run_frames(800, 30'000'000);
+    cluster.settle(800, 10'000'000);
+    const Client& survivor = *cluster.clients[0];
+    const auto drops = events_of(survivor, Kind::Disconnected);
+    ASSERT_EQ(drops.size(), 1u);
+    EXPECT_EQ(drops[0]->reason, SessionEvent::Reason::RejoiningTwoPlayerRule) << drops[0]->detail;
+    EXPECT_GE(drops[0]->at_us, first_claim + restart_confirm_us(cfg.interrupt_us)) << "before the claim stood";
+    EXPECT_LT(drops[0]->at_us, first_claim + cfg.disconnect_us);
+    const Client& honest = *cluster.clients[1];
+    EXPECT_EQ(events_of(honest, Kind::Kicked).size(), 1u);
+    EXPECT_EQ(events_of(honest, Kind::SnapshotLoaded).size(), 1u);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        EXPECT_EQ(c.session->slot_state(1), SlotState::Running) << "client " << p;
+    }
+    expect_equal_at(cluster, 800);
+}
 
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 

@@ -325,24 +325,34 @@ TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     EXPECT_THROW(other.changes.disconnect_player(2, 100), std::invalid_argument) << "a guest goes with its host";
 }
 
-// A restart claim (a hello from another process of a slot whose own has gone quiet) is our vote,
-// not a drop: with three players a second voter must agree; hearing the old process again
-// withdraws it, and silence that follows says "timed out", not "rejoining".
+// A restart claim (hellos from another process of a slot whose own has gone quiet) is noted at
+// its first hello and is our vote once it has stood for restart_confirm_us, the old process
+// unheard (rollback/restart_claim.h).
+constexpr std::uint64_t kConfirm = restart_confirm_us(kInterrupt);
+
+// A restart claim that has stood is our vote, not a drop: with three players a second voter must
+// agree; hearing the old process again withdraws it, and silence that follows says "timed out",
+// not "rejoining".
 TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
     Fixture f(3);
-    EXPECT_FALSE(f.changes.claim_restart(2, false, 100));
+    EXPECT_FALSE(f.changes.claim_restart(2, false, true, 100));
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::None) << "the claim has not stood yet";
+    EXPECT_FALSE(f.changes.claim_restart(2, false, true, 100 + kConfirm));
     EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone);
     EXPECT_TRUE(f.view.running(2)) << "one vote of three is no majority";
     EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
     f.changes.count_vote(1, 2, Vote::Gone, 1);
-    f.changes.settle_membership(200);
+    f.changes.settle_membership(200 + kConfirm);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "rejoining, by 2 of 3 votes");
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::Rejoining);
+    EXPECT_FALSE(f.slots[2].restart_claim.stands(0)) << "the drop's new epoch forgets the claim";
 
     Fixture heard(3);
     heard.hear_all_but(99, 0);
-    EXPECT_FALSE(heard.changes.claim_restart(2, true, 100));
+    EXPECT_FALSE(heard.changes.claim_restart(2, true, true, 100));
+    EXPECT_FALSE(heard.changes.claim_restart(2, true, true, 100 + kConfirm));
+    EXPECT_EQ(heard.view.vote_of(0, 2), Vote::Gone);
     heard.view.vote_local(2, false);  // its old process spoke again (the session withdraws the vote)
     heard.hear_all_but(2, kDisconnect);
     heard.changes.check_silence(kDisconnect);
@@ -354,14 +364,49 @@ TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
 
 TEST(MembershipChanges, TwoPlayersARestartClaimDecidesUnderPlayOnAloneOnly) {
     Fixture alone(2);
-    EXPECT_TRUE(alone.changes.claim_restart(1, true, 100));
+    EXPECT_FALSE(alone.changes.claim_restart(1, true, true, 100));
+    EXPECT_TRUE(alone.view.running(1));
+    EXPECT_TRUE(alone.changes.claim_restart(1, true, true, 100 + kConfirm));
     EXPECT_EQ(alone.view.state(1), SlotState::Disconnected);
     EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).detail, "restarted, by 1 of 2 votes (the two-player rule, play_on_alone: this process plays on alone)");
     EXPECT_EQ(alone.fake.of(Kind::Disconnected).at(0).reason, Reason::RestartedTwoPlayerRule);
 
     Fixture never(2, {}, TwoPlayerRule::NoDrop);
-    EXPECT_FALSE(never.changes.claim_restart(1, false, 100));
+    EXPECT_FALSE(never.changes.claim_restart(1, false, true, 100));
+    EXPECT_FALSE(never.changes.claim_restart(1, false, true, 100 + kConfirm));
     EXPECT_TRUE(never.view.running(1));
+}
+
+// Issue 21: an outsider's claim lands while slot 1's process is silent for a genuine loss
+// burst. With two players our vote is the decision, so the claim must not be the vote before
+// it has stood the window: the old process heard again in it voids the claim, and the next
+// hello starts the window over (it used to count at once: slot 1 dropped).
+TEST(MembershipChanges, TwoPlayersAClaimTheOldProcessAnswersIsNoVote) {
+    Fixture f(2);
+    f.hear_all_but(99, 1'000'000);
+    EXPECT_FALSE(f.changes.claim_restart(1, false, true, 1'400'000));
+    f.hear_all_but(99, 1'400'000 + kConfirm / 2);  // the burst ends: slot 1 speaks
+    EXPECT_FALSE(f.changes.claim_restart(1, false, true, 1'400'000 + kConfirm)) << "the claim was answered";
+    EXPECT_TRUE(f.view.running(1));
+    EXPECT_EQ(f.view.vote_of(0, 1), Vote::None);
+    EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
+    // The claim made again, unanswered this time, counts a window later.
+    EXPECT_FALSE(f.changes.claim_restart(1, false, true, 1'400'000 + 2 * kConfirm - 1));
+    EXPECT_TRUE(f.changes.claim_restart(1, false, true, 1'400'000 + 2 * kConfirm));
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::RejoiningTwoPlayerRule);
+}
+
+// A doubted claim (admit_hello: the old process was heard lately) starts the window but is never
+// the vote by itself: a genuine restart quicker than restart_quiet_us is voted gone a window
+// after its first hello, once its predecessor is also quiet.
+TEST(MembershipChanges, ADoubtedClaimStartsTheWindowButNeverVotes) {
+    Fixture f(2);
+    f.hear_all_but(99, 1'000'000);
+    EXPECT_FALSE(f.changes.claim_restart(1, true, false, 1'050'000));
+    EXPECT_FALSE(f.changes.claim_restart(1, true, false, 1'050'000 + kConfirm)) << "still doubted";
+    EXPECT_TRUE(f.view.running(1));
+    EXPECT_TRUE(f.changes.claim_restart(1, true, true, 1'050'000 + kConfirm + 1));
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::RestartedTwoPlayerRule);
 }
 
 TEST(MembershipChanges, PartitionedOncePerEpisode) {

@@ -14,6 +14,7 @@ SlotView everything_set() {
     v.handoff = 77;
     v.handed_off_by_me = true;
     v.kick_vote = true;
+    v.restart_claim.claim(100, 0, 50);
     v.pending_since_us = 5;
     v.lapsed = true;
     v.lapses = 2;
@@ -28,6 +29,7 @@ TEST(SlotView, NewEpochClearsEveryPerEpochFlag) {
     EXPECT_FALSE(v.neutral_reported);
     EXPECT_FALSE(v.handed_off_by_me);
     EXPECT_FALSE(v.kick_vote);
+    EXPECT_FALSE(v.restart_claim.stands(0)) << "a claim against the slot's previous process";
     EXPECT_EQ(v.pending_since_us, 0u);
     EXPECT_FALSE(v.lapsed);
 }
