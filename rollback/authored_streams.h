@@ -30,20 +30,17 @@
 #include "rollback/events.h"
 #include "rollback/input_queue.h"
 #include "rollback/membership.h"
+#include "rollback/part_effects.h"
 #include "rollback/peer_link.h"
 #include "rollback/session.h"
 #include "rollback/slot_view.h"
 
 namespace lockroll::rollback {
 
-// What writing a stream reads and does in the rest of the session (SessionImpl implements it).
-class AuthoringEffects {
+// What writing a stream does in the rest of the session, beyond the hooks every part has
+// (PartEffects: emit, live_peer, stream). SessionImpl implements it.
+class AuthoringEffects : public virtual PartEffects {
 public:
-    virtual void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
-                      std::string detail) = 0;
-    // Welcomed, not in error, and a running slot or a spectator.
-    virtual bool live_peer(PlayerId peer) const = 0;
-    virtual const InputQueue& stream(PlayerId slot) const = 0;
     // A confirmed input of the slot's stream (Sync::add_remote_input: a misprediction rolls back).
     virtual InputQueue::Add write(PlayerId slot, std::uint32_t frame, std::span<const std::uint8_t> input,
                                   bool absent) = 0;

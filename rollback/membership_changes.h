@@ -59,6 +59,7 @@
 #include "rollback/events.h"
 #include "rollback/input_queue.h"
 #include "rollback/membership.h"
+#include "rollback/part_effects.h"
 #include "rollback/peer_link.h"
 #include "rollback/protocol.h"
 #include "rollback/session.h"
@@ -66,11 +67,10 @@
 
 namespace lockroll::rollback {
 
-// What a change of the view does to the rest of the session (SessionImpl implements it).
-class MembershipEffects {
+// What a change of the view does to the rest of the session, beyond the hooks every part has
+// (PartEffects: emit, live_peer, stream). SessionImpl implements it.
+class MembershipEffects : public virtual PartEffects {
 public:
-    virtual void emit(SessionEvent::Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t now_us,
-                      std::string detail) = 0;
     // The others dropped this session's slot: it fails (rollback/rejoin.h, drop_failure).
     virtual void fail_dropped(std::uint64_t now_us) = 0;
     // The slot changed hands: who authored its unverified inputs starts over (InputAuthority).
@@ -81,11 +81,8 @@ public:
     virtual void peer_replaced(PlayerId peer) = 0;
     // The set of live peers changed: the floor our stream is kept back to moves.
     virtual void live_peers_changed() = 0;
-    // Welcomed, not in error, and a running slot or a spectator.
-    virtual bool live_peer(PlayerId peer) const = 0;
     virtual std::uint32_t frame() const = 0;            // displayed
     virtual std::uint32_t confirmed_frame() const = 0;
-    virtual const InputQueue& stream(PlayerId slot) const = 0;
 
 protected:
     ~MembershipEffects() = default;

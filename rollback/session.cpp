@@ -277,13 +277,10 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
                 handshake_.peer_started();  // it plays already: follow it
                 maybe_start(now_us);
             }
-            {
-                // What the message changes is InputIntake's; what the session does about it --
-                // membership actions, a malformed message, events -- is IntakeFx's forwards
-                // (rollback/session_effects.h).
-                IntakeFx fx(*this);
-                return InputIntake(intake_state(), fx).apply(from, in_msg_, now_us);
-            }
+            // What the message changes is InputIntake's; what the session does about it --
+            // membership actions, a malformed message, events -- is Effects' forwards
+            // (rollback/session_effects.h).
+            return InputIntake(intake_state(), *effects_).apply(from, in_msg_, now_us);
         case MessageKind::Query: {
             if (const char* e = decode(datagram, query_msg_)) return malformed(from, e);
             if (replies_this_poll_[from] >= config_.max_replies_per_poll) {
@@ -622,13 +619,12 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
 }
 
 // Who may be served and which offer goes out are JoinHandoff's (rollback/join_handoff.h); what
-// the session does about it -- sending, events, the resend floor -- stays here (JoinFx,
+// the session does about it -- sending, events, the resend floor -- stays here (Effects,
 // rollback/session_effects.h).
 void SessionImpl::handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us) {
-    JoinFx fx(*this);
     const JoinState state{config_, membership_, *sync_, server_, links_, slots_, stats_.peers, replies_this_poll_,
                           phase_ == SessionPhase::Running};
-    JoinHandoff(state, fx).request(from, m, now_us);
+    JoinHandoff(state, *effects_).request(from, m, now_us);
 }
 
 void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us) {

@@ -138,7 +138,6 @@ private:
     AdvanceResult advance_impl(std::span<const std::uint8_t> local_input, std::uint64_t now_us);
     void poll_impl(std::uint64_t now_us, std::vector<Datagram>& out);
     int catch_up_impl(std::uint64_t now_us, int max_frames);
-    class IntakeFx;  // what a peer's input message asks of the session (rollback/input_intake.h)
     IntakeState intake_state();
     std::uint32_t lead_frames(std::uint64_t rtt_us) const;
     // A live player peer: its pace counts for time sync (pacing_).
@@ -146,7 +145,6 @@ private:
     FramePacing::Paces pacer() const { return [this](PlayerId p) { return paces(p); }; }
     void handle_hello(PlayerId from, const HelloMessage& m, std::uint64_t now_us);
     void handle_welcome(PlayerId from, const WelcomeMessage& m, std::uint64_t now_us);
-    class JoinFx;  // what a snapshot request asks of the session (rollback/join_handoff.h)
     void handle_snapshot_request(PlayerId from, const SnapshotRequestMessage& m, std::uint64_t now_us);
     void handle_snapshot_offer(PlayerId from, const SnapshotOfferMessage& m, std::uint64_t now_us);
     void handle_snapshot_chunk(PlayerId from, const SnapshotChunkMessage& m, std::uint64_t now_us);
@@ -161,10 +159,6 @@ private:
     void send_control(PlayerId to, std::vector<std::uint8_t> bytes);
     void poll_handshake(std::uint64_t now_us);
     void poll_transfer(std::uint64_t now_us);
-    // The view's changes are MembershipChanges' (rollback/membership_changes.h); apply_slot_table's calls.
-    void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) { changes_.count_vote(voter, slot, vote, epoch); }
-    void settle_membership(std::uint64_t now_us) { changes_.settle_membership(now_us); }
-    void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) { changes_.adopt_slot(slot, e, now_us); }
     void start_running(std::uint64_t now_us);
     void maybe_start(std::uint64_t now_us);
     void finish_transfer(std::uint64_t now_us);
@@ -207,7 +201,8 @@ private:
     std::vector<SlotView> slots_;
     std::vector<PlayerId> local_slots_;
     // What the session does about the view, and the streams it writes besides its own (after the
-    // state they borrow); Effects (rollback/session_effects.h) is the rest of the session as they see it.
+    // state they borrow); Effects (rollback/session_effects.h) is the rest of the session as they,
+    // InputIntake and JoinHandoff see it.
     class Effects;
     std::unique_ptr<Effects> effects_;
     MembershipChanges changes_;

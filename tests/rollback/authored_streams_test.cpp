@@ -6,57 +6,23 @@
 
 #include <gtest/gtest.h>
 
-#include <string>
 #include <vector>
+
+#include "tests/rollback/fake_effects.h"
 
 namespace lockroll::rollback {
 namespace {
 
 using Kind = SessionEvent::Kind;
+using testing::EffectsFixture;
 
-// Streams and events of the rest of the session; every link welcomed is live while its slot runs.
-struct FakeStreams final : AuthoringEffects {
-    std::vector<InputQueue> queues;
-    std::vector<std::pair<PlayerId, std::uint32_t>> neutral_from;  // NeutralFrom events: slot, frame
-    const Membership* view = nullptr;
-    const std::vector<PeerLink>* links = nullptr;
-
-    void emit(Kind kind, SessionEvent::Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string) override {
-        if (kind == Kind::NeutralFrom && reason == SessionEvent::Reason::WritesNeutral) neutral_from.emplace_back(peer, frame);
-    }
-    bool live_peer(PlayerId p) const override {
-        return p != view->local() && (*links)[p].welcomed && view->running(p);
-    }
-    const InputQueue& stream(PlayerId slot) const override { return queues[slot]; }
-    InputQueue::Add write(PlayerId slot, std::uint32_t frame, std::span<const std::uint8_t> input, bool absent) override {
-        return queues[slot].add_confirmed(frame, input, absent);
-    }
-};
-
-struct Fixture {
-    SessionConfig config;
-    Membership view;
-    std::vector<SlotView> slots;
-    std::vector<PeerLink> links;
-    FakeStreams fake;
+// `players` slots, this session `local`, no spectator.
+struct Fixture : EffectsFixture {
     AuthoredStreams authored;
 
     Fixture(int players, PlayerId local, std::vector<PlayerId> hosts = {})
-        : view(players, local, TwoPlayerRule::PlayOnAlone, hosts), slots(static_cast<std::size_t>(players)),
-          authored(config, view, slots, links, fake) {
-        config.players = players;
-        config.local_player = local;
-        config.input_size = 1;
-        config.slot_hosts = std::move(hosts);
-        for (int p = 0; p < players; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(static_cast<std::size_t>(players));
-            links.back().welcomed = true;
-            fake.queues.emplace_back(1, 64);
-        }
-        fake.view = &view;
-        fake.links = &links;
-    }
+        : EffectsFixture(players, local, std::move(hosts), TwoPlayerRule::PlayOnAlone, 0),
+          authored(config, view, slots, links, fake) {}
     void fill(PlayerId slot, std::uint32_t frames, std::uint8_t value) {
         for (std::uint32_t f = fake.queues[slot].confirmed_count(); f < frames; ++f)
             fake.queues[slot].add_confirmed(f, std::span(&value, 1));
@@ -81,21 +47,24 @@ TEST(AuthoredStreams, TheOwnerWaitsForEveryPlayersReportThenWritesNeutralFromThe
     f.reports(2, 3, 6);  // holds more than we do: we get it relayed first
     f.authored.author_absent_streams(20, 100);
     EXPECT_EQ(f.count(3), 5u);
-    EXPECT_TRUE(f.fake.neutral_from.empty());
+    EXPECT_TRUE(f.fake.of(Kind::NeutralFrom).empty());
     f.fill(3, 6, 9);  // the relayed input arrived
     f.authored.author_absent_streams(20, 100);
     EXPECT_EQ(f.count(3), 21u) << "neutral up to the target, inclusive";
     EXPECT_TRUE(f.fake.queues[3].confirmed_absent(6));
     EXPECT_TRUE(f.fake.queues[3].confirmed_absent(20));
     EXPECT_FALSE(f.fake.queues[3].confirmed_absent(5));
-    ASSERT_EQ(f.fake.neutral_from.size(), 1u);
-    EXPECT_EQ(f.fake.neutral_from[0], (std::pair<PlayerId, std::uint32_t>{3, 6}));
+    const auto neutral_from = f.fake.of(Kind::NeutralFrom);
+    ASSERT_EQ(neutral_from.size(), 1u);
+    EXPECT_EQ(neutral_from[0].peer, PlayerId{3});
+    EXPECT_EQ(neutral_from[0].frame, 6u);
+    EXPECT_EQ(neutral_from[0].reason, SessionEvent::Reason::WritesNeutral);
 
     // Authoring once begun goes on without asking again, and the frame is told once per epoch.
     f.links[1].table_seen[3] = false;
     f.authored.author_absent_streams(25, 200);
     EXPECT_EQ(f.count(3), 26u);
-    EXPECT_EQ(f.fake.neutral_from.size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::NeutralFrom).size(), 1u);
 }
 
 TEST(AuthoredStreams, ATableInAnotherEpochIsNoReportOfTheDrop) {

@@ -7,89 +7,28 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
-#include <string>
 #include <vector>
+
+#include "tests/rollback/fake_effects.h"
 
 namespace lockroll::rollback {
 namespace {
 
 using Kind = SessionEvent::Kind;
 using Reason = SessionEvent::Reason;
+using testing::EffectsFixture;
 constexpr std::uint64_t kInterrupt = 250'000;
 constexpr std::uint64_t kDisconnect = 1'000'000;
 
-// The rest of the session, recorded.
-struct FakeSession final : MembershipEffects {
-    struct Event {
-        Kind kind;
-        PlayerId peer;
-        std::uint32_t frame;
-        std::string detail;
-        Reason reason;
-    };
-    std::vector<Event> events;
-    bool failed = false;
-    std::vector<PlayerId> changed_hands, failed_peers, replaced_peers;
-    int floor_moves = 0;
-    std::uint32_t shown = 10, confirmed = 7;
-    const Membership* view = nullptr;
-    const std::vector<PeerLink>* links = nullptr;
-    std::vector<InputQueue> queues;
-
-    void emit(Kind kind, Reason reason, PlayerId peer, std::uint32_t frame, std::uint64_t, std::string detail) override {
-        events.push_back({kind, peer, frame, std::move(detail), reason});
-    }
-    void fail_dropped(std::uint64_t) override { failed = true; }
-    void slot_changed_hands(PlayerId slot) override { changed_hands.push_back(slot); }
-    void peer_failed(PlayerId peer) override { failed_peers.push_back(peer); }
-    void peer_replaced(PlayerId peer) override { replaced_peers.push_back(peer); }
-    void live_peers_changed() override { ++floor_moves; }
-    bool live_peer(PlayerId p) const override {
-        const PeerLink& l = (*links)[p];
-        if (p == view->local() || !l.welcomed || l.error()) return false;
-        return p < static_cast<PlayerId>(view->players()) ? view->running(p) : l.role == Role::Spectator;
-    }
-    std::uint32_t frame() const override { return shown; }
-    std::uint32_t confirmed_frame() const override { return confirmed; }
-    const InputQueue& stream(PlayerId slot) const override { return queues[slot]; }
-
-    std::vector<Event> of(Kind k) const {
-        std::vector<Event> out;
-        for (const Event& e : events)
-            if (e.kind == k) out.push_back(e);
-        return out;
-    }
-};
-
 // `players` slots, this session slot 0, and one spectator (the last peer id).
-struct Fixture {
-    SessionConfig config;
-    Membership view;
-    std::vector<SlotView> slots;
-    std::vector<PeerLink> links;
+struct Fixture : EffectsFixture {
     SessionStats stats;
-    FakeSession fake;
     MembershipChanges changes;
 
     explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone)
-        : view(players, 0, rule, hosts), slots(static_cast<std::size_t>(players)),
-          changes(config, view, slots, links, stats, fake) {
-        config.players = players;
-        config.max_spectators = 1;
-        config.input_size = 1;
-        config.slot_hosts = std::move(hosts);
-        config.two_player_rule = rule;
+        : EffectsFixture(players, 0, std::move(hosts), rule, 1), changes(config, view, slots, links, stats, fake) {
         config.interrupt_us = kInterrupt;
         config.disconnect_us = kDisconnect;
-        for (int p = 0; p <= players; ++p) {
-            links.emplace_back(10, 8);
-            links.back().reset_lifecycle(static_cast<std::size_t>(players));
-            links.back().welcomed = true;
-            fake.queues.emplace_back(1, 64);
-        }
-        links.back().role = Role::Spectator;
-        fake.view = &view;
-        fake.links = &links;
     }
     // Every peer but `silent` (and this session) heard now.
     void hear_all_but(PlayerId silent, std::uint64_t now_us) {
