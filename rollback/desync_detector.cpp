@@ -58,7 +58,22 @@ std::optional<std::uint64_t> DesyncDetector::remote_checksum(PlayerId peer, std:
     const PeerState& ps = peers_[peer];
     if (auto it = ps.recent.find(frame); it != ps.recent.end()) return it->second;
     if (auto it = ps.pending.find(frame); it != ps.pending.end()) return it->second;
+    if (ps.asked && ps.asked->query.frame == frame && ps.asked_answer) return ps.asked_answer;
     return std::nullopt;
+}
+
+void DesyncDetector::ask_checksum(PlayerId peer, std::uint32_t frame) {
+    if (peer >= peers_.size() || peer == local_ || remote_checksum(peer, frame)) return;
+    PeerState& ps = peers_[peer];
+    if (ps.asked && ps.asked->query.frame == frame) {
+        // Asked already. Unanswered after max_tries (a cut longer than they span): asked again,
+        // for as long as the caller still waits for it.
+        if (!ps.asked->received && ps.asked->tries >= config_.max_tries) ps.asked->tries = 0;
+        return;
+    }
+    ps.asked_answer.reset();
+    ps.asked.emplace();
+    ps.asked->query = {QueryWhat::FrameChecksums, frame, 0, 1};
 }
 
 void DesyncDetector::add_local(std::uint32_t frame, std::uint64_t checksum) {
@@ -275,6 +290,11 @@ void DesyncDetector::finish(PlayerId peer, NarrowOutcome outcome) {
 void DesyncDetector::on_reply(PlayerId peer, const ReplyMessage& r) {
     if (peer >= peers_.size()) return;
     PeerState& ps = peers_[peer];
+    if (ps.asked && !ps.asked->received && r.what == QueryWhat::FrameChecksums && r.frame == ps.asked->query.frame &&
+        r.count == 1) {
+        ps.asked->received = true;  // unavailable: not asked again (the 5 s rule leaves it out)
+        if (r.available && r.values.size() == 1) ps.asked_answer = r.values[0];
+    }
     if (ps.stage == Stage::None || ps.stage == Stage::Done) return;
     for (Chunk& c : ps.chunks) {
         if (c.received || c.query.what != r.what || c.query.frame != r.frame || c.query.start != r.start ||
@@ -291,6 +311,12 @@ void DesyncDetector::on_reply(PlayerId peer, const ReplyMessage& r) {
 void DesyncDetector::collect_queries(std::uint64_t now_us, std::vector<std::pair<PlayerId, QueryMessage>>& out) {
     for (std::size_t p = 0; p < peers_.size(); ++p) {
         PeerState& ps = peers_[p];
+        if (Chunk* c = ps.asked ? &*ps.asked : nullptr;
+            c && !c->received && c->tries < config_.max_tries && (c->tries == 0 || now_us - c->last_sent_us >= config_.resend_us)) {
+            ++c->tries;
+            c->last_sent_us = now_us;
+            out.emplace_back(static_cast<PlayerId>(p), c->query);
+        }
         if (ps.stage == Stage::None || ps.stage == Stage::Done) continue;
         std::size_t lowest = 0;
         while (lowest < ps.chunks.size() && ps.chunks[lowest].received) ++lowest;

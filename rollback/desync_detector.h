@@ -72,8 +72,17 @@ public:
     // This client loaded a snapshot of confirmed `frame` (join or desync recovery): everything
     // known about earlier frames and every verdict is forgotten; comparison resumes from here.
     void restart_at(std::uint32_t frame, std::uint64_t checksum);
-    // The checksum a peer reported for `frame`, while it waits or was the last compared.
+    // The checksum a peer reported for `frame`, while it waits or was the last compared, or
+    // the answer to ask_checksum() about that frame.
     std::optional<std::uint64_t> remote_checksum(PlayerId peer, std::uint32_t frame) const;
+    // Recovery arbitrates on every live player's checksum of the first differing frame, but
+    // checksums ride only on input messages, newest first: a peer whose messages were lost while
+    // it confirmed that frame (a one-way cut) never tells it again by itself. This asks it (a
+    // FrameChecksums query of that one frame, resent like narrowing's, max_tries at most), one
+    // frame per peer at a time; remote_checksum() then holds the answer. Called again for the
+    // same frame after max_tries went unanswered, it asks again. A peer that no longer holds the
+    // frame answers "unavailable", and is asked no more about it.
+    void ask_checksum(PlayerId peer, std::uint32_t frame);
 
     bool investigating(PlayerId peer) const;
     bool desynced(PlayerId peer) const { return peers_[peer].desynced; }
@@ -102,6 +111,9 @@ private:
         std::uint32_t range_first = 0;
         std::uint32_t body_index = 0;
         std::vector<Chunk> chunks;
+        // ask_checksum(): the frame asked about, and its answer once received.
+        std::optional<Chunk> asked;
+        std::optional<std::uint64_t> asked_answer;
     };
 
     void compare(PlayerId peer, std::uint32_t frame, std::uint64_t local, std::uint64_t remote);

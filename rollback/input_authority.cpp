@@ -1,6 +1,7 @@
 #include "rollback/input_authority.h"
 
 #include <algorithm>
+#include <bit>
 
 namespace lockroll::rollback {
 
@@ -45,10 +46,20 @@ std::optional<PlayerId> InputAuthority::relay_of(PlayerId slot, std::uint32_t fr
     return it->relay;
 }
 
-void InputAuthority::verified(PlayerId slot, std::uint32_t frame) {
-    if (slot >= records_.size()) return;
+void InputAuthority::dispute(PlayerId slot, std::uint32_t frame, PlayerId relay) {
+    if (slot >= records_.size() || relay >= 64) return;
     const auto it = find(slot, frame);
-    if (it != records_[slot].end() && !it->contradicted) records_[slot].erase(it);
+    if (it != records_[slot].end() && it->relay != relay) it->disputers |= std::uint64_t{1} << relay;
+}
+
+std::uint64_t InputAuthority::verified(PlayerId slot, std::uint32_t frame) {
+    if (slot >= records_.size()) return 0;
+    const auto it = find(slot, frame);
+    if (it == records_[slot].end() || it->contradicted) return 0;
+    const std::uint64_t wrong = it->disputers;
+    for (std::uint64_t w = wrong; w != 0; w &= w - 1) relay_disagrees(static_cast<PlayerId>(std::countr_zero(w)));
+    records_[slot].erase(it);
+    return wrong;
 }
 
 bool InputAuthority::owner_disagrees(PlayerId slot, std::uint32_t frame, bool replaced) {

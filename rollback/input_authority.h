@@ -10,6 +10,14 @@
 // unverified frame (first_unverified) for as long as its saved states allow; docs/sessions.md
 // ("Relayed inputs") has the whole rule.
 //
+// Past that bound the relayed input is confirmed on the relay's word: trust, then verify. The
+// other rule -- confirm only what the owner sent or a majority of relays agree on, else wait --
+// was weighed and refused: with three players a slot cut from one peer has one relay, so every
+// honest one-way cut longer than the bound would stall the match until it healed. A lie
+// confirmed this way costs its victim a recovery: the owner's copy exposes it (this class counts
+// the relay and ignores it from then on), the checksums find the divergence, and desync
+// recovery reloads the majority's state (tests/rollback/relay_equivocation_test.cpp).
+//
 // Contract
 //  - Records are kept per slot in frame order. Each (slot, frame) holds at most one record: the
 //    queue accepts one input per frame, so a second relay's copy of a held frame is no record.
@@ -42,10 +50,17 @@ public:
     // The relay whose input of that frame the queue holds, while the record is kept (not yet
     // verified, or contradicted when a confirmed frame already rested on it).
     std::optional<PlayerId> relay_of(PlayerId slot, std::uint32_t frame) const;
+    // Another relay delivered different bytes for a recorded frame: a claim against a claim,
+    // which the owner settles. Remembered (relays with peer ids below 64, which every player
+    // has) so that the owner's copy, if it verifies the recorded input, counts this one.
+    void dispute(PlayerId slot, std::uint32_t frame, PlayerId relay);
     // The owner's own copy of the frame arrived and equals the relayed input: the record goes.
-    void verified(PlayerId slot, std::uint32_t frame);
+    // Every relay that disputed it contradicted the owner: each is counted and ignored from then
+    // on, and returned (bit r: relay r), so the session can report it.
+    std::uint64_t verified(PlayerId slot, std::uint32_t frame);
     // The owner's copy differs. The first time for this frame the relay is counted and ignored
     // from then on (true); again for the same frame (an owner's resend) nothing more (false).
+    // Its disputers are not counted: their bytes are not kept, so they may be the owner's.
     // replaced: the owner's input took its place (the record goes); otherwise a confirmed frame
     // rests on the relayed input, which stands, and the record stays, marked, so the owner's
     // resends are known for what they are.
@@ -72,6 +87,7 @@ private:
         PlayerId relay;
         bool contradicted = false;
         bool vouched = false;
+        std::uint64_t disputers = 0;  // bit r: relay r sent different bytes (dispute())
     };
     using Records = std::deque<Record>;
     Records::iterator find(PlayerId slot, std::uint32_t frame);  // end() of records_[slot] if none

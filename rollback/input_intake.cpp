@@ -1,6 +1,7 @@
 #include "rollback/input_intake.h"
 
 #include <algorithm>
+#include <bit>
 
 #include "rollback/input_authority.h"
 #include "rollback/input_frames.h"
@@ -146,12 +147,20 @@ void InputIntake::apply_blocks(PlayerId from, const InputMessage& m) {
     }
 }
 
-// Equal to a relayed copy: verified. Different from a relayed copy: the owner wins -- its input
+// Equal to a relayed copy: verified, and any relay that disputed it with other bytes is counted
+// and ignored. Different from a relayed copy: the owner wins -- its input
 // replaces the relay's where no confirmed frame rests on it yet, and the relay is counted and
 // ignored; if a confirmed frame already rests on it, it stands (the checksums tell; recovery
 // repairs) and the owner is not blamed.
 bool InputIntake::owner_copy(PlayerId slot, std::uint32_t f, std::span<const std::uint8_t> input, InputQueue::Add added) {
-    if (added == InputQueue::Add::Duplicate) s_.authority.verified(slot, f);
+    if (added == InputQueue::Add::Duplicate) {
+        // Relays that disputed the verified input with other bytes contradicted the owner.
+        const std::uint64_t wrong = s_.authority.verified(slot, f);
+        for (std::uint64_t w = wrong; w != 0; w &= w - 1) {
+            const auto r = static_cast<std::size_t>(std::countr_zero(w));
+            if (r < s_.peer_stats.size()) s_.peer_stats[r].relay_disagreements = s_.authority.disagreements(static_cast<PlayerId>(r));
+        }
+    }
     if (added != InputQueue::Add::Conflict) return true;
     const auto relay = s_.authority.relay_of(slot, f);
     if (!relay) return false;
@@ -187,9 +196,12 @@ bool InputIntake::relayed_block(PlayerId from, const StreamBlock& b, std::uint32
         } else if (r == InputQueue::Add::Duplicate) {
             s_.authority.vouch(b.slot, f, from);
         } else if (r == InputQueue::Add::Conflict) {
-            // Against another relay's claim the owner decides later; against the owner's own
-            // input this relay is wrong: counted and ignored, never a drop of the owner.
-            if (!s_.authority.relay_of(b.slot, f)) {
+            // Against another relay's claim the owner decides later (its copy, if it verifies
+            // the claim held, counts this relay); against the owner's own input this relay is
+            // wrong: counted and ignored, never a drop of the owner.
+            if (s_.authority.relay_of(b.slot, f)) {
+                s_.authority.dispute(b.slot, f, from);
+            } else {
                 s_.authority.relay_disagrees(from);
                 s_.peer_stats[from].relay_disagreements = s_.authority.disagreements(from);
             }

@@ -14,7 +14,8 @@
 //  - The owner wins: its copy of a relayed frame verifies it (equal) or replaces it where no
 //    confirmed frame rests on it yet; the relay is then counted (relay_disagreements) and its
 //    relayed blocks ignored from then on. A relayed block that contradicts the owner's own input
-//    is counted and ignored, never a malformed message.
+//    is counted and ignored, never a malformed message; one that contradicts another relay's
+//    claim is remembered, and counted the same way once the owner's copy verifies that claim.
 //  - A spectator's table reports counts and never votes; a player's entry about itself or its
 //    guests says nothing new; nobody but this session's process hands over this session's slots.
 //  - Reads and writes the session through IntakeState, borrowed for one message; no clock (now_us

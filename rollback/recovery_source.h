@@ -14,6 +14,10 @@
 //  - next_recovery_step(): what a session that saw a mismatch does about it now. It waits while
 //    it still narrows the mismatch with a peer (3 s at most from the mismatch) and while a live
 //    player has not told its checksum of the frame (5 s at most; one silent longer is left out).
+//    Meanwhile the session asks such a player for it (DesyncDetector::ask_checksum): one whose
+//    messages were lost while it confirmed that frame would never tell it again by itself, and
+//    left out it can turn a majority into a tie (issue 21: a relay's lie confirmed through a
+//    one-way cut, tests/rollback/relay_equivocation_test.cpp).
 //    It forgets the mismatch when its own checksum of the frame is gone or it is in the group
 //    kept; it gives up (fails) when it would reload once more than max_recoveries allows; else
 //    it reloads from recovery_source(), the step saying which rule chose it (choose_recovery()).

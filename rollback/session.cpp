@@ -706,7 +706,12 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
     std::vector<std::pair<PlayerId, std::optional<std::uint64_t>>> peers;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (live_peer(pid)) peers.emplace_back(pid, detector_->remote_checksum(pid, f));
+        if (!live_peer(pid)) continue;
+        const auto theirs = detector_->remote_checksum(pid, f);
+        // Not told (its messages of that time were lost: a one-way cut): asked for it, or the
+        // 5 s rule would leave out a live peer and a tie could keep the odd one.
+        if (!theirs) detector_->ask_checksum(pid, f);
+        peers.emplace_back(pid, theirs);
     }
     RecoveryCase c;
     c.me = config_.local_player;

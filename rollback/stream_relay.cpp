@@ -171,10 +171,14 @@ void StreamRelay::fill_extension(PlayerId to, InputMessage& m, std::size_t budge
 
 // What we tell slot s's owner we hold of its stream (ack and table count): up to the first
 // input a relay filled in that the owner has not verified yet, so it resends from there and its
-// own copy settles the relay's (frames a confirmed frame already rests on are past settling).
+// own copy settles the relay's -- confirmed or not, up to a quarter of the input ring behind
+// confirmation: a relayed input confirmed past the bound (trust, then verify) is still checked,
+// and a lie exposed, when the cut heals. Older ones are left to the checksums: the owner keeps
+// its inputs from our ack on, and its queue must not fill on a long cut.
 std::uint32_t StreamRelay::owner_count(PlayerId s) const {
     const std::uint32_t count = count_of(s);
-    const auto f = v_.authority.first_unverified_of(s, v_.confirmed_frame);
+    const std::uint32_t reach = v_.config.input_capacity / 4;
+    const auto f = v_.authority.first_unverified_of(s, v_.confirmed_frame > reach ? v_.confirmed_frame - reach : 0);
     return f ? std::min(count, *f) : count;
 }
 

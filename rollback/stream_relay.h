@@ -48,7 +48,7 @@ struct StreamView {
     const InputAuthority& authority;
     std::span<const SlotView> slots;
     std::span<const PeerLink> links;     // per peer id (slots, then spectators)
-    std::uint32_t confirmed_frame = 0;   // relayed inputs before it are past settling
+    std::uint32_t confirmed_frame = 0;   // owner_count() checks relayed inputs from a little before it
     int input_delay = 0;
     bool joining = false;                // a joiner catching up: its table always rides
 };
@@ -68,7 +68,8 @@ public:
                           bool lagging) const;
     void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) const;
     // What we tell slot s's owner we hold of its stream (ack and table count): up to the first
-    // input a relay filled in that the owner has not verified yet.
+    // input a relay filled in that the owner has not verified yet, confirmed or not (up to a
+    // quarter of the input ring behind confirmation).
     std::uint32_t owner_count(PlayerId s) const;
     // How often a changed table is repeated once its copies went out (0: never).
     std::uint64_t table_refresh_us() const;

@@ -392,6 +392,57 @@ TEST(DesyncDetector, UnansweredQueriesAreResentThenGiveUp) {
     EXPECT_NE(r.summary.find(std::string("peer ") + low + " (low 32 bits)"), std::string::npos) << r.summary;
 }
 
+// Recovery's arbitration needs every live player's checksum of the first differing frame; a
+// peer whose input messages of that time were lost (a one-way cut) is asked for it: one
+// FrameChecksums query of that frame, resent, answered into remote_checksum(). Unanswered after
+// max_tries (the cut lasts), asking again re-arms it; a peer that lacks the frame is asked no more.
+TEST(DesyncDetector, AskedChecksumOfAFrameIsQueriedResentAndRemembered) {
+    DesyncConfig c;
+    c.resend_us = 1000;
+    c.max_tries = 2;
+    Side a(0, 3, c);
+    Side b(1, 3, c);
+    for (int i = 0; i < 5; ++i) {
+        a.confirm();
+        b.confirm();
+    }
+    EXPECT_FALSE(a.detector.remote_checksum(1, 3));
+    a.detector.ask_checksum(1, 3);
+    a.detector.ask_checksum(1, 3);  // once per frame
+    std::vector<std::pair<PlayerId, QueryMessage>> out;
+    a.detector.collect_queries(0, out);
+    ASSERT_EQ(out.size(), 1u);
+    EXPECT_EQ(out[0].first, 1u);
+    EXPECT_EQ(out[0].second.what, QueryWhat::FrameChecksums);
+    EXPECT_EQ(out[0].second.frame, 3u);
+    EXPECT_EQ(out[0].second.count, 1u);
+    a.detector.collect_queries(500, out);
+    EXPECT_EQ(out.size(), 1u) << "not due yet";
+    a.detector.collect_queries(1000, out);
+    a.detector.collect_queries(2000, out);
+    EXPECT_EQ(out.size(), 2u) << "max_tries, then silent";
+    a.detector.ask_checksum(1, 3);  // still wanted: asked again
+    out.clear();
+    a.detector.collect_queries(3000, out);
+    ASSERT_EQ(out.size(), 1u);
+    a.detector.on_reply(1, b.detector.answer(out[0].second));
+    EXPECT_EQ(a.detector.remote_checksum(1, 3), b.checksum(3));
+    EXPECT_FALSE(a.detector.investigating(1)) << "an answer is no investigation";
+    out.clear();
+    a.detector.collect_queries(10'000, out);
+    EXPECT_TRUE(out.empty()) << "answered: asked no more";
+    // A frame the peer no longer holds: "unavailable", asked no more, still unknown.
+    a.detector.ask_checksum(2, 4000);
+    a.detector.collect_queries(10'000, out);
+    ASSERT_EQ(out.size(), 1u);
+    a.detector.on_reply(2, b.detector.answer(out[0].second));
+    EXPECT_FALSE(a.detector.remote_checksum(2, 4000));
+    out.clear();
+    a.detector.collect_queries(20'000, out);
+    EXPECT_TRUE(out.empty());
+    EXPECT_TRUE(a.recorder.desyncs.empty());
+}
+
 TEST(DesyncDetector, InvestigationEndsWhenThePeerFailsOrLacksEvidence) {
     Side a(0);
     for (int i = 0; i < 5; ++i) a.confirm();

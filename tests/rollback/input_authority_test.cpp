@@ -54,6 +54,31 @@ TEST(InputAuthority, OwnersDifferentCopyCountsAndIgnoresTheRelayOncePerFrame) {
     EXPECT_FALSE(a.owner_disagrees(1, 7, true)) << "no record: nothing to settle";
 }
 
+// Two relays disagree about a frame (one held, the other disputes it): the owner settles it.
+// Verified, the disputer contradicted the owner and is counted; contradicted, the held relay
+// is, and the disputer is not (its bytes were not kept: they may have been the owner's).
+TEST(InputAuthority, ADisputerIsCountedWhenTheOwnerVerifiesTheHeldClaim) {
+    InputAuthority a(4, 4);
+    a.note_relayed(1, 5, 3);
+    a.dispute(1, 5, 2);
+    a.dispute(1, 5, 3);  // the held relay itself: no dispute
+    a.dispute(1, 6, 2);  // no record: nothing to dispute
+    EXPECT_EQ(a.first_unverified(), 5u) << "a disputed claim still waits for the owner";
+    EXPECT_FALSE(a.ignored(2));
+    EXPECT_EQ(a.verified(1, 5), std::uint64_t{1} << 2);
+    EXPECT_EQ(a.disagreements(2), 1u);
+    EXPECT_TRUE(a.ignored(2));
+    EXPECT_EQ(a.disagreements(3), 0u);
+    EXPECT_FALSE(a.ignored(3));
+    EXPECT_EQ(a.verified(1, 5), 0u) << "settled once";
+
+    a.note_relayed(1, 7, 2);
+    a.dispute(1, 7, 3);
+    EXPECT_TRUE(a.owner_disagrees(1, 7, true));
+    EXPECT_EQ(a.disagreements(2), 2u);
+    EXPECT_EQ(a.disagreements(3), 0u);
+}
+
 TEST(InputAuthority, FirstUnverifiedLooksOnlyFromAFrameOnAndAcrossSlots) {
     InputAuthority a(4, 4);
     a.note_relayed(1, 3, 2);

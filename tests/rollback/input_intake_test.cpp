@@ -147,6 +147,24 @@ TEST(InputIntake, AnEqualOwnersCopyVerifiesTheRelayedOne) {
     EXPECT_EQ(f.stats.peers[2].relay_disagreements, 0u);
 }
 
+// Two relays' copies of a frame differ (here 3, a peer like any other to the intake, holds
+// first): neither is blamed until the owner's copy verifies the held one, which counts the
+// other; the owner and the honest relay are never blamed.
+TEST(InputIntake, ARelayDisputingAClaimTheOwnerVerifiesIsCountedAndIgnored) {
+    Fixture f;
+    f.apply(3, Fixture::relayed(1, 0, inputs(7, 2)));
+    f.apply(2, Fixture::relayed(1, 0, inputs(9, 2)));  // a claim against a claim
+    EXPECT_EQ(f.held(1, 0), 7);
+    EXPECT_EQ(f.stats.peers[2].relay_disagreements, 0u);
+    f.apply(1, Fixture::own(0, inputs(7, 2)));
+    EXPECT_TRUE(f.fx.malformed_why.empty());
+    EXPECT_EQ(f.stats.peers[2].relay_disagreements, 1u);  // it disputed frame 0 (its block stopped there)
+    EXPECT_TRUE(f.authority.ignored(2));
+    EXPECT_EQ(f.stats.peers[3].relay_disagreements, 0u);
+    EXPECT_EQ(f.stats.peers[1].relay_disagreements, 0u);
+    EXPECT_FALSE(f.authority.first_unverified().has_value());
+}
+
 TEST(InputIntake, NobodyRelaysOurOwnStreamOrTheSendersToUs) {
     Fixture f;
     InputMessage m = Fixture::relayed(0, 0, inputs(9, 1));

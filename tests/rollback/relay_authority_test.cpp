@@ -8,8 +8,8 @@
 
 #include <cstdio>
 
-#include "rollback/protocol.h"
 #include "rollback/session.h"
+#include "tests/rollback/equivocating_relay.h"
 #include "tests/rollback/test_support.h"
 
 namespace lockroll::rollback {
@@ -34,26 +34,6 @@ std::size_t count_events(const Client& c, Kind k) {
     return n;
 }
 
-// Slot 2 flips every byte of slot 1's inputs it relays to slot 0.
-void equivocate(Cluster& cluster, std::uint64_t& altered) {
-    const std::size_t n = cluster.clients[0]->session->config().input_size;
-    cluster.rewrite = [n, &altered](PlayerId from, PlayerId to, std::vector<std::uint8_t>& bytes) {
-        if (from != 2 || to != 0 || peek_kind(bytes) != MessageKind::Input) return;
-        InputMessage m;
-        if (decode(bytes, n, m) != nullptr || !m.has_extension) return;
-        bool changed = false;
-        for (StreamBlock& b : m.blocks) {
-            if (b.slot != 1 || b.absent) continue;
-            for (auto& v : b.inputs) v = static_cast<std::uint8_t>(v ^ 0x5A);
-            altered += b.frame_count;
-            changed = true;
-        }
-        if (!changed) return;
-        bytes.clear();
-        encode(m, n, bytes);
-    };
-}
-
 struct Outcome {
     std::uint64_t disagreements = 0;   // client 0's count against relay 2
     std::uint64_t altered = 0;         // relayed inputs 2 altered
@@ -64,7 +44,7 @@ Outcome run_cut(int window, bool attack, std::uint64_t seed, std::uint32_t loss_
     const auto scene = make_scene(3, 10);
     Cluster cluster(scene, relay_config(window), {15000, 3000, loss_ppm}, seed);
     Outcome out;
-    if (attack) equivocate(cluster, out.altered);
+    if (attack) testing::equivocate(cluster, 2, 0, 1, out.altered);  // 2 alters 1's inputs it relays to 0
     cluster.run_frames(120);
     bool cut = true;
     cluster.filter = [&cut](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {

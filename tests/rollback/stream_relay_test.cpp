@@ -21,6 +21,7 @@ struct Fixture {
     InputAuthority authority{3, 4};
     std::vector<SlotView> slots{3};
     std::vector<PeerLink> links = testing::fresh_links(4);  // the three players' and the spectator's
+    std::uint32_t confirmed = 0;  // the session's confirmed frame
 
     Fixture() {
         config.players = 3;
@@ -42,7 +43,7 @@ struct Fixture {
         links[to].has_count[slot] = true;
         links[to].counts_at_us = at_us;
     }
-    StreamRelay relay() const { return StreamRelay({config, membership, queues, authority, slots, links, 0, 0, false}); }
+    StreamRelay relay() const { return StreamRelay({config, membership, queues, authority, slots, links, confirmed, 0, false}); }
     std::vector<StreamBlock> blocks_to(PlayerId to, std::uint64_t now_us, std::size_t budget = 1000) const {
         InputMessage m;
         relay().fill_extension(to, m, budget, now_us);
@@ -103,6 +104,27 @@ TEST(StreamRelay, NeverRelaysTheReceiversOwnStreamNorAnotherRelaysClaim) {
     ASSERT_EQ(blocks.size(), 1u);
     EXPECT_EQ(blocks[0].slot, 2);
     EXPECT_EQ(blocks[0].frame_count, 7) << "up to the first unverified input only";
+}
+
+// What we tell an owner we hold of its stream stops at the first relayed input it has not
+// verified, even once confirmed (trust, then verify: its resends then expose a lie), but no
+// further back than a quarter of the input ring behind confirmation.
+TEST(StreamRelay, TheOwnersCountStopsAtAnUnverifiedRelayedInputEvenConfirmed) {
+    Fixture f;
+    f.config.input_capacity = 64;  // reach: 16 frames behind confirmation
+    f.fill(2, 40);
+    f.authority.note_relayed(2, 20, 1);
+    f.confirmed = 10;
+    EXPECT_EQ(f.relay().owner_count(2), 20u);
+    EXPECT_EQ(f.relay().table_entry(2, 2).count, 20u) << "the owner's table entry says the same";
+    EXPECT_EQ(f.relay().table_entry(1, 2).count, 40u) << "anyone else gets our whole count";
+    f.confirmed = 30;  // confirmed past it, on the relay's word
+    EXPECT_EQ(f.relay().owner_count(2), 20u);
+    f.confirmed = 37;  // more than 16 frames behind: left to the checksums
+    EXPECT_EQ(f.relay().owner_count(2), 40u);
+    f.confirmed = 30;
+    f.authority.verified(2, 20);
+    EXPECT_EQ(f.relay().owner_count(2), 40u);
 }
 
 TEST(StreamRelay, BlocksShrinkToFitTheBudget) {
