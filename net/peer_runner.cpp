@@ -132,7 +132,9 @@ void PeerRunner::drain_session_events() {
     using K = rollback::SessionEvent::Kind;
     const auto& sc = session_.config();
     for (rollback::SessionEvent e; session_.next_event(e);) {
-        if (e.kind == K::Partitioned) {
+        // An episode still open keeps its first frame: a session the majority dropped reports
+        // Partitioned again as a joiner (rollback/joiner_reach.h) while still cut off.
+        if (e.kind == K::Partitioned && !partitioned_since_) {
             partitioned_since_ = e.frame;
             confirmed_while_partitioned_ = session_.confirmed_frame();
         }

@@ -56,7 +56,10 @@
 //    frame on the majority's view.
 //  - Partitioned: a run that would end (completed, finish or run timeout) while the session is
 //    partitioned and not healed ends Partitioned; a partitioned session waits for the network to
-//    heal only until the match should have been over plus finish_timeout_us (RunEnd).
+//    heal only until the match should have been over plus finish_timeout_us (RunEnd). A joiner
+//    (started with join, or rejoining after a drop) is partitioned when it cannot reach a
+//    majority of the view (rollback/joiner_reach.h); one that never ran ends Partitioned, not
+//    ConnectTimeout, when connect_timeout_us passes so.
 //  - request_stop() (thread- and signal-safe) ends run() at the next wake-up.
 //  - Every time it reads or passes on (ticks, arrival stamps, timeouts) comes from config.clock:
 //    the monotonic clock, or one running fast or slow for the clock-skew fault tests.

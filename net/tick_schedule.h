@@ -13,7 +13,8 @@
 // the match's end was agreed, so it must not say it completed, nor blame a timeout. A partitioned
 // session also waits for the network to heal only until the match should have been over (the
 // target's time at the tick rate, plus finish_timeout_us, after starting): by then any majority
-// has finished or dropped it, so healing could only get it kicked.
+// has finished or dropped it, so healing could only get it kicked. A session that never ran (a
+// joiner) and is cut off when connect_timeout_us passes ends Partitioned too, not ConnectTimeout.
 //
 // TickLoop: the loop both runners run on these two, one update() per call of the game's loop.
 #pragma once
@@ -70,6 +71,10 @@ public:
         if (partitioned && (end || now - started_us > partition_wait_us())) return RunOutcome::Partitioned;
         return end;
     }
+    // A session that never ran within connect_timeout_us: ConnectTimeout, or Partitioned when it is
+    // cut off from a majority (a joiner that cannot reach one: rollback/joiner_reach.h). The
+    // timeout is not the cause then, and the outcome says what is.
+    static RunOutcome never_ran(bool partitioned) { return partitioned ? RunOutcome::Partitioned : RunOutcome::ConnectTimeout; }
     bool reached() const { return reached_ != 0; }
     // How long after starting a partitioned session waits for the network to heal.
     std::uint64_t partition_wait_us() const {
@@ -125,7 +130,8 @@ struct TickDone {
 //    transport between them, as run() always did), at most max_catch_up + 1 per call; status()
 //    after each judges the run as the contracts say: Stopped at the first call after `stop`,
 //    Failed with the session, ConnectTimeout when the session does not run within
-//    connect_timeout_us of the start, and after it runs, RunEnd's verdict (Partitioned included);
+//    connect_timeout_us of the start (Partitioned if it is cut off then: RunEnd::never_ran), and
+//    after it runs, RunEnd's verdict (Partitioned included);
 //  - the result's interpolation is where the last clock reading lies between the last tick's due
 //    time and the next's, in [0, 1).
 // Every time comes from now(): the loop reads no clock of its own, so tests drive it in virtual
@@ -172,7 +178,7 @@ public:
                     started_us_ = now;
                     if (observer) observer->on_synchronized(now);
                 } else if (now - begin_us_ > config_.connect_timeout_us) {
-                    return over(r, RunOutcome::ConnectTimeout);
+                    return over(r, RunEnd::never_ran(s.partitioned));
                 }
             } else if (auto outcome = end_.check(now, started_us_, s.shown_target, s.confirmed, observer, s.partitioned)) {
                 return over(r, *outcome);

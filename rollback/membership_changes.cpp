@@ -71,7 +71,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
                                  .c_str());
     }
     const bool cut_off = view_.partitioned();
-    if (cut_off && !partitioned_) {
+    if (cut_off && !partitioned()) {
         int heard = 0;
         for (int s = 0; s < config_.players; ++s) {
             const auto pid = static_cast<PlayerId>(s);
@@ -83,6 +83,19 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
                           " players: no majority, nobody is dropped");
     }
     partitioned_ = cut_off;
+}
+
+void MembershipChanges::joiner_cut_off(const JoinerReach::Verdict& reach, std::uint64_t now_us) {
+    if (reach.cut_off && !partitioned()) {
+        std::string silent;
+        for (PlayerId p : reach.unreached) silent += (silent.empty() ? " " : ", ") + std::to_string(p);
+        effects_.emit(SessionEvent::Kind::Partitioned, SessionEvent::Reason::NoMajority, config_.local_player, effects_.confirmed_frame(),
+                      now_us,
+                      "joining: reaches " + std::to_string(reach.reached) + " of the view's " + std::to_string(reach.others) +
+                          " other players, " + std::to_string(reach.needed) +
+                          " needed: no majority, no snapshot is loaded; no word from peer" + silent);
+    }
+    joiner_cut_off_ = reach.cut_off;
 }
 
 void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {

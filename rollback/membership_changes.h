@@ -18,6 +18,10 @@
 //    majority says this session's own slot: emits `kicked` and fails (fail_dropped), nothing more.
 //    Then `partitioned` once per episode of being cut off from a majority (partitioned()).
 //    Spectators never settle: they follow the players' view (adopt_slot).
+//  - joiner_cut_off(): a joiner that has not loaded yet, cut off from a majority by its reach
+//    (rollback/joiner_reach.h): the same `partitioned` event, once per episode (frame: its
+//    confirmed frame), and partitioned() says so until its reach does not (or it loads: the
+//    caller passes a verdict that is not cut off). The one Partitioned of the session either way.
 //  - drop_slot(): a running slot leaves the view into its next epoch with every slot its process
 //    hosts; `disconnected` with its stream's count. A slot not running: nothing.
 //  - adopt_slot(): a peer's table says a slot changed hands (a join handed over, a drop we
@@ -58,6 +62,7 @@
 
 #include "rollback/events.h"
 #include "rollback/input_queue.h"
+#include "rollback/joiner_reach.h"
 #include "rollback/membership.h"
 #include "rollback/part_effects.h"
 #include "rollback/peer_link.h"
@@ -108,8 +113,9 @@ public:
     // claim in (`restarted`: the old process has been silent for restart_quiet_us). True when the
     // slot has left the view.
     bool claim_restart(PlayerId slot, bool as_player, bool quiet, std::uint64_t now_us);
+    void joiner_cut_off(const JoinerReach::Verdict& reach, std::uint64_t now_us);
     // Reported Partitioned and not yet heard a majority again.
-    bool partitioned() const { return partitioned_; }
+    bool partitioned() const { return partitioned_ || joiner_cut_off_; }
 
 private:
     // A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
@@ -125,6 +131,7 @@ private:
     SessionStats& stats_;
     MembershipEffects& effects_;
     bool partitioned_ = false;
+    bool joiner_cut_off_ = false;
 };
 
 }  // namespace lockroll::rollback

@@ -204,6 +204,8 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         ++ps.ignored_packets;
         return;
     }
+    // A joiner not yet loaded: whatever a slot's process says, it is reached.
+    if (config_.role == Role::Joiner && phase_ != SessionPhase::Running && is_slot(from)) reach_.heard(from, now_us);
     const auto kind = peek_kind(datagram);
     // A hello is always heard (a rejoining process replaces a failed one); the rest only from a
     // peer that is listened to.
@@ -592,6 +594,11 @@ void SessionImpl::poll_handshake(std::uint64_t now_us) {
     handshake_.poll_hellos(links_, phase_, scene_checksum_, now_us, pending_out_);
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
+    // A joiner cut off from a majority says so, as a player does (rollback/joiner_reach.h).
+    if (config_.role == Role::Joiner && syncing) {
+        reach_.begin(now_us);
+        changes_.joiner_cut_off(reach_.judge(config_, now_us), now_us);
+    }
     // Asking for a snapshot: a newcomer once some running peer has welcomed it enough times (and
     // the others had a moment to answer), a desynced peer from the majority peer it picked.
     const bool recovering = phase_ == SessionPhase::Running && recover_from_.has_value();
@@ -640,6 +647,7 @@ void SessionImpl::handle_snapshot_offer(PlayerId from, const SnapshotOfferMessag
                         now_us);
         case SnapshotFetch::OfferTaken::BadSlotTable: return malformed(from, "snapshot offer: slot table size");
         case SnapshotFetch::OfferTaken::Started:
+            if (config_.role == Role::Joiner && newcomer_waiting) reach_.saw_view(m.slots);
             if (phase_ == SessionPhase::Synchronizing) phase_ = SessionPhase::Transferring;
             return;
     }
@@ -661,7 +669,10 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     const auto reject = [&](SessionEvent::Reason reason, const std::string& why) {
         emit(SessionEvent::Kind::SnapshotRejected, reason, from, offer.frame, now_us, why + "; asking again");
     };
-    if (verdict == SnapshotFetch::Verdict::Rejected) return reject(SessionEvent::Reason::TransferInvalid, got.why);
+    if (verdict == SnapshotFetch::Verdict::Rejected) {
+        reach_.named_silent(got.silent);
+        return reject(SessionEvent::Reason::TransferInvalid, got.why);
+    }
     // The fetch forgot the transfer: a failed load asks again like any rejection.
     if (std::string e = sync_->load_transfer(t); !e.empty()) return reject(SessionEvent::Reason::TransferLoadFailed, "snapshot transfer: " + e);
     authority_->reset_all();
@@ -680,6 +691,7 @@ void SessionImpl::finish_transfer(std::uint64_t now_us) {
     }
     JoinHandoff::take_view(offer, membership_, slots_, links_, now_us);
     if (config_.role == Role::Joiner) {
+        changes_.joiner_cut_off({}, now_us);  // loaded on a majority's word: it reached one
         joining_ = true;
         own_inputs_from_ = offer.handoff_frame;
         links_[from].remote_ack = 0;

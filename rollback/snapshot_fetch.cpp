@@ -107,6 +107,7 @@ SnapshotFetch::Verdict SnapshotFetch::finish(std::uint64_t now_us, std::span<con
     out.from = from_;
     out.offer = incoming_->offer();
     out.why.clear();
+    out.silent.clear();
     const auto reject = [&](std::string why) {
         out.why = std::move(why);
         restart();
@@ -152,6 +153,7 @@ SnapshotFetch::Verdict SnapshotFetch::finish(std::uint64_t now_us, std::span<con
         std::string vetted = vetting_.detail(now_us);
         if (v != SnapshotVetting::Verdict::Accepted) {
             rejected_provider_ = from_;
+            out.silent = vetting_.silent(now_us);
             return reject("snapshot rejected: " + vetted);
         }
         out.why = std::move(vetted);

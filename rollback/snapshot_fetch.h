@@ -15,7 +15,8 @@
 //  - finish(): a complete transfer whose hash, contents or frame are wrong is Rejected, and so is
 //    a vetted one the majority contradicts or, for a joiner, no majority confirmed by the
 //    vetting's deadline (a spectator's uncontested host is enough there: SnapshotVetting) --
-//    its provider is then asked last (rejected_provider), the reason names the silent voters;
+//    its provider is then asked last (rejected_provider), the reason names the silent voters
+//    (and Result::silent lists them: rollback/joiner_reach.h);
 //    every rejection forgets the transfer so the next ask goes out at once. Join and spectate
 //    wait (Pending) for the vetting's verdict; a recovery needs none (it already follows the
 //    majority's checksums). Ready hands out the contents and forgets the transfer.
@@ -78,6 +79,7 @@ public:
         SnapshotOfferMessage offer;
         TransferContents contents;  // Ready
         std::string why;            // Rejected: what was wrong; Ready: the vetting's detail
+        std::vector<PlayerId> silent;  // Rejected at the vetting's deadline: the voters that did not answer
     };
     // Call once complete(). links: who was welcomed (a voter even if its slot does not run yet).
     Verdict finish(std::uint64_t now_us, std::span<const PeerLink> links,

@@ -70,6 +70,18 @@ bool SnapshotVetting::uncontested() const {
     return at_deadline_ == AtDeadline::AcceptUncontested && agreeing() > 0 && disagreeing() == 0;
 }
 
+bool SnapshotVetting::cut_off(std::uint64_t now_us) const {
+    return agreeing() < needed_ && !impossible() && now_us >= deadline_us_;
+}
+
+std::vector<PlayerId> SnapshotVetting::silent(std::uint64_t now_us) const {
+    std::vector<PlayerId> out;
+    if (!cut_off(now_us) || uncontested()) return out;
+    for (const Voter& v : voters_)
+        if (!v.answered) out.push_back(v.peer);
+    return out;
+}
+
 SnapshotVetting::Verdict SnapshotVetting::verdict(std::uint64_t now_us) const {
     if (!active_) return Verdict::Rejected;
     if (agreeing() >= needed_) return Verdict::Accepted;
@@ -97,7 +109,7 @@ std::string SnapshotVetting::detail(std::uint64_t now_us) const {
         std::snprintf(d, sizeof d, "; peer %u confirmed %016llx", v.peer, static_cast<unsigned long long>(v.value));
         s += d;
     }
-    if (agreeing() < needed_ && !impossible() && now_us >= deadline_us_) {
+    if (cut_off(now_us)) {
         s += uncontested() ? "; a spectator: accepted uncontested, no answer in time from peer"
                            : "; cut off from a majority of the view: no answer in time from peer";
         const char* sep = " ";

@@ -61,6 +61,9 @@ public:
     int needed() const { return needed_; }
     // What decided (or is missing), for the event's detail.
     std::string detail(std::uint64_t now_us) const;
+    // Past the deadline without a majority (and not accepted uncontested): the voters that had
+    // not answered, whom detail() names as cut off (a joiner's reach, rollback/joiner_reach.h).
+    std::vector<PlayerId> silent(std::uint64_t now_us) const;
 
 private:
     struct Voter {
@@ -75,6 +78,7 @@ private:
     int disagreeing() const;
     bool impossible() const;
     bool uncontested() const;  // a spectator past its deadline: agreeing answers, none differing
+    bool cut_off(std::uint64_t now_us) const;  // past the deadline short of a majority for want of answers
 
     bool active_ = false;
     std::uint32_t frame_ = 0;

@@ -8,6 +8,11 @@
 #     it completes on their final and says it had been partitioned and when it rejoined. All
 #     three complete on one final (no split left); live exits 0. (That live fails when two
 #     completed finals differ, a rejoined process's too: live_report_unit_test.)
+#  3. A joiner cut off: slot 2 is killed, and its rejoining process starts after a cut that
+#     separates it from 0 and 1 for the rest of the run. It hears nobody: it reports
+#     `partitioned` (reason no_majority, frame 0: it loaded nothing) within a few timeouts, loads
+#     nothing, and ends `partitioned` at its connect timeout (before: `connect_timeout`, and live
+#     exited 1); live reports the split and exits 0.
 # Outcomes only, with slack: frames are bounds, never timings.
 set -u
 lockroll=$1
@@ -77,6 +82,31 @@ loaded = [e for e in events("p2") if e["event"] == "snapshot_loaded"]
 assert len(loaded) == 1 and loaded[0]["event_frame"] == g and ev.index("kicked") < ev.index("snapshot_loaded"), loaded
 fin = [e for e in events("p2") if e["event"] == "finished"]
 assert fin and fin[-1]["outcome"] == "completed" and fin[-1]["rejoined_at_frame"] == g, fin
+'
+
+# 3. The cut from frame 250 outlasts the run; p2 is killed at 100 (0 and 1 drop it after 2 s) and
+#    p2-rejoin starts at 300, cut off from both. It waits for its snapshot until the runner's
+#    connect timeout (30 s), reporting the partition long before it.
+"$lockroll" live --players 3 --frames 900 --mode rollback --kill 2@100 --rejoin 2@300 --partition 0,1/2@250-5000 \
+    --no-virtual --disconnect-timeout 2 --out "$tmp/joiner" >"$tmp/joiner.out" 2>&1 || { fail "joiner: exit status $?"; tail -5 "$tmp/joiner.out"; }
+grep -q "split *2 completed on one final, 1 partitioned" "$tmp/joiner.out" || fail "joiner: the console does not report the split"
+check joiner "$tmp/joiner" rollback '
+assert d["ok"] and "overclaims" not in d, d
+assert d["split"] == {"completed": 2, "partitioned": 1, "partitioned_processes": ["p2-rejoin"]}, d["split"]
+assert procs["p0"]["final_checksum"] == procs["p1"]["final_checksum"] is not None
+j = procs["p2-rejoin"]
+assert j["outcome"] == "partitioned" and j["exit_status"] == 1 and j["final_checksum"] is None, j
+s = json.load(open(os.path.join(sys.argv[1], "rollback", "p2-rejoin", "summary.json")))
+assert s["outcome"] == "partitioned" and s["partitioned_since_frame"] == 0, s
+assert "partitioned since frame 0" in s["outcome_detail"], s["outcome_detail"]
+ev = events("p2-rejoin")
+told = [e for e in ev if e["event"] == "partitioned"]
+# Within a few disconnect timeouts (2 s), not at the 30 s connect timeout.
+assert len(told) == 1 and told[0]["reason"] == "no_majority" and told[0]["event_frame"] == 0, told
+assert told[0]["t_ms"] - ev[0]["t_ms"] < 10000, told
+assert not any(e["event"] in ("snapshot_loaded", "synchronized", "all_confirmed") for e in ev), [e["event"] for e in ev]
+fin = [e for e in ev if e["event"] == "finished"]
+assert fin and fin[-1]["outcome"] == "partitioned" and fin[-1]["partitioned_since_frame"] == 0, fin
 '
 
 [[ $failures -eq 0 ]] && echo "all passed" || echo "$failures failure(s)"

@@ -123,6 +123,28 @@ TEST(LiveJson, ThePartitionedSideIsASplitNotAFailure) {
     EXPECT_TRUE(j["ok"].get<bool>());
 }
 
+// A joiner (`--join`/`--rejoin`/`--restart`) that never reached a majority of the view ends
+// partitioned since its confirmed frame, 0 when it loaded nothing (rollback/joiner_reach.h): the
+// cut-off side of a split like any partitioned player, not a survivor that failed (before, it
+// ended connect_timeout, and live failed the run).
+TEST(LiveJson, AJoinerThatNeverReachedAMajorityIsTheCutOffSide) {
+    ProcessRecord joiner = player(2, "partitioned", "", 1);
+    joiner.name = "p2-rejoin";
+    joiner.joiner = true;
+    joiner.summary["partitioned_since_frame"] = 0;
+    ProcessRecord killed = player(2, "", "", -1);
+    killed.killed = true;
+    const json j = live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000aa", 0), killed, joiner},
+                             kNoDir);
+    EXPECT_EQ(j["split"]["partitioned"].get<int>(), 1);
+    EXPECT_EQ(j["split"]["partitioned_processes"], json::array({"p2-rejoin"}));
+    EXPECT_TRUE(j["ok"].get<bool>());
+    joiner.summary = {{"outcome", "connect_timeout"}};  // what it said before: a failure
+    EXPECT_FALSE(live_json({player(0, "completed", "00000000000000aa", 0), player(1, "completed", "00000000000000aa", 0), killed, joiner},
+                           kNoDir)["ok"]
+                     .get<bool>());
+}
+
 // Issue 21, healed: the process cut off from the majority rejoined its view by snapshot and
 // completed. It counts as completed (no split side), its record says when it had been cut off
 // and when it rejoined, and live is ok only if its final is everyone's: a rejoined process on

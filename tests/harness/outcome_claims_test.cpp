@@ -135,6 +135,11 @@ TEST(OutcomeClaims, APartitionedProcessNamesTheFrameAndDoesNotExitZero) {
     p.exit_status = 1;
     p.summary = {{"outcome", "partitioned"}, {"partitioned_since_frame", 201}, {"confirmed_frame", 201}, {"shown_frame", 209}};
     EXPECT_TRUE(overclaims(p, 600).empty());
+    // A joiner partitioned before it loaded anything (rollback/joiner_reach.h) says frame 0: a
+    // frame all the same.
+    ProcessSeen joiner = p;
+    joiner.summary["partitioned_since_frame"] = 0;
+    EXPECT_TRUE(overclaims(joiner, 600).empty());
     ProcessSeen no_frame = p;
     no_frame.summary.erase("partitioned_since_frame");
     no_frame.exit_status = 0;

@@ -219,6 +219,22 @@ TEST(TickLoop, AFailureOnTheServersSilenceIsServerLost) {
               RunOutcome::ServerLost);
 }
 
+// A session that never ran by the connect timeout (a joiner) ends ConnectTimeout, or Partitioned
+// when it is cut off from a majority then (rollback/joiner_reach.h): the outcome names the cause.
+TEST(TickLoop, AJoinerCutOffAtTheConnectTimeoutEndsPartitioned) {
+    RunnerConfig c = config();
+    c.connect_timeout_us = 2000000;
+    TickLoop cut_off(c), waiting(c);
+    std::uint64_t now = kStart;
+    int ticks = 0;
+    EXPECT_EQ(update_until_over(cut_off, now, ticks, [&] { return TickStatus{.partitioned = ticks >= 60}; }),
+              RunOutcome::Partitioned);
+    EXPECT_NEAR(static_cast<double>(ticks) / 60.0, 2.0, 0.1) << "at the connect timeout, not before";
+    now = kStart;
+    ticks = 0;
+    EXPECT_EQ(update_until_over(waiting, now, ticks, [] { return TickStatus{}; }), RunOutcome::ConnectTimeout);
+}
+
 TEST(TickLoop, ARunThatIsOverStaysOver) {
     RunnerConfig c = config();
     c.target_frame = 10;

@@ -381,5 +381,62 @@ void relays_through_a_cut(int window) {
 
 TEST(Lifecycle, APeerStuckOnAGapGetsRelaysInASteadyMatch) { relays_through_a_cut(8); }
 
+// Issue 21, "a process that cannot reach a majority of the view stops confirming frames and
+// reports Partitioned": a joiner too. A new process of slot 2 in a match of three hears only
+// the owner (slot 0), only slot 1, or nobody. Before, it reported nothing of the kind: it sat in
+// its sync phase (rejecting each offer it could not vet, at best) until its runner's connect
+// timeout, 30 s and more, ended it `connect_timeout`. Now, within disconnect_us (+ slack) of
+// starting it reports `partitioned` (reason no_majority, its confirmed frame), never loads a
+// snapshot the majority did not vet while cut, and once healed joins by a vetted snapshot and
+// confirms the majority's checksums.
+void joiner_cut_off(std::set<PlayerId> unreachable) {
+    const auto scene = make_scene(3, 20);
+    const SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {10000, 2000}, 17);
+    bool cut = true;
+    Client& joiner = start_cut_off_joiner(cluster, scene, cfg, unreachable, cut);
+    const std::uint64_t started = cluster.now();
+    // The silence a player waits before its vote, and a little more for the round trips.
+    const std::uint64_t bound = cfg.disconnect_us + 2 * cfg.interrupt_us;
+    cluster.run([&](const Cluster&) { return !events_of(joiner, Kind::Partitioned).empty(); }, bound);
+    ASSERT_FALSE(events_of(joiner, Kind::Partitioned).empty())
+        << "a joiner cut off from the majority says so within " << bound / 1000 << " ms";
+    const SessionEvent told = *events_of(joiner, Kind::Partitioned)[0];  // a copy: events grows
+    EXPECT_LE(told.at_us - started, bound);
+    EXPECT_EQ(told.reason, SessionEvent::Reason::NoMajority);
+    EXPECT_EQ(told.peer, 2u);
+    EXPECT_EQ(told.frame, joiner.session->confirmed_frame()) << "its confirmed frame";
+    EXPECT_NE(told.detail.find("no majority"), std::string::npos) << told.detail;
+    EXPECT_TRUE(joiner.session->partitioned());
+    // Cut for three timeouts: it loads nothing, never runs, and the two others play on.
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 3 * cfg.disconnect_us);
+    EXPECT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty()) << events_of(joiner, Kind::SnapshotLoaded)[0]->detail;
+    EXPECT_TRUE(events_of(joiner, Kind::Synchronized).empty());
+    EXPECT_NE(joiner.session->phase(), SessionPhase::Running);
+    for (PlayerId p : {0u, 1u}) {
+        EXPECT_GT(cluster.clients[p]->session->frame(), before + 60 * 3 * cfg.disconnect_us / 1'000'000 / 3) << "client " << p;
+        EXPECT_TRUE(events_of(*cluster.clients[p], Kind::Partitioned).empty()) << "client " << p << " hears a majority";
+    }
+    // Healed: it joins by a snapshot the majority vetted, and confirms their checksums.
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    EXPECT_FALSE(joiner.session->partitioned());
+    const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_GT(loaded[0]->at_us, events_of(joiner, Kind::Partitioned).back()->at_us);
+    EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
+}
+
+TEST(Lifecycle, AJoinerThatHearsOnlyTheOwnerReportsPartitioned) { joiner_cut_off({1}); }
+TEST(Lifecycle, AJoinerThatHearsOnlyANonOwnerReportsPartitioned) { joiner_cut_off({0}); }
+TEST(Lifecycle, AJoinerThatHearsNobodyReportsPartitioned) { joiner_cut_off({0, 1}); }
+
 }  // namespace
 }  // namespace lockroll::rollback

@@ -73,4 +73,24 @@ inline void split(testing::Cluster& cluster, std::set<PlayerId> side, const bool
     };
 }
 
+// A joiner cut off: a match of three (`cfg`) whose slot 2 is killed at frame 200 and dropped by
+// the two others; a new process of slot 2 then joins while every datagram between it and the
+// slots in `unreachable` is lost as long as `cut` is set. Dropped again meanwhile (its handoff
+// lapsed), it starts again as a joiner, as a runner does. Returns the joiner's client.
+inline testing::Client& start_cut_off_joiner(testing::Cluster& cluster, const sim::SceneDesc& scene,
+                                             const SessionConfig& cfg, std::set<PlayerId> unreachable, const bool& cut) {
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    cluster.run_frames(400, 60'000'000);
+    EXPECT_EQ(cluster.clients[0]->session->slot_state(2), SlotState::Disconnected);
+    cluster.filter = [unreachable = std::move(unreachable), &cut](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !(cut && ((from == 2 && unreachable.count(to)) || (to == 2 && unreachable.count(from))));
+    };
+    SessionConfig again = cfg;
+    again.local_player = 2;
+    again.role = Role::Joiner;
+    return cluster.start(2, scene, again, 999);
+}
+
 }  // namespace lockroll::rollback

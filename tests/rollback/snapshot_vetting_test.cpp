@@ -6,6 +6,8 @@
 // the honest final.
 #include <gtest/gtest.h>
 
+#include <vector>
+
 #include "rollback/session.h"
 #include "rollback/snapshot_vetting.h"
 #include "tests/rollback/test_support.h"
@@ -131,12 +133,19 @@ TEST(SnapshotVetting, AtTheDeadlineTheProviderAloneIsRejectedAndTheSilentAreName
               std::string::npos)
         << v.detail(1000);
     EXPECT_EQ(v.detail(999).find("cut off"), std::string::npos) << "not before the deadline";
+    // The same voters as a list, for the joiner's reach (rollback/joiner_reach.h).
+    EXPECT_EQ(v.silent(1000), (std::vector<PlayerId>{1, 2}));
+    EXPECT_TRUE(v.silent(999).empty()) << "not before the deadline";
     v.start(10, 0x1, 0, view(3, 3), 0, 1000);
     EXPECT_EQ(v.verdict(1000), V::Rejected) << "nobody answered";
+    EXPECT_EQ(v.silent(1000), (std::vector<PlayerId>{0, 1, 2}));
     v.start(10, 0x1, 0, view(3, 3), 0, 1000);
     v.on_reply(0, 10, true, 0x1);
     v.on_reply(1, 10, true, 0x2);
     EXPECT_EQ(v.verdict(1000), V::Rejected) << "one differs";
+    EXPECT_EQ(v.silent(1000), std::vector<PlayerId>{2});
+    v.on_reply(2, 10, true, 0x2);
+    EXPECT_TRUE(v.silent(1000).empty()) << "rejected by the answers: nobody silent";
     v.reset();
     EXPECT_FALSE(v.active());
 }
@@ -151,6 +160,7 @@ TEST(SnapshotVetting, AtTheDeadlineASpectatorTakesItsHostsUncontestedWord) {
     v.on_reply(0, 10, true, 0x1);
     EXPECT_EQ(v.verdict(999), V::Pending);
     EXPECT_EQ(v.verdict(1000), V::Accepted);
+    EXPECT_TRUE(v.silent(1000).empty()) << "accepted: nobody is named cut off";
     EXPECT_NE(v.detail(1000).find("a spectator: accepted uncontested, no answer in time from peer 1, 2"),
               std::string::npos)
         << v.detail(1000);
