@@ -23,6 +23,7 @@
 #include "rollback/frame_pacing.h"
 #include "rollback/handshake.h"
 #include "rollback/input_intake.h"
+#include "rollback/joiner_reach.h"
 #include "rollback/membership.h"
 #include "rollback/membership_changes.h"
 #include "rollback/peer_link.h"
