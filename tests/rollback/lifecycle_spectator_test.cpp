@@ -133,6 +133,43 @@ TEST(Lifecycle, SpectatorWhoseHostIsKilledBeforeTheOthersWelcomedItFollowsOn) {
     }
 }
 
+// Issue 21, the same run over real processes with the host itself killed (lockroll live
+// --kill 0@200 --spectate-at 190, 5 % loss: the spectator ran out its connect timeout in 2 runs of
+// 3): slot 0 welcomed the spectator, then died before it answered its snapshot request. A dead
+// host stays welcomed in the spectator's links, and the spectator asked the first welcomed host
+// again and again -- slot 0, for good. Here slot 0 dies the moment the spectator asks it. Before
+// the fix the spectator never loaded; now an unanswered ask moves on to the next host, and the
+// spectator follows the two survivors to their final.
+TEST(Lifecycle, SpectatorWhoseHostDiesBeforeItsOfferAsksAnother) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        SpectatorThroughKillAndRejoin m(seed);
+        bool asked = false;  // the spectator asked slot 0, which is dead from then on
+        m.cluster.filter = [&asked](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+            if (from == 3 && to == 0 && peek_kind(b) == MessageKind::SnapshotRequest) asked = true;
+            return !asked || (from != 0 && to != 0);
+        };
+        // As net::PeerRunner does: a spectator the players timed out while it waited for the
+        // dead host's offer (they hear nothing from it meanwhile) is told so, and starts again.
+        rejoin_when_dropped(m.cluster);
+        Client& spectator = m.start_spectator();
+        m.cluster.run([&](const Cluster&) { return asked; }, 10'000'000);
+        ASSERT_TRUE(asked) << "the spectator must ask slot 0 first";
+        m.cluster.kill(0);
+        constexpr std::uint32_t kLast = 900;
+        m.cluster.run_frames(kLast, 60'000'000);
+        m.cluster.settle(kLast);
+        ASSERT_EQ(spectator.session->phase(), SessionPhase::Running) << spectator.session->failure();
+        ASSERT_EQ(events_of(spectator, Kind::SnapshotLoaded).size(), 1u);
+        EXPECT_NE(events_of(spectator, Kind::SnapshotLoaded)[0]->peer, 0u);
+        EXPECT_GE(spectator.session->confirmed_frame(), kLast);
+        expect_equal_at(m.cluster, kLast);
+        const auto it = spectator.confirmed.find(kLast);
+        ASSERT_NE(it, spectator.confirmed.end());
+        EXPECT_EQ(it->second, m.cluster.clients[1]->confirmed.at(kLast));
+    }
+}
+
 // Three players on 64-frame queues reach frame 150; then a spectator comes (by a snapshot).
 struct SpectatorOnSmallQueues {
     sim::SceneDesc scene = make_scene(3, 10);
