@@ -21,8 +21,9 @@ void Handshake::poll_hellos(std::span<PeerLink> links, SessionPhase phase, std::
         PeerLink& l = links[pid];
         const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
                                    : phase == SessionPhase::Synchronizing;
+        // A running spectator too: served only by the players that welcomed it, it would stop for
+        // good once they all left -- its host killed before the others' welcomes came (issue 21).
         if (!want) continue;
-        if (newcomer && !syncing && config_.role == Role::Spectator) continue;  // a spectator talks to its host only
         if (!l.hello_due(now_us, config_.hello_resend_us)) continue;
         HelloMessage h;
         h.incarnation = incarnation_;
@@ -117,12 +118,13 @@ Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeM
         return {Act::Refused, std::move(why), refusal_reason(m.refusal)};
     }
     if (running) {
-        // A joiner that loaded its snapshot from one peer may reach another only afterwards
+        // A newcomer that loaded its snapshot from one peer may reach another only afterwards
         // (between processes: that peer's connection came up late). Its hellos go on until every
         // running slot has welcomed it; the late welcome makes the link live, so the two exchange
-        // inputs from now on (without it each would ignore the other and the peer would drop the
-        // slot for silence).
-        if (config_.role != Role::Joiner || !is_slot(from) || !view_.running(from) || !m.running || link.welcomed) return {};
+        // inputs from now on (without it each would ignore the other: the peer would drop a
+        // joiner's slot for silence, and a spectator would be served by its host alone and stop
+        // for good if that host died).
+        if (config_.role == Role::Player || !is_slot(from) || !view_.running(from) || !m.running || link.welcomed) return {};
         return {Act::LateWelcome, {}};
     }
     if (phase != SessionPhase::Synchronizing && phase != SessionPhase::Transferring) return {};

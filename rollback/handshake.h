@@ -23,7 +23,7 @@
 //    refusal other than Retry is answered at most every 100 ms per peer and reported at most once
 //    a second (refusal_answered(), refusal_reported()).
 //  - Welcomes received: judge_welcome() says what one means (ignore it, our spectator or slot
-//    dropped, refused with the text of the event, one more sync round trip, a running joiner's
+//    dropped, refused with the text of the event, one more sync round trip, a running newcomer's
 //    late welcome); the session does it.
 #pragma once
 
@@ -83,7 +83,7 @@ public:
             VoteGone,          // the peer dropped our slot: MembershipChanges::refused_as_dropped
             Refused,           // `why` is the event's text; the session fails unless it runs
             SyncRoundTrip,     // one more sync round trip (sync_welcome), then maybe start
-            LateWelcome,       // a running joiner welcomed by a slot it had not reached yet
+            LateWelcome,       // a running newcomer (joiner, spectator) welcomed by a slot it had not reached yet
         };
         Act act = Act::Ignore;
         std::string why;

@@ -24,8 +24,17 @@ void SnapshotFetch::newcomer_providers(std::span<const PeerLink> links, std::uin
         if (pid == config_.local_player || !l.welcomed || !l.has_remote_frame) continue;
         out.push_back(pid);
     }
-    // One host is enough for a spectator: the first that did not serve a rejected snapshot.
+    // One host is enough for a spectator: the first that did not serve a rejected snapshot --
+    // counted from the one after the host last asked if that ask went unanswered (a host killed
+    // before it answered stays welcomed here: asked first again and again, it kept the spectator
+    // out for good; issue 21).
     if (config_.role == Role::Spectator && out.size() > 1) {
+        auto from = out.begin();
+        if (offer_requested_ && asked_) {
+            from = std::find_if(out.begin(), out.end(), [&](PlayerId p) { return p > *asked_; });
+            if (from == out.end()) from = out.begin();
+        }
+        std::rotate(out.begin(), from, out.end());
         const auto good = std::find_if(out.begin(), out.end(), [&](PlayerId p) { return p != rejected_provider_; });
         out = {good != out.end() ? *good : out.front()};
     }
@@ -35,6 +44,8 @@ void SnapshotFetch::ask(std::span<const PlayerId> peers, TransferReason reason, 
                         std::vector<Datagram>& out) {
     offer_requested_ = true;
     last_ask_us_ = now_us;
+    asked_.reset();
+    if (peers.size() == 1) asked_ = peers.front();
     for (PlayerId pid : peers) {
         SnapshotRequestMessage r;
         r.reason = reason;
@@ -51,6 +62,7 @@ SnapshotFetch::OfferTaken SnapshotFetch::take_offer(PlayerId from, const Snapsho
     incoming_ = std::make_unique<TransferReceiver>(m);
     incoming_->started_us = now_us;
     from_ = from;
+    asked_.reset();  // answered
     return OfferTaken::Started;
 }
 
@@ -92,7 +104,9 @@ SnapshotFetch::Poll SnapshotFetch::poll(std::uint64_t now_us, std::vector<Datagr
         encode(r, d.bytes);
         out.push_back(std::move(d));
     }
-    return now_us > incoming_->started_us + kTimeoutUs ? Poll::TimedOut : Poll::Nothing;
+    if (now_us <= incoming_->started_us + kTimeoutUs) return Poll::Nothing;
+    rejected_provider_ = from_;  // gone silent: asked last next time
+    return Poll::TimedOut;
 }
 
 void SnapshotFetch::restart() {

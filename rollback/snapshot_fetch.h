@@ -11,7 +11,9 @@
 //    only if its size is within config.max_snapshot_bytes and its slot table has config.players
 //    entries; a chunk only from the offer's sender and of that offer.
 //  - Offers are asked for at most every 2 x transfer_resend_us while none arrives (may_ask).
-//    A transfer that takes longer than kTimeoutUs is dropped and asked for again (poll).
+//    A transfer that takes longer than kTimeoutUs is dropped and asked for again (poll), its
+//    provider asked last. A spectator whose ask went unanswered asks the next host (a host may
+//    die between its welcome and its offer).
 //  - finish(): a complete transfer whose hash, contents or frame are wrong is Rejected, and so is
 //    a vetted one the majority contradicts or, for a joiner, no majority confirmed by the
 //    vetting's deadline (a spectator's uncontested host is enough there: SnapshotVetting) --
@@ -51,7 +53,8 @@ public:
     // Whom a newcomer asks for an offer (appended to out; nothing yet: empty): once some peer has
     // welcomed it sync_roundtrips times and the others had three hello periods since the first
     // welcome to answer, every welcomed peer that reported its frame -- a spectator only one,
-    // the first that did not serve a rejected snapshot.
+    // the first that did not serve a rejected snapshot (or time out its transfer), counted from
+    // the one after its last host when that host's offer never came.
     void newcomer_providers(std::span<const PeerLink> links, std::uint64_t first_welcome_us, std::uint64_t now_us,
                             std::vector<PlayerId>& out) const;
     // Asks each of `peers` for an offer now.
@@ -101,6 +104,7 @@ private:
     bool offer_requested_ = false;
     SnapshotVetting vetting_;
     std::optional<PlayerId> rejected_provider_;
+    std::optional<PlayerId> asked_;  // the one provider of the last ask, until its offer came
 };
 
 }  // namespace lockroll::rollback

@@ -63,9 +63,14 @@ TEST(Handshake, ANewcomerSaysHelloUntilEveryRunningSlotWelcomedIt) {
     f.welcome(h, 0, f.config.sync_roundtrips, true, 500);
     EXPECT_EQ(f.hellos(h, SessionPhase::Synchronizing, 1000), (std::vector<PlayerId>{1}));
     EXPECT_EQ(f.hellos(h, SessionPhase::Running, 2'000'000), (std::vector<PlayerId>{1})) << "loaded: until welcomed";
+    // A spectator as well (issue 21): served only by its host, it stopped for good once that
+    // host was killed before the others' welcomes came.
     Fixture s(Role::Spectator, 2);
     Handshake hs(s.config, s.view);
-    EXPECT_TRUE(s.hellos(hs, SessionPhase::Running, 2'000'000).empty()) << "a spectator talks to its host only";
+    s.welcome(hs, 0, s.config.sync_roundtrips, true, 500);
+    EXPECT_EQ(s.hellos(hs, SessionPhase::Running, 2'000'000), (std::vector<PlayerId>{1})) << "loaded: until welcomed";
+    s.links[1].late_welcome(0, 0, 2'000'010);
+    EXPECT_TRUE(s.hellos(hs, SessionPhase::Running, 3'000'000).empty()) << "every running slot welcomed it";
 }
 
 TEST(Handshake, StartsAfterSyncRoundtripsOrAtOnceBehindAPlayerThatStarted) {
@@ -188,20 +193,30 @@ TEST(Handshake, WhatAWelcomeMeans) {
     EXPECT_EQ(hj.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::VoteGone);
 }
 
-TEST(Handshake, ARunningJoinerTakesALateWelcomeOnceFromARunningSlot) {
+// A newcomer (joiner, or spectator since issue 21) that runs takes a late welcome from a running
+// slot; a player needs none.
+TEST(Handshake, ARunningNewcomerTakesALateWelcomeOnceFromARunningSlot) {
     using Act = Handshake::WelcomeVerdict::Act;
-    Fixture j(Role::Joiner, 2);
-    Handshake h(j.config, j.view);
+    for (Role role : {Role::Joiner, Role::Spectator}) {
+        SCOPED_TRACE(role == Role::Joiner ? "joiner" : "spectator");
+        Fixture j(role, 2);
+        Handshake h(j.config, j.view);
+        WelcomeMessage w;
+        w.running = true;
+        EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::LateWelcome);
+        j.links[1].late_welcome(0, 0, 10);
+        EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::Ignore) << "welcomed already";
+        w.running = false;
+        EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "not running itself";
+        w.running = true;
+        j.view.set(0, SlotState::Disconnected, 1);
+        EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "a dropped slot";
+    }
+    Fixture p;
+    Handshake hp(p.config, p.view);
     WelcomeMessage w;
     w.running = true;
-    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::LateWelcome);
-    j.links[1].late_welcome(0, 0, 10);
-    EXPECT_EQ(h.judge_welcome(1, w, SessionPhase::Running, j.links[1], 9).act, Act::Ignore) << "welcomed already";
-    w.running = false;
-    EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "not running itself";
-    w.running = true;
-    j.view.set(0, SlotState::Disconnected, 1);
-    EXPECT_EQ(h.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::Ignore) << "a dropped slot";
+    EXPECT_EQ(hp.judge_welcome(1, w, SessionPhase::Running, p.links[1], 9).act, Act::Ignore) << "a player needs none";
 }
 
 }  // namespace

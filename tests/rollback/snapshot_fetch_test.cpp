@@ -253,6 +253,37 @@ TEST(SnapshotFetch, RequestsMissingChunksAndDropsASilentProvider) {
     EXPECT_EQ(f.poll(1001 + SnapshotFetch::kTimeoutUs, x.out), SnapshotFetch::Poll::TimedOut);
     f.restart();
     EXPECT_TRUE(f.may_ask(1001 + SnapshotFetch::kTimeoutUs));
+    EXPECT_EQ(f.rejected_provider(), PlayerId{0}) << "the silent provider is asked last";
+}
+
+// Issue 21: a spectator's host killed between its welcome and its offer stays welcomed in the
+// spectator's links; asked first every time, it kept the spectator out for good. An ask that
+// went unanswered moves on to the next host, round the welcomed ones.
+TEST(SnapshotFetch, ASpectatorWhoseHostNeverAnswersAsksTheNext) {
+    Fixture x(TransferReason::Spectate, Role::Spectator, 4);
+    for (auto& l : x.links) {
+        l.has_remote_frame = true;
+        l.roundtrips = x.config.sync_roundtrips;
+    }
+    SnapshotFetch f(x.config, kStateSize);
+    const std::uint64_t period = 2 * x.config.transfer_resend_us;
+    std::uint64_t now = 1 + 3 * x.config.hello_resend_us;
+    std::vector<PlayerId> asked;
+    for (int i = 0; i < 4; ++i, now += period) {
+        ASSERT_TRUE(f.may_ask(now));
+        std::vector<PlayerId> ask;
+        f.newcomer_providers(x.links, 1, now, ask);
+        ASSERT_EQ(ask.size(), 1u);
+        asked.push_back(ask.front());
+        f.ask(ask, TransferReason::Spectate, now, x.out);
+    }
+    EXPECT_EQ(asked, (std::vector<PlayerId>{0, 1, 2, 0}));
+    // Answered: the next ask (after a rejection) starts from the first again.
+    ASSERT_EQ(f.take_offer(1, x.transfer().offer, now), SnapshotFetch::OfferTaken::Started);
+    f.restart();
+    std::vector<PlayerId> ask;
+    f.newcomer_providers(x.links, 1, now, ask);
+    EXPECT_EQ(ask, std::vector<PlayerId>{0});
 }
 
 }  // namespace
