@@ -38,9 +38,10 @@ enum CloseCode : enet_uint32 {
     kTimedOut = 0,          // silent for dead_after_us (ENet's own timeout sends nothing: also 0)
     kClosed = 1,            // orderly shutdown (destructor)
     kRefusedOwnId = 2,      // you claimed my own id
-    kRefusedDuplicate = 3,  // your id is held by a live connection
+    kRefusedDuplicate = 3,  // your id is held by a live connection (refused; or your claim is void:
+                            // the silent connection you claimed spoke again)
     kCrossed = 4,           // both connected at once; the one the lower id initiated is kept
-    kReplaced = 5,          // a new connection claiming your id replaced this silent one
+    kReplaced = 5,          // a connection claiming your id took it over: this one stayed silent
 };
 
 std::string close_reason(enet_uint32 code) {
@@ -98,6 +99,7 @@ EnetTransport::EnetTransport(const EnetConfig& config) : config_(config), local_
 
 EnetTransport::~EnetTransport() {
     for (auto& [id, conn] : by_id_) enet_peer_disconnect_now(conn.peer, kClosed);
+    for (auto& [id, conn] : claimants_) enet_peer_disconnect_now(conn.peer, kClosed);
     enet_host_flush(host_);
     enet_host_destroy(host_);
 }
@@ -167,12 +169,44 @@ bool EnetTransport::next_event(TransportEvent& out) {
 
 void EnetTransport::refuse(ENetPeer* peer, std::uint32_t code) { enet_peer_disconnect_now(peer, code); }
 
-void EnetTransport::drop_connection(PeerId id, std::uint32_t code) {
-    const auto it = by_id_.find(id);
-    if (it == by_id_.end()) return;
+void EnetTransport::drop_connection(std::map<PeerId, Connection>& from, PeerId id, std::uint32_t code) {
+    const auto it = from.find(id);
+    if (it == from.end()) return;
     by_peer_.erase(it->second.peer);
     enet_peer_disconnect_now(it->second.peer, code);  // resets the slot; no event for it here
-    by_id_.erase(it);
+    from.erase(it);
+}
+
+EnetTransport::Connection* EnetTransport::connection_of(ENetPeer* peer, PeerId* id, bool* claimant) {
+    const auto it = by_peer_.find(peer);
+    if (it == by_peer_.end()) return nullptr;
+    *id = it->second;
+    if (claimant != nullptr) *claimant = false;
+    if (const auto h = by_id_.find(it->second); h != by_id_.end() && h->second.peer == peer) return &h->second;
+    if (claimant != nullptr) *claimant = true;
+    if (const auto c = claimants_.find(it->second); c != claimants_.end() && c->second.peer == peer) return &c->second;
+    return nullptr;
+}
+
+void EnetTransport::held_gone(PeerId id, std::uint32_t close_code, std::string why) {
+    const auto c = claimants_.find(id);
+    if (c == claimants_.end()) {
+        drop_connection(by_id_, id, close_code);
+        ++enet_counters_.disconnects;
+        push_event(TransportEvent::Type::Disconnected, id, std::move(why));
+        return;
+    }
+    // The claim stood: the old connection was never heard again. Its claimant holds the id now.
+    drop_connection(by_id_, id, kReplaced);
+    ++enet_counters_.replaced;
+    const bool up = c->second.established;
+    by_id_[id] = c->second;  // by_peer_ already names its peer with the id
+    by_id_[id].claimed_us = 0;
+    claimants_.erase(c);
+    if (up)
+        push_event(TransportEvent::Type::Connected, id, "reconnected: the claim stood; replaces a connection " + why);
+    else  // our own connect is still under way: a Connected follows when it completes
+        push_event(TransportEvent::Type::Disconnected, id, std::move(why));
 }
 
 bool EnetTransport::connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error) {
@@ -181,18 +215,26 @@ bool EnetTransport::connect(PeerId remote, const std::string& host, std::uint16_
         return false;
     };
     if (remote == local_id_) return fail("peer id " + std::to_string(remote) + " is the local id");
+    // A silent connection is not closed: the new one claims its id, provisionally (the header).
+    bool claim = false;
     if (const auto it = by_id_.find(remote); it != by_id_.end()) {
-        if (!it->second.established || !silent(it->second))
+        if (!it->second.established || !silent(it->second) || claimants_.count(remote) != 0)
             return fail("peer id " + std::to_string(remote) + " is already connected or connecting");
-        drop_connection(remote, kReplaced);  // silent: its process is probably gone
-        ++enet_counters_.replaced;
+        claim = true;
     }
     ENetAddress address{};
     if (enet_address_set_host(&address, host.c_str()) != 0) return fail("cannot resolve host '" + host + "'");
     address.port = port;
     ENetPeer* peer = enet_host_connect(host_, &address, kChannels, local_id_);
     if (peer == nullptr) return fail("no free ENet connection slot");
-    by_id_[remote] = Connection{peer, false, true, last_now_, peer->lastReceiveTime};
+    Connection c{peer, false, true, last_now_, peer->lastReceiveTime};
+    if (claim) {
+        c.claimed_us = last_now_;
+        claimants_[remote] = c;
+        ++enet_counters_.replace_claims;
+    } else {
+        by_id_[remote] = c;
+    }
     by_peer_[peer] = remote;
     return true;
 }
@@ -202,26 +244,30 @@ std::uint64_t EnetTransport::wire_bytes_received() const { return host_->totalRe
 
 bool EnetTransport::is_connected(PeerId remote) const {
     const auto it = by_id_.find(remote);
-    return it != by_id_.end() && it->second.established;
+    const auto c = claimants_.find(remote);
+    return (it != by_id_.end() && it->second.established) || (c != claimants_.end() && c->second.established);
 }
 
 std::vector<PeerId> EnetTransport::connected_peers() const {
     std::vector<PeerId> ids;
     for (const auto& [id, conn] : by_id_)
-        if (conn.established) ids.push_back(id);
+        if (is_connected(id)) ids.push_back(id);
     return ids;
 }
 
 void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
     ENetPeer* peer = event.peer;
-    if (const auto it = by_peer_.find(peer); it != by_peer_.end()) {  // our outgoing connect completed
-        Connection& c = by_id_.at(it->second);
-        c.established = true;
-        c.last_heard_us = now;
-        c.enet_last_receive = peer->lastReceiveTime;  // the handshake itself is not a first word
-        c.up_us = now;
+    PeerId ours = 0;
+    bool claimant = false;
+    if (Connection* c = connection_of(peer, &ours, &claimant)) {  // our outgoing connect completed
+        c->established = true;
+        c->last_heard_us = now;
+        c->enet_last_receive = peer->lastReceiveTime;  // the handshake itself is not a first word
+        c->up_us = now;
         configure_peer(peer);
-        push_event(TransportEvent::Type::Connected, it->second, "connected (we connected)");
+        push_event(TransportEvent::Type::Connected, ours,
+                   claimant ? "reconnected (we connected; provisional: the silent connection it claims stays open)"
+                       : "connected (we connected)");
         return;
     }
     const PeerId remote = event.data;
@@ -237,19 +283,39 @@ void EnetTransport::handle_connect(const ENetEvent& event, Micros now) {
     if (const auto it = by_id_.find(remote); it != by_id_.end()) {
         const Connection& old = it->second;
         if (old.established && silent(old)) {
-            ++enet_counters_.replaced;
-            // Read what the message needs before drop_connection() erases `old`.
-            reason = "reconnected: replaces a connection silent for " +
-                     std::to_string((now - old.last_heard_us) / 1000) + " ms";
-            drop_connection(remote, kReplaced);
-        } else if (old.outgoing) {
+            // A claim: admitted beside the silent connection, which stays open and keeps the
+            // id if it is heard again (poll()). A claimant that went silent itself gives way.
+            if (const auto c = claimants_.find(remote); c != claimants_.end()) {
+                if (!c->second.established || !silent(c->second)) {
+                    ++enet_counters_.refused_duplicate_id;
+                    ++counters_.rejected;
+                    refuse(peer, kRefusedDuplicate);
+                    push_event(TransportEvent::Type::Refused, remote,
+                               who + ": id claimed by another live connection already");
+                    return;
+                }
+                drop_connection(claimants_, remote, kReplaced);
+            }
+            ++enet_counters_.replace_claims;
+            Connection c{peer, true, false, now, peer->lastReceiveTime, true};
+            c.claimed_us = now;
+            claimants_[remote] = c;
+            by_peer_[peer] = remote;
+            configure_peer(peer);
+            push_event(TransportEvent::Type::Connected, remote,
+                       "reconnected (provisional): claims an id whose connection is silent for " +
+                           std::to_string((now - old.last_heard_us) / 1000) +
+                           " ms; that connection stays open and keeps the id if heard again");
+            return;
+        }
+        if (old.outgoing) {
             // Crossed connects: keep the one initiated by the lower id, the same on both sides.
             ++enet_counters_.crossed_connects;
             if (remote > local_id_) {
                 refuse(peer, kCrossed);
                 return;
             }
-            drop_connection(remote, kCrossed);
+            drop_connection(by_id_, remote, kCrossed);
             reason = "connected (crossed connects: kept the one the lower id initiated)";
         } else {
             ++enet_counters_.refused_duplicate_id;
@@ -271,8 +337,8 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
             handle_connect(event, now);
             return;
         case ENET_EVENT_TYPE_RECEIVE: {
-            const auto it = by_peer_.find(event.peer);
-            Connection* c = it != by_peer_.end() ? &by_id_.at(it->second) : nullptr;
+            PeerId from = 0;
+            Connection* c = connection_of(event.peer, &from);
             const std::size_t size = event.packet->dataLength;
             std::uint64_t* drop = nullptr;
             if (c == nullptr || !c->established)
@@ -290,7 +356,7 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
                 c->last_heard_us = now;
                 c->heard_since_up = true;
                 Datagram d;
-                d.from = it->second;
+                d.from = from;  // a claimant's too: the session weighs claims (docs/sessions.md)
                 d.time_us = now;
                 d.bytes.assign(event.packet->data, event.packet->data + size);
                 d.reliable = event.channelID == kReliableChannel;
@@ -300,18 +366,22 @@ void EnetTransport::handle(const ENetEvent& event, Micros now) {
             return;
         }
         case ENET_EVENT_TYPE_DISCONNECT: {
-            const auto it = by_peer_.find(event.peer);
-            if (it == by_peer_.end()) return;  // a refused or replaced connection
-            const PeerId id = it->second;
-            const bool was_established = by_id_.at(id).established;
-            by_id_.erase(id);
-            by_peer_.erase(it);
-            ++enet_counters_.disconnects;
+            PeerId id = 0;
+            bool claimant = false;
+            const Connection* c = connection_of(event.peer, &id, &claimant);
+            if (c == nullptr) return;  // a refused or replaced connection
+            if (claimant) {
+                // A claimant gave up: the id still has its connection, so no event.
+                by_peer_.erase(event.peer);
+                claimants_.erase(id);
+                ++enet_counters_.disconnects;
+                return;
+            }
             // kCrossed: usually the peer's own connection is on its way (a Connected follows);
             // but if we are a restarted process whose old connection the peer still thinks
             // alive, nothing follows, and the runner should connect() again in a second.
-            push_event(TransportEvent::Type::Disconnected, id,
-                       (was_established ? "" : "could not connect: ") + close_reason(event.data));
+            // ENet has reset the slot already; disconnecting it again sends nothing.
+            held_gone(id, kClosed, (c->established ? "" : "could not connect: ") + close_reason(event.data));
             return;
         }
         case ENET_EVENT_TYPE_NONE:
@@ -327,8 +397,9 @@ void EnetTransport::poll(Micros now) {
     // are out of reach: no more retries than ENet can count, an hour.
     for (std::size_t i = 0; i < host_->peerCount; ++i)
         enet_peer_timeout(&host_->peers[i], config_.timeout_limit, config_.timeout_min_ms, config_.timeout_max_ms);
-    for (const auto& [id, c] : by_id_)
-        if (c.established) enet_peer_timeout(c.peer, kNeverTimeoutLimit, kNeverTimeoutMs, kNeverTimeoutMs);
+    for (const auto* connections : {&by_id_, &claimants_})
+        for (const auto& [id, c] : *connections)
+            if (c.established) enet_peer_timeout(c.peer, kNeverTimeoutLimit, kNeverTimeoutMs, kNeverTimeoutMs);
 
     t_servicing = this;
     ENetEvent event;
@@ -351,32 +422,64 @@ void EnetTransport::poll(Micros now) {
 
     // Anything ENet heard from a connection (datagrams, pings, acknowledgements) moves its
     // lastReceiveTime; we only compare it for change and time silence on the caller's clock.
-    std::vector<PeerId> dead;
-    for (auto& [id, c] : by_id_) {
-        if (c.peer->lastReceiveTime != c.enet_last_receive) {
-            c.enet_last_receive = c.peer->lastReceiveTime;
-            c.last_heard_us = now;
-            // ENet moves it once more while finishing the handshake, in the poll that reports
-            // the connection up: not a word from the peer yet.
-            c.heard_since_up = c.heard_since_up || (c.established && now != c.up_us);
+    const auto dead_ids = [&](std::map<PeerId, Connection>& connections) {
+        std::vector<PeerId> dead;
+        for (auto& [id, c] : connections) {
+            if (c.peer->lastReceiveTime != c.enet_last_receive) {
+                c.enet_last_receive = c.peer->lastReceiveTime;
+                c.last_heard_us = now;
+                // ENet moves it once more while finishing the handshake, in the poll that
+                // reports the connection up: not a word from the peer yet.
+                c.heard_since_up = c.heard_since_up || (c.established && now != c.up_us);
+            }
+            const bool first_word_due = c.outgoing && !c.heard_since_up && config_.first_word_after_us > 0;
+            const Micros limit =
+                first_word_due ? std::min(config_.first_word_after_us, config_.dead_after_us) : config_.dead_after_us;
+            if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= limit) dead.push_back(id);
         }
-        const bool first_word_due = c.outgoing && !c.heard_since_up && config_.first_word_after_us > 0;
-        const Micros limit = first_word_due ? std::min(config_.first_word_after_us, config_.dead_after_us) : config_.dead_after_us;
-        if (c.established && now >= c.last_heard_us && now - c.last_heard_us >= limit) dead.push_back(id);
+        return dead;
+    };
+    const std::vector<PeerId> dead_held = dead_ids(by_id_);
+    const std::vector<PeerId> dead_claimants = dead_ids(claimants_);
+
+    // A claim is void once the connection it claimed is heard again (issue 21): the old process
+    // is alive, so the id stays with it and the claimant is closed.
+    std::vector<PeerId> voided;
+    for (const auto& [id, c] : claimants_)
+        if (by_id_.at(id).last_heard_us >= c.claimed_us) voided.push_back(id);
+    for (const PeerId id : voided) {
+        const Connection& c = claimants_.at(id);
+        const std::string why = "peer " + std::to_string(id) + " from port " + std::to_string(c.peer->address.port) +
+                                ": id held by a live connection (it was heard again " +
+                                std::to_string((by_id_.at(id).last_heard_us - c.claimed_us) / 1000) + " ms into the claim)";
+        drop_connection(claimants_, id, kRefusedDuplicate);
+        ++enet_counters_.claims_voided;
+        ++counters_.rejected;
+        push_event(TransportEvent::Type::Refused, id, why);
     }
-    for (const PeerId id : dead) {
-        const Connection& c = by_id_.at(id);
-        const std::string why = (c.heard_since_up ? "timed out: silent for " : "timed out: not a word since connected, ") +
-                                std::to_string((now - c.last_heard_us) / 1000) + " ms";
-        drop_connection(id, kTimedOut);
+    // A silent claimant just goes: its id still has its connection. Then a silent connection
+    // goes, and its claimant, if one stands, takes the id over (held_gone).
+    for (const PeerId id : dead_claimants) {
+        if (claimants_.count(id) == 0) continue;
+        drop_connection(claimants_, id, kTimedOut);
         ++enet_counters_.disconnects;
-        push_event(TransportEvent::Type::Disconnected, id, why);
+    }
+    for (const PeerId id : dead_held) {
+        const Connection& c = by_id_.at(id);
+        std::string why = (c.heard_since_up ? "timed out: silent for " : "timed out: not a word since connected, ") +
+                          std::to_string((now - c.last_heard_us) / 1000) + " ms";
+        held_gone(id, kTimedOut, std::move(why));
     }
 }
 
 bool EnetTransport::send_on(PeerId to, std::span<const std::uint8_t> bytes, bool reliable) {
-    const auto it = by_id_.find(to);
-    if (it == by_id_.end() || !it->second.established || bytes.size() > kMaxDatagramBytes) {
+    // To the id's connection and to its claimant, if one stands: whichever is the live process
+    // hears it (the session tells a new incarnation from the old by its hello).
+    std::vector<ENetPeer*> peers;
+    for (const auto* connections : {&by_id_, &claimants_})
+        if (const auto it = connections->find(to); it != connections->end() && it->second.established)
+            peers.push_back(it->second.peer);
+    if (peers.empty() || bytes.size() > kMaxDatagramBytes) {
         if (bytes.size() > kMaxDatagramBytes) ++enet_counters_.dropped_oversized;
         ++counters_.rejected;
         return false;
@@ -389,7 +492,10 @@ bool EnetTransport::send_on(PeerId to, std::span<const std::uint8_t> bytes, bool
         ++counters_.dropped;
         return true;
     }
-    if (enet_peer_send(it->second.peer, reliable ? kReliableChannel : kInputChannel, packet) != 0) {
+    bool queued = false;
+    for (ENetPeer* peer : peers)
+        queued = enet_peer_send(peer, reliable ? kReliableChannel : kInputChannel, packet) == 0 || queued;
+    if (!queued) {
         // Not queued: ENet did not take ownership.
         if (packet->referenceCount == 0) enet_packet_destroy(packet);
         ++counters_.dropped;

@@ -6,15 +6,24 @@
 // uses channel 1, reliable and ordered, for control messages and snapshot chunks. Both are
 // limited to kMaxDatagramBytes per send.
 //
-// Peer ids travel in ENet's connect data. Either side may connect. For each remote id at most one
-// connection is kept:
+// Peer ids travel in ENet's connect data. Either side may connect. For each remote id one
+// connection holds the id, with at most one provisional claimant beside it (below):
 //  - crossed connects (both sides connect at once) keep the connection initiated by the lower id,
 //    on both sides, whatever order the handshakes finish in (the higher id sees its own closed
 //    as Disconnected; a restarted higher id whose old connection still looks alive retries);
 //  - a connection claiming an id whose current connection is silent (no datagram, ping or
-//    acknowledgement for EnetConfig::silent_after_us of the caller's time) replaces it: a killed
-//    and restarted process gets its id back at once, without waiting for ENet's timeout;
-//  - any other claim to a held id, or to our own id, is refused and counted.
+//    acknowledgement for EnetConfig::silent_after_us of the caller's time) is admitted as that
+//    id's claimant, provisionally: the silent connection stays open. Datagrams from both are
+//    delivered as from the id, and sends to the id go to both. If the silent connection is
+//    heard again, the claim is void: it keeps the id and the claimant is closed ("id held by a
+//    live connection", claims_voided). If it stays silent until dead_after_us ends it (or its
+//    peer closes it), the claimant holds the id from then on (replaced). So a killed and
+//    restarted process is heard at once, without waiting for any timeout, and an outsider that
+//    claims an id during a loss burst of the honest process never cuts its connection: a claim
+//    never ends a connection sooner than its silence would (issue 21; the session weighs the
+//    claimant's hello itself, docs/sessions.md "A restart is a claim");
+//  - any other claim to a held id (live, or silent with a live claimant already), or to our own
+//    id, is refused and counted.
 // Ids are not authenticated: this is for experiments among cooperating processes.
 //
 // Host limits (each against a demonstrated attack; see docs/network-model.md):
@@ -57,10 +66,12 @@ struct EnetConfig {
     std::size_t max_peers = 64;           // ENet connection slots, incoming and outgoing
     // Connections (half-open included) one IP address may hold; a flood from one address leaves
     // the other max_peers minus this slots free. All peers of a match on one machine share
-    // 127.0.0.1 (and a restarted peer's dead connection counts until replaced or timed out):
+    // 127.0.0.1 (and a restarted peer's dead connection counts until it times out, dead_after_us):
     // 16 covers 16 players on one machine. Keep max_peers well above it.
     std::size_t max_connections_per_address = 16;
-    // A connection silent this long (caller's time) may be replaced by a new claim to its id.
+    // A connection silent this long (caller's time) may be claimed by a new connection for its
+    // id: the claimant is admitted beside it and takes the id over only if it stays silent
+    // until dead_after_us (see the header).
     Micros silent_after_us = 1'000'000;
     // An established connection from which nothing (datagram, ping, acknowledgement) was heard
     // for this long (caller's time) is closed as timed out (Disconnected). This, not ENet's own
@@ -92,14 +103,19 @@ struct EnetConfig {
 };
 
 // Everything EnetTransport refused or dropped, by cause. Each also counts in
-// TransportCounters::rejected.
+// TransportCounters::rejected, except crossed connects, claims, replacements and disconnects.
 struct EnetCounters {
     std::uint64_t refused_own_id = 0;          // a connection claimed our own id
     std::uint64_t refused_duplicate_id = 0;    // a connection claimed an id held by a live one
     std::uint64_t refused_address_limit = 0;   // connect request over max_connections_per_address
     std::uint64_t refused_no_slot = 0;         // connect request with every slot taken
     std::uint64_t crossed_connects = 0;        // crossed connects resolved (not counted as rejected)
-    std::uint64_t replaced = 0;                // silent connections replaced by a new claim
+    std::uint64_t replace_claims = 0;          // connections admitted as claimants of a silent id
+                                               // (not counted as rejected)
+    std::uint64_t claims_voided = 0;           // claimants closed: the connection they claimed
+                                               // was heard again
+    std::uint64_t replaced = 0;                // silent connections taken over by their claimant
+                                               // (not counted as rejected)
     std::uint64_t disconnects = 0;             // connections lost (timeouts, closed by the peer)
     std::uint64_t dropped_unknown_peer = 0;    // datagrams on a connection without an id
     std::uint64_t dropped_oversized = 0;       // datagrams over kMaxDatagramBytes or sends too large
@@ -125,7 +141,8 @@ public:
 
     // Starts connecting to the peer `remote` listening at host:port. Returns false, with a
     // reason in *error if given, when the id is ours, a live connection for it exists (a silent
-    // one is replaced), the host does not resolve, or no connection slot is free. The
+    // one gets the new one as its claimant, as above), the host does not resolve, or no
+    // connection slot is free. The
     // connection completes during later poll() or receive() calls; is_connected() and a
     // Connected event tell when.
     bool connect(PeerId remote, const std::string& host, std::uint16_t port, std::string* error = nullptr) override;
@@ -171,12 +188,19 @@ private:
         std::uint32_t enet_last_receive = 0;  // ENet's lastReceiveTime when we last looked
         bool heard_since_up = false;       // anything heard since it was established
         Micros up_us = 0;                  // caller's time when our connect completed
+        Micros claimed_us = 0;             // a claimant: caller's time its claim began
     };
 
     void handle(const _ENetEvent& event, Micros now);
     void handle_connect(const _ENetEvent& event, Micros now);
     void refuse(_ENetPeer* peer, std::uint32_t code);
-    void drop_connection(PeerId id, std::uint32_t code);
+    // Closes and forgets the connection `from` holds for `id`; no event.
+    void drop_connection(std::map<PeerId, Connection>& from, PeerId id, std::uint32_t code);
+    // The connection holding `id` (in by_id_) is gone: closed with `close_code` and forgotten.
+    // Its claimant, if one stands, takes the id over; otherwise a Disconnected event (`why`).
+    void held_gone(PeerId id, std::uint32_t close_code, std::string why);
+    // The connection (held or claimant) on an ENet peer, with its id; nullptr for none.
+    Connection* connection_of(_ENetPeer* peer, PeerId* id, bool* claimant = nullptr);
     bool silent(const Connection& c) const;
     void push_event(TransportEvent::Type type, PeerId peer, std::string reason);
     bool send_on(PeerId to, std::span<const std::uint8_t> bytes, bool reliable);
@@ -186,7 +210,8 @@ private:
     _ENetHost* host_ = nullptr;
     std::uint16_t port_ = 0;
     Micros last_now_ = 0;
-    std::map<PeerId, Connection> by_id_;
+    std::map<PeerId, Connection> by_id_;      // the connection holding each id
+    std::map<PeerId, Connection> claimants_;  // a new connection claiming a silent held id
     std::unordered_map<_ENetPeer*, PeerId> by_peer_;
     std::deque<Datagram> inbox_;
     std::deque<TransportEvent> events_;

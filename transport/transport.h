@@ -17,7 +17,8 @@
 //    is_connected() true; one that goes away as Disconnected. A connectionless transport keeps
 //    the defaults: every peer reachable, connect() false, no events.
 //  - Identity: a received datagram's `from` is the id the transport bound to its connection or
-//    sender (ENet: the id claimed at connect, one live connection per id), never a field a
+//    sender (ENet: the id claimed at connect, one connection per id, and beside a silent one a
+//    provisional claimant's that gives way if the old one speaks again), never a field a
 //    datagram may set freely on each send.
 //  - poll(now) is called on every runner wake-up (about every millisecond under run(), once per
 //    NetSession::update() in a game's loop): a transport with a handshake, keep-alives or
@@ -62,7 +63,8 @@ struct Datagram {
 // A change in a connection-oriented transport's peers, for the runner to log or act on.
 struct TransportEvent {
     enum class Type : std::uint8_t {
-        Connected,     // `peer` is reachable (first time, or a new connection replaced a dead one)
+        Connected,     // `peer` is reachable (first time, or a new connection claims or took over
+                       // a silent one's id)
         Disconnected,  // `peer` has no connection any more (timed out, closed, refused by it)
         Refused,       // an incoming connection claiming `peer` was refused
     };

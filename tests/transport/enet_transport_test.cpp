@@ -211,15 +211,15 @@ TEST(EnetTransport, EventsAndARestartedPeerGetsItsIdBack) {
     ASSERT_TRUE(pump({&impostor}, [&] { return has_event(events_of(impostor), TransportEvent::Type::Disconnected, 0); }, now));
 
     // b's process "dies": it stops answering (nothing reaches a any more). A restarted process
-    // with id 1 connects after a second of silence and replaces the dead connection at once,
-    // long before ENet would time it out.
+    // with id 1 connects after a second of silence and is let in at once as the dead
+    // connection's claimant, long before ENet would time it out.
     for (int i = 0; i < 1200; ++i) {  // 1.2 s of a's time (a counter), only a polled
         a.poll(now);
         now += 1'000;
     }
     EnetTransport restarted({.local_id = 1});
     ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
-    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replaced >= 1; }, now));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replace_claims >= 1; }, now));
     ea = events_of(a);
     ASSERT_TRUE(has_event(ea, TransportEvent::Type::Connected, 1));
     EXPECT_NE(ea.back().reason.find("reconnected"), std::string::npos) << ea.back().reason;
@@ -227,7 +227,9 @@ TEST(EnetTransport, EventsAndARestartedPeerGetsItsIdBack) {
     Datagram d;
     ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.receive(d, now); }, now));
     EXPECT_EQ(d.bytes, bytes_of(9, 20));
-    b.reset();  // the old process's socket closes; a has forgotten it already
+    b.reset();  // the old process closes its connection: the claimant holds id 1 from now on
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return a.enet_counters().replaced >= 1; }, now));
+    EXPECT_FALSE(has_event(events_of(a), TransportEvent::Type::Disconnected, 1));
 
     // ENet's own timeout notices a peer that vanished without a word within seconds (the
     // default would be up to 30 s): freeze `restarted` and keep polling a, for at most ~10 s.
@@ -337,12 +339,165 @@ TEST(EnetTransport, APeerRestartedWithinASecondGetsInOnItsRetry) {
         now += 1'000;
     }
     ASSERT_TRUE(restarted.connect(0, "127.0.0.1", a.port()));
-    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replaced >= 1; }, now));
+    ASSERT_TRUE(pump({&a, &restarted}, [&] { return restarted.is_connected(0) && a.enet_counters().replace_claims >= 1; }, now));
     ASSERT_TRUE(restarted.send(0, bytes_of(4, 12), now));
     Datagram d;
     ASSERT_TRUE(pump({&a, &restarted}, [&] { return a.receive(d, now); }, now));
     EXPECT_EQ(d.from, 1u);
     EXPECT_EQ(d.bytes, bytes_of(4, 12));
+}
+
+// Everything `t` has received from `from` so far, appended to `got`.
+void take_all(EnetTransport& t, Micros now, PeerId from, std::vector<std::vector<std::uint8_t>>& got) {
+    Datagram d;
+    while (t.receive(d, now))
+        if (d.from == from) got.push_back(d.bytes);
+}
+
+bool received(const std::vector<std::vector<std::uint8_t>>& got, const std::vector<std::uint8_t>& bytes) {
+    return std::find(got.begin(), got.end(), bytes) != got.end();
+}
+
+TEST(EnetTransport, AnOutsiderClaimingAnIdDuringALossBurstDoesNotCutTheHonestConnection) {
+    // Issue 21: an outsider that claimed id 0 while 0's connection had been silent for a second
+    // (a loss burst) replaced it at once: the honest process was cut off and never heard again,
+    // so the session's rule that a restart claim is void once the old process is heard could
+    // not work. Now the claim is provisional: the old connection stays, and when it speaks
+    // again it keeps the id and the outsider is dropped.
+    EnetTransport honest({.local_id = 0});
+    EnetTransport b({.local_id = 1});
+    ASSERT_TRUE(honest.connect(1, "127.0.0.1", b.port()));  // the lower id connects, as runners do
+    Micros now = 0;
+    ASSERT_TRUE(pump({&honest, &b}, [&] { return honest.is_connected(1) && b.is_connected(0); }, now));
+    std::vector<std::vector<std::uint8_t>> at_b;
+    ASSERT_TRUE(honest.send(1, bytes_of(0xA0, 16), now));
+    ASSERT_TRUE(pump({&honest, &b}, [&] { take_all(b, now, 0, at_b); return received(at_b, bytes_of(0xA0, 16)); }, now));
+    events_of(honest);
+    events_of(b);
+
+    // The loss burst: nothing from the honest process reaches b for 1.2 s of b's time.
+    for (int i = 0; i < 1200; ++i) {
+        b.poll(now);
+        now += 1'000;
+    }
+    EnetTransport outsider({.local_id = 0});  // claims the honest process's id
+    ASSERT_TRUE(outsider.connect(1, "127.0.0.1", b.port()));
+    ASSERT_TRUE(pump({&b, &outsider}, [&] { return outsider.is_connected(1) && has_event(events_of(b), TransportEvent::Type::Connected, 0); }, now));
+    ASSERT_TRUE(outsider.send(1, bytes_of(0xC0, 16), now));
+    ASSERT_TRUE(pump({&b, &outsider}, [&] { take_all(b, now, 0, at_b); return received(at_b, bytes_of(0xC0, 16)); }, now))
+        << "the claimant's datagrams are delivered as from the id it claims";
+    {  // One claimant at a time: a second claim while the first is live is refused.
+        EnetTransport second({.local_id = 0});
+        ASSERT_TRUE(second.connect(1, "127.0.0.1", b.port()));
+        ASSERT_TRUE(pump({&b, &outsider, &second}, [&] { return b.enet_counters().refused_duplicate_id >= 1; }, now));
+        EXPECT_TRUE(has_event(events_of(b), TransportEvent::Type::Refused, 0));
+    }
+
+    // The burst ends: the honest process speaks on its old connection, and is heard as 0.
+    ASSERT_TRUE(honest.send(1, bytes_of(0xA1, 16), now));
+    EXPECT_TRUE(pump({&honest, &b, &outsider}, [&] { take_all(b, now, 0, at_b); return received(at_b, bytes_of(0xA1, 16)); }, now))
+        << "the honest process was cut off";
+    std::vector<TransportEvent> at_outsider;
+    ASSERT_TRUE(pump({&honest, &b, &outsider}, [&] {
+        for (TransportEvent e; outsider.next_event(e);) at_outsider.push_back(e);
+        return !outsider.is_connected(1);
+    }, now)) << "the outsider kept its claim";
+    ASSERT_TRUE(has_event(at_outsider, TransportEvent::Type::Disconnected, 1));
+    EXPECT_NE(at_outsider.back().reason.find("held by another live connection"), std::string::npos) << at_outsider.back().reason;
+    const auto eb = events_of(b);
+    const auto refused = std::find_if(eb.begin(), eb.end(), [](const TransportEvent& e) {
+        return e.type == TransportEvent::Type::Refused && e.peer == 0;
+    });
+    ASSERT_NE(refused, eb.end());
+    EXPECT_NE(refused->reason.find("id held by a live connection"), std::string::npos) << refused->reason;
+    EXPECT_FALSE(has_event(eb, TransportEvent::Type::Disconnected, 0));
+
+    // The honest connection was never touched: no Disconnected ("replaced") on either side,
+    // and b's datagrams for 0 reach it.
+    for (int i = 0; i < 300; ++i) {  // let anything in flight arrive
+        honest.poll(now);
+        b.poll(now);
+        now += 1'000;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    const auto eh = events_of(honest);
+    EXPECT_FALSE(has_event(eh, TransportEvent::Type::Disconnected, 1)) << eh.back().reason;
+    EXPECT_TRUE(honest.is_connected(1));
+    EXPECT_TRUE(b.is_connected(0));
+    ASSERT_TRUE(b.send(0, bytes_of(0xB0, 16), now));
+    std::vector<std::vector<std::uint8_t>> at_honest;
+    EXPECT_TRUE(pump({&honest, &b}, [&] { take_all(honest, now, 1, at_honest); return received(at_honest, bytes_of(0xB0, 16)); }, now));
+    EXPECT_EQ(b.enet_counters().replace_claims, 1u);
+    EXPECT_EQ(b.enet_counters().claims_voided, 1u);
+    EXPECT_EQ(b.enet_counters().replaced, 0u);
+    EXPECT_GE(b.counters().rejected, 1u);
+}
+
+TEST(EnetTransport, ARestartedProcessIsHeardAtOnceAndTakesItsIdOverOnceTheOldStaysSilent) {
+    // The honest restart under provisional claims: the old process is gone (SIGKILL: it never
+    // says another word, not even goodbye). The new one is admitted as soon as the old
+    // connection has been silent for silent_after_us and is heard as 0 at once, long before
+    // the session's 5 s timeout; when the old connection has been silent for dead_after_us it
+    // is closed and the new one holds the id, without a Disconnected in between.
+    EnetTransport b({.local_id = 1});
+    auto old = std::make_unique<EnetTransport>(EnetConfig{.local_id = 0});
+    ASSERT_TRUE(old->connect(1, "127.0.0.1", b.port()));
+    Micros now = 0;
+    ASSERT_TRUE(pump({old.get(), &b}, [&] { return old->is_connected(1) && b.is_connected(0); }, now));
+    std::vector<std::vector<std::uint8_t>> at_b;
+    ASSERT_TRUE(old->send(1, bytes_of(0xA0, 16), now));
+    ASSERT_TRUE(pump({old.get(), &b}, [&] { take_all(b, now, 0, at_b); return received(at_b, bytes_of(0xA0, 16)); }, now));
+    events_of(b);
+    const Micros last_word = now;  // b last heard the old process in the poll that got 0xA0
+
+    // Killed: `old` is never polled again. Its replacement dials after b's second of silence.
+    for (int i = 0; i < 1200; ++i) {
+        b.poll(now);
+        now += 1'000;
+    }
+    EnetTransport restarted({.local_id = 0});
+    const Micros dialed = now;
+    ASSERT_TRUE(restarted.connect(1, "127.0.0.1", b.port()));
+    ASSERT_TRUE(pump({&b, &restarted}, [&] { return restarted.is_connected(1); }, now));
+    ASSERT_TRUE(restarted.send(1, bytes_of(0xD1, 16), now));
+    ASSERT_TRUE(pump({&b, &restarted}, [&] { take_all(b, now, 0, at_b); return received(at_b, bytes_of(0xD1, 16)); }, now));
+    const Micros heard_after = now - dialed;
+    EXPECT_LT(heard_after, Micros{1'000'000}) << "the new process was not heard at once";
+    std::printf("restarted process heard as its id %.0f ms after it dialed (caller's time)\n", heard_after / 1000.0);
+    EXPECT_EQ(b.enet_counters().replace_claims, 1u);
+    EXPECT_EQ(b.enet_counters().replaced, 0u);  // the old connection stays until its silence ends it
+    ASSERT_TRUE(b.send(0, bytes_of(0xB0, 16), now));
+    std::vector<std::vector<std::uint8_t>> at_restarted;
+    ASSERT_TRUE(pump({&b, &restarted}, [&] { take_all(restarted, now, 1, at_restarted); return received(at_restarted, bytes_of(0xB0, 16)); }, now))
+        << "b's datagrams for 0 do not reach the new process";
+
+    // The old connection stays silent: dead_after_us after it was last heard it is closed, and
+    // the new one holds the id. The new process talks all along (every 20 ms of b's time).
+    std::vector<TransportEvent> eb;
+    for (int i = 0; i < 5'000 && b.enet_counters().replaced == 0; ++i) {
+        if (i % 10 == 0) {
+            ASSERT_TRUE(restarted.send(1, bytes_of(0xD2, 16), now));
+        }
+        b.poll(now);
+        restarted.poll(now);
+        take_all(b, now, 0, at_b);
+        take_all(restarted, now, 1, at_restarted);
+        for (TransportEvent e; b.next_event(e);) eb.push_back(e);
+        now += 2'000;
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_EQ(b.enet_counters().replaced, 1u);
+    EXPECT_GE(now - last_word, Micros{5'000'000}) << "replaced before the old connection's silence (dead_after_us) ended it";
+    EXPECT_FALSE(has_event(eb, TransportEvent::Type::Disconnected, 0));
+    EXPECT_FALSE(has_event(eb, TransportEvent::Type::Refused, 0));
+    ASSERT_TRUE(has_event(eb, TransportEvent::Type::Connected, 0));
+    EXPECT_NE(eb.back().reason.find("the claim stood"), std::string::npos) << eb.back().reason;
+    EXPECT_TRUE(b.is_connected(0));
+    EXPECT_EQ(b.connected_peers(), std::vector<PeerId>{0});
+    EXPECT_EQ(b.enet_counters().claims_voided, 0u);
+    ASSERT_TRUE(b.send(0, bytes_of(0xB1, 16), now));
+    ASSERT_TRUE(pump({&b, &restarted}, [&] { take_all(restarted, now, 1, at_restarted); return received(at_restarted, bytes_of(0xB1, 16)); }, now));
+    EXPECT_FALSE(has_event(events_of(restarted), TransportEvent::Type::Disconnected, 1));
 }
 
 TEST(EnetTransport, CrossedConnectsKeepOneConnectionBothWays) {
