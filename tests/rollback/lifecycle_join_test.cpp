@@ -248,5 +248,66 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
     expect_equal_at(cluster, end);
 }
 
+// Issue 21, "membership that cannot freeze" (CI, over real processes: lockroll live --players 3
+// --join 1@60 --kill 2@120): slot 2 is killed while slot 1's handoff is still in flight (the
+// joiner's snapshot is slow to arrive). The joiner's slot runs in the view from the handoff on,
+// but its process does not vote until it plays. Counted among the voters, it made the view three
+// with one voter left: the survivor could never drop the dead slot (1 of 3 votes), reported
+// partitioned and stalled for good, and the joiner, whose snapshot needed a majority of three,
+// never loaded. A joiner is no voter until its stream starts, so the survivor's view is two and
+// the two-player rule drops the dead slot. The joiner, which slot 2 had welcomed, also counted
+// slot 2 in its vetting whatever the owner's table said; silent for disconnect_us to the joiner
+// itself, it no longer counts, so the next offer (the first one lapses) loads on the owner's
+// word by the two-player rule and the joiner plays. Both failed before (5 seeds).
+TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndTheJoinerIn) {
+    for (const std::uint64_t seed : {21u, 22u, 23u, 24u, 25u}) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const auto scene = make_scene(3, 20);
+        SessionConfig cfg = real_config(3, 8);
+        cfg.absent_slots = 1u << 1;
+        cfg.disconnect_us = 1'000'000;
+        Cluster cluster(scene, cfg, {8000, 2000}, seed);
+        rejoin_when_dropped(cluster);
+        cluster.kill(1);  // nobody runs slot 1 yet
+        cluster.run_frames(60);
+        bool slow = true;  // the snapshot's chunks do not reach the joiner yet: its handoff is in flight
+        cluster.filter = [&](PlayerId, PlayerId to, const std::vector<std::uint8_t>& b) {
+            return !(slow && to == 1 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk));
+        };
+        SessionConfig join = cfg;
+        join.role = Role::Joiner;
+        join.local_player = 1;
+        Client& joiner = cluster.start(1, scene, join, 7);
+        // The handoff is made and known to both players: slot 1 runs in their views, not yet played.
+        cluster.run([](const Cluster& c) {
+            return c.clients[0]->session->slot_state(1) == SlotState::Running &&
+                   c.clients[2]->session->slot_state(1) == SlotState::Running;
+        }, 10'000'000);
+        ASSERT_EQ(cluster.clients[2]->session->slot_state(1), SlotState::Running);
+        ASSERT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
+        cluster.kill(2);
+        const std::uint32_t killed_at = cluster.clients[0]->session->frame();
+        cluster.run([](const Cluster&) { return false; }, 300'000);
+        slow = false;
+        cluster.run([](const Cluster&) { return false; }, 20'000'000);
+        const Client& survivor = *cluster.clients[0];
+        ASSERT_EQ(survivor.session->phase(), SessionPhase::Running) << survivor.session->failure();
+        const auto partitioned = events_of(survivor, Kind::Partitioned);
+        EXPECT_TRUE(partitioned.empty()) << partitioned[0]->detail;
+        EXPECT_EQ(survivor.session->slot_state(2), SlotState::Disconnected);
+        ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+        EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+        EXPECT_TRUE(events_of(joiner, Kind::Partitioned).empty());
+        EXPECT_EQ(survivor.session->slot_state(1), SlotState::Running);
+        // 20 s at 60 Hz: both play on (a stall of about the timeout for the drop, nothing more).
+        EXPECT_GT(survivor.session->confirmed_frame(), killed_at + 60 * 15) << "the survivor keeps confirming";
+        const std::uint32_t end = survivor.session->frame() + 120;
+        cluster.run_frames(end, 30'000'000);
+        cluster.settle(end);
+        expect_equal_at(cluster, end);
+        for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->stats().desyncs, 0u) << "client " << p;
+    }
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
