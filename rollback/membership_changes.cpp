@@ -163,13 +163,16 @@ void MembershipChanges::check_silence(std::uint64_t now_us) {
     }
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
+        // A handoff's lapse is judged on our own stream of the slot, whether or not we ever
+        // welcomed its process: a joiner that reaches only the owner is never welcomed here, and
+        // our vote was missing for good (issue 21: both players waited at the handoff frame).
+        if (is_slot(pid) && !mine(pid) && host_of(config_, pid) == pid) check_handoff(pid, now_us);
         if (!effects_.live_peer(pid)) continue;
         PeerLink& l = links_[p];
         const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
         if (silence.interrupted_now)
             effects_.emit(SessionEvent::Kind::Interrupted, SessionEvent::Reason::Silent, pid, effects_.frame(), now_us,
                           std::to_string(silence.silent_us / 1000) + " ms silent");
-        if (is_slot(pid)) check_handoff(pid, now_us);
         if (silence.timed_out) {
             if (is_slot(pid)) {
                 // A restart vote withdrawn (its old process was heard again): silence votes now.

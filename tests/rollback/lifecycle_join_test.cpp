@@ -6,6 +6,20 @@
 namespace lockroll::rollback {
 namespace {
 
+// The cut between the joiner in slot 2 and a player heals: `frames` more frames, then the joiner
+// runs, both players hold slot 2 running, nobody desynced, and everyone confirms one checksum.
+void heal_and_expect_slot_2_joined(Cluster& cluster, bool& cut, std::uint32_t frames) {
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + frames;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    const Client& joiner = *cluster.clients[2];
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
+}
+
 // Between real processes a survivor's welcome can reach the joiner only after the joiner has
 // loaded its snapshot and runs (its connection came up late: the survivor was still timing out
 // its reconnects to the dead process). The survivor's welcome reaches a joiner that already
@@ -234,18 +248,10 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
             EXPECT_GT(cluster.clients[p]->session->frame(), before + 60 * 3 * cfg.disconnect_us / 1'000'000 / 3)
                 << "client " << p << " plays on";
     }
-    cut = false;
-    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
-    cluster.run_frames(end, 120'000'000);
-    cluster.settle(end);
-    const Client& joiner = *cluster.clients[2];
-    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
-    const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+    heal_and_expect_slot_2_joined(cluster, cut, 600);
+    const auto loaded = events_of(*cluster.clients[2], Kind::SnapshotLoaded);
     ASSERT_EQ(loaded.size(), 1u);
     EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
-    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
-    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
-    expect_equal_at(cluster, end);
 }
 
 // Issue 21, "membership that cannot freeze" (CI, over real processes: lockroll live --players 3
@@ -307,6 +313,46 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
         expect_equal_at(cluster, end);
         for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->stats().desyncs, 0u) << "client " << p;
     }
+}
+
+// Found over real processes (lockroll live --join 1@118 --kill 2@120 --rejoin 2@300): slot 2's
+// new process reached the owner but never slot 1, which had never welcomed any process of slot
+// 2 (it joined after the kill). Slot 1 learned of the handoff from the owner's table, but a
+// handoff's lapse was judged only for a welcomed peer, so slot 1 never voted it gone: the owner's
+// vote was 1 of the 3 needed and both players waited at the handoff frame for good. The lapse is
+// about our own stream of the slot (still the owner's neutral input, and needed), which every
+// player holds whether or not it ever heard the slot's process: now both vote, the slot is
+// dropped ("handoff lapsed") and the pair plays on; once the cut heals the joiner gets in.
+TEST(Lifecycle, AJoinerOnlyTheOwnerReachesLapsesAtEveryPlayer) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 2;  // no process of slot 2 was ever welcomed by anyone
+    cfg.disconnect_us = 1'000'000;
+    Cluster cluster(scene, cfg, {8000, 2000}, 31);
+    rejoin_when_dropped(cluster);
+    cluster.kill(2);
+    cluster.run_frames(120);
+    bool cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !(cut && ((from == 1 && to == 2) || (from == 2 && to == 1)));
+    };
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 2;
+    cluster.start(2, scene, join, 5);
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 8 * cfg.disconnect_us);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p;
+        const auto drops = events_of(c, Kind::Disconnected);
+        ASSERT_FALSE(drops.empty()) << "client " << p << " never dropped the lapsed handoff";
+        EXPECT_NE(drops[0]->detail.find("handoff lapsed"), std::string::npos) << drops[0]->detail;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+        // 8 s: a stall of about the timeout per handoff (backing off), play in between.
+        EXPECT_GT(c.session->confirmed_frame(), before + 60 * 8 / 3) << "client " << p << " plays on";
+    }
+    heal_and_expect_slot_2_joined(cluster, cut, 900);
 }
 
 }  // namespace

@@ -307,6 +307,21 @@ TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::HandoffLapsed);
 }
 
+// The joiner reached only the owner: we never welcomed its process, yet our stream of its slot
+// is the owner's neutral input and we need it. Its handoff lapses here too (before, only a
+// welcomed peer's was judged, and our vote was missing for good).
+TEST(MembershipChanges, AHandoffLapsesAlsoWhenWeNeverWelcomedTheJoiner) {
+    Fixture f(3);
+    f.links[2].welcomed = false;
+    const std::vector<std::uint8_t> zero{0};
+    for (std::uint32_t fr = 0; fr < 10; ++fr) f.fake.queues[2].add_confirmed(fr, zero, true);
+    f.fake.shown = 10;
+    f.changes.check_silence(100);
+    f.changes.check_silence(100 + kDisconnect);
+    EXPECT_TRUE(f.slots[2].lapsed);
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone);
+}
+
 TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     Fixture f(3);
     f.changes.disconnect_player(2, 100);
