@@ -355,5 +355,49 @@ TEST(Lifecycle, AJoinerOnlyTheOwnerReachesLapsesAtEveryPlayer) {
     heal_and_expect_slot_2_joined(cluster, cut, 900);
 }
 
+// Found over real processes (lockroll live --join 1@110 --kill 2@120 --rejoin 2@300): slot 1
+// joined after slot 2's process was killed and dropped; then slot 2's new process joined. Its
+// config has slot 1 absent (as at frame 0), so it said hello only to the owner, and slot 1,
+// never greeted, ignored its snapshot-vetting queries: it never reached the 2 of 3 answers it
+// needed, and each handoff lapsed (before the fix to lapses, both players froze at it for good).
+// A joiner that has not loaded greets every other process's slot.
+TEST(Lifecycle, ARejoinerGreetsAPlayerThatJoinedAfterItsPredecessorDied) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 1;
+    cfg.disconnect_us = 1'000'000;
+    Cluster cluster(scene, cfg, {8000, 2000}, 21);
+    rejoin_when_dropped(cluster);
+    cluster.kill(1);
+    cluster.run_frames(120);
+    cluster.kill(2);
+    cluster.run([](const Cluster&) { return false; }, 2'000'000);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 1;
+    cluster.start(1, scene, join, 7);
+    cluster.run([](const Cluster&) { return false; }, 4'000'000);
+    ASSERT_EQ(cluster.clients[1]->session->phase(), SessionPhase::Running);
+    SessionConfig again = cfg;
+    again.role = Role::Joiner;
+    again.local_player = 2;
+    Client& rejoiner = cluster.start(2, scene, again, 9);
+    cluster.run([](const Cluster&) { return false; }, 6'000'000);
+    ASSERT_EQ(rejoiner.session->phase(), SessionPhase::Running) << rejoiner.session->failure();
+    const auto loaded = events_of(rejoiner, Kind::SnapshotLoaded);
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Running) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+    }
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 120;
+    cluster.run_frames(end, 30'000'000);
+    cluster.settle(end);
+    expect_equal_at(cluster, end);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
