@@ -1,7 +1,7 @@
 // libFuzzer target: Membership (rollback/membership.h) driven directly by a script of votes from
 // any voter about any slot (out-of-range ids, voters that left, guests, repeated and
 // contradictory words, stale and wrapped epochs), the local process's votes, joins handed over by
-// the owner, and the session's tick that drops whatever the votes decide (the format is in
+// the owner (and their joiners starting to play), and the session's tick that drops whatever the votes decide (the format is in
 // fuzz/membership_fuzz.h). Membership reads no clock: time passes only as those ticks.
 //
 // Beside it the target keeps its own record of the view and of every voter's latest word, built
@@ -12,7 +12,8 @@
 //    advertises, Partitioned; and each vote's Tally is Counted or Repeated exactly when the rules
 //    take it (else one of the reasons that apply);
 //  - a running slot leaves only when a strict majority of the view's running processes voted it
-//    gone, each voter counted once (its latest word: the record keeps one per voter); with three
+//    gone (a joiner is no voter until it plays; a decision about a joining slot counts that slot
+//    too), each voter counted once (its latest word: the record keeps one per voter); with three
 //    or more voters one voter alone never removes anyone; with two the configured TwoPlayerRule
 //    applies (PlayOnAlone: one vote; NoDrop: never); and once a slot has a majority, the tick
 //    drops it (no decision is lost);
@@ -91,12 +92,14 @@ struct Record {
     PlayerId host[kMax] = {};
     SlotState state[kMax] = {};
     std::uint8_t epoch[kMax] = {};
+    bool joining[kMax] = {};     // handed over, its process not playing yet
     Word word[kMax][kMax] = {};  // [voter][slot]
 
     NOT_FUZZED bool in_range(PlayerId p) const { return p < static_cast<PlayerId>(n); }
     NOT_FUZZED bool running(PlayerId s) const { return in_range(s) && state[s] == SlotState::Running; }
-    // A voter is a running process: a running slot that hosts itself.
-    NOT_FUZZED bool voter(PlayerId p) const { return running(p) && host[p] == p; }
+    // A voter is a running process that plays: a running slot that hosts itself and is not a
+    // joiner that has not started yet.
+    NOT_FUZZED bool voter(PlayerId p) const { return running(p) && host[p] == p && !joining[p]; }
     NOT_FUZZED int voters() const {
         int k = 0;
         for (int p = 0; p < n; ++p) k += voter(static_cast<PlayerId>(p));
@@ -111,20 +114,35 @@ struct Record {
         for (int v = 0; v < n; ++v) k += counted(static_cast<PlayerId>(v), s) == Vote::Gone;
         return k;
     }
+    // Who a decision about running slot s counts: the voters, and s itself if it is joining.
+    NOT_FUZZED int electorate(PlayerId s) const { return voters() + (joining[s] ? 1 : 0); }
     // "A strict majority of the view's running players"; a view of two has none of the other's
     // and follows the rule.
-    NOT_FUZZED bool strict_majority(int votes) const {
-        const int of = voters();
+    NOT_FUZZED bool strict_majority_of(int votes, int of) const {
         if (of == 2) return rule == TwoPlayerRule::PlayOnAlone && votes >= 1;
         return 2 * votes > of;
     }
+    NOT_FUZZED bool strict_majority(int votes) const { return strict_majority_of(votes, voters()); }
     // A view of two: each side decides for itself -- only the local process's own vote, and
     // never about its own slot (the other's word about it is a claim: rollback/membership.h).
     NOT_FUZZED bool decided(PlayerId s) const {
-        if (!voter(s)) return false;
-        if (voters() == 2)
+        if (!running(s) || host[s] != s) return false;
+        if (electorate(s) == 2)
             return rule == TwoPlayerRule::PlayOnAlone && s != local && counted(local, s) == Vote::Gone;
-        return strict_majority(gone(s));
+        return strict_majority_of(gone(s), electorate(s));
+    }
+    // The local process votes some slot gone whose drop the voters it hears (itself included)
+    // cannot decide.
+    NOT_FUZZED bool partitioned() const {
+        if (!voter(local)) return false;
+        int heard = 0;
+        for (int v = 0; v < n; ++v)
+            heard += voter(static_cast<PlayerId>(v)) && counted(local, static_cast<PlayerId>(v)) != Vote::Gone;
+        for (int s = 0; s < n; ++s) {
+            const auto p = static_cast<PlayerId>(s);
+            if (counted(local, p) == Vote::Gone && !strict_majority_of(heard, electorate(p))) return true;
+        }
+        return false;
     }
     NOT_FUZZED void forget(PlayerId s) {
         for (std::size_t v = 0; v < static_cast<std::size_t>(n); ++v) {
@@ -135,6 +153,7 @@ struct Record {
     NOT_FUZZED void set(PlayerId s, SlotState st, std::uint8_t e) {
         state[s] = st;
         epoch[s] = e;
+        joining[s] = false;
         forget(s);
     }
     // What a vote should come to. The reasons a vote is not taken are not exclusive (a voter that
@@ -187,7 +206,7 @@ NOT_FUZZED void check_summaries(const Membership& m, const Record& r) {
     int unheard = 0;
     for (int s = 0; s < r.n; ++s) unheard += r.counted(r.local, static_cast<PlayerId>(s)) == Vote::Gone;
     CHECK(m.votes_any_gone() == (unheard > 0));
-    CHECK(m.partitioned() == (r.voter(r.local) && unheard > 0 && !r.strict_majority(r.voters() - unheard)));
+    CHECK(m.partitioned() == r.partitioned());
 }
 
 // One slot: its view, the votes about it as they count, the decision, what the local process
@@ -197,13 +216,15 @@ NOT_FUZZED void check_slot(const Membership& m, const Record& r, PlayerId s) {
     CHECK(m.epoch(s) == r.epoch[s]);
     CHECK(m.running(s) == r.running(s));
     CHECK(m.host_of(s) == r.host[s]);
+    CHECK(m.joining(s) == r.joining[s]);
+    CHECK(m.electorate(s) == r.electorate(s));
     const int gone = m.gone_votes(s);
     CHECK(gone == r.gone(s));
     const bool decided = m.decided_gone(s);
     CHECK(decided == r.decided(s));
     if (decided) {
         // Never one voter's word alone with three or more, whatever the record says.
-        const int of = m.running_voters();
+        const int of = m.electorate(s);
         CHECK(of <= 2 || gone >= 2);
         CHECK(2 * gone > of || (of == 2 && m.rule() == TwoPlayerRule::PlayOnAlone && gone >= 1));
         if (of == 2) CHECK(s != r.local && r.counted(r.local, s) == Vote::Gone);  // its own word
@@ -395,9 +416,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 const auto s = static_cast<PlayerId>(b % r.n);
                 const auto st = static_cast<SlotState>(a % 3);
                 const auto e = static_cast<std::uint8_t>(r.epoch[s] + 1 + c % 127);
-                m.set(s, st, e);
-                r.set(s, st, e);
-                joined = s;
+                if (a & 0x80) {
+                    m.hand_over(s, e);
+                    r.set(s, SlotState::Running, e);
+                    r.joining[s] = true;
+                    joined = s;
+                } else if (a & 0x40) {
+                    m.started(s);  // no change of the view
+                    r.joining[s] = false;
+                } else {
+                    m.set(s, st, e);
+                    r.set(s, st, e);
+                    joined = s;
+                }
                 check_slot(m, r, s);
                 check_votes_by_and_about(m, r, s);
                 break;

@@ -13,8 +13,11 @@
 //     kVoteRaw    the same at epoch c, whatever the slot's epoch
 //     kVoteLocal  the local process says slot id(b) is gone (a odd) or runs (a even)
 //     kSettle     the session's tick: drop every slot the votes decide, and its guests
-//     kSet        a join handed over by the owner: slot b % players becomes state a % 3 (Absent,
-//                 Running, Disconnected) in the epoch 1 + c % 127 ahead of its own
+//     kSet        a change no vote decides: slot b % players becomes state a % 3 (Absent,
+//                 Running, Disconnected) in the epoch 1 + c % 127 ahead of its own; a & 0x80:
+//                 instead a join handed over (Running in that epoch, its process joining: no
+//                 voter until it plays); else a & 0x40: instead the slot's joiner starts playing
+//                 (its stream started; the view does not change)
 //     kChorus     every voter in the mask a | c << 8 says `vote` about slot id(b) (Gone: at the
 //                 epoch it would leave into; Runs and None: at its epoch)
 //     kLocalAll   the local process says every slot in the mask b | c << 8 is gone (a odd) or

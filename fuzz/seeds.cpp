@@ -305,6 +305,19 @@ int main(int argc, char** argv) {
         vote(forged, kGone, 1, 2, 1);
         settle(forged);
         put(dir, "forged_stale_rejoin", forged);
+        // Issue 21, a kill during a handoff: slot 1 absent, handed over to a joiner (no voter
+        // yet), slot 2 silent: the survivor's own vote drops it (the two-player rule); the
+        // joiner's handoff lapses (the survivor's vote about it decides too), or it starts.
+        auto handoff = membership_header(3, 0, false);
+        membership_op(handoff, kSet, kNone, 0, 1, 0);     // slot 1 absent
+        membership_op(handoff, kSet, kNone, 0x81, 1, 0);  // handed over: joining
+        vote(handoff, kGone, 1, 2, 1);                    // the joiner cannot vote yet
+        membership_op(handoff, kVoteLocal, kNone, 1, 2, 0);
+        settle(handoff);
+        membership_op(handoff, kSet, kNone, 0x40, 1, 0);  // it plays: a voter
+        membership_op(handoff, kVoteLocal, kNone, 1, 1, 0);
+        settle(handoff);
+        put(dir, "handoff_kill", handoff);
     }
     return 0;
 }

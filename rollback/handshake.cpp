@@ -15,9 +15,18 @@ void Handshake::poll_hellos(std::span<PeerLink> links, SessionPhase phase, std::
     if (incarnation_ == 0) incarnation_ = config_.incarnation != 0 ? config_.incarnation : (now_us << 8 | config_.local_player) + 1;
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase == SessionPhase::Synchronizing || phase == SessionPhase::Transferring;
+    // A joiner that has not loaded knows the view only as its config had it at frame 0: a slot
+    // absent then, or dropped since, may run now, and its process must welcome us before it
+    // answers our snapshot's vetting query. (Issue 21: a rejoiner of slot 2 never said hello to
+    // slot 1, which had joined after slot 2's kill; slot 1 ignored its queries, and the rejoiner
+    // never loaded.) So until it runs it says hello to every other process's slot; one with no
+    // process never answers, and none of them is waited for (the offer is asked of those that
+    // welcomed us).
+    const bool stale_view = config_.role == Role::Joiner && phase != SessionPhase::Running;
     for (int p = 0; p < config_.players; ++p) {
         const auto pid = static_cast<PlayerId>(p);
-        if (!counts(pid)) continue;
+        const bool maybe_running = stale_view && pid != config_.local_player && host_of(config_, pid) == pid;
+        if (!counts(pid) && !maybe_running) continue;
         PeerLink& l = links[pid];
         const bool want = newcomer ? (syncing ? l.roundtrips < config_.sync_roundtrips : !l.welcomed)
                                    : phase == SessionPhase::Synchronizing;

@@ -1,6 +1,7 @@
 // Handshake: a P2P session's hellos and the start of frame 0. A player says hello to every
 // running slot's process until frame 0; a newcomer (joiner, spectator) until every running slot
-// has welcomed it (sync_roundtrips times while it still synchronizes). A player starts frame 0
+// has welcomed it (sync_roundtrips times while it still synchronizes); a joiner that has not
+// loaded greets every other process's slot, since its view is still its config's at frame 0. A player starts frame 0
 // once every slot present at start has answered sync_roundtrips hellos -- or, as soon as another
 // player has started (a welcome says so, or its inputs arrive), once every one has answered at
 // least once: following the first starter at once keeps the starts a one-way trip apart instead

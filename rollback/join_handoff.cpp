@@ -75,7 +75,8 @@ bool JoinHandoff::hand_over(PlayerId from, std::uint32_t frame, std::uint64_t no
             InputQueue::Add::Stored)
             return false;  // queue full: not now
     SlotView& v = s_.slots[from];
-    s_.membership.set(from, SlotState::Running, static_cast<std::uint8_t>(s_.membership.epoch(from) + 1));
+    // A voter only once its stream starts (Membership: a joiner is no voter until it plays).
+    s_.membership.hand_over(from, static_cast<std::uint8_t>(s_.membership.epoch(from) + 1));
     v.new_epoch();
     v.handoff = handoff;
     v.handed_off_by_me = true;

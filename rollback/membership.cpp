@@ -40,6 +40,16 @@ void Membership::set(PlayerId s, SlotState state, std::uint8_t epoch) {
     forget(s);
 }
 
+void Membership::hand_over(PlayerId s, std::uint8_t epoch) {
+    if (s >= slots_.size()) return;
+    set(s, SlotState::Running, epoch);
+    slots_[s].joining = true;
+}
+
+void Membership::started(PlayerId s) {
+    if (s < slots_.size()) slots_[s].joining = false;
+}
+
 void Membership::leave(PlayerId s) {
     if (s >= slots_.size()) return;
     set(s, SlotState::Disconnected, static_cast<std::uint8_t>(slots_[s].epoch + 1));
@@ -79,29 +89,33 @@ int Membership::gone_votes(PlayerId s) const {
     return n;
 }
 
-// Strict majority of the running processes; a view of two has none of the other's, and the
-// rule says whether one vote is enough there.
-int Membership::majority_size() const {
-    const int n = running_voters();
+// Strict majority; two have none of the other's, and the rule says whether one vote is enough.
+int Membership::majority_of(int n) const {
     if (n == 2 && rule_ == TwoPlayerRule::PlayOnAlone) return 1;
     return n / 2 + 1;
 }
 
+int Membership::majority_size() const { return majority_of(running_voters()); }
+
 bool Membership::majority(int votes) const { return votes >= majority_size(); }
 
 bool Membership::decided_gone(PlayerId s) const {
-    if (s >= slots_.size() || !voter(s)) return false;
+    // A running host slot, voter or joiner (a joiner's handoff may lapse: SlotView::watch_handoff).
+    if (s >= slots_.size() || !running(s) || host_of(s) != s) return false;
+    // The view this decision is taken in: the voters, and the slot itself if it is joining (so
+    // a survivor whose only other voter died while a joiner's handoff was in flight decides by
+    // the two-player rule, and a joiner lapsing beside two voters needs both).
+    const int n = electorate(s);
     // A view of two has no majority: each side decides for itself, on its own evidence. The
     // other's word about this process's slot is a claim, never a drop (a stale table still
     // carrying a withdrawn vote kicked a survivor of a three-player match once the third was
     // dropped: issue 21); if the other really drops this one it stops talking to it, and this
     // one's own silence vote drops the other.
-    if (running_voters() == 2) return rule_ == TwoPlayerRule::PlayOnAlone && s != local_ &&
-                                      vote_of(local_, s) == Vote::Gone;
+    if (n == 2) return rule_ == TwoPlayerRule::PlayOnAlone && s != local_ && vote_of(local_, s) == Vote::Gone;
     // A majority is at least one vote, so no vote decides nothing; checked first because the
-    // session asks about every slot every tick and majority() walks the whole view.
+    // session asks about every slot every tick and counting walks the whole view.
     const int votes = gone_votes(s);
-    return votes > 0 && majority(votes);
+    return votes > 0 && votes >= majority_of(n);
 }
 
 PlayerId Membership::next_gone() const {
@@ -124,12 +138,19 @@ bool Membership::votes_any_gone() const {
     return false;
 }
 
+// The voters it hears are the voters it does not vote gone; each drop it wants must find a
+// majority of its own electorate among them (a joining slot's counts the joiner too, and under
+// NoDrop a survivor beside a joiner that lapses is cut off as a survivor of two would be).
 bool Membership::partitioned() const {
     if (!voter(local_)) return false;
-    int unheard = 0;
+    int heard = running_voters();
     for (std::size_t s = 0; s < slots_.size(); ++s)
-        if (vote_of(local_, static_cast<PlayerId>(s)) == Vote::Gone) ++unheard;
-    return unheard > 0 && !majority(running_voters() - unheard);
+        if (voter(static_cast<PlayerId>(s)) && vote_of(local_, static_cast<PlayerId>(s)) == Vote::Gone) --heard;
+    for (std::size_t s = 0; s < slots_.size(); ++s) {
+        const auto p = static_cast<PlayerId>(s);
+        if (vote_of(local_, p) == Vote::Gone && heard < majority_of(electorate(p))) return true;
+    }
+    return false;
 }
 
 }  // namespace lockroll::rollback

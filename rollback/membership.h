@@ -29,8 +29,30 @@
 // just as a third slot's drop left a view of two, kicked a survivor (issue 21). If the other
 // really dropped this one, it stops talking to it and this one's own silence rule applies.
 //
+// A joiner is no voter until it plays (issue 21, "membership that cannot freeze"). A slot handed
+// over to a new process (hand_over(): the owner's handoff, or a peer's table saying so) runs in
+// the view, but its process votes nothing until it has loaded a snapshot and its own stream has
+// started; the caller says when with started(). Until then it is not counted among the voters
+// (running_voters(), majority_size()) of any decision but the one about itself: the slot voted on
+// counts in that one's denominator as always, so a handoff that lapses needs the same votes it
+// did. Counted as a voter, a joiner that cannot vote yet only raised the bar: 3 players, slot 1
+// handed over, slot 2 killed before slot 1 played, left the survivor 1 vote of the 2 it needed
+// for good (partitioned, stalled), and the joiner, whose snapshot needed a majority of three,
+// never loaded. Why this rule and not "a handoff that lapses falls back to absent at each peer":
+//  - The voter base is what it was before the handoff (a slot beyond the view was no voter
+//    either): a joiner, forged or not, can neither shrink it to hijack a decision nor, as
+//    before, grow it to block every drop. Only a majority (the owner's drop of the slot before)
+//    or the joiner's own stream starting (it loaded a snapshot a majority vetted) changes it.
+//  - A lapse that each peer applied on its own would be a drop without votes: views would split.
+//  - Partitions are found as before: partitioned() weighs the voters a peer still hears against
+//    a majority of each decision it wants, the joiner's own included.
+// "Started" is each peer's own observation (its first real input of the slot), so two peers may
+// count a joiner differently for about a one-way trip; two majorities of bases that differ by
+// one process always share a voter, except where the two-player rule already lets each side
+// of a view of two decide for itself (and say it plays alone).
+//
 // A pure value type: no clock, no I/O. Joins are not votes: whoever hands a slot over (the
-// owner) decides them, and the caller records them with set().
+// owner) decides them, and the caller records them with hand_over() (or set()).
 #pragma once
 
 #include <cstdint>
@@ -75,16 +97,31 @@ public:
     std::uint8_t epoch(PlayerId s) const { return slots_[s].epoch; }
     bool running(PlayerId s) const { return slots_[s].state == SlotState::Running; }
     PlayerId host_of(PlayerId s) const { return hosts_.empty() ? s : hosts_[s]; }
-    // Running processes in the view: the denominator of every decision.
+    // Handed over to a process whose own stream has not started here yet (hand_over()).
+    bool joining(PlayerId s) const { return s < slots_.size() && slots_[s].joining; }
+    // p votes: a running process (a host slot) that is not joining.
+    bool is_voter(PlayerId p) const { return voter(p); }
+    // Running processes in the view that vote (a joiner only once it plays): the denominator of
+    // every decision but one about a joining slot (electorate()).
     int running_voters() const;
-    // The fewest running processes that are a majority of the view: running_voters() / 2 + 1,
-    // or 1 in a view of two under PlayOnAlone.
+    // The processes a decision about running slot s counts: the voters, and s itself when it is
+    // joining (the slot voted on always counts in the denominator).
+    int electorate(PlayerId s) const { return running_voters() + (joining(s) ? 1 : 0); }
+    // The fewest of n processes that are a majority: n / 2 + 1, or 1 when n is 2 under
+    // PlayOnAlone (the two-player rule).
+    int majority_of(int n) const;
+    // majority_of(running_voters()).
     int majority_size() const;
 
     // A change of the view that no vote decides: the starting table, a snapshot's table, a rejoin
     // handed over by the owner, a process that says it restarted. Forgets the votes about s and
     // the votes s cast (a new process in the slot starts with no word said).
+    // Not joining (a table or snapshot says nothing about whether a joiner plays yet).
     void set(PlayerId s, SlotState state, std::uint8_t epoch);
+    // A join: s runs in `epoch`, handed to a new process that is no voter until started().
+    void hand_over(PlayerId s, std::uint8_t epoch);
+    // The joiner of s plays (its own stream started here): it votes and counts from now on.
+    void started(PlayerId s);
     // s leaves the view: Disconnected in the next epoch, its votes and those about it forgotten.
     void leave(PlayerId s);
 
@@ -109,21 +146,22 @@ public:
     std::uint8_t advertised_epoch(PlayerId s) const;
     // The local process votes some running slot gone.
     bool votes_any_gone() const;
-    // The local process votes others gone and the processes it still hears (itself included)
-    // are no strict majority of the view: no drop it wants can be decided, and it must not drop
-    // anyone on its own (issue 21: split matches).
+    // The local process votes some slot gone and the voters it still hears (itself included)
+    // are no majority of that decision's electorate: a drop it wants cannot be decided, and it
+    // must not drop anyone on its own (issue 21: split matches).
     bool partitioned() const;
 
 private:
     struct Slot {
         SlotState state = SlotState::Running;
         std::uint8_t epoch = 0;
+        bool joining = false;
     };
     struct Word {
         Vote vote = Vote::None;
         std::uint8_t epoch = 0;
     };
-    bool voter(PlayerId p) const { return p < slots_.size() && running(p) && host_of(p) == p; }
+    bool voter(PlayerId p) const { return p < slots_.size() && running(p) && host_of(p) == p && !slots_[p].joining; }
     bool majority(int votes) const;
     void forget(PlayerId s);
     Word& word(PlayerId voter, PlayerId s) { return words_[voter * slots_.size() + s]; }

@@ -43,7 +43,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
     for (PlayerId s = view_.next_gone(); s < players; s = view_.next_gone()) {
         if (s == config_.local_player) {
             effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, s, effects_.frame(), now_us,
-                          std::to_string(view_.gone_votes(s)) + " of " + std::to_string(view_.running_voters()) +
+                          std::to_string(view_.gone_votes(s)) + " of " + std::to_string(view_.electorate(s)) +
                               " players voted this slot gone");
             effects_.fail_dropped(now_us);
             return;
@@ -57,14 +57,16 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
                                             : "timed out";
         // A view of two has no majority of the other's: the two-player rule decided, and this
         // process now plays on alone (its outcome says so: rollback/playing_alone.h).
-        const bool two_player_rule = view_.running_voters() == 2;
+        // (A joining slot's electorate counts it beside the voters: Membership::electorate.)
+        const int electorate = view_.electorate(s);
+        const bool two_player_rule = electorate == 2;
         const R reason = v.kick_vote ? (two_player_rule ? R::KickVoteTwoPlayerRule : R::KickVote)
                          : v.lapsed  ? (two_player_rule ? R::HandoffLapsedTwoPlayerRule : R::HandoffLapsed)
                          : restart   ? (v.restart_by_player ? (two_player_rule ? R::RestartedTwoPlayerRule : R::Restarted)
                                                             : (two_player_rule ? R::RejoiningTwoPlayerRule : R::Rejoining))
                                      : (two_player_rule ? R::TimedOutTwoPlayerRule : R::TimedOut);
         drop_slot(s, now_us, reason, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
-                              std::to_string(view_.running_voters()) + " votes" +
+                              std::to_string(electorate) + " votes" +
                               (two_player_rule ? std::string(" (the two-player rule, ") + two_player_rule_name(view_.rule()) +
                                                      ": this process plays on alone)"
                                                : std::string()))
@@ -75,8 +77,7 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
         int heard = 0;
         for (int s = 0; s < config_.players; ++s) {
             const auto pid = static_cast<PlayerId>(s);
-            if (view_.running(pid) && host_of(config_, pid) == pid && view_.vote_of(config_.local_player, pid) != Vote::Gone)
-                ++heard;
+            if (view_.is_voter(pid) && view_.vote_of(config_.local_player, pid) != Vote::Gone) ++heard;
         }
         effects_.emit(SessionEvent::Kind::Partitioned, SessionEvent::Reason::NoMajority, config_.local_player, effects_.confirmed_frame(), now_us,
                       "hears " + std::to_string(heard) + " of " + std::to_string(view_.running_voters()) +
@@ -101,7 +102,10 @@ void MembershipChanges::joiner_cut_off(const JoinerReach::Verdict& reach, std::u
 void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
     SlotView& v = slots_[slot];
     const SlotState before = view_.state(slot);
-    view_.set(slot, e.state, e.epoch);
+    // Running in a newer epoch: handed to a new process, a voter once its stream starts here
+    // (Membership::hand_over; check_silence notes the start).
+    if (e.state == SlotState::Running && !mine(slot)) view_.hand_over(slot, e.epoch);
+    else view_.set(slot, e.state, e.epoch);
     effects_.slot_changed_hands(slot);
     v.new_epoch();
     if (mine(slot) && e.state != SlotState::Running) {
@@ -143,7 +147,7 @@ void MembershipChanges::disconnect_player(PlayerId slot, std::uint64_t now_us) {
 
 void MembershipChanges::refused_as_dropped(PlayerId from, std::uint8_t epoch, std::uint64_t now_us) {
     const PlayerId me = config_.local_player;
-    const bool other_voter = is_slot(from) && view_.running(from) && host_of(config_, from) == from;
+    const bool other_voter = is_slot(from) && view_.is_voter(from);
     if (other_voter && !mine(from) && view_.running_voters() == 2 && view_.rule() == TwoPlayerRule::PlayOnAlone &&
         view_.running(me) && newer_epoch(epoch, view_.epoch(me))) {
         effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, me, effects_.frame(), now_us,
@@ -172,15 +176,23 @@ bool MembershipChanges::claim_restart(PlayerId slot, bool as_player, bool quiet,
 }
 
 void MembershipChanges::check_silence(std::uint64_t now_us) {
+    // A joiner whose own stream has started plays: it votes and counts from now on.
+    for (int s = 0; s < config_.players; ++s) {
+        const auto pid = static_cast<PlayerId>(s);
+        if (view_.joining(pid) && stream_started(effects_.stream(pid))) view_.started(pid);
+    }
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
+        // A handoff's lapse is judged on our own stream of the slot, whether or not we ever
+        // welcomed its process: a joiner that reaches only the owner is never welcomed here, and
+        // our vote was missing for good (issue 21: both players waited at the handoff frame).
+        if (is_slot(pid) && !mine(pid) && host_of(config_, pid) == pid) check_handoff(pid, now_us);
         if (!effects_.live_peer(pid)) continue;
         PeerLink& l = links_[p];
         const PeerLink::Silence silence = l.check_silence(now_us, config_.interrupt_us, config_.disconnect_us);
         if (silence.interrupted_now)
             effects_.emit(SessionEvent::Kind::Interrupted, SessionEvent::Reason::Silent, pid, effects_.frame(), now_us,
                           std::to_string(silence.silent_us / 1000) + " ms silent");
-        if (is_slot(pid)) check_handoff(pid, now_us);
         if (silence.timed_out) {
             if (is_slot(pid)) {
                 // A restart vote withdrawn (its old process was heard again): silence votes now.

@@ -28,9 +28,11 @@
 //    missed): the view takes its state and epoch. Our own slot or guest not running in it:
 //    `kicked`, and the session fails.
 //  - check_silence(): per tick, over live peers: `interrupted` once per silence; a player silent
-//    for disconnect_us, or whose handoff lapsed (SlotView::watch_handoff), gets our vote (kept
-//    until heard again; a lapse's until the drop); a spectator silent that long is no longer
-//    served. Then settle_membership().
+//    for disconnect_us gets our vote (kept until heard again); a spectator silent that long is no
+//    longer served. Over every other process's running slot, live or never welcomed here: one
+//    whose handoff lapsed (SlotView::watch_handoff, our own stream of it) gets our vote, kept
+//    until the drop. A joiner whose stream started becomes a voter (Membership::started). Then
+//    settle_membership().
 //  - disconnect_player(): a kick is our vote, as if the slot had been silent, kept until the drop.
 //    Throws std::invalid_argument for a slot that is not another process's (the caller's bug).
 //  - refused_as_dropped(): a peer's refusal "dropped from the match" (its view dropped our slot

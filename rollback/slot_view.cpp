@@ -14,7 +14,7 @@ void SlotView::dropped(std::uint64_t now_us, std::uint64_t disconnect_us) {
 
 bool SlotView::watch_handoff(bool running, const InputQueue& q, std::uint32_t frame, std::uint64_t now_us,
                              std::uint64_t disconnect_us) {
-    const bool started = q.confirmed_count() > 0 && !q.last_absent();
+    const bool started = stream_started(q);
     if (running && started) lapses = 0;  // its own stream started: the join succeeded
     // Pending: running, its newest input the owner's neutral one, and needed (we are at or past
     // its stream's end, predicting or stalled on it): the stall the contract bounds starts here.

@@ -18,6 +18,10 @@
 
 namespace lockroll::rollback {
 
+// The slot's own process plays: we hold an input of its stream, and the newest is its own, not
+// the owner's neutral one (flagged absent) written up to a handoff or from a drop on.
+inline bool stream_started(const InputQueue& q) { return q.confirmed_count() > 0 && !q.last_absent(); }
+
 struct SlotView {
     bool authoring = false;           // owner: writing its neutral inputs
     bool neutral_reported = false;    // NeutralFrom event fired for this epoch

@@ -141,13 +141,22 @@ SnapshotFetch::Verdict SnapshotFetch::finish(std::uint64_t now_us, std::span<con
         if (!vetting_.active() || vetting_.frame() != t.frame || vetting_.provider() != from_) {
             // The view as the offer's table gives it, and every peer that welcomed us runs
             // whatever the table says: a provider cannot shrink the view to a minority of its
-            // own (or to a view of two, where its word alone may decide).
+            // own (or to a view of two, where its word alone may decide). Unless we ourselves
+            // have not heard that peer for disconnect_us, the silence a player votes a slot gone
+            // on: then the table's word that it left agrees with our own evidence. (Issue 21: a
+            // player that welcomed the joiner and was killed before it loaded was counted for
+            // good, and the joiner never reached a majority of a view that had dropped it.) To
+            // shrink the view past that, a provider must cut us off from the peer too (Left,
+            // docs/sessions.md).
             Membership view(config_.players, config_.local_player, config_.two_player_rule, config_.slot_hosts);
             for (const SlotEntry& e : out.offer.slots)
                 if (e.slot < static_cast<PlayerId>(config_.players)) view.set(e.slot, e.state, e.epoch);
             for (int s = 0; s < config_.players; ++s) {
                 const auto p = static_cast<PlayerId>(s);
-                if (p != config_.local_player && links[p].welcomed && !view.running(p))
+                const PeerLink& l = links[p];
+                const bool gone_silent = config_.disconnect_us != 0 && l.heard && now_us >= l.last_heard_us &&
+                                         now_us - l.last_heard_us >= config_.disconnect_us;
+                if (p != config_.local_player && l.welcomed && !gone_silent && !view.running(p))
                     view.set(p, SlotState::Running, view.epoch(p));
             }
             // Short: the slot is handed over already, and a newcomer silent to the others for

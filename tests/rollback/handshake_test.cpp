@@ -73,6 +73,23 @@ TEST(Handshake, ANewcomerSaysHelloUntilEveryRunningSlotWelcomedIt) {
     EXPECT_TRUE(s.hellos(hs, SessionPhase::Running, 3'000'000).empty()) << "every running slot welcomed it";
 }
 
+// Issue 21: a joiner's view before it loads is its config's at frame 0. Slot 1 absent there may
+// run now (it joined after slot 2's predecessor died), and only a process that welcomed us
+// answers our snapshot's vetting query: before loading a joiner greets every other process's
+// slot; once it runs, the view it loaded decides again.
+TEST(Handshake, AJoinerThatHasNotLoadedGreetsSlotsItsConfigSaysAreAbsent) {
+    Fixture f(Role::Joiner, 2);
+    f.view.set(1, SlotState::Absent, 0);
+    Handshake h(f.config, f.view);
+    EXPECT_EQ(f.hellos(h, SessionPhase::Synchronizing, 1000), (std::vector<PlayerId>{0, 1}));
+    f.links[0].welcomed = f.links[1].welcomed = false;
+    EXPECT_EQ(f.hellos(h, SessionPhase::Running, 2'000'000), (std::vector<PlayerId>{0})) << "loaded: the view decides";
+    Fixture p(Role::Player, 0);
+    p.view.set(1, SlotState::Absent, 0);
+    Handshake hp(p.config, p.view);
+    EXPECT_EQ(p.hellos(hp, SessionPhase::Synchronizing, 1000), (std::vector<PlayerId>{2})) << "a player: its view";
+}
+
 TEST(Handshake, StartsAfterSyncRoundtripsOrAtOnceBehindAPlayerThatStarted) {
     Fixture f;
     Handshake h(f.config, f.view);

@@ -6,6 +6,20 @@
 namespace lockroll::rollback {
 namespace {
 
+// The cut between the joiner in slot 2 and a player heals: `frames` more frames, then the joiner
+// runs, both players hold slot 2 running, nobody desynced, and everyone confirms one checksum.
+void heal_and_expect_slot_2_joined(Cluster& cluster, bool& cut, std::uint32_t frames) {
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + frames;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    const Client& joiner = *cluster.clients[2];
+    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
+}
+
 // Between real processes a survivor's welcome can reach the joiner only after the joiner has
 // loaded its snapshot and runs (its connection came up late: the survivor was still timing out
 // its reconnects to the dead process). The survivor's welcome reaches a joiner that already
@@ -234,18 +248,155 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
             EXPECT_GT(cluster.clients[p]->session->frame(), before + 60 * 3 * cfg.disconnect_us / 1'000'000 / 3)
                 << "client " << p << " plays on";
     }
-    cut = false;
-    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
-    cluster.run_frames(end, 120'000'000);
-    cluster.settle(end);
-    const Client& joiner = *cluster.clients[2];
-    ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
-    const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+    heal_and_expect_slot_2_joined(cluster, cut, 600);
+    const auto loaded = events_of(*cluster.clients[2], Kind::SnapshotLoaded);
     ASSERT_EQ(loaded.size(), 1u);
     EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
-    for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Running);
-    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+}
+
+// Issue 21, "membership that cannot freeze" (CI, over real processes: lockroll live --players 3
+// --join 1@60 --kill 2@120): slot 2 is killed while slot 1's handoff is still in flight (the
+// joiner's snapshot is slow to arrive). The joiner's slot runs in the view from the handoff on,
+// but its process does not vote until it plays. Counted among the voters, it made the view three
+// with one voter left: the survivor could never drop the dead slot (1 of 3 votes), reported
+// partitioned and stalled for good, and the joiner, whose snapshot needed a majority of three,
+// never loaded. A joiner is no voter until its stream starts, so the survivor's view is two and
+// the two-player rule drops the dead slot. The joiner, which slot 2 had welcomed, also counted
+// slot 2 in its vetting whatever the owner's table said; silent for disconnect_us to the joiner
+// itself, it no longer counts, so the next offer (the first one lapses) loads on the owner's
+// word by the two-player rule and the joiner plays. Both failed before (5 seeds).
+TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndTheJoinerIn) {
+    for (const std::uint64_t seed : {21u, 22u, 23u, 24u, 25u}) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const auto scene = make_scene(3, 20);
+        SessionConfig cfg = real_config(3, 8);
+        cfg.absent_slots = 1u << 1;
+        cfg.disconnect_us = 1'000'000;
+        Cluster cluster(scene, cfg, {8000, 2000}, seed);
+        rejoin_when_dropped(cluster);
+        cluster.kill(1);  // nobody runs slot 1 yet
+        cluster.run_frames(60);
+        bool slow = true;  // the snapshot's chunks do not reach the joiner yet: its handoff is in flight
+        cluster.filter = [&](PlayerId, PlayerId to, const std::vector<std::uint8_t>& b) {
+            return !(slow && to == 1 && !b.empty() && b[0] == static_cast<std::uint8_t>(MessageKind::SnapshotChunk));
+        };
+        SessionConfig join = cfg;
+        join.role = Role::Joiner;
+        join.local_player = 1;
+        Client& joiner = cluster.start(1, scene, join, 7);
+        // The handoff is made and known to both players: slot 1 runs in their views, not yet played.
+        cluster.run([](const Cluster& c) {
+            return c.clients[0]->session->slot_state(1) == SlotState::Running &&
+                   c.clients[2]->session->slot_state(1) == SlotState::Running;
+        }, 10'000'000);
+        ASSERT_EQ(cluster.clients[2]->session->slot_state(1), SlotState::Running);
+        ASSERT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
+        cluster.kill(2);
+        const std::uint32_t killed_at = cluster.clients[0]->session->frame();
+        cluster.run([](const Cluster&) { return false; }, 300'000);
+        slow = false;
+        cluster.run([](const Cluster&) { return false; }, 20'000'000);
+        const Client& survivor = *cluster.clients[0];
+        ASSERT_EQ(survivor.session->phase(), SessionPhase::Running) << survivor.session->failure();
+        const auto partitioned = events_of(survivor, Kind::Partitioned);
+        EXPECT_TRUE(partitioned.empty()) << partitioned[0]->detail;
+        EXPECT_EQ(survivor.session->slot_state(2), SlotState::Disconnected);
+        ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+        EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
+        EXPECT_TRUE(events_of(joiner, Kind::Partitioned).empty());
+        EXPECT_EQ(survivor.session->slot_state(1), SlotState::Running);
+        // 20 s at 60 Hz: both play on (a stall of about the timeout for the drop, nothing more).
+        EXPECT_GT(survivor.session->confirmed_frame(), killed_at + 60 * 15) << "the survivor keeps confirming";
+        const std::uint32_t end = survivor.session->frame() + 120;
+        cluster.run_frames(end, 30'000'000);
+        cluster.settle(end);
+        expect_equal_at(cluster, end);
+        for (PlayerId p : {0u, 1u}) EXPECT_EQ(cluster.clients[p]->session->stats().desyncs, 0u) << "client " << p;
+    }
+}
+
+// Found over real processes (lockroll live --join 1@118 --kill 2@120 --rejoin 2@300): slot 2's
+// new process reached the owner but never slot 1, which had never welcomed any process of slot
+// 2 (it joined after the kill). Slot 1 learned of the handoff from the owner's table, but a
+// handoff's lapse was judged only for a welcomed peer, so slot 1 never voted it gone: the owner's
+// vote was 1 of the 3 needed and both players waited at the handoff frame for good. The lapse is
+// about our own stream of the slot (still the owner's neutral input, and needed), which every
+// player holds whether or not it ever heard the slot's process: now both vote, the slot is
+// dropped ("handoff lapsed") and the pair plays on; once the cut heals the joiner gets in.
+TEST(Lifecycle, AJoinerOnlyTheOwnerReachesLapsesAtEveryPlayer) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 2;  // no process of slot 2 was ever welcomed by anyone
+    cfg.disconnect_us = 1'000'000;
+    Cluster cluster(scene, cfg, {8000, 2000}, 31);
+    rejoin_when_dropped(cluster);
+    cluster.kill(2);
+    cluster.run_frames(120);
+    bool cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        return !(cut && ((from == 1 && to == 2) || (from == 2 && to == 1)));
+    };
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 2;
+    cluster.start(2, scene, join, 5);
+    const std::uint32_t before = cluster.clients[0]->session->frame();
+    cluster.run([](const Cluster&) { return false; }, 8 * cfg.disconnect_us);
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p;
+        const auto drops = events_of(c, Kind::Disconnected);
+        ASSERT_FALSE(drops.empty()) << "client " << p << " never dropped the lapsed handoff";
+        EXPECT_NE(drops[0]->detail.find("handoff lapsed"), std::string::npos) << drops[0]->detail;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+        // 8 s: a stall of about the timeout per handoff (backing off), play in between.
+        EXPECT_GT(c.session->confirmed_frame(), before + 60 * 8 / 3) << "client " << p << " plays on";
+    }
+    heal_and_expect_slot_2_joined(cluster, cut, 900);
+}
+
+// Found over real processes (lockroll live --join 1@110 --kill 2@120 --rejoin 2@300): slot 1
+// joined after slot 2's process was killed and dropped; then slot 2's new process joined. Its
+// config has slot 1 absent (as at frame 0), so it said hello only to the owner, and slot 1,
+// never greeted, ignored its snapshot-vetting queries: it never reached the 2 of 3 answers it
+// needed, and each handoff lapsed (before the fix to lapses, both players froze at it for good).
+// A joiner that has not loaded greets every other process's slot.
+TEST(Lifecycle, ARejoinerGreetsAPlayerThatJoinedAfterItsPredecessorDied) {
+    const auto scene = make_scene(3, 20);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.absent_slots = 1u << 1;
+    cfg.disconnect_us = 1'000'000;
+    Cluster cluster(scene, cfg, {8000, 2000}, 21);
+    rejoin_when_dropped(cluster);
+    cluster.kill(1);
+    cluster.run_frames(120);
+    cluster.kill(2);
+    cluster.run([](const Cluster&) { return false; }, 2'000'000);
+    SessionConfig join = cfg;
+    join.role = Role::Joiner;
+    join.local_player = 1;
+    cluster.start(1, scene, join, 7);
+    cluster.run([](const Cluster&) { return false; }, 4'000'000);
+    ASSERT_EQ(cluster.clients[1]->session->phase(), SessionPhase::Running);
+    SessionConfig again = cfg;
+    again.role = Role::Joiner;
+    again.local_player = 2;
+    Client& rejoiner = cluster.start(2, scene, again, 9);
+    cluster.run([](const Cluster&) { return false; }, 6'000'000);
+    ASSERT_EQ(rejoiner.session->phase(), SessionPhase::Running) << rejoiner.session->failure();
+    const auto loaded = events_of(rejoiner, Kind::SnapshotLoaded);
+    ASSERT_EQ(loaded.size(), 1u);
+    EXPECT_NE(loaded[0]->detail.find(": 2 agree, 0 differ, 2 needed"), std::string::npos) << loaded[0]->detail;
+    for (PlayerId p : {0u, 1u}) {
+        const Client& c = *cluster.clients[p];
+        EXPECT_EQ(c.session->slot_state(2), SlotState::Running) << "client " << p;
+        EXPECT_TRUE(events_of(c, Kind::Partitioned).empty()) << "client " << p;
+    }
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 120;
+    cluster.run_frames(end, 30'000'000);
+    cluster.settle(end);
     expect_equal_at(cluster, end);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
 }
 
 }  // namespace

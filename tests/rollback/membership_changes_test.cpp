@@ -246,6 +246,21 @@ TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::HandoffLapsed);
 }
 
+// The joiner reached only the owner: we never welcomed its process, yet our stream of its slot
+// is the owner's neutral input and we need it. Its handoff lapses here too (before, only a
+// welcomed peer's was judged, and our vote was missing for good).
+TEST(MembershipChanges, AHandoffLapsesAlsoWhenWeNeverWelcomedTheJoiner) {
+    Fixture f(3);
+    f.links[2].welcomed = false;
+    const std::vector<std::uint8_t> zero{0};
+    for (std::uint32_t fr = 0; fr < 10; ++fr) f.fake.queues[2].add_confirmed(fr, zero, true);
+    f.fake.shown = 10;
+    f.changes.check_silence(100);
+    f.changes.check_silence(100 + kDisconnect);
+    EXPECT_TRUE(f.slots[2].lapsed);
+    EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone);
+}
+
 TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     Fixture f(3);
     f.changes.disconnect_player(2, 100);
@@ -395,6 +410,34 @@ TEST(MembershipChanges, APeersTableHandsASlotOverOrTellsADropWeMissed) {
     EXPECT_EQ(f.fake.replaced_peers, std::vector<PlayerId>{2});
     EXPECT_EQ(f.fake.changed_hands, (std::vector<PlayerId>{2, 2}));
     EXPECT_FALSE(f.fake.failed);
+}
+
+// Issue 21, "membership that cannot freeze": a peer's table hands slot 1 to a joiner, then slot 2
+// goes silent before the joiner plays. The joiner is no voter until its own stream starts here,
+// so this survivor's view is two voters and its vote drops the dead slot by the two-player rule
+// (before, 1 of 3 votes: partitioned, for good); once the joiner's stream starts it votes.
+TEST(MembershipChanges, AJoinerHandedOverIsNoVoterUntilItsStreamStarts) {
+    Fixture f(3);
+    const std::vector<std::uint8_t> zero{0};
+    f.changes.adopt_slot(1, {1, SlotState::Disconnected, 1, 0}, 50);
+    for (std::uint32_t fr = 0; fr < 12; ++fr) f.fake.queues[1].add_confirmed(fr, zero, true);  // neutral to H
+    f.changes.adopt_slot(1, {1, SlotState::Running, 2, 0}, 100);
+    EXPECT_TRUE(f.view.joining(1));
+    EXPECT_EQ(f.view.running_voters(), 2);
+    f.hear_all_but(99, 100);
+    f.changes.check_silence(100);
+    f.hear_all_but(2, 100 + kDisconnect + 1);
+    f.changes.check_silence(100 + kDisconnect + 1);
+    EXPECT_TRUE(f.fake.of(Kind::Partitioned).empty());
+    ASSERT_EQ(f.fake.of(Kind::Disconnected).size(), 2u);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected)[1].peer, 2u);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected)[1].reason, Reason::TimedOutTwoPlayerRule);
+    EXPECT_TRUE(f.view.running(1)) << "the joiner stays";
+    EXPECT_TRUE(f.view.joining(1));
+    f.fake.queues[1].add_confirmed(12, zero);  // its own first input
+    f.changes.check_silence(200 + kDisconnect);
+    EXPECT_FALSE(f.view.joining(1));
+    EXPECT_EQ(f.view.running_voters(), 2);
 }
 
 TEST(MembershipChanges, APeersTableThatDropsOurOwnSlotKicksUs) {

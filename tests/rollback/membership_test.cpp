@@ -289,5 +289,103 @@ TEST(Membership, AProcessWithGuestsIsOneVoterAndItsGuestsFollowIt) {
     EXPECT_EQ(a.vote(0, 1, Vote::Gone, 1), Tally::AboutItself) << "a host about its own guest";
 }
 
+// Issue 21, "membership that cannot freeze": 3 players, slot 1 handed over to a joiner, slot 2
+// killed before the joiner played. Counted as a voter, the joiner (which votes nothing yet) left
+// the survivor 1 vote of the 2 it needed, partitioned for good. It is no voter until it plays:
+// the view is two and the survivor's own vote drops the dead slot.
+TEST(Membership, AJoinerIsNoVoterUntilItPlaysSoASurvivorOfAKillDropsTheDead) {
+    Membership m(3, 0, TwoPlayerRule::PlayOnAlone);
+    m.set(1, SlotState::Absent, 0);
+    EXPECT_EQ(m.running_voters(), 2);
+    m.hand_over(1, 1);
+    EXPECT_TRUE(m.running(1));
+    EXPECT_TRUE(m.joining(1));
+    EXPECT_FALSE(m.is_voter(1));
+    EXPECT_EQ(m.running_voters(), 2) << "the voter base is what it was before the handoff";
+    EXPECT_EQ(m.majority_size(), 1);
+    EXPECT_EQ(m.electorate(2), 2);
+    EXPECT_EQ(m.vote_local(2, true), Tally::Counted);
+    EXPECT_TRUE(m.decided_gone(2)) << "a view of two voters: the two-player rule";
+    EXPECT_FALSE(m.partitioned());
+    settle(m);
+    EXPECT_EQ(m.state(2), SlotState::Disconnected);
+    EXPECT_TRUE(m.running(1)) << "the joiner stays; it may still load and play";
+    EXPECT_EQ(m.running_voters(), 1);
+    // Its stream starts: it votes and counts from now on.
+    m.started(1);
+    EXPECT_FALSE(m.joining(1));
+    EXPECT_EQ(m.running_voters(), 2);
+}
+
+// The same with the joiner counted, as before the fix: no drop, and the survivor is partitioned.
+TEST(Membership, ARunningSlotThatIsNotJoiningStillCountsAsAVoter) {
+    Membership m(3, 0, TwoPlayerRule::PlayOnAlone);
+    m.set(1, SlotState::Running, 1);  // a table or snapshot: nothing says a joiner there
+    EXPECT_FALSE(m.joining(1));
+    m.vote_local(2, true);
+    m.vote_local(1, true);
+    EXPECT_FALSE(m.decided_gone(2));
+    EXPECT_TRUE(m.partitioned());
+    m.hand_over(1, 2);
+    m.set(1, SlotState::Running, 3);
+    EXPECT_FALSE(m.joining(1)) << "set() is no join";
+}
+
+// A joiner votes nothing until it plays (a forged joiner cannot vote either), and once it plays
+// its word counts like any voter's.
+TEST(Membership, AJoinersVotesCountOnlyOnceItPlays) {
+    Membership m(4, 0, TwoPlayerRule::PlayOnAlone);
+    m.hand_over(3, 1);
+    EXPECT_EQ(m.vote(3, 2, Vote::Gone, 1), Tally::NotAVoter);
+    EXPECT_EQ(m.gone_votes(2), 0);
+    m.started(3);
+    EXPECT_EQ(m.vote(3, 2, Vote::Gone, 1), Tally::Counted);
+    EXPECT_EQ(m.gone_votes(2), 1);
+}
+
+// A handoff that lapses (SlotView::watch_handoff) is voted on with the joining slot in the
+// denominator, as always for the slot voted on: beside two voters it needs both, and a lone
+// survivor decides it by the two-player rule (under NoDrop it does not, and is partitioned).
+TEST(Membership, AJoinersLapsedHandoffCountsTheJoinerInItsOwnDecision) {
+    Membership m(3, 0, TwoPlayerRule::PlayOnAlone);
+    m.hand_over(1, 1);
+    EXPECT_EQ(m.electorate(1), 3);
+    m.vote_local(1, true);
+    EXPECT_FALSE(m.decided_gone(1)) << "1 of 3";
+    EXPECT_FALSE(m.partitioned()) << "0 hears 2: two of three";
+    all_vote_gone(m, {2}, 1);
+    EXPECT_TRUE(m.decided_gone(1));
+
+    Membership alone(3, 0, TwoPlayerRule::PlayOnAlone);
+    alone.leave(2);
+    alone.hand_over(1, 1);
+    alone.vote_local(1, true);
+    EXPECT_TRUE(alone.decided_gone(1)) << "survivor and joiner: a view of two";
+    Membership no_drop(3, 0, TwoPlayerRule::NoDrop);
+    no_drop.leave(2);
+    no_drop.hand_over(1, 1);
+    no_drop.vote_local(1, true);
+    EXPECT_FALSE(no_drop.decided_gone(1));
+    EXPECT_TRUE(no_drop.partitioned()) << "as a survivor of two under no_drop";
+}
+
+// A partition is still found with a joiner in the view: 4 slots, slot 3 joining, the three
+// voters split 1/2. The one hears no majority of the three voters; the two drop it.
+TEST(Membership, APartitionBesideAJoinerIsStillDetected) {
+    Membership one(4, 0, TwoPlayerRule::PlayOnAlone);
+    one.hand_over(3, 1);
+    one.vote_local(1, true);
+    one.vote_local(2, true);
+    EXPECT_FALSE(one.decided_gone(1));
+    EXPECT_FALSE(one.decided_gone(2));
+    EXPECT_TRUE(one.partitioned());
+    Membership two(4, 1, TwoPlayerRule::PlayOnAlone);
+    two.hand_over(3, 1);
+    two.vote_local(0, true);
+    EXPECT_EQ(two.vote(2, 0, Vote::Gone, 1), Tally::Counted);
+    EXPECT_TRUE(two.decided_gone(0)) << "2 of the 3 voters";
+    EXPECT_FALSE(two.partitioned());
+}
+
 }  // namespace
 }  // namespace lockroll::rollback

@@ -185,6 +185,35 @@ TEST(SnapshotFetch, AnOfferThatHidesAWelcomedPeerDoesNotShrinkTheView) {
     EXPECT_EQ(x.finish(f, 4000, r), SnapshotFetch::Verdict::Ready);
 }
 
+// Issue 21: slot 1 welcomed the joiner, then was killed and dropped before the joiner loaded.
+// Counted whatever the table said, it kept the joiner from a majority of a view that had dropped
+// it, for good. A welcomed peer the table says left, and that the joiner itself has not heard for
+// disconnect_us (the silence a player votes on), is not counted; one heard within it still is.
+TEST(SnapshotFetch, AWelcomedPeerTheTableDropsAndWeHaveNotHeardForTheTimeoutIsNotCounted) {
+    for (const bool silent : {true, false}) {
+        Fixture x;
+        x.config.disconnect_us = 1'000'000;
+        x.offer->slots[1].state = SlotState::Disconnected;
+        x.offer->slots[1].epoch = 1;
+        x.links[1].heard = true;
+        x.links[1].last_heard_us = silent ? 400'000 : 900'000;
+        SnapshotFetch f(x.config, kStateSize);
+        SnapshotFetch::Result r;
+        x.deliver(f);
+        const std::uint64_t now = 1'400'000;
+        ASSERT_EQ(x.finish(f, now, r), SnapshotFetch::Verdict::Pending);
+        f.take_reply(0, Fixture::reply(sum(x.contents.state)));
+        if (!silent) {
+            EXPECT_EQ(f.poll(now + 1, x.out), SnapshotFetch::Poll::Nothing) << "heard 0.5 s ago: slot 1 still counts";
+            continue;
+        }
+        ASSERT_EQ(f.poll(now + 1, x.out), SnapshotFetch::Poll::Decided);
+        ASSERT_EQ(x.finish(f, now + 1, r), SnapshotFetch::Verdict::Ready) << r.why;
+        EXPECT_NE(r.why.find("the two-player rule play_on_alone lets the provider's word decide"), std::string::npos)
+            << r.why;
+    }
+}
+
 // Two players: the joiner's slot and the provider are the view; the two-player rule decides.
 TEST(SnapshotFetch, AViewOfTwoLoadsOnTheProvidersWordUnderPlayOnAloneAndSaysSo) {
     Fixture x(TransferReason::Join, Role::Joiner, 2);
