@@ -1,6 +1,5 @@
 #include "server/server_process.h"
 
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -10,6 +9,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "server/server_log.h"
 #include "server/server_pass.h"
 #include "server/status_writer.h"
 #include "transport/enet_server.h"
@@ -34,7 +34,7 @@ std::uint64_t unix_us() {
         std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
 }
 
-std::string status_json(const RelayServer& s, const transport::EnetServer& enet, bool draining, double uptime_s) {
+std::string status_json(const RelayServer& s, const transport::EnetServer& enet, const ServerLog& log, bool draining, double uptime_s) {
     const ServerCounters& c = s.counters();
     auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
     char buf[1200];
@@ -43,10 +43,10 @@ std::string status_json(const RelayServer& s, const transport::EnetServer& enet,
                   "\"rooms_created\": %llu, \"rooms_closed\": %llu, \"hellos_refused\": %llu, \"tokens_refused\": %llu, "
                   "\"token_replays\": %llu, \"bad_packets\": %llu, "
                   "\"throttled\": %llu, \"kicks\": %llu, \"datagrams_in\": %llu, \"datagrams_out\": %llu, "
-                  "\"bytes_in\": %llu, \"bytes_out\": %llu, \"wire_bytes_in\": %llu, \"wire_bytes_out\": %llu}\n",
+                  "\"bytes_in\": %llu, \"bytes_out\": %llu, \"wire_bytes_in\": %llu, \"wire_bytes_out\": %llu, \"log_dropped\": %llu}\n",
                   draining ? "draining" : "ready", enet.port(), uptime_s, s.room_count(), s.connection_count(), u(c.rooms_created),
                   u(c.rooms_closed), u(c.hellos_refused), u(c.tokens_refused), u(c.token_replays), u(c.bad_packets), u(c.throttled), u(c.kicks), u(c.datagrams_in),
-                  u(c.datagrams_out), u(c.bytes_in), u(c.bytes_out), u(enet.wire_bytes_received()), u(enet.wire_bytes_sent()));
+                  u(c.datagrams_out), u(c.bytes_in), u(c.bytes_out), u(enet.wire_bytes_received()), u(enet.wire_bytes_sent()), u(log.dropped()));
     return buf;
 }
 }  // namespace
@@ -74,12 +74,9 @@ ServerProcess::ServerProcess(const ServerProcessOptions& options) : options_(opt
 ServerProcess* ServerProcess::signal_target() { return g_process.load(); }
 
 int ServerProcess::run() {
-    auto log = spdlog::get("server");
-    if (!log) {
-        log = spdlog::stderr_color_mt("server");
-        log->set_pattern("[%Y-%m-%d %H:%M:%S.%e] [%^%l%$] [server] %v");
-    }
-    log->set_level(spdlog::level::from_str(options_.log_level));
+    // Off the loop, bounded (server/server_log.h): a stderr nobody reads never stops the rooms.
+    // Closed on every return (its destructor): what is queued is written, within a bound.
+    ServerLog log(options_.log_level);
     std::string host;
     std::uint16_t port = 0;
     parse_listen(options_.listen, host, port);
@@ -139,7 +136,7 @@ int ServerProcess::run() {
         flush_batch();
         const std::uint64_t now = monotonic_us();
         // Polling again at once sends what the pass queued; sleeping first (a pass interval) does not.
-        pass.run(enet, server, now, log.get(), options_.pass_interval_us > 0);
+        pass.run(enet, server, now, &log.logger(), options_.pass_interval_us > 0);
         flush_batch();
         if (options_.run_seconds > 0 && now - start >= static_cast<std::uint64_t>(options_.run_seconds * 1e6)) request_drain();
         if (drain_.load(std::memory_order_relaxed) && !server.draining()) {
@@ -150,20 +147,25 @@ int ServerProcess::run() {
         if (now >= next_status) {
             next_status = now + 1000000;
             server.set_wall_clock(unix_us(), now);  // follows wall-clock steps within a second
-            if (status) status->post(status_json(server, enet, server.draining(), static_cast<double>(now - start) / 1e6));
+            if (status) status->post(status_json(server, enet, log, server.draining(), static_cast<double>(now - start) / 1e6));
+            log.report_dropped();
         }
         if (server.drained()) {
             enet.flush();
             flush_batch();
             if (status) {
-                status->post(status_json(server, enet, true, static_cast<double>(now - start) / 1e6));
+                status->post(status_json(server, enet, log, true, static_cast<double>(now - start) / 1e6));
                 status->wait_written();  // the last status is on disk before the exit
             }
+            log.report_dropped();
             log->info("drained: every room finished; exiting");
+            log.close();
             return 0;
         }
         if (drain_started && now - drain_started > static_cast<std::uint64_t>(options_.drain_timeout_s * 1e6)) {
+            log.report_dropped();
             log->error("drain timed out with {} rooms still open", server.room_count());
+            log.close();
             return 3;
         }
     }
@@ -174,6 +176,9 @@ int run_server_process(const ServerProcessOptions& options) {
     g_process.store(&p);
     std::signal(SIGTERM, on_signal);
     std::signal(SIGINT, on_signal);
+    // A log reader that goes away (a supervisor or journald restarting) must not end the rooms:
+    // a write to a pipe with no reader fails with EPIPE, that line is lost, the loop plays on.
+    std::signal(SIGPIPE, SIG_IGN);
     const int status = p.run();
     g_process.store(nullptr);
     return status;

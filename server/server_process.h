@@ -8,7 +8,9 @@
 //  - drain on SIGTERM (or request_drain()): new hellos are refused with the reason, running rooms
 //    play to their end, and the process exits 0 once the last room closed (or after
 //    drain_timeout_s, exiting 3);
-//  - a room limit (ServerConfig::max_rooms).
+//  - a room limit (ServerConfig::max_rooms);
+//  - a log off the loop (server/server_log.h): a stderr nobody reads drops lines, never stops
+//    the rooms.
 // The loop waits in the socket for the first datagram (no busy spin), handles everything that
 // arrived, ticks the rooms, and flushes what they queued: a relay delay of one pass.
 #pragma once
@@ -83,7 +85,8 @@ private:
     std::atomic<bool> drain_{false};
 };
 
-// Installs SIGTERM / SIGINT handlers that drain the running ServerProcess, then runs it.
+// Installs SIGTERM / SIGINT handlers that drain the running ServerProcess, ignores SIGPIPE (a
+// log whose reader went away loses lines, not the process), then runs it.
 int run_server_process(const ServerProcessOptions& options);
 
 }  // namespace lockroll::server

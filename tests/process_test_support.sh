@@ -8,6 +8,8 @@
 #   expect_2 WHAT MESSAGE COMMAND...   COMMAND exits 2 printing MESSAGE (bad flags), else fail
 #   start_server DIR [ARGS...]   `$lockroll server` on a free port (the test sets lockroll);
 #                   sets server_pid and server_port (empty, and a failure, if not ready in 10 s)
+#   completed_on_one_final WHAT DIR...   each client DIR's summary.json says completed, all on
+#                   one final checksum (printed), else a failure naming WHAT
 tmp=$(mktemp -d)
 pids=()
 failures=0
@@ -42,4 +44,14 @@ start_server() {
     for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
     server_port=$(cat "$dir/ready" 2>/dev/null)
     [ -n "$server_port" ] || fail "server in $dir did not get ready"
+}
+completed_on_one_final() {  # completed_on_one_final WHAT DIR...
+    local what=$1; shift
+    /usr/bin/python3 - "$@" <<'PY' || fail "$what: the clients did not all complete on one final checksum"
+import json, os, sys
+c = [json.load(open(os.path.join(d, "summary.json"))) for d in sys.argv[1:]]
+assert all(x["outcome"] == "completed" for x in c), [(x["outcome"], x.get("outcome_detail")) for x in c]
+assert c[0]["final_checksum"] and len({x["final_checksum"] for x in c}) == 1, [x["final_checksum"] for x in c]
+print("completed on one final", c[0]["final_checksum"])
+PY
 }

@@ -7,12 +7,18 @@
 //   future   sends inputs for frame 10,000 and beyond
 //   steal    says hello for --slot of a room (--room-id: any room, e.g. relay_bench's) whose
 //            holder is live, and reports the answer: exit 0 refused, 1 admitted or no answer
+//   refused  cycles connections (--parallel at once): each says a hello of a protocol version
+//            the server does not speak, is refused and kicked (two warn lines in the server's
+//            log), and connects again; for --seconds. Exit 0 if the server refused at least
+//            one (it prints how many): a log flood from one address (tests/server/
+//            relay_log_pressure_test.sh)
 //   liar     plays the match with real inputs (a full RelaySession through the builder) but
 //            reports a wrong checksum for every frame and never hears the server's desync
 //            verdicts or its kick, so it goes on disagreeing round after round and comes back
 //            after a kick (issue 20's persistent liar)
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <random>
 #include <string>
 #include <thread>
@@ -139,12 +145,60 @@ int run_liar(const std::string& host, std::uint16_t port, const std::string& roo
                 static_cast<unsigned long long>(liar.checksums_altered), static_cast<unsigned long long>(liar.verdicts_ignored));
     return 1;
 }
+// --behavior refused: `parallel` connections, each cycling connect / refused hello / kick for
+// `seconds`. Every refusal costs the server two log lines (refused, kicked), so this is a log
+// flood that ENet's and the server's per-connection limits do not stop: each connection is new.
+int run_refused(const std::string& host, std::uint16_t port, std::uint64_t room_id, int parallel, double seconds) {
+    struct Cycler {
+        std::unique_ptr<transport::EnetTransport> enet;
+        bool connecting = false;
+    };
+    std::vector<Cycler> cyclers(static_cast<std::size_t>(parallel));
+    for (Cycler& c : cyclers)
+        c.enet = std::make_unique<transport::EnetTransport>(
+            transport::EnetConfig{.local_id = 900, .bind_host = "127.0.0.1", .port = 0, .max_peers = 2});
+    const transport::PeerId server = rollback::kRelayServerPeer;
+    rollback::RelayHello h;
+    h.version = rollback::kRelayProtocolVersion + 1;  // refused: version
+    h.room_id = room_id;
+    h.players = 2;
+    h.input_size = 3;
+    h.tick_rate = 60;
+    std::vector<std::uint8_t> hello;
+    rollback::encode(h, hello);
+    std::uint64_t refusals = 0, cycles = 0;
+    const std::uint64_t end = now_us() + static_cast<std::uint64_t>(seconds * 1e6);
+    while (now_us() < end) {
+        const std::uint64_t now = now_us();
+        for (Cycler& c : cyclers) {
+            if (!c.connecting) c.connecting = c.enet->connect(server, host, port);
+            c.enet->poll(now);
+            for (transport::TransportEvent e; c.enet->next_event(e);) {
+                if (e.type == transport::TransportEvent::Type::Connected) c.enet->send_reliable(server, hello, now);
+                if (e.type == transport::TransportEvent::Type::Disconnected) {
+                    c.connecting = false;  // kicked (or timed out): connect again
+                    ++cycles;
+                }
+            }
+            for (transport::Datagram d; c.enet->receive(d, now);) {
+                rollback::RelayWelcome w;
+                if (rollback::peek_relay_kind(d.bytes) == rollback::RelayKind::Welcome && !rollback::decode(d.bytes, w) &&
+                    w.refusal != rollback::RelayRefusal::None)
+                    ++refusals;
+            }
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    std::printf("refused: %llu hellos refused, %llu connections closed in %.0f s\n", static_cast<unsigned long long>(refusals),
+                static_cast<unsigned long long>(cycles), seconds);
+    return refusals > 0 ? 0 : 1;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
     CLI::App app{"relay bad client (tests)"};
     std::string connect, room, behavior, room_id_text, scene_checksum_text;
-    int slot = 0, players = 2, claim = 0;
+    int slot = 0, players = 2, claim = 0, parallel = 8;
     double seconds = 10;
     std::string scene_name = "paper";
     app.add_option("--connect", connect)->required();
@@ -155,7 +209,8 @@ int main(int argc, char** argv) {
     app.add_option("--players", players);
     app.add_option("--scene", scene_name, "the room's scene (its checksum goes in the hello)");
     app.add_option("--claim", claim, "spoof: the slot to claim");
-    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future", "liar", "steal"}))->required();
+    app.add_option("--parallel", parallel, "refused: connections cycling at once")->check(CLI::Range(1, 32));
+    app.add_option("--behavior", behavior)->check(CLI::IsMember({"spoof", "garbage", "flood", "future", "liar", "steal", "refused"}))->required();
     app.add_option("--seconds", seconds);
     CLI11_PARSE(app, argc, argv);
     if (room.empty() == room_id_text.empty()) {
@@ -166,6 +221,9 @@ int main(int argc, char** argv) {
     const std::string host = connect.substr(0, colon);
     const auto port = static_cast<std::uint16_t>(std::stoi(connect.substr(colon + 1)));
     if (behavior == "liar") return run_liar(host, port, room, slot, players, scene_name, seconds);
+    if (behavior == "refused")
+        return run_refused(host, port, room_id_text.empty() ? room_hash(room) : std::stoull(room_id_text, nullptr, 16), parallel,
+                           seconds);
 
     transport::EnetTransport enet({.local_id = 900, .bind_host = "127.0.0.1", .port = 0, .max_peers = 2});
     const transport::PeerId server = rollback::kRelayServerPeer;

@@ -39,17 +39,15 @@ liar_status=$?
 cat "$dir/liar.out"
 [ "$liar_status" = 0 ] || fail "three: the liar was not disconnected (exit $liar_status)"
 sleep 1.5  # the status file is rewritten every second
+completed_on_one_final three "$dir/c0" "$dir/c1"
 /usr/bin/python3 - "$dir" <<'PY' || fail "three: outcomes"
 import json, os, sys
 base = sys.argv[1]
-c = [json.load(open(os.path.join(base, f"c{s}", "summary.json"))) for s in (0, 1)]
-assert all(x["outcome"] == "completed" for x in c), [(x["outcome"], x.get("outcome_detail")) for x in c]
-assert c[0]["final_checksum"] == c[1]["final_checksum"], [x["final_checksum"] for x in c]
 status = json.load(open(os.path.join(base, "status.json")))
 assert status["kicks"] >= 1, status
 liar = open(os.path.join(base, "liar.out")).read()
 assert "kicked from this match" in liar and " 0 altered" not in liar, liar
-print("three: honest finals", c[0]["final_checksum"], "server kicks", status["kicks"])
+print("three: server kicks", status["kicks"])
 PY
 
 # ---- 2. two players: no majority, the configured rule ends the match ----

@@ -1,0 +1,144 @@
+#!/usr/bin/env bash
+# A log nobody reads must not stop the relay server (issue 20), with real processes on 127.0.0.1
+# (a free port, every wait bounded). lockroll-server's stderr is a FIFO that is held open but not
+# read, as under a supervisor that stalls or a full journald: once the pipe's 64 KiB are full, a
+# write() to it blocks. A hostile client (relay_bad_client --behavior refused) cycles
+# connections whose hellos are refused, two warn lines each, while two honest `lockroll
+# client`s play 600 frames of one room. Both must complete on one final checksum, the status
+# file must keep being rewritten (the loop runs) and count the log lines it dropped. Before the
+# log was off the loop, the server blocked in write() on stderr and every room stopped.
+#  1. the pipe is never read: SIGTERM still ends the process, exit 0, within a bound (the
+#     log's last lines cannot be written, and the exit does not wait for them for good);
+#  2. the pipe is read once the match is over: SIGTERM drains and exits 0, and the log ends
+#     with the drain's last line and the count of lines dropped (nothing queued is lost);
+#  3. the pipe's reader goes away (a supervisor restarts): the server lives on (SIGPIPE is
+#     ignored; the lines are lost) and exits 0 on SIGTERM.
+set -u
+server_exe=$1
+lockroll=$2
+bad_client=$3
+source "$(dirname "$0")/../process_test_support.sh"
+
+# run_match DIR: a server whose stderr is DIR/stderr.fifo (held open on fd 3, not read), the
+# flood and the two honest clients; checks the clients and the status file. Sets server_pid.
+run_match() {
+    local dir=$1
+    mkdir -p "$dir"
+    mkfifo "$dir/stderr.fifo"
+    exec 3<>"$dir/stderr.fifo"  # a reader exists (so the open below does not block), and never reads
+    "$server_exe" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
+        >"$dir/server.out" 2>"$dir/stderr.fifo" 3>&- &
+    server_pid=$!
+    pids+=("$server_pid")
+    for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
+    local port
+    port=$(cat "$dir/ready" 2>/dev/null)
+    [ -n "$port" ] || { fail "$dir: the server did not get ready"; return 1; }
+    local cpids=()
+    for s in 0 1; do
+        timeout 60 "$lockroll" client --slot "$s" --players 2 --connect "127.0.0.1:$port" --room honest --frames 600 \
+            --seed "$((s + 7))" --out "$dir/c$s" >"$dir/c$s.out" 2>&1 3>&- &
+        cpids+=($!)
+        pids+=($!)
+    done
+    for _ in $(seq 200); do
+        grep -qs '"synchronized"' "$dir/c0/events.jsonl" && grep -qs '"synchronized"' "$dir/c1/events.jsonl" && break
+        sleep 0.1
+    done
+    timeout 30 "$bad_client" --connect "127.0.0.1:$port" --room hostile --slot 0 --behavior refused --parallel 8 \
+        --seconds 12 >"$dir/hostile.out" 2>&1 3>&- &
+    local hostile=$!
+    pids+=($hostile)
+    # The loop runs while the flood fills the pipe: the status file (posted by the loop every
+    # second) goes on changing. Sampled 3 s into the flood (the pipe filled within the first).
+    sleep 3
+    cp "$dir/status.json" "$dir/status.a.json" 2>/dev/null
+    sleep 2.5
+    cp "$dir/status.json" "$dir/status.b.json" 2>/dev/null
+    for s in 0 1; do
+        wait "${cpids[$s]}"
+        local status=$?
+        [ "$status" = 0 ] || { fail "$dir: honest client $s exit status $status"; tail -3 "$dir/c$s.out"; }
+    done
+    wait "$hostile"
+    cat "$dir/hostile.out"
+    sleep 1.5  # the status file is rewritten every second
+    completed_on_one_final "$dir" "$dir/c0" "$dir/c1"
+    /usr/bin/python3 - "$dir" <<'PY' || fail "$dir: the loop or its log"
+import json, os, sys
+base = sys.argv[1]
+a = json.load(open(os.path.join(base, "status.a.json")))
+b = json.load(open(os.path.join(base, "status.b.json")))
+end = json.load(open(os.path.join(base, "status.json")))
+# The loop went on while its log could not be written: uptime and traffic moved between samples.
+assert b["uptime_s"] >= a["uptime_s"] + 1, (a["uptime_s"], b["uptime_s"])
+assert b["datagrams_in"] > a["datagrams_in"], (a["datagrams_in"], b["datagrams_in"])
+# The pressure was real: two warn lines (over 100 bytes each) per refused hello, a few times
+# the pipe's 64 KiB; and the lines the full pipe could not take were dropped and counted.
+assert end["hellos_refused"] >= 1000, end["hellos_refused"]
+assert end["log_dropped"] > 0, end
+print("uptime", a["uptime_s"], "->", b["uptime_s"], "hellos refused", end["hellos_refused"], "log lines dropped",
+      end["log_dropped"])
+PY
+}
+
+# wait_exit PID WHAT: the process exits 0 within 15 s of SIGTERM.
+wait_exit() {
+    local pid=$1 what=$2
+    kill -TERM "$pid"
+    for _ in $(seq 150); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
+    if kill -0 "$pid" 2>/dev/null; then
+        fail "$what: still running 15 s after SIGTERM"
+        return
+    fi
+    wait "$pid"
+    local status=$?
+    [ "$status" = 0 ] || fail "$what: exit status $status after SIGTERM"
+}
+
+# ---- 1. the pipe is never read ----
+dir=$tmp/unread
+run_match "$dir"
+wait_exit "$server_pid" "unread pipe"
+timeout 3 cat <&3 >"$dir/server.log"  # what the pipe holds: the first 64 KiB
+exec 3>&-
+grep -q "listening on" "$dir/server.log" || fail "unread pipe: no start lines in the pipe"
+
+# ---- 2. the pipe is read once the match is over: nothing queued is lost at exit ----
+dir=$tmp/late
+run_match "$dir"
+exec 4<"$dir/stderr.fifo"  # opened here, before fd 3 closes: the pipe never has no reader
+timeout 30 cat <&4 >"$dir/server.log" 3>&- 4<&- &
+reader=$!
+pids+=($reader)
+exec 3>&- 4<&-  # the reader is the only one left: it sees EOF when the server exits
+wait_exit "$server_pid" "late reader"
+wait "$reader" || fail "late reader: cat did not end with the server"
+tail -3 "$dir/server.log"
+tail -1 "$dir/server.log" | grep -q "drained: every room finished; exiting" || fail "late reader: the log's last line is not the drain's"
+grep -Eq "log: [0-9]+ lines dropped" "$dir/server.log" || fail "late reader: the dropped lines were not reported"
+
+# ---- 3. the reader goes away: the server plays on (SIGPIPE ignored, the lines are lost) ----
+dir=$tmp/gone
+mkdir -p "$dir"
+mkfifo "$dir/stderr.fifo"
+exec 3<>"$dir/stderr.fifo"
+"$server_exe" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
+    >"$dir/server.out" 2>"$dir/stderr.fifo" 3>&- &
+server_pid=$!
+pids+=("$server_pid")
+for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
+port=$(cat "$dir/ready" 2>/dev/null)
+[ -n "$port" ] || fail "gone: the server did not get ready"
+timeout 30 "$bad_client" --connect "127.0.0.1:$port" --room hostile --slot 0 --behavior refused --parallel 8 \
+    --seconds 2 >"$dir/hostile.out" 2>&1 3>&-
+exec 3>&-  # the pipe's only reader closes: the next write() fails with EPIPE (and SIGPIPE)
+sleep 1.5
+kill -0 "$server_pid" 2>/dev/null || fail "gone: the server died when its log's reader went away"
+cp "$dir/status.json" "$dir/status.a.json" 2>/dev/null
+sleep 1.5
+cmp -s "$dir/status.json" "$dir/status.a.json" && fail "gone: the status file stopped changing"
+wait_exit "$server_pid" "gone reader"
+
+[ "$failures" = 0 ] || { show_logs "$tmp"; exit 1; }
+echo "relay log pressure test: ok"
