@@ -264,7 +264,8 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
 // the two-player rule drops the dead slot. The joiner, which slot 2 had welcomed, also counted
 // slot 2 in its vetting whatever the owner's table said; silent for disconnect_us to the joiner
 // itself, it no longer counts, so the next offer (the first one lapses) loads on the owner's
-// word by the two-player rule and the joiner plays. Both failed before (5 seeds).
+// word by the two-player rule and the joiner plays. Both failed before (5 seeds). Until then the
+// joiner may report `partitioned` (it reaches one of the offer's two voters), never after.
 TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndTheJoinerIn) {
     for (const std::uint64_t seed : {21u, 22u, 23u, 24u, 25u}) {
         SCOPED_TRACE("seed " + std::to_string(seed));
@@ -302,8 +303,14 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
         EXPECT_TRUE(partitioned.empty()) << partitioned[0]->detail;
         EXPECT_EQ(survivor.session->slot_state(2), SlotState::Disconnected);
         ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
-        EXPECT_EQ(events_of(joiner, Kind::SnapshotLoaded).size(), 1u);
-        EXPECT_TRUE(events_of(joiner, Kind::Partitioned).empty());
+        const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+        ASSERT_EQ(loaded.size(), 1u);
+        // The joiner may say `partitioned` for a while, truthfully: until the survivor's table
+        // drops the dead slot, the offer's view is {0, 2} and the joiner reaches one of its two
+        // voters (rollback/joiner_reach.h, the vetting's own count). It is over once it loads.
+        for (const SessionEvent* e : events_of(joiner, Kind::Partitioned))
+            EXPECT_LT(e->at_us, loaded[0]->at_us) << e->detail;
+        EXPECT_FALSE(joiner.session->partitioned());
         EXPECT_EQ(survivor.session->slot_state(1), SlotState::Running);
         // 20 s at 60 Hz: both play on (a stall of about the timeout for the drop, nothing more).
         EXPECT_GT(survivor.session->confirmed_frame(), killed_at + 60 * 15) << "the survivor keeps confirming";
