@@ -617,9 +617,9 @@ void SessionImpl::poll_transfer(std::uint64_t now_us) {
     switch (fetch_.poll(now_us, pending_out_)) {
         case SnapshotFetch::Poll::Decided: return finish_transfer(now_us);
         case SnapshotFetch::Poll::TimedOut:
-            // A provider that went silent: start over with whoever answers.
+            // A provider that went silent (or crawls): start over with whoever answers.
             emit(SessionEvent::Kind::SnapshotRejected, SessionEvent::Reason::TransferTimedOut, fetch_.provider(), fetch_.incoming()->offer().frame, now_us,
-                 "transfer timed out; asking again");
+                 fetch_.why() + "; asking again");
             return fetch_.restart();
         case SnapshotFetch::Poll::Nothing: return;
     }

@@ -1,6 +1,7 @@
 #include "rollback/snapshot_fetch.h"
 
 #include <algorithm>
+#include <string>
 
 namespace lockroll::rollback {
 
@@ -62,6 +63,8 @@ SnapshotFetch::OfferTaken SnapshotFetch::take_offer(PlayerId from, const Snapsho
     incoming_ = std::make_unique<TransferReceiver>(m);
     incoming_->started_us = now_us;
     from_ = from;
+    progress_chunks_ = 0;
+    progress_us_ = now_us;
     asked_.reset();  // answered
     return OfferTaken::Started;
 }
@@ -104,8 +107,19 @@ SnapshotFetch::Poll SnapshotFetch::poll(std::uint64_t now_us, std::vector<Datagr
         encode(r, d.bytes);
         out.push_back(std::move(d));
     }
-    if (now_us <= incoming_->started_us + kTimeoutUs) return Poll::Nothing;
-    rejected_provider_ = from_;  // gone silent: asked last next time
+    // Progress is a new chunk, seen here (poll runs every tick): repeats and chunks of other
+    // offers do not count.
+    if (incoming_->received() != progress_chunks_) {
+        progress_chunks_ = incoming_->received();
+        progress_us_ = now_us;
+    }
+    const bool stalled = now_us > progress_us_ + kStallResends * config_.transfer_resend_us;
+    if (!stalled && now_us <= incoming_->started_us + kTimeoutUs) return Poll::Nothing;
+    const std::string got = std::to_string(progress_chunks_) + " of " + std::to_string(incoming_->chunk_count()) +
+                            " chunks from peer " + std::to_string(from_);
+    why_ = stalled ? "transfer stalled: no new chunk for " + std::to_string((now_us - progress_us_) / 1000) + " ms (" + got + ")"
+                   : "transfer timed out: " + got + " in " + std::to_string(kTimeoutUs / 1'000'000) + " s";
+    rejected_provider_ = from_;  // gone silent or crawling: asked last next time
     return Poll::TimedOut;
 }
 

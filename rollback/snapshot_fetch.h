@@ -11,9 +11,11 @@
 //    only if its size is within config.max_snapshot_bytes and its slot table has config.players
 //    entries; a chunk only from the offer's sender and of that offer.
 //  - Offers are asked for at most every 2 x transfer_resend_us while none arrives (may_ask).
-//    A transfer that takes longer than kTimeoutUs is dropped and asked for again (poll), its
-//    provider asked last. A spectator whose ask went unanswered asks the next host (a host may
-//    die between its welcome and its offer).
+//    A transfer is dropped and asked for again (poll: TimedOut, why() says which), its provider
+//    asked last, when no new chunk came for kStallResends x transfer_resend_us (a provider that
+//    died or was cut off midway: issue 21), or at the latest kTimeoutUs after its offer (one
+//    that trickles chunks just fast enough never to stall). A spectator whose ask went
+//    unanswered asks the next host (a host may die between its welcome and its offer).
 //  - finish(): a complete transfer whose hash, contents or frame are wrong is Rejected, and so is
 //    a vetted one the majority contradicts or, for a joiner, no majority confirmed by the
 //    vetting's deadline (a spectator's uncontested host is enough there: SnapshotVetting) --
@@ -43,7 +45,21 @@ namespace lockroll::rollback {
 
 class SnapshotFetch {
 public:
-    static constexpr std::uint64_t kTimeoutUs = 20'000'000;  // a provider that went silent
+    // A transfer under way with no new chunk for this many resend periods is dropped (issue 21:
+    // a provider that died midway kept the newcomer kTimeoutUs). Each period re-asks every
+    // missing chunk the window holds (32), so while a live provider has chunks to send, a whole
+    // period passes without a new one only if every one of those round trips was lost; at the
+    // end, with one chunk missing, a round trip at 20 % loss each way fails 36 % of the time,
+    // and 8 periods in a row 0.36^8 = 3e-4 of the time (tests/rollback/snapshot_fetch_test.cpp:
+    // 40 transfers of 200 chunks at that loss, none dropped with 8, one with 4, five with 2).
+    // 8 x 250 ms = 2 s is also far above any round trip a match plays on, and a newcomer whose
+    // provider died asks the next one 2 s later instead of 20 s.
+    static constexpr std::uint64_t kStallResends = 8;
+    // The whole transfer's bound, from its offer: a provider that sends a chunk now and then,
+    // never stalling, still cannot keep the newcomer for good. It also bounds what can be
+    // loaded at all (32 chunks of 1 KiB per round trip for 20 s: some 10 MiB at 60 ms), as
+    // before the stall rule.
+    static constexpr std::uint64_t kTimeoutUs = 20'000'000;
 
     // config outlives this; state_size: the simulation's.
     SnapshotFetch(const SessionConfig& config, std::size_t state_size) : config_(config), state_size_(state_size) {}
@@ -73,8 +89,11 @@ public:
 
     enum class Poll : std::uint8_t { Nothing, TimedOut, Decided };
     // Chunk requests and vetting queries due now. Decided: the vetting has a verdict (call
-    // finish()); TimedOut: the transfer was dropped (the caller tells, and asks again).
+    // finish()); TimedOut: the transfer stalled or took too long (why() says which; the caller
+    // tells, forgets it with restart(), and asks again).
     Poll poll(std::uint64_t now_us, std::vector<Datagram>& out);
+    // Why the last poll said TimedOut.
+    const std::string& why() const { return why_; }
 
     enum class Verdict : std::uint8_t { Pending, Rejected, Ready };
     struct Result {
@@ -105,6 +124,9 @@ private:
     SnapshotVetting vetting_;
     std::optional<PlayerId> rejected_provider_;
     std::optional<PlayerId> asked_;  // the one provider of the last ask, until its offer came
+    std::uint32_t progress_chunks_ = 0;  // chunks the transfer under way had at progress_us_
+    std::uint64_t progress_us_ = 0;      // when it last gained one (its offer's arrival at first)
+    std::string why_;                    // of the last TimedOut
 };
 
 }  // namespace lockroll::rollback

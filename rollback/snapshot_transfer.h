@@ -87,6 +87,8 @@ public:
     // wrong length for its index), which the caller counts.
     bool add(const SnapshotChunkMessage& chunk);
     bool complete() const { return received_ == chunk_count_; }
+    // Distinct chunks stored so far (a repeat counts once): a caller's measure of progress.
+    std::uint32_t received() const { return received_; }
     // Chunks to ask for now: missing ones not asked within resend_us, at most `budget`.
     void due_requests(std::uint64_t now_us, std::uint64_t resend_us, int budget, std::vector<std::uint32_t>& out);
     // When complete: the blob if its hash matches the offer, else nullopt (rejected).

@@ -1,12 +1,15 @@
 // SnapshotFetch (rollback/snapshot_fetch.h) on its own, against a TransferSender playing the
 // provider (no session, no network): one offer at a time, chunks only from its sender, the
 // majority's vetting before a join loads (never a minority's word, the two-player rule),
-// rejections that ask again, the silent provider.
+// rejections that ask again, the silent provider, the provider that stalls mid-transfer and the
+// slow one on a lossy link that must not be taken for it.
 #include "rollback/snapshot_fetch.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
+#include <string>
 #include <vector>
 
 #include "tests/rollback/peer_links.h"
@@ -278,11 +281,131 @@ TEST(SnapshotFetch, RequestsMissingChunksAndDropsASilentProvider) {
     ASSERT_EQ(x.out.size(), 2u) << "both chunks asked for";
     EXPECT_EQ(x.out[0].peer, 0);
     EXPECT_TRUE(x.out[0].reliable);
-    EXPECT_EQ(f.poll(1000 + SnapshotFetch::kTimeoutUs, x.out), SnapshotFetch::Poll::Nothing);
-    EXPECT_EQ(f.poll(1001 + SnapshotFetch::kTimeoutUs, x.out), SnapshotFetch::Poll::TimedOut);
+    // No chunk at all since the offer: dropped once that lasted kStallResends resend periods.
+    const std::uint64_t stall = SnapshotFetch::kStallResends * x.config.transfer_resend_us;
+    EXPECT_EQ(f.poll(1000 + stall, x.out), SnapshotFetch::Poll::Nothing);
+    EXPECT_EQ(f.poll(1001 + stall, x.out), SnapshotFetch::Poll::TimedOut);
+    EXPECT_NE(f.why().find("transfer stalled: no new chunk for 2000 ms (0 of 2 chunks from peer 0)"), std::string::npos)
+        << f.why();
     f.restart();
-    EXPECT_TRUE(f.may_ask(1001 + SnapshotFetch::kTimeoutUs));
+    EXPECT_TRUE(f.may_ask(1001 + stall));
     EXPECT_EQ(f.rejected_provider(), PlayerId{0}) << "the silent provider is asked last";
+}
+
+// A transfer of `chunks` chunks of state, offered by slot 0 with x's slot table.
+TransferSender::Transfer& big_transfer(Fixture& x, TransferSender& sender, std::size_t chunks, TransferReason reason) {
+    TransferContents big = x.contents;
+    big.state.resize(chunks * kSnapshotChunkBytes);
+    for (std::size_t i = 0; i < big.state.size(); ++i) big.state[i] = static_cast<std::uint8_t>(i * 7);
+    TransferSender::Transfer& t = sender.offer(0, reason, big, 1, 0);
+    t.offer.slots = x.offer->slots;
+    return t;
+}
+
+// A provider that sends one chunk now and then, never quite stalling, is still dropped
+// kTimeoutUs after its offer.
+TEST(SnapshotFetch, AProviderThatTricklesChunksIsDroppedAtTheOverallBound) {
+    Fixture x;
+    TransferSender sender(60'000'000);
+    const TransferSender::Transfer& t = big_transfer(x, sender, 100, TransferReason::Join);
+    SnapshotFetch f(x.config, t.offer.size);
+    ASSERT_EQ(f.take_offer(0, t.offer, 0), SnapshotFetch::OfferTaken::Started);
+    const std::uint64_t every = SnapshotFetch::kStallResends * x.config.transfer_resend_us - 1;
+    std::uint32_t next = 0;
+    std::uint64_t now = 0;
+    SnapshotFetch::Poll p = SnapshotFetch::Poll::Nothing;
+    for (; p == SnapshotFetch::Poll::Nothing && now < 2 * SnapshotFetch::kTimeoutUs; now += every) {
+        SnapshotChunkMessage c;
+        ASSERT_TRUE(TransferSender::chunk(t, next++, c));
+        ASSERT_TRUE(f.take_chunk(0, c));
+        p = f.poll(now, x.out);
+    }
+    EXPECT_EQ(p, SnapshotFetch::Poll::TimedOut);
+    EXPECT_GT(now, SnapshotFetch::kTimeoutUs);
+    EXPECT_LE(now, SnapshotFetch::kTimeoutUs + 2 * every);
+    EXPECT_NE(f.why().find("transfer timed out"), std::string::npos) << f.why();
+    EXPECT_FALSE(f.complete());
+}
+
+// Issue 21: a provider that dies (or is cut off) in the middle of a transfer. Before, the
+// newcomer waited kTimeoutUs (20 s) from the offer before it asked anyone else; now a transfer
+// that brought no new chunk for kStallResends resend periods is dropped (TimedOut, its provider
+// asked last) -- a few resend periods, well under kTimeoutUs.
+TEST(SnapshotFetch, ATransferWhoseProviderStopsMidwayIsDroppedWithinAFewResendPeriods) {
+    Fixture x(TransferReason::Spectate, Role::Spectator, 4);
+    x.config.local_player = 4;  // a spectator id: no slot
+    x.config.max_spectators = 1;
+    x.links = testing::fresh_links(5, 4);
+    for (int s = 0; s < 4; ++s) {
+        auto& l = x.links[static_cast<std::size_t>(s)];
+        l.welcomed = true;
+        l.has_remote_frame = true;
+        l.roundtrips = x.config.sync_roundtrips;
+    }
+    SnapshotFetch f(x.config, kStateSize);
+    ASSERT_EQ(f.take_offer(0, x.transfer().offer, 1000), SnapshotFetch::OfferTaken::Started);
+    EXPECT_EQ(f.poll(1000, x.out), SnapshotFetch::Poll::Nothing);
+    SnapshotChunkMessage c;
+    ASSERT_TRUE(TransferSender::chunk(x.transfer(), 0, c));
+    const std::uint64_t last_chunk = 60'000;  // the first chunk came; the provider died after it
+    ASSERT_TRUE(f.take_chunk(0, c));
+    const std::uint64_t resend = x.config.transfer_resend_us;
+    std::uint64_t now = last_chunk;
+    SnapshotFetch::Poll p = SnapshotFetch::Poll::Nothing;
+    for (; now < last_chunk + SnapshotFetch::kTimeoutUs && p == SnapshotFetch::Poll::Nothing; now += 10'000)
+        p = f.poll(now, x.out);
+    ASSERT_EQ(p, SnapshotFetch::Poll::TimedOut) << "never dropped before kTimeoutUs";
+    EXPECT_LE(now, last_chunk + 2 * SnapshotFetch::kStallResends * resend) << "dropped only after " << now << " us";
+    EXPECT_GE(now, last_chunk + 4 * resend) << "a few resend periods of silence, not one lost round trip";
+    EXPECT_NE(f.why().find("no new chunk"), std::string::npos) << f.why();
+    f.restart();
+    EXPECT_TRUE(f.may_ask(now)) << "asked again at once";
+    EXPECT_EQ(f.rejected_provider(), PlayerId{0});
+    std::vector<PlayerId> ask;
+    f.newcomer_providers(x.links, 1, now, ask);
+    EXPECT_EQ(ask, std::vector<PlayerId>{1}) << "the next host, not the one that went silent";
+}
+
+// The other side of the stall rule: a live provider behind a lossy link (20 % of datagrams lost
+// each way, so a chunk request is answered only 64 % of the time, 60 ms round trip) keeps
+// bringing chunks, however slowly towards the end, and is never dropped: a 200-chunk transfer
+// completes in one go (one offer, no TimedOut) for every seed.
+TEST(SnapshotFetch, ASlowProviderOnALossyLinkIsNotDropped) {
+    Fixture x(TransferReason::Recover, Role::Player);
+    TransferSender sender(60'000'000);
+    const TransferSender::Transfer& t = big_transfer(x, sender, 200, TransferReason::Recover);
+    constexpr std::uint64_t kOneWay = 30'000, kTick = 16'667;
+    for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        std::uint64_t rng = seed * 0x9E3779B97F4A7C15ull;
+        const auto lost = [&rng] {  // 20 %
+            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+            return (rng >> 33) % 100 < 20;
+        };
+        SnapshotFetch f(x.config, t.offer.size);
+        ASSERT_EQ(f.take_offer(0, t.offer, 0), SnapshotFetch::OfferTaken::Started);
+        std::multimap<std::uint64_t, std::uint32_t> chunks_in_flight;  // arrival -> index
+        std::uint64_t now = 0;
+        for (; now < 60'000'000 && !f.complete(); now += kTick) {
+            for (auto it = chunks_in_flight.begin(); it != chunks_in_flight.end() && it->first <= now;
+                 it = chunks_in_flight.erase(it)) {
+                SnapshotChunkMessage c;
+                ASSERT_TRUE(TransferSender::chunk(t, it->second, c));
+                f.take_chunk(0, c);
+            }
+            x.out.clear();
+            if (f.poll(now, x.out) != SnapshotFetch::Poll::Nothing) {
+                ADD_FAILURE() << "dropped at " << now << " us: " << f.why();
+                break;
+            }
+            for (const Datagram& d : x.out) {
+                SnapshotRequestMessage r;
+                ASSERT_EQ(decode(d.bytes, r), nullptr);
+                if (!lost() && !lost()) chunks_in_flight.emplace(now + 2 * kOneWay, r.chunk);  // asked and answered
+            }
+        }
+        EXPECT_TRUE(f.complete()) << "after " << now << " us";
+    }
 }
 
 // Issue 21: a spectator's host killed between its welcome and its offer stays welcomed in the
