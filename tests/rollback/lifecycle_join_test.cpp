@@ -521,5 +521,34 @@ TEST(Lifecycle, AJoinerWhoseProviderDiesMidTransferAsksAgainSoon) {
     ProviderDiesMidTransfer::run_seeds(4, Role::Joiner, 4);
 }
 
+// The other side of the stall rule, through whole sessions: at 20 % loss each way a live
+// provider is slow, never stalled. Three players and a spectator, then a joiner into the absent
+// slot, over 5 seeds: every transfer completes from the first provider (no "transfer stalled"
+// rejection), and everyone ends on the same checksum.
+TEST(Lifecycle, TransfersAtTwentyPercentLossAreNotTakenForStalled) {
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const auto scene = make_scene(4, 200);
+        SessionConfig cfg = real_config(4, 8);
+        cfg.absent_slots = 1u << 3;
+        cfg.max_spectators = 1;
+        Cluster cluster(scene, cfg, {20000, 5000, 200000}, seed);
+        cluster.kill(3);
+        cluster.run_frames(100, 30'000'000);
+        Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 4, 1);
+        cluster.run_frames(250, 60'000'000);
+        Client& joiner = start_newcomer(cluster, scene, cfg, Role::Joiner, 3, 2);
+        cluster.run_frames(600, 120'000'000);
+        cluster.settle(600);
+        for (const Client* c : {&spectator, &joiner}) {
+            ASSERT_EQ(c->session->phase(), SessionPhase::Running) << c->session->failure();
+            EXPECT_EQ(events_of(*c, Kind::SnapshotLoaded).size(), 1u);
+            for (const SessionEvent* e : events_of(*c, Kind::SnapshotRejected))
+                EXPECT_EQ(e->detail.find("stalled"), std::string::npos) << e->detail;
+        }
+        expect_equal_at(cluster, 600);
+    }
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
