@@ -88,14 +88,14 @@ void PeerRunner::service(std::uint64_t now) {
     // slot comes back (the lower survivors keep retrying it, it retries the higher ones).
     // Spectators have the highest ids but nobody knows their addresses: they connect to everyone.
     // connect() refuses harmlessly while a connection exists or is pending. A peer that stays
-    // away is dialed ever less often, up to a cap (net/redial_backoff.h), never given up.
+    // away is dialed ever less often, up to a cap (net/redial_backoff.h), never given up; a dial
+    // connect() refused (the last attempt still pending) is not charged, so the attempt that
+    // fails is followed at once by a new one.
     const auto& sc = session_.config();
     const bool spectator = sc.role == rollback::Role::Spectator;
     for (const auto& p : config_.peers)
-        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot) && redial_.due(p.slot, now)) {
-            redial_.dialed(p.slot, now);
-            transport_.connect(p.slot, p.host, p.port);
-        }
+        if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
+            redial_.try_dial(p.slot, now, [&] { return transport_.connect(p.slot, p.host, p.port); });
 }
 
 // Without a handshake the runner is the start barrier: every remote process connected.
@@ -139,6 +139,11 @@ void PeerRunner::drain_session_events() {
             confirmed_while_partitioned_ = session_.confirmed_frame();
         }
         alone_.saw(e, sc.players);
+        // A slot handed over to a joiner (the owner's word or its table's) has a process back at
+        // its address: dial it at once if we are the side that dials, whatever our backoff from
+        // its old one had grown to (issue 21: slot 1 reached a rejoining slot 2 only at its next
+        // dial, 4 s on, and the joiner's snapshot was refused as cut off from a majority).
+        if (e.kind == K::Joined && e.peer < connected_.size() && !connected_[e.peer]) redial_.heard(e.peer);
         if (e.kind == K::SnapshotLoaded && rejoined_ && !rejoined_->at_frame) rejoined_->at_frame = e.frame;
         // Dropped by the others: not an end but a rejoin, once this drain is over (the session
         // decides whether it can: rollback/rejoin.h). The failure it caused is not one; the drop

@@ -12,7 +12,8 @@
 //    (net/redial_backoff.h): at once, then 0.5 s doubling to a cap of 4 s per peer, starting
 //    over once the peer was connected again; so a gone address costs 18 dials in its first
 //    minute, not 120, and a restarted peer or a healed partition is dialed again at most 4 s
-//    after it is back.
+//    after it is back. A dial connect() refuses (the last attempt still pending) is not
+//    charged, and a slot the session reports joined is due at once (its process is back).
 //  - Start: with a handshaking session (SessionConfig::handshake) the session's own hello/RTT
 //    phase is the start barrier and the runner ticks from the beginning; without one, the runner
 //    waits until every remote slot is connected and then starts frame 0. Either way the session

@@ -15,6 +15,16 @@ void RedialBackoff::dialed(std::size_t id, std::uint64_t now_us) {
     p.interval_us = std::min(p.interval_us * 2, kCapUs);
 }
 
+bool RedialBackoff::try_dial(std::size_t id, std::uint64_t now_us, const std::function<bool()>& connect) {
+    if (!due(id, now_us)) return false;
+    if (connect()) {
+        dialed(id, now_us);
+        return true;
+    }
+    peers_[id].next_us = now_us + kRecheckUs;  // refused, no attempt: not charged, looked at again soon
+    return false;
+}
+
 void RedialBackoff::heard(std::size_t id) {
     if (id < peers_.size()) peers_[id] = Peer{};
 }

@@ -173,7 +173,16 @@ void EnetTransport::drop_connection(std::map<PeerId, Connection>& from, PeerId i
     const auto it = from.find(id);
     if (it == from.end()) return;
     by_peer_.erase(it->second.peer);
-    enet_peer_disconnect_now(it->second.peer, code);  // resets the slot; no event for it here
+    // A connection given up for its silence (replaced by a new claim, or timed out) is forgotten
+    // without a word: its process is probably dead, and its address may already be its
+    // successor's (a restarted process binds its old port). ENet tells connections apart by
+    // slot, address and a 2-bit session id, which a fresh process's first connections repeat,
+    // so a disconnect sent here closed the successor's new connection (issue 21: a rejoining
+    // slot 0 lost every connection it made that way; enet_same_address_restart_test).
+    if (code == kReplaced || code == kTimedOut)
+        enet_peer_reset(it->second.peer);
+    else
+        enet_peer_disconnect_now(it->second.peer, code);  // resets the slot; no event for it here
     from.erase(it);
 }
 

@@ -4,6 +4,7 @@
 // again once the peer was heard.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <vector>
 
@@ -66,6 +67,61 @@ TEST(RedialBackoff, EachPeerHasItsOwnIntervalAndIdsOutOfRangeAreNeverDue) {
     EXPECT_FALSE(b.due(3, 20 * kSecond));
     b.dialed(3, 0);  // harmless
     b.heard(7);
+}
+
+// A transport's connect attempt to a gone address stays pending (refusing further connects)
+// for `pending_us`, then fails; one started once the peer is back connects at once.
+struct PendingAttempts {
+    std::uint64_t back_us = 0;
+    std::uint64_t pending_us = 0;
+    std::uint64_t pending_until = 0;  // 0: no attempt in flight
+    bool connected = false;
+    bool connect(std::uint64_t now) {
+        if (now < pending_until) return false;  // "a connection for it is pending"
+        if (now >= back_us) connected = true;
+        else pending_until = now + pending_us;
+        return true;
+    }
+};
+
+TEST(RedialBackoff, ADialRefusedWhileAnAttemptIsPendingIsNoDial) {
+    RedialBackoff b(3);
+    EXPECT_TRUE(b.try_dial(1, 0, [] { return true; }));
+    EXPECT_EQ(b.interval_us(1), 2 * RedialBackoff::kFirstUs);
+    EXPECT_FALSE(b.try_dial(1, RedialBackoff::kFirstUs, [] { return false; }));  // refused
+    EXPECT_EQ(b.interval_us(1), 2 * RedialBackoff::kFirstUs);                    // not charged
+    EXPECT_FALSE(b.due(1, RedialBackoff::kFirstUs + RedialBackoff::kRecheckUs - 1));
+    EXPECT_TRUE(b.due(1, RedialBackoff::kFirstUs + RedialBackoff::kRecheckUs));
+    bool called = false;
+    EXPECT_FALSE(b.try_dial(1, RedialBackoff::kFirstUs + 1, [&] { return called = true; }));  // not due
+    EXPECT_FALSE(called);
+}
+
+TEST(RedialBackoff, APeerKnownToBeBackIsReachedAsTheDoomedAttemptPendingFails) {
+    // Issue 21: attempts to a killed slot's address stay pending ~2 s (ENet's handshake retries)
+    // and fail; its successor started while one was pending, and the owner's news that it
+    // joined came 0.3 s later. The survivor's dial due then was refused by the pending attempt
+    // and charged all the same; the attempt failed, and the next dial, 4 s on, was the first to
+    // reach the rejoiner. Now the news makes the id due at once (heard) and a refused dial is
+    // not charged: the peer is reached within kRecheckUs of the pending attempt's failure.
+    const std::uint64_t pending = 2 * kSecond, news_after = 300000;
+    std::uint64_t worst = 0;
+    for (std::uint64_t back = 5 * kSecond; back < 25 * kSecond; back += 37 * 1000) {
+        RedialBackoff b(3);
+        PendingAttempts t{back, pending};
+        std::uint64_t at = UINT64_MAX;
+        for (std::uint64_t now = 0; now < back + 60 * kSecond && at == UINT64_MAX; now += 1000) {
+            if (now == back + news_after) b.heard(1);  // the runner saw the slot's Joined event
+            b.try_dial(1, now, [&] { return t.connect(now); });
+            if (t.connected) at = now;
+        }
+        ASSERT_NE(at, UINT64_MAX) << "back at " << back;
+        // Reached by then at the latest: at the news, or as the attempt pending then fails.
+        const std::uint64_t free_at = std::max(back + news_after, t.pending_until);
+        EXPECT_LE(at, free_at + RedialBackoff::kRecheckUs) << "back at " << back << " us, reached at " << at;
+        worst = std::max(worst, at - back);
+    }
+    EXPECT_LE(worst, news_after + pending + RedialBackoff::kRecheckUs);
 }
 
 }  // namespace
