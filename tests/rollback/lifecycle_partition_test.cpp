@@ -438,5 +438,112 @@ TEST(Lifecycle, AJoinerThatHearsOnlyTheOwnerReportsPartitioned) { joiner_cut_off
 TEST(Lifecycle, AJoinerThatHearsOnlyANonOwnerReportsPartitioned) { joiner_cut_off({0}); }
 TEST(Lifecycle, AJoinerThatHearsNobodyReportsPartitioned) { joiner_cut_off({0, 1}); }
 
+
+// Issue 21, "membership that cannot split" (lockroll live, 3 players, 5 % loss): the machine
+// stalled and every process stopped for 3.2 s at once, longer than disconnect_us. Here three
+// players at 5 % loss (rollback, input delay 0) play to frame 300, then each client in `stalls`
+// stops (no tick, no poll; datagrams already on the way arrive meanwhile) for its own time, and
+// they all resume. On resuming, each finds every other silent past the timeout and votes it gone
+// at once, and only then hears it again. Whatever follows, no two clients may confirm a frame
+// with different checksums, nobody may desync, and a slot is either dropped by nobody or by
+// every process that plays on, from the same frame (the dropped one rejoins as a joiner, as a
+// runner does); the match goes on to frame 900 at everyone.
+void global_freeze(std::uint64_t seed, std::map<PlayerId, std::uint64_t> stalls) {
+    const auto scene = make_scene(3, 10);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.input_delay = 0;
+    cfg.interrupt_us = 500'000;  // lockroll live's settings: --disconnect-timeout 1.5
+    cfg.disconnect_us = 1'500'000;
+    NetParams net{20000, 8000, 50000};
+    Cluster cluster(scene, cfg, net, seed);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(300);
+    const std::uint64_t frozen_at = cluster.now();
+    for (const auto& [p, us] : stalls) cluster.clients[p]->frozen = true;
+    for (;;) {
+        bool any = false;
+        for (const auto& [p, us] : stalls) {
+            Client& c = *cluster.clients[p];
+            if (c.frozen && cluster.now() >= frozen_at + us) c.frozen = false;
+            any = any || c.frozen;
+        }
+        if (!any) break;
+        cluster.step_event();
+    }
+    cluster.run_frames(900, 60'000'000);
+    cluster.settle(900, 20'000'000);
+    std::string story;
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i)
+        for (const SessionEvent& e : cluster.clients[i]->events)
+            if (e.at_us >= frozen_at && e.kind != Kind::Interrupted)
+                story += "\n  client " + std::to_string(i) + " @" + std::to_string((e.at_us - frozen_at) / 1000) + "ms " +
+                         event_name(e.kind) + " peer " + std::to_string(e.peer) + " frame " + std::to_string(e.frame) + " " +
+                         e.detail;
+    SCOPED_TRACE(story);
+    std::map<PlayerId, std::set<std::uint32_t>> neutral_from;  // dropped slot -> frames its neutral input starts
+    std::set<PlayerId> dropped;
+    for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+        const Client& c = *cluster.clients[i];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << i << ": " << c.session->failure();
+        EXPECT_GE(c.session->confirmed_frame(), 900u) << "client " << i;
+        EXPECT_FALSE(c.session->partitioned()) << "client " << i;
+        EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << i;
+        for (const SessionEvent* e : events_of(c, Kind::Disconnected)) dropped.insert(e->peer);
+        for (const SessionEvent* e : events_of(c, Kind::NeutralFrom)) neutral_from[e->peer].insert(e->frame);
+    }
+    EXPECT_LE(dropped.size(), 1u) << "more than one slot dropped";
+    for (PlayerId d : dropped) {
+        // Every other client dropped it (it was kicked and rejoined), from one frame.
+        for (std::size_t i = 0; i < cluster.clients.size(); ++i) {
+            if (i == d) continue;
+            EXPECT_EQ(events_of(*cluster.clients[i], Kind::Disconnected).size(), 1u) << "client " << i << " about slot " << d;
+        }
+        EXPECT_EQ(neutral_from[d].size(), 1u) << "slot " << d << "'s neutral input starts at different frames";
+    }
+    for (std::size_t a = 0; a < cluster.clients.size(); ++a)
+        for (std::size_t b = a + 1; b < cluster.clients.size(); ++b) {
+            int compared = 0;
+            expect_no_disagreement(*cluster.clients[a], *cluster.clients[b], compared);
+        }
+    expect_equal_at(cluster, 900);
+}
+
+// DISABLED: all three fail on main (59c94a2) in every seed of 1..8. The cause is one: a peer's
+// "gone" vote, cast while its caster heard nobody, is counted by each receiver towards whichever
+// drop it wants, and a drop is applied by whoever first sees a majority, with no agreement that
+// the voters it counted still stand by it. Each process resuming from the stall votes every other
+// gone (silent 3.2 s > disconnect_us), withdraws a vote only when it hears that peer again, and
+// its table still carrying the other votes lends each receiver the second vote of a different
+// drop: the global freeze (seed 1): 0 hears 1 first and drops 2 on 1's stale "2 gone"; 1 and 2
+// hear each other first and drop 0 on the other's stale "0 gone"; 0 confirms frame 301 with
+// slot 2's neutral input, 1 and 2 with slot 0's: different checksums at one confirmed frame (the
+// live run's desync at the freeze frame); 0 is then kicked by the two-player refusal and
+// rejoins. Two of three (0, 1 frozen): 1 drops 0 and 0 drops 1, each on 2's standing "gone"
+// from its lone 1.5 s; confirmed frame 301 differs too. Uneven (0 resumes after 2.0 s, 1 and 2
+// after 3.2 s): 0's votes (cast at 2.0 s) reach 1 and 2, and at 3.2 s 1 drops 2 and 2 drops 1,
+// each with 0's vote: two opposite drops from frame 300. Counting a voter's "gone" only while
+// its own table shows it hears a majority (tried: Membership::gone_votes) fixes the global freeze
+// in 8 seeds of 8 but leaves a drop decided on one side in the two others (a vote withdrawn just
+// after another peer counted it): the lasting fix is an agreement on each drop (the counted
+// voters confirm it, and its frame, before anyone applies it), not a counting rule.
+TEST(Lifecycle, DISABLED_GlobalFreezeLongerThanTheTimeoutSplitsNobody) {
+    for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        global_freeze(seed, {{0, 3'200'000}, {1, 3'200'000}, {2, 3'200'000}});
+    }
+}
+TEST(Lifecycle, DISABLED_FreezeOfTwoOfThreeSplitsNobody) {
+    for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        global_freeze(seed, {{0, 3'200'000}, {1, 3'200'000}});
+    }
+}
+TEST(Lifecycle, DISABLED_UnevenFreezeSplitsNobody) {
+    for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        global_freeze(seed, {{0, 2'000'000}, {1, 3'200'000}, {2, 3'200'000}});
+    }
+}
+
 }  // namespace
 }  // namespace lockroll::rollback
