@@ -4,6 +4,7 @@
 #include <cinttypes>
 #include <cstdio>
 #include <stdexcept>
+#include <utility>
 
 namespace lockroll::rollback {
 
@@ -72,8 +73,11 @@ void DesyncDetector::ask_checksum(PlayerId peer, std::uint32_t frame) {
         return;
     }
     ps.asked_answer.reset();
-    ps.asked.emplace();
-    ps.asked->query = {QueryWhat::FrameChecksums, frame, 0, 1};
+    // Assigned, not emplace()d: clang decides optional<Chunk>'s default-constructibility inside
+    // DesyncDetector's definition, before Chunk's member initializers, and finds none.
+    Chunk chunk;
+    chunk.query = {QueryWhat::FrameChecksums, frame, 0, 1};
+    ps.asked = std::move(chunk);
 }
 
 void DesyncDetector::add_local(std::uint32_t frame, std::uint64_t checksum) {
