@@ -101,9 +101,12 @@ void InputIntake::apply_slot_table(PlayerId from, const InputMessage& m, std::ui
             if (!mine(e.slot)) fx_.adopt_slot(e.slot, e, now_us);
         } else {
             fx_.count_vote(from, e.slot, e.state == SlotState::Running ? Vote::Runs : Vote::Gone, e.epoch);
+            // A drop it applied (not a vote): its word that the view agreed on it.
+            if (e.state != SlotState::Running && !e.voted && newer) fx_.heard_drop(from, e.slot, e.epoch);
         }
         if (fx_.failed()) return;
     }
+    if (m.has_agreement && s_.config.role != Role::Spectator) fx_.heard_agreement(from, m.agreement);
     fx_.settle_membership(now_us);
     if (fx_.failed()) return;
     if (s_.config.role == Role::Spectator) return;

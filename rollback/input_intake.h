@@ -61,6 +61,10 @@ public:
     virtual void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) = 0;
     // The sender's vote about a running slot.
     virtual void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) = 0;
+    // The sender's agreement report on the next drop (rollback/drop_agreement.h).
+    virtual void heard_agreement(PlayerId voter, const AgreementReport& r) = 0;
+    // The sender's table states a drop it applied (an entry not voted) of running `slot`.
+    virtual void heard_drop(PlayerId voter, PlayerId slot, std::uint8_t epoch) = 0;
     // After a table: the votes may have settled a slot.
     virtual void settle_membership(std::uint64_t now_us) = 0;
     // The sender's confirmed checksum of one frame.

@@ -27,6 +27,16 @@ int Membership::running_voters() const {
     return n;
 }
 
+std::uint32_t Membership::view_id() const {
+    std::uint32_t h = 2166136261u;
+    const auto mix = [&h](std::uint8_t b) { h = (h ^ b) * 16777619u; };
+    for (const Slot& s : slots_) {
+        mix(static_cast<std::uint8_t>(s.state));
+        mix(s.epoch);
+    }
+    return h;
+}
+
 void Membership::forget(PlayerId s) {
     for (std::size_t v = 0; v < slots_.size(); ++v) {
         word(static_cast<PlayerId>(v), s) = Word{};

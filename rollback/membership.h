@@ -113,6 +113,10 @@ public:
     // majority_of(running_voters()).
     int majority_size() const;
 
+    // The view's identity: a hash (FNV-1a, 32 bits) of every slot's state and epoch. Processes
+    // that hold the same view agree on it, however they came to it; every drop, join or restart
+    // changes it. The instance of the agreement on the next drop (rollback/drop_agreement.h).
+    std::uint32_t view_id() const;
     // A change of the view that no vote decides: the starting table, a snapshot's table, a rejoin
     // handed over by the owner, a process that says it restarted. Forgets the votes about s and
     // the votes s cast (a new process in the slot starts with no word said).

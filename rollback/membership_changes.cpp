@@ -1,5 +1,6 @@
 #include "rollback/membership_changes.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "rollback/restart_claim.h"
@@ -16,6 +17,7 @@ void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, SessionEv
     SlotView& v = slots_[slot];
     if (!view_.running(slot)) return;
     view_.leave(slot);
+    agreement_.forget(slot);
     effects_.slot_changed_hands(slot);
     v.dropped(now_us, config_.disconnect_us);
     links_[slot].interrupted = false;
@@ -35,42 +37,29 @@ void MembershipChanges::count_vote(PlayerId voter, PlayerId slot, Vote vote, std
         ++stats_.drop_votes_unheeded;
 }
 
-// Drops every running slot a majority has voted gone (this session's own slot: it was kicked),
+// The two-player rule decides at once (each side of a view of two for itself); any other drop
+// is proposed by the votes and applied only once a majority of the view agreed on that very slot
+// (rollback/drop_agreement.h): votes counted as decisions split the view after a machine stall.
+std::optional<PlayerId> MembershipChanges::next_drop(std::uint64_t now_us) {
+    const auto players = static_cast<PlayerId>(config_.players);
+    PlayerId wanted = kNoSlot;
+    for (PlayerId s = 0; s < players; ++s) {
+        if (!view_.decided_gone(s)) continue;
+        if (view_.electorate(s) == 2) return s;  // the two-player rule: never this session's own slot
+        if (wanted == kNoSlot && s != config_.local_player && view_.vote_of(config_.local_player, s) == Vote::Gone) wanted = s;
+    }
+    const std::uint64_t retry_us = std::max<std::uint64_t>(config_.interrupt_us, 200'000);
+    return agreement_.step(view_, wanted, now_us, retry_us);
+}
+
+// Drops every running slot the view agreed to drop (this session's own slot: it was kicked),
 // then notes whether this session is cut off from a majority (Partitioned, once per episode).
 void MembershipChanges::settle_membership(std::uint64_t now_us) {
     if (config_.role == Role::Spectator) return;
-    const auto players = static_cast<PlayerId>(config_.players);
-    for (PlayerId s = view_.next_gone(); s < players; s = view_.next_gone()) {
-        if (s == config_.local_player) {
-            effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, s, effects_.frame(), now_us,
-                          std::to_string(view_.gone_votes(s)) + " of " + std::to_string(view_.electorate(s)) +
-                              " players voted this slot gone");
-            effects_.fail_dropped(now_us);
-            return;
-        }
-        const SlotView& v = slots_[s];
-        const bool restart = v.restart_vote && view_.vote_of(config_.local_player, s) == Vote::Gone;
-        using R = SessionEvent::Reason;
-        const std::string why = v.kick_vote ? "kicked"
-                                : v.lapsed  ? "handoff lapsed"
-                                : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
-                                            : "timed out";
-        // A view of two has no majority of the other's: the two-player rule decided, and this
-        // process now plays on alone (its outcome says so: rollback/playing_alone.h).
-        // (A joining slot's electorate counts it beside the voters: Membership::electorate.)
-        const int electorate = view_.electorate(s);
-        const bool two_player_rule = electorate == 2;
-        const R reason = v.kick_vote ? (two_player_rule ? R::KickVoteTwoPlayerRule : R::KickVote)
-                         : v.lapsed  ? (two_player_rule ? R::HandoffLapsedTwoPlayerRule : R::HandoffLapsed)
-                         : restart   ? (v.restart_by_player ? (two_player_rule ? R::RestartedTwoPlayerRule : R::Restarted)
-                                                            : (two_player_rule ? R::RejoiningTwoPlayerRule : R::Rejoining))
-                                     : (two_player_rule ? R::TimedOutTwoPlayerRule : R::TimedOut);
-        drop_slot(s, now_us, reason, (why + ", by " + std::to_string(view_.gone_votes(s)) + " of " +
-                              std::to_string(electorate) + " votes" +
-                              (two_player_rule ? std::string(" (the two-player rule, ") + two_player_rule_name(view_.rule()) +
-                                                     ": this process plays on alone)"
-                                               : std::string()))
-                                 .c_str());
+    for (std::optional<PlayerId> s = next_drop(now_us); s; s = next_drop(now_us)) {
+        const bool me = *s == config_.local_player;
+        apply_drop(*s, now_us);
+        if (me) return;
     }
     const bool cut_off = view_.partitioned();
     if (cut_off && !partitioned()) {
@@ -84,6 +73,40 @@ void MembershipChanges::settle_membership(std::uint64_t now_us) {
                           " players: no majority, nobody is dropped");
     }
     partitioned_ = cut_off;
+}
+
+void MembershipChanges::apply_drop(PlayerId s, std::uint64_t now_us) {
+    const int electorate = view_.electorate(s);
+    const bool two_player_rule = electorate == 2;
+    // The voters that back it: the votes (two-player rule) or the agreement.
+    const int backing = two_player_rule ? view_.gone_votes(s) : agreement_.backing(view_, s);
+    if (s == config_.local_player) {
+        effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::VotedOut, s, effects_.frame(), now_us,
+                      std::to_string(backing) + " of " + std::to_string(electorate) + " players agreed to drop this slot");
+        effects_.fail_dropped(now_us);
+        return;
+    }
+    const SlotView& v = slots_[s];
+    const bool restart = v.restart_vote && view_.vote_of(config_.local_player, s) == Vote::Gone;
+    using R = SessionEvent::Reason;
+    const std::string why = v.kick_vote ? "kicked"
+                            : v.lapsed  ? "handoff lapsed"
+                            : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
+                                        : "timed out";
+    // A view of two has no majority of the other's: the two-player rule decided, and this
+    // process now plays on alone (its outcome says so: rollback/playing_alone.h).
+    // (A joining slot's electorate counts it beside the voters: Membership::electorate.)
+    const R reason = v.kick_vote ? (two_player_rule ? R::KickVoteTwoPlayerRule : R::KickVote)
+                     : v.lapsed  ? (two_player_rule ? R::HandoffLapsedTwoPlayerRule : R::HandoffLapsed)
+                     : restart   ? (v.restart_by_player ? (two_player_rule ? R::RestartedTwoPlayerRule : R::Restarted)
+                                                        : (two_player_rule ? R::RejoiningTwoPlayerRule : R::Rejoining))
+                                 : (two_player_rule ? R::TimedOutTwoPlayerRule : R::TimedOut);
+    drop_slot(s, now_us, reason,
+              (why + (two_player_rule ? ", by " + std::to_string(backing) + " of " + std::to_string(electorate) + " votes" +
+                                            " (the two-player rule, " + two_player_rule_name(view_.rule()) +
+                                            ": this process plays on alone)"
+                                      : ", agreed by " + std::to_string(backing) + " of " + std::to_string(electorate) + " players"))
+                  .c_str());
 }
 
 void MembershipChanges::joiner_cut_off(const JoinerReach::Verdict& reach, std::uint64_t now_us) {
@@ -106,6 +129,7 @@ void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint6
     // (Membership::hand_over; check_silence notes the start).
     if (e.state == SlotState::Running && !mine(slot)) view_.hand_over(slot, e.epoch);
     else view_.set(slot, e.state, e.epoch);
+    agreement_.forget(slot);
     effects_.slot_changed_hands(slot);
     v.new_epoch();
     if (mine(slot) && e.state != SlotState::Running) {
@@ -155,7 +179,10 @@ void MembershipChanges::refused_as_dropped(PlayerId from, std::uint8_t epoch, st
         effects_.fail_dropped(now_us);
         return;
     }
-    if (is_slot(from)) count_vote(from, me, Vote::Gone, epoch);
+    if (is_slot(from)) {
+        count_vote(from, me, Vote::Gone, epoch);
+        agreement_.heard_drop(from, me, epoch);  // it applied our drop: its word that it was agreed
+    }
     settle_membership(now_us);
 }
 

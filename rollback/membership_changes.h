@@ -58,10 +58,12 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "rollback/drop_agreement.h"
 #include "rollback/events.h"
 #include "rollback/input_queue.h"
 #include "rollback/joiner_reach.h"
@@ -99,9 +101,15 @@ class MembershipChanges {
 public:
     MembershipChanges(const SessionConfig& config, Membership& view, std::vector<SlotView>& slots,
                       std::vector<PeerLink>& links, SessionStats& stats, MembershipEffects& effects)
-        : config_(config), view_(view), slots_(slots), links_(links), stats_(stats), effects_(effects) {}
+        : config_(config), view_(view), slots_(slots), links_(links), stats_(stats), effects_(effects),
+          agreement_(config.players, config.local_player) {}
 
     void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch);
+    // A peer's agreement report (rollback/drop_agreement.h), on its own connection.
+    void heard_agreement(PlayerId voter, const AgreementReport& r) { agreement_.heard(voter, r); }
+    // A peer's table says it applied the drop of `slot` into `epoch` (an entry not voted).
+    void heard_drop(PlayerId voter, PlayerId slot, std::uint8_t epoch) { agreement_.heard_drop(voter, slot, epoch); }
+    const DropAgreement& agreement() const { return agreement_; }
     void settle_membership(std::uint64_t now_us);
     void drop_slot(PlayerId slot, std::uint64_t now_us, SessionEvent::Reason reason, const char* why);
     // e: the peer's table entry about `slot` (its state and a newer epoch).
@@ -122,6 +130,10 @@ public:
 private:
     // A handed-over slot whose own stream never starts is voted gone (SlotView::watch_handoff).
     void check_handoff(PlayerId slot, std::uint64_t now_us);
+    // The next slot to leave, if any: by the two-player rule in a view of two, else once a
+    // majority agreed on it (DropAgreement); this session's own slot means it was dropped.
+    std::optional<PlayerId> next_drop(std::uint64_t now_us);
+    void apply_drop(PlayerId slot, std::uint64_t now_us);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     bool mine(PlayerId slot) const;  // this session's slot or one of its guests
     std::uint32_t count_of(PlayerId slot) const { return effects_.stream(slot).confirmed_count(); }
@@ -132,6 +144,7 @@ private:
     std::vector<PeerLink>& links_;
     SessionStats& stats_;
     MembershipEffects& effects_;
+    DropAgreement agreement_;
     bool partitioned_ = false;
     bool joiner_cut_off_ = false;
 };

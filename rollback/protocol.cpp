@@ -105,7 +105,7 @@ void encode(const InputMessage& m, std::size_t input_size, std::vector<std::uint
     // message goes out to every peer every tick): runs take at most 1 + input_size bytes a frame.
     std::size_t bound = kInputHeaderBytes + std::size_t{m.frame_count} * (1 + input_size) + kTimeSyncBytes + kChecksumBytes;
     if (m.has_extension) {
-        bound += 2 + m.slots.size() * 5;
+        bound += 2 + m.slots.size() * 5 + kAgreementBytes;
         for (const StreamBlock& b : m.blocks) bound += 5 + std::size_t{b.frame_count} * (1 + input_size);
     }
     out.reserve(out.size() + bound);
@@ -131,12 +131,21 @@ void encode(const InputMessage& m, std::size_t input_size, std::vector<std::uint
         w.u32(static_cast<std::uint32_t>(m.checksums[i]));  // low 32 bits: see protocol.h
     }
     if (!m.has_extension) return;
-    w.u8(static_cast<std::uint8_t>(m.slots.size()));
+    w.u8(static_cast<std::uint8_t>(m.slots.size() | (m.has_agreement ? kFlagAgreement : 0)));
     for (const SlotEntry& e : m.slots) {
         w.u8(e.slot);
-        w.u8(static_cast<std::uint8_t>(e.state));
+        w.u8(static_cast<std::uint8_t>(static_cast<std::uint8_t>(e.state) | (e.voted ? kFlagVoted : 0)));
         w.u8(e.epoch);
         w.u16(e.count);
+    }
+    if (m.has_agreement) {
+        const AgreementReport& a = m.agreement;
+        w.u32(a.instance);
+        w.u16(a.promised);
+        w.u16(a.accepted);
+        w.u8(a.accepted_slot);
+        w.u16(a.proposal);
+        w.u8(a.proposal_slot);
     }
     w.u8(static_cast<std::uint8_t>(m.blocks.size()));
     for (const StreamBlock& b : m.blocks) {
@@ -214,20 +223,43 @@ const char* decode(std::span<const std::uint8_t> d, std::size_t input_size, Inpu
     if (!r.ok()) return "input message: truncated trailer";
     m.slots.clear();
     m.blocks.clear();
+    m.has_agreement = false;
     if (m.has_extension) {
-        const std::uint8_t entries = r.u8();
+        const std::uint8_t head = r.u8();
         if (!r.ok()) return "input message: truncated extension";
+        m.has_agreement = (head & kFlagAgreement) != 0;
+        const std::uint8_t entries = head & static_cast<std::uint8_t>(~kFlagAgreement);
         if (entries > kMaxSlotEntries) return "input message: too many slot entries";
         if (r.remaining() < std::size_t{entries} * 5) return "input message: truncated slot table";
         for (int i = 0; i < entries; ++i) {
             SlotEntry e;
             e.slot = r.u8();
-            const std::uint8_t state = r.u8();
+            const std::uint8_t state_byte = r.u8();
+            const std::uint8_t state = state_byte & static_cast<std::uint8_t>(~kFlagVoted);
             if (state > kLastSlotState) return "input message: unknown slot state";
             e.state = static_cast<SlotState>(state);
+            e.voted = (state_byte & kFlagVoted) != 0;
+            if (e.voted && e.state != SlotState::Disconnected) return "input message: a vote that is not \"gone\"";
             e.epoch = r.u8();
             e.count = r.u16();
             m.slots.push_back(e);
+        }
+        if (m.has_agreement) {
+            AgreementReport& a = m.agreement;
+            a.instance = r.u32();
+            a.promised = r.u16();
+            a.accepted = r.u16();
+            a.accepted_slot = r.u8();
+            a.proposal = r.u16();
+            a.proposal_slot = r.u8();
+            if (!r.ok()) return "input message: truncated agreement";
+            if ((a.accepted_slot != kNoSlot && a.accepted_slot >= kMaxSlotEntries) ||
+                (a.proposal_slot != kNoSlot && a.proposal_slot >= kMaxSlotEntries))
+                return "input message: agreement names no slot";
+            if ((a.accepted == 0) != (a.accepted_slot == kNoSlot)) return "input message: agreement accepted without a slot";
+            if (a.proposal == 0 && a.proposal_slot != kNoSlot) return "input message: agreement slot without a proposal";
+        } else {
+            m.agreement = AgreementReport{};
         }
         const std::uint8_t blocks = r.u8();
         if (!r.ok()) return "input message: truncated block count";

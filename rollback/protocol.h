@@ -29,7 +29,7 @@ inline constexpr std::uint16_t kMaxQueryItems = 128;
 inline constexpr int kMaxFields = 16;
 
 // Bumped whenever a message's bytes change meaning; hellos carry it and a mismatch is refused.
-inline constexpr std::uint16_t kProtocolVersion = 2;
+inline constexpr std::uint16_t kProtocolVersion = 3;
 
 // Input, Query and Reply are this header's; the rest are control_messages.h's.
 enum class MessageKind : std::uint8_t {
@@ -52,6 +52,10 @@ inline constexpr std::uint8_t kFlagTimeSync = 0x10;
 inline constexpr int kChecksumCountShift = 5;
 inline constexpr std::uint8_t kChecksumCountMask = 0x60;
 inline constexpr std::uint8_t kFlagExtension = 0x80;
+// Extension: bit 7 of the slot-entry count byte says an agreement report follows the table
+// (version 3); bit 7 of a slot entry's state byte marks the sender's vote (SlotEntry::voted).
+inline constexpr std::uint8_t kFlagAgreement = 0x80;
+inline constexpr std::uint8_t kFlagVoted = 0x80;
 inline constexpr int kMaxChecksumsPerMessage = 3;
 inline constexpr int kMaxSlotEntries = 64;
 inline constexpr int kMaxStreamBlocks = 16;
@@ -66,7 +70,28 @@ struct SlotEntry {
     SlotState state = SlotState::Running;
     std::uint8_t epoch = 0;
     std::uint16_t count = 0;
+    // The sender's vote that the slot is gone (state Disconnected in the epoch it would leave
+    // into), not a drop it applied: only agreed drops are applied (rollback/drop_agreement.h).
+    // On the wire: bit 7 of the state byte.
+    bool voted = false;
 };
+
+inline constexpr std::uint8_t kNoSlot = 0xFF;
+
+// The sender's side of the agreement on the next drop (rollback/drop_agreement.h): the
+// instance (its view: Membership::view_id), the highest ballot it promised, the ballot and slot
+// it accepted, and its own proposal (ballot; slot kNoSlot while it still gathers promises).
+// Ballots: round << 6 | proposer slot, 0 none.
+struct AgreementReport {
+    std::uint32_t instance = 0;
+    std::uint16_t promised = 0;
+    std::uint16_t accepted = 0;
+    std::uint8_t accepted_slot = kNoSlot;
+    std::uint16_t proposal = 0;
+    std::uint8_t proposal_slot = kNoSlot;
+    bool operator==(const AgreementReport&) const = default;
+};
+inline constexpr std::size_t kAgreementBytes = 12;
 
 // Consecutive inputs of one slot's stream, forwarded by a peer that is not that slot's player
 // (the owner writing an absent slot's neutral inputs, or anyone filling a gap another peer has).
@@ -103,6 +128,9 @@ struct InputMessage {
     bool has_extension = false;
     std::vector<SlotEntry> slots;
     std::vector<StreamBlock> blocks;
+    // Extension only: the sender's agreement report (bit 7 of the slot-entry count).
+    bool has_agreement = false;
+    AgreementReport agreement;
 };
 
 enum class QueryWhat : std::uint8_t {

@@ -757,7 +757,8 @@ void SessionImpl::consider_recovery(std::uint64_t now_us) {
 }
 
 StreamView SessionImpl::stream_view() const {
-    return {config_, membership_, sync_->queues(), *authority_, slots_, links_, sync_->confirmed_frame(), input_delay_, joining_};
+    return {config_, membership_, sync_->queues(), *authority_, slots_, links_, sync_->confirmed_frame(), input_delay_, joining_,
+            &changes_.agreement()};
 }
 
 void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
@@ -802,6 +803,7 @@ void SessionImpl::poll_impl(std::uint64_t now_us, std::vector<Datagram>& out) {
         if (spectator && !link.welcomed) continue;
         InputMessage& m = out_msg_;
         m.has_extension = false;
+        m.has_agreement = false;
         m.slots.clear();
         m.blocks.clear();
         m.ack = is_slot(pid) ? static_cast<std::uint16_t>(relay.owner_count(pid)) : 0;

@@ -46,6 +46,10 @@ void SessionImpl::Effects::count_vote(PlayerId voter, PlayerId slot, Vote vote, 
     s_.changes_.count_vote(voter, slot, vote, epoch);
 }
 
+void SessionImpl::Effects::heard_agreement(PlayerId voter, const AgreementReport& r) { s_.changes_.heard_agreement(voter, r); }
+void SessionImpl::Effects::heard_drop(PlayerId voter, PlayerId slot, std::uint8_t epoch) {
+    s_.changes_.heard_drop(voter, slot, epoch);
+}
 void SessionImpl::Effects::settle_membership(std::uint64_t now_us) { s_.changes_.settle_membership(now_us); }
 
 void SessionImpl::Effects::remote_checksum(PlayerId from, std::uint32_t frame, std::uint64_t checksum) {

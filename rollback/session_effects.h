@@ -47,6 +47,8 @@ public:
     // IntakeEffects
     void adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) override;
     void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) override;
+    void heard_agreement(PlayerId voter, const AgreementReport& r) override;
+    void heard_drop(PlayerId voter, PlayerId slot, std::uint8_t epoch) override;
     void settle_membership(std::uint64_t now_us) override;
     void remote_checksum(PlayerId from, std::uint32_t frame, std::uint64_t checksum) override;
     void neutral_from(PlayerId slot, std::uint32_t frame) override;

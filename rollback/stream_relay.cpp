@@ -57,9 +57,16 @@ std::uint64_t StreamRelay::table_refresh_us() const {
 // in the next epoch), else the view; a spectator, which follows our view, gets the view.
 SlotEntry StreamRelay::table_entry(PlayerId to, PlayerId s) const {
     const bool vote = is_slot(to);
+    const bool voted = vote && v_.membership.running(s) && v_.membership.vote_of(v_.config.local_player, s) == Vote::Gone;
     return {static_cast<std::uint8_t>(s), vote ? v_.membership.advertised_state(s) : v_.membership.state(s),
             vote ? v_.membership.advertised_epoch(s) : v_.membership.epoch(s),
-            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s))};
+            static_cast<std::uint16_t>(vote && host_of(s) == to ? owner_count(s) : count_of(s)), voted};
+}
+
+// Our agreement report goes to a player while a ballot is in play here (every change of it is a
+// change of the table, so it goes at once and in copies); with nothing in play it says nothing.
+bool StreamRelay::agreement_rides(PlayerId to) const {
+    return v_.agreement != nullptr && is_slot(to) && v_.config.role != Role::Spectator && v_.agreement->active();
 }
 
 void StreamRelay::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out) const {
@@ -67,6 +74,11 @@ void StreamRelay::table_entries_for(PlayerId to, std::vector<std::uint16_t>& out
     for (int s = 0; s < v_.config.players; ++s) {
         const SlotEntry e = table_entry(to, static_cast<PlayerId>(s));
         out.push_back(static_cast<std::uint16_t>(static_cast<unsigned>(e.state) << 8 | e.epoch));
+    }
+    if (v_.agreement != nullptr && v_.agreement->active() && is_slot(to)) {
+        const AgreementReport& a = v_.agreement->report();
+        out.insert(out.end(), {static_cast<std::uint16_t>(a.instance), static_cast<std::uint16_t>(a.instance >> 16), a.promised,
+                               a.accepted, a.accepted_slot, a.proposal, a.proposal_slot});
     }
 }
 
@@ -118,7 +130,9 @@ void StreamRelay::fill_extension(PlayerId to, InputMessage& m, std::size_t budge
     m.slots.clear();
     m.blocks.clear();
     for (int s = 0; s < v_.config.players; ++s) m.slots.push_back(table_entry(to, static_cast<PlayerId>(s)));
-    const std::size_t table_bytes = 2 + m.slots.size() * 5;
+    m.has_agreement = agreement_rides(to);
+    if (m.has_agreement) m.agreement = v_.agreement->report();
+    const std::size_t table_bytes = 2 + m.slots.size() * 5 + (m.has_agreement ? kAgreementBytes : 0);
     if (budget <= table_bytes) return;
     budget -= table_bytes;
     if (v_.config.role == Role::Spectator) return;  // spectators relay nothing

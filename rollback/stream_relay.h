@@ -28,6 +28,7 @@
 #include "rollback/input_queue.h"
 #include "rollback/membership.h"
 #include "rollback/peer_link.h"
+#include "rollback/drop_agreement.h"
 #include "rollback/protocol.h"
 #include "rollback/session.h"
 #include "rollback/slot_hosts.h"
@@ -51,6 +52,9 @@ struct StreamView {
     std::uint32_t confirmed_frame = 0;   // owner_count() checks relayed inputs from a little before it
     int input_delay = 0;
     bool joining = false;                // a joiner catching up: its table always rides
+    // The agreement on the next drop (rollback/drop_agreement.h): rides to players with the
+    // table while a ballot is in play.
+    const DropAgreement* agreement = nullptr;
 };
 
 class StreamRelay {
@@ -67,6 +71,8 @@ public:
     bool extension_needed(PlayerId to, const std::vector<std::uint16_t>& entries, std::uint64_t now_us,
                           bool lagging) const;
     void fill_extension(PlayerId to, InputMessage& m, std::size_t budget, std::uint64_t now_us) const;
+    // Our agreement report goes to `to` on this message (fill_extension).
+    bool agreement_rides(PlayerId to) const;
     // What we tell slot s's owner we hold of its stream (ack and table count): up to the first
     // input a relay filled in that the owner has not verified yet, confirmed or not (up to a
     // quarter of the input ring behind confirmation).

@@ -34,6 +34,10 @@ struct RecordingEffects final : IntakeEffects {
     void count_vote(PlayerId voter, PlayerId slot, Vote vote, std::uint8_t epoch) override {
         votes.push_back({voter, slot, vote, epoch});
     }
+    std::vector<AgreementReport> agreements;
+    std::vector<Vote3> drops;  // voter, slot, Gone, epoch
+    void heard_agreement(PlayerId, const AgreementReport& r) override { agreements.push_back(r); }
+    void heard_drop(PlayerId voter, PlayerId slot, std::uint8_t epoch) override { drops.push_back({voter, slot, Vote::Gone, epoch}); }
     void settle_membership(std::uint64_t) override { ++settles; }
     void remote_checksum(PlayerId, std::uint32_t frame, std::uint64_t) override { checksum_frames.push_back(frame); }
     void neutral_from(PlayerId slot, std::uint32_t frame) override { neutral.emplace_back(slot, frame); }

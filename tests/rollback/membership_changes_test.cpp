@@ -30,6 +30,34 @@ struct Fixture : EffectsFixture {
         config.interrupt_us = kInterrupt;
         config.disconnect_us = kDisconnect;
     }
+    // The voters named follow our proposal (rollback/drop_agreement.h): each promises our ballot
+    // and accepts the slot we name, as a peer's reports would say, until the drop is applied.
+    void agree(std::vector<PlayerId> voters, std::uint64_t now_us) {
+        for (int round = 0; round < 3; ++round) {
+            const AgreementReport ours = changes.agreement().report();
+            if (ours.proposal == 0) return;
+            for (PlayerId v : voters) {
+                AgreementReport r;
+                r.instance = ours.instance;
+                r.promised = ours.proposal;
+                if (ours.proposal_slot != kNoSlot) {
+                    r.accepted = ours.proposal;
+                    r.accepted_slot = ours.proposal_slot;
+                }
+                changes.heard_agreement(v, r);
+            }
+            changes.settle_membership(now_us);
+        }
+    }
+    // The voters named report that they accepted `slot` under the first voter's first ballot.
+    void others_chose(PlayerId slot, std::vector<PlayerId> voters, std::uint64_t now_us) {
+        AgreementReport r;
+        r.instance = view.view_id();
+        r.promised = r.accepted = make_ballot(1, voters.front());
+        r.accepted_slot = static_cast<std::uint8_t>(slot);
+        for (PlayerId v : voters) changes.heard_agreement(v, r);
+        changes.settle_membership(now_us);
+    }
     // Every peer but `silent` (and this session) heard now.
     void hear_all_but(PlayerId silent, std::uint64_t now_us) {
         for (std::size_t p = 1; p < links.size(); ++p)
@@ -47,12 +75,15 @@ TEST(MembershipChanges, OneVoteOfThreeDropsNobodyAMajorityDropsTheSlot) {
 
     f.view.vote_local(2, true);
     f.changes.settle_membership(200);
+    EXPECT_TRUE(f.view.running(2)) << "a majority of votes proposes; the drop waits for the agreement";
+    EXPECT_NE(f.changes.agreement().report().proposal, 0) << "our proposal";
+    f.agree({1}, 200);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
     EXPECT_EQ(f.view.epoch(2), 1);
     const auto dropped = f.fake.of(Kind::Disconnected);
     ASSERT_EQ(dropped.size(), 1u);
     EXPECT_EQ(dropped[0].peer, 2);
-    EXPECT_EQ(dropped[0].detail, "timed out, by 2 of 3 votes");
+    EXPECT_EQ(dropped[0].detail, "timed out, agreed by 2 of 3 players");
     EXPECT_EQ(dropped[0].reason, Reason::TimedOut);
     EXPECT_EQ(f.fake.changed_hands, std::vector<PlayerId>{2});
     EXPECT_EQ(f.fake.failed_peers, std::vector<PlayerId>{2});
@@ -70,6 +101,7 @@ TEST(MembershipChanges, AVoteInAnOldEpochIsIgnored) {
     EXPECT_EQ(f.stats.drop_votes_unheeded, 0u);
     f.changes.count_vote(1, 2, Vote::Gone, 2);
     f.changes.settle_membership(200);
+    f.agree({1}, 200);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
 }
 
@@ -105,11 +137,13 @@ TEST(MembershipChanges, OurOwnSlotVotedGoneByAMajorityIsKicked) {
     f.changes.count_vote(1, 0, Vote::Gone, 1);
     f.changes.count_vote(2, 0, Vote::Gone, 1);
     f.changes.settle_membership(100);
+    EXPECT_TRUE(f.fake.of(Kind::Kicked).empty()) << "votes are no drop until agreed";
+    f.others_chose(0, {1, 2}, 100);
     const auto kicked = f.fake.of(Kind::Kicked);
     ASSERT_EQ(kicked.size(), 1u);
     EXPECT_EQ(kicked[0].peer, 0);
     EXPECT_EQ(kicked[0].frame, f.fake.shown);
-    EXPECT_EQ(kicked[0].detail, "2 of 3 players voted this slot gone");
+    EXPECT_EQ(kicked[0].detail, "2 of 3 players agreed to drop this slot");
     EXPECT_EQ(kicked[0].reason, Reason::VotedOut);
     EXPECT_TRUE(f.fake.failed);
     EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty()) << "nothing more once kicked";
@@ -141,6 +175,7 @@ TEST(MembershipChanges, ThreeDownToTwoAVoteAboutUsKicksNobody) {
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.view.vote_local(2, true);
     f.changes.settle_membership(100);
+    f.agree({1}, 100);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
     f.changes.count_vote(1, 0, Vote::Gone, 1);
     f.changes.settle_membership(200);
@@ -169,7 +204,8 @@ TEST(MembershipChanges, TwoPlayersARefusalAsDroppedKicksUsThreePlayersItIsOneVot
     EXPECT_EQ(three.view.gone_votes(0), 1);
     three.changes.refused_as_dropped(2, 1, 200);
     ASSERT_EQ(three.fake.of(Kind::Kicked).size(), 1u);
-    EXPECT_EQ(three.fake.of(Kind::Kicked)[0].detail, "2 of 3 players voted this slot gone");
+    EXPECT_EQ(three.fake.of(Kind::Kicked)[0].detail, "2 of 3 players agreed to drop this slot")
+        << "two refusals: both applied our drop, a majority's word";
 }
 
 TEST(MembershipChanges, AHostDroppedTakesItsGuests) {
@@ -177,6 +213,7 @@ TEST(MembershipChanges, AHostDroppedTakesItsGuests) {
     f.view.vote_local(1, true);
     f.changes.count_vote(3, 1, Vote::Gone, 1);
     f.changes.settle_membership(100);
+    f.agree({3}, 100);
     const auto dropped = f.fake.of(Kind::Disconnected);
     ASSERT_EQ(dropped.size(), 2u);
     EXPECT_EQ(dropped[0].peer, 1);
@@ -207,9 +244,10 @@ TEST(MembershipChanges, SilenceIsOurVoteInterruptedOnceBefore) {
     EXPECT_TRUE(f.view.running(2)) << "our vote alone is no majority of three";
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.hear_all_but(2, kDisconnect + 1);
-    f.changes.check_silence(kDisconnect + 1);  // settles
+    f.changes.check_silence(kDisconnect + 1);  // settles: our proposal
+    f.agree({1}, kDisconnect + 1);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
-    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "timed out, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "timed out, agreed by 2 of 3 players");
 }
 
 TEST(MembershipChanges, ASilentSpectatorIsNoLongerServed) {
@@ -242,7 +280,8 @@ TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
     EXPECT_EQ(f.view.vote_of(0, 2), Vote::Gone) << "heard all along, yet it does not play";
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.changes.settle_membership(200 + kDisconnect);
-    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "handoff lapsed, by 2 of 3 votes");
+    f.agree({1}, 200 + kDisconnect);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "handoff lapsed, agreed by 2 of 3 players");
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::HandoffLapsed);
 }
 
@@ -268,7 +307,8 @@ TEST(MembershipChanges, AKickIsOurVoteAndNamesItself) {
     EXPECT_TRUE(f.view.running(2)) << "the other player must agree";
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.changes.settle_membership(200);
-    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "kicked, by 2 of 3 votes");
+    f.agree({1}, 200);
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "kicked, agreed by 2 of 3 players");
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::KickVote);
     EXPECT_THROW(f.changes.disconnect_player(0, 300), std::invalid_argument) << "our own slot";
     EXPECT_THROW(f.changes.disconnect_player(3, 300), std::invalid_argument) << "not a slot";
@@ -297,8 +337,9 @@ TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
     EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
     f.changes.count_vote(1, 2, Vote::Gone, 1);
     f.changes.settle_membership(200 + kConfirm);
+    f.agree({1}, 200 + kConfirm);
     EXPECT_EQ(f.view.state(2), SlotState::Disconnected);
-    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "rejoining, by 2 of 3 votes");
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).detail, "rejoining, agreed by 2 of 3 players");
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::Rejoining);
     EXPECT_FALSE(f.slots[2].restart_claim.stands(0)) << "the drop's new epoch forgets the claim";
 
@@ -312,7 +353,8 @@ TEST(MembershipChanges, ARestartClaimIsOurVoteAndAMajorityDrops) {
     heard.changes.check_silence(kDisconnect);
     heard.changes.count_vote(1, 2, Vote::Gone, 1);
     heard.changes.settle_membership(kDisconnect + 1);
-    EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).detail, "timed out, by 2 of 3 votes");
+    heard.agree({1}, kDisconnect + 1);
+    EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).detail, "timed out, agreed by 2 of 3 players");
     EXPECT_EQ(heard.fake.of(Kind::Disconnected).at(0).reason, Reason::TimedOut);
 }
 
