@@ -54,20 +54,21 @@ bool DropAgreement::valid(const Membership& view, PlayerId slot, PlayerId propos
     return false;
 }
 
+// Above every ballot in play: promised or accepted anywhere (an acceptor that promised a ballot
+// whose proposer fell silent ignores every lower one), or proposed.
 std::uint16_t DropAgreement::highest_round(const Membership& view) const {
-    std::uint16_t round = std::max(ballot_round(mine_.promised), ballot_round(mine_.proposal));
+    std::uint16_t round = std::max({ballot_round(mine_.promised), ballot_round(mine_.accepted), ballot_round(mine_.proposal)});
     for (int v = 0; v < players_; ++v) {
         const auto q = static_cast<PlayerId>(v);
         if (q == local_ || !current(view, q)) continue;
         const AgreementReport& r = heard_[q].r;
-        // Only proposals made in their voter's own name raise the round (a promise is of one).
-        if (r.proposal != 0 && ballot_proposer(r.proposal) == q) round = std::max(round, ballot_round(r.proposal));
+        round = std::max({round, ballot_round(r.promised), ballot_round(r.accepted), ballot_round(r.proposal)});
     }
     return round;
 }
 
 // Promise the highest ballot proposed (in its voter's own name), accept it if it names a slot.
-void DropAgreement::accept_proposals(const Membership& view) {
+void DropAgreement::accept_proposals(const Membership& view, std::uint64_t now_us) {
     std::uint16_t best = 0;
     std::uint8_t slot = kNoSlot;
     for (int v = 0; v < players_; ++v) {
@@ -81,6 +82,7 @@ void DropAgreement::accept_proposals(const Membership& view) {
         }
     }
     if (best == 0 || best < mine_.promised) return;
+    if (best != mine_.promised && ballot_proposer(best) != local_) promised_us_ = now_us;
     mine_.promised = best;
     if (slot != kNoSlot && best > mine_.accepted && valid(view, slot, ballot_proposer(best))) {
         mine_.accepted = best;
@@ -112,7 +114,7 @@ void DropAgreement::propose(const Membership& view, PlayerId wanted, std::uint64
             const std::uint8_t slot = carried != kNoSlot ? carried : wanted;
             if (slot != kNoSlot) {
                 mine_.proposal_slot = slot;
-                accept_proposals(view);  // our own acceptance, if we may
+                accept_proposals(view, now_us);  // our own acceptance, if we may
             }
         }
     }
@@ -121,6 +123,9 @@ void DropAgreement::propose(const Membership& view, PlayerId wanted, std::uint64
     // Proposers are staggered by slot so that two retrying at once do not outbid each other for ever.
     const std::uint64_t wait = retry_us + retry_us * local_ / static_cast<std::uint64_t>(std::max(players_, 1));
     if (mine_.proposal != 0 && now_us < proposed_us_ + wait) return;
+    // Another voter's ballot we promised is in play: let it end first (every voter that wants the
+    // slot would otherwise outbid the last one for ever).
+    if (mine_.promised != 0 && ballot_proposer(mine_.promised) != local_ && now_us < promised_us_ + wait) return;
     const std::uint16_t round = highest_round(view);
     if (round >= kMaxBallotRound) return;
     const std::uint16_t ballot = make_ballot(static_cast<std::uint16_t>(round + 1), local_);
@@ -166,10 +171,10 @@ std::optional<PlayerId> DropAgreement::step(const Membership& view, PlayerId wan
         // Another view: a new instance, nothing promised in it yet.
         mine_ = AgreementReport{};
         mine_.instance = id;
-        proposed_us_ = 0;
+        proposed_us_ = promised_us_ = 0;
     }
     if (view.is_voter(local_)) {
-        accept_proposals(view);
+        accept_proposals(view, now_us);
         propose(view, wanted, now_us, retry_us);
     }
     // Learn: a slot a majority of its decision's electorate backs is chosen.

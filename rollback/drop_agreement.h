@@ -14,8 +14,9 @@
 // to it (from frame 0, a snapshot, a rejoin), and any change of the view starts a new one. A
 // process that missed a drop learns it from the voters that applied it (below). In each instance:
 //  - A proposer is a voter whose votes say slot x is gone (Membership::decided_gone, its own vote
-//    included: `wanted`). It takes a ballot (round << 6 | its slot) above every ballot it has seen
-//    and asks for promises (its proposal with no slot yet).
+//    included: `wanted`). Unless it promised another voter's ballot within retry_us (that one
+//    goes first), it takes a ballot (round << 6 | its slot) above every ballot it has seen and
+//    asks for promises (its proposal with no slot yet).
 //  - An acceptor promises the highest ballot it sees proposed, by the voter whose slot the ballot
 //    names (a ballot in another's name is ignored), and so refuses every lower one.
 //  - Once a majority of the voters promised its ballot, the proposer names the slot: the one
@@ -96,7 +97,7 @@ private:
     };
     bool current(const Membership& view, PlayerId voter) const;
     bool valid(const Membership& view, PlayerId slot, PlayerId proposer) const;
-    void accept_proposals(const Membership& view);
+    void accept_proposals(const Membership& view, std::uint64_t now_us);
     void propose(const Membership& view, PlayerId wanted, std::uint64_t now_us, std::uint64_t retry_us);
     std::uint16_t highest_round(const Membership& view) const;
     bool applied_drop(const Membership& view, PlayerId voter, PlayerId slot) const;
@@ -104,7 +105,8 @@ private:
     int players_;
     PlayerId local_;
     AgreementReport mine_;
-    std::uint64_t proposed_us_ = 0;
+    std::uint64_t proposed_us_ = 0;  // when our proposal was made
+    std::uint64_t promised_us_ = 0;  // when we last promised another voter's ballot
     std::vector<Heard> heard_;                // per voter
     std::vector<std::int16_t> drops_;         // [voter * players + slot]: epoch it dropped slot into, or -1
 };
