@@ -62,6 +62,58 @@ TEST(Protocol, InputRoundTripAndRunLength) {
     EXPECT_EQ(back.frame_count, 0);
 }
 
+// Version 3: a slot entry's vote bit and the agreement report after the table (issue 21).
+TEST(Protocol, VotesAndTheAgreementReportRoundTrip) {
+    InputMessage m;
+    m.has_extension = true;
+    m.slots = {{0, SlotState::Running, 0, 10, false}, {1, SlotState::Disconnected, 3, 11, true}, {2, SlotState::Disconnected, 1, 9, false}};
+    m.has_agreement = true;
+    m.agreement = {0xA1B2C3D4u, 0x0081, 0x0041, 2, 0x0081, 1};
+    std::vector<std::uint8_t> bytes;
+    encode(m, 3, bytes);
+    // header 6, entry count, 3 entries of 5, agreement 12, block count.
+    ASSERT_EQ(bytes.size(), 6u + 1 + 3 * 5 + kAgreementBytes + 1);
+    EXPECT_EQ(bytes[6], 0x83) << "three entries, agreement present";
+    EXPECT_EQ(bytes[7 + 5 + 1], 0x82) << "disconnected (2), voted";
+    EXPECT_EQ(bytes[7 + 10 + 1], 0x02) << "disconnected, applied";
+    EXPECT_EQ(bytes[22], 0xD4) << "instance, little-endian";
+    InputMessage back;
+    ASSERT_EQ(decode(bytes, 3, back), nullptr);
+    ASSERT_EQ(back.slots.size(), 3u);
+    EXPECT_FALSE(back.slots[0].voted);
+    EXPECT_TRUE(back.slots[1].voted);
+    EXPECT_FALSE(back.slots[2].voted);
+    EXPECT_EQ(back.slots[1].state, SlotState::Disconnected);
+    ASSERT_TRUE(back.has_agreement);
+    EXPECT_EQ(back.agreement, m.agreement);
+
+    // Without it, a reused message forgets the last one.
+    m.has_agreement = false;
+    bytes.clear();
+    encode(m, 3, bytes);
+    ASSERT_EQ(decode(bytes, 3, back), nullptr);
+    EXPECT_FALSE(back.has_agreement);
+
+    // A vote is "gone" only; an agreement names a slot (or none) and accepts under a ballot.
+    m.has_agreement = true;
+    bytes.clear();
+    encode(m, 3, bytes);
+    auto running_vote = bytes;
+    running_vote[7 + 1] = 0x80;
+    EXPECT_STREQ(decode(running_vote, 3, back), "input message: a vote that is not \"gone\"");
+    auto far_slot = bytes;
+    far_slot[22 + 8] = 64;  // accepted slot
+    EXPECT_STREQ(decode(far_slot, 3, back), "input message: agreement names no slot");
+    auto no_ballot = bytes;
+    no_ballot[22 + 6] = no_ballot[22 + 7] = 0;  // accepted ballot 0 with a slot
+    EXPECT_STREQ(decode(no_ballot, 3, back), "input message: agreement accepted without a slot");
+    auto no_proposal = bytes;
+    no_proposal[22 + 9] = no_proposal[22 + 10] = 0;  // proposal 0 naming a slot
+    EXPECT_STREQ(decode(no_proposal, 3, back), "input message: agreement slot without a proposal");
+    for (std::size_t len = 7; len < bytes.size(); ++len)
+        EXPECT_NE(decode(std::span(bytes).first(len), 3, back), nullptr) << "truncated to " << len;
+}
+
 TEST(Protocol, QueryAndReplyRoundTrip) {
     std::vector<std::uint8_t> bytes;
     encode(QueryMessage{QueryWhat::BodyHashes, 1234, 128, 100}, bytes);
