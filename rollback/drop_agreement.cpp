@@ -38,20 +38,16 @@ bool DropAgreement::applied_drop(const Membership& view, PlayerId voter, PlayerI
     return e >= 0 && newer_epoch(static_cast<std::uint8_t>(e), view.epoch(slot));
 }
 
-// An acceptor takes a slot it says is gone itself, one it accepted before, or one that a voter
-// other than the proposer and itself reports accepted: a proposer alone never drops a player,
-// and a slot carried forward from an earlier ballot ends the instance.
-bool DropAgreement::valid(const Membership& view, PlayerId slot, PlayerId proposer) const {
+// An acceptor takes a slot it says is gone itself, or one it accepted before (that acceptance
+// rested on its own vote). Never on another's word: a slot another voter reports accepted is
+// carried forward by a proposer (Paxos), but each acceptor takes it only on its own evidence,
+// so one voter's reports (a forged promise and acceptance) never drop a player nobody else
+// votes gone. (Taking "accepted by a voter other than the proposer" as evidence let one hostile
+// voter redirect an honest proposer's ballot to any slot: drop_agreement_fuzz.)
+bool DropAgreement::valid(const Membership& view, PlayerId slot) const {
     if (slot >= heard_.size() || !view.running(slot) || view.host_of(slot) != slot) return false;
     if (view.vote_of(local_, slot) == Vote::Gone) return true;
-    if (mine_.accepted != 0 && mine_.accepted_slot == slot) return true;
-    for (int v = 0; v < players_; ++v) {
-        const auto q = static_cast<PlayerId>(v);
-        if (q == local_ || q == proposer || !current(view, q)) continue;
-        const AgreementReport& r = heard_[q].r;
-        if (r.accepted != 0 && r.accepted_slot == slot) return true;
-    }
-    return false;
+    return mine_.accepted != 0 && mine_.accepted_slot == slot;
 }
 
 // Above every ballot in play: promised or accepted anywhere (an acceptor that promised a ballot
@@ -84,7 +80,7 @@ void DropAgreement::accept_proposals(const Membership& view, std::uint64_t now_u
     if (best == 0 || best < mine_.promised) return;
     if (best != mine_.promised && ballot_proposer(best) != local_) promised_us_ = now_us;
     mine_.promised = best;
-    if (slot != kNoSlot && best > mine_.accepted && valid(view, slot, ballot_proposer(best))) {
+    if (slot != kNoSlot && best > mine_.accepted && valid(view, slot)) {
         mine_.accepted = best;
         mine_.accepted_slot = slot;
     }

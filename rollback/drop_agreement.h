@@ -22,14 +22,22 @@
 //  - Once a majority of the voters promised its ballot, the proposer names the slot: the one
 //    accepted under the highest ballot among those promises, or else `wanted` (Paxos: a slot a
 //    majority may already have chosen is carried forward, never replaced).
-//  - An acceptor accepts the proposal it promised if the slot is one it says is gone itself, one
-//    it accepted before, or one another voter (neither the proposer nor itself) reports accepted:
-//    no single voter's word drops a player, and a slot carried forward is accepted so that the
-//    instance ends.
+//  - An acceptor accepts the proposal it promised if the slot is one it says is gone itself or
+//    one it accepted before: never on another voter's word, so one voter's reports drop nobody.
+//    (A slot carried forward that no acceptor still votes gone ends nothing: the instance waits,
+//    and a drop wanted later in the same view waits with it, until the votes or the view change.)
 //  - A slot is chosen when a strict majority of the decision's electorate (Membership::
 //    electorate) reports it accepted under one ballot. Every process learns it so, or from the
 //    tables of the voters that already applied it (a drop they state, not a vote: SlotEntry::
 //    voted clear); a voter counts once.
+// What a hostile voter can still do (it speaks only in its own name, on its own connection): cast
+// its own vote, promise and accept anything, and so stall agreement (as any voter that stops
+// answering would). It cannot have a slot dropped that no honest voter votes gone. But when two
+// slots each have honest voters voting them gone (a machine stall), its forged acceptance under
+// a high ballot can make an honest proposer carry the other slot forward, and two slots may each
+// gather a majority with it: agreement that survives a lying voter needs Byzantine quorums
+// (3f + 1 processes), which this does not claim (drop_agreement_fuzz, hostile mode).
+//
 // Two majorities of one view share a voter, and a voter accepts one slot per ballot and promises
 // never to go back below a ballot, so one instance chooses at most one slot at every process.
 // A view of two has no majority and is not agreed here: the two-player rule lets each side
@@ -96,7 +104,7 @@ private:
         bool has = false;
     };
     bool current(const Membership& view, PlayerId voter) const;
-    bool valid(const Membership& view, PlayerId slot, PlayerId proposer) const;
+    bool valid(const Membership& view, PlayerId slot) const;
     void accept_proposals(const Membership& view, std::uint64_t now_us);
     void propose(const Membership& view, PlayerId wanted, std::uint64_t now_us, std::uint64_t retry_us);
     std::uint16_t highest_round(const Membership& view) const;

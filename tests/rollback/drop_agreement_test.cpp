@@ -88,6 +88,33 @@ TEST(DropAgreement, AProposerAloneDropsNobody) {
     EXPECT_EQ(nodes[2].agreement.report().accepted, 0);
 }
 
+// drop_agreement_fuzz found it: a hostile voter (2, whom 0 and 1 vote gone) answers 0's ballot
+// with a promise and an acceptance of slot 1 under that very ballot. 0 must carry slot 1
+// forward (Paxos) but never accepts it on 2's word, so 1, which nobody votes gone, stays.
+TEST(DropAgreement, AHostileVotersForgedAcceptanceDropsNobodyElse) {
+    std::vector<Node> nodes;
+    for (PlayerId p = 0; p < 3; ++p) nodes.emplace_back(3, p);
+    for (PlayerId p : {0u, 1u})
+        for (PlayerId v : {0u, 1u}) nodes[p].view.vote(v, 2, Vote::Gone, 1);
+    EXPECT_FALSE(nodes[0].step(0));
+    const std::uint16_t ballot = nodes[0].agreement.report().proposal;
+    ASSERT_NE(ballot, 0);
+    AgreementReport forged;
+    forged.instance = nodes[0].view.view_id();
+    forged.promised = forged.accepted = ballot;
+    forged.accepted_slot = 1;
+    for (PlayerId p : {0u, 1u}) nodes[p].agreement.heard(2, forged);
+    for (int i = 0; i < 4; ++i) {
+        EXPECT_FALSE(nodes[0].step(static_cast<std::uint64_t>(i))) << "step " << i;
+        nodes[1].agreement.heard(0, nodes[0].agreement.report());
+        EXPECT_FALSE(nodes[1].step(static_cast<std::uint64_t>(i))) << "step " << i;
+        nodes[0].agreement.heard(1, nodes[1].agreement.report());
+    }
+    EXPECT_EQ(nodes[0].agreement.report().proposal_slot, 1u) << "carried forward, as Paxos must";
+    EXPECT_NE(nodes[0].agreement.report().accepted_slot, 1u) << "but not accepted on one voter's word";
+    EXPECT_NE(nodes[1].agreement.report().accepted_slot, 1u);
+}
+
 TEST(DropAgreement, ABallotInAnothersNameIsIgnored) {
     Node n(3, 0);
     AgreementReport forged;
