@@ -17,13 +17,17 @@ std::optional<PlayerId> AuthoredStreams::owner() const {
 }
 
 // Every live player peer reported the slot as we see it, holding no more of its stream than we do.
+// A vote ("disconnected" in the next epoch, flagged voted) looks the same but is no drop: while
+// the slot runs at that peer, its process's inputs still reach it (a kick or a lapse: the process
+// lives), and it confirms frames on them that our neutral input would contradict. Only a drop
+// applied freezes what it holds, save relays of what some peer holds already.
 bool AuthoredStreams::ready_to_author(PlayerId slot) const {
     for (std::size_t p = 0; p < links_.size(); ++p) {
         const auto pid = static_cast<PlayerId>(p);
         if (!effects_.live_peer(pid) || pid >= static_cast<PlayerId>(config_.players)) continue;
         const PeerLink& l = links_[p];
-        if (!(l.table_seen[slot] && l.table[slot].epoch == view_.epoch(slot) && l.table[slot].state == view_.state(slot) &&
-              l.has_count[slot] && l.counts[slot] <= count_of(slot)))
+        if (!(l.table_seen[slot] && !l.table[slot].voted && l.table[slot].epoch == view_.epoch(slot) &&
+              l.table[slot].state == view_.state(slot) && l.has_count[slot] && l.counts[slot] <= count_of(slot)))
             return false;
     }
     return true;

@@ -9,8 +9,9 @@
 //    reads and writes the streams and emits through AuthoringEffects (SessionImpl's Sync and
 //    event queue; a test fakes them). No clock (now_us comes in); slots and peers are ids.
 //  - author_absent_streams(): only the owner, never a spectator. For a slot just dropped it first
-//    waits until every live player peer's table reports the drop (the slot's epoch and state as
-//    ours) with a count of the slot's stream no greater than ours (peers relay what we lack):
+//    waits until every live player peer's table reports the drop applied (the slot's epoch and
+//    state as ours, not flagged as a vote: a voter still takes the slot's inputs while it runs
+//    there) with a count of the slot's stream no greater than ours (peers relay what we lack):
 //    then the neutral inputs start right after the last real input anyone received, and nobody
 //    has confirmed anything else. From then on (SlotView::authoring, until the slot's next epoch)
 //    the slot's stream is written up to `target` inclusive, and `neutral_from` is emitted once

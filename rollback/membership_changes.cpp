@@ -235,10 +235,18 @@ void MembershipChanges::check_silence(std::uint64_t now_us) {
     settle_membership(now_us);
 }
 
+// A lapse is our vote; once the joiner's stream starts here it plays, and that vote is withdrawn
+// unless another stands (a kick, a restart claim; silence votes again at its next check). The
+// drop may still come: a majority may have accepted it already (rollback/drop_agreement.h).
 void MembershipChanges::check_handoff(PlayerId slot, std::uint64_t now_us) {
-    if (slots_[slot].watch_handoff(view_.running(slot), effects_.stream(slot), effects_.frame(), now_us,
-                                   config_.disconnect_us))
-        view_.vote_local(slot, true);  // settle_membership drops it once a majority agrees
+    SlotView& v = slots_[slot];
+    switch (v.watch_handoff(view_.running(slot), effects_.stream(slot), effects_.frame(), now_us, config_.disconnect_us)) {
+        case SlotView::Watch::Lapsed: view_.vote_local(slot, true); break;  // settle_membership drops it once a majority agrees
+        case SlotView::Watch::Started:
+            if (!v.kick_vote && !v.restart_vote) view_.vote_local(slot, false);
+            break;
+        case SlotView::Watch::Nothing: break;
+    }
 }
 
 }  // namespace lockroll::rollback

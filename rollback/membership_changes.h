@@ -31,7 +31,8 @@
 //    for disconnect_us gets our vote (kept until heard again); a spectator silent that long is no
 //    longer served. Over every other process's running slot, live or never welcomed here: one
 //    whose handoff lapsed (SlotView::watch_handoff, our own stream of it) gets our vote, kept
-//    until the drop. A joiner whose stream started becomes a voter (Membership::started). Then
+//    until the drop or until its stream starts here (then withdrawn, unless a kick or a restart
+//    claim votes too). A joiner whose stream started becomes a voter (Membership::started). Then
 //    settle_membership().
 //  - disconnect_player(): a kick is our vote, as if the slot had been silent, kept until the drop.
 //    Throws std::invalid_argument for a slot that is not another process's (the caller's bug).

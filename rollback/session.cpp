@@ -222,8 +222,9 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
     // Any message from a welcomed peer proves it alive (a joiner pulling chunks sends no inputs).
     if (link.welcomed && (!is_slot(from) || slot_running(from))) {
         if (link.hear(now_us)) emit(SessionEvent::Kind::Resumed, SessionEvent::Reason::Heard, from, frame(), now_us);
-        // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays.
-        if (is_slot(from) && !slots_[from].kick_vote && !slots_[from].lapsed) membership_.vote_local(from, false);
+        // Heard again: our vote that it is gone is withdrawn (a partition healed). A kick stays, and
+        // so does a lapsed handoff's vote until the joiner's stream starts (check_handoff).
+        if (is_slot(from) && !slots_[from].kick_vote && !slots_[from].lapse_vote) membership_.vote_local(from, false);
     }
     switch (*kind) {
         case MessageKind::Hello: return;

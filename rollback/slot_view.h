@@ -36,10 +36,12 @@ struct SlotView {
     // restart_claim.h): noted when it begins, void once the old process is heard again.
     RestartClaim restart_claim;
     // A handed-over slot whose own stream has not started (its newest input is the owner's
-    // neutral one): since when, and whether that lasted disconnect_us and we voted it gone
-    // (a lapsed handoff: the vote stays until the drop, like a kick; check_silence).
+    // neutral one): since when, and whether that lasted disconnect_us (a lapsed handoff: the
+    // drop's reason, and the next handoff backs off). lapse_vote: our vote from that lapse
+    // stands; hearing the joiner does not withdraw it, its stream starting here does.
     std::uint64_t pending_since_us = 0;
     bool lapsed = false;
+    bool lapse_vote = false;
     // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
     // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
     // at most disconnect_us per attempt, and ever more rarely).
@@ -52,6 +54,7 @@ struct SlotView {
         restart_by_player = false;
         restart_claim.clear();
         lapsed = false;
+        lapse_vote = false;
         pending_since_us = 0;
         authoring = false;
         neutral_reported = false;
@@ -70,11 +73,17 @@ struct SlotView {
     // drops it as usual, the slot stays neutral, and the joiner may ask again: the owner hands the
     // slot over again only after 2, 4, then 8 x disconnect_us (dropped), so one that never loads
     // costs the others a stall of disconnect_us per attempt, ever more rarely. Its stream starting
-    // resets the backoff.
-    // Called per tick for a slot with a live peer: running, its stream (q) and our frame. True
-    // when the handoff lapses now: the caller votes the slot gone (the vote stays until the drop).
-    bool watch_handoff(bool running, const InputQueue& q, std::uint32_t frame, std::uint64_t now_us,
-                       std::uint64_t disconnect_us);
+    // resets the backoff, and withdraws our vote if the drop has not come yet: a joiner that
+    // loaded just past the deadline plays, and kept, the vote dropped it all the same and sent it
+    // back to fetch a snapshot, which at five players took longer than disconnect_us again.
+    // Called per tick for every other process's slot: running, its stream (q) and our frame.
+    enum class Watch {
+        Nothing,
+        Lapsed,   // the handoff lapses now: the caller votes the slot gone
+        Started,  // its stream started after it lapsed here: the caller withdraws that vote
+    };
+    Watch watch_handoff(bool running, const InputQueue& q, std::uint32_t frame, std::uint64_t now_us,
+                        std::uint64_t disconnect_us);
 };
 
 }  // namespace lockroll::rollback

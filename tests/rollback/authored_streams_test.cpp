@@ -77,6 +77,28 @@ TEST(AuthoredStreams, ATableInAnotherEpochIsNoReportOfTheDrop) {
     EXPECT_EQ(f.count(2), 0u);
 }
 
+// A peer's vote is written as the drop it wants ("disconnected" in the next epoch, flagged
+// voted): same epoch and state as our drop, but the slot still runs there and its process's
+// inputs still come in, so the count beside the vote still grows (a kick or a lapse, whose
+// process lives). Taken for the drop applied, the owner began the neutral input below inputs
+// that peer then confirmed (Lifecycle.KickOfALivePlayerOfThree...: desync). Only the drop
+// applied counts.
+TEST(AuthoredStreams, APeersVoteIsNoReportOfTheDrop) {
+    Fixture f(3, 0);
+    f.fill(2, 5, 9);
+    f.view.leave(2);
+    f.reports(1, 2, 5);
+    f.links[1].table[2].voted = true;
+    f.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(f.count(2), 5u) << "only voted: its count may still grow";
+    EXPECT_TRUE(f.fake.of(Kind::NeutralFrom).empty());
+    f.links[1].table[2].voted = false;  // it applied the drop: its count is final
+    f.authored.author_absent_streams(10, 100);
+    EXPECT_EQ(f.count(2), 11u);
+    ASSERT_EQ(f.fake.of(Kind::NeutralFrom).size(), 1u);
+    EXPECT_EQ(f.fake.of(Kind::NeutralFrom)[0].frame, 5u);
+}
+
 TEST(AuthoredStreams, OnlyTheLowestRunningSlotWritesAndNeverASpectator) {
     Fixture f(3, 1);
     f.view.leave(2);

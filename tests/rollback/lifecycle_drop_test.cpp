@@ -311,6 +311,49 @@ TEST(Lifecycle, ForgedRestartHelloDuringALongerSilenceIsAVoteOnlyAfterTheWindowA
 
 TEST(Lifecycle, KillAndRejoinLockstep) { kill_and_rejoin(0); }
 
+// A kick of a live player of three: its process keeps sending until it hears it was dropped.
+// Client 2 votes it gone first, client 0 (the owner) `lead_us` later; a majority agrees and each
+// applies the drop. Client 2's table carried its vote ("disconnected" in the next epoch) with
+// what it held of slot 1's stream while slot 1 still ran there and its inputs still came in: the
+// owner took that vote for the drop applied and started the neutral inputs at its own count,
+// below inputs client 2 went on to confirm (the five-player freeze, seed 146: "desync frame 387").
+// The owner must wait for the drop each peer applied, whose count can no longer grow.
+void kick_a_live_player(std::uint64_t seed, std::uint64_t lead_us) {
+    const auto scene = make_scene(3, 10);
+    SessionConfig cfg = real_config(3, 8);
+    cfg.input_delay = 0;
+    Cluster cluster(scene, cfg, {20000, 8000}, seed);
+    cluster.run_frames(200);
+    cluster.clients[2]->session->disconnect_player(1, cluster.now());
+    const std::uint64_t until = cluster.now() + lead_us;
+    while (cluster.now() < until) cluster.step_event();
+    cluster.clients[0]->session->disconnect_player(1, cluster.now());
+    cluster.run_frames(500, 20'000'000);
+    cluster.settle(500);
+    EXPECT_EQ(events_of(*cluster.clients[1], Kind::Kicked).size(), 1u);
+    std::set<std::uint32_t> neutral_from;
+    for (PlayerId p : {0u, 2u}) {
+        const Client& c = *cluster.clients[p];
+        ASSERT_EQ(c.session->phase(), SessionPhase::Running) << "client " << p << ": " << c.session->failure();
+        ASSERT_EQ(events_of(c, Kind::Disconnected).size(), 1u) << "client " << p;
+        EXPECT_NE(events_of(c, Kind::Disconnected)[0]->detail.find("kicked"), std::string::npos) << "client " << p;
+        for (const SessionEvent* e : events_of(c, Kind::NeutralFrom)) neutral_from.insert(e->frame);
+        EXPECT_EQ(c.session->stats().desyncs, 0u) << "client " << p;
+        EXPECT_EQ(c.session->stats().malformed_packets, 0u) << "client " << p;
+        EXPECT_TRUE(c.peer_errors.empty()) << "client " << p;
+    }
+    EXPECT_EQ(neutral_from.size(), 1u) << "slot 1's neutral input starts at different frames";
+    expect_equal_at(cluster, 500);
+}
+
+TEST(Lifecycle, KickOfALivePlayerOfThreeStartsItsNeutralInputAfterEveryInputAPeerConfirmed) {
+    for (std::uint64_t seed = 1; seed <= 8; ++seed)
+        for (std::uint64_t lead_us : {0u, 30'000u, 100'000u}) {
+            SCOPED_TRACE("seed " + std::to_string(seed) + ", owner votes " + std::to_string(lead_us / 1000) + " ms later");
+            kick_a_live_player(seed, lead_us);
+        }
+}
+
 // Issue 21, "the lone survivor freezes": every other player is killed from frame 200 on and the
 // survivor plays on alone. Nothing may stop a match that has one live player: it must keep
 // advancing and confirming frames far beyond input_capacity frames after the drop (the freeze

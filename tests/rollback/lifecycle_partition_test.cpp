@@ -543,11 +543,15 @@ TEST(Lifecycle, FreezeOfTwoOfThreeSplitsNobody) {
     }
 }
 // Five players, four frozen for different times around the timeout (one voter never stalls):
-// votes of every age cross, and still one view.
+// votes of every age cross, and still one view. Seed 146 desynced: slot 1's rejoin lapsed while
+// its process sent, and the owner took the peers' votes for the drop applied, starting the
+// neutral input below inputs they then confirmed (rollback/authored_streams.h). Seeds 1..200
+// pass (run by hand: 7 s).
 TEST(Lifecycle, FiveFrozenUnevenlySplitNobody) {
-    for (std::uint64_t seed = 1; seed <= 32; ++seed) {
-        SCOPED_TRACE("seed " + std::to_string(seed));
-        global_freeze(seed, {{0, 2'000'000}, {1, 3'200'000}, {2, 2'600'000}, {3, 1'700'000}}, 5);
+    for (std::uint64_t seed = 1; seed <= 33; ++seed) {
+        const std::uint64_t s = seed == 33 ? 146 : seed;
+        SCOPED_TRACE("seed " + std::to_string(s));
+        global_freeze(s, {{0, 2'000'000}, {1, 3'200'000}, {2, 2'600'000}, {3, 1'700'000}}, 5);
     }
 }
 TEST(Lifecycle, UnevenFreezeSplitsNobody) {

@@ -285,6 +285,33 @@ TEST(MembershipChanges, AHandoffWhoseStreamNeverStartsIsVotedGone) {
     EXPECT_EQ(f.fake.of(Kind::Disconnected).at(0).reason, Reason::HandoffLapsed);
 }
 
+// The joiner loads just past the deadline: its own inputs reach us before a majority dropped it.
+// It plays, so the vote its lapse cast is withdrawn (it was kept until the drop, and the five-player
+// freeze dropped joiners that had loaded 200 ms before; each one fetched a snapshot again). A kick
+// stands.
+TEST(MembershipChanges, ALapsedHandoffsVoteIsWithdrawnOnceItsStreamStarts) {
+    for (const bool kicked : {false, true}) {
+        SCOPED_TRACE(kicked ? "kicked too" : "lapsed only");
+        Fixture f(3);
+        const std::vector<std::uint8_t> zero{0}, one{1};
+        for (std::uint32_t fr = 0; fr < 10; ++fr) f.fake.queues[2].add_confirmed(fr, zero, true);
+        f.fake.shown = 10;
+        f.hear_all_but(99, 100);
+        f.changes.check_silence(100);
+        f.hear_all_but(99, 100 + kDisconnect);
+        f.changes.check_silence(100 + kDisconnect);
+        ASSERT_EQ(f.view.vote_of(0, 2), Vote::Gone);
+        if (kicked) f.changes.disconnect_player(2, 100 + kDisconnect);
+        f.fake.queues[2].add_confirmed(10, one);  // its own first input
+        f.fake.shown = 11;
+        f.hear_all_but(99, 200 + kDisconnect);
+        f.changes.check_silence(200 + kDisconnect);
+        EXPECT_EQ(f.view.vote_of(0, 2) == Vote::Gone, kicked);
+        EXPECT_TRUE(f.view.running(2));
+        EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
+    }
+}
+
 // The joiner reached only the owner: we never welcomed its process, yet our stream of its slot
 // is the owner's neutral input and we need it. Its handoff lapses here too (before, only a
 // welcomed peer's was judged, and our vote was missing for good).

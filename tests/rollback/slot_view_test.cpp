@@ -55,27 +55,45 @@ InputQueue handed_over() {
 TEST(SlotView, AHandoffWhoseStreamNeverStartsLapsesOnceAfterDisconnectUs) {
     SlotView v;
     const InputQueue q = handed_over();
-    EXPECT_FALSE(v.watch_handoff(true, q, 5, 100, kDisconnect)) << "not needed yet: we are before its end";
+    using W = SlotView::Watch;
+    EXPECT_EQ(v.watch_handoff(true, q, 5, 100, kDisconnect), W::Nothing) << "not needed yet: we are before its end";
     EXPECT_EQ(v.pending_since_us, 0u);
-    EXPECT_FALSE(v.watch_handoff(true, q, 10, 100, kDisconnect));
-    EXPECT_FALSE(v.watch_handoff(true, q, 10, 100 + kDisconnect - 1, kDisconnect));
-    EXPECT_TRUE(v.watch_handoff(true, q, 10, 100 + kDisconnect, kDisconnect));
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100, kDisconnect), W::Nothing);
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100 + kDisconnect - 1, kDisconnect), W::Nothing);
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100 + kDisconnect, kDisconnect), W::Lapsed);
     EXPECT_TRUE(v.lapsed);
-    EXPECT_FALSE(v.watch_handoff(true, q, 10, 200 + kDisconnect, kDisconnect)) << "voted once";
-    EXPECT_FALSE(SlotView{}.watch_handoff(true, q, 10, 100, 0)) << "disconnect_us 0: never";
+    EXPECT_TRUE(v.lapse_vote);
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 200 + kDisconnect, kDisconnect), W::Nothing) << "voted once";
+    EXPECT_EQ(SlotView{}.watch_handoff(true, q, 10, 100, 0), W::Nothing) << "disconnect_us 0: never";
 }
 
 TEST(SlotView, ItsOwnStreamStartingEndsTheWatchAndTheBackoff) {
     SlotView v;
     v.lapses = 2;
     InputQueue q = handed_over();
-    EXPECT_FALSE(v.watch_handoff(true, q, 10, 100, kDisconnect));
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100, kDisconnect), SlotView::Watch::Nothing);
     EXPECT_NE(v.pending_since_us, 0u);
     const std::uint8_t one = 1;
     q.add_confirmed(10, std::span(&one, 1));
-    EXPECT_FALSE(v.watch_handoff(true, q, 11, 100 + 2 * kDisconnect, kDisconnect));
+    EXPECT_EQ(v.watch_handoff(true, q, 11, 100 + 2 * kDisconnect, kDisconnect), SlotView::Watch::Nothing)
+        << "it never lapsed: no vote to withdraw";
     EXPECT_EQ(v.pending_since_us, 0u);
     EXPECT_EQ(v.lapses, 0);
+}
+
+// A joiner that loads just past the deadline plays: the vote its lapse cast is withdrawn (once),
+// while the lapse itself stays the reason (and backs off the next handoff) should the drop come.
+TEST(SlotView, ItsOwnStreamStartingAfterALapseWithdrawsTheVote) {
+    SlotView v;
+    InputQueue q = handed_over();
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100, kDisconnect), SlotView::Watch::Nothing);
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 100 + kDisconnect, kDisconnect), SlotView::Watch::Lapsed);
+    const std::uint8_t one = 1;
+    q.add_confirmed(10, std::span(&one, 1));
+    EXPECT_EQ(v.watch_handoff(true, q, 11, 200 + kDisconnect, kDisconnect), SlotView::Watch::Started);
+    EXPECT_FALSE(v.lapse_vote);
+    EXPECT_TRUE(v.lapsed);
+    EXPECT_EQ(v.watch_handoff(true, q, 12, 300 + kDisconnect, kDisconnect), SlotView::Watch::Nothing) << "withdrawn once";
 }
 
 TEST(SlotView, LapsedHandoffsBackOffTwoFourThenEightTimes) {
