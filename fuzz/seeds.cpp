@@ -1,6 +1,6 @@
 // Writes seed corpora for the fuzz targets from the real encoders, so every target starts from
 // valid inputs and mutates its way outward: fuzz_seeds DIR writes DIR/{protocol,session,replay,
-// snapshot,relay,token,membership}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
+// snapshot,relay,token,membership,drop_agreement}/*. The scene corpus is the shipped scenes (scripts/fuzz.sh copies them).
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "fuzz/drop_agreement_fuzz.h"
 #include "fuzz/membership_fuzz.h"
 #include "fuzz/relay_fuzz.h"
 #include "fuzz/token_fuzz.h"
@@ -318,6 +319,72 @@ int main(int argc, char** argv) {
         membership_op(handoff, kVoteLocal, kNone, 1, 1, 0);
         settle(handoff);
         put(dir, "handoff_kill", handoff);
+    }
+    // drop_agreement: processes agreeing on a drop, honest and with a hostile one
+    // (fuzz/drop_agreement_fuzz.h). None of these may break the target's properties.
+    {
+        using namespace lockroll::fuzz;
+        const fs::path dir = root / "drop_agreement";
+        auto vote = [](std::vector<std::uint8_t>& s, AgreeVote v, int voter, int slot, unsigned to = 0xFF) {
+            agreement_op(s, kAgreeVote, static_cast<std::uint8_t>(voter), static_cast<std::uint8_t>(slot),
+                         static_cast<std::uint8_t>(to), v);
+        };
+        auto step = [](std::vector<std::uint8_t>& s, int p, bool broadcast = true) {
+            agreement_op(s, kAgreeStep, static_cast<std::uint8_t>(p), broadcast ? 1 : 0, 0);
+        };
+        // Everything in flight is heard, in the order the swaps leave it.
+        auto deliver_all = [](std::vector<std::uint8_t>& s, int count) {
+            for (int i = 0; i < count; ++i) agreement_op(s, kAgreeDeliver, 0, 0, 0);
+        };
+        // Processes 0 .. stepping - 1 step and send their reports to every other, heard at once.
+        auto round = [&](std::vector<std::uint8_t>& s, int stepping, int players) {
+            for (int p = 0; p < stepping; ++p) {
+                step(s, p);
+                deliver_all(s, players - 1);
+            }
+        };
+        // 3 honest processes, slot 2 killed: 0 and 1 vote it gone and agree.
+        auto three = agreement_header(3, kNoHostile);
+        vote(three, kAgreeGone, 0, 2, 0b011);
+        vote(three, kAgreeGone, 1, 2, 0b011);
+        for (int r = 0; r < 3; ++r) round(three, 2, 3);
+        agreement_op(three, kAgreeTable, 0, 0, 0b100);  // 2 learns it from 0's table
+        step(three, 2);
+        put(dir, "three_one_killed", three);
+        // 5 honest processes, two proposers for different slots, a report lost and one heard
+        // twice, time passing so the outbid one retries.
+        auto five = agreement_header(5, kNoHostile, 3);
+        for (int v : {0, 1, 2}) vote(five, kAgreeGone, v, 4, 0b11111);
+        for (int v : {1, 2, 3}) vote(five, kAgreeGone, v, 0, 0b11111);
+        vote(five, kAgreeGone, 0, 3);
+        step(five, 0);
+        step(five, 1);
+        agreement_op(five, kAgreeDeliver, 0, 2, 2);  // lost
+        agreement_op(five, kAgreeDeliver, 0, 1, 1);  // stays in flight
+        deliver_all(five, 9);
+        agreement_op(five, kAgreeTime, 15, 0, 0);
+        for (int r = 0; r < 3; ++r) round(five, 5, 5);
+        vote(five, kAgreeRuns, 1, 4);  // a vote withdrawn
+        agreement_op(five, kAgreeTime, 40, 0, 0);
+        for (int r = 0; r < 2; ++r) round(five, 5, 5);
+        put(dir, "five_two_proposers", five);
+        // 4 processes, 3 hostile: a ballot in 0's name with a huge round naming slot 1, a report
+        // of another instance, a drop it claims, its vote about slot 0; then 1 and 2 vote it gone.
+        auto hostile = agreement_header(4, 3);
+        agreement_op(hostile, kAgreeForge, kForgeProposal, 0x00, 0xFC);  // round 0x3F0 in 0's name
+        agreement_op(hostile, kAgreeForge, kForgeProposalSlot, 1, 0);
+        agreement_op(hostile, kAgreeForged, 0, 0, 0b0111);
+        agreement_op(hostile, kAgreeForge, kForgeInstance, 1, 0);
+        agreement_op(hostile, kAgreeForge, kForgeAllBallots, 0xC3, 0xFF);  // the highest ballot, its own name
+        agreement_op(hostile, kAgreeForge, kForgeAcceptedSlot, 0, 0);
+        agreement_op(hostile, kAgreeForged, 0, 0, 0b0111);
+        agreement_op(hostile, kAgreeTable, 3, 0, 129);  // "I dropped slot 0"
+        vote(hostile, kAgreeGone, 3, 0, 129);
+        deliver_all(hostile, 6);
+        for (int v : {1, 2}) vote(hostile, kAgreeGone, v, 3);
+        vote(hostile, kAgreeGone, 0, 3);
+        for (int r = 0; r < 3; ++r) round(hostile, 3, 4);
+        put(dir, "four_hostile_forges", hostile);
     }
     return 0;
 }
