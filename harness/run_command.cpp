@@ -151,7 +151,12 @@ void do_run(const RunOptions& o) {
     std::printf("%s", console_summary(r).c_str());
     std::printf("  written      %s/summary.json, frames.csv%s\n", o.out.c_str(), r.positions_csv.empty() ? "" : ", positions.csv");
     std::fflush(stdout);
-    if (!r.completed) throw std::runtime_error("run did not complete: not every client confirmed the last frame");
+    if (!r.completed) {
+        // Issue 21: a client cut off from a majority at the end never completed; say which.
+        const std::string cut_off = partitioned_clients(r);
+        throw std::runtime_error("run did not complete: not every client confirmed the last frame" +
+                                 (cut_off.empty() ? std::string() : "; partitioned: " + cut_off));
+    }
 }
 
 void do_compare(const RunOptions& o) {

@@ -109,13 +109,18 @@ Handshake::WelcomeVerdict Handshake::judge_welcome(PlayerId from, const WelcomeM
                                                    const PeerLink& link, std::uint64_t scene_checksum) const {
     using Act = WelcomeVerdict::Act;
     const bool running = phase == SessionPhase::Running;
-    if (m.refusal == Refusal::Retry) return {};
+    // A player's hello is answered retry or disconnected only when the match runs with another
+    // process of its slot, or dropped it (admit_hello): this one restarted. A first start is
+    // welcomed (or refused for a mismatch), never told either.
+    const bool restarted = config_.role == Role::Player && phase == SessionPhase::Synchronizing && is_slot(from) && m.running &&
+                           (m.refusal == Refusal::Retry || m.refusal == Refusal::Disconnected);
+    if (m.refusal == Refusal::Retry) return {Act::Ignore, {}, SessionEvent::Reason::None, restarted};
     if (m.refusal == Refusal::Disconnected) {
         if (config_.role == Role::Spectator) return {Act::SpectatorDropped, {}};
         // One voice, which makes us Kicked only together with a majority (in a view of two, the
         // other's decision made: MembershipChanges::refused_as_dropped). A joiner still
         // synchronizing has no slot in the view to lose yet.
-        if (config_.role == Role::Player || running) return {Act::VoteGone, {}};
+        if (config_.role == Role::Player || running) return {Act::VoteGone, {}, SessionEvent::Reason::None, restarted};
         return {};
     }
     if (m.refusal != Refusal::None) {

@@ -25,7 +25,9 @@
 //    a second (refusal_answered(), refusal_reported()).
 //  - Welcomes received: judge_welcome() says what one means (ignore it, our spectator or slot
 //    dropped, refused with the text of the event, one more sync round trip, a running newcomer's
-//    late welcome); the session does it.
+//    late welcome), and whether it tells a player still synchronizing that it is a restarted
+//    process (`restarted`: a running slot answered its hello `retry` or `disconnected`); the
+//    session does it.
 #pragma once
 
 #include <cstdint>
@@ -89,6 +91,11 @@ public:
         Act act = Act::Ignore;
         std::string why;
         SessionEvent::Reason reason = SessionEvent::Reason::None;  // Refused: refusal_reason()
+        // A player still synchronizing was answered `retry` or `disconnected` by a running slot:
+        // admit_hello says that only to another process of a slot the match runs (its restart
+        // claim standing) or dropped, so this process restarted: it had been in the match, and
+        // its reach is judged as a joiner's (rollback/joiner_reach.h). Any act.
+        bool restarted = false;
     };
     WelcomeVerdict judge_welcome(PlayerId from, const WelcomeMessage& m, SessionPhase phase, const PeerLink& link,
                                  std::uint64_t scene_checksum) const;

@@ -7,6 +7,15 @@
 // its runner's connect timeout (30 s and more).
 //
 // Contract
+//  - Whose reach is judged (judges()): a joiner's; and a player's that a running slot told it is
+//    a restarted process (told_restarted(): its hello answered `retry` or `disconnected`,
+//    Handshake::WelcomeVerdict::restarted) -- a process relaunched with its usual settings (role
+//    Player, no `join`) that reaches a minority is refused by them but never kicked (one vote of
+//    too few), so before it too said nothing until its runner's connect timeout. One that hears
+//    nobody at all is not judged: it cannot tell a restart from a first start nobody answers yet
+//    (and at a first start every player waits for every other: the match never ran), so its
+//    runner's connect_timeout is what it knows. The session calls begin() and heard() from its
+//    first poll for both roles, so a restarted player's silence counts from its start.
 //  - The view: the latest offer's slot table (saw_view), else the match's starting one (every
 //    slot but the config's absent ones); the joiner's own slot counts as running (after its
 //    handoff it does) and so does every peer heard from (a provider cannot shrink the view, as
@@ -46,6 +55,10 @@ class JoinerReach {
 public:
     void begin(std::uint64_t now_us);
     bool begun() const { return begun_; }
+    // A running slot answered this player's hello retry or disconnected: it restarted.
+    void told_restarted() { restarted_ = true; }
+    // Whether a session of `role` that has not run yet is judged (see the contract).
+    bool judges(Role role) const { return role == Role::Joiner || (role == Role::Player && restarted_); }
     // Any datagram from slot p: it is reached (named silence withdrawn).
     void heard(PlayerId p, std::uint64_t now_us);
     // A vetting ended at its deadline without these voters' answers.
@@ -68,6 +81,7 @@ private:
         bool named_silent = false;
     };
     bool begun_ = false;
+    bool restarted_ = false;
     std::uint64_t begun_us_ = 0;
     std::vector<Peer> peers_;  // per slot, grown as needed
     std::vector<SlotEntry> table_;

@@ -204,8 +204,9 @@ void SessionImpl::receive_impl(PlayerId from, std::span<const std::uint8_t> data
         ++ps.ignored_packets;
         return;
     }
-    // A joiner not yet loaded: whatever a slot's process says, it is reached.
-    if (config_.role == Role::Joiner && phase_ != SessionPhase::Running && is_slot(from)) reach_.heard(from, now_us);
+    // A joiner not yet loaded (or a player before frame 0, should it turn out to be a restarted
+    // process): whatever a slot's process says, it is reached.
+    if (config_.role != Role::Spectator && phase_ != SessionPhase::Running && is_slot(from)) reach_.heard(from, now_us);
     const auto kind = peek_kind(datagram);
     // A hello is always heard (a rejoining process replaces a failed one); the rest only from a
     // peer that is listened to.
@@ -352,6 +353,7 @@ void SessionImpl::handle_welcome(PlayerId from, const WelcomeMessage& m, std::ui
     PeerLink& link = links_[from];
     using Act = Handshake::WelcomeVerdict::Act;
     const Handshake::WelcomeVerdict v = handshake_.judge_welcome(from, m, phase_, link, scene_checksum_);
+    if (v.restarted) reach_.told_restarted();  // judged as a joiner from the next poll on
     switch (v.act) {
         case Act::Ignore: return;
         case Act::SpectatorDropped:
@@ -595,10 +597,11 @@ void SessionImpl::poll_handshake(std::uint64_t now_us) {
     handshake_.poll_hellos(links_, phase_, scene_checksum_, now_us, pending_out_);
     const bool newcomer = config_.role != Role::Player;
     const bool syncing = phase_ == SessionPhase::Synchronizing || phase_ == SessionPhase::Transferring;
-    // A joiner cut off from a majority says so, as a player does (rollback/joiner_reach.h).
-    if (config_.role == Role::Joiner && syncing) {
+    // A joiner cut off from a majority says so, as a player does; so does a restarted player
+    // before frame 0, once a running slot told it that it restarted (rollback/joiner_reach.h).
+    if (config_.role != Role::Spectator && syncing) {
         reach_.begin(now_us);
-        changes_.joiner_cut_off(reach_.judge(config_, now_us), now_us);
+        if (reach_.judges(config_.role)) changes_.joiner_cut_off(reach_.judge(config_, now_us), now_us);
     }
     // Asking for a snapshot: a newcomer once some running peer has welcomed it enough times (and
     // the others had a moment to answer), a desynced peer from the majority peer it picked.

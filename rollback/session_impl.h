@@ -215,7 +215,7 @@ private:
     std::uint32_t last_frame_ = ~std::uint32_t{0};  // set_last_frame()
     // the newcomer's (or a recovering peer's) side of a transfer
     SnapshotFetch fetch_;
-    JoinerReach reach_;  // a joiner's, until it loads: cut off from a majority (rollback/joiner_reach.h)
+    JoinerReach reach_;  // a joiner's until it loads, a restarted player's: cut off from a majority (rollback/joiner_reach.h)
     FramePacing pacing_;  // declared after config_, which it reads
     Handshake handshake_;  // after config_ and membership_
     std::optional<PlayerId> recover_from_;

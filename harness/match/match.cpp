@@ -325,6 +325,9 @@ void Client::drain_events() {
         alone_.saw(e, session_->config().players);
     }
     alone_.settle(rollback::running_voters(*session_), session_->config().local_player);
+    // The event gives the frame; should it have been lost (a full event queue), the session's
+    // state still opens the episode, at its confirmed frame, as a real process's runner does.
+    if (!partitioned_since_ && session_->partitioned()) partitioned_since_ = session_->confirmed_frame();
     // As of its final, as a real process says it: the match runs on for the others' sake.
     if (!rec_.final_checksum()) alone_at_final_ = alone_.since();
     if (!session_->partitioned() && session_->running() && partitioned_since_ && session_->confirmed_frame() > *partitioned_since_)
@@ -699,6 +702,17 @@ RunResult Match::finish() {
         if (c->rejoined_at_) {
             cr.rejoined_at_frame = c->rejoined_at_;
             cr.partitioned_since_frame = c->dropped_partitioned_since_;
+        }
+        // Issue 21: cut off from a majority and not healed when the match ended (the others
+        // finished, or the time limit came), it never confirmed the last frame: partitioned, with
+        // the episode's frame, never completed. A real process's runner says the same (RunEnd).
+        if (cr.final_confirmed) {
+            cr.outcome = "completed";
+        } else if (c->partitioned_since_) {
+            cr.outcome = "partitioned";
+            cr.partitioned_since_frame = c->partitioned_since_;
+        } else {
+            cr.outcome = "incomplete";
         }
         res.completed = res.completed && cr.final_confirmed;
         res.virtual_seconds = std::max(res.virtual_seconds, static_cast<double>(now - c->start_us_) / 1e6);

@@ -106,8 +106,16 @@ struct ClientResult {
     // these clients make the match's tick rate and stall fraction (RunResult::ticks_per_second).
     bool from_start = true;
     // Issue 21: dropped by the others while cut off (partitioned since that frame, if it said
-    // so) and rejoined their view by a snapshot of rejoined_at_frame once the network healed.
+    // so) and rejoined their view by a snapshot of rejoined_at_frame once the network healed; or,
+    // with outcome "partitioned", cut off from a majority of the view since that frame (the
+    // session's `partitioned` event) and not healed when the match ended.
     std::optional<std::uint32_t> partitioned_since_frame, rejoined_at_frame;
+    // How an in-process match ended for this client (summary.json "outcome" of each client):
+    // "completed" (it confirmed the last frame), "partitioned" (it did not, and was in an unhealed
+    // partition episode at the end: it never says completed), "incomplete" (neither: the run's
+    // time limit). nullptr where the run does not judge it (a real process's figures: its own
+    // summary's top-level outcome says it).
+    const char* outcome = nullptr;
     // A drop left it the only running voter of its view (the two-player rule, in a match of two
     // or one shrunk to two) from this frame to the end: it agreed with nobody since.
     std::optional<std::uint32_t> alone_since_frame;

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <functional>
 #include <sstream>
+#include <string_view>
 
 #include "harness/match/atomic_file.h"
 #include "harness/match/hex.h"
@@ -102,7 +103,9 @@ json summary_json(const RunResult& r) {
                            {"packets_received", c.packets_received},
                            {"malformed_packets", c.malformed_packets},
                            {"desyncs", c.desyncs}});
-        // Present only when true of the client (issue 21: rejoined after a healed partition).
+        if (c.outcome) clients.back()["outcome"] = c.outcome;
+        // Present only when true of the client (issue 21: rejoined after a healed partition, or
+        // partitioned at the end).
         if (c.partitioned_since_frame) clients.back()["partitioned_since_frame"] = *c.partitioned_since_frame;
         if (c.alone_since_frame) clients.back()["alone_since_frame"] = *c.alone_since_frame;
         if (c.rejoined_at_frame) clients.back()["rejoined_at_frame"] = *c.rejoined_at_frame;
@@ -258,6 +261,8 @@ std::string console_summary(const RunResult& r) {
     if (r.partition_cuts > 0)
         o << "  partition    " << r.partition_cuts << (r.partition_cuts == 1 ? " cut" : " cuts") << ", "
           << r.partitioned_datagrams << " datagrams dropped across them\n";
+    if (const std::string cut_off = partitioned_clients(r); !cut_off.empty())
+        o << "  partitioned  " << cut_off << ": cut off from a majority of the view, not healed when the match ended\n";
     o << "  tick rate    " << fmt("%.2f", r.ticks_per_second()) << " ticks/s, stalls " << fmt("%.1f", 100 * r.stall_fraction())
       << " % of ticks; input delay " << r.input_delay << " frames, window " << r.prediction << "\n";
     o << "  input lag    local mean " << or_na(r.input_latency_local, fmt("%.1f", r.input_latency_local.mean()) + " ms") << " (max "
@@ -285,6 +290,17 @@ std::string console_summary(const RunResult& r) {
     for (const auto& c : r.clients) o << (c.final_confirmed ? hex16(c.final_checksum) : std::string("(none)")) << " ";
     o << "\n";
     return o.str();
+}
+
+std::string partitioned_clients(const RunResult& r) {
+    std::string out;
+    for (std::size_t k = 0; k < r.clients.size(); ++k) {
+        const ClientResult& c = r.clients[k];
+        if (!c.outcome || std::string_view(c.outcome) != "partitioned") continue;
+        out += (out.empty() ? "client " : ", client ") + std::to_string(k);
+        if (c.partitioned_since_frame) out += " since frame " + std::to_string(*c.partitioned_since_frame);
+    }
+    return out;
 }
 
 std::string events_csv(const RunResult& r) {

@@ -26,6 +26,9 @@ std::string events_csv(const RunResult& r);
 // time_s,client,frame,frames_ahead,wait_frames: every client's time sync, tick by tick.
 std::string timesync_csv(const RunResult& r);
 std::string console_summary(const RunResult& r);
+// The clients of an in-process match that ended partitioned (issue 21), for the console and the
+// CLI's error: "client 2 since frame 118, client 5 since frame 117"; "" when none did.
+std::string partitioned_clients(const RunResult& r);
 
 // Writes summary.json, frames.csv, events.csv, timesync.csv and (when recorded) positions.csv
 // into dir, atomically.

@@ -144,6 +144,22 @@ then echo "FAIL: run --partition summary/events"; failures=$((failures + 1)); fi
 if ! /usr/bin/python3 -c 'import json, sys; assert "partition" not in json.load(open(sys.argv[1]))["network"]' "$tmp/run/summary.json"
 then echo "FAIL: summary.json mentions partitions without --partition"; failures=$((failures + 1)); fi
 
+# A partition that never heals before the match ends (issue 21): the majority completes, the
+# cut-off client ends partitioned with its frame (never completed), and the run exits non-zero
+# saying so.
+expect 1 "partitioned: client 2 since frame [0-9]+" -- \
+    "$lockroll" run --players 3 --frames 240 --partition 0,1/2@60-100000 --out "$tmp/part-unhealed"
+if ! /usr/bin/python3 - "$tmp/part-unhealed" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1] + "/summary.json"))
+c = d["clients"]
+assert d["completed"] is False, d["completed"]
+assert [x["outcome"] for x in c] == ["completed", "completed", "partitioned"], [x.get("outcome") for x in c]
+assert 40 <= c[2]["partitioned_since_frame"] <= 64, c[2]
+assert d["final_checksums"][2] is None and d["final_checksums"][0] == d["final_checksums"][1], d["final_checksums"]
+PY
+then echo "FAIL: run with an unhealed --partition: summary"; failures=$((failures + 1)); fi
+
 # run --record: a replay of a 3-player match (one player body added) verifies; a damaged copy
 # is rejected with exit 2.
 expect 0 "" -- "$lockroll" run --players 3 --frames 180 --latency 40 --jitter 10 --loss 0.1 --record "$tmp/r.lrr" --out "$tmp/rr"

@@ -13,6 +13,7 @@
 #     `partitioned` (reason no_majority, frame 0: it loaded nothing) within a few timeouts, loads
 #     nothing, and ends `partitioned` at its connect timeout (before: `connect_timeout`, and live
 #     exited 1); live reports the split and exits 0.
+#  4. The same for a restart without --join that reaches slot 0 alone (see below).
 # Outcomes only, with slack: frames are bounds, never timings.
 set -u
 lockroll=$1
@@ -84,30 +85,48 @@ fin = [e for e in events("p2") if e["event"] == "finished"]
 assert fin and fin[-1]["outcome"] == "completed" and fin[-1]["rejoined_at_frame"] == g, fin
 '
 
+# A newcomer (a joiner, or a restart without --join) cut off from the majority for the rest of the
+# run: 0 and 1 complete on one final; WHO says `partitioned` (no_majority, frame 0: it loaded
+# nothing) within a few disconnect timeouts (2 s), not at the 30 s connect timeout, never runs,
+# and ends `partitioned` since frame 0. EXTRA: more assertions (told: its partitioned events).
+cut_off_newcomer() {  # cut_off_newcomer NAME WHO EXTRA
+    check "$1" "$tmp/$1" rollback "who = '$2'"'
+assert d["ok"] and "overclaims" not in d, d
+assert d["split"] == {"completed": 2, "partitioned": 1, "partitioned_processes": [who]}, d["split"]
+assert procs["p0"]["final_checksum"] == procs["p1"]["final_checksum"] is not None
+j = procs[who]
+assert j["outcome"] == "partitioned" and j["exit_status"] == 1 and j["final_checksum"] is None, j
+s = json.load(open(os.path.join(sys.argv[1], "rollback", who, "summary.json")))
+assert s["outcome"] == "partitioned" and s["partitioned_since_frame"] == 0, s
+assert "partitioned since frame 0" in s["outcome_detail"], s["outcome_detail"]
+ev = events(who)
+told = [e for e in ev if e["event"] == "partitioned"]
+assert len(told) == 1 and told[0]["reason"] == "no_majority" and told[0]["event_frame"] == 0, told
+assert told[0]["t_ms"] - ev[0]["t_ms"] < 10000, told
+assert not any(e["event"] in ("snapshot_loaded", "synchronized", "all_confirmed") for e in ev), [e["event"] for e in ev]
+fin = [e for e in ev if e["event"] == "finished"]
+assert fin and fin[-1]["outcome"] == "partitioned" and fin[-1]["partitioned_since_frame"] == 0, fin
+'"$3"
+}
+
 # 3. The cut from frame 250 outlasts the run; p2 is killed at 100 (0 and 1 drop it after 2 s) and
 #    p2-rejoin starts at 300, cut off from both. It waits for its snapshot until the runner's
 #    connect timeout (30 s), reporting the partition long before it.
 "$lockroll" live --players 3 --frames 900 --mode rollback --kill 2@100 --rejoin 2@300 --partition 0,1/2@250-5000 \
     --no-virtual --disconnect-timeout 2 --out "$tmp/joiner" >"$tmp/joiner.out" 2>&1 || { fail "joiner: exit status $?"; tail -5 "$tmp/joiner.out"; }
 grep -q "split *2 completed on one final, 1 partitioned" "$tmp/joiner.out" || fail "joiner: the console does not report the split"
-check joiner "$tmp/joiner" rollback '
-assert d["ok"] and "overclaims" not in d, d
-assert d["split"] == {"completed": 2, "partitioned": 1, "partitioned_processes": ["p2-rejoin"]}, d["split"]
-assert procs["p0"]["final_checksum"] == procs["p1"]["final_checksum"] is not None
-j = procs["p2-rejoin"]
-assert j["outcome"] == "partitioned" and j["exit_status"] == 1 and j["final_checksum"] is None, j
-s = json.load(open(os.path.join(sys.argv[1], "rollback", "p2-rejoin", "summary.json")))
-assert s["outcome"] == "partitioned" and s["partitioned_since_frame"] == 0, s
-assert "partitioned since frame 0" in s["outcome_detail"], s["outcome_detail"]
-ev = events("p2-rejoin")
-told = [e for e in ev if e["event"] == "partitioned"]
-# Within a few disconnect timeouts (2 s), not at the 30 s connect timeout.
-assert len(told) == 1 and told[0]["reason"] == "no_majority" and told[0]["event_frame"] == 0, told
-assert told[0]["t_ms"] - ev[0]["t_ms"] < 10000, told
-assert not any(e["event"] in ("snapshot_loaded", "synchronized", "all_confirmed") for e in ev), [e["event"] for e in ev]
-fin = [e for e in ev if e["event"] == "finished"]
-assert fin and fin[-1]["outcome"] == "partitioned" and fin[-1]["partitioned_since_frame"] == 0, fin
-'
+cut_off_newcomer joiner p2-rejoin ""
+
+# 4. A restart without --join cut off from the majority: p2 is killed at 100 (0 and 1 drop it after
+#    2 s) and p2-restart starts at 300 with its usual arguments (role player), while the links
+#    between slots 1 and 2 are cut for the rest of the run: it reaches slot 0 alone, which refuses
+#    it (the slot was dropped), one vote of two. That refusal tells it that it restarted, so it
+#    reports `partitioned` (no_majority) within a few timeouts and ends `partitioned` at its
+#    connect timeout (before: it said nothing and ended `connect_timeout`, and live exited 1).
+"$lockroll" live --players 3 --frames 900 --mode rollback --kill 2@100 --restart 2@300 --partition 1/2@250-5000 \
+    --no-virtual --disconnect-timeout 2 --out "$tmp/restart" >"$tmp/restart.out" 2>&1 || { fail "restart: exit status $?"; tail -5 "$tmp/restart.out"; }
+grep -q "split *2 completed on one final, 1 partitioned" "$tmp/restart.out" || fail "restart: the console does not report the split"
+cut_off_newcomer restart p2-restart 'assert "no word from peer 1" in told[0]["detail"], told'
 
 [[ $failures -eq 0 ]] && echo "all passed" || echo "$failures failure(s)"
 exit $((failures > 0))

@@ -210,6 +210,35 @@ TEST(Handshake, WhatAWelcomeMeans) {
     EXPECT_EQ(hj.judge_welcome(0, w, SessionPhase::Running, j.links[0], 9).act, Act::VoteGone);
 }
 
+// Issue 21: a player still synchronizing that a running slot answers retry or disconnected is a
+// restarted process (only another process of a slot the match runs, or dropped, is told that);
+// a first start is welcomed, and a joiner, a running player or a peer that does not run says
+// nothing of the kind.
+TEST(Handshake, ARetryOrDisconnectedFromARunningSlotTellsASynchronizingPlayerItRestarted) {
+    Fixture f(Role::Player, 2);
+    Handshake h(f.config, f.view);
+    WelcomeMessage w;
+    w.running = true;
+    EXPECT_FALSE(h.judge_welcome(0, w, SessionPhase::Synchronizing, f.links[0], 9).restarted) << "a welcome";
+    for (Refusal r : {Refusal::Retry, Refusal::Disconnected}) {
+        w.refusal = r;
+        w.running = true;
+        const auto v = h.judge_welcome(0, w, SessionPhase::Synchronizing, f.links[0], 9);
+        EXPECT_TRUE(v.restarted) << refusal_name(r);
+        EXPECT_EQ(v.act, r == Refusal::Retry ? Handshake::WelcomeVerdict::Act::Ignore : Handshake::WelcomeVerdict::Act::VoteGone);
+        EXPECT_FALSE(h.judge_welcome(0, w, SessionPhase::Running, f.links[0], 9).restarted) << refusal_name(r);
+        w.running = false;
+        EXPECT_FALSE(h.judge_welcome(0, w, SessionPhase::Synchronizing, f.links[0], 9).restarted) << refusal_name(r);
+    }
+    w.refusal = Refusal::Scene;
+    w.running = true;
+    EXPECT_FALSE(h.judge_welcome(0, w, SessionPhase::Synchronizing, f.links[0], 9).restarted);
+    Fixture j(Role::Joiner, 2);
+    Handshake hj(j.config, j.view);
+    w.refusal = Refusal::Retry;
+    EXPECT_FALSE(hj.judge_welcome(0, w, SessionPhase::Synchronizing, j.links[0], 9).restarted);
+}
+
 // A newcomer (joiner, or spectator since issue 21) that runs takes a late welcome from a running
 // slot; a player needs none.
 TEST(Handshake, ARunningNewcomerTakesALateWelcomeOnceFromARunningSlot) {

@@ -142,6 +142,22 @@ TEST(JoinerReach, AHostOfGuestsIsOneVoter) {
     EXPECT_FALSE(r.judge(c, 7 * kSecond).cut_off);
 }
 
+// Issue 21: a player is judged only once told it restarted (its silence counted from begin());
+// a joiner always; a spectator never.
+TEST(JoinerReach, APlayerIsJudgedOnlyOnceToldItRestarted) {
+    SessionConfig c = joiner(3, 2);
+    c.role = Role::Player;
+    JoinerReach r = hearing({0});
+    EXPECT_TRUE(r.judges(Role::Joiner));
+    EXPECT_FALSE(r.judges(Role::Player)) << "a first start cannot be told from a restart";
+    EXPECT_FALSE(r.judges(Role::Spectator));
+    r.told_restarted();
+    EXPECT_TRUE(r.judges(Role::Player));
+    EXPECT_FALSE(r.judges(Role::Spectator));
+    EXPECT_FALSE(r.judge(c, 4 * kSecond).cut_off);
+    EXPECT_TRUE(r.judge(c, 6 * kSecond).cut_off) << "slot 1 unheard since begin() for disconnect_us";
+}
+
 // disconnect_us = 0 (never time out): only a vetting's naming counts.
 TEST(JoinerReach, WithoutADisconnectTimeoutOnlyNamedSilenceCounts) {
     SessionConfig c = joiner(3, 2);

@@ -438,6 +438,85 @@ TEST(Lifecycle, AJoinerThatHearsOnlyTheOwnerReportsPartitioned) { joiner_cut_off
 TEST(Lifecycle, AJoinerThatHearsOnlyANonOwnerReportsPartitioned) { joiner_cut_off({0}); }
 TEST(Lifecycle, AJoinerThatHearsNobodyReportsPartitioned) { joiner_cut_off({0, 1}); }
 
+// Issue 21, the same for a process restarted with its usual settings (role Player, no `join`):
+// slot 2 of three dies at frame 200 and a new process of it says hello as a player 0.3 s later,
+// while every datagram between it and the slots in `unreachable` is lost. A peer it reaches
+// answers its hello `retry` (the restart claim has not stood yet) or, once it dropped the slot,
+// `disconnected`: only another incarnation of a slot in a running match is told that, so the
+// process knows it had been in the match, and from then on it is judged as a joiner is
+// (rollback/joiner_reach.h). One refusal of two is no majority, so it is never kicked; before,
+// it sat in its sync phase saying nothing until its runner's connect timeout ended it
+// `connect_timeout`. Now it reports `partitioned` (no_majority) within disconnect_us (+ slack)
+// of starting, and once healed it is kicked, rejoins as a joiner and confirms the majority's
+// checksums. With `unreachable` all of them it hears nobody for `deaf_us` first: then it cannot
+// tell a restart from a first start that nobody answers (connect_timeout is what it knows), and
+// says nothing, until the first refusal arrives.
+void restarted_player_cut_off(std::set<PlayerId> unreachable, std::uint64_t deaf_us = 0) {
+    const auto scene = make_scene(3, 20);
+    const SessionConfig cfg = real_config(3, 8);
+    Cluster cluster(scene, cfg, {10000, 2000}, 23);
+    rejoin_when_dropped(cluster);
+    cluster.run_frames(200);
+    cluster.kill(2);
+    // Cut from the kill on, so that nothing the cut-off slots sent the old process is still on
+    // its way when the new one starts (between real processes the new connection never sees it).
+    bool deaf = deaf_us > 0, cut = true;
+    cluster.filter = [&](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {
+        const bool crosses = (from == 2 && (deaf || unreachable.count(to))) || (to == 2 && (deaf || unreachable.count(from)));
+        return !(cut && crosses);
+    };
+    cluster.run([](const Cluster&) { return false; }, 300'000);
+    SessionConfig again = cfg;
+    again.local_player = 2;  // role Player, as it first started
+    Client& restarted = cluster.start(2, scene, again, 999);
+    const std::uint64_t started = cluster.now();
+    if (deaf) {
+        cluster.run([](const Cluster&) { return false; }, deaf_us);
+        EXPECT_TRUE(events_of(restarted, Kind::Partitioned).empty())
+            << "a process that heard nobody cannot know it restarted: " << events_of(restarted, Kind::Partitioned)[0]->detail;
+        EXPECT_FALSE(restarted.session->partitioned());
+        deaf = false;  // now it hears the slots not in `unreachable`
+    }
+    const std::uint64_t bound = cfg.disconnect_us + 2 * cfg.interrupt_us;
+    const std::uint64_t hearing = cluster.now();
+    cluster.run([&](const Cluster&) { return !events_of(restarted, Kind::Partitioned).empty(); },
+                deaf_us > 0 ? 1'000'000 : bound);
+    ASSERT_FALSE(events_of(restarted, Kind::Partitioned).empty())
+        << "a restarted player cut off from the majority says so (phase " << static_cast<int>(restarted.session->phase()) << ")";
+    const SessionEvent told = *events_of(restarted, Kind::Partitioned)[0];
+    if (deaf_us > 0) EXPECT_LE(told.at_us - hearing, 1'000'000u) << "once refused, at once (its silence already outlasted the timeout)";
+    else EXPECT_LE(told.at_us - started, bound);
+    EXPECT_EQ(told.reason, SessionEvent::Reason::NoMajority);
+    EXPECT_EQ(told.peer, 2u);
+    EXPECT_NE(told.detail.find("no majority"), std::string::npos) << told.detail;
+    EXPECT_TRUE(restarted.session->partitioned());
+    EXPECT_TRUE(events_of(restarted, Kind::Synchronized).empty()) << "it never ran frame 0 of a running match";
+    EXPECT_TRUE(events_of(restarted, Kind::Kicked).empty()) << "one refusal of two is no majority";
+    // The two others dropped it and play on.
+    cluster.run([](const Cluster&) { return false; }, cfg.disconnect_us);
+    for (PlayerId p : {0u, 1u}) {
+        EXPECT_EQ(cluster.clients[p]->session->slot_state(2), SlotState::Disconnected) << "client " << p;
+        EXPECT_TRUE(events_of(*cluster.clients[p], Kind::Partitioned).empty()) << "client " << p << " hears a majority";
+    }
+    // Healed: refused by both, it is kicked, rejoins as a joiner and confirms their checksums.
+    cut = false;
+    const std::uint32_t end = cluster.clients[0]->session->frame() + 600;
+    cluster.run_frames(end, 120'000'000);
+    cluster.settle(end);
+    Client& back = *cluster.clients[2];
+    ASSERT_EQ(back.session->phase(), SessionPhase::Running) << back.session->failure();
+    EXPECT_FALSE(back.session->partitioned());
+    EXPECT_EQ(events_of(back, Kind::SnapshotLoaded).size(), 1u);
+    for (const auto& c : cluster.clients) EXPECT_EQ(c->session->stats().desyncs, 0u);
+    expect_equal_at(cluster, end);
+}
+
+TEST(Lifecycle, ARestartedPlayerThatHearsOnlyOnePeerReportsPartitioned) {
+    restarted_player_cut_off({1});
+    restarted_player_cut_off({0});
+}
+TEST(Lifecycle, ARestartedPlayerThatHearsNobodySaysNothingUntilAPeerRefusesIt) { restarted_player_cut_off({1}, 8'000'000); }
+
 
 // Issue 21, "membership that cannot split" (lockroll live, 3 players, 5 % loss): the machine
 // stalled and every process stopped for 3.2 s at once, longer than disconnect_us. Here three
