@@ -196,12 +196,12 @@ private:
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     // The pair's manifold (a, b: the pair in the roles contact_points() gets), reduced when
     // the scene asks; m.count == 0 when apart.
-    void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
+    inline void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
     // Builds the m.count points of a manifold between a and b (whose slots exist) at out.
-    // manifold_of() and build_points() are inline in rigid_solver.cpp (build_contacts()'s loop,
-    // as before the parallel step), and reached from rigid_solver_parallel.cpp through the
-    // per-range phases find_manifolds() and build_found().
-    void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
+    // manifold_of() and build_points() are inline, defined and used in rigid_solver.cpp only
+    // (build_contacts()'s loop, as before the parallel step); rigid_solver_parallel.cpp reaches
+    // them through the per-range phases find_manifolds() and build_found().
+    inline void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
     // build_contacts() in three phases (RigidSolver::step), the same points in the same places.
     void build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel, const ParallelTasks& tasks);
