@@ -55,6 +55,8 @@ std::uint64_t overflow_events() { return t_overflow_events; }
 void note_overflow() { ++t_overflow_events; }
 void note_overflows(std::uint64_t count) { t_overflow_events += count; }
 
+Fixed round_wide_generic(i128 v) { return saturate_i128(round_shift(v, Fixed::kFracBits)); }
+
 Fixed Fixed::from_int(std::int64_t v) {
     if (v >= (std::int64_t{1} << 31)) { note_overflow(); return max(); }
     if (v < -(std::int64_t{1} << 31)) { note_overflow(); return min(); }

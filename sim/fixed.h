@@ -438,7 +438,11 @@ constexpr I round_shift(I v, int shift) {
 // round-up as a flag rather than a branch on the discarded bits (which are as good as random):
 // about 20 instructions where the generic i128 code compiles to 30 and a mispredicted branch.
 // Anything else goes the generic way, so results and overflow counts are the same integers
-// (tests/sim/fixed_test.cpp compares the two).
+// (tests/sim/fixed_test.cpp compares the two). The generic way is out of line (fixed.cpp): the
+// inline part stays small, so gcc's per-file inlining budget (inline-unit-growth) reaches every
+// hot caller (with it inline, sim/rigid_solver.cpp ran out of budget and called round_wide out of
+// line from the solver's inner loop).
+Fixed round_wide_generic(i128 v);  // saturate_i128(round_shift(v, Fixed::kFracBits))
 inline Fixed round_wide(i128 v) {
 #if LOCKROLL_BUILTIN_INT128
     const auto lo = static_cast<std::uint64_t>(v);
@@ -452,7 +456,7 @@ inline Fixed round_wide(i128 v) {
         std::int64_t r;
         if (!add_overflow(static_cast<std::int64_t>(q), static_cast<std::int64_t>(up), &r)) return Fixed::from_raw(r);
     }
-    return saturate_i128(round_shift(v, Fixed::kFracBits));
+    return round_wide_generic(v);
 }
 
 inline Fixed operator+(Fixed a, Fixed b) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "sim/inertia.h"
+#include "sim/rigid_solver_passes.h"
 
 namespace lockroll::sim {
 
@@ -461,7 +462,7 @@ void RigidSolver::reduce(Manifold& m) {
     m = out;
 }
 
-void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,
+[[gnu::always_inline]] inline void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,
                               Manifold& m) const {
     // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
     a = pair.a;
@@ -494,57 +495,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
 }
 
-void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
-                                          const std::vector<Vec3>& angvel, const ParallelTasks& tasks) {
-    for (BodyId id : slot_ids_) slot_[id] = kNoSlot;
-    slot_ids_.clear();
-    bodies_.clear();
-    points_.clear();
-    manifold_start_.clear();
-    links_.clear();
-    // 1. Manifolds per range of pairs (contiguous ranges, so the lists concatenated in range
-    //    order are the pairs' order).
-    const std::size_t n = pairs_.size();
-    const std::size_t pieces = tasks.piece_count(n, kPairGrain);
-    if (found_.size() < pieces) found_.resize(pieces);
-    tasks.run(pieces, [&](std::size_t k) {
-        std::vector<Found>& list = found_[k];
-        list.clear();
-        Manifold m;
-        for (std::size_t i = n * k / pieces, e = n * (k + 1) / pieces; i < e; ++i) {
-            BodyId a, b;
-            manifold_of(pairs_[i], pos, a, b, m);
-            if (m.count != 0) list.push_back({static_cast<std::uint32_t>(i), m});
-        }
-    });
-    // 2. Slots and places in the order the sequential step makes them: manifold by manifold.
-    found_first_.resize(pieces + 1);
-    for (std::size_t k = 0; k < pieces; ++k) {
-        found_first_[k] = static_cast<std::uint32_t>(manifold_start_.size());
-        for (const Found& f : found_[k]) {
-            const BodyPair& pair = pairs_[f.pair];
-            const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
-            const BodyId a = swapped ? pair.b : pair.a, b = swapped ? pair.a : pair.b;
-            const std::uint32_t sa = slot_of(a, vel, angvel), sb = slot_of(b, vel, angvel);
-            manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
-            links_.push_back({inv_mass_[a].raw != 0 ? sa : Islands::kStatic, inv_mass_[b].raw != 0 ? sb : Islands::kStatic});
-            points_.resize(points_.size() + static_cast<std::size_t>(f.m.count));
-        }
-    }
-    found_first_[pieces] = static_cast<std::uint32_t>(manifold_start_.size());
-    manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
-    // 3. The points, per range, into their places (they read only the slots made in 2).
-    tasks.run(pieces, [&](std::size_t k) {
-        std::uint32_t mi = found_first_[k];
-        for (const Found& f : found_[k]) {
-            const BodyPair& pair = pairs_[f.pair];
-            const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
-            build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + manifold_start_[mi++]);
-        }
-    });
-}
-
-void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const {
+[[gnu::always_inline]] inline void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const {
     const Fixed e = pair_restitution(a, b);
     Fixed mu_k, mu_s;
     pair_friction(a, b, mu_k, mu_s);
@@ -603,6 +554,30 @@ void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std:
     }
 }
 
+void RigidSolver::find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos,
+                                 std::vector<Found>& list) const {
+    list.clear();
+    Manifold m;
+    for (std::size_t i = begin; i < end; ++i) {
+        BodyId a, b;
+        manifold_of(pairs_[i], pos, a, b, m);
+        if (m.count != 0) list.push_back({static_cast<std::uint32_t>(i), m});
+    }
+}
+
+void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<Vec3>& pos) {
+    for (const Found& f : list) {
+        const BodyPair& pair = pairs_[f.pair];
+        const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
+        build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + manifold_start_[first++]);
+    }
+}
+
+void RigidSolver::solve(const std::vector<ContactImpulse>& impulses) {
+    if (warm_) warm_start(impulses, AllPoints{});
+    for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, AllPoints{});
+}
+
 void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                               Rows rows) {
     // Effective masses as if only `only` moved (shock pass), else the pair's.
@@ -655,53 +630,6 @@ ContactImpulse RigidSolver::key_of(const Point& p) const {
     return k;
 }
 
-void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, const ManifoldSet* set) {
-    if (impulses.empty()) return;
-    each_point(set, false, [&](Point& p) {
-        const ContactImpulse k = key_of(p);
-        const auto it = std::lower_bound(impulses.begin(), impulses.end(), k, key_less);
-        if (it == impulses.end() || key_less(k, *it)) return;
-        p.pn = it->pn;
-        p.pt1 = it->pt1;
-        p.pt2 = it->pt2;
-        apply(p, p.pn, p.pt1, p.pt2, bodies_);
-    });
-}
-
-template <class F>
-void RigidSolver::each_point(const ManifoldSet* set, bool backwards, F&& f) {
-    if (set == nullptr) {
-        if (backwards)
-            for (auto it = points_.rbegin(); it != points_.rend(); ++it) f(*it);
-        else
-            for (Point& p : points_) f(p);
-        return;
-    }
-    // The island's points are whole manifolds, each contiguous in points_: the subsequence of
-    // the global order (or of its reverse) that lies in the island.
-    if (backwards) {
-        for (std::size_t k = set->size(); k-- > 0;) {
-            const std::uint32_t m = (*set)[k];
-            for (std::uint32_t j = manifold_start_[m + 1]; j-- > manifold_start_[m];) f(points_[j]);
-        }
-    } else {
-        for (const std::uint32_t m : *set)
-            for (std::uint32_t j = manifold_start_[m]; j < manifold_start_[m + 1]; ++j) f(points_[j]);
-    }
-}
-
-void RigidSolver::solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
-    islands_.build(bodies_.size(), links_);
-    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
-    tasks.run(pieces, [&](std::size_t k) {
-        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
-            const ManifoldSet set = islands_.links(i);
-            if (warm_) warm_start(impulses, &set);
-            for (int pass = 0; pass < iterations_; ++pass) solve_pass(bodies_, pass, &set);
-        }
-    });
-}
-
 void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
     impulses.clear();
     for (const Point& p : points_) {
@@ -717,30 +645,6 @@ void RigidSolver::keep_impulses(std::vector<ContactImpulse>& impulses) const {
     if (!std::is_sorted(impulses.begin(), impulses.end(), key_less))
         std::stable_sort(impulses.begin(), impulses.end(), key_less);
     if (impulses.size() > impulse_capacity_) impulses.resize(impulse_capacity_);
-}
-
-void RigidSolver::solve_pass(Bodies& bodies, int pass, const ManifoldSet* set) {
-    if (!warm_ && !block_) {
-        each_point(set, false, [&](Point& p) { solve_point(p, bodies, kEveryBody, false); });
-        return;
-    }
-    // Warm-started scenes: every normal row, then every friction row, odd passes backwards.
-    // Friction solved point after point within a manifold leaves a net twist (the first corner
-    // always goes first), which turned every box of a stack the same way; alternating the
-    // direction spreads a stack's support both ways in one iteration pair.
-    const auto sweep = [&](Rows rows) {
-        each_point(set, pass & 1, [&](Point& p) { solve_point(p, bodies, kEveryBody, false, rows); });
-    };
-    if (block_) {
-        const std::size_t count = set != nullptr ? set->size() : manifold_start_.size() - 1;
-        for (std::size_t k = 0; k < count; ++k) {
-            const std::size_t j = pass & 1 ? count - 1 - k : k;
-            solve_block(set != nullptr ? (*set)[j] : j, bodies, false);
-        }
-    } else {
-        sweep(Rows::Normal);
-    }
-    sweep(Rows::Friction);
 }
 
 void RigidSolver::solve_block(std::size_t m, Bodies& bodies, bool pseudo) {
@@ -818,32 +722,10 @@ void RigidSolver::split_passes(const ParallelTasks& tasks) {
     for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass, bodies_[k].iso_inv_inertia};
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
-    if (!tasks.parallel()) {
-        split_iterations(nullptr);
-        return;
-    }
-    // The same islands as the iterations (solve_islands built them this step).
-    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
-    tasks.run(pieces, [&](std::size_t k) {
-        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
-            const ManifoldSet set = islands_.links(i);
-            split_iterations(&set);
-        }
-    });
-}
-
-void RigidSolver::split_iterations(const ManifoldSet* set) {
-    const std::size_t count = !block_ ? 0 : set != nullptr ? set->size() : manifold_start_.size() - 1;
-    for (int i = 0; i < iterations_; ++i) {
-        if (block_) {
-            for (std::size_t k = 0; k < count; ++k) {
-                const std::size_t j = i & 1 ? count - 1 - k : k;
-                solve_block(set != nullptr ? (*set)[j] : j, pseudo_, true);
-            }
-        } else {
-            each_point(set, i & 1, [&](Point& p) { solve_pseudo(p); });
-        }
-    }
+    if (tasks.parallel())
+        split_islands(tasks);
+    else
+        split_iterations(AllPoints{});
 }
 
 Vec3 RigidSolver::omega_from(BodyId id, const Quat& q, const Vec3& l) const {

@@ -106,8 +106,7 @@ public:
             update_inertia(orient, 0, dynamic_.size());
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
             build_contacts(pos, vel, angvel);
-            if (warm_) warm_start(impulses, nullptr);
-            for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, nullptr);
+            solve(impulses);
         } else {
             const auto per_body = [&](auto&& phase) { tasks.for_ranges(dynamic_.size(), kBodyGrain, phase); };
             per_body([&](std::size_t begin, std::size_t end) {
@@ -197,24 +196,46 @@ private:
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     // The pair's manifold (a, b: the pair in the roles contact_points() gets), reduced when
     // the scene asks; m.count == 0 when apart.
-    void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
+    inline void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
     // Builds the m.count points of a manifold between a and b (whose slots exist) at out.
-    void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
+    // manifold_of() and build_points() are inline, defined and used in rigid_solver.cpp only
+    // (build_contacts()'s loop, as before the parallel step); rigid_solver_parallel.cpp reaches
+    // them through the per-range phases find_manifolds() and build_found().
+    inline void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
     // build_contacts() in three phases (RigidSolver::step), the same points in the same places.
     void build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel, const ParallelTasks& tasks);
-    // Warm start and the iterations, island by island (islands_ over the manifolds).
+    // Phase 1 for pairs_[begin, end): their manifolds into list. Phase 3 for found_[k]: its
+    // points into their places, from manifold index first on.
+    struct Found;
+    void find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos, std::vector<Found>& list) const;
+    void build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<Vec3>& pos);
+    // Warm start and the iterations: over every point (solve(), the sequential step), or
+    // island by island (solve_islands(), islands_ over the manifolds).
+    void solve(const std::vector<ContactImpulse>& impulses);
     void solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks);
-    // The points of one island: manifold indexes (into manifold_start_), ascending. Null in a
-    // pass means every point.
+    // Which points a pass visits: every one (AllPoints: the sequential step), or one island's
+    // (ManifoldSet: manifold indexes into manifold_start_, ascending). The passes are templates
+    // over it, defined in sim/rigid_solver_passes.h: rigid_solver.cpp instantiates them for
+    // AllPoints only, rigid_solver_parallel.cpp for ManifoldSet only, so the sequential
+    // step's code is what it was before the parallel step (docs/performance.md).
+    struct AllPoints {};
     using ManifoldSet = std::span<const std::uint32_t>;
     template <class F>
-    void each_point(const ManifoldSet* set, bool backwards, F&& f);
-    void solve_pass(Bodies& bodies, int pass, const ManifoldSet* set);
-    // Gives each point (of set, or every one) its carried impulses and applies them;
+    void each_point(AllPoints, bool backwards, F&& f);
+    template <class F>
+    void each_point(ManifoldSet set, bool backwards, F&& f);
+    std::size_t manifold_count(AllPoints) const { return manifold_start_.size() - 1; }
+    static std::size_t manifold_count(ManifoldSet set) { return set.size(); }
+    static std::size_t manifold_at(AllPoints, std::size_t k) { return k; }
+    static std::size_t manifold_at(ManifoldSet set, std::size_t k) { return set[k]; }
+    template <class Points>
+    void solve_pass(Bodies& bodies, int pass, Points points);
+    // Gives each point (of points) its carried impulses and applies them;
     // keep_impulses() stores the iterations' result (before the shock pass, which is not a
     // physical impulse).
-    void warm_start(const std::vector<ContactImpulse>& impulses, const ManifoldSet* set);
+    template <class Points>
+    void warm_start(const std::vector<ContactImpulse>& impulses, Points points);
     void keep_impulses(std::vector<ContactImpulse>& impulses) const;
     ContactImpulse key_of(const Point& p) const;
     void shock_pass();
@@ -223,7 +244,9 @@ private:
     // times baumgarte per step), accumulated >= 0. They move the bodies in integrate() and
     // are dropped: the real velocities never see the push-out.
     void split_passes(const ParallelTasks& tasks);
-    void split_iterations(const ManifoldSet* set);
+    void split_islands(const ParallelTasks& tasks);  // split_passes' iterations, island by island
+    template <class Points>
+    void split_iterations(Points points);
     // rigid.block_solver: manifold m's normal rows (real, or pseudo with split impulses) swept
     // forward and back until no impulse changes, at most kBlockSweeps times.
     static constexpr int kBlockSweeps = 8;

@@ -1,0 +1,71 @@
+// The parallel step's phases of RigidSolver (sim/rigid_solver.h), kept out of rigid_solver.cpp
+// so that the sequential step's file holds only what a workers-off step runs. With them in the
+// same file gcc 12 ran out of its per-file inlining budget (--param inline-unit-growth) and
+// called round_wide, dot and the per-point helpers out of line from the sequential loops:
+// paper_rigid's step ran 3 % more instructions than before the parallel step
+// (docs/performance.md, "Workers off"). The per-range work of contact generation
+// (find_manifolds, build_found) stays in rigid_solver.cpp, which inlines the per-pair code.
+#include <algorithm>
+
+#include "sim/rigid_solver.h"
+#include "sim/rigid_solver_passes.h"
+
+namespace lockroll::sim {
+
+void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
+                                          const std::vector<Vec3>& angvel, const ParallelTasks& tasks) {
+    for (BodyId id : slot_ids_) slot_[id] = kNoSlot;
+    slot_ids_.clear();
+    bodies_.clear();
+    points_.clear();
+    manifold_start_.clear();
+    links_.clear();
+    // 1. Manifolds per range of pairs (contiguous ranges, so the lists concatenated in range
+    //    order are the pairs' order).
+    const std::size_t n = pairs_.size();
+    const std::size_t pieces = tasks.piece_count(n, kPairGrain);
+    if (found_.size() < pieces) found_.resize(pieces);
+    tasks.run(pieces, [&](std::size_t k) { find_manifolds(n * k / pieces, n * (k + 1) / pieces, pos, found_[k]); });
+    // 2. Slots and places in the order the sequential step makes them: manifold by manifold.
+    found_first_.resize(pieces + 1);
+    for (std::size_t k = 0; k < pieces; ++k) {
+        found_first_[k] = static_cast<std::uint32_t>(manifold_start_.size());
+        for (const Found& f : found_[k]) {
+            const BodyPair& pair = pairs_[f.pair];
+            const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
+            const BodyId a = swapped ? pair.b : pair.a, b = swapped ? pair.a : pair.b;
+            const std::uint32_t sa = slot_of(a, vel, angvel), sb = slot_of(b, vel, angvel);
+            manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+            links_.push_back({inv_mass_[a].raw != 0 ? sa : Islands::kStatic, inv_mass_[b].raw != 0 ? sb : Islands::kStatic});
+            points_.resize(points_.size() + static_cast<std::size_t>(f.m.count));
+        }
+    }
+    found_first_[pieces] = static_cast<std::uint32_t>(manifold_start_.size());
+    manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
+    // 3. The points, per range, into their places (they read only the slots made in 2).
+    tasks.run(pieces, [&](std::size_t k) { build_found(found_[k], found_first_[k], pos); });
+}
+
+void RigidSolver::solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
+    islands_.build(bodies_.size(), links_);
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
+    tasks.run(pieces, [&](std::size_t k) {
+        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+            const ManifoldSet set = islands_.links(i);
+            if (warm_) warm_start(impulses, set);
+            for (int pass = 0; pass < iterations_; ++pass) solve_pass(bodies_, pass, set);
+        }
+    });
+}
+
+void RigidSolver::split_islands(const ParallelTasks& tasks) {
+    // The same islands as the iterations (solve_islands built them this step).
+    const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
+    tasks.run(pieces, [&](std::size_t k) {
+        for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
+            split_iterations(ManifoldSet(islands_.links(i)));
+        }
+    });
+}
+
+}  // namespace lockroll::sim
