@@ -11,8 +11,25 @@
 // returns (the drop: a new view, the next instance); one that drops its own slot stops.
 //
 // It aborts on the first of:
-//  1. two honest processes that decide, in the starting view, different slots (the split the
-//     agreement exists to prevent);
+//  1. (every process honest only) two processes that decide different slots *by acceptance* in
+//     one instance (the same view), or a process that applies a drop nobody chose by
+//     acceptance. A decision is by acceptance when a majority of the decision's electorate
+//     (Membership::electorate, as step() counts it) accepted that slot under one ballot in that
+//     instance (their acceptances are recorded as they happen, not as the decider heard them);
+//     any other decision is learned (from the tables of voters that applied the drop,
+//     heard_drop, alone or with some acceptances), and must be a slot some process already
+//     decided by acceptance, in any instance. So every honest process's set of applied drops is
+//     a subset of the drops chosen by acceptance, one per view: the sets never conflict, though a
+//     learner may apply two chosen drops in another order than they were chosen and pass through
+//     a view nobody else held (fuzz/findings/drop_agreement/learns_a_later_drop_first: learning,
+//     not a second choice). Not checked with a hostile process: its forged acceptance under a high
+//     ballot can make two slots that honest voters vote gone each gather a majority in one view,
+//     a limit DropAgreement states ("What a hostile voter can still do", rollback/
+//     drop_agreement.h: Byzantine quorums are not claimed; findings/drop_agreement/
+//     hostile_splits_a_view). Property 2 is what it does promise against one liar.
+//     DROP_AGREEMENT_FUZZ_SPLITS=1 checks it with the hostile process too, counted as accepting
+//     every slot under every ballot: to replay that limit (findings/drop_agreement/
+//     hostile_splits_by_lying), not for CI.
 //  2. an honest process that decides, in the starting view, a slot that fewer than a majority
 //     of the view's voters ever said is gone: the honest voters that ever cast that vote (about
 //     the slot as the starting view holds it), plus the hostile process, counted as backing every
@@ -25,8 +42,8 @@
 //     reports as every target.
 // DROP_AGREEMENT_FUZZ_TRACE=1 in the environment prints every operation as it runs (to read a
 // finding: build-asan/fuzz/drop_agreement_fuzz CRASH-FILE); DROP_AGREEMENT_FUZZ_HONEST=1 makes
-// every process honest whatever the header says (the properties among honest processes alone,
-// while a finding with a hostile one is open: fuzz/README.md).
+// every process honest whatever the header says (honest mode: properties 1 and 2; a header's
+// hostile bit 7 does the same for one input).
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -56,6 +73,7 @@ namespace {
 
 bool trace = false;
 bool all_honest = false;
+bool check_splits = false;  // property 1 with a hostile process too (DROP_AGREEMENT_FUZZ_SPLITS)
 
 #define TRACE(...)                                      \
     do {                                                \
@@ -95,6 +113,21 @@ struct Node {
     }
 };
 
+// An honest voter's acceptance, as its report stated it after a step.
+struct Acceptance {
+    std::uint32_t instance = 0;
+    std::uint16_t ballot = 0;
+    PlayerId slot = kNoSlot;
+};
+constexpr int kMaxAcceptances = fz::kAgreeMaxOps;  // one step makes at most one new acceptance
+constexpr int kMaxDecisions = kMax * kMax;          // a process decides at most once per view, n views
+
+// A decision by acceptance: the slot `slot` was chosen in the instance (view) `instance`.
+struct Choice {
+    std::uint32_t instance = 0;
+    PlayerId slot = kNoSlot, by = kNoSlot;
+};
+
 struct Flight {
     PlayerId to = 0, from = 0;
     AgreementReport r;
@@ -111,7 +144,13 @@ struct World {
     int in_flight = 0;
     AgreementReport forged;
     bool ever_gone[kMax][kMax] = {};  // [honest voter][slot], about the slot as the starting view holds it
-    PlayerId decided[kMax] = {};      // an honest process's decision in the starting view, or kNoSlot
+    // Property 1 (every process honest): what each voter accepted, and the decisions by acceptance.
+    // Fixed arrays: the memory check counts every allocation made during an operation.
+    Acceptance accepted[kMax][kMaxAcceptances];
+    int accepted_count[kMax] = {};
+    Choice choices[kMaxDecisions];
+    int choice_count = 0;
+    bool chosen[kMax] = {};  // some process decided this slot by acceptance, in any view
 
     bool honest(PlayerId p) const { return p != hostile; }
     void send(PlayerId from, PlayerId to, const AgreementReport& r) {
@@ -120,15 +159,65 @@ struct World {
     }
 };
 
-NOT_FUZZED void check_decision(const World& w, PlayerId p, PlayerId x) {
-    // 1. One slot per view among the honest.
-    for (int q = 0; q < w.n; ++q)
-        if (w.decided[q] != kNoSlot && w.decided[q] != x) {
-            std::fprintf(stderr, "drop_agreement_fuzz: process %u decided slot %u, process %d slot %u, both in the starting view\n",
-                         p, x, q, w.decided[q]);
+NOT_FUZZED void record_acceptance(World& w, PlayerId p, const AgreementReport& r) {
+    if (r.accepted == 0) return;
+    int& count = w.accepted_count[p];
+    const Acceptance& last = w.accepted[p][count > 0 ? count - 1 : 0];
+    if (count > 0 && last.instance == r.instance && last.ballot == r.accepted && last.slot == r.accepted_slot) return;
+    if (count == kMaxAcceptances) fail("more acceptances than steps");
+    w.accepted[p][count++] = {r.instance, r.accepted, r.accepted_slot};
+}
+
+// 1. (every process honest) One slot per view by acceptance; a learned drop is one chosen so.
+NOT_FUZZED void check_choice(World& w, PlayerId p, const Membership& view, std::uint32_t instance, PlayerId x) {
+    // The most voters of this view that accepted x under one ballot in this instance.
+    int most = 0;
+    for (int v = 0; v < w.n; ++v)
+        for (int i = 0; i < w.accepted_count[v]; ++i) {
+            const Acceptance& a = w.accepted[v][i];
+            if (a.instance != instance || a.slot != x) continue;
+            int n = 0;
+            for (int u = 0; u < w.n; ++u) {
+                if (!view.is_voter(static_cast<PlayerId>(u))) continue;
+                for (int j = 0; j < w.accepted_count[u]; ++j) {
+                    const Acceptance& b = w.accepted[u][j];
+                    if (b.instance == instance && b.ballot == a.ballot && b.slot == x) {
+                        ++n;
+                        break;
+                    }
+                }
+            }
+            most = std::max(most, n);
+        }
+    // With DROP_AGREEMENT_FUZZ_SPLITS, the hostile voter is taken to accept whatever it is asked.
+    if (most > 0 && w.hostile != kNoSlot && view.is_voter(w.hostile)) ++most;
+    const int needed = view.majority_of(view.electorate(x));
+    if (most < needed) {
+        // Learned: the drop must be one some process chose by acceptance.
+        TRACE("  (learned: %d of the %d acceptances a choice needs)\n", most, needed);
+        if (!w.chosen[x]) {
+            std::fprintf(stderr,
+                         "drop_agreement_fuzz: process %u decided slot %u in view %08x, which %d voters accepted under "
+                         "one ballot there (%d needed), and no process chose by acceptance in any view\n",
+                         p, x, instance, most, needed);
+            fail("a drop is applied only once some view chose it");
+        }
+        return;
+    }
+    for (int i = 0; i < w.choice_count; ++i) {
+        const Choice& c = w.choices[i];
+        if (c.instance == instance && c.slot != x) {
+            std::fprintf(stderr, "drop_agreement_fuzz: process %u chose slot %u by acceptance, process %u slot %u, both in view %08x\n",
+                         p, x, c.by, c.slot, instance);
             fail("one view chooses one slot");
         }
-    // 2. Backed by a majority of the view's voters that ever said so (the hostile one counted for all).
+    }
+    if (w.choice_count < kMaxDecisions) w.choices[w.choice_count++] = {instance, x, p};
+    w.chosen[x] = true;
+}
+
+// 2. Backed by a majority of the view's voters that ever said so (the hostile one counted for all).
+NOT_FUZZED void check_backing(const World& w, PlayerId p, PlayerId x) {
     int backers = w.hostile != kNoSlot ? 1 : 0;
     for (int v = 0; v < w.n; ++v) backers += w.honest(static_cast<PlayerId>(v)) && w.ever_gone[v][x];
     if (backers < w.n / 2 + 1) {
@@ -156,12 +245,11 @@ void step(World& w, PlayerId p, bool broadcast) {
     TRACE("step %u (wanted %u) at %llu us%s\n", p, wanted, static_cast<unsigned long long>(w.now_us),
           in_start ? "" : " (a later view)");
     trace_report("report", p, p, node.agreement.report());
+    if (w.honest(p)) record_acceptance(w, p, node.agreement.report());
     if (x) {
         TRACE("  process %u decides slot %u%s\n", p, *x, in_start ? " in the starting view" : "");
-        if (in_start && w.honest(p)) {
-            check_decision(w, p, *x);
-            w.decided[p] = *x;
-        }
+        if (w.honest(p) && (w.hostile == kNoSlot || check_splits)) check_choice(w, p, node.view, node.agreement.instance(), *x);
+        if (in_start && w.honest(p)) check_backing(w, p, *x);
         node.view.leave(*x);  // the session applies it: a new view, the next instance
         if (*x == p) {
             node.stopped = true;  // Kicked
@@ -266,6 +354,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
     trace = t != nullptr && *t != '\0' && *t != '0';
     const char* h = std::getenv("DROP_AGREEMENT_FUZZ_HONEST");
     all_honest = h != nullptr && *h != '\0' && *h != '0';
+    const char* sp = std::getenv("DROP_AGREEMENT_FUZZ_SPLITS");
+    check_splits = sp != nullptr && *sp != '\0' && *sp != '0';
 #ifdef DROP_AGREEMENT_FUZZ_COUNT_ALLOCATIONS
     __sanitizer_install_malloc_and_free_hooks(on_malloc, on_free);
 #endif
@@ -282,7 +372,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (int p = 0; p < w.n; ++p) w.nodes.emplace_back(w.n, static_cast<PlayerId>(p));
     w.start_id = w.nodes[0].view.view_id();
     w.forged.instance = w.start_id;
-    std::fill(std::begin(w.decided), std::end(w.decided), kNoSlot);
     TRACE("%d processes, hostile %u, retry %llu us\n", w.n, w.hostile, static_cast<unsigned long long>(w.retry_us));
 
     armed = true;
