@@ -30,13 +30,17 @@
 //    electorate) reports it accepted under one ballot. Every process learns it so, or from the
 //    tables of the voters that already applied it (a drop they state, not a vote: SlotEntry::
 //    voted clear); a voter counts once.
-// What a hostile voter can still do (it speaks only in its own name, on its own connection): cast
-// its own vote, promise and accept anything, and so stall agreement (as any voter that stops
-// answering would). It cannot have a slot dropped that no honest voter votes gone. But when two
-// slots each have honest voters voting them gone (a machine stall), its forged acceptance under
-// a high ballot can make an honest proposer carry the other slot forward, and two slots may each
-// gather a majority with it: agreement that survives a lying voter needs Byzantine quorums
-// (3f + 1 processes), which this does not claim (drop_agreement_fuzz, hostile mode).
+// What a hostile voter can still do (it speaks only in its own name, on its own connection, but
+// may tell each peer something else): cast its own vote, promise and accept anything, and so
+// stall agreement (as any voter that stops answering would). It cannot have a slot dropped that
+// no honest voter votes gone. But its one vote and acceptance count like any voter's: where it
+// and one honest voter make a majority (a view of three), two honest processes that vote each
+// other gone (a cut between them) each gather a majority with it if it promises and accepts
+// each one's ballot alone (drop_agreement_fuzz: findings/drop_agreement/hostile_splits_by_lying),
+// and in larger views, when two slots each have honest voters voting them gone, its forged
+// acceptance under a high ballot can make an honest proposer carry the other slot forward.
+// Agreement that survives a lying voter needs Byzantine quorums (3f + 1 processes and more
+// rounds), which this does not claim; without a liar, one view drops one slot.
 //
 // Two majorities of one view share a voter, and a voter accepts one slot per ballot and promises
 // never to go back below a ballot, so one instance chooses at most one slot at every process.
