@@ -70,7 +70,7 @@ void DropAgreement::accept_proposals(const Membership& view, std::uint64_t now_u
     for (int v = 0; v < players_; ++v) {
         const auto q = static_cast<PlayerId>(v);
         if (!current(view, q)) continue;
-        const AgreementReport& r = q == local_ ? mine_ : heard_[q].r;
+        const AgreementReport& r = report_of(q);
         if (r.proposal == 0 || ballot_proposer(r.proposal) != q) continue;
         if (r.proposal > best) {
             best = r.proposal;
@@ -96,7 +96,7 @@ void DropAgreement::propose(const Membership& view, PlayerId wanted, std::uint64
         for (int v = 0; v < players_; ++v) {
             const auto q = static_cast<PlayerId>(v);
             if (!current(view, q)) continue;
-            const AgreementReport& r = q == local_ ? mine_ : heard_[q].r;
+            const AgreementReport& r = report_of(q);
             if (r.promised != mine_.proposal) continue;
             ++promises;
             if (r.accepted != 0 && r.accepted > best && r.accepted_slot < heard_.size()) {
@@ -132,33 +132,29 @@ void DropAgreement::propose(const Membership& view, PlayerId wanted, std::uint64
     proposed_us_ = now_us;
 }
 
+// The most voters that back slot under one ballot: those that applied its drop back it under
+// any ballot, the others under the ballot they accepted it under.
 int DropAgreement::backing(const Membership& view, PlayerId slot) const {
     if (slot >= heard_.size()) return 0;
-    // The ballot under which most voters accepted slot.
+    const auto accepted_under = [&](PlayerId q) -> std::uint16_t {
+        if (!current(view, q)) return 0;
+        const AgreementReport& r = report_of(q);
+        return r.accepted_slot == slot ? r.accepted : 0;
+    };
+    int applied = 0;
+    for (int v = 0; v < players_; ++v) applied += applied_drop(view, static_cast<PlayerId>(v), slot) ? 1 : 0;
     int most = 0;
-    std::vector<std::uint16_t> ballots;
     for (int v = 0; v < players_; ++v) {
-        const auto q = static_cast<PlayerId>(v);
-        if (!current(view, q)) continue;
-        const AgreementReport& r = q == local_ ? mine_ : heard_[q].r;
-        if (r.accepted != 0 && r.accepted_slot == slot) ballots.push_back(r.accepted);
-    }
-    for (std::uint16_t b : ballots) {
+        const std::uint16_t b = accepted_under(static_cast<PlayerId>(v));
+        if (b == 0) continue;
         int n = 0;
-        for (int v = 0; v < players_; ++v) {
-            const auto q = static_cast<PlayerId>(v);
-            const bool acc = current(view, q) && [&] {
-                const AgreementReport& r = q == local_ ? mine_ : heard_[q].r;
-                return r.accepted == b && r.accepted_slot == slot;
-            }();
-            if (acc || applied_drop(view, q, slot)) ++n;
+        for (int w = 0; w < players_; ++w) {
+            const auto q = static_cast<PlayerId>(w);
+            if (accepted_under(q) == b && !applied_drop(view, q, slot)) ++n;
         }
         most = std::max(most, n);
     }
-    if (ballots.empty())
-        for (int v = 0; v < players_; ++v)
-            if (applied_drop(view, static_cast<PlayerId>(v), slot)) ++most;
-    return most;
+    return applied + most;
 }
 
 std::optional<PlayerId> DropAgreement::step(const Membership& view, PlayerId wanted, std::uint64_t now_us, std::uint64_t retry_us) {

@@ -108,6 +108,8 @@ private:
         bool has = false;
     };
     bool current(const Membership& view, PlayerId voter) const;
+    // This process's own report, or the last one heard from voter q (q < heard_.size()).
+    const AgreementReport& report_of(PlayerId q) const { return q == local_ ? mine_ : heard_[q].r; }
     bool valid(const Membership& view, PlayerId slot) const;
     void accept_proposals(const Membership& view, std::uint64_t now_us);
     void propose(const Membership& view, PlayerId wanted, std::uint64_t now_us, std::uint64_t retry_us);
