@@ -71,18 +71,18 @@ void echo_plain(int fd, Counts& c) {
     }
 }
 
-// Batched: one recvmmsg (MSG_WAITFORONE: blocks for the first datagram, then takes only what
-// is already queued, up to batch) and sendmmsg of the same headers, each datagram's length and
-// sender as received. A datagram the kernel refuses to send (an error on the first of the rest)
-// is dropped, as echo_plain drops a failed sendto: never sent twice. With pass_us > 0, passes
-// (the header): one starts no sooner than pass_us after the last began, and reads on (without
-// waiting) while a read fills the whole batch.
 std::uint64_t monotonic_us() {
     timespec t{};
     clock_gettime(CLOCK_MONOTONIC, &t);
     return static_cast<std::uint64_t>(t.tv_sec) * 1000000u + static_cast<std::uint64_t>(t.tv_nsec) / 1000u;
 }
 
+// Batched: one recvmmsg (MSG_WAITFORONE: blocks for the first datagram, then takes only what
+// is already queued, up to batch) and sendmmsg of the same headers, each datagram's length and
+// sender as received. A datagram the kernel refuses to send (an error on the first of the rest)
+// is dropped, as echo_plain drops a failed sendto: never sent twice. With pass_us > 0, passes
+// (the header): one starts no sooner than pass_us after the last began, and reads on (without
+// waiting) while a read fills the whole batch.
 void echo_batched(int fd, std::size_t batch, std::uint64_t pass_us, Counts& c) {
     std::vector<unsigned char> bytes(batch * kMaxDatagram);
     std::vector<iovec> iov(batch);
