@@ -30,7 +30,14 @@
 // With --echo build/bench/udp_echo, each server run is paired with a run of the bare UDP echo
 // (one syscall per datagram), pinned and niced as the server and loaded at the UDP datagram rate
 // the server saw: the ratio of their CPU times is the "server / echo" figure of
-// docs/performance.md ("Density"), measured in the same run on the same machine.
+// docs/performance.md ("Density"), measured in the same run on the same machine. With
+// --echo-batch N as well, the same echo batched (udp_echo --batch N: recvmmsg / sendmmsg, the
+// floor of any relay that sends as many datagrams as it receives) at the same rate in the same
+// run, the two echoes' order alternating run by run: server / batched echo and batched echo /
+// echo are reported beside server / echo, with each process's datagrams in and out per relayed
+// input (the server's ENet pings and acknowledgements are datagrams the echo is loaded with too).
+// --echo-pass-us P runs the batched echo in passes, as the server's --pass-interval-us P (match
+// them). The ratios' medians leave out runs that replaced inputs or whose echo fell behind.
 //
 // A benchmark, not a test: run by hand (docs/performance.md, "Relay server"), e.g.
 //   build/bench/relay_bench --server build/server/lockroll-server --rooms 100,250,500,1000,1500
@@ -107,6 +114,8 @@ struct Options {
     std::string csv;
     std::vector<std::string> server_args;
     std::string echo;  // bench/udp_echo: the one-syscall-per-datagram baseline, run after each server run
+    int echo_batch = 0;  // with echo: also udp_echo --batch echo_batch (0: not)
+    int echo_pass_us = 0;  // the batched echo's --pass-us (0: a pass per wake-up)
     std::string replaced_log;  // CSV of replaced slot-frames per second, room and slot
     std::string delay_log;     // CSV of the relay delay and the generator's lateness per second
 };
@@ -238,6 +247,13 @@ struct Room {
     std::array<std::uint32_t, kRing> sent_late_us{};  // how far behind its tick the frame's first send fired
 };
 
+// One echo run's CPU (share of one core; sys its kernel part) and the datagrams a second it
+// was sent (in) and sent back (out).
+struct EchoResult {
+    double cpu = 0, sys = 0, in_per_s = 0, out_per_s = 0;
+    double receive_calls = 0, send_calls = 0;  // per datagram in, over the echo's whole life (its count line)
+};
+
 struct RunResult {
     int rooms = 0;
     int rooms_live = 0;
@@ -255,8 +271,8 @@ struct RunResult {
     double loadavg = 0;
     std::uint64_t disconnects = 0;
     bool sustained = false;
-    // The paired echo run (--echo): its CPU at the server run's UDP datagram rate.
-    double echo_cpu = 0, echo_sys = 0, echo_in_per_s = 0, echo_out_per_s = 0;
+    // The paired echo runs (--echo, --echo-batch): their CPU at the server run's UDP datagram rate.
+    EchoResult echo, batched;
 };
 
 double percentile(std::vector<std::uint32_t>& v, double p) {
@@ -769,13 +785,18 @@ private:
 };
 
 // The echo baseline's run, paired with a server run: bench/udp_echo (pinned and niced as the
-// server) loaded at rate UDP datagrams a second, sent as the generator sends (o.hosts sockets,
+// server; with batch > 0, udp_echo --batch batch) loaded at rate UDP datagrams a second, sent as the generator sends (o.hosts sockets,
 // each firing once per tick at its own phase of the tick, the datagrams of a fire in one
 // sendmmsg: the generator's cost is not what is measured), its replies drained. Its CPU
 // (utime + stime) over o.seconds after one second of warm-up.
-void run_echo(const Options& o, double rate, const std::string& dir, RunResult& res) {
+EchoResult run_echo(const Options& o, double rate, int batch, const std::string& dir) {
     static int runs = 0;
-    const ServerChild echo = spawn_ready(o, {o.echo}, dir + "/echo-" + std::to_string(runs++) + ".log");
+    std::vector<std::string> args{o.echo};
+    if (batch > 0) args.insert(args.end(), {"--batch", std::to_string(batch)});
+    if (batch > 0 && o.echo_pass_us > 0) args.insert(args.end(), {"--pass-us", std::to_string(o.echo_pass_us)});
+    const std::string log = dir + "/echo-" + std::to_string(runs++) + ".log";
+    const ServerChild echo = spawn_ready(o, args, log);
+    EchoResult res;
     const int hosts = std::max(1, o.hosts);
     sockaddr_in to{};
     to.sin_family = AF_INET;
@@ -861,13 +882,39 @@ void run_echo(const Options& o, double rate, const std::string& dir, RunResult& 
     }
     const double wall = static_cast<double>(now_us() - window_start) / 1e6;
     double sys1 = 0;
-    res.echo_cpu = (process_cpu_s(echo.pid, &sys1) - cpu0) / wall;
-    res.echo_sys = (sys1 - sys0) / wall;
-    res.echo_in_per_s = static_cast<double>(sent - sent0) / wall;
-    res.echo_out_per_s = static_cast<double>(received - received0) / wall;
+    res.cpu = (process_cpu_s(echo.pid, &sys1) - cpu0) / wall;
+    res.sys = (sys1 - sys0) / wall;
+    res.in_per_s = static_cast<double>(sent - sent0) / wall;
+    res.out_per_s = static_cast<double>(received - received0) / wall;
     stop_server(echo);
+    // Its syscalls per datagram (udp_echo's last line on stderr, written as it exits).
+    std::ifstream f(log);
+    for (std::string line; std::getline(f, line);) {
+        unsigned long long d_in = 0, d_out = 0, receives = 0, sends = 0;
+        if (std::sscanf(line.c_str(), "udp_echo: %llu datagrams in, %llu echoed, %llu receive calls, %llu send calls", &d_in, &d_out,
+                        &receives, &sends) == 4 && d_in > 0) {
+            res.receive_calls = static_cast<double>(receives) / static_cast<double>(d_in);
+            res.send_calls = static_cast<double>(sends) / static_cast<double>(d_in);
+        }
+    }
     for (int fd : fds) close(fd);
     close(ep);
+    return res;
+}
+
+double ratio(double a, double b) { return b > 0 ? a / b : 0; }
+
+// An echo run kept up when it was sent at least 99 % of the rate asked and sent back at least
+// 99 % of what it was sent: one that fell behind (the machine stalled it, its buffer overflowed)
+// spent less CPU on fewer datagrams, and its ratio to the server's would flatter the server.
+bool echo_kept_up(const EchoResult& e, double rate) { return e.in_per_s >= 0.99 * rate && e.out_per_s >= 0.99 * e.in_per_s; }
+
+// One echo run's line: its rate, CPU (kernel, user), and the server's CPU over it.
+void print_echo(const char* name, const EchoResult& e, const RunResult& r) {
+    std::printf("       %s at %.0f datagrams/s in, %.0f out (%.4f out per in; %.3f receive, %.3f send calls per datagram): CPU %.1f%% "
+                "(kernel %.1f%%, user %.1f%%); server / %s %.3f, server kernel / %s %.3f\n",
+                name, e.in_per_s, e.out_per_s, ratio(e.out_per_s, e.in_per_s), e.receive_calls, e.send_calls, e.cpu * 100, e.sys * 100,
+                (e.cpu - e.sys) * 100, name, ratio(r.server_cpu, e.cpu), name, ratio(r.server_sys, e.cpu));
 }
 
 using lockroll::bench::median;
@@ -902,7 +949,25 @@ int main(int argc, char** argv) {
     app.add_option("--echo", o.echo,
                    "bench/udp_echo binary: after each server run, the bare echo (one syscall per datagram) at that run's UDP "
                    "datagram rate, its CPU as the baseline of the server's (the ratio's median is reported)");
+    app.add_option("--echo-batch", o.echo_batch,
+                   "with --echo: also the batched echo (udp_echo --batch N: recvmmsg / sendmmsg of up to N; the server takes 64) "
+                   "at the same rate, the two echoes' order alternating run by run (0: not)")
+        ->check(CLI::Range(0, 1024))
+        ->capture_default_str();
+    app.add_option("--echo-pass-us", o.echo_pass_us,
+                   "with --echo-batch: the batched echo in passes at most one per P us (udp_echo --pass-us; as the server's "
+                   "--pass-interval-us, which it should match; 0: a pass per wake-up)")
+        ->check(CLI::Range(0, 100000))
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
+    if (o.echo_batch > 0 && o.echo.empty()) {
+        std::fprintf(stderr, "relay_bench: --echo-batch needs --echo (the udp_echo binary)\n");
+        return 2;
+    }
+    if (o.echo_pass_us > 0 && o.echo_batch == 0) {
+        std::fprintf(stderr, "relay_bench: --echo-pass-us needs --echo-batch (only the batched echo runs in passes)\n");
+        return 2;
+    }
     if (o.server.empty() == o.connect.empty()) {
         std::fprintf(stderr, "relay_bench: give exactly one of --server and --connect\n");
         return 2;
@@ -930,7 +995,8 @@ int main(int argc, char** argv) {
     if (csv && std::ftell(csv) == 0)
         std::fprintf(csv, "rooms,run,rooms_live,p50_us,p99_us,max_us,samples,replaced,unsent,relay_in_per_s,relay_out_per_s,"
                           "udp_in_per_s,udp_out_per_s,server_cpu,server_rss_mib,generator_cpu,generator_late_p99_us,loadavg,sustained,"
-                          "server_sys,echo_cpu,echo_sys,echo_in_per_s,echo_out_per_s\n");
+                          "server_sys,echo_cpu,echo_sys,echo_in_per_s,echo_out_per_s,echo_batch,batched_echo_cpu,batched_echo_sys,"
+                          "batched_echo_in_per_s,batched_echo_out_per_s,echo_pass_us,echo_receive_calls,batched_echo_receive_calls\n");
     std::printf("%6s %4s %8s %8s %8s %10s %10s %10s %10s %7s %7s %8s %7s %8s %5s %s\n", "rooms", "run", "p50_us", "p99_us", "max_us",
                 "replaced", "relay_in/s", "relay_out/s", "udp_in/s", "srv_cpu", "srv_sys", "rss_MiB", "gen_cpu", "late_p99", "load",
                 "sustained");
@@ -956,23 +1022,38 @@ int main(int argc, char** argv) {
                 r = g.run(server);
             }
             if (!o.server.empty()) stop_server(server);
-            if (!o.echo.empty() && r.udp_in_per_s > 0) run_echo(o, r.udp_in_per_s, dir, r);
+            if (!o.echo.empty() && r.udp_in_per_s > 0) {
+                // Alternating which echo runs first: neither always gets the machine just after the server.
+                const bool batched_first = o.echo_batch > 0 && k % 2 == 1;
+                if (batched_first) r.batched = run_echo(o, r.udp_in_per_s, o.echo_batch, dir);
+                r.echo = run_echo(o, r.udp_in_per_s, 0, dir);
+                if (o.echo_batch > 0 && !batched_first) r.batched = run_echo(o, r.udp_in_per_s, o.echo_batch, dir);
+            }
             std::printf("%6d %4d %8.0f %8.0f %8.0f %10llu %10.0f %10.0f %10.0f %6.0f%% %6.0f%% %8.1f %6.0f%% %8.0f %5.1f %s\n", rooms,
                         k, r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.replaced + r.unsent), r.relay_in_per_s,
                         r.relay_out_per_s, r.udp_in_per_s, r.server_cpu * 100, r.server_sys * 100, r.server_rss_mib, r.client_cpu * 100,
                         r.late_p99_us, r.loadavg, r.sustained ? "yes" : "no");
-            if (!o.echo.empty())
-                std::printf("       echo baseline at %.0f datagrams/s in, %.0f out: CPU %.1f%% (kernel %.1f%%); server / echo %.3f\n",
-                            r.echo_in_per_s, r.echo_out_per_s, r.echo_cpu * 100, r.echo_sys * 100,
-                            r.echo_cpu > 0 ? r.server_cpu / r.echo_cpu : 0);
+            if (!o.echo.empty()) {
+                // Per relayed input (the server's relay_in): what the server received and sent, ENet's
+                // pings and acknowledgements included; each echo sends what it is sent.
+                std::printf("       server per relayed input: %.4f datagrams in, %.4f out (%.4f out per in); CPU kernel %.1f%%, user %.1f%%\n",
+                            ratio(r.udp_in_per_s, r.relay_in_per_s), ratio(r.udp_out_per_s, r.relay_in_per_s),
+                            ratio(r.udp_out_per_s, r.udp_in_per_s), r.server_sys * 100, (r.server_cpu - r.server_sys) * 100);
+                print_echo("echo", r.echo, r);
+                if (o.echo_batch > 0) {
+                    print_echo("batched echo", r.batched, r);
+                    std::printf("       batched echo / echo %.3f\n", ratio(r.batched.cpu, r.echo.cpu));
+                }
+            }
             std::fflush(stdout);
             if (csv)
-                std::fprintf(csv, "%d,%d,%d,%.0f,%.0f,%.0f,%llu,%llu,%llu,%.0f,%.0f,%.0f,%.0f,%.4f,%.1f,%.4f,%.0f,%.2f,%d,%.4f,%.4f,%.4f,%.0f,%.0f\n", rooms, k,
+                std::fprintf(csv, "%d,%d,%d,%.0f,%.0f,%.0f,%llu,%llu,%llu,%.0f,%.0f,%.0f,%.0f,%.4f,%.1f,%.4f,%.0f,%.2f,%d,%.4f,%.4f,%.4f,%.0f,%.0f,%d,%.4f,%.4f,%.0f,%.0f,%d,%.4f,%.4f\n", rooms, k,
                              r.rooms_live, r.p50_us, r.p99_us, r.max_us, static_cast<unsigned long long>(r.samples),
                              static_cast<unsigned long long>(r.replaced), static_cast<unsigned long long>(r.unsent),
                              r.relay_in_per_s, r.relay_out_per_s, r.udp_in_per_s, r.udp_out_per_s, r.server_cpu,
                              r.server_rss_mib, r.client_cpu, r.late_p99_us, r.loadavg, r.sustained ? 1 : 0, r.server_sys,
-                             r.echo_cpu, r.echo_sys, r.echo_in_per_s, r.echo_out_per_s);
+                             r.echo.cpu, r.echo.sys, r.echo.in_per_s, r.echo.out_per_s, o.echo_batch, r.batched.cpu, r.batched.sys,
+                             r.batched.in_per_s, r.batched.out_per_s, o.echo_pass_us, r.echo.receive_calls, r.batched.receive_calls);
             if (r.disconnects) std::fprintf(stderr, "relay_bench: %llu clients disconnected (server logs in %s)\n",
                                             static_cast<unsigned long long>(r.disconnects), dir.c_str());
             runs.push_back(r);
@@ -1008,10 +1089,36 @@ int main(int argc, char** argv) {
                     med([&](const RunResult& r) { return r.server_cpu * 1e6 / rooms; }),
                     med([](const RunResult& r) { return r.server_rss_mib; }),
                     med([](const RunResult& r) { return static_cast<double>(r.replaced + r.unsent); }), sustained, runs.size());
+        // The ratios' medians: runs in which nothing was replaced (the server kept up) and the
+        // echoes kept up (echo_kept_up): a stalled run measured the stall.
+        std::vector<const RunResult*> paired;
+        for (const RunResult* r : started)
+            if (r->replaced + r->unsent == 0 && echo_kept_up(r->echo, r->udp_in_per_s) &&
+                (o.echo_batch == 0 || echo_kept_up(r->batched, r->udp_in_per_s)))
+                paired.push_back(r);
+        auto med_paired = [&](auto field) {
+            std::vector<double> v;
+            for (const RunResult* r : paired) v.push_back(field(*r));
+            return median(v);
+        };
+        if (!o.echo.empty() && paired.size() < started.size())
+            std::printf("median %6d rooms: echo ratios over the %zu of %zu runs in which nothing was replaced and every echo kept up\n",
+                        rooms, paired.size(), started.size());
         if (!o.echo.empty())
-            std::printf("median %6d rooms: server CPU / echo CPU at the same datagram rate %.3f (paired runs), echo CPU %.1f%%\n", rooms,
-                        med([](const RunResult& r) { return r.echo_cpu > 0 ? r.server_cpu / r.echo_cpu : 0; }),
-                        med([](const RunResult& r) { return r.echo_cpu * 100; }));
+            std::printf("median %6d rooms: server CPU / echo CPU at the same datagram rate %.3f (paired runs), echo CPU %.1f%%"
+                        " (kernel %.1f%%), server kernel / echo %.3f\n",
+                        rooms, med_paired([](const RunResult& r) { return ratio(r.server_cpu, r.echo.cpu); }),
+                        med_paired([](const RunResult& r) { return r.echo.cpu * 100; }),
+                        med_paired([](const RunResult& r) { return r.echo.sys * 100; }),
+                        med_paired([](const RunResult& r) { return ratio(r.server_sys, r.echo.cpu); }));
+        if (o.echo_batch > 0)
+            std::printf("median %6d rooms: server / batched echo (--batch %d) %.3f, batched echo / echo %.3f, batched echo CPU %.1f%%"
+                        " (kernel %.1f%%), server kernel / batched echo %.3f\n",
+                        rooms, o.echo_batch, med_paired([](const RunResult& r) { return ratio(r.server_cpu, r.batched.cpu); }),
+                        med_paired([](const RunResult& r) { return ratio(r.batched.cpu, r.echo.cpu); }),
+                        med_paired([](const RunResult& r) { return r.batched.cpu * 100; }),
+                        med_paired([](const RunResult& r) { return r.batched.sys * 100; }),
+                        med_paired([](const RunResult& r) { return ratio(r.server_sys, r.batched.cpu); }));
         std::fflush(stdout);
     }
     std::printf("largest room count sustained (p99 <= %.0f us, nothing replaced, in most runs): %d\n", o.goal_us, best);
