@@ -80,6 +80,7 @@ bool JoinHandoff::hand_over(PlayerId from, std::uint32_t frame, std::uint64_t no
     v.new_epoch();
     v.handoff = handoff;
     v.handed_off_by_me = true;
+    v.maker = s_.config.local_player;
     PeerLink& l = s_.links[from];
     l.reset_lifecycle(static_cast<std::size_t>(s_.config.players));
     l.welcomed = true;

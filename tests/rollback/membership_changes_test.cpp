@@ -25,8 +25,9 @@ struct Fixture : EffectsFixture {
     SessionStats stats;
     MembershipChanges changes;
 
-    explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone)
-        : EffectsFixture(players, 0, std::move(hosts), rule, 1), changes(config, view, slots, links, stats, fake) {
+    explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone,
+                     PlayerId local = 0)
+        : EffectsFixture(players, local, std::move(hosts), rule, 1), changes(config, view, slots, links, stats, fake) {
         config.interrupt_us = kInterrupt;
         config.disconnect_us = kDisconnect;
     }
@@ -309,6 +310,59 @@ TEST(MembershipChanges, ALapsedHandoffsVoteIsWithdrawnOnceItsStreamStarts) {
         EXPECT_EQ(f.view.vote_of(0, 2) == Vote::Gone, kicked);
         EXPECT_TRUE(f.view.running(2));
         EXPECT_TRUE(f.fake.of(Kind::Disconnected).empty());
+    }
+}
+
+// Issue 21: slot 3 was handed over by the owner (slot 0, the lowest running slot when slot 2, this
+// session, learned of it) and the owner is dropped before the joiner's stream starts. Only the
+// owner could serve that handoff, so it is orphaned: our vote comes as soon as we need the slot's
+// input, not disconnect_us later, the drop says so, and its next handoff does not back off.
+// Another player's drop orphans nothing: the handoff waits out disconnect_us as before.
+TEST(MembershipChanges, TheOwnersDropVotesItsPendingHandoffGone) {
+    for (const PlayerId dropped : {0u, 1u}) {
+        SCOPED_TRACE("slot " + std::to_string(dropped) + " dropped");
+        Fixture f(4, {}, TwoPlayerRule::PlayOnAlone, 2);
+        const PlayerId other = dropped == 0 ? 1 : 0;
+        const auto hear_all_but = [&](PlayerId silent, std::uint64_t now_us) {
+            for (std::size_t p = 0; p < f.links.size(); ++p)
+                if (p != silent && p != 2) f.links[p].mark_heard(now_us);
+        };
+        const std::vector<std::uint8_t> zero{0};
+        f.changes.adopt_slot(3, {3, SlotState::Disconnected, 1, 0}, 50);
+        for (std::uint32_t fr = 0; fr < 10; ++fr) f.fake.queues[3].add_confirmed(fr, zero, true);  // neutral to H
+        f.changes.adopt_slot(3, {3, SlotState::Running, 2, 0}, 60);
+        ASSERT_TRUE(f.view.joining(3));
+        EXPECT_EQ(f.slots[3].maker, 0u) << "the owner as this session sees it";
+        f.fake.shown = 5;  // stalled on the dying slot before the handoff frame
+        hear_all_but(99, 100);
+        f.changes.check_silence(100);
+        hear_all_but(dropped, 100 + kDisconnect);
+        f.changes.check_silence(100 + kDisconnect);
+        ASSERT_EQ(f.view.vote_of(2, dropped), Vote::Gone);
+        f.changes.count_vote(other, dropped, Vote::Gone, 1);
+        f.changes.settle_membership(100 + kDisconnect);
+        f.agree({other}, 100 + kDisconnect);
+        ASSERT_FALSE(f.view.running(dropped));
+        EXPECT_EQ(f.slots[3].orphaned, dropped == 0);
+        f.fake.shown = 10;  // now the joiner's input is needed
+        const std::uint64_t t = 200 + kDisconnect;
+        hear_all_but(dropped, t);
+        f.changes.check_silence(t);
+        if (dropped != 0) {
+            EXPECT_NE(f.view.vote_of(2, 3), Vote::Gone) << "its maker lives: the handoff waits out disconnect_us";
+            continue;
+        }
+        EXPECT_EQ(f.view.vote_of(2, 3), Vote::Gone) << "orphaned: voted gone at once";
+        f.changes.count_vote(1, 3, Vote::Gone, 3);
+        f.changes.settle_membership(t);
+        f.agree({1}, t);
+        const auto drops = f.fake.of(Kind::Disconnected);  // slot 3 learned absent, slot 0, slot 3
+        ASSERT_EQ(drops.size(), 3u);
+        EXPECT_EQ(drops[2].peer, 3u);
+        EXPECT_EQ(drops[2].detail, "handoff orphaned: its owner left, agreed by 2 of 3 players");
+        EXPECT_EQ(drops[2].reason, Reason::HandoffLapsed);
+        EXPECT_EQ(f.slots[3].next_handoff_us, 0u) << "no backoff: the joiner was not at fault";
+        EXPECT_EQ(f.slots[3].lapses, 0);
     }
 }
 
