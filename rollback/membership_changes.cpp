@@ -21,17 +21,36 @@ PlayerId MembershipChanges::owner_but(PlayerId except) const {
     return kNoSlot;
 }
 
-// `slot` leaves: every handoff it made whose joiner has not started is orphaned (SlotView::
-// orphaned). Only our vote and the backoff depend on it; the drop still takes a majority.
-void MembershipChanges::orphan_handoffs_of(PlayerId slot) {
-    for (PlayerId s = 0; s < static_cast<PlayerId>(config_.players); ++s)
-        if (s != slot && view_.joining(s) && slots_[s].maker == slot) slots_[s].orphaned = true;
+// `slot` leaves, and with it the view every pending handoff was judged in. One it made is
+// orphaned (SlotView::orphaned): nobody can serve it any more. Any other starts its lapse clock
+// over, our vote from its lapse withdrawn: its joiner's vetting needed the leaving slot's answer
+// while the view named it running, and its maker serves it again with the new view
+// (JoinHandoff::serve_again), so the joiner gets disconnect_us in the view it can load in (issue
+// 21: a player killed during a handoff made the handoff lapse, and the joiner waited 2 x
+// disconnect_us more). A stall on a pending handoff is so bounded by disconnect_us per change of
+// the view. Safe: only our vote and the backoff depend on this, a drop still takes a majority,
+// and the agreement that chose `slot` chose nothing else (one slot per instance; the new view is
+// a new instance). Called before the view changes, inside the settle loop.
+void MembershipChanges::pending_handoffs_after(PlayerId slot) {
+    for (PlayerId s = 0; s < static_cast<PlayerId>(config_.players); ++s) {
+        SlotView& v = slots_[s];
+        if (s == slot || !view_.joining(s)) continue;
+        if (v.maker == slot) {
+            v.orphaned = true;
+            continue;
+        }
+        v.pending_since_us = 0;
+        v.lapsed = false;
+        if (!v.lapse_vote) continue;
+        v.lapse_vote = false;
+        if (!v.kick_vote && !v.restart_vote) view_.vote_local(s, false);
+    }
 }
 
 void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, SessionEvent::Reason reason, const char* why) {
     SlotView& v = slots_[slot];
     if (!view_.running(slot)) return;
-    orphan_handoffs_of(slot);
+    pending_handoffs_after(slot);
     view_.leave(slot);
     agreement_.forget(slot);
     effects_.slot_changed_hands(slot);
@@ -143,7 +162,7 @@ void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint6
     const SlotState before = view_.state(slot);
     // The owner as we see it now made the handoff, if this is one (SlotView::maker).
     const PlayerId maker = owner_but(slot);
-    if (before == SlotState::Running && e.state != SlotState::Running) orphan_handoffs_of(slot);
+    if (before == SlotState::Running && e.state != SlotState::Running) pending_handoffs_after(slot);
     // Running in a newer epoch: handed to a new process, a voter once its stream starts here
     // (Membership::hand_over; check_silence notes the start).
     const bool handed_over = e.state == SlotState::Running && !mine(slot);

@@ -26,10 +26,13 @@
 //    hosts; `disconnected` with its stream's count. A slot not running: nothing. Every joining
 //    slot it handed over (SlotView::maker) is orphaned: its handoff lapses as soon as it is
 //    pending, with no backoff after, and its drop's detail is "handoff orphaned: its owner left".
+//    Every other joining slot's lapse clock starts over (the view it was judged in changed), and
+//    our vote from its lapse, unless a kick or a restart claim votes too, is withdrawn.
 //  - adopt_slot(): a peer's table says a slot changed hands (a join handed over, a drop we
 //    missed): the view takes its state and epoch. Our own slot or guest not running in it:
 //    `kicked`, and the session fails. A handoff's maker is taken to be our view's owner (the
-//    lowest running slot but this one); a drop learned so orphans handoffs as drop_slot does.
+//    lowest running slot but this one); a drop learned so does to pending handoffs what
+//    drop_slot does.
 //  - check_silence(): per tick, over live peers: `interrupted` once per silence; a player silent
 //    for disconnect_us gets our vote (kept until heard again); a spectator silent that long is no
 //    longer served. Over every other process's running slot, live or never welcomed here: one
@@ -140,8 +143,9 @@ private:
     void apply_drop(PlayerId slot, std::uint64_t now_us);
     // The lowest running slot other than `except` (kNoSlot: none): the owner that hands slots over.
     PlayerId owner_but(PlayerId except) const;
-    // Marks the pending handoffs `slot` made orphaned, as it leaves (SlotView::orphaned).
-    void orphan_handoffs_of(PlayerId slot);
+    // `slot` leaves: the pending handoffs it made are orphaned (SlotView::orphaned), every other
+    // one's lapse clock starts over.
+    void pending_handoffs_after(PlayerId slot);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     bool mine(PlayerId slot) const;  // this session's slot or one of its guests
     std::uint32_t count_of(PlayerId slot) const { return effects_.stream(slot).confirmed_count(); }

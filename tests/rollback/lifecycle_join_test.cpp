@@ -264,9 +264,14 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
 // never loaded. A joiner is no voter until its stream starts, so the survivor's view is two and
 // the two-player rule drops the dead slot. The joiner, which slot 2 had welcomed, also counted
 // slot 2 in its vetting whatever the owner's table said; silent for disconnect_us to the joiner
-// itself, it no longer counts, so the next offer (the first one lapses) loads on the owner's
-// word by the two-player rule and the joiner plays. Both failed before (5 seeds). Until then the
-// joiner may report `partitioned` (it reaches one of the offer's two voters), never after.
+// itself, it no longer counts, so the next offer loads on the owner's word by the two-player
+// rule and the joiner plays. Both failed before (5 seeds). Until then the joiner may report
+// `partitioned` (it reaches one of the offer's two voters), never after. The first offer names
+// slot 2 running, so it cannot pass; it used to be repeated as it was, the handoff lapsed and the
+// next came 2 x disconnect_us later: loaded 3.24 s after the kill, with two `joined`. Now slot
+// 2's drop restarts the handoff's lapse clock, the young offer is not repeated in a changed view,
+// and the owner serves its own pending handoff again with the new view: one handoff, loaded
+// 1.41 s after the kill (seeds 21-25).
 TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndTheJoinerIn) {
     for (const std::uint64_t seed : {21u, 22u, 23u, 24u, 25u}) {
         SCOPED_TRACE("seed " + std::to_string(seed));
@@ -295,6 +300,7 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
         ASSERT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
         cluster.kill(2);
         const std::uint32_t killed_at = cluster.clients[0]->session->frame();
+        const std::uint64_t killed_us = cluster.now();
         cluster.run([](const Cluster&) { return false; }, 300'000);
         slow = false;
         cluster.run([](const Cluster&) { return false; }, 20'000'000);
@@ -313,6 +319,13 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
             EXPECT_LT(e->at_us, loaded[0]->at_us) << e->detail;
         EXPECT_FALSE(joiner.session->partitioned());
         EXPECT_EQ(survivor.session->slot_state(1), SlotState::Running);
+        // One handoff, served again with the view of the drop: it never lapsed.
+        EXPECT_EQ(std::count_if(survivor.events.begin(), survivor.events.end(),
+                                [](const SessionEvent& e) { return e.kind == Kind::Joined && e.peer == 1; }),
+                  1);
+        for (const SessionEvent* e : events_of(survivor, Kind::Disconnected)) EXPECT_NE(e->peer, 1u) << e->detail;
+        EXPECT_LE(loaded[0]->at_us - killed_us, cfg.disconnect_us + 800'000)
+            << "loaded " << (loaded[0]->at_us - killed_us) / 1000 << " ms after the kill";
         // 20 s at 60 Hz: both play on (a stall of about the timeout for the drop, nothing more).
         EXPECT_GT(survivor.session->confirmed_frame(), killed_at + 60 * 15) << "the survivor keeps confirming";
         const std::uint32_t end = survivor.session->frame() + 120;
