@@ -17,9 +17,10 @@ void JoinHandoff::request(PlayerId from, const SnapshotRequestMessage& m, std::u
     if (m.reason == TransferReason::Recover &&
         (s_.config.max_recoveries == 0 || !is_slot(from) || !s_.membership.running(from) || !fx_.desynced(from)))
         return ignore(from);
-    // The same peer asking again while its offer is young: the same offer (SnapshotServer).
+    // The same peer asking again while its offer is young and our view unchanged: the same offer
+    // (SnapshotServer).
     const SnapshotOfferMessage* repeat = nullptr;
-    switch (s_.server.consider(from, m.reason, now_us, &repeat)) {
+    switch (s_.server.consider(from, m.reason, now_us, view_table(), &repeat)) {
         case SnapshotServer::Ask::Repeat: {
             std::vector<std::uint8_t> b;
             encode(*repeat, b);
@@ -61,11 +62,22 @@ void JoinHandoff::chunk(PlayerId from, const SnapshotRequestMessage& m) {
     fx_.send(from, std::move(b));
 }
 
+std::vector<SlotEntry> JoinHandoff::view_table() const {
+    std::vector<SlotEntry> t;
+    for (int s = 0; s < s_.config.players; ++s) {
+        const auto slot = static_cast<PlayerId>(s);
+        t.push_back({static_cast<std::uint8_t>(s), s_.membership.state(slot), s_.membership.epoch(slot), 0});
+    }
+    return t;
+}
+
 // Only the owner hands a slot over, and only once it writes the slot's neutral input (the drop
 // is agreed): it picks the handoff frame, far enough ahead that the joiner's first input reaches
 // everyone before they need it.
 bool JoinHandoff::hand_over(PlayerId from, std::uint32_t frame, std::uint64_t now_us, std::uint32_t& handoff) {
-    if (!is_slot(from) || s_.membership.running(from) || !s_.slots[from].authoring) return false;
+    if (!is_slot(from)) return false;
+    if (s_.membership.running(from)) return serve_again(from, handoff);
+    if (!s_.slots[from].authoring) return false;
     // Its last handoff lapsed (SessionImpl::check_handoff): not again before the backoff ends.
     if (now_us < s_.slots[from].next_handoff_us) return false;
     handoff = std::max(count_of(from), fx_.handoff_target(from));
@@ -80,12 +92,32 @@ bool JoinHandoff::hand_over(PlayerId from, std::uint32_t frame, std::uint64_t no
     v.new_epoch();
     v.handoff = handoff;
     v.handed_off_by_me = true;
+    v.maker = s_.config.local_player;
     PeerLink& l = s_.links[from];
     l.reset_lifecycle(static_cast<std::size_t>(s_.config.players));
     l.welcomed = true;
     l.welcomed_epoch = s_.membership.epoch(from);
     l.mark_heard(now_us);
     fx_.joined(from, handoff, frame, now_us);
+    return true;
+}
+
+// Our own handoff of `from`, still pending (its stream has not started here, and we do not vote
+// it gone): the same decision -- epoch, handoff frame, the neutral input up to it that we wrote --
+// offered again with our confirmed frame's state and our view as it is now. That frame is at most
+// the handoff frame (nothing past it is confirmed without the joiner's input), and the streams
+// from it include our neutral input up to the handoff frame, so the joiner plays from the same
+// frame as before. Issue 21: a player that died during a handoff was named running in the only
+// offer the owner would make, so the joiner's vetting could never pass, the handoff lapsed, and
+// the next one came 2 x disconnect_us later. Nobody else serves it: only the maker knows the
+// handoff frame and wrote the neutral input up to it.
+bool JoinHandoff::serve_again(PlayerId from, std::uint32_t& handoff) const {
+    const SlotView& v = s_.slots[from];
+    if (!v.handed_off_by_me || !s_.membership.joining(from) || stream_started(s_.sync.queue(from)) ||
+        s_.membership.vote_of(s_.config.local_player, from) == Vote::Gone)
+        return false;
+    if (s_.sync.confirmed_frame() > v.handoff) return false;  // cannot happen (above): never offer past it
+    handoff = v.handoff;
     return true;
 }
 
@@ -96,10 +128,7 @@ void JoinHandoff::offer(PlayerId from, TransferReason reason, std::uint32_t fram
     // Old transfers go as this one is packed: bounded memory whatever newcomers ask.
     TransferSender::Transfer& out = s_.server.offer(from, reason, t, s_.config.input_size, now_us);
     out.offer.handoff_frame = handoff;
-    for (int s = 0; s < s_.config.players; ++s) {
-        const auto slot = static_cast<PlayerId>(s);
-        out.offer.slots.push_back({static_cast<std::uint8_t>(s), s_.membership.state(slot), s_.membership.epoch(slot), 0});
-    }
+    out.offer.slots = view_table();
     // Keep what the newcomer will ask us for next: every stream from the snapshot on.
     PeerLink& l = s_.links[from];
     l.pin_from = frame;

@@ -13,12 +13,15 @@
 //    recoveries on (else counted ignored); a join only from a slot beyond the view whose neutral
 //    input this session writes (it owns the drop), and not before its lapsed handoff's backoff
 //    ends; a spectator's start only from a peer that is not a slot. Refused joins and
-//    spectators are silent. A young offer to the same peer goes again before any of that is
-//    looked at (SnapshotServer::consider).
+//    spectators are silent. A young offer to the same peer goes again, while our view is the one
+//    it carries, before any of that is looked at (SnapshotServer::consider).
 //  - A join picks the handoff frame no earlier than handoff_target (far enough ahead that the
 //    joiner's first input reaches everyone before they need it), writes the slot's neutral input
 //    up to it (a full queue: not now, nothing else changes), and hands the slot to the next
-//    epoch with a fresh link that counts as welcomed and heard.
+//    epoch with a fresh link that counts as welcomed and heard. A join of a slot we handed over
+//    whose stream has not started here (and that we do not vote gone) is that handoff served
+//    again: the same epoch and handoff frame, our current frame's state and view, no new
+//    `joined`, the link left as it is.
 //  - The offer carries our confirmed frame's state with every stream, and our view; what the
 //    newcomer will ask for next is pinned for 30 s, and a joiner or spectator counts as holding
 //    our stream up to now (it gets the rest with the snapshot).
@@ -95,6 +98,10 @@ private:
     void chunk(PlayerId from, const SnapshotRequestMessage& m);
     // A join: the handoff frame, or none (refused, or the queue is full: not now).
     bool hand_over(PlayerId from, std::uint32_t frame, std::uint64_t now_us, std::uint32_t& handoff);
+    // A join of a running slot: our own pending handoff's frame, offered again, or none.
+    bool serve_again(PlayerId from, std::uint32_t& handoff) const;
+    // Our view as an offer carries it: every slot's state and epoch.
+    std::vector<SlotEntry> view_table() const;
     void offer(PlayerId from, TransferReason reason, std::uint32_t frame, std::uint32_t handoff, std::uint64_t now_us);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(s_.config.players); }
     std::uint32_t count_of(PlayerId slot) const;

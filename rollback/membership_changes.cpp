@@ -13,9 +13,44 @@ bool MembershipChanges::mine(PlayerId slot) const {
     return slot == config_.local_player || (host_of(config_, slot) != slot && host_of(config_, slot) == config_.local_player);
 }
 
+// The owner of the view: the lowest running slot, the one that writes absent slots' inputs and
+// hands slots over (AuthoredStreams::owner), leaving `except` aside (a slot being handed over).
+PlayerId MembershipChanges::owner_but(PlayerId except) const {
+    for (PlayerId s = 0; s < static_cast<PlayerId>(config_.players); ++s)
+        if (s != except && view_.running(s)) return s;
+    return kNoSlot;
+}
+
+// `slot` leaves, and with it the view every pending handoff was judged in. One it made is
+// orphaned (SlotView::orphaned): nobody can serve it any more. Any other starts its lapse clock
+// over, our vote from its lapse withdrawn: its joiner's vetting needed the leaving slot's answer
+// while the view named it running, and its maker serves it again with the new view
+// (JoinHandoff::serve_again), so the joiner gets disconnect_us in the view it can load in (issue
+// 21: a player killed during a handoff made the handoff lapse, and the joiner waited 2 x
+// disconnect_us more). A stall on a pending handoff is so bounded by disconnect_us per change of
+// the view. Safe: only our vote and the backoff depend on this, a drop still takes a majority,
+// and the agreement that chose `slot` chose nothing else (one slot per instance; the new view is
+// a new instance). Called before the view changes, inside the settle loop.
+void MembershipChanges::pending_handoffs_after(PlayerId slot) {
+    for (PlayerId s = 0; s < static_cast<PlayerId>(config_.players); ++s) {
+        SlotView& v = slots_[s];
+        if (s == slot || !view_.joining(s)) continue;
+        if (v.maker == slot) {
+            v.orphaned = true;
+            continue;
+        }
+        v.pending_since_us = 0;
+        v.lapsed = false;
+        if (!v.lapse_vote) continue;
+        v.lapse_vote = false;
+        if (!v.kick_vote && !v.restart_vote) view_.vote_local(s, false);
+    }
+}
+
 void MembershipChanges::drop_slot(PlayerId slot, std::uint64_t now_us, SessionEvent::Reason reason, const char* why) {
     SlotView& v = slots_[slot];
     if (!view_.running(slot)) return;
+    pending_handoffs_after(slot);
     view_.leave(slot);
     agreement_.forget(slot);
     effects_.slot_changed_hands(slot);
@@ -90,7 +125,7 @@ void MembershipChanges::apply_drop(PlayerId s, std::uint64_t now_us) {
     const bool restart = v.restart_vote && view_.vote_of(config_.local_player, s) == Vote::Gone;
     using R = SessionEvent::Reason;
     const std::string why = v.kick_vote ? "kicked"
-                            : v.lapsed  ? "handoff lapsed"
+                            : v.lapsed  ? (v.orphaned ? "handoff orphaned: its owner left" : "handoff lapsed")
                             : restart   ? (v.restart_by_player ? "restarted" : "rejoining")
                                         : "timed out";
     // A view of two has no majority of the other's: the two-player rule decided, and this
@@ -125,13 +160,18 @@ void MembershipChanges::joiner_cut_off(const JoinerReach::Verdict& reach, std::u
 void MembershipChanges::adopt_slot(PlayerId slot, const SlotEntry& e, std::uint64_t now_us) {
     SlotView& v = slots_[slot];
     const SlotState before = view_.state(slot);
+    // The owner as we see it now made the handoff, if this is one (SlotView::maker).
+    const PlayerId maker = owner_but(slot);
+    if (before == SlotState::Running && e.state != SlotState::Running) pending_handoffs_after(slot);
     // Running in a newer epoch: handed to a new process, a voter once its stream starts here
     // (Membership::hand_over; check_silence notes the start).
-    if (e.state == SlotState::Running && !mine(slot)) view_.hand_over(slot, e.epoch);
+    const bool handed_over = e.state == SlotState::Running && !mine(slot);
+    if (handed_over) view_.hand_over(slot, e.epoch);
     else view_.set(slot, e.state, e.epoch);
     agreement_.forget(slot);
     effects_.slot_changed_hands(slot);
     v.new_epoch();
+    if (handed_over) v.maker = maker;
     if (mine(slot) && e.state != SlotState::Running) {
         effects_.emit(SessionEvent::Kind::Kicked, SessionEvent::Reason::LearnedFromPeer, slot, effects_.frame(), now_us,
                       "the other peers dropped this slot");

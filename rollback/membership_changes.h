@@ -23,10 +23,16 @@
 //    confirmed frame), and partitioned() says so until its reach does not (or it loads: the
 //    caller passes a verdict that is not cut off). The one Partitioned of the session either way.
 //  - drop_slot(): a running slot leaves the view into its next epoch with every slot its process
-//    hosts; `disconnected` with its stream's count. A slot not running: nothing.
+//    hosts; `disconnected` with its stream's count. A slot not running: nothing. Every joining
+//    slot it handed over (SlotView::maker) is orphaned: its handoff lapses as soon as it is
+//    pending, with no backoff after, and its drop's detail is "handoff orphaned: its owner left".
+//    Every other joining slot's lapse clock starts over (the view it was judged in changed), and
+//    our vote from its lapse, unless a kick or a restart claim votes too, is withdrawn.
 //  - adopt_slot(): a peer's table says a slot changed hands (a join handed over, a drop we
 //    missed): the view takes its state and epoch. Our own slot or guest not running in it:
-//    `kicked`, and the session fails.
+//    `kicked`, and the session fails. A handoff's maker is taken to be our view's owner (the
+//    lowest running slot but this one); a drop learned so does to pending handoffs what
+//    drop_slot does.
 //  - check_silence(): per tick, over live peers: `interrupted` once per silence; a player silent
 //    for disconnect_us gets our vote (kept until heard again); a spectator silent that long is no
 //    longer served. Over every other process's running slot, live or never welcomed here: one
@@ -135,6 +141,11 @@ private:
     // majority agreed on it (DropAgreement); this session's own slot means it was dropped.
     std::optional<PlayerId> next_drop(std::uint64_t now_us);
     void apply_drop(PlayerId slot, std::uint64_t now_us);
+    // The lowest running slot other than `except` (kNoSlot: none): the owner that hands slots over.
+    PlayerId owner_but(PlayerId except) const;
+    // `slot` leaves: the pending handoffs it made are orphaned (SlotView::orphaned), every other
+    // one's lapse clock starts over.
+    void pending_handoffs_after(PlayerId slot);
     bool is_slot(PlayerId p) const { return p < static_cast<PlayerId>(config_.players); }
     bool mine(PlayerId slot) const;  // this session's slot or one of its guests
     std::uint32_t count_of(PlayerId slot) const { return effects_.stream(slot).confirmed_count(); }

@@ -5,7 +5,7 @@
 namespace lockroll::rollback {
 
 void SlotView::dropped(std::uint64_t now_us, std::uint64_t disconnect_us) {
-    if (lapsed) {  // a handoff that lapsed: the next one waits (watch_handoff)
+    if (lapsed && !orphaned) {  // a handoff that lapsed: the next one waits (watch_handoff)
         lapses = std::min(lapses + 1, 3);
         next_handoff_us = now_us + (disconnect_us << lapses);
     }
@@ -29,7 +29,7 @@ SlotView::Watch SlotView::watch_handoff(bool running, const InputQueue& q, std::
         return Watch::Nothing;
     }
     if (pending_since_us == 0) pending_since_us = now_us;
-    if (lapsed || disconnect_us == 0 || now_us - pending_since_us < disconnect_us) return Watch::Nothing;
+    if (lapsed || disconnect_us == 0 || (!orphaned && now_us - pending_since_us < disconnect_us)) return Watch::Nothing;
     lapsed = true;
     lapse_vote = true;
     return Watch::Lapsed;

@@ -8,12 +8,14 @@
 //    next_handoff_us) and the handoff frame outlive epochs: they belong to the slot, not to the
 //    process that played it.
 //  - dropped(): a new epoch, and if the slot's handoff had lapsed, the next handoff waits 2, 4,
-//    then 8 x disconnect_us; watch_handoff() says when a handoff lapses (true once: vote it gone).
+//    then 8 x disconnect_us, unless the handoff was orphaned (its maker left first: the joiner
+//    was not at fault); watch_handoff() says when a handoff lapses (true once: vote it gone).
 #pragma once
 
 #include <cstdint>
 
 #include "rollback/input_queue.h"
+#include "rollback/protocol.h"
 #include "rollback/restart_claim.h"
 
 namespace lockroll::rollback {
@@ -42,6 +44,16 @@ struct SlotView {
     std::uint64_t pending_since_us = 0;
     bool lapsed = false;
     bool lapse_vote = false;
+    // Who made the handoff, as far as this process can tell: itself (JoinHandoff::hand_over), or
+    // the owner of the view it held when a peer's table told it (the lowest running slot, which
+    // alone hands slots over: MembershipChanges::adopt_slot); kNoSlot when not handed over.
+    PlayerId maker = kNoSlot;
+    // The maker left the view while the joiner's stream had not started (MembershipChanges::
+    // drop_slot). Only the maker serves its handoff and nothing else can end it, so waiting out
+    // disconnect_us only stalls everyone: the handoff lapses at once, and the slot's next
+    // handoff does not back off (a joiner that never got its snapshot is not one that cannot
+    // load). Issue 21: a joiner whose owner died waited 2 x disconnect_us more for that backoff.
+    bool orphaned = false;
     // Owner: handoffs of this slot that lapsed in a row, and no new one before this time
     // (disconnect_us << lapses, at most 8x: a joiner that never loads stalls the match for
     // at most disconnect_us per attempt, and ever more rarely).
@@ -56,11 +68,14 @@ struct SlotView {
         lapsed = false;
         lapse_vote = false;
         pending_since_us = 0;
+        maker = kNoSlot;
+        orphaned = false;
         authoring = false;
         neutral_reported = false;
         handed_off_by_me = false;
     }
-    // The slot left the view (its epoch ended); a lapsed handoff backs off the next one.
+    // The slot left the view (its epoch ended); a lapsed handoff backs off the next one, an
+    // orphaned one does not.
     void dropped(std::uint64_t now_us, std::uint64_t disconnect_us);
 
     // A joiner that cannot load (its snapshot refused again and again) keeps talking, so silence
@@ -76,6 +91,11 @@ struct SlotView {
     // resets the backoff, and withdraws our vote if the drop has not come yet: a joiner that
     // loaded just past the deadline plays, and kept, the vote dropped it all the same and sent it
     // back to fetch a snapshot, which at five players took longer than disconnect_us again.
+    // An orphaned handoff (its maker left) lapses as soon as it is pending, without waiting
+    // disconnect_us: nobody can serve it any more. A joiner that had loaded before its maker died
+    // sent its input for the handoff frame before we needed it (the frame's lead is chosen so:
+    // JoinHandoff::hand_over), so its stream has started here and it is not pending; one whose
+    // input comes after our vote but before the drop plays, and the vote is withdrawn (Started).
     // Called per tick for every other process's slot: running, its stream (q) and our frame.
     enum class Watch {
         Nothing,

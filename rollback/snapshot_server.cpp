@@ -1,13 +1,27 @@
 #include "rollback/snapshot_server.h"
 
+#include <algorithm>
+
 namespace lockroll::rollback {
 
+namespace {
+
+// The two tables name the same view: every slot in the same state and epoch.
+bool same_view(std::span<const SlotEntry> a, std::span<const SlotEntry> b) {
+    return std::equal(a.begin(), a.end(), b.begin(), b.end(), [](const SlotEntry& x, const SlotEntry& y) {
+        return x.slot == y.slot && x.state == y.state && x.epoch == y.epoch;
+    });
+}
+
+}  // namespace
+
 SnapshotServer::Ask SnapshotServer::consider(PlayerId peer, TransferReason reason, std::uint64_t now_us,
-                                             const SnapshotOfferMessage** repeat) const {
+                                             std::span<const SlotEntry> view, const SnapshotOfferMessage** repeat) const {
     const std::uint64_t reuse_us = reason == TransferReason::Recover ? 300'000 : 2'000'000;
     for (const TransferSender::Transfer& t : sender_.transfers()) {
         if (t.peer != peer || t.offer.reason != reason) continue;
         if (now_us < t.created_us + reuse_us) {
+            if (!same_view(t.offer.slots, view)) return Ask::Pack;  // the view changed: a fresh offer
             *repeat = &t.offer;
             return Ask::Repeat;
         }

@@ -9,6 +9,12 @@
 //    peer asking again for the same reason while its offer is young gets that offer again
 //    (Repeat: 2 s, a recovery 0.3 s, only against duplicates, since it wants a fresh frame), and
 //    a recovery is packed afresh at most every kRecoveryIntervalUs (TooSoon). Otherwise Pack.
+//    A young offer goes again only while the view it carries (its slot table: each slot's state
+//    and epoch) is still the provider's: a newcomer vets a snapshot against the view it names,
+//    and a player that died since was named running, so the repeat could only be rejected again
+//    (issue 21: a joiner rejected the same offer four times, its handoff lapsed and it loaded
+//    2 x disconnect_us later). A view changes rarely (a drop, a join), so this packs at most
+//    once more per change.
 //  - chunk(): only of a transfer offered to that peer and not expired; an index past the blob is
 //    OutOfRange (the peer's fault).
 //  - Fault injection (a test hook): damage(count, how) damages the next `count` chunks handed to
@@ -17,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "rollback/control_messages.h"
@@ -32,7 +39,9 @@ public:
 
     enum class Ask : std::uint8_t { Pack, Repeat, TooSoon };
     // What to do about `peer`'s request for an offer; Repeat: *repeat is the offer to send again.
-    Ask consider(PlayerId peer, TransferReason reason, std::uint64_t now_us, const SnapshotOfferMessage** repeat) const;
+    // view: the slot table an offer packed now would carry.
+    Ask consider(PlayerId peer, TransferReason reason, std::uint64_t now_us, std::span<const SlotEntry> view,
+                 const SnapshotOfferMessage** repeat) const;
     // Packs t for `peer` (replacing its previous transfer); the caller completes the offer.
     TransferSender::Transfer& offer(PlayerId peer, TransferReason reason, const TransferContents& t,
                                     std::size_t input_size, std::uint64_t now_us) {

@@ -163,6 +163,45 @@ TEST(JoinHandoff, AYoungOfferGoesAgainAsItWas) {
     EXPECT_EQ(f.fx.joins.size(), 1u);
 }
 
+// Issue 21: slot 1 leaves while our handoff of slot 2 is pending. The joiner asks again: the
+// young offer names slot 1 running, so it is not repeated; we serve the same handoff again (the
+// same epoch and handoff frame, no second `joined`) with our view as it is now.
+TEST(JoinHandoff, TheMakerReservesItsPendingHandoffWithTheCurrentTable) {
+    Fixture f;
+    f.fx.target = 7;
+    f.request(2, asks(TransferReason::Join));
+    const SnapshotOfferMessage first = f.fx.offer_to(2);
+    f.membership.leave(1);
+    f.request(2, asks(TransferReason::Join), 2000);
+    ASSERT_EQ(f.fx.sent.size(), 2u);
+    const SnapshotOfferMessage again = f.fx.offer_to(2);
+    EXPECT_NE(again.transfer_id, first.transfer_id);
+    EXPECT_EQ(again.handoff_frame, 7u);
+    EXPECT_LE(again.frame, 7u);
+    ASSERT_EQ(again.slots.size(), 3u);
+    EXPECT_EQ(again.slots[1].state, SlotState::Disconnected);
+    EXPECT_EQ(again.slots[2].state, SlotState::Running);
+    EXPECT_EQ(again.slots[2].epoch, 2);
+    EXPECT_EQ(f.membership.epoch(2), 2);
+    EXPECT_EQ(f.sync.queue(2).confirmed_count(), 7u) << "no neutral input written past the handoff";
+    EXPECT_EQ(f.fx.joins.size(), 1u);
+    // Once we vote it gone (a lapse, a kick), it is not served again.
+    f.membership.vote_local(2, true);
+    f.request(2, asks(TransferReason::Join), 5'000'000);
+    EXPECT_EQ(f.fx.sent.size(), 2u);
+}
+
+// Only the maker serves a pending handoff: a player that learned of it from a table has neither
+// the handoff frame nor the neutral input up to it.
+TEST(JoinHandoff, APendingHandoffWeDidNotMakeIsNotServed) {
+    Fixture f;
+    f.slots[2].authoring = false;
+    f.membership.hand_over(2, 2);
+    f.request(2, asks(TransferReason::Join));
+    EXPECT_TRUE(f.fx.sent.empty());
+    EXPECT_TRUE(f.fx.joins.empty());
+}
+
 TEST(JoinHandoff, ASpectatorStartsOnlyFromAPeerThatIsNotASlot) {
     Fixture f;
     f.request(1, asks(TransferReason::Spectate));

@@ -264,9 +264,14 @@ TEST(Lifecycle, AJoinerCutOffFromTheMajorityIsToldAndWaits) {
 // never loaded. A joiner is no voter until its stream starts, so the survivor's view is two and
 // the two-player rule drops the dead slot. The joiner, which slot 2 had welcomed, also counted
 // slot 2 in its vetting whatever the owner's table said; silent for disconnect_us to the joiner
-// itself, it no longer counts, so the next offer (the first one lapses) loads on the owner's
-// word by the two-player rule and the joiner plays. Both failed before (5 seeds). Until then the
-// joiner may report `partitioned` (it reaches one of the offer's two voters), never after.
+// itself, it no longer counts, so the next offer loads on the owner's word by the two-player
+// rule and the joiner plays. Both failed before (5 seeds). Until then the joiner may report
+// `partitioned` (it reaches one of the offer's two voters), never after. The first offer names
+// slot 2 running, so it cannot pass; it used to be repeated as it was, the handoff lapsed and the
+// next came 2 x disconnect_us later: loaded 3.24 s after the kill, with two `joined`. Now slot
+// 2's drop restarts the handoff's lapse clock, the young offer is not repeated in a changed view,
+// and the owner serves its own pending handoff again with the new view: one handoff, loaded
+// 1.41 s after the kill (seeds 21-25).
 TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndTheJoinerIn) {
     for (const std::uint64_t seed : {21u, 22u, 23u, 24u, 25u}) {
         SCOPED_TRACE("seed " + std::to_string(seed));
@@ -295,6 +300,7 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
         ASSERT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
         cluster.kill(2);
         const std::uint32_t killed_at = cluster.clients[0]->session->frame();
+        const std::uint64_t killed_us = cluster.now();
         cluster.run([](const Cluster&) { return false; }, 300'000);
         slow = false;
         cluster.run([](const Cluster&) { return false; }, 20'000'000);
@@ -313,6 +319,13 @@ TEST(Lifecycle, APlayerKilledDuringAJoinersHandoffLeavesTheSurvivorPlayingAndThe
             EXPECT_LT(e->at_us, loaded[0]->at_us) << e->detail;
         EXPECT_FALSE(joiner.session->partitioned());
         EXPECT_EQ(survivor.session->slot_state(1), SlotState::Running);
+        // One handoff, served again with the view of the drop: it never lapsed.
+        EXPECT_EQ(std::count_if(survivor.events.begin(), survivor.events.end(),
+                                [](const SessionEvent& e) { return e.kind == Kind::Joined && e.peer == 1; }),
+                  1);
+        for (const SessionEvent* e : events_of(survivor, Kind::Disconnected)) EXPECT_NE(e->peer, 1u) << e->detail;
+        EXPECT_LE(loaded[0]->at_us - killed_us, cfg.disconnect_us + 800'000)
+            << "loaded " << (loaded[0]->at_us - killed_us) / 1000 << " ms after the kill";
         // 20 s at 60 Hz: both play on (a stall of about the timeout for the drop, nothing more).
         EXPECT_GT(survivor.session->confirmed_frame(), killed_at + 60 * 15) << "the survivor keeps confirming";
         const std::uint32_t end = survivor.session->frame() + 120;
@@ -498,13 +511,19 @@ struct ProviderDiesMidTransfer {
         }
     }
     // The whole case, seeds 1 to 3: `running` players, newcomer `id` in `role`.
-    static void run_seeds(int running, Role role, PlayerId id) {
+    // max_load_us: the newcomer loads at most this long after its provider died (0: no bound).
+    static void run_seeds(int running, Role role, PlayerId id, std::uint64_t max_load_us = 0) {
         for (std::uint64_t seed = 1; seed <= 3; ++seed) {
             SCOPED_TRACE("seed " + std::to_string(seed));
             ProviderDiesMidTransfer m(running, seed);
             Client& newcomer = m.start(role, id);
             m.run_through_the_death();
             m.expect_loaded_and_equal(newcomer);
+            const auto loaded = events_of(newcomer, Kind::SnapshotLoaded);
+            if (!loaded.empty() && max_load_us) {
+                EXPECT_LE(loaded[0]->at_us - *m.died_us, max_load_us)
+                    << "loaded " << (loaded[0]->at_us - *m.died_us) / 1000 << " ms after its provider died";
+            }
         }
     }
 };
@@ -519,11 +538,69 @@ TEST(Lifecycle, ASpectatorWhoseProviderDiesMidTransferAsksAnotherSoon) {
 
 // Three players and a joiner into slot 3. Before the fix the joiner asked again 19.98 s after
 // the owner died (3 seeds of 3), and loaded 20.2 s after; now it asks 2.07 s after. Only the
-// owner serves a join, so it is served once the survivors have dropped the owner and the lapsed
-// handoff (5 s) and the next owner's backoff has ended: it loads that snapshot on the majority's
-// word (slots 1 and 2: 2 of the view's 3) 15.3-15.6 s after the death.
+// owner serves a join, so it is served once the survivors have dropped the owner (5 s) and its
+// orphaned handoff: it loads the next owner's snapshot on the majority's word (slots 1 and 2: 2
+// of the view's 3) 5.77 s after the death. Before the orphaned handoff was told from one that
+// lapsed, the next owner also backed off 2 x disconnect_us: 15.8-16.0 s.
 TEST(Lifecycle, AJoinerWhoseProviderDiesMidTransferAsksAgainSoon) {
-    ProviderDiesMidTransfer::run_seeds(3, Role::Joiner, 3);
+    ProviderDiesMidTransfer::run_seeds(3, Role::Joiner, 3, 7'000'000);
+}
+
+// Issue 21: the owner (slot 0) hands absent slot 3 over and dies before the joiner has a chunk.
+// The handoff is orphaned: its maker is gone, the slot runs in the handoff's epoch, and only the
+// maker could serve it. Before, the survivors dropped it as a lapse (disconnect_us after it was
+// pending), and the new owner (slot 1) then backed off 2 x disconnect_us as for a joiner that
+// cannot load: the joiner loaded 4.58 s after slot 0's drop (seeds 1-3). Now the maker's drop
+// marks the handoff orphaned (SlotView::orphaned): each survivor votes it gone as soon as it is
+// pending, with no backoff after, and slot 1 hands the slot over again at the joiner's next
+// ask: loaded 0.58 s after slot 0's drop.
+TEST(Lifecycle, AJoinerWhoseOwnerDiesMidHandoffIsServedByTheNextOwnerSoon) {
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+        SCOPED_TRACE("seed " + std::to_string(seed));
+        const auto scene = make_scene(4, 8);
+        SessionConfig cfg = real_config(4, 8);
+        cfg.absent_slots = 1u << 3;
+        cfg.disconnect_us = 2'000'000;
+        Cluster cluster(scene, cfg, {20000, 5000}, seed);
+        rejoin_when_dropped(cluster);  // a joiner whose handoff lapsed starts again, as a runner does
+        cluster.kill(3);               // nobody runs slot 3 yet
+        cluster.run_frames(150, 30'000'000);
+        // The owner's snapshot never reaches the joiner: its handoff stays pending.
+        cluster.filter = [](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
+            return !(from == 0 && to == 3 && peek_kind(b) == MessageKind::SnapshotChunk);
+        };
+        Client& joiner = start_newcomer(cluster, scene, cfg, Role::Joiner, 3, 5);
+        cluster.run([](const Cluster& c) {
+            return c.clients[1]->session->slot_state(3) == SlotState::Running &&
+                   c.clients[2]->session->slot_state(3) == SlotState::Running;
+        }, 10'000'000);
+        ASSERT_EQ(cluster.clients[1]->session->slot_state(3), SlotState::Running);
+        ASSERT_EQ(cluster.clients[2]->session->slot_state(3), SlotState::Running);
+        ASSERT_TRUE(events_of(joiner, Kind::SnapshotLoaded).empty());
+        cluster.kill(0);
+        cluster.run([&](const Cluster&) { return !events_of(joiner, Kind::SnapshotLoaded).empty(); }, 30'000'000);
+        ASSERT_EQ(joiner.session->phase(), SessionPhase::Running) << joiner.session->failure();
+        const auto loaded = events_of(joiner, Kind::SnapshotLoaded);
+        ASSERT_EQ(loaded.size(), 1u);
+        EXPECT_EQ(loaded[0]->peer, 1u) << "the next owner serves it";
+        const Client& next_owner = *cluster.clients[1];
+        const SessionEvent* owner_dropped = nullptr;
+        const SessionEvent* orphan_dropped = nullptr;
+        for (const SessionEvent* e : events_of(next_owner, Kind::Disconnected)) {
+            if (e->peer == 0 && !owner_dropped) owner_dropped = e;
+            if (e->peer == 3 && !orphan_dropped) orphan_dropped = e;
+        }
+        ASSERT_NE(owner_dropped, nullptr);
+        ASSERT_NE(orphan_dropped, nullptr);
+        EXPECT_NE(orphan_dropped->detail.find("handoff orphaned: its owner left"), std::string::npos) << orphan_dropped->detail;
+        EXPECT_LE(loaded[0]->at_us - owner_dropped->at_us, 1'000'000u)
+            << "loaded " << (loaded[0]->at_us - owner_dropped->at_us) / 1000 << " ms after the owner's drop";
+        const std::uint32_t end = next_owner.session->frame() + 300;
+        cluster.run_frames(end, 60'000'000);
+        cluster.settle(end);
+        expect_equal_at(cluster, end);
+        for (PlayerId p : {1u, 2u, 3u}) EXPECT_EQ(cluster.clients[p]->session->stats().desyncs, 0u) << "client " << p;
+    }
 }
 
 // The other side of the stall rule, through whole sessions: at 20 % loss each way a live

@@ -25,8 +25,9 @@ struct Fixture : EffectsFixture {
     SessionStats stats;
     MembershipChanges changes;
 
-    explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone)
-        : EffectsFixture(players, 0, std::move(hosts), rule, 1), changes(config, view, slots, links, stats, fake) {
+    explicit Fixture(int players, std::vector<PlayerId> hosts = {}, TwoPlayerRule rule = TwoPlayerRule::PlayOnAlone,
+                     PlayerId local = 0)
+        : EffectsFixture(players, local, std::move(hosts), rule, 1), changes(config, view, slots, links, stats, fake) {
         config.interrupt_us = kInterrupt;
         config.disconnect_us = kDisconnect;
     }
@@ -57,6 +58,14 @@ struct Fixture : EffectsFixture {
         r.accepted_slot = static_cast<std::uint8_t>(slot);
         for (PlayerId v : voters) changes.heard_agreement(v, r);
         changes.settle_membership(now_us);
+    }
+    // A peer's table drops `slot`, then hands it to a joiner at frame h: our stream of it is the
+    // owner's neutral input up to h, and the joiner is no voter yet.
+    void handed_over_by_a_table(PlayerId slot, std::uint32_t h, std::uint64_t now_us) {
+        const std::vector<std::uint8_t> zero{0};
+        changes.adopt_slot(slot, {static_cast<std::uint8_t>(slot), SlotState::Disconnected, 1, 0}, now_us);
+        for (std::uint32_t fr = 0; fr < h; ++fr) fake.queues[slot].add_confirmed(fr, zero, true);
+        changes.adopt_slot(slot, {static_cast<std::uint8_t>(slot), SlotState::Running, 2, 0}, now_us);
     }
     // Every peer but `silent` (and this session) heard now.
     void hear_all_but(PlayerId silent, std::uint64_t now_us) {
@@ -312,6 +321,87 @@ TEST(MembershipChanges, ALapsedHandoffsVoteIsWithdrawnOnceItsStreamStarts) {
     }
 }
 
+// Issue 21: slot 3 was handed over by the owner (slot 0, the lowest running slot when slot 2, this
+// session, learned of it) and the owner is dropped before the joiner's stream starts. Only the
+// owner could serve that handoff, so it is orphaned: our vote comes as soon as we need the slot's
+// input, not disconnect_us later, the drop says so, and its next handoff does not back off.
+// Another player's drop orphans nothing: the handoff waits out disconnect_us as before.
+TEST(MembershipChanges, TheOwnersDropVotesItsPendingHandoffGone) {
+    for (const PlayerId dropped : {0u, 1u}) {
+        SCOPED_TRACE("slot " + std::to_string(dropped) + " dropped");
+        Fixture f(4, {}, TwoPlayerRule::PlayOnAlone, 2);
+        const PlayerId other = dropped == 0 ? 1 : 0;
+        const auto hear_all_but = [&](PlayerId silent, std::uint64_t now_us) {
+            for (std::size_t p = 0; p < f.links.size(); ++p)
+                if (p != silent && p != 2) f.links[p].mark_heard(now_us);
+        };
+        f.handed_over_by_a_table(3, 10, 60);
+        ASSERT_TRUE(f.view.joining(3));
+        EXPECT_EQ(f.slots[3].maker, 0u) << "the owner as this session sees it";
+        f.fake.shown = 5;  // stalled on the dying slot before the handoff frame
+        hear_all_but(99, 100);
+        f.changes.check_silence(100);
+        hear_all_but(dropped, 100 + kDisconnect);
+        f.changes.check_silence(100 + kDisconnect);
+        ASSERT_EQ(f.view.vote_of(2, dropped), Vote::Gone);
+        f.changes.count_vote(other, dropped, Vote::Gone, 1);
+        f.changes.settle_membership(100 + kDisconnect);
+        f.agree({other}, 100 + kDisconnect);
+        ASSERT_FALSE(f.view.running(dropped));
+        EXPECT_EQ(f.slots[3].orphaned, dropped == 0);
+        f.fake.shown = 10;  // now the joiner's input is needed
+        const std::uint64_t t = 200 + kDisconnect;
+        hear_all_but(dropped, t);
+        f.changes.check_silence(t);
+        if (dropped != 0) {
+            EXPECT_NE(f.view.vote_of(2, 3), Vote::Gone) << "its maker lives: the handoff waits out disconnect_us";
+            continue;
+        }
+        EXPECT_EQ(f.view.vote_of(2, 3), Vote::Gone) << "orphaned: voted gone at once";
+        f.changes.count_vote(1, 3, Vote::Gone, 3);
+        f.changes.settle_membership(t);
+        f.agree({1}, t);
+        const auto drops = f.fake.of(Kind::Disconnected);  // slot 3 learned absent, slot 0, slot 3
+        ASSERT_EQ(drops.size(), 3u);
+        EXPECT_EQ(drops[2].peer, 3u);
+        EXPECT_EQ(drops[2].detail, "handoff orphaned: its owner left, agreed by 2 of 3 players");
+        EXPECT_EQ(drops[2].reason, Reason::HandoffLapsed);
+        EXPECT_EQ(f.slots[3].next_handoff_us, 0u) << "no backoff: the joiner was not at fault";
+        EXPECT_EQ(f.slots[3].lapses, 0);
+    }
+}
+
+// Issue 21: slot 1 is handed over (by us, the owner) and slot 2 dies before the joiner loads.
+// The joiner's vetting needed slot 2's answer while the view named it running, so the time its
+// handoff waited in that view says nothing of whether it can load: slot 2's drop starts its lapse
+// clock over and withdraws our vote from the lapse. Before, in the same settle the two-player
+// rule (slot 1's electorate now us and the joiner) dropped the joiner on that vote.
+TEST(MembershipChanges, AnotherDropRestartsAPendingHandoffsClock) {
+    Fixture f(3);
+    f.handed_over_by_a_table(1, 10, 60);
+    ASSERT_TRUE(f.view.joining(1));
+    f.fake.shown = 10;
+    f.hear_all_but(99, 100);
+    f.changes.check_silence(100);
+    const std::uint64_t dropped_us = 100 + kDisconnect;
+    f.hear_all_but(2, dropped_us);
+    f.changes.check_silence(dropped_us);  // slot 1 lapses, slot 2 timed out: the two-player rule drops it
+    ASSERT_FALSE(f.view.running(2));
+    EXPECT_TRUE(f.view.running(1)) << "not dropped on its lapse in the old view";
+    EXPECT_NE(f.view.vote_of(0, 1), Vote::Gone);
+    EXPECT_FALSE(f.slots[1].lapsed);
+    EXPECT_FALSE(f.slots[1].orphaned) << "slot 2 did not make it";
+    f.hear_all_but(2, dropped_us + 1);
+    f.changes.check_silence(dropped_us + 1);
+    f.hear_all_but(2, dropped_us + kDisconnect);
+    f.changes.check_silence(dropped_us + kDisconnect);
+    EXPECT_TRUE(f.view.running(1)) << "less than disconnect_us in the new view";
+    f.hear_all_but(2, dropped_us + 1 + kDisconnect);
+    f.changes.check_silence(dropped_us + 1 + kDisconnect);
+    EXPECT_FALSE(f.view.running(1)) << "disconnect_us in the new view: it lapses";
+    EXPECT_EQ(f.fake.of(Kind::Disconnected).back().reason, Reason::HandoffLapsedTwoPlayerRule);
+}
+
 // The joiner reached only the owner: we never welcomed its process, yet our stream of its slot
 // is the owner's neutral input and we need it. Its handoff lapses here too (before, only a
 // welcomed peer's was judged, and our vote was missing for good).
@@ -488,9 +578,7 @@ TEST(MembershipChanges, APeersTableHandsASlotOverOrTellsADropWeMissed) {
 TEST(MembershipChanges, AJoinerHandedOverIsNoVoterUntilItsStreamStarts) {
     Fixture f(3);
     const std::vector<std::uint8_t> zero{0};
-    f.changes.adopt_slot(1, {1, SlotState::Disconnected, 1, 0}, 50);
-    for (std::uint32_t fr = 0; fr < 12; ++fr) f.fake.queues[1].add_confirmed(fr, zero, true);  // neutral to H
-    f.changes.adopt_slot(1, {1, SlotState::Running, 2, 0}, 100);
+    f.handed_over_by_a_table(1, 12, 100);
     EXPECT_TRUE(f.view.joining(1));
     EXPECT_EQ(f.view.running_voters(), 2);
     f.hear_all_but(99, 100);

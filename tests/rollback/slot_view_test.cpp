@@ -17,6 +17,8 @@ SlotView everything_set() {
     v.restart_claim.claim(100, 0, 50);
     v.pending_since_us = 5;
     v.lapsed = true;
+    v.maker = 1;
+    v.orphaned = true;
     v.lapses = 2;
     v.next_handoff_us = 9'000'000;
     return v;
@@ -32,6 +34,8 @@ TEST(SlotView, NewEpochClearsEveryPerEpochFlag) {
     EXPECT_FALSE(v.restart_claim.stands(0)) << "a claim against the slot's previous process";
     EXPECT_EQ(v.pending_since_us, 0u);
     EXPECT_FALSE(v.lapsed);
+    EXPECT_EQ(v.maker, kNoSlot);
+    EXPECT_FALSE(v.orphaned);
 }
 
 TEST(SlotView, NewEpochKeepsTheHandoffBackoffAndFrame) {
@@ -94,6 +98,25 @@ TEST(SlotView, ItsOwnStreamStartingAfterALapseWithdrawsTheVote) {
     EXPECT_FALSE(v.lapse_vote);
     EXPECT_TRUE(v.lapsed);
     EXPECT_EQ(v.watch_handoff(true, q, 12, 300 + kDisconnect, kDisconnect), SlotView::Watch::Nothing) << "withdrawn once";
+}
+
+// Its maker left (MembershipChanges::drop_slot): nobody can serve the handoff any more. It lapses
+// as soon as it is pending, and its drop does not back the next handoff off.
+TEST(SlotView, AnOrphanedHandoffLapsesAtOnceAndDoesNotBackOff) {
+    SlotView v;
+    v.lapses = 1;  // an earlier lapse's backoff, long over
+    v.next_handoff_us = 50;
+    v.orphaned = true;
+    const InputQueue q = handed_over();
+    using W = SlotView::Watch;
+    EXPECT_EQ(v.watch_handoff(true, q, 5, 100, kDisconnect), W::Nothing) << "not needed yet: still no vote";
+    EXPECT_EQ(v.watch_handoff(true, q, 10, 200, kDisconnect), W::Lapsed);
+    EXPECT_TRUE(v.lapse_vote);
+    v.dropped(300, kDisconnect);
+    EXPECT_EQ(v.next_handoff_us, 50u);
+    EXPECT_EQ(v.lapses, 1);
+    EXPECT_FALSE(v.orphaned) << "per epoch";
+    EXPECT_EQ(SlotView{}.watch_handoff(true, q, 10, 100, 0), W::Nothing) << "disconnect_us 0: never, orphaned or not";
 }
 
 TEST(SlotView, LapsedHandoffsBackOffTwoFourThenEightTimes) {

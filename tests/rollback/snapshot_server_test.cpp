@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 namespace lockroll::rollback {
 namespace {
 
@@ -26,24 +28,42 @@ struct Offered {
 TEST(SnapshotServer, RepeatsAYoungOfferAndPacksAgainOnceItAged) {
     SnapshotServer s;
     const SnapshotOfferMessage* repeat = nullptr;
-    EXPECT_EQ(s.consider(1, TransferReason::Join, 0, &repeat), SnapshotServer::Ask::Pack);
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 0, {}, &repeat), SnapshotServer::Ask::Pack);
     const std::uint32_t id = s.offer(1, TransferReason::Join, contents(), 1, 0).offer.transfer_id;
-    ASSERT_EQ(s.consider(1, TransferReason::Join, 1'999'999, &repeat), SnapshotServer::Ask::Repeat);
+    ASSERT_EQ(s.consider(1, TransferReason::Join, 1'999'999, {}, &repeat), SnapshotServer::Ask::Repeat);
     EXPECT_EQ(repeat->transfer_id, id);
-    EXPECT_EQ(s.consider(2, TransferReason::Join, 1'000, &repeat), SnapshotServer::Ask::Pack) << "another peer";
-    EXPECT_EQ(s.consider(1, TransferReason::Spectate, 1'000, &repeat), SnapshotServer::Ask::Pack) << "another reason";
-    EXPECT_EQ(s.consider(1, TransferReason::Join, 2'000'000, &repeat), SnapshotServer::Ask::Pack);
+    EXPECT_EQ(s.consider(2, TransferReason::Join, 1'000, {}, &repeat), SnapshotServer::Ask::Pack) << "another peer";
+    EXPECT_EQ(s.consider(1, TransferReason::Spectate, 1'000, {}, &repeat), SnapshotServer::Ask::Pack) << "another reason";
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 2'000'000, {}, &repeat), SnapshotServer::Ask::Pack);
+}
+
+// Issue 21: the newcomer vets a snapshot against the view its offer names; once a slot has left
+// the provider's view, the young offer's table is stale, and the request is packed afresh.
+TEST(SnapshotServer, AYoungOfferIsPackedAgainOnceTheViewChanged) {
+    SnapshotServer s;
+    const SnapshotOfferMessage* repeat = nullptr;
+    const std::vector<SlotEntry> before{{0, SlotState::Running, 0, 0}, {1, SlotState::Running, 2, 0},
+                                        {2, SlotState::Running, 0, 0}};
+    std::vector<SlotEntry> after = before;
+    after[2] = {2, SlotState::Disconnected, 1, 0};
+    s.offer(1, TransferReason::Join, contents(), 1, 0).offer.slots = before;
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 1'000, before, &repeat), SnapshotServer::Ask::Repeat);
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 1'000, after, &repeat), SnapshotServer::Ask::Pack);
+    after = before;
+    after[1].count = 7;  // counts and votes are no part of the view
+    after[1].voted = true;
+    EXPECT_EQ(s.consider(1, TransferReason::Join, 1'000, after, &repeat), SnapshotServer::Ask::Repeat);
 }
 
 TEST(SnapshotServer, PacksARecoveryAtMostOnceASecond) {
     SnapshotServer s;
     const SnapshotOfferMessage* repeat = nullptr;
     s.offer(1, TransferReason::Recover, contents(), 1, 0);
-    EXPECT_EQ(s.consider(1, TransferReason::Recover, 299'999, &repeat), SnapshotServer::Ask::Repeat);
-    EXPECT_EQ(s.consider(1, TransferReason::Recover, 300'000, &repeat), SnapshotServer::Ask::TooSoon);
-    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs - 1, &repeat),
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, 299'999, {}, &repeat), SnapshotServer::Ask::Repeat);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, 300'000, {}, &repeat), SnapshotServer::Ask::TooSoon);
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs - 1, {}, &repeat),
               SnapshotServer::Ask::TooSoon);
-    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs, &repeat),
+    EXPECT_EQ(s.consider(1, TransferReason::Recover, SnapshotServer::kRecoveryIntervalUs, {}, &repeat),
               SnapshotServer::Ask::Pack);
 }
 
