@@ -48,9 +48,10 @@ for k, p in procs.items():
     ev = events(k)
     assert not any(e["event"] == "desync" for e in ev), (k, [e for e in ev if e["event"] == "desync"])
     silent += any(e["event"] == "interrupted" and int(e.get("detail", "0 ms").split()[0]) >= 1500 for e in ev)
-# The stall happened: processes found others silent past the timeout (slot 0, continued first,
-# is heard at once by the two others when they resume: they may find only each other silent).
-assert silent >= 2, silent
+# The stall happened: slot 0, continued 1.2 s before the others, found them silent past the
+# timeout. Slots 1 and 2 are continued together and may hear each other (and 0) before their
+# next check, so they need not report it (under load they often did not: 2 of 5 runs at load 3).
+assert silent >= 1, silent
 # A slot dropped by one process is dropped by both others (or it was the dropper itself).
 dropped = {k: {x["slot"] for x in procs[k]["disconnects"]} for k in procs}
 for k, slots in dropped.items():
