@@ -149,42 +149,39 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     for (std::uint32_t c : occupied_) cell_[c] = kEmptyCell;
     occupied_.clear();
 
-    // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
-    // Keys start in ascending id order and every pass is stable, so each cell lists its bodies
-    // in ascending id order: the layout is a pure function of the positions.
     const std::size_t n = gridded_.size();
     keys_.resize(n);
     keys_tmp_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-        const BodyId id = gridded_[i];
-        const Box& box = box_[id];
-        const auto c = static_cast<std::uint64_t>(coord(box, 2) * stride_z_ + coord(box, 1) * stride_y_ + coord(box, 0));
-        keys_[i] = c << 32 | id;
-    }
-    constexpr int kDigit = 11;
-    for (int shift = 0; shift < key_bits_; shift += kDigit) {
-        std::uint32_t histogram[(1u << kDigit) + 1] = {};
-        auto digit = [&](std::uint64_t key) { return static_cast<std::uint32_t>(key >> (32 + shift)) & ((1u << kDigit) - 1); };
-        for (std::uint64_t key : keys_) ++histogram[digit(key) + 1];
-        for (std::uint32_t d = 1; d <= (1u << kDigit); ++d) histogram[d] += histogram[d - 1];
-        for (std::uint64_t key : keys_) keys_tmp_[histogram[digit(key)]++] = key;
-        keys_.swap(keys_tmp_);
-    }
-
-    // Slots in sorted order; one run per occupied cell, the cells ascending.
     sorted_id_.resize(n);
     sorted_box_.resize(n);
-    for (std::size_t s = 0; s < n; ++s) {
-        const auto id = static_cast<BodyId>(keys_[s]);
-        const auto c = static_cast<std::uint32_t>(keys_[s] >> 32);
-        sorted_id_[s] = id;
-        sorted_box_[s] = box_[id];
-        Cell& cell = cell_[c];
-        if (cell.end == 0) {
-            cell.start = static_cast<std::uint32_t>(s);
-            occupied_.push_back(c);
+    if (const std::size_t sort_pieces = tasks.piece_count(n, kGrain); sort_pieces > 1) {
+        sort_and_layout(sort_pieces, tasks);
+    } else {
+        // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
+        // Keys start in ascending id order and every pass is stable, so each cell lists its
+        // bodies in ascending id order: the layout is a pure function of the positions.
+        for (std::size_t i = 0; i < n; ++i) keys_[i] = key(gridded_[i]);
+        for (int shift = 0; shift < key_bits_; shift += kDigit) {
+            std::uint32_t histogram[kBuckets + 1] = {};
+            for (std::uint64_t key : keys_) ++histogram[digit(key, shift) + 1];
+            for (std::uint32_t d = 1; d <= kBuckets; ++d) histogram[d] += histogram[d - 1];
+            for (std::uint64_t key : keys_) keys_tmp_[histogram[digit(key, shift)]++] = key;
+            keys_.swap(keys_tmp_);
         }
-        cell.end = static_cast<std::uint32_t>(s + 1);
+
+        // Slots in sorted order; one run per occupied cell, the cells ascending.
+        for (std::size_t s = 0; s < n; ++s) {
+            const auto id = static_cast<BodyId>(keys_[s]);
+            const auto c = static_cast<std::uint32_t>(keys_[s] >> 32);
+            sorted_id_[s] = id;
+            sorted_box_[s] = box_[id];
+            Cell& cell = cell_[c];
+            if (cell.end == 0) {
+                cell.start = static_cast<std::uint32_t>(s);
+                occupied_.push_back(c);
+            }
+            cell.end = static_cast<std::uint32_t>(s + 1);
+        }
     }
 
     // Walk cell by cell, in ascending linear index (per range of occupied cells when parallel,
@@ -206,6 +203,62 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
         });
     }
     for (std::size_t k = 0; k < pieces; ++k) out.insert(out.end(), scratch_[k].begin(), scratch_[k].begin() + found_[k]);
+}
+
+void Broadphase::sort_and_layout(std::size_t pieces, const ParallelTasks& tasks) {
+    // The keys are distinct (the id is in them), so the sorted order is unique: any correct
+    // sort gives the sequential one's. This one is the same LSD radix sort, each pass cut into
+    // ranges of the keys: a histogram per (range, digit), offsets by digit then range (stable),
+    // each range scattering its keys. The layout then writes each slot's id and box, and a
+    // cell's start (end) at the slot whose key differs from the previous (next) slot's.
+    const std::size_t n = gridded_.size();
+    const auto first = [&](std::size_t k) { return n * k / pieces; };
+    histograms_.resize(pieces * kBuckets);
+    const auto count = [&](std::size_t k, int shift) {
+        std::uint32_t* h = &histograms_[k * kBuckets];
+        std::fill(h, h + kBuckets, 0u);
+        for (std::size_t i = first(k), e = first(k + 1); i < e; ++i) ++h[digit(keys_[i], shift)];
+    };
+    tasks.run(pieces, [&](std::size_t k) {
+        for (std::size_t i = first(k), e = first(k + 1); i < e; ++i) keys_[i] = key(gridded_[i]);
+        if (key_bits_ > 0) count(k, 0);
+    });
+    for (int shift = 0; shift < key_bits_; shift += kDigit) {
+        if (shift > 0) tasks.run(pieces, [&](std::size_t k) { count(k, shift); });
+        std::uint32_t total = 0;
+        for (std::uint32_t d = 0; d < kBuckets; ++d)
+            for (std::size_t k = 0; k < pieces; ++k) {
+                const std::uint32_t c = histograms_[k * kBuckets + d];
+                histograms_[k * kBuckets + d] = total;
+                total += c;
+            }
+        tasks.run(pieces, [&](std::size_t k) {
+            std::uint32_t* h = &histograms_[k * kBuckets];
+            for (std::size_t i = first(k), e = first(k + 1); i < e; ++i)
+                keys_tmp_[h[digit(keys_[i], shift)]++] = keys_[i];
+        });
+        keys_.swap(keys_tmp_);
+    }
+
+    if (occupied_parts_.size() < pieces) occupied_parts_.resize(pieces);
+    tasks.run(pieces, [&](std::size_t k) {
+        std::vector<std::uint32_t>& occupied = occupied_parts_[k];
+        occupied.clear();
+        for (std::size_t s = first(k), e = first(k + 1); s < e; ++s) {
+            const auto id = static_cast<BodyId>(keys_[s]);
+            const auto c = static_cast<std::uint32_t>(keys_[s] >> 32);
+            sorted_id_[s] = id;
+            sorted_box_[s] = box_[id];
+            if (s == 0 || static_cast<std::uint32_t>(keys_[s - 1] >> 32) != c) {
+                cell_[c].start = static_cast<std::uint32_t>(s);
+                occupied.push_back(c);
+            }
+            if (s + 1 == n || static_cast<std::uint32_t>(keys_[s + 1] >> 32) != c)
+                cell_[c].end = static_cast<std::uint32_t>(s + 1);
+        }
+    });
+    for (std::size_t k = 0; k < pieces; ++k)
+        occupied_.insert(occupied_.end(), occupied_parts_[k].begin(), occupied_parts_[k].end());
 }
 
 std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_t piece) {
@@ -292,11 +345,14 @@ void Broadphase::oversize_and_statics(std::vector<BodyPair>& out, const Parallel
     const std::size_t nd = dynamic_.size(), n = static_.size() * nd;
     const std::size_t pieces = tasks.piece_count(n, kStaticGrain);
     const auto tests = [&](std::size_t begin, std::size_t end, std::vector<BodyPair>& list) {
-        // (static, dynamic) = (i / nd, i % nd), divided once per range.
-        for (std::size_t si = begin / (nd == 0 ? 1 : nd), di = begin - si * nd, i = begin; i < end; ++si, di = 0) {
+        // (static, dynamic) = (i / nd, i % nd), divided once per range; the inner loop is the
+        // plain one's, over [di, stop) (a second bound in it cost the tests ~20 %).
+        for (std::size_t si = begin / nd, di = begin - si * nd, i = begin; i < end; ++si, di = 0) {
             const BodyId s = static_[si];
             const Box& bs = box_[s];
-            for (; di < nd && i < end; ++di, ++i) {
+            const std::size_t stop = std::min(nd, di + (end - i));
+            i += stop - di;
+            for (; di < stop; ++di) {
                 const BodyId d = dynamic_[di];
                 if (overlap(bs, box_[d])) list.push_back(s < d ? BodyPair{s, d} : BodyPair{d, s});
             }

@@ -63,6 +63,20 @@ private:
         return std::clamp((box.lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
     }
     void oversize_and_statics(std::vector<BodyPair>& out, const ParallelTasks& tasks);
+    // The radix sort key of a gridded body: its box's linear cell index << 32 | id.
+    std::uint64_t key(BodyId id) const {
+        const Box& box = box_[id];
+        const auto c = static_cast<std::uint64_t>(coord(box, 2) * stride_z_ + coord(box, 1) * stride_y_ + coord(box, 0));
+        return c << 32 | id;
+    }
+    static constexpr int kDigit = 11;  // radix sort: bits a pass
+    static constexpr std::uint32_t kBuckets = 1u << kDigit;
+    static std::uint32_t digit(std::uint64_t key, int shift) {
+        return static_cast<std::uint32_t>(key >> (32 + shift)) & (kBuckets - 1);
+    }
+    // grid()'s sort and layout cut into `pieces` ranges (the parallel step): the same keys_,
+    // sorted_id_, sorted_box_, cell_ and occupied_ as the sequential loops.
+    void sort_and_layout(std::size_t pieces, const ParallelTasks& tasks);
 
     // Work per parallel range, at least: bodies, occupied cells, static-dynamic tests.
     static constexpr std::size_t kGrain = 1024, kCellGrain = 256, kStaticGrain = 8192;
@@ -113,6 +127,8 @@ private:
     std::vector<std::vector<BodyPair>> scratch_;  // per walk range: pairs as found, by the body whose walk found them
     std::vector<std::uint32_t> found_;       // per walk range: how many
     std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests
+    std::vector<std::uint32_t> histograms_;  // parallel sort: kBuckets counters per range
+    std::vector<std::vector<std::uint32_t>> occupied_parts_;  // parallel layout: occupied cells per range
 };
 
 }  // namespace lockroll::sim

@@ -100,7 +100,7 @@ private:
             for (std::size_t i = begin; i < end; ++i) pos[dynamic_[i]] += vel[dynamic_[i]] * dt_;
         });
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
-        prepare_pairs();
+        prepare_pairs_and_links(tasks);
         solve_default_islands(pos, vel, tasks);
     }
 
@@ -150,10 +150,38 @@ private:
                    : table_[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
     }
 
-    void prepare_pairs() {
+    // Out of line, as it was before prepare_each() was split out of it (inlined into the step,
+    // the paper scene's step ran 0.3 % more instructions).
+    [[gnu::noinline]] void prepare_pairs() {
         solver_pairs_.clear();
-        for (const BodyPair& pair : pairs_) {
-            BodyId a = pair.a, b = pair.b;
+        prepare_each(pairs_.data(), pairs_.data() + pairs_.size(),
+                     [this](const BodyPair*, const SolverPair& p) { solver_pairs_.push_back(p); });
+    }
+
+    // prepare_pairs() per range of pairs, with the islands' links (solve_default_islands).
+    void prepare_pairs_and_links(const ParallelTasks& tasks) {
+        solver_pairs_.resize(pairs_.size());
+        links_.resize(pairs_.size());
+        tasks.for_ranges(pairs_.size(), kPairGrain, [&](std::size_t begin, std::size_t end) {
+            prepare_each(pairs_.data() + begin, pairs_.data() + end, [this](const BodyPair* pair,
+                                                                            const SolverPair& p) {
+                const auto k = static_cast<std::size_t>(pair - pairs_.data());
+                solver_pairs_[k] = p;
+                links_[k] = {inv_mass_[p.a] == T::zero() ? Islands::kStatic : p.a,
+                             inv_mass_[p.b] == T::zero() ? Islands::kStatic : p.b};
+            });
+        });
+    }
+
+    // Prepares the pairs [first, last) of pairs_ for the solver and hands each to
+    // emit(&pair, prepared). A loop
+    // with a callback rather than a function per pair: the sequential loop compiles as it did
+    // before the parallel path shared it (a per-pair function returning the pair, inlined or
+    // not, cost the paper scene's step 0.3-1.7 % more instructions).
+    template <class Emit>
+    void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) const {
+        for (const BodyPair* pair = first; pair != last; ++pair) {
+            BodyId a = pair->a, b = pair->b;
             // Canonical roles: a round shape before a box (each routine sees (round, box)); within
             // the same class, a static body second. Only a static round body against a dynamic box
             // leaves the static body first, which the solver mirrors.
@@ -169,7 +197,7 @@ private:
             p.b_static = inv_mass_[b] == T::zero();
             p.inv_sum_recip = p.b_static || inv_mass_[a] == T::zero() ? T::zero()
                                                                       : T::reciprocal(inv_mass_[a] + inv_mass_[b]);
-            solver_pairs_.push_back(p);
+            emit(pair, p);
         }
     }
 
@@ -230,14 +258,9 @@ private:
 
     // solve_default() island by island: the pairs of other islands write none of an island's
     // bodies (static bodies are never written), so each island's iterations over its pairs in
-    // their global relative order give the bits of the global sweep.
+    // their global relative order give the bits of the global sweep. Needs links_ from
+    // prepare_pairs_and_links().
     void solve_default_islands(std::vector<Vec>& pos, std::vector<Vec>& vel, const ParallelTasks& tasks) {
-        links_.resize(solver_pairs_.size());
-        for (std::size_t k = 0; k < solver_pairs_.size(); ++k) {
-            const SolverPair& p = solver_pairs_[k];
-            links_[k] = {inv_mass_[p.a] == T::zero() ? Islands::kStatic : p.a,
-                         inv_mass_[p.b] == T::zero() ? Islands::kStatic : p.b};
-        }
         islands_.build(pos.size(), links_);
         // At least kPairGrain pairs a piece: a small scene is not worth waking a thread for.
         const std::size_t pieces = std::min(tasks.piece_count(solver_pairs_.size(), kPairGrain), islands_.count());

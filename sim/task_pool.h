@@ -7,7 +7,12 @@
 // run() returns only after every call has returned. A task that throws does not stop the
 // others; run() rethrows the first exception once all have finished. run() is not reentrant
 // and not for two threads at once: one world steps on one thread at a time. It never
-// allocates: a batch is a pointer, a count and an atomic cursor.
+// allocates: a batch is a pointer and an atomic cursor.
+//
+// Waiting: run() returns as soon as every task has returned; it never waits for a pool thread
+// that took no task (one still waking up finds the batch used up). Pool threads poll for the
+// next batch for a bounded time, then sleep; the caller polls for tasks still running on
+// other threads, then sleeps (sim/task_pool.cpp says how long, and why).
 #pragma once
 
 #include <cstddef>

@@ -1,6 +1,7 @@
 // The built-in job system: every task once, all done on return, exceptions after the batch,
 // threads reused batch after batch, and a clear error for a worker count below one.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 
 #include <atomic>
 #include <set>
@@ -38,6 +39,24 @@ TEST(TaskPool, ReusesItsThreadsAcrossBatches) {
     // The caller and at most three pool threads, whoever took the tasks.
     EXPECT_GE(seen.size(), 1u);
     EXPECT_LE(seen.size(), 4u);
+}
+
+// The handoff a parallel step pays per phase (a step has about a dozen): the caller of run()
+// must not block on the pool's threads unless one of them is still running a task it took.
+// With a condition variable alone the caller slept on nearly every batch, waiting for a
+// worker to wake up only to find the tasks done (bodies_10k ran slower on two workers than
+// on one, docs/performance.md "Parallel step"). Voluntary context switches of the calling
+// thread count those sleeps; half the batches leaves room for a loaded machine.
+TEST(TaskPool, CallerDoesNotSleepOnTheHandoff) {
+    TaskPool pool(2);
+    std::atomic<std::size_t> ran{0};
+    constexpr int kBatches = 1000;
+    rusage before{}, after{};
+    getrusage(RUSAGE_THREAD, &before);
+    for (int batch = 0; batch < kBatches; ++batch) pool.run(2, [&](std::size_t) { ran.fetch_add(1); });
+    getrusage(RUSAGE_THREAD, &after);
+    EXPECT_EQ(ran.load(), 2u * kBatches);
+    EXPECT_LT(after.ru_nvcsw - before.ru_nvcsw, kBatches / 2);
 }
 
 TEST(TaskPool, OneWorkerRunsOnTheCallingThreadInOrder) {
