@@ -66,13 +66,14 @@ DatagramDemux::DatagramDemux(const DatagramDemuxConfig& config) : config_(config
     last_capacity_ = all - (config.hosts - 1) * config.capacity_per_host;
 }
 
-bool DatagramDemux::is_connect(std::span<const std::uint8_t> d, std::uint32_t& connect_id) {
+bool DatagramDemux::is_connect(std::span<const std::uint8_t> d, std::uint32_t& connect_id, std::uint16_t& client_peer) {
     if (d.size() < 2) return false;
     const std::uint16_t peer = read16(d.data());
     if ((peer & kPeerIdMask) != kPeerIdMask || (peer & kFlagCompressed) != 0) return false;
     const std::size_t at = header_size(peer);
     if (d.size() < at + sizeof(ENetProtocolConnect) || (d[at] & ENET_PROTOCOL_COMMAND_MASK) != ENET_PROTOCOL_COMMAND_CONNECT) return false;
     std::memcpy(&connect_id, d.data() + at + offsetof(ENetProtocolConnect, connectID), sizeof connect_id);
+    client_peer = read16(d.data() + at + offsetof(ENetProtocolConnect, outgoingPeerID));
     return true;
 }
 
@@ -95,7 +96,8 @@ int DatagramDemux::route(std::uint32_t ip, std::uint16_t port, std::span<std::ui
         return static_cast<int>(host);
     }
     std::uint32_t connect_id = 0;
-    if (!is_connect(d, connect_id)) {
+    std::uint16_t client_peer = 0;
+    if (!is_connect(d, connect_id, client_peer)) {
         ++counters_.dropped_unknown;
         return kDrop;
     }
@@ -104,6 +106,19 @@ int DatagramDemux::route(std::uint32_t ip, std::uint16_t port, std::span<std::ui
     if (const auto it = handshakes_.find(k); it != handshakes_.end()) {
         ++counters_.connect_repeats;
         return static_cast<int>(it->second.host);
+    }
+    // The client slot's previous handshake, if still pending, is given up (its count freed first,
+    // so that a client cycling connects from one slot holds one handshake, not max_per_ip).
+    if (const auto s = slots_.find(slot(k, client_peer)); s != slots_.end()) {
+        const Key old = {k.address, s->second};
+        slots_.erase(s);
+        if (const auto it = handshakes_.find(old); it != handshakes_.end() && it->second.until != 0) {
+            abandoned_.push_back({it->second.host, ip, port, old.connect_id});
+            const std::size_t host = it->second.host;
+            handshakes_.erase(it);  // its pending_ entry finds nothing when it expires
+            release(host, ip);
+            ++counters_.abandoned;
+        }
     }
     const auto ip_count = per_ip_.find(ip);
     if (ip_count != per_ip_.end() && ip_count->second >= config_.max_per_ip) {
@@ -120,8 +135,9 @@ int DatagramDemux::route(std::uint32_t ip, std::uint16_t port, std::span<std::ui
     ++per_ip_[ip];
     ++load_[best];
     const std::uint64_t until = now_us + config_.pending_us;
-    handshakes_.emplace(k, Handshake{static_cast<std::uint32_t>(best), until});
+    handshakes_.emplace(k, Handshake{static_cast<std::uint32_t>(best), client_peer, until});
     pending_.emplace_back(until, k);
+    slots_[slot(k, client_peer)] = connect_id;
     ++counters_.connects;
     return static_cast<int>(best);
 }
@@ -146,9 +162,11 @@ void DatagramDemux::outgoing(std::size_t host, std::span<std::uint8_t> d) const 
 
 void DatagramDemux::connected(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
     if (host >= load_.size()) return;
-    auto [it, fresh] = handshakes_.try_emplace(key(ip, port, connect_id), Handshake{static_cast<std::uint32_t>(host), 0});
+    const Key k = key(ip, port, connect_id);
+    auto [it, fresh] = handshakes_.try_emplace(k, Handshake{static_cast<std::uint32_t>(host), 0, 0});
     if (!fresh) {
         if (it->second.host != host || it->second.until == 0) return;  // another host's, or counted
+        forget_slot(k, it->second);
         it->second.until = 0;  // the handshake is this connection now: its load and IP count stay
         ++connections_;
         return;
@@ -166,6 +184,17 @@ void DatagramDemux::disconnected(std::size_t host, std::uint32_t ip, std::uint16
     release(host, ip);
 }
 
+bool DatagramDemux::next_abandoned(AbandonedHandshake& out) {
+    if (abandoned_.empty()) return false;
+    out = abandoned_.front();
+    abandoned_.pop_front();
+    return true;
+}
+
+void DatagramDemux::forget_slot(const Key& k, const Handshake& h) {
+    if (const auto s = slots_.find(slot(k, h.client_peer)); s != slots_.end() && s->second == k.connect_id) slots_.erase(s);
+}
+
 void DatagramDemux::release(std::size_t host, std::uint32_t ip) {
     --load_[host];
     if (const auto p = per_ip_.find(ip); p != per_ip_.end() && --p->second == 0) per_ip_.erase(p);
@@ -178,6 +207,7 @@ void DatagramDemux::expire(std::uint64_t now_us) {
         const auto it = handshakes_.find(k);
         if (it == handshakes_.end() || it->second.until != until) continue;  // connected
         const std::size_t host = it->second.host;
+        forget_slot(k, it->second);
         handshakes_.erase(it);
         release(host, static_cast<std::uint32_t>(k.address >> 16));
     }

@@ -19,6 +19,13 @@
 //    that host);
 //    a connect from an IP holding max_per_ip connections and handshakes is dropped, as one ENet
 //    host drops it past its duplicatePeers, and so is one that finds every host full;
+//  - a new connect from the address and client peer slot (the connect's outgoingPeerID) of a
+//    handshake not yet connected abandons that handshake: an ENet client slot holds one
+//    connection, so the client gave the old one up (it reset the slot). Its count is released at
+//    once and it is reported (next_abandoned()) so that its host's ENet peer, which would
+//    otherwise resend its VERIFY_CONNECT to the client for up to 30 s and hold the IP's count
+//    as long, is reset too (issue 20: a client cycling connects from one port filled its IP's
+//    max_per_ip with such handshakes and locked the IP out for 30 s, honest clients behind it too);
 //  - anything else with no peer id is dropped (ENet takes nothing else from an unknown sender);
 //  - the server's answer to a connect (VERIFY_CONNECT) names the host's peer index: outgoing()
 //    rewrites it to the server's id. Nothing else ENet sends names a server peer.
@@ -52,6 +59,15 @@ struct DatagramDemuxCounters {
     std::uint64_t dropped_unknown = 0;  // no peer id and not a connect, or a peer id nobody has
     std::uint64_t dropped_limit = 0;    // a connect past max_per_ip
     std::uint64_t dropped_full = 0;     // a connect while every host is full
+    std::uint64_t abandoned = 0;        // handshakes a new connect from their client slot replaced
+};
+
+// A handshake a new connect from its client slot replaced: its host's ENet peer is to be reset.
+struct AbandonedHandshake {
+    std::size_t host = 0;
+    std::uint32_t ip = 0;
+    std::uint16_t port = 0;
+    std::uint32_t connect_id = 0;
 };
 
 class DatagramDemux {
@@ -77,12 +93,20 @@ public:
     std::size_t hosts() const { return load_.size(); }
     std::size_t handshakes() const { return handshakes_.size() - connections_; }
     const DatagramDemuxCounters& counters() const { return counters_; }
-    // The connect id of an ENet connect (the peer id unassigned, the first command CONNECT).
-    static bool is_connect(std::span<const std::uint8_t> datagram, std::uint32_t& connect_id);
+    // The handshakes route() abandoned, oldest first, each once (false: none left).
+    bool next_abandoned(AbandonedHandshake& out);
+    // The connect id of an ENet connect (the peer id unassigned, the first command CONNECT) and
+    // the client's peer slot it comes from (its outgoingPeerID).
+    static bool is_connect(std::span<const std::uint8_t> datagram, std::uint32_t& connect_id, std::uint16_t& client_peer);
+    static bool is_connect(std::span<const std::uint8_t> datagram, std::uint32_t& connect_id) {
+        std::uint16_t client_peer = 0;
+        return is_connect(datagram, connect_id, client_peer);
+    }
 
 private:
     struct Handshake {
         std::uint32_t host = 0;
+        std::uint16_t client_peer = 0;
         std::uint64_t until = 0;  // 0: connected
     };
     struct Key {
@@ -96,6 +120,9 @@ private:
     static Key key(std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
         return {(std::uint64_t{ip} << 16) | port, connect_id};
     }
+    // A client slot: the address and the client's peer index (12 bits).
+    static std::uint64_t slot(const Key& k, std::uint16_t client_peer) { return k.address << 12 | (client_peer & 0xFFFu); }
+    void forget_slot(const Key& k, const Handshake& h);  // h no longer pending
     void expire(std::uint64_t now_us);
     void release(std::size_t host, std::uint32_t ip);  // one connection or handshake less
 
@@ -106,6 +133,8 @@ private:
     std::unordered_map<std::uint32_t, std::uint32_t> per_ip_;
     std::vector<std::size_t> load_;
     std::deque<std::pair<std::uint64_t, Key>> pending_;  // (until, key), oldest first
+    std::unordered_map<std::uint64_t, std::uint32_t> slots_;  // client slot -> its pending handshake's connect id
+    std::deque<AbandonedHandshake> abandoned_;
     DatagramDemuxCounters counters_;
 };
 

@@ -67,6 +67,8 @@ struct Shared {
     std::uint64_t receive_calls = 0, datagrams_in = 0, dropped = 0;
     transport::SocketFanout::Claim claim = nullptr;  // EnetServer takes some datagrams itself
     void* claim_context = nullptr;
+    transport::SocketFanout::Abandon abandon = nullptr;  // EnetServer resets the ENet peers of abandoned handshakes
+    void* abandon_context = nullptr;
 
     // The host reading through socket id s, or -1 when s is none of the fanout's.
     int host_of(int s) const {
@@ -256,6 +258,8 @@ public:
                 }
                 const std::span<std::uint8_t> d(&sh.bytes[i * DatagramBatch::kMaxBytes], m.msg_len);
                 const int h = sh.demux->route(sh.from[i].sin_addr.s_addr, ENET_NET_TO_HOST_16(sh.from[i].sin_port), d, now_us);
+                for (AbandonedHandshake a; sh.demux->next_abandoned(a);)
+                    if (sh.abandon != nullptr) sh.abandon(sh.abandon_context, a.host, a.ip, a.port, a.connect_id);
                 if (h < 0) {
                     ++sh.dropped;
                     continue;
@@ -279,6 +283,10 @@ public:
     void set_claim(Claim claim, void* context) override {
         state().shared.claim = claim;
         state().shared.claim_context = context;
+    }
+    void set_abandon(Abandon abandon, void* context) override {
+        state().shared.abandon = abandon;
+        state().shared.abandon_context = context;
     }
 
     bool holds(std::size_t host) const override {

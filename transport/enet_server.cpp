@@ -76,6 +76,7 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
             }
             fanout_ = config.fanout;
             if (config.direct_unsequenced) fanout_->set_claim(&EnetServer::claim_thunk, this);
+            fanout_->set_abandon(&EnetServer::abandon_thunk, this);
         } else {
             // One host for every connection, as without a fanout.
             if (fanout_why_.empty()) fanout_why_ = "the fanout gave no socket ids";
@@ -96,7 +97,10 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
 }
 
 EnetServer::~EnetServer() {
-    if (fanout_) fanout_->set_claim(nullptr, nullptr);
+    if (fanout_) {
+        fanout_->set_claim(nullptr, nullptr);
+        fanout_->set_abandon(nullptr, nullptr);
+    }
     for (auto& r : inbox_)
         if (r.packet) enet_packet_destroy(r.packet);
     for (auto& [id, c] : by_id_) enet_peer_disconnect_now(c.peer, 0);
@@ -289,6 +293,32 @@ bool EnetServer::claim(std::size_t h, std::uint32_t ip, std::uint16_t port, std:
     ++counters_.datagrams_in_direct;
     deliver(peer, channel, d.subspan(kHeader), nullptr, poll_now_);
     return true;
+}
+
+void EnetServer::abandon_thunk(void* self, std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
+    static_cast<EnetServer*>(self)->abandon(host, ip, port, connect_id);
+}
+
+void EnetServer::abandon(std::size_t h, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id) {
+    // The client connected again from the slot this handshake came from: it reset that slot, so
+    // it will never acknowledge this peer's VERIFY_CONNECT. Left alone, ENet resends the verify
+    // to the client's address for up to ENet's 30 s default timeout (our timeouts are set only
+    // once connected), holding a slot and a place in duplicatePeers, and a resent verify that
+    // finds the client's next connect still pending makes its ENet give that connect up too
+    // (a verify's connect id is checked; a connecting peer takes it whatever its session). Only
+    // a peer still waiting for the verify's acknowledgement is reset: it has had no event and
+    // gets none (as ENet's own reset of a half-open peer). One whose verify was acknowledged has
+    // its Connected event queued: its events follow as usual (DatagramDemux::connected counts it).
+    if (h >= hosts_.size()) return;
+    ENetHost* host = hosts_[h];
+    for (std::size_t i = 0; i < host->peerCount; ++i) {
+        ENetPeer* p = &host->peers[i];
+        if (p->state == ENET_PEER_STATE_ACKNOWLEDGING_CONNECT && p->connectID == connect_id && p->address.host == ip && p->address.port == port) {
+            enet_peer_reset(p);
+            ++counters_.handshakes_abandoned;
+            return;
+        }
+    }
 }
 
 bool EnetServer::next_event(ServerConnectionEvent& out) {

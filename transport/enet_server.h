@@ -69,6 +69,15 @@ public:
         (void)claim;
         (void)context;
     }
+    // A handshake the client gave up (it connected again from the same address and client peer
+    // slot, server/datagram_demux.h) whose ENet peer on `host` is to be reset: once set, receive()
+    // calls abandon(context, host, ip, port, connect_id) for each, before it queues the datagram
+    // that replaced it. nullptr: none reported. Default: none.
+    using Abandon = void (*)(void* context, std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id);
+    virtual void set_abandon(Abandon abandon, void* context) {
+        (void)abandon;
+        (void)context;
+    }
 };
 
 struct EnetServerConfig {
@@ -134,6 +143,7 @@ struct EnetServerCounters {
     std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
     std::uint64_t datagrams_direct = 0;  // unreliable sends written to the socket at once (direct_unsequenced)
     std::uint64_t datagrams_in_direct = 0, repeats_direct = 0;  // unsequenced datagrams taken from the fanout; repeats dropped
+    std::uint64_t handshakes_abandoned = 0;  // half-open ENet peers reset because their client connected again (SocketFanout::set_abandon)
 };
 
 class EnetServer {
@@ -177,6 +187,8 @@ private:
     bool send_unsequenced_now(_ENetPeer* peer, std::span<const std::uint8_t> bytes);
     static bool claim_thunk(void* self, std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d);
     bool claim(std::size_t host, std::uint32_t ip, std::uint16_t port, std::span<const std::uint8_t> d);
+    static void abandon_thunk(void* self, std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id);
+    void abandon(std::size_t host, std::uint32_t ip, std::uint16_t port, std::uint32_t connect_id);
     // A received packet's bytes (from ENet's packet, or taken from the fanout) into the inbox.
     void deliver(_ENetPeer* peer, std::uint8_t channel, std::span<const std::uint8_t> bytes, _ENetPacket* packet, Micros now);
     Micros poll_now_ = 0;

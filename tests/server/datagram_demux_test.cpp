@@ -32,13 +32,15 @@ std::vector<std::uint8_t> header(std::uint16_t peer_field, bool sent_time) {
     return d;
 }
 
-// A client's connect: no peer id yet, a CONNECT command carrying connect_id.
-std::vector<std::uint8_t> connect_datagram(std::uint32_t connect_id) {
+// A client's connect: no peer id yet, a CONNECT command carrying connect_id, from the client's
+// peer slot client_peer.
+std::vector<std::uint8_t> connect_datagram(std::uint32_t connect_id, std::uint16_t client_peer = 0) {
     auto d = header(ENET_PROTOCOL_MAXIMUM_PEER_ID, true);
     ENetProtocolConnect c{};
     c.header.command = cmd(ENET_PROTOCOL_COMMAND_CONNECT, true);
     c.header.channelID = 0xFF;
     c.connectID = connect_id;
+    c.outgoingPeerID = ENET_HOST_TO_NET_16(client_peer);
     const auto* p = reinterpret_cast<const std::uint8_t*>(&c);
     d.insert(d.end(), p, p + sizeof c);
     return d;
@@ -163,6 +165,51 @@ TEST(DatagramDemux, AHandshakeThatNeverFinishesFreesItsPlace) {
     EXPECT_EQ(route(d, kIpB, 5000, connect_datagram(2), 1'000'000), 0);
     EXPECT_EQ(d.load(0), 1u);
     EXPECT_EQ(d.handshakes(), 1u);
+}
+
+// Issue 20: a client that connects again from the same port and client slot before its last
+// connect finished (a refused client cycling, or one whose ENet gave its connect up) held a
+// handshake per connect for pending_us, until its IP's max_per_ip was full and every connect
+// from the IP, an honest neighbour's too, was dropped for the rest of those 30 s.
+TEST(DatagramDemux, AConnectFromAHandshakesClientSlotAbandonsIt) {
+    DatagramDemux d(config(3, 4, /*per_ip*/ 3));
+    ASSERT_EQ(route(d, kIpA, 5000, connect_datagram(1, 0), 0), 0);
+    // The same slot again, a new connect id: the old handshake is given up and reported (before
+    // the new one is placed: host 0 is the least loaded again).
+    ASSERT_EQ(route(d, kIpA, 5000, connect_datagram(2, 0), 10), 0);
+    AbandonedHandshake a;
+    ASSERT_TRUE(d.next_abandoned(a));
+    EXPECT_EQ(a.host, 0u);
+    EXPECT_EQ(a.ip, kIpA);
+    EXPECT_EQ(a.port, 5000);
+    EXPECT_EQ(a.connect_id, 1u);
+    EXPECT_FALSE(d.next_abandoned(a));
+    EXPECT_EQ(d.load(0), 1u);
+    EXPECT_EQ(d.handshakes(), 1u);
+    // A repeat of the live connect abandons nothing; another slot or port is another client.
+    EXPECT_EQ(route(d, kIpA, 5000, connect_datagram(2, 0), 20), 0);
+    EXPECT_EQ(route(d, kIpA, 5000, connect_datagram(3, 1), 30), 1);
+    EXPECT_FALSE(d.next_abandoned(a));
+    EXPECT_EQ(d.handshakes(), 2u);
+    // A cycler from one slot holds one handshake however fast it cycles: the IP keeps room.
+    for (std::uint32_t id = 100; id < 200; ++id) ASSERT_NE(route(d, kIpA, 6000, connect_datagram(id, 0), 40), DatagramDemux::kDrop);
+    EXPECT_EQ(d.counters().abandoned, 100u);
+    EXPECT_EQ(d.counters().dropped_limit, 0u);
+    EXPECT_EQ(d.handshakes(), 3u);
+    // The per-IP limit still holds against connects from other ports and slots.
+    EXPECT_EQ(route(d, kIpA, 7000, connect_datagram(300, 0), 50), DatagramDemux::kDrop);
+    // A handshake that became a connection is not abandoned by a later connect from its slot
+    // (ENet's events end a connection); that connect is a new handshake.
+    d.connected(0, kIpA, 5000, 2);
+    while (d.next_abandoned(a)) {}
+    const std::size_t load = d.load(0) + d.load(1) + d.load(2);
+    EXPECT_EQ(route(d, kIpA, 5000, connect_datagram(4, 0), 60), DatagramDemux::kDrop);  // 127.0.0.1 holds 3
+    EXPECT_FALSE(d.next_abandoned(a));
+    EXPECT_EQ(d.load(0) + d.load(1) + d.load(2), load);
+    // An expired or connected handshake leaves nothing behind for its slot.
+    EXPECT_EQ(route(d, kIpB, 5000, connect_datagram(7, 0), 70), 0);
+    EXPECT_NE(route(d, kIpB, 5000, connect_datagram(8, 0), 2'000'000), DatagramDemux::kDrop);  // 7 expired first
+    EXPECT_FALSE(d.next_abandoned(a));
 }
 
 TEST(DatagramDemux, TheLastHostHoldsTheRestAndPeerIdsStayBelowEnetsLimit) {
