@@ -9,7 +9,8 @@
 # transport/enet_handshakes.h), and each counted against the IP's 64 connections: the IP filled
 # within seconds and every connect from it was dropped, the flood's and an honest neighbour's
 # alike, for 20-30 s at a time. Now a connect from a handshake's own client slot ends that
-# handshake (server/datagram_demux.h). Checked:
+# handshake (server/datagram_demux.h; with one host, `--plain-syscalls` as a 4th argument,
+# EnetServer's intercept: transport/enet_handshakes.h). Checked:
 #  1. the refusals go on: status.json's hellos_refused grows in every 10 s
 #     window of the 30 s flood (before: stalled 20-30 s, several times);
 #  2. two honest `lockroll client`s from the same address, started 10 s into the flood (or as
@@ -19,10 +20,12 @@ set -u
 server_exe=$1
 lockroll=$2
 bad_client=$3
+shift 3
+server_args=("$@")  # e.g. --plain-syscalls: one ENet host, no demux (the rule is EnetServer's then)
 source "$(dirname "$0")/../process_test_support.sh"
 
 dir=$tmp/flood
-start_relay_server "$dir" "$server_exe"
+start_relay_server "$dir" "$server_exe" "${server_args[@]}"
 port=$server_port
 
 timeout 40 "$bad_client" --connect "127.0.0.1:$port" --room hostile --slot 0 --behavior refused --parallel 8 \
