@@ -6,6 +6,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "transport/enet_datagram.h"
+
 namespace lockroll::server {
 
 namespace {
@@ -37,18 +39,6 @@ std::size_t command_size(std::uint8_t c) {
         case ENET_PROTOCOL_COMMAND_BANDWIDTH_LIMIT: return sizeof(ENetProtocolBandwidthLimit);
         case ENET_PROTOCOL_COMMAND_THROTTLE_CONFIGURE: return sizeof(ENetProtocolThrottleConfigure);
         case ENET_PROTOCOL_COMMAND_SEND_UNRELIABLE_FRAGMENT: return sizeof(ENetProtocolSendFragment);
-        default: return 0;
-    }
-}
-
-// The data that follows command c at p (its fixed part complete), per its dataLength field.
-std::size_t command_data(const std::uint8_t* p) {
-    switch (p[0] & ENET_PROTOCOL_COMMAND_MASK) {
-        case ENET_PROTOCOL_COMMAND_SEND_RELIABLE: return read16(p + offsetof(ENetProtocolSendReliable, dataLength));
-        case ENET_PROTOCOL_COMMAND_SEND_UNRELIABLE: return read16(p + offsetof(ENetProtocolSendUnreliable, dataLength));
-        case ENET_PROTOCOL_COMMAND_SEND_UNSEQUENCED: return read16(p + offsetof(ENetProtocolSendUnsequenced, dataLength));
-        case ENET_PROTOCOL_COMMAND_SEND_FRAGMENT:
-        case ENET_PROTOCOL_COMMAND_SEND_UNRELIABLE_FRAGMENT: return read16(p + offsetof(ENetProtocolSendFragment, dataLength));
         default: return 0;
     }
 }
@@ -156,7 +146,7 @@ void DatagramDemux::outgoing(std::size_t host, std::span<std::uint8_t> d) const 
             std::uint8_t* field = c + offsetof(ENetProtocolVerifyConnect, outgoingPeerID);
             write16(field, static_cast<std::uint16_t>(host * config_.capacity_per_host + read16(field)));
         }
-        at += size + command_data(c);
+        at += size + transport::enet_command_payload(c);
     }
 }
 

@@ -23,8 +23,9 @@
 //    handshake not yet connected abandons that handshake: an ENet client slot holds one
 //    connection, so the client gave the old one up (it reset the slot). Its count is released at
 //    once and it is reported (next_abandoned()) so that its host's ENet peer, which would
-//    otherwise resend its VERIFY_CONNECT to the client for up to 30 s and hold the IP's count
-//    as long, is reset too (issue 20: a client cycling connects from one port filled its IP's
+//    otherwise resend its VERIFY_CONNECT to the client until its handshake timeout
+//    (kHandshakeTimeoutMs, transport/enet_handshakes.h; ENet's default was 30 s) and hold the
+//    IP's count as long, is reset too (issue 20: a client cycling connects from one port filled its IP's
 //    max_per_ip with such handshakes and locked the IP out for 30 s, honest clients behind it too);
 //  - anything else with no peer id is dropped (ENet takes nothing else from an unknown sender);
 //  - the server's answer to a connect (VERIFY_CONNECT) names the host's peer index: outgoing()

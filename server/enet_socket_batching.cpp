@@ -12,6 +12,7 @@
 
 #include "server/datagram_batch.h"
 #include "server/datagram_demux.h"
+#include "transport/enet_handshakes.h"
 #include "transport/enet_server.h"
 
 namespace lockroll::server::enet_socket_batching {
@@ -196,6 +197,9 @@ public:
         dc.capacity_per_host = capacity;
         dc.connections = connections;
         dc.max_per_ip = max_per_address;
+        // A handshake's count lasts as long as its ENet peer may (a second more: its repeats must
+        // still reach its host), not ENet's 30 s default.
+        dc.pending_us = (std::uint64_t{transport::kHandshakeTimeoutMs} + 1'000) * 1'000;
         try {
             sh.demux = std::make_unique<DatagramDemux>(dc);
         } catch (const std::invalid_argument& e) {

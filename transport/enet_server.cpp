@@ -2,6 +2,7 @@
 
 #include <enet/enet.h>
 
+#include "transport/enet_handshakes.h"
 #include "transport/enet_library.h"
 
 #include <cstdlib>
@@ -20,6 +21,14 @@ constexpr int kMaxErrorsPerPoll = 1024;
 // Datagrams ENet reads from the socket per enet_host_service call (protocol.c, 1.3.x).
 constexpr int kEnetReceiveBatch = 256;
 
+
+// The server whose host is inside enet_host_service on this thread: ENet's intercept callback
+// has no user pointer.
+thread_local EnetServer* t_servicing = nullptr;
+
+int ENET_CALLBACK intercept_callback(ENetHost* host, ENetEvent* /*event*/) {
+    return t_servicing != nullptr ? t_servicing->intercept(host) : 0;
+}
 
 std::uint32_t id_of(const ENetPeer* p) { return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(p->data)); }
 
@@ -48,6 +57,7 @@ EnetServer::EnetServer(const EnetServerConfig& config) : config_(config) {
         h->duplicatePeers = config.max_connections_per_address;
         h->maximumPacketSize = config.max_packet_bytes;
         h->maximumWaitingData = config.max_waiting_bytes;
+        h->intercept = intercept_callback;
     };
     ENetHost* first = enet_host_create(&address, per_host, 2, 0, 0);
     if (first == nullptr) throw std::runtime_error("ENet: cannot listen on " + where + " (in use, or not a local address)");
@@ -136,7 +146,9 @@ void EnetServer::service(std::size_t h, Micros now, std::uint32_t wait_ms, int& 
         // of slots those walks are most of the server's cost. So one call reads the socket and
         // enet_host_check_events (no walk) dispatches what it read; another call follows only
         // if that batch may have left datagrams in the socket (or in the host's queue).
+        t_servicing = this;
         const int r = enet_host_service(host, &e, wait_ms);
+        t_servicing = nullptr;
         ++counters_.host_services;
         wait_ms = 0;
         if (r < 0) {
@@ -319,6 +331,13 @@ void EnetServer::abandon(std::size_t h, std::uint32_t ip, std::uint16_t port, st
             return;
         }
     }
+}
+
+int EnetServer::intercept(ENetHost* host) {
+    // Before ENet takes a connect: the handshakes its client gave up end, and the slot it takes
+    // gets the handshake timeout (transport/enet_handshakes.h). Nothing is swallowed.
+    counters_.handshakes_abandoned += prepare_for_connect(host);
+    return 0;
 }
 
 bool EnetServer::next_event(ServerConnectionEvent& out) {

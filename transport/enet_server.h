@@ -11,7 +11,9 @@
 //  - poll(now, wait_us) waits in the socket up to wait_us for the first datagram (no busy spin,
 //    no sleep granularity added to the relay delay), then drains what is there, bounded;
 //  - connections are limited in number, per address, in packet size and in waiting data, as
-//    EnetTransport's are (docs/network-model.md), and ENet's timeouts are seconds, not 30 s.
+//    EnetTransport's are (docs/network-model.md); a handshake gives up after seconds, not ENet's
+//    30 s, and one its client gave up (it connected again from the same slot) ends at once
+//    (transport/enet_handshakes.h).
 // Channels as EnetTransport: 0 unreliable unsequenced, 1 reliable ordered.
 // Not thread-safe; reads no clock (now is passed in).
 #pragma once
@@ -87,7 +89,8 @@ struct EnetServerConfig {
     std::size_t max_connections_per_address = 64; // a load test from one address raises it
     std::size_t max_packet_bytes = 4096;
     std::size_t max_waiting_bytes = 64 * 1024;
-    // ENet's own timeouts (enet_peer_timeout), left at ENet's defaults: a lossy link must not
+    // ENet's own timeouts (enet_peer_timeout) of established connections (a handshake has
+    // kHandshakeTimeoutMs, transport/enet_handshakes.h), left at ENet's defaults: a lossy link must not
     // close a connection under a client that still talks (a reliable ping lost five times in a
     // row at 10 % loss each way is one in 4,000). Dead clients are noticed by the rooms'
     // silence rule (RoomConfig::silence_drop_us, 5 s) long before.
@@ -143,7 +146,9 @@ struct EnetServerCounters {
     std::uint64_t host_services = 0, host_flushes = 0, idle_services = 0;
     std::uint64_t datagrams_direct = 0;  // unreliable sends written to the socket at once (direct_unsequenced)
     std::uint64_t datagrams_in_direct = 0, repeats_direct = 0;  // unsequenced datagrams taken from the fanout; repeats dropped
-    std::uint64_t handshakes_abandoned = 0;  // half-open ENet peers reset because their client connected again (SocketFanout::set_abandon)
+    // Half-open ENet peers reset because their client connected again from the same address and
+    // client slot (SocketFanout::set_abandon across hosts; transport/enet_handshakes.h within one).
+    std::uint64_t handshakes_abandoned = 0;
 };
 
 class EnetServer {
@@ -179,6 +184,11 @@ public:
     const EnetServerCounters& counters() const { return counters_; }
     std::uint64_t wire_bytes_sent() const;
     std::uint64_t wire_bytes_received() const;
+
+    // Called by ENet for every datagram a host reads, before it parses it (ENetHost::intercept);
+    // public only so the callback can reach it. Applies the handshake rules of
+    // transport/enet_handshakes.h to connects; returns 0 (ENet handles every datagram).
+    int intercept(_ENetHost* host);
 
 private:
     void handle(const _ENetEvent& e, std::size_t host, Micros now);

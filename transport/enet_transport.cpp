@@ -3,6 +3,7 @@
 #include <enet/enet.h>
 
 #include "transport/enet_library.h"
+#include "transport/enet_stale_verify.h"
 
 #include <algorithm>
 #include <cstddef>
@@ -105,7 +106,13 @@ EnetTransport::~EnetTransport() {
 }
 
 int EnetTransport::intercept(ENetHost* host) {
-    // Only connect requests matter here: a datagram whose header names no peer (peer id
+    // An answer to a connect one of our slots gave up would end the connect it has pending now
+    // (transport/enet_stale_verify.h): it is ignored.
+    if (is_stale_verify_connect(host)) {
+        ++enet_counters_.dropped_stale_verify;
+        return 1;
+    }
+    // Otherwise only connect requests matter here: a datagram whose header names no peer (peer id
     // ENET_PROTOCOL_MAXIMUM_PEER_ID) and whose first command is CONNECT. ENet parses the rest.
     const enet_uint8* data = host->receivedData;
     const std::size_t size = host->receivedDataLength;

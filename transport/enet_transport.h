@@ -122,6 +122,8 @@ struct EnetCounters {
     std::uint64_t dropped_bad_channel = 0;     // datagrams on a channel we do not use
     std::uint64_t dropped_inbox_full = 0;      // datagrams dropped because receive() fell behind
     std::uint64_t dropped_events = 0;          // events dropped because next_event() fell behind
+    std::uint64_t dropped_stale_verify = 0;    // server answers (VERIFY_CONNECT) to a connect of ours given
+                                               // up, ignored: they would end the slot's next connect
     std::uint64_t receive_errors = 0;          // enet_host_service errors: UDP datagrams over ENet's
                                                // 4 KB buffer, ICMP errors; all skipped
 };
@@ -176,7 +178,8 @@ public:
 
     // Called by ENet for every UDP datagram it receives, before it parses it (ENetHost::intercept);
     // public only so the callback can reach it. Counts and swallows connect requests the host
-    // limits refuse. Returns 1 to swallow, 0 to let ENet handle the datagram.
+    // limits refuse, and answers to connects of ours given up (dropped_stale_verify). Returns 1
+    // to swallow, 0 to let ENet handle the datagram.
     int intercept(_ENetHost* host);
 
 private:

@@ -557,13 +557,9 @@ TEST(Lifecycle, AJoinerWhoseProviderDiesMidTransferAsksAgainSoon) {
 TEST(Lifecycle, AJoinerWhoseOwnerDiesMidHandoffIsServedByTheNextOwnerSoon) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
-        const auto scene = make_scene(4, 8);
-        SessionConfig cfg = real_config(4, 8);
-        cfg.absent_slots = 1u << 3;
-        cfg.disconnect_us = 2'000'000;
-        Cluster cluster(scene, cfg, {20000, 5000}, seed);
+        JoinerIntoAbsentSlot m(8, [](SessionConfig& c) { c.disconnect_us = 2'000'000; }, {20000, 5000}, seed);
+        auto& [scene, cfg, cluster] = m;
         rejoin_when_dropped(cluster);  // a joiner whose handoff lapsed starts again, as a runner does
-        cluster.kill(3);               // nobody runs slot 3 yet
         cluster.run_frames(150, 30'000'000);
         // The owner's snapshot never reaches the joiner: its handoff stays pending.
         cluster.filter = [](PlayerId from, PlayerId to, const std::vector<std::uint8_t>& b) {
@@ -610,12 +606,8 @@ TEST(Lifecycle, AJoinerWhoseOwnerDiesMidHandoffIsServedByTheNextOwnerSoon) {
 TEST(Lifecycle, TransfersAtTwentyPercentLossAreNotTakenForStalled) {
     for (std::uint64_t seed = 1; seed <= 5; ++seed) {
         SCOPED_TRACE("seed " + std::to_string(seed));
-        const auto scene = make_scene(4, 200);
-        SessionConfig cfg = real_config(4, 8);
-        cfg.absent_slots = 1u << 3;
-        cfg.max_spectators = 1;
-        Cluster cluster(scene, cfg, {20000, 5000, 200000}, seed);
-        cluster.kill(3);
+        JoinerIntoAbsentSlot m(200, [](SessionConfig& c) { c.max_spectators = 1; }, {20000, 5000, 200000}, seed);
+        auto& [scene, cfg, cluster] = m;
         cluster.run_frames(100, 30'000'000);
         Client& spectator = start_newcomer(cluster, scene, cfg, Role::Spectator, 4, 1);
         cluster.run_frames(250, 60'000'000);

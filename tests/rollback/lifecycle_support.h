@@ -66,6 +66,29 @@ inline void rejoin_when_dropped(testing::Cluster& cluster) {
     };
 }
 
+// The setup of a joiner into an absent slot: a match of four (real_config(4, 8)) of `balls`
+// whose slot 3 is absent (SessionConfig::absent_slots) and run by nobody yet (its client killed),
+// `tweak` applied to the config first, over `net` with `seed`. The test starts the joiner
+// (start_newcomer(cluster, scene, cfg, Role::Joiner, 3, ...)); `auto& [scene, cfg, cluster] = m`
+// names the parts.
+struct JoinerIntoAbsentSlot {
+    sim::SceneDesc scene;
+    SessionConfig cfg;
+    testing::Cluster cluster;
+    JoinerIntoAbsentSlot(int balls, void (*tweak)(SessionConfig&), testing::NetParams net, std::uint64_t seed)
+        : scene(make_scene(4, balls)), cfg(config(tweak)), cluster(scene, cfg, net, seed) {
+        cluster.kill(3);
+    }
+
+private:
+    static SessionConfig config(void (*tweak)(SessionConfig&)) {
+        SessionConfig c = real_config(4, 8);
+        c.absent_slots = 1u << 3;
+        tweak(c);
+        return c;
+    }
+};
+
 // Every datagram between `side` and the rest is lost while `cut` is set.
 inline void split(testing::Cluster& cluster, std::set<PlayerId> side, const bool& cut) {
     cluster.filter = [side = std::move(side), &cut](PlayerId from, PlayerId to, const std::vector<std::uint8_t>&) {

@@ -16,8 +16,7 @@ source "$(dirname "$0")/../process_test_support.sh"
 
 # ---- 1. three players: the liar is kicked, the honest two complete on one final ----
 dir=$tmp/three
-start_server "$dir"
-[ -n "$server_port" ] || exit 1
+start_relay_server "$dir" "$lockroll" server
 cpids=()
 for s in 0 1; do
     timeout 90 "$lockroll" client --slot "$s" --players 3 --connect "127.0.0.1:$server_port" --room liar3 --frames 900 \
@@ -52,8 +51,7 @@ PY
 
 # ---- 2. two players: no majority, the configured rule ends the match ----
 dir=$tmp/two
-start_server "$dir"
-[ -n "$server_port" ] || exit 1
+start_relay_server "$dir" "$lockroll" server
 timeout 90 "$lockroll" client --slot 0 --players 2 --connect "127.0.0.1:$server_port" --room liar2 --frames 3600 \
     --seed 5 --out "$dir/c0" >"$dir/c0.out" 2>&1 &
 honest_pid=$!

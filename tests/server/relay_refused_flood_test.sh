@@ -3,12 +3,14 @@
 # real processes on 127.0.0.1 (a free port, every wait bounded). relay_bad_client --behavior
 # refused cycles 8 connections, each from its own port: connect, a hello of a protocol version
 # the server does not speak, refused and kicked, connect again from the same port. ENet on the
-# client side gives a pending connect up when a verify for an older connect of its slot arrives,
-# so some connects are abandoned half-open; the server's ENet kept each of those handshakes (its
-# VERIFY_CONNECT resent) for up to 30 s, and each counted against the IP's 64 connections: the
-# IP filled within seconds and every connect from it was dropped, the flood's and an honest
-# neighbour's alike, for 20-30 s at a time. Now a connect from a handshake's own client slot
-# ends that handshake (server/datagram_demux.h). Checked:
+# client side gave a pending connect up when a verify for an older connect of its slot arrived
+# (until transport/enet_stale_verify.h), so some connects were abandoned half-open; the server's
+# ENet kept each of those handshakes (its VERIFY_CONNECT resent) for up to 30 s (now 5 s,
+# transport/enet_handshakes.h), and each counted against the IP's 64 connections: the IP filled
+# within seconds and every connect from it was dropped, the flood's and an honest neighbour's
+# alike, for 20-30 s at a time. Now a connect from a handshake's own client slot ends that
+# handshake (server/datagram_demux.h; with one host, `--plain-syscalls` as a 4th argument,
+# EnetServer's intercept: transport/enet_handshakes.h). Checked:
 #  1. the refusals go on: status.json's hellos_refused grows in every 10 s
 #     window of the 30 s flood (before: stalled 20-30 s, several times);
 #  2. two honest `lockroll client`s from the same address, started 10 s into the flood (or as
@@ -18,17 +20,13 @@ set -u
 server_exe=$1
 lockroll=$2
 bad_client=$3
+shift 3
+server_args=("$@")  # e.g. --plain-syscalls: one ENet host, no demux (the rule is EnetServer's then)
 source "$(dirname "$0")/../process_test_support.sh"
 
 dir=$tmp/flood
-mkdir -p "$dir"
-"$server_exe" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
-    >"$dir/server.out" 2>"$dir/server.log" &
-server_pid=$!
-pids+=("$server_pid")
-for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
-port=$(cat "$dir/ready" 2>/dev/null)
-[ -n "$port" ] || { fail "the server did not get ready"; exit 1; }
+start_relay_server "$dir" "$server_exe" "${server_args[@]}"
+port=$server_port
 
 timeout 40 "$bad_client" --connect "127.0.0.1:$port" --room hostile --slot 0 --behavior refused --parallel 8 \
     --seconds 30 >"$dir/hostile.out" 2>&1 &

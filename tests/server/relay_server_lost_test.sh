@@ -10,8 +10,7 @@ lockroll=$1
 source "$(dirname "$0")/../process_test_support.sh"
 
 dir=$tmp/lost
-start_server "$dir"
-[ -n "$server_port" ] || exit 1
+start_relay_server "$dir" "$lockroll" server
 client_pids=()
 for s in 0 1; do
     # 3,600 frames (a minute): the match cannot finish before the kill.
