@@ -48,6 +48,7 @@
 #include "sim/parallel_tasks.h"
 #include "sim/rigid_contact.h"
 #include "sim/step_kernel.h"
+#include "sim/uninitialized_allocator.h"
 
 namespace lockroll::sim {
 
@@ -300,7 +301,9 @@ private:
     std::vector<Mat3> rot_;          // body to world; static bodies set once
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
-    std::vector<Point> points_;
+    // Grown without zero-filling: build_points() writes every member of a point before any
+    // pass reads it (sim/uninitialized_allocator.h).
+    std::vector<Point, UninitializedAllocator<Point>> points_;
     // rigid.block_solver, or a parallel step: first point of each manifold, then
     // points_.size() (empty otherwise).
     std::vector<std::uint32_t> manifold_start_;
