@@ -54,7 +54,7 @@ void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const st
     manifold_start_.push_back(static_cast<std::uint32_t>(point_count));
     // One resize, which does not zero-fill (points_' allocator): build_found writes each point
     // whole, in parallel, where a value-initialising resize here was a sequential memset of
-    // every point (over 10 MB a step in bodies_10k_rigid).
+    // every point (several MB a step in bodies_10k_rigid).
     points_.resize(point_count);
     // 2b. The solver bodies, per range of places: what slot_of() copies in the sequential step.
     bodies_.resize(slot_ids_.size());

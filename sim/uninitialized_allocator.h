@@ -3,9 +3,9 @@
 //
 // Why: std::vector::resize value-initialises, and a type with default member initialisers
 // (Fixed's raw = 0) is then zero-filled. The parallel contact generation sizes the whole
-// points buffer (tens of thousands of 472-byte points in a 10,000-body pile, over 10 MB) on
-// the stepping thread before the tasks write it, so every step paid a sequential memset of
-// the lot (docs/performance.md, "Parallel step").
+// points buffer (thousands of points of about 470 bytes each in a 10,000-body pile, several
+// MB) on the stepping thread before the tasks write it, so every step paid a sequential
+// memset of the lot (docs/performance.md, "Parallel step, third pass").
 //
 // Contract: T is an implicit-lifetime type (trivially copyable and destructible), so the
 // storage operator new returns already holds its objects (C++20, P0593) and construct() with
