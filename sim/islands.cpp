@@ -1,6 +1,8 @@
 #include "sim/islands.h"
 
 #include <algorithm>
+#include <atomic>
+#include <utility>
 
 namespace lockroll::sim {
 
@@ -24,16 +26,94 @@ void Islands::build(std::size_t nodes, std::span<const Link> links) {
         else if (rb < ra)
             parent_[ra] = rb;
     }
-    label_.assign(nodes, kStatic);
-    island_of_.resize(links.size());
-    start_.assign(1, 0);
+    link_root_.resize(links.size());
     for (std::size_t k = 0; k < links.size(); ++k) {
         const std::uint32_t node = links[k].a != kStatic ? links[k].a : links[k].b;
+        link_root_[k] = node == kStatic ? kStatic : find(node);
+    }
+    label_.assign(nodes, kStatic);
+    group(link_root_);
+}
+
+void Islands::build(std::size_t nodes, std::span<const Link> links, const ParallelTasks& tasks) {
+    const std::size_t pieces = tasks.piece_count(links.size(), kLinkGrain);
+    if (pieces <= 1) {
+        build(nodes, links);
+        return;
+    }
+    parent_.resize(nodes);
+    for (std::size_t i = 0; i < nodes; ++i) parent_[i] = static_cast<std::uint32_t>(i);
+    const std::size_t n = links.size();
+    const auto range = [&](std::size_t k, auto&& body) {
+        for (std::size_t i = n * k / pieces, e = n * (k + 1) / pieces; i < e; ++i) body(links[i], i);
+    };
+    // 1. Join every link's ends. The trees change under each range, but the components they
+    //    end with are the graph's, and each component's root is its smallest node (a root is
+    //    only ever linked under a smaller one), as in the sequential build.
+    tasks.run(pieces, [&](std::size_t k) {
+        range(k, [&](const Link& l, std::size_t) {
+            if (l.a != kStatic && l.b != kStatic) unite_concurrent(l.a, l.b);
+        });
+    });
+    // 2. Each link's root, reading the finished trees (no writes, so no range can see a tree
+    //    change under it).
+    link_root_.resize(n);
+    tasks.run(pieces, [&](std::size_t k) {
+        range(k, [&](const Link& l, std::size_t i) {
+            const std::uint32_t node = l.a != kStatic ? l.a : l.b;
+            link_root_[i] = node == kStatic ? kStatic : root_after_unite(node);
+        });
+    });
+    // 3. Numbered by first link and grouped, sequentially (one pass over the roots).
+    label_.assign(nodes, kStatic);
+    group(link_root_);
+}
+
+void Islands::unite_concurrent(std::uint32_t a, std::uint32_t b) {
+    for (;;) {
+        std::uint32_t ra = find_concurrent(a), rb = find_concurrent(b);
+        if (ra == rb) return;
+        if (rb < ra) std::swap(ra, rb);
+        // Link the larger root under the smaller, if it is still a root (another range may
+        // have linked it meanwhile: then walk up again).
+        std::uint32_t expected = rb;
+        if (std::atomic_ref<std::uint32_t>(parent_[rb]).compare_exchange_strong(expected, ra, std::memory_order_acq_rel))
+            return;
+    }
+}
+
+std::uint32_t Islands::find_concurrent(std::uint32_t x) {
+    for (;;) {
+        const std::uint32_t p = std::atomic_ref<std::uint32_t>(parent_[x]).load(std::memory_order_acquire);
+        if (p == x) return x;
+        const std::uint32_t gp = std::atomic_ref<std::uint32_t>(parent_[p]).load(std::memory_order_acquire);
+        // Path halving. x is not a root, so nothing links x any more; other threads only
+        // shorten its path too, and any ancestor of x is a correct parent for it.
+        if (gp != p) std::atomic_ref<std::uint32_t>(parent_[x]).store(gp, std::memory_order_release);
+        x = gp;
+    }
+}
+
+std::uint32_t Islands::root_after_unite(std::uint32_t x) {
+    // Other ranges read the same trees at the same time; nothing writes them any more, but
+    // parent_ is reached through atomic_ref everywhere in the parallel build for the race
+    // detector's sake (relaxed loads cost a plain load).
+    for (;;) {
+        const std::uint32_t p = std::atomic_ref<std::uint32_t>(parent_[x]).load(std::memory_order_relaxed);
+        if (p == x) return x;
+        x = p;
+    }
+}
+
+void Islands::group(std::span<const std::uint32_t> link_root) {
+    island_of_.resize(link_root.size());
+    start_.assign(1, 0);
+    for (std::size_t k = 0; k < link_root.size(); ++k) {
         std::uint32_t island;
-        if (node == kStatic) {
+        if (link_root[k] == kStatic) {
             island = static_cast<std::uint32_t>(start_.size() - 1);
         } else {
-            std::uint32_t& label = label_[find(node)];
+            std::uint32_t& label = label_[link_root[k]];
             if (label == kStatic) label = static_cast<std::uint32_t>(start_.size() - 1);
             island = label;
         }
@@ -41,11 +121,15 @@ void Islands::build(std::size_t nodes, std::span<const Link> links) {
         island_of_[k] = island;
         ++start_[island + 1];
     }
+    sort_links();
+}
+
+void Islands::sort_links() {
     for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
-    order_.resize(links.size());
+    order_.resize(island_of_.size());
     // Counting sort, stable: each island's links stay ascending. Uses label_ as the cursor.
     label_.assign(start_.begin(), start_.end() - 1);
-    for (std::size_t k = 0; k < links.size(); ++k) order_[label_[island_of_[k]]++] = static_cast<std::uint32_t>(k);
+    for (std::size_t k = 0; k < island_of_.size(); ++k) order_[label_[island_of_[k]]++] = static_cast<std::uint32_t>(k);
 }
 
 std::size_t Islands::first(std::size_t pieces, std::size_t k) const {

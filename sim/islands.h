@@ -10,12 +10,19 @@
 // Contracts: islands are numbered in the order of their first link; links(i) lists island i's
 // links ascending. A link with no dynamic end (both kStatic) is an island of its own. Both
 // are pure functions of the links, never of history. build() allocates only to grow.
+//
+// With tasks that run in parallel, build() joins the links and finds each link's root in
+// ranges of links (a lock-free union-find: docs/physics.md, "Parallel step"); the components,
+// so the islands, are the same whatever the cut, and the numbering and grouping that follow
+// are the sequential ones.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
+
+#include "sim/parallel_tasks.h"
 
 namespace lockroll::sim {
 
@@ -27,6 +34,7 @@ public:
     };
 
     void build(std::size_t nodes, std::span<const Link> links);
+    void build(std::size_t nodes, std::span<const Link> links, const ParallelTasks& tasks);
 
     std::size_t count() const { return start_.empty() ? 0 : start_.size() - 1; }
     std::span<const std::uint32_t> links(std::size_t island) const {
@@ -37,9 +45,21 @@ public:
     std::size_t first(std::size_t pieces, std::size_t k) const;
 
 private:
+    // Links per range of the parallel union-find, at least.
+    static constexpr std::size_t kLinkGrain = 1024;
+
     std::uint32_t find(std::uint32_t x);
+    // parent_ in the parallel build: every access atomic (std::atomic_ref), so ranges on other
+    // threads may join and walk the same trees.
+    void unite_concurrent(std::uint32_t a, std::uint32_t b);
+    std::uint32_t find_concurrent(std::uint32_t x);
+    std::uint32_t root_after_unite(std::uint32_t x);
+    // The numbering and grouping from each link's root (kStatic for a link with no dynamic end).
+    void group(std::span<const std::uint32_t> link_root);
+    void sort_links();  // order_ from island_of_ and the islands' link counts in start_
 
     std::vector<std::uint32_t> parent_, label_;  // by node
+    std::vector<std::uint32_t> link_root_;       // by link: its root, or kStatic
     std::vector<std::uint32_t> island_of_;       // by link
     std::vector<std::uint32_t> start_, order_;   // links grouped by island
 };

@@ -48,6 +48,7 @@
 #include "sim/parallel_tasks.h"
 #include "sim/rigid_contact.h"
 #include "sim/step_kernel.h"
+#include "sim/uninitialized_allocator.h"
 
 namespace lockroll::sim {
 
@@ -89,12 +90,12 @@ public:
     // by default); the bits are the same either way (docs/physics.md, "Parallel step"):
     //  - per body (gravity, damping, inertia, integration): each body's own operations;
     //  - contact generation per pair range into per-range manifold lists, concatenated in pair
-    //    order, then solver slots assigned in that order (sequential), then the points built
-    //    per range into their places;
+    //    order, then solver slots numbered in that order (sequential), the solver bodies
+    //    copied in per range of slots, then the points built per range into their places;
     //  - warm start and the iterations island by island (sim/islands.h), each island's rows
     //    in their global relative order; the split passes likewise;
     //  - sequential, as they are global: keeping the impulses (a sort by key), the shock pass
-    //    (levels over the whole graph, one global order) and the scatter.
+    //    (levels over the whole graph, one global order); the scatter runs per range of slots.
     template <class FindPairs, class Control>
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
               std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control,
@@ -121,7 +122,10 @@ public:
         }
         if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass();
-        scatter(vel, angvel);
+        if (!tasks.parallel())
+            scatter(vel, angvel);
+        else
+            scatter_parallel(vel, angvel, tasks);
         if (split_) split_passes(tasks);
         if (!tasks.parallel())
             integrate(pos, vel, orient, angvel, 0, dynamic_.size());
@@ -193,6 +197,9 @@ private:
     static constexpr std::uint32_t kNoSlot = ~std::uint32_t{0};
     std::uint32_t slot_of(BodyId id, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     void scatter(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) const;
+    // scatter() per range of places (each place is another body: the ranges write disjoint
+    // velocities).
+    void scatter_parallel(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, const ParallelTasks& tasks) const;
     void build_contacts(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel);
     // The pair's manifold (a, b: the pair in the roles contact_points() gets), reduced when
     // the scene asks; m.count == 0 when apart.
@@ -300,7 +307,9 @@ private:
     std::vector<Mat3> rot_;          // body to world; static bodies set once
     std::vector<Mat3> inv_i_world_;  // zero for static bodies
     std::vector<BodyPair> pairs_;
-    std::vector<Point> points_;
+    // Grown without zero-filling: build_points() writes every member of a point before any
+    // pass reads it (sim/uninitialized_allocator.h).
+    std::vector<Point, UninitializedAllocator<Point>> points_;
     // rigid.block_solver, or a parallel step: first point of each manifold, then
     // points_.size() (empty otherwise).
     std::vector<std::uint32_t> manifold_start_;

@@ -261,7 +261,7 @@ private:
     // their global relative order give the bits of the global sweep. Needs links_ from
     // prepare_pairs_and_links().
     void solve_default_islands(std::vector<Vec>& pos, std::vector<Vec>& vel, const ParallelTasks& tasks) {
-        islands_.build(pos.size(), links_);
+        islands_.build(pos.size(), links_, tasks);
         // At least kPairGrain pairs a piece: a small scene is not worth waking a thread for.
         const std::size_t pieces = std::min(tasks.piece_count(solver_pairs_.size(), kPairGrain), islands_.count());
         tasks.run(pieces, [&](std::size_t k) {

@@ -2,9 +2,14 @@
 // link, each island's links ascending, and a pure function of the links.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <functional>
+#include <random>
+#include <thread>
 #include <vector>
 
 #include "sim/islands.h"
+#include "sim/parallel_tasks.h"
 
 namespace lockroll::sim {
 namespace {
@@ -57,6 +62,60 @@ TEST(Islands, PiecesCoverEveryIslandInOrder) {
         for (std::size_t k = 0; k < pieces; ++k) EXPECT_LE(is.first(pieces, k), is.first(pieces, k + 1));
     }
     EXPECT_EQ(is.first(2, 1), 20u);  // equal link counts: the middle island
+}
+
+// Every task on a thread of its own, all at once (the union-find's ranges race for real).
+void run_on_threads(std::size_t count, const std::function<void(std::size_t)>& task) {
+    std::vector<std::thread> threads;
+    for (std::size_t i = 0; i < count; ++i) threads.emplace_back([&task, i] { task(i); });
+    for (std::thread& t : threads) t.join();
+}
+
+void run_backwards(std::size_t count, const std::function<void(std::size_t)>& task) {
+    for (std::size_t i = count; i-- > 0;) task(i);
+}
+
+// Random graphs: a few long chains joined in shuffled order (deep trees, roots linked late,
+// links ascending and descending), many small clusters, links to the floor, static pairs.
+std::vector<Islands::Link> random_links(std::size_t nodes, std::size_t count, std::uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::vector<Islands::Link> links;
+    const auto node = [&](std::size_t below) { return static_cast<std::uint32_t>(rng() % below); };
+    const std::size_t chain = nodes / 4;
+    for (std::uint32_t i = 0; i + 1 < chain; ++i) links.push_back({i, i + 1});
+    while (links.size() < count) {
+        const std::uint32_t a = node(nodes);
+        switch (rng() % 8) {
+            case 0: links.push_back({a, S}); break;
+            case 1: links.push_back({S, a}); break;
+            case 2: links.push_back({S, S}); break;
+            default: {
+                const std::uint32_t b = std::min<std::uint32_t>(static_cast<std::uint32_t>(nodes - 1), a + node(6));
+                links.push_back({a, b});
+            }
+        }
+    }
+    std::shuffle(links.begin(), links.end(), rng);
+    return links;
+}
+
+TEST(Islands, ParallelBuildMatchesSequentialAtAnyCut) {
+    for (const std::uint32_t seed : {1u, 2u, 3u}) {
+        for (const std::size_t nodes : {50u, 3000u, 20000u}) {
+            const std::vector<Islands::Link> links = random_links(nodes, nodes * 2, seed);
+            Islands sequential;
+            sequential.build(nodes, links);
+            for (const TaskRunner& runner : {TaskRunner(run_on_threads), TaskRunner(run_backwards)}) {
+                for (const int chunks : {2, 3, 5, 8}) {
+                    Islands parallel;
+                    parallel.build(nodes, random_links(nodes / 2 + 1, nodes, seed + 7));  // history must not matter
+                    parallel.build(nodes, links, ParallelTasks(chunks, runner));
+                    ASSERT_EQ(groups(parallel), groups(sequential))
+                        << "seed " << seed << ", " << nodes << " nodes, " << chunks << " chunks";
+                }
+            }
+        }
+    }
 }
 
 }  // namespace
