@@ -64,10 +64,6 @@ public:
     const std::vector<Vec>& extent() const { return extent_; }
     const std::vector<BodyId>& dynamic_ids() const { return dynamic_; }
     const std::vector<BodyId>& static_ids() const { return static_; }
-    // The sequential default step interleaves its iterations over a window of the pairs
-    // (solve_tiled()) when the scene has at least this many dynamic bodies; the bits are the
-    // same either way, which tests check by setting 0 (always) and SIZE_MAX (never).
-    void set_tile_bodies(std::size_t n) { tile_bodies_ = n; }
     // Events handled by continuous collision since construction (diagnostics, not state).
     std::uint64_t continuous_events() const { return continuous_events_; }
 
@@ -237,104 +233,8 @@ private:
     static N& component(Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
     static const N& component(const Vec& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 
-    void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) {
-        if (dynamic_.size() >= tile_bodies_) {
-            solve_tiled(pos, vel);
-            return;
-        }
+    void solve_default(std::vector<Vec>& pos, std::vector<Vec>& vel) const {
         solve_pairs(solver_pairs_, [](const SolverPair& p) -> const SolverPair& { return p; }, pos, vel);
-    }
-
-    // solve_default() with its iterations interleaved over a sliding window of the pairs
-    // (temporal blocking), so each pair's bodies come from memory about once per step instead
-    // of once per iteration: at 10,000 bodies the solver's arrays do not fit the per-core cache
-    // (docs/performance.md, "Particle solver iterations in a window").
-    //
-    // Why the bits are the same: a pair's narrowphase and resolution read and write only its two
-    // bodies (static bodies are only read, never written), so any schedule gives the same
-    // result that keeps, for every dynamic body, the order of the operations on it: iteration
-    // k's pairs in pair order, then iteration k + 1's. The schedule here:
-    // - sched_ visits the pairs in pair order, except that each pair with a static body is
-    //   moved up to just after the last pair between two dynamic bodies that names its dynamic
-    //   body (static pairs keep their relative order). That needs every dynamic-dynamic pair
-    //   before every static pair in the list, which both broadphases give (their static tests
-    //   come last); otherwise the plain sweeps run. A body's own operations keep their order,
-    //   and the static pairs (the floor under every resting body) now sit where their body is
-    //   in space instead of all at the end, where every body would wait for them.
-    // - reach_[i]: the last position in sched_ of an operation on a dynamic body of any pair at
-    //   positions 0..i. Iteration k + 1 runs position i once iteration k has run every position
-    //   up to reach_[i]: no earlier-iteration operation on those bodies is then left, and the
-    //   prefix maximum keeps iteration k + 1 itself in sched_ order.
-    // Pairs come in the broadphase's cell order, so the window spans about one slab of cells.
-    static constexpr std::size_t kTilePairs = 256;  // positions iteration 0 runs ahead per round
-    static constexpr std::size_t kMaxTiledIterations = 64;
-    bool static_pair(const SolverPair& p) const { return p.b_static || inv_mass_[p.a] == T::zero(); }
-    BodyId moving_body(const SolverPair& p) const { return p.b_static ? p.a : p.b; }  // of a static pair
-    void solve_tiled(std::vector<Vec>& pos, std::vector<Vec>& vel) {
-        const std::size_t n = solver_pairs_.size();
-        const auto iterations = static_cast<std::size_t>(std::max(iterations_, 0));
-        std::size_t m = 0;  // dynamic-dynamic pairs first
-        while (m < n && !static_pair(solver_pairs_[m])) ++m;
-        bool ordered = iterations <= kMaxTiledIterations;
-        for (std::size_t j = m; j < n && ordered; ++j) ordered = static_pair(solver_pairs_[j]);
-        if (!ordered) {
-            solve_pairs(solver_pairs_, [](const SolverPair& p) -> const SolverPair& { return p; }, pos, vel);
-            return;
-        }
-        if (iterations == 0 || n == 0) return;
-        if (last_pair_.size() < pos.size()) last_pair_.resize(pos.size(), 0);
-        // Where each static pair goes: after dynamic-dynamic pair t - 1 (t = 0: first). Every
-        // entry read here is written first in this step: nothing to clear between steps.
-        for (std::size_t j = m; j < n; ++j) last_pair_[moving_body(solver_pairs_[j])] = 0;
-        for (std::size_t j = 0; j < m; ++j) {
-            last_pair_[solver_pairs_[j].a] = static_cast<std::uint32_t>(j + 1);
-            last_pair_[solver_pairs_[j].b] = static_cast<std::uint32_t>(j + 1);
-        }
-        bucket_.assign(m + 1, 0);
-        slot_.resize(n - m);
-        for (std::size_t j = m; j < n; ++j) ++bucket_[slot_[j - m] = last_pair_[moving_body(solver_pairs_[j])]];
-        sched_.resize(n);
-        std::uint32_t at = 0;
-        for (std::size_t t = 0; t <= m; ++t) {
-            const std::uint32_t count = bucket_[t];
-            bucket_[t] = at;  // the bucket's first position
-            at += count;
-            if (t < m) sched_[at++] = static_cast<std::uint32_t>(t);
-        }
-        for (std::size_t j = m; j < n; ++j) sched_[bucket_[slot_[j - m]]++] = static_cast<std::uint32_t>(j);
-        // reach_ over sched_ positions (static bodies impose no order: theirs stay 0).
-        for (std::size_t i = 0; i < n; ++i) {
-            last_pair_[solver_pairs_[sched_[i]].a] = static_cast<std::uint32_t>(i);
-            last_pair_[solver_pairs_[sched_[i]].b] = static_cast<std::uint32_t>(i);
-        }
-        for (BodyId s : static_) last_pair_[s] = 0;
-        reach_.resize(n);
-        std::uint32_t reach = 0;
-        for (std::size_t i = 0; i < n; ++i) {
-            const SolverPair& p = solver_pairs_[sched_[i]];
-            reach = std::max({reach, last_pair_[p.a], last_pair_[p.b]});
-            reach_[i] = reach;
-        }
-        // done[k]: positions [0, done[k]) have had iteration k.
-        std::size_t done[kMaxTiledIterations] = {};
-        const auto run = [&](std::size_t first, std::size_t last) {
-            solve_once(sched_.data() + first, sched_.data() + last,
-                       [this](std::uint32_t j) -> const SolverPair& { return solver_pairs_[j]; }, pos, vel);
-        };
-        while (done[iterations - 1] < n) {
-            const std::size_t ahead = std::min(n, done[0] + kTilePairs);
-            run(done[0], ahead);
-            done[0] = ahead;
-            for (std::size_t k = 1; k < iterations; ++k) {
-                std::size_t upto = done[k];
-                if (done[k - 1] == n)
-                    upto = n;
-                else
-                    while (upto < n && reach_[upto] < done[k - 1]) ++upto;
-                run(done[k], upto);
-                done[k] = upto;
-            }
-        }
     }
 
     // `iterations` passes over the pairs of `order` (get(item) names the pair): narrowphase,
@@ -342,20 +242,17 @@ private:
     // list and for an island's (two instantiations, each optimised as the one loop was).
     template <class Order, class Get>
     void solve_pairs(const Order& order, Get&& get, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
-        for (int iteration = 0; iteration < iterations_; ++iteration) solve_once(order.begin(), order.end(), get, pos, vel);
-    }
-    // One iteration over the items [first, last).
-    template <class It, class Get>
-    void solve_once(It first, It last, Get&& get, std::vector<Vec>& pos, std::vector<Vec>& vel) const {
-        for (; first != last; ++first) {
-            const SolverPair& p = get(*first);
-            BasicContact<N> c;
-            if (!narrow(p, pos, c)) continue;
-            const int axis = normal_axis(c.normal);
-            if (axis >= 0)
-                resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
-            else
-                resolve(p, pos, vel, c);
+        for (int iteration = 0; iteration < iterations_; ++iteration) {
+            for (const auto& item : order) {
+                const SolverPair& p = get(item);
+                BasicContact<N> c;
+                if (!narrow(p, pos, c)) continue;
+                const int axis = normal_axis(c.normal);
+                if (axis >= 0)
+                    resolve_on_axis(p, pos, vel, c, axis, component(c.normal, axis) < T::zero());
+                else
+                    resolve(p, pos, vel, c);
+            }
         }
     }
 
@@ -729,11 +626,6 @@ private:
 
     std::vector<BodyPair> pairs_;
     std::vector<SolverPair> solver_pairs_;
-    // Sequential default step, tile_bodies_ or more dynamic bodies: solve_tiled()'s schedule.
-    // Below 512 the solver's arrays stay in the first-level caches and the schedule is pure cost.
-    std::size_t tile_bodies_ = 512;
-    std::vector<std::uint32_t> last_pair_;  // by body id: scratch for solve_tiled()
-    std::vector<std::uint32_t> sched_, reach_, bucket_, slot_;  // solve_tiled()'s schedule
     // Parallel default step only: islands over solver_pairs_.
     Islands islands_;
     std::vector<Islands::Link> links_;
