@@ -80,6 +80,8 @@ private:
 
     // Work per parallel range, at least: bodies, occupied cells, static-dynamic tests.
     static constexpr std::size_t kGrain = 1024, kCellGrain = 256, kStaticGrain = 8192;
+    // Sequential static tests: dynamic bodies a block (their boxes: 24 KB, within L1).
+    static constexpr std::size_t kStaticBlock = 512;
 
     BroadphaseKind kind_ = BroadphaseKind::SweepAndPrune;
     std::vector<BodyId> dynamic_, static_;
@@ -126,7 +128,7 @@ private:
     std::vector<Box> sorted_box_;            // its box, copied so neighbour scans are contiguous
     std::vector<std::vector<BodyPair>> scratch_;  // per walk range: pairs as found, by the body whose walk found them
     std::vector<std::uint32_t> found_;       // per walk range: how many
-    std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests
+    std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests (sequential: per static body)
     std::vector<std::uint32_t> histograms_;  // parallel sort: kBuckets counters per range
     std::vector<std::vector<std::uint32_t>> occupied_parts_;  // parallel layout: occupied cells per range
 };

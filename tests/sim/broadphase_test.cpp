@@ -165,6 +165,32 @@ TEST(Broadphase, GridPairsComeInCellOrder) {
     EXPECT_GT(checked, 1000u);
 }
 
+// The static tests come last, static-major (the static bodies ascending, for each its dynamic
+// bodies ascending): the sequential grid tests them a block of dynamic bodies at a time, each
+// static body's pairs into its own list, and must still emit exactly that order.
+TEST(Broadphase, StaticPairsComeStaticMajorInDynamicOrder) {
+    const Scene s = make_scene(37, 3000);  // several blocks of dynamic bodies, two static bodies
+    Broadphase bp;
+    const std::vector<BodyPair> pairs = grid_pairs(s, bp);
+    const auto overlapping = brute_force(s, kMargin);
+    std::vector<std::pair<BodyId, BodyId>> expected, found;
+    for (BodyId st : s.statics)
+        for (BodyId d : s.dynamic)
+            if (std::binary_search(overlapping.begin(), overlapping.end(), std::pair{std::min(d, st), std::max(d, st)}))
+                expected.emplace_back(st, d);
+    ASSERT_GT(expected.size(), 300u) << "several blocks must hold static pairs";
+    std::size_t first_static = pairs.size();
+    for (std::size_t i = 0; i < pairs.size(); ++i) {
+        const bool a_static = std::find(s.statics.begin(), s.statics.end(), pairs[i].a) != s.statics.end();
+        const bool b_static = std::find(s.statics.begin(), s.statics.end(), pairs[i].b) != s.statics.end();
+        if (!a_static && !b_static) continue;
+        first_static = std::min(first_static, i);
+        found.emplace_back(a_static ? pairs[i].a : pairs[i].b, a_static ? pairs[i].b : pairs[i].a);
+    }
+    EXPECT_EQ(found, expected);
+    EXPECT_EQ(pairs.size() - first_static, found.size()) << "the static pairs are the list's tail";
+}
+
 // The parallel step's grid (the sort, layout, walk and static tests cut into ranges) returns
 // the sequential pairs in the sequential order, at any cut: several task counts, body counts
 // on both sides of the ranges' grain, tasks run last first, and a broadphase that stepped
