@@ -66,7 +66,7 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
     }
     // A slowly turning body (a ball at rest in a pile) has s^2 or s^3 below half an ulp: that
     // power rounds to exactly 0, and so does every product of it (round(0 * x) = 0), so those
-    // products are not taken (times_nonzero). The same bits: QuatTest.IntegratedShortcutsGive...
+    // products are not taken (times_nonzero). The same bits: Quat.IntegratedShortcutsGiveTheGeneralBits.
     const Fixed s2 = s * s, s3 = times_nonzero(s2, s);
     // cos|a| = 1 - s/2 + s^2/24 - s^3/720;  sin|a| / |a| = 1 - s/6 + s^2/120 - s^3/5040.
     static const Fixed c24 = Fixed::ratio(1, 24), c720 = Fixed::ratio(1, 720), k6 = Fixed::ratio(1, 6),
