@@ -5,6 +5,10 @@ namespace lockroll::sim {
 namespace {
 Fixed two_times(Fixed a) { return a * std::int64_t{2}; }
 
+// a * b, without the product when a is exactly 0 (then a * b is exactly 0: round(0) = 0, and
+// nothing overflows).
+Fixed times_nonzero(Fixed a, Fixed b) { return a.raw == 0 ? Fixed::zero() : a * b; }
+
 // Round a component to the 2^-30 grid (see renormalised()); saturates (and counts) at the ends
 // of the range rather than overflow.
 Fixed to_grid(Fixed f) {
@@ -40,6 +44,9 @@ Quat renormalised(const Quat& q) {
                         ? quat_detail::sum4_small(q.w.raw, q.w.raw, q.x.raw, q.x.raw, q.y.raw, q.y.raw, q.z.raw, q.z.raw)
                         : quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
     const Fixed f = Fixed::from_raw((3 * Fixed::kOne - s.raw) / 2);  // |s - 1| is tiny: no overflow
+    // |q|^2 within an ulp of 1 gives f = 1 exactly, and x * 1 is x bit for bit (raw * 2^32,
+    // shifted back with nothing to round, never out of range): the four products are skipped.
+    if (f == Fixed::one()) return {to_grid(q.w), to_grid(q.x), to_grid(q.y), to_grid(q.z)};
     return {to_grid(q.w * f), to_grid(q.x * f), to_grid(q.y * f), to_grid(q.z * f)};
 }
 
@@ -57,12 +64,15 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
         a = {a.x / len, a.y / len, a.z / len};
         s = dot(a, a);
     }
-    const Fixed s2 = s * s, s3 = s2 * s;
+    // A slowly turning body (a ball at rest in a pile) has s^2 or s^3 below half an ulp: that
+    // power rounds to exactly 0, and so does every product of it (round(0 * x) = 0), so those
+    // products are not taken (times_nonzero). The same bits: Quat.IntegratedShortcutsGiveTheGeneralBits.
+    const Fixed s2 = s * s, s3 = times_nonzero(s2, s);
     // cos|a| = 1 - s/2 + s^2/24 - s^3/720;  sin|a| / |a| = 1 - s/6 + s^2/120 - s^3/5040.
     static const Fixed c24 = Fixed::ratio(1, 24), c720 = Fixed::ratio(1, 720), k6 = Fixed::ratio(1, 6),
                        k120 = Fixed::ratio(1, 120), k5040 = Fixed::ratio(1, 5040);
-    const Fixed c = Fixed::one() - Fixed::from_raw(s.raw / 2) + s2 * c24 - s3 * c720;
-    const Fixed k = Fixed::one() - s * k6 + s2 * k120 - s3 * k5040;
+    const Fixed c = Fixed::one() - Fixed::from_raw(s.raw / 2) + times_nonzero(s2, c24) - times_nonzero(s3, c720);
+    const Fixed k = Fixed::one() - s * k6 + times_nonzero(s2, k120) - times_nonzero(s3, k5040);
     const Quat dq{c, a.x * k, a.y * k, a.z * k};
     return renormalised(dq * q);
 }

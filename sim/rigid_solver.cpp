@@ -1,6 +1,7 @@
 #include "sim/rigid_solver.h"
 
 #include <algorithm>
+#include <array>
 
 #include "sim/inertia.h"
 #include "sim/rigid_solver_passes.h"
@@ -20,30 +21,6 @@ Vec3 unit(const Vec3& v) {
 // Feature ids of a reduced manifold's points (above every id sim/rigid_contact.h makes).
 constexpr std::uint8_t kFeatureReduced = 240;
 
-// A tangent basis of unit n, a fixed function of n.
-void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
-    const Fixed k = Fixed::from_raw(2479700525);  // 1/sqrt(3): one of |n.x|, |n.y|, |n.z| is at least this
-    t1 = abs(n.x) >= k ? unit({n.y, -n.x, Fixed::zero()}) : unit({Fixed::zero(), n.z, -n.y});
-    t2 = cross(n, t1);
-}
-
-// A row direction that is exactly a signed unit axis +-e_k (a contact on a room wall's face:
-// its normal and tangent basis are axes) gives +-(k + 1), anything else 0. For such a d the
-// product d * s is s or -s on axis k and exactly 0 elsewhere, bit for bit as the three rounded
-// products give it (1 * s = s, -1 * s = -s, and for s = Fixed::min() both saturate to max and
-// count one overflow, as unary minus does), and a sum u x + w y over two different axes is x
-// on one and y on the other: the impulse's velocity change needs no products at all.
-std::int8_t axis_code(const Vec3& d) {
-    const Fixed zero = Fixed::zero(), one = Fixed::one(), neg = -Fixed::one();
-    const Fixed c[3] = {d.x, d.y, d.z};
-    for (int k = 0; k < 3; ++k) {
-        const Fixed o1 = c[(k + 1) % 3], o2 = c[(k + 2) % 3];
-        if (o1 != zero || o2 != zero) continue;
-        if (c[k] == one) return static_cast<std::int8_t>(k + 1);
-        if (c[k] == neg) return static_cast<std::int8_t>(-(k + 1));
-    }
-    return 0;
-}
 Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 // v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
 void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
@@ -125,6 +102,73 @@ Vec3 combine3(const Vec3& u0, Fixed l0, const Vec3& u1, Fixed l1, const Vec3& u2
     return {x.rounded(), y.rounded(), z.rounded()};
 }
 }  // namespace
+
+namespace rigid_detail {
+// A tangent basis of unit n, a fixed function of n.
+void tangents(const Vec3& n, Vec3& t1, Vec3& t2) {
+    const Fixed k = Fixed::from_raw(2479700525);  // 1/sqrt(3): one of |n.x|, |n.y|, |n.z| is at least this
+    t1 = abs(n.x) >= k ? unit({n.y, -n.x, Fixed::zero()}) : unit({Fixed::zero(), n.z, -n.y});
+    t2 = cross(n, t1);
+}
+
+// A row direction that is exactly a signed unit axis +-e_k (a contact on a room wall's face:
+// its normal and tangent basis are axes) gives +-(k + 1), anything else 0. For such a d the
+// product d * s is s or -s on axis k and exactly 0 elsewhere, bit for bit as the three rounded
+// products give it (1 * s = s, -1 * s = -s, and for s = Fixed::min() both saturate to max and
+// count one overflow, as unary minus does), and a sum u x + w y over two different axes is x
+// on one and y on the other: the impulse's velocity change needs no products at all.
+std::int8_t axis_code(const Vec3& d) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one(), neg = -Fixed::one();
+    const Fixed c[3] = {d.x, d.y, d.z};
+    for (int k = 0; k < 3; ++k) {
+        const Fixed o1 = c[(k + 1) % 3], o2 = c[(k + 2) % 3];
+        if (o1 != zero || o2 != zero) continue;
+        if (c[k] == one) return static_cast<std::int8_t>(k + 1);
+        if (c[k] == neg) return static_cast<std::int8_t>(-(k + 1));
+    }
+    return 0;
+}
+Vec3 scaled_axis(std::int8_t code, Fixed s) {
+    Vec3 v;
+    component(v, code > 0 ? code - 1 : -code - 1) = code > 0 ? s : -s;
+    return v;
+}
+
+Fixed dot_axis(std::int8_t code, const Vec3& v) {
+    const Fixed c = code == 1 || code == -1 ? v.x : code == 2 || code == -2 ? v.y : v.z;
+    return code > 0 ? c : -c;
+}
+
+void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2) {
+    // Built once by the general functions themselves, for the six axes (index code + 3).
+    struct Basis {
+        Vec3 t1, t2;
+        std::int8_t code1, code2;
+    };
+    static const auto table = [] {
+        std::array<Basis, 7> b{};
+        for (int c = -3; c <= 3; ++c) {
+            if (c == 0) continue;
+            const Fixed one = c > 0 ? Fixed::one() : -Fixed::one(), z = Fixed::zero();
+            const int k = c > 0 ? c - 1 : -c - 1;
+            const Vec3 n{k == 0 ? one : z, k == 1 ? one : z, k == 2 ? one : z};
+            Basis& e = b[static_cast<std::size_t>(c + 3)];
+            tangents(n, e.t1, e.t2);
+            e.code1 = axis_code(e.t1);
+            e.code2 = axis_code(e.t2);
+        }
+        return b;
+    }();
+    const Basis& e = table[static_cast<std::size_t>(code + 3)];
+    t1 = e.t1;
+    t2 = e.t2;
+    code1 = e.code1;
+    code2 = e.code2;
+}
+}  // namespace rigid_detail
+
+using rigid_detail::axis_code;
+using rigid_detail::tangents;
 
 void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) {
     enabled_ = scene.rigid.enabled;
@@ -282,8 +326,16 @@ void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) c
         // A sphere's contact point lies on its normal through the centre: r = L n, so r x n is
         // exactly zero (its normal impulse never spins it), r x t1 = L t2 and r x t2 = -L t1.
         // Taken exactly, so rounding does not give the sphere a spurious twist.
-        const Fixed len = dot(r, p.n);
+        // On a wall (normal and tangents exact axes) the products by exact 0 and +-1 are taken
+        // as what they give (rigid_detail::scaled_axis, dot_axis).
         c[0] = Vec3{};
+        if (p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0) {
+            const Fixed len = rigid_detail::dot_axis(p.axis_n, r);
+            c[1] = rigid_detail::scaled_axis(p.axis_t2, len);
+            c[2] = -rigid_detail::scaled_axis(p.axis_t1, len);
+            return;
+        }
+        const Fixed len = dot(r, p.n);
         c[1] = p.t2 * len;
         c[2] = -(p.t1 * len);
         return;
@@ -304,8 +356,10 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     const auto inertia_arm = [&](const SolverBody& body, BodyId id, const Vec3& c) {
         if (c == Vec3{} || body.iso_inv_inertia.raw == 0) return Vec3{};
         if (body.iso_inv_inertia.raw < 0) return full_times(inv_i_world_[id], c);
+        // A zero component's product is exactly 0 (an arm on a wall has two): not taken.
         const Fixed s = body.iso_inv_inertia;
-        return Vec3{s * c.x, s * c.y, s * c.z};
+        const auto times = [s](Fixed x) { return x.raw == 0 ? Fixed::zero() : s * x; };
+        return Vec3{times(c.x), times(c.y), times(c.z)};
     };
     row.ia = inertia_arm(a, p.a, ca);
     row.ib = inertia_arm(b, p.b, cb);
@@ -511,10 +565,21 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         p.sb = sb;
         p.feature = c.feature;
         p.n = c.normal;
-        tangents(p.n, p.t1, p.t2);
+        // The tangent basis is a function of n alone: an axis's comes from a table the general
+        // arithmetic made, and a manifold's points that share a normal (box faces) share it.
         p.axis_n = axis_code(p.n);
-        p.axis_t1 = axis_code(p.t1);
-        p.axis_t2 = axis_code(p.t2);
+        if (p.axis_n != 0) {
+            rigid_detail::axis_tangents(p.axis_n, p.t1, p.t2, p.axis_t1, p.axis_t2);
+        } else if (i > 0 && p.n == out[i - 1].n) {
+            p.t1 = out[i - 1].t1;
+            p.t2 = out[i - 1].t2;
+            p.axis_t1 = out[i - 1].axis_t1;
+            p.axis_t2 = out[i - 1].axis_t2;
+        } else {
+            tangents(p.n, p.t1, p.t2);
+            p.axis_t1 = axis_code(p.t1);
+            p.axis_t2 = axis_code(p.t2);
+        }
         Vec3 ca[3], cb[3];
         arms(a, c.point - pos[a], p, ca);
         arms(b, c.point - pos[b], p, cb);
@@ -542,7 +607,8 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             // step's gravity (as Box2D and Bullet measure it): bouncing the g dt added this
             // step too gave every bounce e g dt more than it brought, so a ball on e = 0.8
             // kept hopping at ~0.9 m/s, above the threshold, forever (docs/physics.md).
-            const Fixed vn_before = vn - dot(p.n, gravity_dv_[b] - gravity_dv_[a]);
+            const Vec3 dg = gravity_dv_[b] - gravity_dv_[a];
+            const Fixed vn_before = vn - (p.axis_n != 0 ? rigid_detail::dot_axis(p.axis_n, dg) : dot(p.n, dg));
             // Only when the approach closes the gap within this step: the gap is -depth, so
             // it closes when -vn dt >= -depth, i.e. vn dt <= depth. (This read vn dt + depth
             // < 0, true for every approaching gap: a ball bounced off the floor up to the

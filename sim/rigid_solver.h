@@ -332,4 +332,19 @@ private:
     std::vector<BodyId> queue_;
 };
 
+// Pieces of the contact setup, exposed for the test that compares them with the general
+// arithmetic (tests/sim/rigid_solver_test.cpp).
+namespace rigid_detail {
+// A tangent basis of unit n, a fixed function of n (the general arithmetic).
+void tangents(const Vec3& n, Vec3& t1, Vec3& t2);
+// +-(k + 1) when d is exactly +-e_k, else 0.
+std::int8_t axis_code(const Vec3& d);
+// e * s for the axis e with axis code `code` != 0 (s or -s on its axis, exactly 0 elsewhere),
+// and dot(e, v): what the rounded products give, saturation and overflow count included.
+Vec3 scaled_axis(std::int8_t code, Fixed s);
+Fixed dot_axis(std::int8_t code, const Vec3& v);
+// tangents(e) and their axis codes for the axis e with axis code `code` != 0, from a table.
+void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2);
+}  // namespace rigid_detail
+
 }  // namespace lockroll::sim

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "sim/snapshot.h"
@@ -57,6 +58,64 @@ std::vector<std::uint8_t> expect_replays_bit_for_bit(const SceneDesc& s, World& 
         EXPECT_EQ(checksum(a), checksum(b)) << "frame " << f;
     }
     return snap;
+}
+
+// The contact setup takes an axis normal's tangent basis (and the tangents' axis codes) from a
+// table (rigid_detail::axis_tangents), and a sphere's arms on a wall without products by 0 and
+// +-1 (scaled_axis, dot_axis): each must be exactly what the general arithmetic gives, bits and
+// overflow counts, for each of the six axes and values of every magnitude.
+TEST(RigidSolver, AxisShortcutsGiveTheGeneralBits) {
+    std::mt19937_64 rng(1919);
+    const auto raw = [&] {
+        // Every magnitude, both signs, and the extremes.
+        const int bits = static_cast<int>(rng() % 66);
+        if (bits == 64) return Fixed::min();
+        if (bits == 65) return Fixed::max();
+        const std::uint64_t r = bits == 63 ? rng() : rng() >> (63 - bits);
+        return Fixed::from_raw(static_cast<std::int64_t>(r));
+    };
+    const Fixed one = Fixed::one(), z = Fixed::zero();
+    const Vec3 axes[6] = {{one, z, z}, {z, one, z}, {z, z, one}, {-one, z, z}, {z, -one, z}, {z, z, -one}};
+    for (const Vec3& n : axes) {
+        const std::int8_t code = rigid_detail::axis_code(n);
+        ASSERT_NE(code, 0);
+        Vec3 t1, t2, g1, g2;
+        std::int8_t c1 = 0, c2 = 0;
+        rigid_detail::axis_tangents(code, t1, t2, c1, c2);
+        rigid_detail::tangents(n, g1, g2);
+        EXPECT_EQ(t1, g1);
+        EXPECT_EQ(t2, g2);
+        EXPECT_EQ(c1, rigid_detail::axis_code(g1));
+        EXPECT_EQ(c2, rigid_detail::axis_code(g2));
+        EXPECT_NE(c1, 0);  // a wall's tangents are axes too
+        EXPECT_NE(c2, 0);
+        // A sphere's arms on a wall: e * s and e . v without the products, for every magnitude
+        // (the extremes included: -1 * INT64_MIN saturates and counts, as -INT64_MIN does).
+        for (int i = 0; i < 200000; ++i) {
+            const Fixed s = raw();
+            const Vec3 v{raw(), raw(), raw()};
+            std::uint64_t before = overflow_events();
+            const Vec3 got = rigid_detail::scaled_axis(code, s);
+            const std::uint64_t got_events = overflow_events() - before;
+            before = overflow_events();
+            ASSERT_EQ(got, n * s) << i;
+            ASSERT_EQ(got_events, overflow_events() - before) << i;
+            before = overflow_events();
+            const Fixed got_dot = rigid_detail::dot_axis(code, v);
+            const std::uint64_t dot_events = overflow_events() - before;
+            before = overflow_events();
+            ASSERT_EQ(got_dot, dot(n, v)) << i;
+            ASSERT_EQ(dot_events, overflow_events() - before) << i;
+            // A product by an exact zero is an exact zero and counts nothing (make_row skips it).
+            before = overflow_events();
+            ASSERT_EQ(s * Fixed::zero(), Fixed::zero());
+            ASSERT_EQ(overflow_events(), before);
+        }
+    }
+    // Not an axis: code 0, whatever the near miss.
+    EXPECT_EQ(rigid_detail::axis_code({one, Fixed::from_raw(1), z}), 0);
+    EXPECT_EQ(rigid_detail::axis_code({Fixed::from_raw(Fixed::kOne - 1), z, z}), 0);
+    EXPECT_EQ(rigid_detail::axis_code({Fixed::from_raw(2 * Fixed::kOne), z, z}), 0);
 }
 
 TEST(RigidSolver, SlidingBallEndsRollingAtFiveSevenths) {
