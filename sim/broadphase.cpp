@@ -1,6 +1,7 @@
 #include "sim/broadphase.h"
 
 #include <algorithm>
+#include <bit>
 #include <utility>
 
 namespace lockroll::sim {
@@ -103,7 +104,22 @@ void Broadphase::find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3
                             const ParallelTasks& tasks) {
     out.clear();
     if (!statics_ready_) {  // statics never move: their boxes are computed once
-        for (BodyId id : static_) box_[id] = make_box(pos[id], extent[id], 0);
+        static_box_.clear();
+        for (BodyId id : static_) static_box_.push_back(box_[id] = make_box(pos[id], extent[id], 0));
+        // Grid: per axis and cell coordinate, the static bodies (bit = index in static_) that a
+        // gridded box whose min corner has that coordinate can overlap. A box's min corner lies
+        // in [static lo - widest_, static hi], and clamped floor division keeps that order, so
+        // its coordinate lies between theirs: a necessary condition, never a lost pair.
+        for (int k = 0; k < 3; ++k) static_mask_[k].assign(static_cast<std::size_t>(dims_[k] + 2), 0);
+        if (kind_ == BroadphaseKind::Grid && static_.size() <= 64)
+            for (std::size_t i = 0; i < static_.size(); ++i)
+                for (int k = 0; k < 3; ++k) {
+                    Box lowest{}, highest{};  // min corners at the two ends of the reach
+                    lowest.lo[k] = sat(static_cast<i128>(static_box_[i].lo[k]) - widest_);
+                    highest.lo[k] = static_box_[i].hi[k];
+                    for (std::int64_t c = coord(lowest, k); c <= coord(highest, k); ++c)
+                        static_mask_[k][static_cast<std::size_t>(c)] |= std::uint64_t{1} << i;
+                }
         statics_ready_ = true;
     }
     if (!tasks.parallel())  // the plain loop (a lambda's reloads cost the paper scene ~2 %)
@@ -187,8 +203,9 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
     // Walk cell by cell, in ascending linear index (per range of occupied cells when parallel,
     // each range into its own scratch). The canonical order (docs/determinism.md) is the
     // walk's own: the cells ascending, in each cell its bodies by ascending id, each body's
-    // pairs as its walk finds them. Ranges are runs of consecutive occupied cells, so their
-    // lists concatenated in range order are the one-range walk's list, whatever the cut.
+    // pairs as its walk finds them, its static pairs last. Ranges are runs of consecutive
+    // occupied cells, so their lists concatenated in range order are the one-range walk's
+    // list, whatever the cut.
     const std::size_t pieces = tasks.piece_count(occupied_.size(), kCellGrain);
     if (scratch_.size() < pieces) {
         scratch_.resize(pieces);
@@ -297,12 +314,26 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
                               run(o + stride_y_ + stride_z_)};
         constexpr unsigned kRowNeed[4] = {2u, 16u | 4u, 4u, 2u | 4u};
 
+        // The static bodies a box of this cell can touch at all (static_mask_): most cells
+        // touch none, a floor cell one, so each body tests only those; the pairs are the same.
+        std::uint64_t near = 0;
+        std::uint32_t n_near = 0;
+        if (!static_.empty()) {
+            const Box& first_box = sorted_box_[here.start];
+            near = static_.size() > 64 ? ~std::uint64_t{0}
+                                       : static_mask_[0][static_cast<std::size_t>(coord(first_box, 0))] &
+                                             static_mask_[1][static_cast<std::size_t>(coord(first_box, 1))] &
+                                             static_mask_[2][static_cast<std::size_t>(coord(first_box, 2))];
+            n_near = static_.size() > 64 ? static_cast<std::uint32_t>(static_.size())
+                                         : static_cast<std::uint32_t>(std::popcount(near));
+        }
+
         for (std::uint32_t s = here.start; s < here.end; ++s) {
             const BodyId a = sorted_id_[s];
             const Box ba = sorted_box_[s];
             // Room for every candidate, so the scans store unconditionally and keep a pair only
             // when the boxes overlap: no branch on the test (a coin toss in a pile).
-            std::uint32_t room = row_end - s - 1;
+            std::uint32_t room = row_end - s - 1 + n_near;
             for (const Cell& row : rows) room += row.end > row.start ? row.end - row.start : 0;
             if (scratch.size() < std::size_t{used} + room) scratch.resize(2 * (std::size_t{used} + room));
             BodyPair* w = scratch.data();
@@ -324,7 +355,29 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
             // A row out of reach scans nothing ([start, start)); no branch on the reach, which
             // is data-dependent when the cell edge has slack over the boxes.
             for (int r = 0; r < 4; ++r) scan(rows[r].start, (kRowNeed[r] & ~reach) == 0 ? rows[r].end : rows[r].start);
+            // Then a's static pairs, the static bodies ascending: a's block holds every pair the
+            // solver will sweep for a except those of bodies before it, so a sweep reads a's
+            // data once per block instead of again in a static-major tail (docs/determinism.md,
+            // "Canonical pair order").
+            if (n_near > 0) used = static_tests(a, ba, near, w, used);
         }
+    }
+    return used;
+}
+
+std::uint32_t Broadphase::static_tests(BodyId a, const Box& ba, std::uint64_t near, BodyPair* w,
+                                       std::uint32_t used) const {
+    if (static_.size() > 64) {  // no masks: every static body
+        for (std::size_t k = 0; k < static_.size(); ++k) {
+            w[used] = BodyPair{std::min(a, static_[k]), std::max(a, static_[k])};
+            used += overlap_bits(ba, static_box_[k]);
+        }
+        return used;
+    }
+    for (; near != 0; near &= near - 1) {  // ascending bits: the static bodies ascending
+        const auto k = static_cast<std::size_t>(std::countr_zero(near));
+        w[used] = BodyPair{std::min(a, static_[k]), std::max(a, static_[k])};
+        used += overlap_bits(ba, static_box_[k]);
     }
     return used;
 }
@@ -339,9 +392,17 @@ void Broadphase::oversize_and_statics(std::vector<BodyPair>& out, const Parallel
                 if (other_oversize && d < o) continue;
                 if (overlap(box_[o], box_[d])) out.push_back(o < d ? BodyPair{o, d} : BodyPair{d, o});
             }
+        // The gridded bodies' static pairs came with their walk blocks; the oversize bodies'
+        // follow here, each oversize body's (ascending id) against the static bodies ascending.
+        for (BodyId o : oversize_)
+            for (std::size_t k = 0; k < static_.size(); ++k)
+                if (overlap(static_box_[k], box_[o]))
+                    out.push_back(o < static_[k] ? BodyPair{o, static_[k]} : BodyPair{static_[k], o});
+        return;
     }
-    // Static bodies against every dynamic body, static-major: per range of the (static, dynamic)
-    // index when parallel, each range into its own list, the lists concatenated in range order.
+    // Sweep and prune: static bodies against every dynamic body, static-major: per range of the
+    // (static, dynamic) index when parallel, each range into its own list, the lists
+    // concatenated in range order.
     const std::size_t nd = dynamic_.size(), n = static_.size() * nd;
     const std::size_t pieces = tasks.piece_count(n, kStaticGrain);
     const auto tests = [&](std::size_t begin, std::size_t end, std::vector<BodyPair>& list) {

@@ -89,6 +89,7 @@ private:
     std::vector<BodyId> gridded_, oversize_;
     Fixed margin_;
     std::vector<Box> box_;         // by body id; statics filled once in configure()
+    std::vector<Box> static_box_;  // the static bodies' boxes in static_ order (the walk's static tests)
     bool statics_ready_ = false;
 
     // Sweep and prune: dynamic ids sorted by (min x, id). Kept between steps only to make the
@@ -121,6 +122,11 @@ private:
         std::uint32_t start, end;
     };
     static constexpr Cell kEmptyCell{UINT32_MAX, 0};
+    // Body a (box ba) against the static bodies in near (bit i: static_[i]; every static body
+    // when there are more than 64): its static pairs, static order, written at w[used...] (room
+    // reserved); returns the new count. Out of line: most bodies' cells reach no static body.
+    [[gnu::noinline]] std::uint32_t static_tests(BodyId a, const Box& ba, std::uint64_t near, BodyPair* w,
+                                                 std::uint32_t used) const;
     std::vector<Cell> cell_;                 // by linear cell index
     std::vector<std::uint32_t> occupied_;    // cells with bodies this step, ascending index
     std::vector<std::uint64_t> keys_, keys_tmp_;  // (cell << 32 | id) for the radix sort
@@ -128,6 +134,7 @@ private:
     std::vector<Box> sorted_box_;            // its box, copied so neighbour scans are contiguous
     std::vector<std::vector<BodyPair>> scratch_;  // per walk range: pairs as found, by the body whose walk found them
     std::vector<std::uint32_t> found_;       // per walk range: how many
+    std::vector<std::uint64_t> static_mask_[3];  // per axis, by cell coordinate: static bodies in reach (at most 64)
     std::vector<std::vector<BodyPair>> static_pairs_;  // per range of static-dynamic tests (sequential: per static body)
     std::vector<std::uint32_t> histograms_;  // parallel sort: kBuckets counters per range
     std::vector<std::vector<std::uint32_t>> occupied_parts_;  // parallel layout: occupied cells per range
