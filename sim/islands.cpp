@@ -6,6 +6,27 @@
 
 namespace lockroll::sim {
 
+namespace {
+// parent_'s atomic accesses in the parallel build. std::atomic_ref where the standard library
+// has it; libc++ 14 (the WebAssembly build's, scripts/cross-check.sh) has not, and there the
+// same operations go through the compiler's __atomic builtins (gcc and clang both have them).
+#if defined(__cpp_lib_atomic_ref)
+std::uint32_t load(std::uint32_t& x, std::memory_order order) { return std::atomic_ref<std::uint32_t>(x).load(order); }
+void store(std::uint32_t& x, std::uint32_t v) { std::atomic_ref<std::uint32_t>(x).store(v, std::memory_order_release); }
+bool replace(std::uint32_t& x, std::uint32_t expected, std::uint32_t desired) {
+    return std::atomic_ref<std::uint32_t>(x).compare_exchange_strong(expected, desired, std::memory_order_acq_rel);
+}
+#else
+std::uint32_t load(std::uint32_t& x, std::memory_order order) {
+    return order == std::memory_order_relaxed ? __atomic_load_n(&x, __ATOMIC_RELAXED) : __atomic_load_n(&x, __ATOMIC_ACQUIRE);
+}
+void store(std::uint32_t& x, std::uint32_t v) { __atomic_store_n(&x, v, __ATOMIC_RELEASE); }
+bool replace(std::uint32_t& x, std::uint32_t expected, std::uint32_t desired) {
+    return __atomic_compare_exchange_n(&x, &expected, desired, false, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE);
+}
+#endif
+}  // namespace
+
 std::uint32_t Islands::find(std::uint32_t x) {
     while (parent_[x] != x) {
         parent_[x] = parent_[parent_[x]];  // path halving
@@ -76,30 +97,28 @@ void Islands::unite_concurrent(std::uint32_t a, std::uint32_t b) {
         if (rb < ra) std::swap(ra, rb);
         // Link the larger root under the smaller, if it is still a root (another range may
         // have linked it meanwhile: then walk up again).
-        std::uint32_t expected = rb;
-        if (std::atomic_ref<std::uint32_t>(parent_[rb]).compare_exchange_strong(expected, ra, std::memory_order_acq_rel))
-            return;
+        if (replace(parent_[rb], rb, ra)) return;
     }
 }
 
 std::uint32_t Islands::find_concurrent(std::uint32_t x) {
     for (;;) {
-        const std::uint32_t p = std::atomic_ref<std::uint32_t>(parent_[x]).load(std::memory_order_acquire);
+        const std::uint32_t p = load(parent_[x], std::memory_order_acquire);
         if (p == x) return x;
-        const std::uint32_t gp = std::atomic_ref<std::uint32_t>(parent_[p]).load(std::memory_order_acquire);
+        const std::uint32_t gp = load(parent_[p], std::memory_order_acquire);
         // Path halving. x is not a root, so nothing links x any more; other threads only
         // shorten its path too, and any ancestor of x is a correct parent for it.
-        if (gp != p) std::atomic_ref<std::uint32_t>(parent_[x]).store(gp, std::memory_order_release);
+        if (gp != p) store(parent_[x], gp);
         x = gp;
     }
 }
 
 std::uint32_t Islands::root_after_unite(std::uint32_t x) {
     // Other ranges read the same trees at the same time; nothing writes them any more, but
-    // parent_ is reached through atomic_ref everywhere in the parallel build for the race
+    // parent_ is reached atomically everywhere in the parallel build for the race
     // detector's sake (relaxed loads cost a plain load).
     for (;;) {
-        const std::uint32_t p = std::atomic_ref<std::uint32_t>(parent_[x]).load(std::memory_order_relaxed);
+        const std::uint32_t p = load(parent_[x], std::memory_order_relaxed);
         if (p == x) return x;
         x = p;
     }

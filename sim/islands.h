@@ -49,7 +49,7 @@ private:
     static constexpr std::size_t kLinkGrain = 1024;
 
     std::uint32_t find(std::uint32_t x);
-    // parent_ in the parallel build: every access atomic (std::atomic_ref), so ranges on other
+    // parent_ in the parallel build: every access atomic (std::atomic_ref or the __atomic builtins, islands.cpp), so ranges on other
     // threads may join and walk the same trees.
     void unite_concurrent(std::uint32_t a, std::uint32_t b);
     std::uint32_t find_concurrent(std::uint32_t x);
