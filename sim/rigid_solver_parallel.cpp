@@ -7,6 +7,7 @@
 // (find_manifolds, build_found) stays in rigid_solver.cpp, which inlines the per-pair code.
 #include <algorithm>
 
+#include "sim/grow.h"
 #include "sim/rigid_solver.h"
 #include "sim/rigid_solver_passes.h"
 
@@ -55,9 +56,11 @@ void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const st
     // One resize, which does not zero-fill (points_' allocator): build_found writes each point
     // whole, in parallel, where a value-initialising resize here was a sequential memset of
     // every point (several MB a step in bodies_10k_rigid).
-    points_.resize(point_count);
+    // Both buffers were cleared above: grow(), not resize(), or a count that creeps up step
+    // by step reallocates every step (sim/grow.h).
+    grow(points_, point_count);
     // 2b. The solver bodies, per range of places: what slot_of() copies in the sequential step.
-    bodies_.resize(slot_ids_.size());
+    grow(bodies_, slot_ids_.size());
     tasks.for_ranges(slot_ids_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
         for (std::size_t k = begin; k < end; ++k) {
             const BodyId id = slot_ids_[k];
