@@ -6,11 +6,13 @@
 #   show_logs DIR   the last lines of every process log under DIR (server.log, peer.log,
 #                   *.stderr.log), so a failure can be diagnosed from CI's output alone
 #   expect_2 WHAT MESSAGE COMMAND...   COMMAND exits 2 printing MESSAGE (bad flags), else fail
-#   start_relay_server DIR COMMAND...   a relay server, COMMAND (`"$lockroll" server [ARGS...]`
-#                   or `"$server_exe" [ARGS...]`) given --listen on a free port of 127.0.0.1 and
-#                   its ready and status files in DIR (its output in DIR/server.out, server.log);
-#                   sets server_pid and server_port. Not ready in 10 s: a failure that ends the
-#                   test, its logs shown (nothing after it can run)
+#   start_relay_server [--stderr PATH] DIR COMMAND...   a relay server, COMMAND (`"$lockroll"
+#                   server [ARGS...]` or `"$server_exe" [ARGS...]`) given --listen on a free port
+#                   of 127.0.0.1 and its ready and status files in DIR (its output in
+#                   DIR/server.out, its log in DIR/server.log or PATH, e.g. a FIFO); sets
+#                   server_pid and server_port. The server inherits no fd 3 (a test may hold a
+#                   pipe's end there). Not ready in 10 s: a failure that ends the test, its logs
+#                   shown (nothing after it can run)
 #   start_server DIR [ARGS...]   `$lockroll server` the same way (the test sets lockroll), but
 #                   not ready is a failure the test goes on after (server_port empty)
 #   completed_on_one_final WHAT DIR...   each client DIR's summary.json says completed, all on
@@ -38,18 +40,21 @@ expect_2() {  # expect_2 WHAT MESSAGE COMMAND...
     [ "$status" = 2 ] || fail "$what: exit status $status, expected 2"
     grep -q -- "$message" "$tmp/out.txt" || fail "$what: no '$message' in: $(cat "$tmp/out.txt")"
 }
-launch_relay_server() {  # launch_relay_server DIR COMMAND...: sets server_pid, server_port (empty: not ready)
+launch_relay_server() {  # launch_relay_server [--stderr PATH] DIR COMMAND...: sets server_pid, server_port (empty: not ready)
+    local log=
+    [ "$1" = --stderr ] && { log=$2; shift 2; }
     local dir=$1; shift
     mkdir -p "$dir"
     "$@" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
-        >"$dir/server.out" 2>"$dir/server.log" &
+        >"$dir/server.out" 2>"${log:-$dir/server.log}" 3>&- &
     server_pid=$!
     pids+=("$server_pid")
     for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
     server_port=$(cat "$dir/ready" 2>/dev/null)
 }
-start_relay_server() {  # start_relay_server DIR COMMAND...
+start_relay_server() {  # start_relay_server [--stderr PATH] DIR COMMAND...
     launch_relay_server "$@"
+    [ "$1" = --stderr ] && shift 2
     [ -n "$server_port" ] || { fail "the relay server in $1 did not get ready"; show_logs "$1"; exit 1; }
 }
 start_server() {  # start_server DIR [ARGS...]

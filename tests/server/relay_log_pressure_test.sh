@@ -20,21 +20,16 @@ lockroll=$2
 bad_client=$3
 source "$(dirname "$0")/../process_test_support.sh"
 
-# run_match DIR: a server whose stderr is DIR/stderr.fifo (held open on fd 3, not read), the
-# flood and the two honest clients; checks the clients and the status file. Sets server_pid.
+# run_match DIR: a server whose stderr is DIR/stderr.fifo (held open on fd 3, not read; the
+# server does not inherit fd 3: start_relay_server), the flood and the two honest clients;
+# checks the clients and the status file. Sets server_pid.
 run_match() {
     local dir=$1
     mkdir -p "$dir"
     mkfifo "$dir/stderr.fifo"
-    exec 3<>"$dir/stderr.fifo"  # a reader exists (so the open below does not block), and never reads
-    "$server_exe" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
-        >"$dir/server.out" 2>"$dir/stderr.fifo" 3>&- &
-    server_pid=$!
-    pids+=("$server_pid")
-    for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
-    local port
-    port=$(cat "$dir/ready" 2>/dev/null)
-    [ -n "$port" ] || { fail "$dir: the server did not get ready"; return 1; }
+    exec 3<>"$dir/stderr.fifo"  # a reader exists (so the server's open does not block), and never reads
+    start_relay_server --stderr "$dir/stderr.fifo" "$dir" "$server_exe"
+    local port=$server_port
     # The flood first, until the log is provably under pressure: the status file counts lines
     # dropped (the pipe's 64 KiB and the log's queue are full). Waiting for that state, not for
     # a fixed flood length, keeps the test meaning the same on a loaded machine, where the flood
@@ -132,13 +127,8 @@ dir=$tmp/gone
 mkdir -p "$dir"
 mkfifo "$dir/stderr.fifo"
 exec 3<>"$dir/stderr.fifo"
-"$server_exe" --listen 127.0.0.1:0 --ready-file "$dir/ready" --status-file "$dir/status.json" \
-    >"$dir/server.out" 2>"$dir/stderr.fifo" 3>&- &
-server_pid=$!
-pids+=("$server_pid")
-for _ in $(seq 100); do [ -s "$dir/ready" ] && break; sleep 0.1; done
-port=$(cat "$dir/ready" 2>/dev/null)
-[ -n "$port" ] || fail "gone: the server did not get ready"
+start_relay_server --stderr "$dir/stderr.fifo" "$dir" "$server_exe"
+port=$server_port
 timeout 30 "$bad_client" --connect "127.0.0.1:$port" --room hostile --slot 0 --behavior refused --parallel 8 \
     --seconds 2 >"$dir/hostile.out" 2>&1 3>&-
 exec 3>&-  # the pipe's only reader closes: the next write() fails with EPIPE (and SIGPIPE)
