@@ -186,6 +186,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     slop_ = rg.slop;
     threshold_ = rg.restitution_threshold;
     margin_ = scene.contact_margin;
+    cap_speed_ = margin_ * inv_dt_;
     for (int a = 0; a < kShapeCount; ++a)
         for (int b = 0; b < kShapeCount; ++b) {
             kin_[a][b] = rg.friction[a][b];
@@ -195,6 +196,8 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     const std::size_t n = scene.bodies.size();
     shape_.resize(n);
     radius_.resize(n);
+    turn_reach_.assign(n, Fixed::zero());
+    closing_.assign(n, Fixed::zero());
     core_half_.resize(n);
     inv_mass_.resize(n);
     half_.resize(n);
@@ -248,6 +251,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
         // A dynamic body may turn any way: its bounding sphere.
         const Fixed bound = b.shape == Shape::Box ? sqrt_wide(length_sq_wide(half_[i])) : radius_[i] + core_half_[i];
         extent_[i] = {bound, bound, bound};
+        turn_reach_[i] = b.shape == Shape::Box ? bound : b.shape == Shape::Capsule ? core_half_[i] : Fixed::zero();
         gravity_dv_[i] = scene.gravity * (b.gravity_scale * dt_);
         inertia_[i] = inertia(b.shape, b.radius, b.half_extents, b.half_height, b.mass);
         inv_inertia_[i] = inverse_inertia(b);
@@ -516,13 +520,35 @@ void RigidSolver::reduce(Manifold& m) {
     m = out;
 }
 
+void RigidSolver::closing_reach(const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel, std::size_t begin,
+                                std::size_t end) {
+    // A point further apart than the surfaces can close within the step (plus the base, for
+    // what the iterations add: a body pushed by its neighbours) constrains nothing this step;
+    // with every pair within the scene's margin getting points, the piles solved ~1.5x Bullet's
+    // points (docs/performance.md, "Fewer contact points"). |v_a|_1 + |v_b|_1 bounds the
+    // pairs' relative normal speed from above, and |w|_1 r the speed a turn gives a surface
+    // point at distance r from the centre; exact integer arithmetic, per body, so a pair costs
+    // two additions (pair_margin()).
+    for (std::size_t i = begin; i < end; ++i) {
+        const BodyId id = dynamic_[i];
+        const Vec3& v = vel[id];
+        Fixed speed = abs(v.x) + abs(v.y) + abs(v.z);
+        if (turn_reach_[id].raw != 0) {
+            const Vec3& w = angvel[id];
+            speed = speed + (abs(w.x) + abs(w.y) + abs(w.z)) * turn_reach_[id];
+        }
+        // speed dt > margin, without the product overflowing for absurd speeds.
+        closing_[id] = speed > cap_speed_ ? margin_ : speed * dt_;
+    }
+}
+
 [[gnu::always_inline]] inline void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,
                               Manifold& m) const {
     // A round body first, so every routine sees (round, box); otherwise the broadphase's order.
     a = pair.a;
     b = pair.b;
     if (shape_[a] == Shape::Box && shape_[b] != Shape::Box) std::swap(a, b);
-    contact_points(collider(a, pos), collider(b, pos), margin_, m);
+    contact_points(collider(a, pos), collider(b, pos), pair_margin(a, b), m);
     if (m.count == 0) return;
     if (reduce_ && shape_[a] == Shape::Box && shape_[b] == Shape::Box && m.points[0].feature < kFeatureEdge) reduce(m);
 }

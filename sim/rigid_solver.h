@@ -2,9 +2,12 @@
 //
 // Order of operations per frame (dt = 1 / tick_rate):
 //  1. velocities: v += g dt; the frame's player input; damping v *= 1/(1 + c dt), w likewise.
-//  2. world-space inverse inertia R diag(I^-1) R^T of every dynamic body, once.
-//  3. candidate pairs (the world's broadphase, each body's AABB its bounding sphere's);
-//     contact manifolds with points (sim/rigid_contact.h), speculative within contact_margin.
+//  2. world-space inverse inertia R diag(I^-1) R^T of every dynamic body, once; each body's
+//     closing bound (|v|_1 + |w|_1 r) dt.
+//  3. candidate pairs (the world's broadphase, each body's AABB its bounding sphere's,
+//     fattened by contact_margin); contact manifolds with points (sim/rigid_contact.h),
+//     speculative within the pair's margin: 1 cm plus both closing bounds, at most
+//     contact_margin.
 //  3b. (rigid.reduce_manifold) a box-box face manifold keeps at most its four corner points.
 //  4. per contact point: lever arms (a sphere's taken exactly along the normal, so its normal
 //     impulse never spins it), each row's Jacobian products (Row) and effective mass along the
@@ -73,6 +76,11 @@ inline constexpr std::size_t kImpulsesPerBody = 8;
 
 class RigidSolver {
 public:
+    // The speculative margin every pair gets whatever its speed (pair_margin()): 1 cm, for the
+    // velocity the iterations add within a step (0.6 m/s at 60 Hz); a pair closing faster gets
+    // more, up to the scene's contact_margin.
+    static constexpr Fixed kSpeculativeBase = Fixed::from_raw(Fixed::kOne / 100);
+
     // Only for a scene with rigid.enabled; kernel supplies the shapes, sizes and masses.
     void configure(const SceneDesc& scene, const StepKernel<Fixed>& kernel);
     bool enabled() const { return enabled_; }
@@ -105,6 +113,7 @@ public:
             control(vel);
             if (damped_) damp(vel, angvel, 0, dynamic_.size());
             update_inertia(orient, 0, dynamic_.size());
+            closing_reach(vel, angvel, 0, dynamic_.size());
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
             build_contacts(pos, vel, angvel);
             solve(impulses);
@@ -116,6 +125,7 @@ public:
             control(vel);
             if (damped_) per_body([&](std::size_t begin, std::size_t end) { damp(vel, angvel, begin, end); });
             per_body([&](std::size_t begin, std::size_t end) { update_inertia(orient, begin, end); });
+            per_body([&](std::size_t begin, std::size_t end) { closing_reach(vel, angvel, begin, end); });
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
             build_contacts_parallel(pos, vel, angvel, tasks);
             solve_islands(impulses, tasks);
@@ -204,6 +214,16 @@ private:
     // The pair's manifold (a, b: the pair in the roles contact_points() gets), reduced when
     // the scene asks; m.count == 0 when apart.
     inline void manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b, Manifold& m) const;
+    // The speculative margin of the pair (a, b) this step: kSpeculativeBase plus how far each
+    // body's surface can move within the step, capped at the scene's contact_margin
+    // (docs/physics.md, "Speculative margin per pair").
+    Fixed pair_margin(BodyId a, BodyId b) const {
+        const Fixed m = kSpeculativeBase + closing_[a] + closing_[b];
+        return m < margin_ ? m : margin_;
+    }
+    // closing_ of dynamic_[begin, end) from this step's velocities (after gravity, control and
+    // damping, before the iterations).
+    void closing_reach(const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel, std::size_t begin, std::size_t end);
     // Builds the m.count points of a manifold between a and b (whose slots exist) at out.
     // manifold_of() and build_points() are inline, defined and used in rigid_solver.cpp only
     // (build_contacts()'s loop, as before the parallel step); rigid_solver_parallel.cpp reaches
@@ -289,12 +309,19 @@ private:
     bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false, split_ = false, reduce_ = false, block_ = false;
     std::size_t impulse_capacity_ = 0;
     int iterations_ = 4;
-    Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_;
+    Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_, cap_speed_;
     Fixed kin_[kShapeCount][kShapeCount], stat_[kShapeCount][kShapeCount], rest_[kShapeCount][kShapeCount];
 
     // Per body, by id.
     std::vector<Shape> shape_;
     std::vector<Fixed> radius_, core_half_, inv_mass_;
+    // How far a surface point can be from the centre's axis of turning, for closing_reach():
+    // a box's half diagonal, a capsule's core half length, 0 for a sphere (turning never moves
+    // its surface) and for static bodies (they never turn).
+    std::vector<Fixed> turn_reach_;
+    // This step's bound on how far the body's surface moves: (|v|_1 + |w|_1 turn_reach_) dt,
+    // at most margin_ (so sums of two never overflow); 0 for static bodies.
+    std::vector<Fixed> closing_;
     std::vector<Vec3> half_, extent_, gravity_dv_;
     std::vector<Vec3> inertia_, inv_inertia_;  // body frame, diagonal
     std::vector<std::uint8_t> isotropic_;

@@ -210,19 +210,81 @@ TEST(RigidSolver, BounceIsEOfTheApproachBeforeThisStepsGravity) {
 }
 
 // A speculative point (a gap within the contact margin) bounces only if the approach closes
-// the gap within this step: 4 cm above the floor at 1.16 m/s it still falls freely.
+// the gap within this step: 2.5 cm above the floor at 1.16 m/s it still falls freely. (The
+// pair's margin is 1 cm + 1.16 m/s dt = 2.9 cm: RigidSolver::pair_margin().)
 TEST(RigidSolver, SpeculativePointBouncesOnlyWhenTheGapCloses) {
     SceneDesc s = floor_scene("0.3");
     BodyDesc b = ball("0", "0");
-    b.position = v3("0", "0.54", "0");
+    b.position = v3("0", "0.525", "0");
     b.velocity = v3("0", "-1", "0");
     s.bodies.push_back(b);
     World w(s);
     w.step({});
     const double v = -1 - 9.81 / 60;
     EXPECT_NEAR(d(w.velocity(1).y), v, 1e-6);
-    EXPECT_NEAR(d(w.position(1).y), 0.54 + v / 60, 1e-6);
+    EXPECT_NEAR(d(w.position(1).y), 0.525 + v / 60, 1e-6);
     ASSERT_EQ(w.rigid_solver().contact_count(), 1u);  // the point was there: it just did not bounce
+}
+
+// No gravity and a static wall 2 mm thick in the plane x = 0 (body 0), plus `body` (body 1).
+SceneDesc wall_and(const BodyDesc& body) {
+    SceneDesc s;
+    s.rigid.enabled = true;
+    s.gravity = Vec3{};
+    BodyDesc wall;
+    wall.shape = Shape::Box;
+    wall.half_extents = v3("0.001", "2", "2");
+    s.bodies.push_back(wall);
+    s.bodies.push_back(body);
+    return s;
+}
+
+// A pair's speculative margin grows with how fast it closes: a 1 cm ball at 2.5 m/s moves
+// 4.2 cm a step toward a 2 mm wall, and the step before it would pass the wall clean through
+// its gap is 2.5 cm, beyond the 1 cm base. The velocity term (1 cm + 4.2 cm, capped at the
+// 5 cm contact margin) gives it the point that stops it; a margin of the base alone (or 1 mm)
+// lets it through. A gap of 4.5 cm is beyond a resting pair's margin: no point.
+TEST(RigidSolver, SpeculativeMarginGrowsWithTheClosingSpeed) {
+    BodyDesc b;
+    b.shape = Shape::Sphere;
+    b.radius = fx("0.005");
+    b.mass = fx("1");
+    b.position = v3("-0.2393333", "0", "0");  // the gap is 2.5 cm after 5 steps
+    b.velocity = v3("2.5", "0", "0");
+    const SceneDesc s = wall_and(b);
+    World w(s);
+    for (int f = 0; f < 30; ++f) {
+        w.step({});
+        ASSERT_LT(d(w.position(1).x), -0.001) << "frame " << f;
+    }
+    // At rest relative to the wall, 4.5 cm away: beyond 1 cm, so no point.
+    SceneDesc r = s;
+    r.bodies[1].position = v3("-0.051", "0", "0");
+    r.bodies[1].velocity = Vec3{};
+    World still(r);
+    still.step({});
+    EXPECT_EQ(still.rigid_solver().contact_count(), 0u);
+}
+
+// A turn counts too: a 1 m plank 2.5 cm from a wall, turning at 4 rad/s so that its end
+// comes at 2 m/s (3.3 cm a step), gets its speculative point (margin 1 cm + 4 rad/s x 0.5 m
+// half diagonal x dt = 4.3 cm); with the turn left out of the bound it got none.
+TEST(RigidSolver, SpeculativeMarginCountsATurn) {
+    BodyDesc plank;
+    plank.shape = Shape::Box;
+    plank.half_extents = v3("0.01", "0.5", "0.01");
+    plank.mass = fx("1");
+    plank.position = v3("-0.036", "0", "0");  // its face 2.5 cm from the wall's
+    plank.angular_velocity = v3("0", "0", "-4");  // the upper end turns toward +x
+    SceneDesc s = wall_and(plank);
+    World w(s);
+    w.step({});
+    EXPECT_GT(w.rigid_solver().contact_count(), 0u);
+    // Not turning, the same plank gets none (the gap is beyond the 1 cm base).
+    s.bodies[1].angular_velocity = Vec3{};
+    World still(s);
+    still.step({});
+    EXPECT_EQ(still.rigid_solver().contact_count(), 0u);
 }
 
 // Dropped from 30 cm on e = 0.8, a ball's rebound speeds fall by e each bounce until they are
