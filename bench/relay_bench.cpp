@@ -959,7 +959,12 @@ int main(int argc, char** argv) {
                    "--pass-interval-us, which it should match; 0: a pass per wake-up)")
         ->check(CLI::Range(0, 100000))
         ->capture_default_str();
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;  // a bad flag: exit 2, as every lockroll program
+    }
     if (o.echo_batch > 0 && o.echo.empty()) {
         std::fprintf(stderr, "relay_bench: --echo-batch needs --echo (the udp_echo binary)\n");
         return 2;

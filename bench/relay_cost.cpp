@@ -335,7 +335,12 @@ int main(int argc, char** argv) {
                    "connections per ENet host behind the server's socket, as lockroll-server's option (batch only; 0: one host)")
         ->check(CLI::Range(0, 4095))
         ->capture_default_str();
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        const int code = app.exit(e);
+        return code == 0 ? 0 : 2;  // a bad flag: exit 2, as every lockroll program
+    }
     const auto mode = syscalls == "batch" ? server::enet_socket_batching::Mode::Batch : server::enet_socket_batching::Mode::Count;
     if (enet_initialize() != 0) return 1;
     int status = 0;
