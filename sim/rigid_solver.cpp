@@ -531,15 +531,31 @@ void RigidSolver::closing_reach(const std::vector<Vec3>& vel, const std::vector<
     // two additions (pair_margin()).
     for (std::size_t i = begin; i < end; ++i) {
         const BodyId id = dynamic_[i];
-        const Vec3& v = vel[id];
-        Fixed speed = abs(v.x) + abs(v.y) + abs(v.z);
-        if (turn_reach_[id].raw != 0) {
-            const Vec3& w = angvel[id];
-            speed = speed + (abs(w.x) + abs(w.y) + abs(w.z)) * turn_reach_[id];
-        }
-        // speed dt > margin, without the product overflowing for absurd speeds.
-        closing_[id] = speed > cap_speed_ ? margin_ : speed * dt_;
+        closing_[id] = closing_bound(vel[id], angvel[id], turn_reach_[id], cap_speed_, margin_, dt_);
     }
+}
+
+Fixed RigidSolver::closing_bound(const Vec3& v, const Vec3& w, Fixed reach, Fixed cap_speed, Fixed margin, Fixed dt) {
+    const auto magnitude = [](Fixed f) {
+        return f.raw < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(f.raw) : static_cast<std::uint64_t>(f.raw);
+    };
+    // Each magnitude < 2^64, so three sum below 2^66, and three products with reach < 2^63
+    // below 2^128: nothing wraps.
+    u128 speed = u128(magnitude(v.x)) + magnitude(v.y) + magnitude(v.z);
+    if (reach.raw != 0) {
+        const std::uint64_t r = magnitude(reach);
+        const u128 turn = mul_wide_unsigned(magnitude(w.x), r) + mul_wide_unsigned(magnitude(w.y), r) +
+                          mul_wide_unsigned(magnitude(w.z), r);
+        // To Fixed as a Fixed product rounds: to nearest, ties to even.
+        u128 q = turn >> Fixed::kFracBits;
+        const std::uint64_t rem = static_cast<std::uint64_t>(turn) & ((std::uint64_t{1} << Fixed::kFracBits) - 1);
+        const std::uint64_t half = std::uint64_t{1} << (Fixed::kFracBits - 1);
+        if (rem > half || (rem == half && (static_cast<std::uint64_t>(q) & 1) != 0)) q = q + 1;
+        speed = speed + q;
+    }
+    // speed dt > margin, without forming the product for absurd speeds.
+    if (speed > u128(static_cast<std::uint64_t>(cap_speed.raw))) return margin;
+    return Fixed::from_raw(static_cast<std::int64_t>(static_cast<std::uint64_t>(speed))) * dt;
 }
 
 [[gnu::always_inline]] inline void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,

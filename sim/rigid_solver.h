@@ -81,6 +81,13 @@ public:
     // more, up to the scene's contact_margin.
     static constexpr Fixed kSpeculativeBase = Fixed::from_raw(Fixed::kOne / 100);
 
+    // How far a body's surface can move within the step: (|v|_1 + |w|_1 reach) dt, or `margin`
+    // when |v|_1 + |w|_1 reach > cap_speed (= margin / dt). Exact in 128 bits, so any speed,
+    // however absurd, takes the cap without a sum or product saturating (which would count as
+    // an overflow event, sim/fixed.h); below the cap, the same bits as the Fixed expression.
+    // Contract: cap_speed, margin, dt >= 0 and reach >= 0.
+    static Fixed closing_bound(const Vec3& v, const Vec3& w, Fixed reach, Fixed cap_speed, Fixed margin, Fixed dt);
+
     // Only for a scene with rigid.enabled; kernel supplies the shapes, sizes and masses.
     void configure(const SceneDesc& scene, const StepKernel<Fixed>& kernel);
     bool enabled() const { return enabled_; }

@@ -53,11 +53,11 @@ void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const st
     }
     found_first_[pieces] = static_cast<std::uint32_t>(manifold_start_.size());
     manifold_start_.push_back(static_cast<std::uint32_t>(point_count));
-    // One resize, which does not zero-fill (points_' allocator): build_found writes each point
+    // Sized once, without zero-filling (points_' allocator): build_found writes each point
     // whole, in parallel, where a value-initialising resize here was a sequential memset of
-    // every point (several MB a step in bodies_10k_rigid).
-    // Both buffers were cleared above: grow(), not resize(), or a count that creeps up step
-    // by step reallocates every step (sim/grow.h).
+    // every point (several MB a step in bodies_10k_rigid). Both buffers were cleared above:
+    // grow(), not resize(), or a count that creeps up step by step reallocates every step
+    // (sim/grow.h).
     grow(points_, point_count);
     // 2b. The solver bodies, per range of places: what slot_of() copies in the sequential step.
     grow(bodies_, slot_ids_.size());

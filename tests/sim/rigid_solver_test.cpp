@@ -287,6 +287,33 @@ TEST(RigidSolver, SpeculativeMarginCountsATurn) {
     EXPECT_EQ(still.rigid_solver().contact_count(), 0u);
 }
 
+// The per-body closing bound is the Fixed expression (|v|_1 + |w|_1 reach) dt bit for bit below
+// the cap, and takes the cap for any speed above it without counting an overflow event (the
+// Fixed expression saturated its sums and product on absurd spins, and counted them).
+TEST(RigidSolver, ClosingBoundIsExactAndNeverOverflows) {
+    const Fixed dt = Fixed::ratio(1, 60), margin = fx("0.05"), cap = margin * Fixed::from_int(60);  // as configure()
+    std::mt19937_64 rng(19);
+    const auto any = [&](std::int64_t range) {
+        return Fixed::from_raw(static_cast<std::int64_t>(rng() % static_cast<std::uint64_t>(2 * range + 1)) - range);
+    };
+    const std::uint64_t before = overflow_events();
+    for (int i = 0; i < 20000; ++i) {
+        const std::int64_t range = (i % 2 == 0 ? Fixed::kOne : 4 * Fixed::kOne);  // below and across the cap
+        const Vec3 v{any(range), any(range), any(range)}, w{any(8 * range), any(8 * range), any(8 * range)};
+        const Fixed reach = Fixed::from_raw(static_cast<std::int64_t>(rng() % static_cast<std::uint64_t>(Fixed::kOne / 2)));
+        const Fixed speed = abs(v.x) + abs(v.y) + abs(v.z) + (abs(w.x) + abs(w.y) + abs(w.z)) * reach;
+        const Fixed expected = speed > cap ? margin : speed * dt;
+        ASSERT_EQ(RigidSolver::closing_bound(v, w, reach, cap, margin, dt).raw, expected.raw) << "case " << i;
+    }
+    ASSERT_EQ(overflow_events(), before);  // ordinary speeds: the reference never saturated
+    const Fixed big = Fixed::max(), small = Fixed::min();
+    EXPECT_EQ(RigidSolver::closing_bound({big, small, big}, {}, Fixed::zero(), cap, margin, dt).raw, margin.raw);
+    EXPECT_EQ(RigidSolver::closing_bound({}, {big, small, big}, fx("0.25"), cap, margin, dt).raw, margin.raw);
+    EXPECT_EQ(RigidSolver::closing_bound({}, {fx("1000000"), Fixed::zero(), Fixed::zero()}, fx("100000"), cap, margin, dt).raw,
+              margin.raw);
+    EXPECT_EQ(overflow_events(), before);
+}
+
 // Dropped from 30 cm on e = 0.8, a ball's rebound speeds fall by e each bounce until they are
 // below the threshold, and then it rests. (Before the fix each bounce gained e g dt and the
 // ball settled into a hop of about 0.9 m/s, above the threshold, that never ended.)
