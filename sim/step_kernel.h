@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
+#include <tuple>
 #include <vector>
 
 #include "sim/broadphase.h"
@@ -77,7 +79,7 @@ private:
             step_default_parallel(pos, vel, find_pairs, control, tasks);
             return;
         }
-        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+        for (BodyId id : dynamic_) vel[id] += body_class(id).gravity_dv;
         control(vel);
         for (BodyId id : dynamic_) pos[id] += vel[id] * dt_;
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
@@ -93,7 +95,7 @@ private:
     void step_default_parallel(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
                                const ParallelTasks& tasks) {
         tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
-            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += body_class(dynamic_[i]).gravity_dv;
         });
         control(vel);
         tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
@@ -132,6 +134,21 @@ private:
         }
     }
 
+    // What the default step's hot loops read per body besides its state, by class: bodies
+    // that agree on every field share one entry. The integration, the pair preparation and
+    // the solver read a 4-byte class per body instead of up to 8 + 8 + 24 + 8 + 8 + 1 bytes
+    // (radius_, core_half_, gravity_dv, inv_mass_, restitution_, shape_): at 10,000 bodies 40 KB
+    // instead of 570 KB among the arrays they read by id, in pair (cell) order, which with the
+    // state do not fit a 512 KB L2 (docs/performance.md, "Grid and walk memory, third pass").
+    // The same values, so the same bits. Scenes have a handful of classes (bodies_10k: 2); a
+    // scene of all-different bodies has one per body and costs one more load per access.
+    struct BodyClass {
+        N core_half, radius;  // as core_half_ and radius_
+        Vec gravity_dv;       // gravity * gravity_scale * dt (zero for static bodies)
+        N inv_mass, restitution;  // as inv_mass_ and restitution_
+        Shape shape;
+    };
+
     // A candidate pair prepared once per step: ordered (round before box), its narrowphase
     // routine, and the mass terms the solver would otherwise divide for in every iteration.
     enum class PairKind : std::uint8_t { RoundRound, RoundBox, BoxBox };
@@ -143,11 +160,11 @@ private:
         N inv_sum_recip;      // 1 / (1/m_a + 1/m_b), when both are dynamic
     };
 
-    N pair_restitution(BodyId a, BodyId b) const {
-        const N ea = restitution_[a], eb = restitution_[b];
-        return (ea >= T::zero() || eb >= T::zero())
-                   ? T::max(ea, eb)  // explicit materials combine by max
-                   : table_[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
+    N pair_restitution(BodyId a, BodyId b) const { return pair_restitution(body_class(a), body_class(b)); }
+    N pair_restitution(const BodyClass& a, const BodyClass& b) const {
+        return (a.restitution >= T::zero() || b.restitution >= T::zero())
+                   ? T::max(a.restitution, b.restitution)  // explicit materials combine by max
+                   : table_[static_cast<int>(a.shape)][static_cast<int>(b.shape)];
     }
 
     // Out of line, as it was before prepare_each() was split out of it (inlined into the step,
@@ -182,36 +199,46 @@ private:
     void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) const {
         for (const BodyPair* pair = first; pair != last; ++pair) {
             BodyId a = pair->a, b = pair->b;
+            const BodyClass* ka = &body_class(a);
+            const BodyClass* kb = &body_class(b);
             // Canonical roles: a round shape before a box (each routine sees (round, box)); within
             // the same class, a static body second. Only a static round body against a dynamic box
             // leaves the static body first, which the solver mirrors.
-            const bool a_round = shape_[a] != Shape::Box, b_round = shape_[b] != Shape::Box;
-            if (a_round != b_round ? !a_round : inv_mass_[a] == T::zero()) std::swap(a, b);
+            const bool a_round = ka->shape != Shape::Box, b_round = kb->shape != Shape::Box;
+            if (a_round != b_round ? !a_round : ka->inv_mass == T::zero()) {
+                std::swap(a, b);
+                std::swap(ka, kb);
+            }
             SolverPair p;
             p.a = a;
             p.b = b;
-            p.kind = shape_[a] == Shape::Box   ? PairKind::BoxBox
-                     : shape_[b] == Shape::Box ? PairKind::RoundBox
+            p.kind = ka->shape == Shape::Box   ? PairKind::BoxBox
+                     : kb->shape == Shape::Box ? PairKind::RoundBox
                                                : PairKind::RoundRound;
-            p.one_plus_e = T::one() + pair_restitution(a, b);
-            p.b_static = inv_mass_[b] == T::zero();
-            p.inv_sum_recip = p.b_static || inv_mass_[a] == T::zero() ? T::zero()
-                                                                      : T::reciprocal(inv_mass_[a] + inv_mass_[b]);
+            p.one_plus_e = T::one() + pair_restitution(*ka, *kb);
+            p.b_static = kb->inv_mass == T::zero();
+            p.inv_sum_recip = p.b_static || ka->inv_mass == T::zero() ? T::zero()
+                                                                       : T::reciprocal(ka->inv_mass + kb->inv_mass);
             emit(pair, p);
         }
+    }
+
+    const BodyClass& body_class(BodyId id) const { return classes_[class_[id]]; }
+    // A round body's collider from its class (the values of core_half_ and radius_).
+    BasicRoundCollider<N> round_collider(BodyId id, const std::vector<Vec>& pos) const {
+        const BodyClass& k = body_class(id);
+        return {pos[id], k.core_half, k.radius};
     }
 
     bool narrow(const SolverPair& p, const std::vector<Vec>& pos, BasicContact<N>& c) const {
         const BodyId a = p.a, b = p.b;
         switch (p.kind) {
             case PairKind::RoundRound:
-                return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
-                               BasicRoundCollider<N>{pos[b], core_half_[b], radius_[b]}, c);
+                return collide(round_collider(a, pos), round_collider(b, pos), c);
             case PairKind::RoundBox:
                 if (p.b_static)  // static boxes never move: bounds computed once
-                    return collide_with_bounds(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
-                                               static_lo_[b], static_hi_[b], c);
-                return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
+                    return collide_with_bounds(round_collider(a, pos), static_lo_[b], static_hi_[b], c);
+                return collide(round_collider(a, pos),
                                BasicBoxCollider<N>{pos[b], half_extents_[b]}, c);
             default:
                 return collide(BasicBoxCollider<N>{pos[a], half_extents_[a]}, BasicBoxCollider<N>{pos[b], half_extents_[b]},
@@ -283,7 +310,7 @@ private:
             if (vn < T::zero()) vel[a] += c.normal * (p.one_plus_e * vn);
             return;
         }
-        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
         if (ia == T::zero()) {
             // Static round body against a dynamic box: mirror of the case above.
             pos[b] += c.normal * c.depth;
@@ -312,7 +339,7 @@ private:
             if (vn < T::zero()) component(vel[a], axis) += along(p.one_plus_e * vn);
             return;
         }
-        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
         if (ia == T::zero()) {
             component(pos[b], axis) += along(c.depth);
             const N vn = along(component(vel[b], axis));
@@ -602,10 +629,11 @@ private:
     std::vector<Vec> extent_;        // AABB half size of the body (core + radius)
     std::vector<N> radius_;          // sweep radius (0 for boxes)
     std::vector<N> core_half_;       // capsule core half-height (0 otherwise)
+    std::vector<std::uint32_t> class_;  // by body id
+    std::vector<BodyClass> classes_;    // by class, in order of first appearance by id
     std::vector<Vec> half_extents_;  // boxes
     std::vector<Vec> static_lo_, static_hi_;  // static boxes: center -+ half, fixed for life
     std::vector<N> inv_mass_;
-    std::vector<Vec> gravity_dv_;    // gravity * gravity_scale * dt, precomputed
     std::vector<N> restitution_;     // per-body override, or negative for "use the table"
     std::vector<BodyId> dynamic_;    // ids of dynamic bodies, ascending
     std::vector<BodyId> static_;     // ids of static bodies, ascending
@@ -646,8 +674,9 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
     static_lo_.resize(n);
     static_hi_.resize(n);
     inv_mass_.resize(n);
-    gravity_dv_.resize(n);
     restitution_.resize(n);
+    class_.resize(n);
+    std::map<std::tuple<N, N, N, N, N, N, N, Shape>, std::uint32_t> classes;  // BodyClass's fields -> class
     for (std::size_t i = 0; i < n; ++i) {
         const BodyDesc& b = scene.bodies[i];
         const auto id = static_cast<BodyId>(i);
@@ -676,13 +705,20 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
                 break;
         }
         restitution_[i] = b.restitution ? T::from_fixed(*b.restitution) : -T::one();
-        if (b.mass == Fixed::zero()) {
+        const bool is_static = b.mass == Fixed::zero();
+        const Vec gravity_dv = is_static ? Vec{} : vec(scene.gravity) * (T::from_fixed(b.gravity_scale) * dt_);
+        if (!is_static) inv_mass_[i] = T::reciprocal(T::from_fixed(b.mass));
+        const auto [cls, added] =
+            classes.try_emplace(std::tuple{core_half_[i], radius_[i], gravity_dv.x, gravity_dv.y, gravity_dv.z,
+                                           inv_mass_[i], restitution_[i], shape_[i]},
+                                static_cast<std::uint32_t>(classes_.size()));
+        if (added) classes_.push_back({core_half_[i], radius_[i], gravity_dv, inv_mass_[i], restitution_[i], shape_[i]});
+        class_[i] = cls->second;
+        if (is_static) {
             static_.push_back(id);
             continue;
         }
         dynamic_.push_back(id);
-        inv_mass_[i] = T::reciprocal(T::from_fixed(b.mass));
-        gravity_dv_[i] = vec(scene.gravity) * (T::from_fixed(b.gravity_scale) * dt_);
     }
     if (!extended_) return;
 
