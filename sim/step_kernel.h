@@ -152,13 +152,25 @@ private:
     // A candidate pair prepared once per step: ordered (round before box), its narrowphase
     // routine, and the mass terms the solver would otherwise divide for in every iteration.
     enum class PairKind : std::uint8_t { RoundRound, RoundBox, BoxBox };
+    // 16 bytes: the mass and restitution terms live apart, in terms_ (the solver sweeps the
+    // pairs four times a step; 32-byte pairs were 2 of every 3 bytes it streamed).
     struct SolverPair {
         BodyId a, b;
         PairKind kind;
         bool b_static;        // then the whole correction and impulse go to a (no division)
-        N one_plus_e;         // 1 + restitution
-        N inv_sum_recip;      // 1 / (1/m_a + 1/m_b), when both are dynamic
+        std::uint32_t terms;  // index into terms_
     };
+    struct PairTerms {
+        N one_plus_e;     // 1 + restitution
+        N inv_sum_recip;  // 1 / (1/m_a + 1/m_b), when both are dynamic
+    };
+    // A pair's terms from its two classes in solver roles (a, b): what prepare_each stored.
+    PairTerms pair_terms(const BodyClass& a, const BodyClass& b) const {
+        return {T::one() + pair_restitution(a, b), b.inv_mass == T::zero() || a.inv_mass == T::zero()
+                                                       ? T::zero()
+                                                       : T::reciprocal(a.inv_mass + b.inv_mass)};
+    }
+    const PairTerms& terms(const SolverPair& p) const { return terms_[p.terms]; }
 
     N pair_restitution(BodyId a, BodyId b) const { return pair_restitution(body_class(a), body_class(b)); }
     N pair_restitution(const BodyClass& a, const BodyClass& b) const {
@@ -171,6 +183,7 @@ private:
     // the paper scene's step ran 0.3 % more instructions).
     [[gnu::noinline]] void prepare_pairs() {
         solver_pairs_.clear();
+        if (!terms_by_class_) terms_.resize(pairs_.size());
         prepare_each(pairs_.data(), pairs_.data() + pairs_.size(),
                      [this](const BodyPair*, const SolverPair& p) { solver_pairs_.push_back(p); });
     }
@@ -178,6 +191,7 @@ private:
     // prepare_pairs() per range of pairs, with the islands' links (solve_default_islands).
     void prepare_pairs_and_links(const ParallelTasks& tasks) {
         solver_pairs_.resize(pairs_.size());
+        if (!terms_by_class_) terms_.resize(pairs_.size());
         links_.resize(pairs_.size());
         tasks.for_ranges(pairs_.size(), kPairGrain, [&](std::size_t begin, std::size_t end) {
             prepare_each(pairs_.data() + begin, pairs_.data() + end, [this](const BodyPair* pair,
@@ -196,7 +210,7 @@ private:
     // before the parallel path shared it (a per-pair function returning the pair, inlined or
     // not, cost the paper scene's step 0.3-1.7 % more instructions).
     template <class Emit>
-    void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) const {
+    void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) {
         for (const BodyPair* pair = first; pair != last; ++pair) {
             BodyId a = pair->a, b = pair->b;
             const BodyClass* ka = &body_class(a);
@@ -215,10 +229,13 @@ private:
             p.kind = ka->shape == Shape::Box   ? PairKind::BoxBox
                      : kb->shape == Shape::Box ? PairKind::RoundBox
                                                : PairKind::RoundRound;
-            p.one_plus_e = T::one() + pair_restitution(*ka, *kb);
             p.b_static = kb->inv_mass == T::zero();
-            p.inv_sum_recip = p.b_static || ka->inv_mass == T::zero() ? T::zero()
-                                                                       : T::reciprocal(ka->inv_mass + kb->inv_mass);
+            if (terms_by_class_) {  // precomputed for every (class, class): no division here
+                p.terms = static_cast<std::uint32_t>((ka - classes_.data()) * classes_.size() + (kb - classes_.data()));
+            } else {
+                p.terms = static_cast<std::uint32_t>(pair - pairs_.data());
+                terms_[p.terms] = pair_terms(*ka, *kb);
+            }
             emit(pair, p);
         }
     }
@@ -307,7 +324,7 @@ private:
             // All of the correction and impulse goes to a: J/m_a = -(1+e) v_n exactly.
             pos[a] -= c.normal * c.depth;
             const N vn = -T::dot(vel[a], c.normal);
-            if (vn < T::zero()) vel[a] += c.normal * (p.one_plus_e * vn);
+            if (vn < T::zero()) vel[a] += c.normal * (terms(p).one_plus_e * vn);
             return;
         }
         const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
@@ -315,15 +332,15 @@ private:
             // Static round body against a dynamic box: mirror of the case above.
             pos[b] += c.normal * c.depth;
             const N vn = T::dot(vel[b], c.normal);
-            if (vn < T::zero()) vel[b] -= c.normal * (p.one_plus_e * vn);
+            if (vn < T::zero()) vel[b] -= c.normal * (terms(p).one_plus_e * vn);
             return;
         }
-        const Vec push = c.normal * (c.depth * p.inv_sum_recip);
+        const Vec push = c.normal * (c.depth * terms(p).inv_sum_recip);
         pos[a] -= push * ia;
         pos[b] += push * ib;
         const N vn = T::dot(vel[b] - vel[a], c.normal);
         if (vn >= T::zero()) return;
-        const Vec impulse = c.normal * (-(p.one_plus_e * vn) * p.inv_sum_recip);
+        const Vec impulse = c.normal * (-(terms(p).one_plus_e * vn) * terms(p).inv_sum_recip);
         vel[a] -= impulse * ia;
         vel[b] += impulse * ib;
     }
@@ -336,24 +353,24 @@ private:
         if (p.b_static) {
             component(pos[a], axis) -= along(c.depth);
             const N vn = -along(component(vel[a], axis));
-            if (vn < T::zero()) component(vel[a], axis) += along(p.one_plus_e * vn);
+            if (vn < T::zero()) component(vel[a], axis) += along(terms(p).one_plus_e * vn);
             return;
         }
         const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
         if (ia == T::zero()) {
             component(pos[b], axis) += along(c.depth);
             const N vn = along(component(vel[b], axis));
-            if (vn < T::zero()) component(vel[b], axis) -= along(p.one_plus_e * vn);
+            if (vn < T::zero()) component(vel[b], axis) -= along(terms(p).one_plus_e * vn);
             return;
         }
-        const N push = along(c.depth * p.inv_sum_recip);
+        const N push = along(c.depth * terms(p).inv_sum_recip);
         component(pos[a], axis) -= push * ia;
         component(pos[b], axis) += push * ib;
         // The general path subtracts all three components (each may saturate and count).
         const Vec rel = vel[b] - vel[a];
         const N vn = along(component(rel, axis));
         if (vn >= T::zero()) return;
-        const N impulse = along(-(p.one_plus_e * vn) * p.inv_sum_recip);
+        const N impulse = along(-(terms(p).one_plus_e * vn) * terms(p).inv_sum_recip);
         component(vel[a], axis) -= impulse * ia;
         component(vel[b], axis) += impulse * ib;
     }
@@ -372,7 +389,7 @@ private:
         } else if (inv_mass_[p.a] == T::zero()) {
             vel[p.b] += n * dv;
         } else {
-            const Vec impulse = n * (dv * p.inv_sum_recip);
+            const Vec impulse = n * (dv * terms(p).inv_sum_recip);
             vel[p.a] -= impulse * inv_mass_[p.a];
             vel[p.b] += impulse * inv_mass_[p.b];
         }
@@ -403,7 +420,7 @@ private:
                 if (position_based) continue;
                 const N vn = normal_speed(p, vel, c.normal);
                 if (vn >= zero) continue;
-                const N one_plus_e = (after || -vn < threshold_) ? one : p.one_plus_e;
+                const N one_plus_e = (after || -vn < threshold_) ? one : terms(p).one_plus_e;
                 add_normal_speed(p, vel, c.normal, -(one_plus_e * vn));
             }
         }
@@ -415,7 +432,7 @@ private:
         if (!after) return;
         for (std::size_t k = 0; k < solver_pairs_.size(); ++k) {
             const SolverPair& p = solver_pairs_[k];
-            const N e = p.one_plus_e - one;
+            const N e = terms(p).one_plus_e - one;
             if (!pre_[k].touching || e == zero || -pre_[k].vn < threshold_ || pre_[k].vn >= zero) continue;
             const N target = -(e * pre_[k].vn);
             const N vn = normal_speed(p, vel, pre_[k].normal);
@@ -436,7 +453,7 @@ private:
         } else if (inv_mass_[p.a] == zero || mover == Mover::OnlyB) {
             pos[p.b] += c.normal * depth;
         } else {
-            const Vec push = c.normal * (depth * p.inv_sum_recip);
+            const Vec push = c.normal * (depth * terms(p).inv_sum_recip);
             pos[p.a] -= push * inv_mass_[p.a];
             pos[p.b] += push * inv_mass_[p.b];
         }
@@ -654,6 +671,11 @@ private:
 
     std::vector<BodyPair> pairs_;
     std::vector<SolverPair> solver_pairs_;
+    // Up to kTermClasses body classes: terms_ holds every (class a, class b) pair's terms,
+    // computed once, at a * classes + b. Beyond: one entry per candidate pair, by its index.
+    static constexpr std::size_t kTermClasses = 16;
+    bool terms_by_class_ = false;
+    std::vector<PairTerms> terms_;
     // Parallel default step only: islands over solver_pairs_.
     Islands islands_;
     std::vector<Islands::Link> links_;
@@ -720,6 +742,10 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
         }
         dynamic_.push_back(id);
     }
+    terms_by_class_ = classes_.size() <= kTermClasses;
+    if (terms_by_class_)
+        for (const BodyClass& a : classes_)
+            for (const BodyClass& b : classes_) terms_.push_back(pair_terms(a, b));
     if (!extended_) return;
 
     const SolverDesc& sv = scene.solver;
