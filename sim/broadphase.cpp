@@ -122,15 +122,28 @@ void Broadphase::find_pairs(const std::vector<Vec3>& pos, const std::vector<Vec3
                 }
         statics_ready_ = true;
     }
-    if (!tasks.parallel())  // the plain loop (a lambda's reloads cost the paper scene ~2 %)
+    bool keys_ready = false;
+    if (!tasks.parallel() && kind_ == BroadphaseKind::Grid) {
+        // Each gridded body's sort key with its box, while the box is in the first-level
+        // cache: one pass over box_ fewer (at 10,000 bodies 480 KB, more than the L2 keeps
+        // across the step). gridded_ is an ascending subsequence of dynamic_.
+        keys_.resize(gridded_.size());
+        std::size_t g = 0;
+        for (BodyId id : dynamic_) {
+            box_[id] = make_box(pos[id], extent[id], margin_.raw);
+            if (g < gridded_.size() && gridded_[g] == id) keys_[g++] = key(id);
+        }
+        keys_ready = true;
+    } else if (!tasks.parallel()) {  // the plain loop (a lambda's reloads cost the paper scene ~2 %)
         for (BodyId id : dynamic_) box_[id] = make_box(pos[id], extent[id], margin_.raw);
-    else
+    } else {
         tasks.for_ranges(dynamic_.size(), kGrain, [&](std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i)
                 box_[dynamic_[i]] = make_box(pos[dynamic_[i]], extent[dynamic_[i]], margin_.raw);
         });
+    }
     if (kind_ == BroadphaseKind::Grid)
-        grid(out, tasks);
+        grid(out, tasks, keys_ready);
     else
         sweep_and_prune(out);
     oversize_and_statics(out, tasks);
@@ -161,7 +174,7 @@ void Broadphase::sweep_and_prune(std::vector<BodyPair>& out) {
     }
 }
 
-void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
+void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks, bool keys_ready) {
     for (std::uint32_t c : occupied_) cell_[c] = kEmptyCell;
     occupied_.clear();
 
@@ -176,7 +189,8 @@ void Broadphase::grid(std::vector<BodyPair>& out, const ParallelTasks& tasks) {
         // Counting (radix) sort of the gridded bodies by linear cell index, kDigit bits a pass.
         // Keys start in ascending id order and every pass is stable, so each cell lists its
         // bodies in ascending id order: the layout is a pure function of the positions.
-        for (std::size_t i = 0; i < n; ++i) keys_[i] = key(gridded_[i]);
+        if (!keys_ready)
+            for (std::size_t i = 0; i < n; ++i) keys_[i] = key(gridded_[i]);
         for (int shift = 0; shift < key_bits_; shift += kDigit) {
             std::uint32_t histogram[kBuckets + 1] = {};
             for (std::uint64_t key : keys_) ++histogram[digit(key, shift) + 1];

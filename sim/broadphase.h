@@ -52,7 +52,8 @@ private:
     }
 
     void sweep_and_prune(std::vector<BodyPair>& out);
-    void grid(std::vector<BodyPair>& out, const ParallelTasks& tasks);
+    // keys_ready: keys_ already holds every gridded body's key (find_pairs' sequential box loop).
+    void grid(std::vector<BodyPair>& out, const ParallelTasks& tasks, bool keys_ready);
     // The grid walk over occupied_[first, last), into scratch_[piece] in walk order; returns
     // how many pairs it found.
     std::uint32_t walk(std::size_t first, std::size_t last, std::uint32_t piece);

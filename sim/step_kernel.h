@@ -16,6 +16,8 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <map>
+#include <tuple>
 #include <vector>
 
 #include "sim/broadphase.h"
@@ -77,7 +79,7 @@ private:
             step_default_parallel(pos, vel, find_pairs, control, tasks);
             return;
         }
-        for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
+        for (BodyId id : dynamic_) vel[id] += body_class(id).gravity_dv;
         control(vel);
         for (BodyId id : dynamic_) pos[id] += vel[id] * dt_;
         find_pairs(static_cast<const std::vector<Vec>&>(pos), pairs_);
@@ -93,7 +95,7 @@ private:
     void step_default_parallel(std::vector<Vec>& pos, std::vector<Vec>& vel, FindPairs& find_pairs, Control& control,
                                const ParallelTasks& tasks) {
         tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
-            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += gravity_dv_[dynamic_[i]];
+            for (std::size_t i = begin; i < end; ++i) vel[dynamic_[i]] += body_class(dynamic_[i]).gravity_dv;
         });
         control(vel);
         tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
@@ -132,28 +134,56 @@ private:
         }
     }
 
+    // What the default step's hot loops read per body besides its state, by class: bodies
+    // that agree on every field share one entry. The integration, the pair preparation and
+    // the solver read a 4-byte class per body instead of up to 8 + 8 + 24 + 8 + 8 + 1 bytes
+    // (radius_, core_half_, gravity_dv, inv_mass_, restitution_, shape_): at 10,000 bodies 40 KB
+    // instead of 570 KB among the arrays they read by id, in pair (cell) order, which with the
+    // state do not fit a 512 KB L2 (docs/performance.md, "Grid and walk memory, third pass").
+    // The same values, so the same bits. Scenes have a handful of classes (bodies_10k: 2); a
+    // scene of all-different bodies has one per body and costs one more load per access.
+    struct BodyClass {
+        N core_half, radius;  // as core_half_ and radius_
+        Vec gravity_dv;       // gravity * gravity_scale * dt (zero for static bodies)
+        N inv_mass, restitution;  // as inv_mass_ and restitution_
+        Shape shape;
+    };
+
     // A candidate pair prepared once per step: ordered (round before box), its narrowphase
     // routine, and the mass terms the solver would otherwise divide for in every iteration.
     enum class PairKind : std::uint8_t { RoundRound, RoundBox, BoxBox };
+    // 16 bytes: the mass and restitution terms live apart, in terms_ (the solver sweeps the
+    // pairs four times a step; 32-byte pairs were 2 of every 3 bytes it streamed).
     struct SolverPair {
         BodyId a, b;
         PairKind kind;
         bool b_static;        // then the whole correction and impulse go to a (no division)
-        N one_plus_e;         // 1 + restitution
-        N inv_sum_recip;      // 1 / (1/m_a + 1/m_b), when both are dynamic
+        std::uint32_t terms;  // index into terms_
     };
+    struct PairTerms {
+        N one_plus_e;     // 1 + restitution
+        N inv_sum_recip;  // 1 / (1/m_a + 1/m_b), when both are dynamic
+    };
+    // A pair's terms from its two classes in solver roles (a, b): what prepare_each stored.
+    PairTerms pair_terms(const BodyClass& a, const BodyClass& b) const {
+        return {T::one() + pair_restitution(a, b), b.inv_mass == T::zero() || a.inv_mass == T::zero()
+                                                       ? T::zero()
+                                                       : T::reciprocal(a.inv_mass + b.inv_mass)};
+    }
+    const PairTerms& terms(const SolverPair& p) const { return terms_[p.terms]; }
 
-    N pair_restitution(BodyId a, BodyId b) const {
-        const N ea = restitution_[a], eb = restitution_[b];
-        return (ea >= T::zero() || eb >= T::zero())
-                   ? T::max(ea, eb)  // explicit materials combine by max
-                   : table_[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
+    N pair_restitution(BodyId a, BodyId b) const { return pair_restitution(body_class(a), body_class(b)); }
+    N pair_restitution(const BodyClass& a, const BodyClass& b) const {
+        return (a.restitution >= T::zero() || b.restitution >= T::zero())
+                   ? T::max(a.restitution, b.restitution)  // explicit materials combine by max
+                   : table_[static_cast<int>(a.shape)][static_cast<int>(b.shape)];
     }
 
     // Out of line, as it was before prepare_each() was split out of it (inlined into the step,
     // the paper scene's step ran 0.3 % more instructions).
     [[gnu::noinline]] void prepare_pairs() {
         solver_pairs_.clear();
+        if (!terms_by_class_) terms_.resize(pairs_.size());
         prepare_each(pairs_.data(), pairs_.data() + pairs_.size(),
                      [this](const BodyPair*, const SolverPair& p) { solver_pairs_.push_back(p); });
     }
@@ -161,6 +191,7 @@ private:
     // prepare_pairs() per range of pairs, with the islands' links (solve_default_islands).
     void prepare_pairs_and_links(const ParallelTasks& tasks) {
         solver_pairs_.resize(pairs_.size());
+        if (!terms_by_class_) terms_.resize(pairs_.size());
         links_.resize(pairs_.size());
         tasks.for_ranges(pairs_.size(), kPairGrain, [&](std::size_t begin, std::size_t end) {
             prepare_each(pairs_.data() + begin, pairs_.data() + end, [this](const BodyPair* pair,
@@ -179,39 +210,52 @@ private:
     // before the parallel path shared it (a per-pair function returning the pair, inlined or
     // not, cost the paper scene's step 0.3-1.7 % more instructions).
     template <class Emit>
-    void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) const {
+    void prepare_each(const BodyPair* first, const BodyPair* last, Emit&& emit) {
         for (const BodyPair* pair = first; pair != last; ++pair) {
             BodyId a = pair->a, b = pair->b;
+            const BodyClass* ka = &body_class(a);
+            const BodyClass* kb = &body_class(b);
             // Canonical roles: a round shape before a box (each routine sees (round, box)); within
             // the same class, a static body second. Only a static round body against a dynamic box
             // leaves the static body first, which the solver mirrors.
-            const bool a_round = shape_[a] != Shape::Box, b_round = shape_[b] != Shape::Box;
-            if (a_round != b_round ? !a_round : inv_mass_[a] == T::zero()) std::swap(a, b);
+            const bool a_round = ka->shape != Shape::Box, b_round = kb->shape != Shape::Box;
+            if (a_round != b_round ? !a_round : ka->inv_mass == T::zero()) {
+                std::swap(a, b);
+                std::swap(ka, kb);
+            }
             SolverPair p;
             p.a = a;
             p.b = b;
-            p.kind = shape_[a] == Shape::Box   ? PairKind::BoxBox
-                     : shape_[b] == Shape::Box ? PairKind::RoundBox
+            p.kind = ka->shape == Shape::Box   ? PairKind::BoxBox
+                     : kb->shape == Shape::Box ? PairKind::RoundBox
                                                : PairKind::RoundRound;
-            p.one_plus_e = T::one() + pair_restitution(a, b);
-            p.b_static = inv_mass_[b] == T::zero();
-            p.inv_sum_recip = p.b_static || inv_mass_[a] == T::zero() ? T::zero()
-                                                                      : T::reciprocal(inv_mass_[a] + inv_mass_[b]);
+            p.b_static = kb->inv_mass == T::zero();
+            if (terms_by_class_) {  // precomputed for every (class, class): no division here
+                p.terms = static_cast<std::uint32_t>((ka - classes_.data()) * classes_.size() + (kb - classes_.data()));
+            } else {
+                p.terms = static_cast<std::uint32_t>(pair - pairs_.data());
+                terms_[p.terms] = pair_terms(*ka, *kb);
+            }
             emit(pair, p);
         }
+    }
+
+    const BodyClass& body_class(BodyId id) const { return classes_[class_[id]]; }
+    // A round body's collider from its class (the values of core_half_ and radius_).
+    BasicRoundCollider<N> round_collider(BodyId id, const std::vector<Vec>& pos) const {
+        const BodyClass& k = body_class(id);
+        return {pos[id], k.core_half, k.radius};
     }
 
     bool narrow(const SolverPair& p, const std::vector<Vec>& pos, BasicContact<N>& c) const {
         const BodyId a = p.a, b = p.b;
         switch (p.kind) {
             case PairKind::RoundRound:
-                return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
-                               BasicRoundCollider<N>{pos[b], core_half_[b], radius_[b]}, c);
+                return collide(round_collider(a, pos), round_collider(b, pos), c);
             case PairKind::RoundBox:
                 if (p.b_static)  // static boxes never move: bounds computed once
-                    return collide_with_bounds(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
-                                               static_lo_[b], static_hi_[b], c);
-                return collide(BasicRoundCollider<N>{pos[a], core_half_[a], radius_[a]},
+                    return collide_with_bounds(round_collider(a, pos), static_lo_[b], static_hi_[b], c);
+                return collide(round_collider(a, pos),
                                BasicBoxCollider<N>{pos[b], half_extents_[b]}, c);
             default:
                 return collide(BasicBoxCollider<N>{pos[a], half_extents_[a]}, BasicBoxCollider<N>{pos[b], half_extents_[b]},
@@ -280,23 +324,23 @@ private:
             // All of the correction and impulse goes to a: J/m_a = -(1+e) v_n exactly.
             pos[a] -= c.normal * c.depth;
             const N vn = -T::dot(vel[a], c.normal);
-            if (vn < T::zero()) vel[a] += c.normal * (p.one_plus_e * vn);
+            if (vn < T::zero()) vel[a] += c.normal * (terms(p).one_plus_e * vn);
             return;
         }
-        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
         if (ia == T::zero()) {
             // Static round body against a dynamic box: mirror of the case above.
             pos[b] += c.normal * c.depth;
             const N vn = T::dot(vel[b], c.normal);
-            if (vn < T::zero()) vel[b] -= c.normal * (p.one_plus_e * vn);
+            if (vn < T::zero()) vel[b] -= c.normal * (terms(p).one_plus_e * vn);
             return;
         }
-        const Vec push = c.normal * (c.depth * p.inv_sum_recip);
+        const Vec push = c.normal * (c.depth * terms(p).inv_sum_recip);
         pos[a] -= push * ia;
         pos[b] += push * ib;
         const N vn = T::dot(vel[b] - vel[a], c.normal);
         if (vn >= T::zero()) return;
-        const Vec impulse = c.normal * (-(p.one_plus_e * vn) * p.inv_sum_recip);
+        const Vec impulse = c.normal * (-(terms(p).one_plus_e * vn) * terms(p).inv_sum_recip);
         vel[a] -= impulse * ia;
         vel[b] += impulse * ib;
     }
@@ -309,24 +353,24 @@ private:
         if (p.b_static) {
             component(pos[a], axis) -= along(c.depth);
             const N vn = -along(component(vel[a], axis));
-            if (vn < T::zero()) component(vel[a], axis) += along(p.one_plus_e * vn);
+            if (vn < T::zero()) component(vel[a], axis) += along(terms(p).one_plus_e * vn);
             return;
         }
-        const N ia = inv_mass_[a], ib = inv_mass_[b];
+        const N ia = body_class(a).inv_mass, ib = body_class(b).inv_mass;
         if (ia == T::zero()) {
             component(pos[b], axis) += along(c.depth);
             const N vn = along(component(vel[b], axis));
-            if (vn < T::zero()) component(vel[b], axis) -= along(p.one_plus_e * vn);
+            if (vn < T::zero()) component(vel[b], axis) -= along(terms(p).one_plus_e * vn);
             return;
         }
-        const N push = along(c.depth * p.inv_sum_recip);
+        const N push = along(c.depth * terms(p).inv_sum_recip);
         component(pos[a], axis) -= push * ia;
         component(pos[b], axis) += push * ib;
         // The general path subtracts all three components (each may saturate and count).
         const Vec rel = vel[b] - vel[a];
         const N vn = along(component(rel, axis));
         if (vn >= T::zero()) return;
-        const N impulse = along(-(p.one_plus_e * vn) * p.inv_sum_recip);
+        const N impulse = along(-(terms(p).one_plus_e * vn) * terms(p).inv_sum_recip);
         component(vel[a], axis) -= impulse * ia;
         component(vel[b], axis) += impulse * ib;
     }
@@ -345,7 +389,7 @@ private:
         } else if (inv_mass_[p.a] == T::zero()) {
             vel[p.b] += n * dv;
         } else {
-            const Vec impulse = n * (dv * p.inv_sum_recip);
+            const Vec impulse = n * (dv * terms(p).inv_sum_recip);
             vel[p.a] -= impulse * inv_mass_[p.a];
             vel[p.b] += impulse * inv_mass_[p.b];
         }
@@ -376,7 +420,7 @@ private:
                 if (position_based) continue;
                 const N vn = normal_speed(p, vel, c.normal);
                 if (vn >= zero) continue;
-                const N one_plus_e = (after || -vn < threshold_) ? one : p.one_plus_e;
+                const N one_plus_e = (after || -vn < threshold_) ? one : terms(p).one_plus_e;
                 add_normal_speed(p, vel, c.normal, -(one_plus_e * vn));
             }
         }
@@ -388,7 +432,7 @@ private:
         if (!after) return;
         for (std::size_t k = 0; k < solver_pairs_.size(); ++k) {
             const SolverPair& p = solver_pairs_[k];
-            const N e = p.one_plus_e - one;
+            const N e = terms(p).one_plus_e - one;
             if (!pre_[k].touching || e == zero || -pre_[k].vn < threshold_ || pre_[k].vn >= zero) continue;
             const N target = -(e * pre_[k].vn);
             const N vn = normal_speed(p, vel, pre_[k].normal);
@@ -409,7 +453,7 @@ private:
         } else if (inv_mass_[p.a] == zero || mover == Mover::OnlyB) {
             pos[p.b] += c.normal * depth;
         } else {
-            const Vec push = c.normal * (depth * p.inv_sum_recip);
+            const Vec push = c.normal * (depth * terms(p).inv_sum_recip);
             pos[p.a] -= push * inv_mass_[p.a];
             pos[p.b] += push * inv_mass_[p.b];
         }
@@ -602,10 +646,11 @@ private:
     std::vector<Vec> extent_;        // AABB half size of the body (core + radius)
     std::vector<N> radius_;          // sweep radius (0 for boxes)
     std::vector<N> core_half_;       // capsule core half-height (0 otherwise)
+    std::vector<std::uint32_t> class_;  // by body id
+    std::vector<BodyClass> classes_;    // by class, in order of first appearance by id
     std::vector<Vec> half_extents_;  // boxes
     std::vector<Vec> static_lo_, static_hi_;  // static boxes: center -+ half, fixed for life
     std::vector<N> inv_mass_;
-    std::vector<Vec> gravity_dv_;    // gravity * gravity_scale * dt, precomputed
     std::vector<N> restitution_;     // per-body override, or negative for "use the table"
     std::vector<BodyId> dynamic_;    // ids of dynamic bodies, ascending
     std::vector<BodyId> static_;     // ids of static bodies, ascending
@@ -626,6 +671,11 @@ private:
 
     std::vector<BodyPair> pairs_;
     std::vector<SolverPair> solver_pairs_;
+    // Up to kTermClasses body classes: terms_ holds every (class a, class b) pair's terms,
+    // computed once, at a * classes + b. Beyond: one entry per candidate pair, by its index.
+    static constexpr std::size_t kTermClasses = 16;
+    bool terms_by_class_ = false;
+    std::vector<PairTerms> terms_;
     // Parallel default step only: islands over solver_pairs_.
     Islands islands_;
     std::vector<Islands::Link> links_;
@@ -646,8 +696,9 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
     static_lo_.resize(n);
     static_hi_.resize(n);
     inv_mass_.resize(n);
-    gravity_dv_.resize(n);
     restitution_.resize(n);
+    class_.resize(n);
+    std::map<std::tuple<N, N, N, N, N, N, N, Shape>, std::uint32_t> classes;  // BodyClass's fields -> class
     for (std::size_t i = 0; i < n; ++i) {
         const BodyDesc& b = scene.bodies[i];
         const auto id = static_cast<BodyId>(i);
@@ -676,14 +727,25 @@ StepKernel<N>::StepKernel(const SceneDesc& scene)
                 break;
         }
         restitution_[i] = b.restitution ? T::from_fixed(*b.restitution) : -T::one();
-        if (b.mass == Fixed::zero()) {
+        const bool is_static = b.mass == Fixed::zero();
+        const Vec gravity_dv = is_static ? Vec{} : vec(scene.gravity) * (T::from_fixed(b.gravity_scale) * dt_);
+        if (!is_static) inv_mass_[i] = T::reciprocal(T::from_fixed(b.mass));
+        const auto [cls, added] =
+            classes.try_emplace(std::tuple{core_half_[i], radius_[i], gravity_dv.x, gravity_dv.y, gravity_dv.z,
+                                           inv_mass_[i], restitution_[i], shape_[i]},
+                                static_cast<std::uint32_t>(classes_.size()));
+        if (added) classes_.push_back({core_half_[i], radius_[i], gravity_dv, inv_mass_[i], restitution_[i], shape_[i]});
+        class_[i] = cls->second;
+        if (is_static) {
             static_.push_back(id);
             continue;
         }
         dynamic_.push_back(id);
-        inv_mass_[i] = T::reciprocal(T::from_fixed(b.mass));
-        gravity_dv_[i] = vec(scene.gravity) * (T::from_fixed(b.gravity_scale) * dt_);
     }
+    terms_by_class_ = classes_.size() <= kTermClasses;
+    if (terms_by_class_)
+        for (const BodyClass& a : classes_)
+            for (const BodyClass& b : classes_) terms_.push_back(pair_terms(a, b));
     if (!extended_) return;
 
     const SolverDesc& sv = scene.solver;

@@ -351,5 +351,67 @@ TEST(World, ParallelSettingsRejectBadCountsClearly) {
     EXPECT_EQ(w.workers(), 1);
 }
 
+
+// The default step reads each body's sizes, mass, restitution and gravity through a class
+// shared by bodies that agree on all of them (StepKernel::BodyClass), and each pair's mass and
+// restitution terms from a table by class pair (up to 16 classes) or from a list by pair
+// (beyond). Bodies of many kinds in one scene, in groups far apart (12 m) on one floor, must
+// move bit for bit as each group does alone (where the class can only be its own), with 8
+// classes and with 32, sequentially and at 2 workers: a body reading another kind's class, or
+// a pair another pair's terms, would not.
+TEST(World, BodiesOfManyKindsMoveAsEachKindAlone) {
+    std::vector<std::vector<BodyDesc>> groups;
+    auto at = [](int slot, const char* y) { return Vec3{Fixed::from_int(12 * slot - 100), fx(y), Fixed::zero()}; };
+    groups.push_back({sphere(at(0, "2"), v3("0.5", "0", "0"), "0.3", "1")});
+    groups.push_back({sphere(at(1, "2"), v3("0", "1", "0"), "0.5", "1")});
+    groups.push_back({sphere(at(2, "3"), v3("0", "0", "0"), "0.3", "2")});
+    groups.back()[0].restitution = fx("0.8");
+    groups.push_back({sphere(at(3, "2"), v3("0", "0", "0.5"), "0.3", "1")});
+    groups.back()[0].gravity_scale = fx("0.5");
+    BodyDesc cap = sphere(at(4, "2"), v3("0", "0", "0"), "0.2", "3");
+    cap.shape = Shape::Capsule;
+    cap.half_height = fx("0.4");
+    groups.push_back({cap});
+    // Light and heavy balls meeting head on above the floor (the pairs' mass terms); from the
+    // sixth group on, each pair of another size and mass ratio (two more classes each).
+    for (int k = 0; k < 13; ++k) {
+        const Vec3 left = at(5 + k, "1");
+        BodyDesc light = sphere(left, v3("2", "0", "0"), "0.25", "1");
+        BodyDesc heavy = sphere(Vec3{left.x + fx("1.5"), fx("1"), Fixed::zero()}, v3("-1", "0", "0"), "0.4", "5");
+        light.radius = light.radius + Fixed::from_int(k) / Fixed::from_int(100);
+        heavy.mass = heavy.mass + Fixed::from_int(k);
+        groups.push_back({light, heavy});
+    }
+    const int frames = 150;
+
+    for (const std::size_t used : {std::size_t{6}, groups.size()}) {  // 8 classes (floor included), 32
+        SceneDesc mixed;
+        mixed.bodies.push_back(floor_box("120"));
+        for (std::size_t k = 0; k < used; ++k) mixed.bodies.insert(mixed.bodies.end(), groups[k].begin(), groups[k].end());
+        World all(mixed), all2(mixed);
+        all2.set_workers(2);
+        for (int f = 0; f < frames; ++f) {
+            all.step({});
+            all2.step({});
+        }
+        BodyId id = 1;
+        for (std::size_t k = 0; k < used; ++k) {
+            SceneDesc alone;
+            alone.bodies.push_back(floor_box("120"));
+            alone.bodies.insert(alone.bodies.end(), groups[k].begin(), groups[k].end());
+            World w(alone);
+            for (int f = 0; f < frames; ++f) w.step({});
+            for (BodyId j = 1; j <= groups[k].size(); ++j, ++id) {
+                EXPECT_EQ(all.position(id), w.position(j)) << used << " groups: group " << k << ", body " << j;
+                EXPECT_EQ(all.velocity(id), w.velocity(j)) << used << " groups: group " << k << ", body " << j;
+                EXPECT_EQ(all2.position(id), w.position(j)) << used << " groups, 2 workers: group " << k << ", body " << j;
+                EXPECT_EQ(all2.velocity(id), w.velocity(j)) << used << " groups, 2 workers: group " << k << ", body " << j;
+            }
+            // Each group has come to the floor (so sizes and contacts were exercised).
+            EXPECT_LT(d(w.position(1).y), 1.5) << "group " << k;
+        }
+    }
+}
+
 }  // namespace
 }  // namespace lockroll::sim
