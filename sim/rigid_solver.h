@@ -309,8 +309,8 @@ private:
     static constexpr std::size_t kColourGrain = 64;
     void solve_coloured(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks);
     void split_coloured(const ParallelTasks& tasks);
-    // Calls f(set) for each group of colouring_ (forward, or backwards), each colour's manifolds
-    // cut into ranges over tasks, the overflow group whole.
+    // Calls f(range) for each group of the coloured numbering (forward, or backwards), each
+    // colour's manifolds cut into ranges over tasks, the overflow group whole.
     template <class F>
     void each_colour(const ParallelTasks& tasks, bool backwards, F&& f);
     std::vector<std::uint32_t> placed_;  // by manifold in pair order: its first point

@@ -1,9 +1,11 @@
 // RigidSolver's passes over the contact points (sim/rigid_solver.h), as templates over which
-// points they visit: every point (AllPoints, the sequential step) or one island's manifolds
-// (ManifoldSet, the parallel step). Included by rigid_solver.cpp, which instantiates them for
-// AllPoints only, and by rigid_solver_parallel.cpp and rigid_solver_coloured.cpp (one colour's
-// range of manifolds), which instantiate them for ManifoldSet only: the sequential step's file then holds the loops it ran before the parallel step existed,
-// and its inlining is not shared with the island versions (docs/performance.md, "Workers off").
+// points they visit: every point (AllPoints, the sequential step), one island's manifolds
+// (ManifoldSet, the parallel step) or a run of a coloured scene's manifolds (ManifoldRange).
+// Included by rigid_solver.cpp, which instantiates them for AllPoints only, by
+// rigid_solver_parallel.cpp for ManifoldSet only and by rigid_solver_coloured.cpp for
+// ManifoldRange only: the sequential step's file then holds the loops it ran before the
+// parallel step existed, and its inlining is not shared with the other versions
+// (docs/performance.md, "Workers off").
 // Not installed; include nowhere else.
 #pragma once
 
