@@ -179,6 +179,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     split_ = rg.split_impulse;
     reduce_ = rg.reduce_manifold;
     block_ = rg.block_solver;
+    colour_ = rg.graph_colouring;
     iterations_ = scene.iterations;
     dt_ = k.dt();
     inv_dt_ = Fixed::from_int(scene.tick_rate);
@@ -673,11 +674,12 @@ void RigidSolver::find_manifolds(std::size_t begin, std::size_t end, const std::
     }
 }
 
-void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<Vec3>& pos) {
+void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
+                              const std::vector<Vec3>& pos) {
     for (const Found& f : list) {
         const BodyPair& pair = pairs_[f.pair];
         const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
-        build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + manifold_start_[first++]);
+        build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + place[first++]);
     }
 }
 
@@ -830,7 +832,9 @@ void RigidSolver::split_passes(const ParallelTasks& tasks) {
     for (std::size_t k = 0; k < bodies_.size(); ++k) pseudo_[k] = {Vec3{}, Vec3{}, bodies_[k].inv_mass, bodies_[k].iso_inv_inertia};
     // Nothing overlaps beyond slop: no pseudo motion.
     if (std::none_of(points_.begin(), points_.end(), [](const Point& p) { return p.bias.raw > 0; })) return;
-    if (tasks.parallel())
+    if (colour_)
+        split_coloured(tasks);
+    else if (tasks.parallel())
         split_islands(tasks);
     else
         split_iterations(AllPoints{});

@@ -42,11 +42,13 @@
 // snapshots stay exactly the state. Never allocates after the first steps.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
 #include <vector>
 
 #include "sim/broadphase.h"
+#include "sim/graph_colouring.h"
 #include "sim/islands.h"
 #include "sim/parallel_tasks.h"
 #include "sim/rigid_contact.h"
@@ -109,13 +111,20 @@ public:
     //    copied in per range of slots, then the points built per range into their places;
     //  - warm start and the iterations island by island (sim/islands.h), each island's rows
     //    in their global relative order; the split passes likewise;
+    //  - with rigid.graph_colouring, at any worker count (one included): the contact setup
+    //    above, which colours the manifolds (sim/graph_colouring.h) after numbering the slots
+    //    and lays the points out colour by colour; then warm start, the iterations and the
+    //    split passes colour by colour, each colour's manifolds cut into ranges over the
+    //    workers, then the overflow group on the stepping thread;
     //  - sequential, as they are global: keeping the impulses (a sort by key), the shock pass
     //    (levels over the whole graph, one global order); the scatter runs per range of slots.
     template <class FindPairs, class Control>
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
               std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control,
               const ParallelTasks& tasks) {
-        if (!tasks.parallel()) {
+        // A coloured scene runs the second branch at any worker count (its contact setup lays
+        // the points out colour by colour; its per-body phases give the same bits either way).
+        if (!tasks.parallel() && !colour_) {
             for (BodyId id : dynamic_) vel[id] += gravity_dv_[id];
             control(vel);
             if (damped_) damp(vel, angvel, 0, dynamic_.size());
@@ -135,7 +144,10 @@ public:
             per_body([&](std::size_t begin, std::size_t end) { closing_reach(vel, angvel, begin, end); });
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
             build_contacts_parallel(pos, vel, angvel, tasks);
-            solve_islands(impulses, tasks);
+            if (colour_)
+                solve_coloured(impulses, tasks);
+            else
+                solve_islands(impulses, tasks);
         }
         if (warm_) keep_impulses(impulses);
         if (shock_) shock_pass();
@@ -243,7 +255,14 @@ private:
     // points into their places, from manifold index first on.
     struct Found;
     void find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos, std::vector<Found>& list) const;
-    void build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<Vec3>& pos);
+    // place: by manifold (pair order), its first point's index in points_.
+    void build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
+                     const std::vector<Vec3>& pos);
+    // rigid.graph_colouring, after phase 2 (manifold_start_ and links_ in pair order): colours
+    // the manifolds and renumbers them colour by colour (each colour's manifolds ascending in
+    // pair order, the overflow last): manifold_start_ in the new numbering, placed_ by pair
+    // order, group_start_ each group's first manifold.
+    void lay_out_colours();
     // Warm start and the iterations: over every point (solve(), the sequential step), or
     // island by island (solve_islands(), islands_ over the manifolds).
     void solve(const std::vector<ContactImpulse>& impulses);
@@ -253,16 +272,25 @@ private:
     // over it, defined in sim/rigid_solver_passes.h: rigid_solver.cpp instantiates them for
     // AllPoints only, rigid_solver_parallel.cpp for ManifoldSet only, so the sequential
     // step's code is what it was before the parallel step (docs/performance.md).
+    // ManifoldRange: the manifolds [begin, end), contiguous in points_ (a coloured scene's
+    // colour, or part of one).
     struct AllPoints {};
     using ManifoldSet = std::span<const std::uint32_t>;
+    struct ManifoldRange {
+        std::size_t begin, end;
+    };
     template <class F>
     void each_point(AllPoints, bool backwards, F&& f);
     template <class F>
     void each_point(ManifoldSet set, bool backwards, F&& f);
+    template <class F>
+    void each_point(ManifoldRange range, bool backwards, F&& f);
     std::size_t manifold_count(AllPoints) const { return manifold_start_.size() - 1; }
     static std::size_t manifold_count(ManifoldSet set) { return set.size(); }
     static std::size_t manifold_at(AllPoints, std::size_t k) { return k; }
     static std::size_t manifold_at(ManifoldSet set, std::size_t k) { return set[k]; }
+    static std::size_t manifold_count(ManifoldRange range) { return range.end - range.begin; }
+    static std::size_t manifold_at(ManifoldRange range, std::size_t k) { return range.begin + k; }
     template <class Points>
     void solve_pass(Bodies& bodies, int pass, Points points);
     // Gives each point (of points) its carried impulses and applies them;
@@ -279,6 +307,21 @@ private:
     // are dropped: the real velocities never see the push-out.
     void split_passes(const ParallelTasks& tasks);
     void split_islands(const ParallelTasks& tasks);  // split_passes' iterations, island by island
+    // rigid.graph_colouring (sim/rigid_solver_coloured.cpp): warm start and the iterations, and
+    // split_passes' iterations, colour by colour over colouring_, each colour cut into ranges
+    // of at least kColourGrain manifolds over the workers (a smaller colour runs inline), then
+    // the overflow group in manifold order. Odd passes of a warm-started or block-solved scene
+    // visit the groups in reverse order (the order within a colour changes no bit). Any
+    // ParallelTasks, sequential included, gives the same bits.
+    static constexpr std::size_t kColourGrain = 64;
+    void solve_coloured(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks);
+    void split_coloured(const ParallelTasks& tasks);
+    // Calls f(range) for each group of the coloured numbering (forward, or backwards), each
+    // colour's manifolds cut into ranges over tasks, the overflow group whole.
+    template <class F>
+    void each_colour(const ParallelTasks& tasks, bool backwards, F&& f);
+    std::vector<std::uint32_t> placed_;  // by manifold in pair order: its first point
+    std::array<std::uint32_t, GraphColouring::kGroups + 1> group_start_{};
     template <class Points>
     void split_iterations(Points points);
     // rigid.block_solver: manifold m's normal rows (real, or pseudo with split impulses) swept
@@ -314,6 +357,7 @@ private:
     Vec3 omega_from(BodyId id, const Quat& q, const Vec3& l) const;
 
     bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false, split_ = false, reduce_ = false, block_ = false;
+    bool colour_ = false;
     std::size_t impulse_capacity_ = 0;
     int iterations_ = 4;
     Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_, cap_speed_;
@@ -344,8 +388,9 @@ private:
     // Grown without zero-filling: build_points() writes every member of a point before any
     // pass reads it (sim/uninitialized_allocator.h).
     std::vector<Point, UninitializedAllocator<Point>> points_;
-    // rigid.block_solver, or a parallel step: first point of each manifold, then
-    // points_.size() (empty otherwise).
+    // rigid.block_solver, or a parallel (or coloured) step: first point of each manifold, then
+    // points_.size() (empty otherwise); a coloured step numbers the manifolds colour by colour
+    // (lay_out_colours()).
     std::vector<std::uint32_t> manifold_start_;
     // Parallel step only: each contact range's manifolds (pair index, manifold), the solver's
     // islands over the manifolds, and their links (solver slots, Islands::kStatic for static).
@@ -355,8 +400,10 @@ private:
     };
     std::vector<std::vector<Found>> found_;
     std::vector<std::uint32_t> found_first_;  // by range: its first manifold's index
+    // With rigid.graph_colouring, colouring_ over links_ (lay_out_colours()).
     Islands islands_;
     std::vector<Islands::Link> links_;
+    GraphColouring colouring_;
     Bodies bodies_;
     std::vector<std::uint32_t> slot_;  // by body id: its place in bodies_, or kNoSlot
     std::vector<BodyId> slot_ids_;     // by place: the body id

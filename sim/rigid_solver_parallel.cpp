@@ -53,6 +53,7 @@ void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const st
     }
     found_first_[pieces] = static_cast<std::uint32_t>(manifold_start_.size());
     manifold_start_.push_back(static_cast<std::uint32_t>(point_count));
+    if (colour_) lay_out_colours();
     // Sized once, without zero-filling (points_' allocator): build_found writes each point
     // whole, in parallel, where a value-initialising resize here was a sequential memset of
     // every point (several MB a step in bodies_10k_rigid). Both buffers were cleared above:
@@ -69,7 +70,8 @@ void RigidSolver::build_contacts_parallel(const std::vector<Vec3>& pos, const st
         }
     });
     // 3. The points, per range, into their places (they read only the slots made in 2).
-    tasks.run(pieces, [&](std::size_t k) { build_found(found_[k], found_first_[k], pos); });
+    const std::vector<std::uint32_t>& place = colour_ ? placed_ : manifold_start_;
+    tasks.run(pieces, [&](std::size_t k) { build_found(found_[k], found_first_[k], place, pos); });
 }
 
 void RigidSolver::scatter_parallel(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, const ParallelTasks& tasks) const {

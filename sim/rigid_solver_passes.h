@@ -1,9 +1,11 @@
 // RigidSolver's passes over the contact points (sim/rigid_solver.h), as templates over which
-// points they visit: every point (AllPoints, the sequential step) or one island's manifolds
-// (ManifoldSet, the parallel step). Included by rigid_solver.cpp, which instantiates them for
-// AllPoints only, and by rigid_solver_parallel.cpp, which instantiates them for ManifoldSet
-// only: the sequential step's file then holds the loops it ran before the parallel step existed,
-// and its inlining is not shared with the island versions (docs/performance.md, "Workers off").
+// points they visit: every point (AllPoints, the sequential step), one island's manifolds
+// (ManifoldSet, the parallel step) or a run of a coloured scene's manifolds (ManifoldRange).
+// Included by rigid_solver.cpp, which instantiates them for AllPoints only, by
+// rigid_solver_parallel.cpp for ManifoldSet only and by rigid_solver_coloured.cpp for
+// ManifoldRange only: the sequential step's file then holds the loops it ran before the
+// parallel step existed, and its inlining is not shared with the other versions
+// (docs/performance.md, "Workers off").
 // Not installed; include nowhere else.
 #pragma once
 
@@ -34,6 +36,15 @@ void RigidSolver::each_point(ManifoldSet set, bool backwards, F&& f) {
         for (const std::uint32_t m : set)
             for (std::uint32_t j = manifold_start_[m]; j < manifold_start_[m + 1]; ++j) f(points_[j]);
     }
+}
+
+template <class F>
+void RigidSolver::each_point(ManifoldRange range, bool backwards, F&& f) {
+    const std::uint32_t begin = manifold_start_[range.begin], end = manifold_start_[range.end];
+    if (backwards)
+        for (std::uint32_t j = end; j-- > begin;) f(points_[j]);
+    else
+        for (std::uint32_t j = begin; j < end; ++j) f(points_[j]);
 }
 
 template <class Points>

@@ -146,6 +146,12 @@ struct RigidDesc {
     // points, both ways) before the next manifold: a box's corners then share its load evenly
     // whichever corner comes first, so an unconverged step does not tilt the box.
     bool block_solver = false;
+    // Graph-coloured rows: the solver's passes go colour by colour over a greedy colouring of
+    // the manifolds (no two in a colour share a dynamic body; sim/graph_colouring.h), each
+    // colour's manifolds cut over the workers, instead of manifold by manifold: another
+    // Gauss-Seidel order (other bits), the same at any worker count, and a pile's largest
+    // island no longer runs on one thread.
+    bool graph_colouring = false;
 
     RigidDesc();
 };

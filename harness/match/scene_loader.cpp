@@ -221,7 +221,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
                      "restitution_threshold", "shock_propagation", "warm_starting", "split_impulse",
-                     "reduce_manifold", "block_solver"});
+                     "reduce_manifold", "block_solver", "graph_colouring"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -247,6 +247,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("split_impulse")) rg.split_impulse = r.at("split_impulse").boolean();
     if (r.has("reduce_manifold")) rg.reduce_manifold = r.at("reduce_manifold").boolean();
     if (r.has("block_solver")) rg.block_solver = r.at("block_solver").boolean();
+    if (r.has("graph_colouring")) rg.graph_colouring = r.at("graph_colouring").boolean();
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.

@@ -146,7 +146,7 @@ TEST(SceneLoader, SpawnerIsDeterministic) {
 TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     const sim::SceneDesc s = parse_scene(R"({"rigid": {"friction": {"sphere-box": 0.3}, "static_friction": 0.6,
         "angular_damping": 0.1, "shock_propagation": true, "warm_starting": true, "split_impulse": true,
-        "reduce_manifold": true, "block_solver": true},
+        "reduce_manifold": true, "block_solver": true, "graph_colouring": true},
         "bodies": [{"shape": "box", "position": [0, 0, 0], "half_extents": [1, 1, 1], "orientation": [0.5, 0.5, 0.5, 0.5]},
                    {"shape": "sphere", "position": [0, 3, 0], "radius": 0.5, "mass": 1, "angular_velocity": [0, 2, 0],
                     "friction": 0.9, "linear_damping": 0.5}]})",
@@ -157,7 +157,10 @@ TEST(SceneLoader, RigidScenesReadOrientationFrictionAndDamping) {
     EXPECT_TRUE(s.rigid.split_impulse);
     EXPECT_TRUE(s.rigid.reduce_manifold);
     EXPECT_TRUE(s.rigid.block_solver);
+    EXPECT_TRUE(s.rigid.graph_colouring);
     EXPECT_FALSE(load_scene("paper_rigid").rigid.warm_starting);  // opt-in
+    EXPECT_FALSE(load_scene("paper_rigid").rigid.graph_colouring);
+    EXPECT_TRUE(load_scene("bodies_10k_rigid").rigid.graph_colouring);
     EXPECT_FALSE(load_scene("paper_rigid").rigid.split_impulse || load_scene("paper_rigid").rigid.reduce_manifold ||
                  load_scene("paper_rigid").rigid.block_solver);
     EXPECT_EQ(s.rigid.friction[0][1], *sim::Fixed::parse("0.3"));
@@ -221,6 +224,7 @@ TEST(SceneLoader, RigidKeysOutsideARigidSceneAreErrors) {
               "test.json: /rigid/friction/sphere-cone: key must be SHAPE-SHAPE with shapes sphere, box, capsule");
     EXPECT_EQ(error_of(R"({"rigid": {"friction": 11}})"), "test.json: /rigid/friction: must be within [0, 10], got 11");
     EXPECT_EQ(error_of(R"({"rigid": {"warm_starting": 1}})"), "test.json: /rigid/warm_starting: expected true or false");
+    EXPECT_EQ(error_of(R"({"rigid": {"graph_colouring": 1}})"), "test.json: /rigid/graph_colouring: expected true or false");
     EXPECT_EQ(error_of(R"({"rigid": true, "solver": {"substeps": 2}})"),
               "test.json: /: rigid scenes use their own solver: drop the \"solver\" settings");
 }
