@@ -7,7 +7,7 @@
 # objects). scripts/test.sh --full runs this; docs/testing.md.
 #
 # Then ThreadSanitizer on the parallel step (docs/physics.md, "Parallel step"), in build-tsan:
-# only the sim targets that run threads (the pool, the phase runner, World's parallel tests)
+# only the sim targets that run threads (the pool, the phase runner, World's parallel and coloured tests)
 # and the golden checksums at 2 workers and with one thread per task, about a minute.
 #
 #   bash scripts/sanitize.sh                  configure, build, run the tests (ASan, then TSan)
@@ -29,7 +29,7 @@ run_tsan() {
   # halt_on_error: a race fails the test that ran into it.
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1} \
     ctest --test-dir "$tsan_build" --output-on-failure -j"$(nproc)" \
-      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|Islands\.Parallel)'
+      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|World\.Coloured|Islands\.Parallel)'
 }
 if [[ "${1:-}" == "--tsan-only" ]]; then
   run_tsan
