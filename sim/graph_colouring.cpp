@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <bit>
 
+#include "sim/group_by_label.h"
+
 namespace lockroll::sim {
 
 static_assert(GraphColouring::kColours <= 32, "a node's used colours are one 32-bit mask");
@@ -27,13 +29,7 @@ void GraphColouring::build(std::size_t nodes, std::span<const Islands::Link> lin
         colour_of_[k] = static_cast<std::uint8_t>(c);
         ++start_[c + 1];
     }
-    // Counting sort by colour, stable: each group's links stay ascending.
-    for (std::size_t g = 1; g < start_.size(); ++g) start_[g] += start_[g - 1];
-    order_.resize(links.size());
-    // start_[g] is advanced while placing, then restored from the group after it.
-    for (std::size_t k = 0; k < links.size(); ++k) order_[start_[colour_of_[k]]++] = static_cast<std::uint32_t>(k);
-    for (std::size_t g = start_.size() - 1; g > 0; --g) start_[g] = start_[g - 1];
-    start_[0] = 0;
+    group_by_label<std::uint8_t>(colour_of_, start_, order_);
 }
 
 std::size_t GraphColouring::used_colours() const {

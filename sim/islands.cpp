@@ -4,6 +4,8 @@
 #include <atomic>
 #include <utility>
 
+#include "sim/group_by_label.h"
+
 namespace lockroll::sim {
 
 namespace {
@@ -140,15 +142,7 @@ void Islands::group(std::span<const std::uint32_t> link_root) {
         island_of_[k] = island;
         ++start_[island + 1];
     }
-    sort_links();
-}
-
-void Islands::sort_links() {
-    for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
-    order_.resize(island_of_.size());
-    // Counting sort, stable: each island's links stay ascending. Uses label_ as the cursor.
-    label_.assign(start_.begin(), start_.end() - 1);
-    for (std::size_t k = 0; k < island_of_.size(); ++k) order_[label_[island_of_[k]]++] = static_cast<std::uint32_t>(k);
+    group_by_label<std::uint32_t>(island_of_, start_, order_);
 }
 
 std::size_t Islands::first(std::size_t pieces, std::size_t k) const {

@@ -56,7 +56,6 @@ private:
     std::uint32_t root_after_unite(std::uint32_t x);
     // The numbering and grouping from each link's root (kStatic for a link with no dynamic end).
     void group(std::span<const std::uint32_t> link_root);
-    void sort_links();  // order_ from island_of_ and the islands' link counts in start_
 
     std::vector<std::uint32_t> parent_, label_;  // by node
     std::vector<std::uint32_t> link_root_;       // by link: its root, or kStatic
