@@ -5,10 +5,6 @@ namespace lockroll::sim {
 namespace {
 Fixed two_times(Fixed a) { return a * std::int64_t{2}; }
 
-// a * b, without the product when a is exactly 0 (then a * b is exactly 0: round(0) = 0, and
-// nothing overflows).
-Fixed times_nonzero(Fixed a, Fixed b) { return a.raw == 0 ? Fixed::zero() : a * b; }
-
 // Round a component to the 2^-30 grid (see renormalised()); saturates (and counts) at the ends
 // of the range rather than overflow.
 Fixed to_grid(Fixed f) {
@@ -18,6 +14,20 @@ Fixed to_grid(Fixed f) {
         return g > 0 ? Fixed::max() : Fixed::min();
     }
     return Fixed::from_raw(g * 4);
+}
+
+// x * f rounded (to nearest, ties to even, as round_wide), for f = 1 + d ulp and |x.raw d| < 2^62:
+// a small() component (|x.raw| <= 2^34) with |d| < 2^28, or |x| <= 1 with |d| < kNearOne = 2^30.
+// x.raw * f.raw = x.raw 2^32 + x.raw d, so the floor of its quotient by 2^32 is x.raw +
+// floor(x.raw d / 2^32) and its remainder that of x.raw d: round_wide's integers, from the 64-bit
+// product x.raw d instead of a 128-bit one. Quat.IntegratedShortcutsGiveTheGeneralBits compares
+// renormalised() and integrated() with the 128-bit products.
+constexpr std::int64_t kNearOne = std::int64_t{1} << 30;
+Fixed times_one_plus(Fixed x, std::int64_t d) {
+    const std::int64_t v = x.raw * d;
+    const std::int64_t q = x.raw + (v >> 32);  // arithmetic shift: the floor
+    const std::uint64_t rem = static_cast<std::uint64_t>(v) & 0xFFFFFFFFu;
+    return Fixed::from_raw(q + static_cast<std::int64_t>(rem + static_cast<std::uint64_t>(q & 1) > 0x80000000u));
 }
 }  // namespace
 
@@ -40,13 +50,19 @@ Mat3 rotate_diagonal(const Mat3& r, const Vec3& d) {
 }
 
 Quat renormalised(const Quat& q) {
-    const Fixed s = quat_detail::small(q)
-                        ? quat_detail::sum4_small(q.w.raw, q.w.raw, q.x.raw, q.x.raw, q.y.raw, q.y.raw, q.z.raw, q.z.raw)
-                        : quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
+    const bool small = quat_detail::small(q);
+    const Fixed s = small ? quat_detail::sum4_small(q.w.raw, q.w.raw, q.x.raw, q.x.raw, q.y.raw, q.y.raw, q.z.raw, q.z.raw)
+                          : quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
     const Fixed f = Fixed::from_raw((3 * Fixed::kOne - s.raw) / 2);  // |s - 1| is tiny: no overflow
     // |q|^2 within an ulp of 1 gives f = 1 exactly, and x * 1 is x bit for bit (raw * 2^32,
     // shifted back with nothing to round, never out of range): the four products are skipped.
     if (f == Fixed::one()) return {to_grid(q.w), to_grid(q.x), to_grid(q.y), to_grid(q.z)};
+    // A product's |q|^2 leaves 1 by a few ulps, so f = 1 + d ulp with d small: the products
+    // x * f are taken as x + x d / 2^32 in 64 bits (the same rounded value, see times_one_plus).
+    const std::int64_t d = f.raw - Fixed::kOne;
+    if (small && d > -kNearOne / 4 && d < kNearOne / 4)
+        return {to_grid(times_one_plus(q.w, d)), to_grid(times_one_plus(q.x, d)), to_grid(times_one_plus(q.y, d)),
+                to_grid(times_one_plus(q.z, d))};
     return {to_grid(q.w * f), to_grid(q.x * f), to_grid(q.y * f), to_grid(q.z * f)};
 }
 
@@ -64,16 +80,33 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
         a = {a.x / len, a.y / len, a.z / len};
         s = dot(a, a);
     }
-    // A slowly turning body (a ball at rest in a pile) has s^2 or s^3 below half an ulp: that
-    // power rounds to exactly 0, and so does every product of it (round(0 * x) = 0), so those
-    // products are not taken (times_nonzero). The same bits: Quat.IntegratedShortcutsGiveTheGeneralBits.
-    const Fixed s2 = s * s, s3 = times_nonzero(s2, s);
     // cos|a| = 1 - s/2 + s^2/24 - s^3/720;  sin|a| / |a| = 1 - s/6 + s^2/120 - s^3/5040.
-    static const Fixed c24 = Fixed::ratio(1, 24), c720 = Fixed::ratio(1, 720), k6 = Fixed::ratio(1, 6),
-                       k120 = Fixed::ratio(1, 120), k5040 = Fixed::ratio(1, 5040);
-    const Fixed c = Fixed::one() - Fixed::from_raw(s.raw / 2) + times_nonzero(s2, c24) - times_nonzero(s3, c720);
-    const Fixed k = Fixed::one() - s * k6 + times_nonzero(s2, k120) - times_nonzero(s3, k5040);
-    const Quat dq{c, a.x * k, a.y * k, a.z * k};
+    // A slowly turning body (a ball rolling or lying in a pile) has s small enough that the s^3
+    // terms (or the s^2 and s^3 terms) each round to exactly 0 (below half an ulp, 2^-33), and
+    // x + 0 and x - 0 are x: those terms, and the powers they need, are not computed. Every step
+    // of the rounded chain (s^2 = s * s, s^3 = s^2 * s, then times the coefficient) is
+    // nondecreasing in s >= 0, so "this power's terms round to 0" holds for every s up to a
+    // largest one (quat_detail::kSeries). The same bits, not an approximation:
+    // Quat.IntegratedShortcutsGiveTheGeneralBits, Quat.SeriesThresholdsAreTheLargestExact.
+    constexpr const quat_detail::SeriesCoefficients& k_ = quat_detail::kSeries;
+    Fixed c = Fixed::one() - Fixed::from_raw(s.raw / 2);
+    Fixed k = Fixed::one() - s * k_.k6;
+    if (s.raw > k_.s2_terms_zero_up_to) {
+        const Fixed s2 = s * s;
+        c = c + s2 * k_.c24;
+        k = k + s2 * k_.k120;
+        if (s.raw > k_.s3_terms_zero_up_to) {
+            const Fixed s3 = s2 * s;
+            c = c - s3 * k_.c720;
+            k = k - s3 * k_.k5040;
+        }
+    }
+    // k = 1 + d ulp with -2^30 < d <= 0 for s <= 1, and |a| <= 1: a * k in 64 bits
+    // (times_one_plus; |a.raw d| < 2^62), the same rounded value as the 128-bit product.
+    const std::int64_t d = k.raw - Fixed::kOne;
+    const Quat dq = s <= Fixed::one() && d > -kNearOne && d <= 0
+                        ? Quat{c, times_one_plus(a.x, d), times_one_plus(a.y, d), times_one_plus(a.z, d)}
+                        : Quat{c, a.x * k, a.y * k, a.z * k};
     return renormalised(dq * q);
 }
 

@@ -139,6 +139,23 @@ inline Fixed sum4_small(std::int64_t a0, std::int64_t b0, std::int64_t a1, std::
                         std::int64_t b2, std::int64_t a3, std::int64_t b3) {
     return round_wide(mul_wide(a0, b0) + mul_wide(a1, b1) + mul_wide(a2, b2) + mul_wide(a3, b3));
 }
+
+// integrated()'s series coefficients (cos|a| = 1 - s/2 + s^2 c24 - s^3 c720, sin|a|/|a| =
+// 1 - s k6 + s^2 k120 - s^3 k5040, s = |a|^2: Fixed::ratio(1, n)'s raw values) and the largest
+// s.raw up to which the s^2 and s^3 terms (the s^3 terms) all round to exactly 0, so that
+// integrated() does not compute them. Rounded powers and products are nondecreasing in s >= 0,
+// so "these terms round to 0" holds for every s up to a largest one. Constants rather than
+// computed at start-up (no static-initialisation order to get wrong); tests/sim/quat_test.cpp
+// (Quat.SeriesThresholdsAreTheLargestExact) checks each against Fixed::ratio and the general
+// arithmetic: true at the threshold, false one ulp above.
+struct SeriesCoefficients {
+    Fixed c24, c720, k6, k120, k5040;
+    std::int64_t s2_terms_zero_up_to, s3_terms_zero_up_to;
+};
+inline constexpr SeriesCoefficients kSeries{Fixed::from_raw(178956971), Fixed::from_raw(5965232),
+                                            Fixed::from_raw(715827883), Fixed::from_raw(35791394),
+                                            Fixed::from_raw(852176),    222243,  // s = 5.17e-5
+                                            18805087};                           // s = 4.378e-3
 }  // namespace quat_detail
 
 // Hamilton product a b (apply b, then a).

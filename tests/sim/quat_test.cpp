@@ -1,7 +1,9 @@
 // sim/vec3.h's Quat: products, rotations, the exponential-map step and deterministic renormalisation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "sim/vec3.h"
@@ -130,7 +132,8 @@ TEST(Quat, IntegratedShortcutsGiveTheGeneralBits) {
     std::mt19937_64 rng(1919);
     std::uniform_real_distribution<double> u(-1, 1);
     const Fixed dt = Fixed::ratio(1, 60);
-    int s2_zero = 0, s3_zero = 0, f_one = 0, full = 0;
+    const quat_detail::SeriesCoefficients& k = quat_detail::kSeries;
+    int s2_zero = 0, s3_zero = 0, f_one = 0, full = 0, s2_terms_skipped = 0, s3_terms_skipped = 0;
     for (int i = 0; i < 300000; ++i) {
         // Rates over 12 orders of magnitude (1e-6 to 1e6 rad/s), each component its own scale.
         const auto rate = [&] { return fx(u(rng) * std::pow(10.0, 6 * u(rng))); };
@@ -149,6 +152,9 @@ TEST(Quat, IntegratedShortcutsGiveTheGeneralBits) {
         s2_zero += s2.raw == 0;
         s3_zero += s2.raw != 0 && (s2 * s).raw == 0;
         full += (s2 * s).raw != 0;
+        // Powers that do not round to 0 but whose terms all do (skipped by the thresholds).
+        s2_terms_skipped += s2.raw != 0 && s.raw <= k.s2_terms_zero_up_to;
+        s3_terms_skipped += (s2 * s).raw != 0 && s.raw > k.s2_terms_zero_up_to && s.raw <= k.s3_terms_zero_up_to;
         const Quat r = renormalised(q);
         ASSERT_EQ(r, renormalised_general(q)) << i;
         const Fixed sq = quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
@@ -158,6 +164,112 @@ TEST(Quat, IntegratedShortcutsGiveTheGeneralBits) {
     EXPECT_GT(s3_zero, 10000);
     EXPECT_GT(full, 10000);
     EXPECT_GT(f_one, 10000);
+    // renormalised() takes x * f for f = 1 + d ulp in 64 bits: components of 1/2 (raw 2^31) put
+    // x d / 2^32 exactly on a tie for every odd d, rounded to even either way as x * f is.
+    int ties = 0;
+    for (std::int64_t e = -40; e <= 40; ++e) {
+        const Fixed h = Fixed::from_raw(std::int64_t{1} << 31);
+        for (const Quat q : {Quat{h, h, h, h + Fixed::from_raw(e)}, Quat{h + Fixed::from_raw(e), -h, h, -h},
+                             Quat{h + Fixed::from_raw(3 * e), h, -h - Fixed::from_raw(e), h}}) {
+            ASSERT_EQ(renormalised(q), renormalised_general(q)) << e;
+            const Fixed sq = quat_detail::sum4(q.w, q.w, q.x, q.x, q.y, q.y, q.z, q.z);
+            ties += ((3 * Fixed::kOne - sq.raw) / 2 - Fixed::kOne) % 2 != 0;
+        }
+    }
+    EXPECT_GT(ties, 20);
+    EXPECT_GT(s2_terms_skipped, 3000);  // a narrow band: |w| from 0.39 to 0.86 rad/s
+    EXPECT_GT(s3_terms_skipped, 10000);
+    // Rates about one axis swept in single ulps of a across each threshold (every s.raw from
+    // 12 below to 12 above it is reached): the bits at the edges.
+    int at_edge = 0;
+    for (const std::int64_t edge : {k.s2_terms_zero_up_to, k.s3_terms_zero_up_to}) {
+        const auto a_edge = static_cast<std::int64_t>(std::sqrt(static_cast<double>(edge) * 4294967296.0));
+        for (std::int64_t da = -200; da <= 200; ++da) {
+            const Vec3 w{Fixed::from_raw((a_edge + da) * 120), Fixed::zero(), Fixed::zero()};
+            const Vec3 a = w * Fixed::from_raw(dt.raw / 2);
+            at_edge += dot(a, a).raw == edge || dot(a, a).raw == edge + 1;
+            const Quat q = normalised({fx(0.3), fx(-0.5), fx(0.7), fx(0.1)});
+            ASSERT_EQ(integrated(q, w, dt), integrated_general(q, w, dt)) << edge << " " << da;
+        }
+    }
+    EXPECT_GE(at_edge, 4);
+}
+
+// The thresholds below which integrated() leaves out the s^2 and s^3 terms are exactly the
+// largest s at which those terms, by the general arithmetic, round to 0: one more ulp of s and
+// one of them does not.
+TEST(Quat, SeriesThresholdsAreTheLargestExact) {
+    const quat_detail::SeriesCoefficients& k = quat_detail::kSeries;
+    const auto s3_terms_zero = [&](std::int64_t raw) {
+        const Fixed s = Fixed::from_raw(raw), s3 = s * s * s;
+        return (s3 * Fixed::ratio(1, 720)).raw == 0 && (s3 * Fixed::ratio(1, 5040)).raw == 0;
+    };
+    const auto s2_terms_zero = [&](std::int64_t raw) {
+        const Fixed s = Fixed::from_raw(raw), s2 = s * s;
+        return (s2 * Fixed::ratio(1, 24)).raw == 0 && (s2 * Fixed::ratio(1, 120)).raw == 0 && s3_terms_zero(raw);
+    };
+    EXPECT_EQ(k.c24, Fixed::ratio(1, 24));
+    EXPECT_EQ(k.c720, Fixed::ratio(1, 720));
+    EXPECT_EQ(k.k6, Fixed::ratio(1, 6));
+    EXPECT_EQ(k.k120, Fixed::ratio(1, 120));
+    EXPECT_EQ(k.k5040, Fixed::ratio(1, 5040));
+    EXPECT_TRUE(s3_terms_zero(k.s3_terms_zero_up_to));
+    EXPECT_FALSE(s3_terms_zero(k.s3_terms_zero_up_to + 1));
+    EXPECT_TRUE(s2_terms_zero(k.s2_terms_zero_up_to));
+    EXPECT_FALSE(s2_terms_zero(k.s2_terms_zero_up_to + 1));
+    // Every s below holds as well (the rounded chain is nondecreasing in s): checked on a sweep.
+    for (std::int64_t raw = 0; raw <= k.s3_terms_zero_up_to; raw += 997) {
+        ASSERT_TRUE(s3_terms_zero(raw)) << raw;
+        if (raw <= k.s2_terms_zero_up_to) {
+            ASSERT_TRUE(s2_terms_zero(raw)) << raw;
+        }
+    }
+    // Where they are: about where s^3 / 720 and s^2 / 24 reach half an ulp (2^-33), s = |w dt/2|^2
+    // (s^2 is a whole number of ulps, 11 at the threshold, so the edge is coarse).
+    const double s3_edge = std::cbrt(720.0 / 8589934592.0), s2_edge = std::sqrt(24.0 / 8589934592.0);
+    EXPECT_NEAR(d(Fixed::from_raw(k.s3_terms_zero_up_to)), s3_edge, 0.03 * s3_edge);
+    EXPECT_NEAR(d(Fixed::from_raw(k.s2_terms_zero_up_to)), s2_edge, 0.03 * s2_edge);
+}
+
+// One step of integrated() against the exact exponential map (cos|a|, sin|a| a/|a|) times q,
+// computed in long double, from grid orientations, over half angles |a| from 1e-7 to 1 rad.
+// The error in 2^-30 grid steps is the rounding (at most 2 steps) plus the series' own
+// truncation after s^3 (below s^4 / 8! in each component); a series cut one power of s short
+// (s^3 left out, error s^3 / 720: 1,500 grid steps at s = 0.1) fails it.
+TEST(Quat, IntegratedMatchesTheExactMapWithinTheGrid) {
+    std::mt19937_64 rng(2019);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const long double grid = 1.0L / 1073741824.0L;
+    const Fixed dt = Fixed::ratio(1, 60);
+    double worst_small = 0;  // s <= 3.5e-3 (|w| below 7 rad/s at 60 Hz): the truncation is < 2^-34
+    for (int i = 0; i < 200000; ++i) {
+        const Quat q = normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))});
+        const double mag = std::pow(10.0, -7 + 7 * (u(rng) + 1) / 2);  // |a|, 1e-7 to 1 rad
+        const Vec3 dir{fx(u(rng)), fx(u(rng)), fx(u(rng))};
+        const long double dl = std::sqrt((long double)d(dir.x) * d(dir.x) + (long double)d(dir.y) * d(dir.y) +
+                                         (long double)d(dir.z) * d(dir.z));
+        if (dl < 0.1L) continue;
+        const Vec3 w{fx(d(dir.x) / dl * mag * 120), fx(d(dir.y) / dl * mag * 120), fx(d(dir.z) / dl * mag * 120)};
+        const Vec3 a = w * Fixed::from_raw(dt.raw / 2);  // the half angle integrated() turns by
+        const long double ax = d(a.x), ay = d(a.y), az = d(a.z);
+        const long double s = ax * ax + ay * ay + az * az;
+        if (s > 1 || s == 0) continue;
+        const long double len = std::sqrt(s), c = std::cos(len), k = std::sin(len) / len;
+        const long double pw = c, px = k * ax, py = k * ay, pz = k * az;
+        const long double qw = d(q.w), qx = d(q.x), qy = d(q.y), qz = d(q.z);
+        long double e[4] = {pw * qw - px * qx - py * qy - pz * qz, pw * qx + px * qw + py * qz - pz * qy,
+                            pw * qy - px * qz + py * qw + pz * qx, pw * qz + px * qy - py * qx + pz * qw};
+        const long double n = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        const Quat got = integrated(q, w, dt);
+        const Fixed g[4] = {got.w, got.x, got.y, got.z};
+        long double err = 0;
+        for (int j = 0; j < 4; ++j) err = std::max(err, std::fabs(d(g[j]) - e[j] / n) / grid);
+        const long double truncation = s * s * s * s / 40320 / grid;
+        ASSERT_LE(err, 2 + truncation) << i << " s=" << static_cast<double>(s);
+        if (s <= 3.5e-3L) worst_small = std::max(worst_small, static_cast<double>(err));
+    }
+    EXPECT_LE(worst_small, 2.0);
+    std::printf("worst error for s <= 3.5e-3: %.3f grid steps\n", worst_small);
 }
 
 TEST(Quat, CrossIsRightHanded) {
