@@ -416,6 +416,7 @@ private:
     // is a player's, and the sleep bookkeeping's scratch (by id, and the islands' links).
     std::vector<BodyId> every_dynamic_;
     std::vector<std::uint8_t> player_, mark_;
+    std::vector<std::uint32_t> root_;  // fall_asleep's union-find, by id
     std::vector<Islands::Link> sleep_links_;
     std::vector<BodyId> woken_;
     Islands sleep_islands_;
