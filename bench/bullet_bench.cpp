@@ -6,7 +6,11 @@
 // 1/tick_rate per frame) and solver iteration count. Restitution and friction come from the
 // scene's per-pair tables on both sides (Bullet through its contact-added material callback;
 // Bullet has one friction coefficient, so it gets the kinetic one). Bullet's deactivation
-// (sleeping) is switched off, since lockroll has none: both compute every body every step.
+// (sleeping) is switched off by default: both compute every body every step. `--sleep` turns
+// on rigid.sleeping (its thresholds as the scene gives them, the defaults otherwise: 0.05 m/s,
+// 0.05 rad/s, 0.5 s) in every lockroll scene, and Bullet's deactivation for every dynamic body
+// with the same rule (setSleepingThresholds(linear, angular), gDeactivationTime = time), so
+// both engines sleep alike; with --settle it also prints how many bodies each has asleep.
 // Players are driven as in the paper scene's matches: each slot's input is the random bot's
 // (harness/match/bots.h, seed 1, 4 changes a second, as `lockroll compare` runs them), a pure
 // function of slot and frame, and both engines apply it by lockroll's controller rule
@@ -112,6 +116,7 @@ private:
     std::vector<sim::PlayerInput> inputs_;
 };
 bool g_neutral = false;
+bool g_sleep = false;
 
 // The scene as a Bullet world; owns everything it allocates.
 class BulletScene {
@@ -140,7 +145,13 @@ public:
             if (mass > 0) {
                 body->setLinearVelocity(vec(b.velocity));
                 body->setAngularVelocity(vec(b.angular_velocity));
-                body->setActivationState(DISABLE_DEACTIVATION);
+                if (g_sleep && b.player < 0) {  // players never sleep in lockroll either
+                    const sim::RigidDesc::Sleeping& sl = scene.rigid.sleeping;
+                    body->setSleepingThresholds(static_cast<btScalar>(num(sl.linear_speed)),
+                                                static_cast<btScalar>(num(sl.angular_speed)));
+                } else {
+                    body->setActivationState(DISABLE_DEACTIVATION);
+                }
                 const double lin = num(b.linear_damping ? *b.linear_damping : scene.rigid.linear_damping);
                 const double ang = num(b.angular_damping ? *b.angular_damping : scene.rigid.angular_damping);
                 // lockroll: v /= 1 + c dt per step; Bullet: v *= (1 - d)^dt.
@@ -181,6 +192,11 @@ public:
     const std::vector<std::unique_ptr<btRigidBody>>& bodies() const { return bodies_; }
     // Contact points in Bullet's persistent manifolds after the last step (at most 4 a pair),
     // the counterpart of lockroll's contact_count().
+    std::size_t asleep() const {
+        std::size_t n = 0;
+        for (const auto& b : bodies_) n += b->getInvMass() != 0 && b->getActivationState() == ISLAND_SLEEPING;
+        return n;
+    }
     std::size_t contact_points() {
         std::size_t n = 0;
         for (int i = 0; i < dispatcher_.getNumManifolds(); ++i)
@@ -302,6 +318,12 @@ void settle(const sim::SceneDesc& scene, int frames, int every, bool with_bullet
             scene.name.c_str(), f, a.ke(), a.ke_spheres, a.ke_rot, a.ke_vertical, a.mean_height(), a.lifted, a.sink * 1e3,
             ours.rigid_solver().contact_count(), b.ke(), b.ke_spheres, b.ke_rot, b.ke_vertical, b.mean_height(), b.lifted,
             b.sink * 1e3, theirs ? theirs->contact_points() : std::size_t{0});
+        if (g_sleep) {
+            std::size_t ours_asleep = 0;
+            for (sim::BodyId id : ours.dynamic_ids()) ours_asleep += ours.asleep(id);
+            std::printf("%-18s %6d | asleep: lockroll %zu of %zu, bullet %zu\n", scene.name.c_str(), f, ours_asleep,
+                        ours.dynamic_count(), theirs ? theirs->asleep() : std::size_t{0});
+        }
         std::fflush(stdout);
     }
 }
@@ -325,6 +347,9 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1, 1000000));
     app.add_option("--every", every, "With --settle: print every this many frames")->check(CLI::Range(1, 1000000));
     app.add_flag("--neutral", g_neutral, "Players get neutral input (they stand) instead of the random bot's");
+    app.add_flag("--sleep", g_sleep,
+                 "Both engines sleep: rigid.sleeping on in every scene, Bullet's deactivation with the same "
+                 "thresholds and time (else both step every body)");
     app.add_flag("--lockroll-only", lockroll_only, "With --settle: leave Bullet out (quick what-ifs on scene files)");
     try {
         app.parse(argc, argv);
@@ -353,6 +378,11 @@ int main(int argc, char** argv) {
         }
     }
     gContactAddedCallback = material_callback;
+    if (g_sleep) {
+        for (sim::SceneDesc& scene : loaded) scene.rigid.sleeping.enabled = true;
+        // One time for every scene (Bullet's is a global): the first scene's.
+        gDeactivationTime = static_cast<btScalar>(num(loaded.front().rigid.sleeping.time));
+    }
     if (settle_frames > 0) {
         for (const sim::SceneDesc& scene : loaded) {
             g_materials.scene = &scene;

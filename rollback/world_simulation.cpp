@@ -88,7 +88,10 @@ std::string WorldSimulation::describe_state(std::span<const std::uint8_t> state)
         out += buf;
         for (int f = 0; f < field_count(); ++f) {
             const std::int64_t raw = field_value(state, i, f);
-            std::snprintf(buf, sizeof buf, " %" PRId64 "(%s)", raw, sim::Fixed::from_raw(raw).to_string().c_str());
+            if (f == sim::kRigidFields)  // the sleep word: a count or 4294967295 (asleep), no decimal
+                std::snprintf(buf, sizeof buf, " %" PRId64, raw);
+            else
+                std::snprintf(buf, sizeof buf, " %" PRId64 "(%s)", raw, sim::Fixed::from_raw(raw).to_string().c_str());
             out += buf;
         }
         out += '\n';

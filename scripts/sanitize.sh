@@ -29,7 +29,7 @@ run_tsan() {
   # halt_on_error: a race fails the test that ran into it.
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1} \
     ctest --test-dir "$tsan_build" --output-on-failure -j"$(nproc)" \
-      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|World\.Coloured|Islands\.Parallel)'
+      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|World\.Coloured|World\.Sleeping|Islands\.Parallel)'
 }
 if [[ "${1:-}" == "--tsan-only" ]]; then
   run_tsan

@@ -222,6 +222,24 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     }
     dynamic_ = k.dynamic_ids();
     impulse_capacity_ = warm_ ? kImpulsesPerBody * dynamic_.size() : 0;
+    sleep_ = rg.sleeping.enabled;
+    if (sleep_) {
+        every_dynamic_ = dynamic_;
+        player_.assign(n, 0);
+        for (std::size_t i = 0; i < n; ++i) player_[i] = scene.bodies[i].player >= 0;
+        mark_.assign(n, 0);
+        root_.assign(n, 0);
+        // ceil(time * tick_rate): time is Q32.32, so the product's raw value over 2^32, up.
+        const i128 t = mul_wide(rg.sleeping.time.raw, scene.tick_rate);
+        const auto whole = static_cast<std::uint64_t>(static_cast<u128>(t) >> Fixed::kFracBits);
+        const bool part = (static_cast<std::uint64_t>(static_cast<u128>(t)) & ((std::uint64_t{1} << Fixed::kFracBits) - 1)) != 0;
+        sleep_frames_ = static_cast<std::uint32_t>(whole + (part ? 1 : 0));
+        const auto square = [](Fixed f) {
+            return mul_wide_unsigned(static_cast<std::uint64_t>(f.raw), static_cast<std::uint64_t>(f.raw));
+        };
+        sleep_lin_sq_ = square(rg.sleeping.linear_speed);
+        sleep_ang_sq_ = square(rg.sleeping.angular_speed);
+    }
     const Fixed neg = -Fixed::one();
     for (std::size_t i = 0; i < n; ++i) {
         const BodyDesc& b = scene.bodies[i];
@@ -270,7 +288,7 @@ void RigidSolver::initial_state(const SceneDesc& scene, std::vector<Quat>& orien
     orient.resize(n);
     angvel.assign(n, Vec3{});
     for (std::size_t i = 0; i < n; ++i) orient[i] = normalised(scene.bodies[i].orientation);
-    for (BodyId id : dynamic_) angvel[id] = scene.bodies[id].angular_velocity;
+    for (BodyId id : sleep_ ? every_dynamic_ : dynamic_) angvel[id] = scene.bodies[id].angular_velocity;
 }
 
 void RigidSolver::damp(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const {

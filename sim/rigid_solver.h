@@ -94,6 +94,9 @@ public:
     void configure(const SceneDesc& scene, const StepKernel<Fixed>& kernel);
     bool enabled() const { return enabled_; }
     bool warm_starting() const { return warm_; }
+    // rigid.sleeping, and its time to sleep in frames: ceil(time * tick_rate), >= 1.
+    bool sleeping() const { return sleep_; }
+    std::uint32_t sleep_frames() const { return sleep_frames_; }
 
     // The scene's orientations (normalised) and angular velocities (zero for static bodies).
     void initial_state(const SceneDesc& scene, std::vector<Quat>& orient, std::vector<Vec3>& angvel) const;
@@ -118,10 +121,16 @@ public:
     //    workers, then the overflow group on the stepping thread;
     //  - sequential, as they are global: keeping the impulses (a sort by key), the shock pass
     //    (levels over the whole graph, one global order); the scatter runs per range of slots.
+    //  - with rigid.sleeping (sim/rigid_solver_sleeping.cpp), sequential: the awake set at the
+    //    start, waking after the candidate pairs, and the still counts and falling asleep at
+    //    the end. `sleep` is the sleep state (World::sleep_state(); empty without sleeping).
     template <class FindPairs, class Control>
     void step(std::vector<Vec3>& pos, std::vector<Vec3>& vel, std::vector<Quat>& orient, std::vector<Vec3>& angvel,
-              std::vector<ContactImpulse>& impulses, FindPairs&& find_pairs, Control&& control,
-              const ParallelTasks& tasks) {
+              std::vector<ContactImpulse>& impulses, std::vector<std::uint32_t>& sleep, FindPairs&& find_pairs,
+              Control&& control, const ParallelTasks& tasks) {
+        // With sleeping, dynamic_ is the awake bodies from here on (every per-body phase below
+        // runs over them only).
+        if (sleep_) awake_set(sleep);
         // A coloured scene runs the second branch at any worker count (its contact setup lays
         // the points out colour by colour; its per-body phases give the same bits either way).
         if (!tasks.parallel() && !colour_) {
@@ -131,6 +140,7 @@ public:
             update_inertia(orient, 0, dynamic_.size());
             closing_reach(vel, angvel, 0, dynamic_.size());
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+            if (sleep_) wake(vel, orient, angvel, sleep);
             build_contacts(pos, vel, angvel);
             solve(impulses);
         } else {
@@ -143,6 +153,7 @@ public:
             per_body([&](std::size_t begin, std::size_t end) { update_inertia(orient, begin, end); });
             per_body([&](std::size_t begin, std::size_t end) { closing_reach(vel, angvel, begin, end); });
             find_pairs(static_cast<const std::vector<Vec3>&>(pos), pairs_);
+            if (sleep_) wake(vel, orient, angvel, sleep);
             build_contacts_parallel(pos, vel, angvel, tasks);
             if (colour_)
                 solve_coloured(impulses, tasks);
@@ -162,6 +173,7 @@ public:
             tasks.for_ranges(dynamic_.size(), kBodyGrain, [&](std::size_t begin, std::size_t end) {
                 integrate(pos, vel, orient, angvel, begin, end);
             });
+        if (sleep_) fall_asleep(vel, angvel, impulses, sleep);
     }
 
     // Most ContactImpulse entries a step keeps (kImpulsesPerBody per dynamic body; 0 without
@@ -336,6 +348,22 @@ private:
                      Rows rows = Rows::Both);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
+    // rigid.sleeping (sim/rigid_solver_sleeping.cpp; docs/physics.md, "Sleeping").
+    // awake_set: dynamic_ = the bodies of every_dynamic_ not asleep, in id order.
+    void awake_set(const std::vector<std::uint32_t>& sleep);
+    // After the candidate pairs: wakes, whole, every component of sleeping bodies (joined by
+    // this step's pairs between sleeping bodies) that has a pair with an awake dynamic body
+    // (a function of the pair set, not of its order); a woken body gets this step's gravity,
+    // world inertia and closing reach, and dynamic_ takes it in. Then drops the pairs with no
+    // awake dynamic end (both asleep, or asleep and static).
+    void wake(std::vector<Vec3>& vel, const std::vector<Quat>& orient, const std::vector<Vec3>& angvel,
+              std::vector<std::uint32_t>& sleep);
+    // After integration: each awake body's still count (+1, saturating at sleep_frames_, when
+    // |v| < linear and |w| < angular; else 0; always 0 for a player), then every island of
+    // this step's pairs (static ends excluded; a body in none is its own) whose bodies all
+    // reached sleep_frames_ falls asleep: v = w = 0, kAsleep, its carried impulses dropped.
+    void fall_asleep(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::vector<ContactImpulse>& impulses,
+                     std::vector<std::uint32_t>& sleep);
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
@@ -358,6 +386,9 @@ private:
 
     bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false, split_ = false, reduce_ = false, block_ = false;
     bool colour_ = false;
+    bool sleep_ = false;
+    std::uint32_t sleep_frames_ = 0;
+    u128 sleep_lin_sq_{}, sleep_ang_sq_{};  // the thresholds' squares, as length_sq_wide gives them
     std::size_t impulse_capacity_ = 0;
     int iterations_ = 4;
     Fixed dt_, inv_dt_, baumgarte_rate_, slop_, threshold_, margin_, cap_speed_;
@@ -379,7 +410,16 @@ private:
     std::vector<Fixed> restitution_;           // override or negative
     std::vector<Fixed> friction_, static_friction_;  // override or negative
     std::vector<Fixed> lin_damp_, ang_damp_;   // 1 / (1 + c dt)
+    // Every dynamic body in id order; with rigid.sleeping, the awake ones during a step.
     std::vector<BodyId> dynamic_;
+    // rigid.sleeping: every dynamic body (dynamic_ is then the awake set), whether each body
+    // is a player's, and the sleep bookkeeping's scratch (by id, and the islands' links).
+    std::vector<BodyId> every_dynamic_;
+    std::vector<std::uint8_t> player_, mark_;
+    std::vector<std::uint32_t> root_;  // fall_asleep's union-find, by id
+    std::vector<Islands::Link> sleep_links_;
+    std::vector<BodyId> woken_;
+    Islands sleep_islands_;
 
     // Per step.
     std::vector<Mat3> rot_;          // body to world; static bodies set once

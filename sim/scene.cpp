@@ -179,6 +179,12 @@ std::string validate(const SceneDesc& scene) {
         if (rg.baumgarte.raw < 0 || rg.baumgarte > Fixed::one()) return "rigid.baumgarte must be within [0, 1]";
         if (rg.slop.raw < 0) return "rigid.slop must be >= 0";
         if (rg.restitution_threshold.raw < 0) return "rigid.restitution_threshold must be >= 0";
+        const RigidDesc::Sleeping& sl = rg.sleeping;
+        if (sl.linear_speed.raw <= 0 || sl.linear_speed > Fixed::from_int(100))
+            return "rigid.sleeping.linear_speed must be within (0, 100]";
+        if (sl.angular_speed.raw <= 0 || sl.angular_speed > Fixed::from_int(100))
+            return "rigid.sleeping.angular_speed must be within (0, 100]";
+        if (sl.time.raw <= 0 || sl.time > Fixed::from_int(60)) return "rigid.sleeping.time must be within (0, 60]";
     }
     std::set<int> slots;
     for (std::size_t i = 0; i < scene.bodies.size(); ++i) {

@@ -152,6 +152,18 @@ struct RigidDesc {
     // Gauss-Seidel order (other bits), the same at any worker count, and a pile's largest
     // island no longer runs on one thread.
     bool graph_colouring = false;
+    // Sleeping (docs/physics.md, "Sleeping"): a body whose speed stays below linear_speed
+    // (m/s) and whose turn rate stays below angular_speed (rad/s) for `time` seconds
+    // (ceil(time * tick_rate) frames), in an island (this step's candidate pairs between awake
+    // dynamic bodies) whose every body has, stops being stepped until an awake body comes
+    // within reach of its island. Off by default; its state (each body's still-frame count or
+    // "asleep") is in the snapshot only when on. Player bodies never sleep.
+    struct Sleeping {
+        bool enabled = false;
+        Fixed linear_speed = Fixed::ratio(1, 20);   // 0.05 m/s (as the JSON "0.05" parses)
+        Fixed angular_speed = Fixed::ratio(1, 20);  // 0.05 rad/s
+        Fixed time = Fixed::from_raw(Fixed::kOne / 2);            // 0.5 s
+    } sleeping;
 
     RigidDesc();
 };

@@ -27,6 +27,7 @@ public:
     static std::vector<Quat>& orient(World& w) { return w.orient_; }
     static std::vector<Vec3>& angvel(World& w) { return w.angvel_; }
     static std::vector<ContactImpulse>& impulses(World& w) { return w.carried_impulses(); }
+    static std::vector<std::uint32_t>& sleep(World& w) { return w.sleep_words(); }
 };
 
 namespace {
@@ -69,9 +70,12 @@ void put_rigid(std::uint8_t* p, const Quat& q, const Vec3& w) {
     for (int k = 0; k < 3; ++k) put_u64(p + 16 + 8 * k, static_cast<std::uint64_t>(f[k].raw));
 }
 
+bool sleeping(const World& w) { return w.rigid() && w.rigid_solver().sleeping(); }
+
 void put_world_body(std::uint8_t* p, const World& w, BodyId id) {
     put_body(p, w.position(id), w.velocity(id));
     if (w.rigid()) put_rigid(p + kSnapshotBodyBytes, w.orientation(id), w.angular_velocity(id));
+    if (sleeping(w)) put_u32(p + kSnapshotRigidBodyBytes, w.sleep_state()[id]);
 }
 
 // Every dynamic body's bytes, in id order; returns the end. The stores are what put_world_body()
@@ -79,9 +83,9 @@ void put_world_body(std::uint8_t* p, const World& w, BodyId id) {
 // a Vec3 is already its 24 snapshot bytes (three int64s, no padding): one copy per vector instead
 // of a call and six shifted stores per body. This loop runs twice per frame in a session (save,
 // then checksum) and was 15 % of an 8-frame rigid rollback.
-template <bool Rigid>
+template <bool Rigid, bool Sleeping = false>
 std::uint8_t* put_bodies(std::uint8_t* p, const World& w) {
-    constexpr std::size_t body = Rigid ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes;
+    constexpr std::size_t body = Sleeping ? kSnapshotSleepBodyBytes : Rigid ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes;
     if constexpr (std::endian::native == std::endian::little && sizeof(Vec3) == 24 && sizeof(Fixed) == 8) {
         const Vec3* pos = w.body_count() ? &w.position(0) : nullptr;
         const Vec3* vel = w.body_count() ? &w.velocity(0) : nullptr;
@@ -98,6 +102,7 @@ std::uint8_t* put_bodies(std::uint8_t* p, const World& w) {
                 std::memcpy(p + kSnapshotBodyBytes, c, 16);
                 std::memcpy(p + kSnapshotBodyBytes + 16, &angvel[id], 24);
             }
+            if constexpr (Sleeping) put_u32(p + kSnapshotRigidBodyBytes, w.sleep_state()[id]);
             p += body;
         }
     } else {
@@ -110,7 +115,9 @@ std::uint8_t* put_bodies(std::uint8_t* p, const World& w) {
 }
 
 bool warm(const World& w) { return w.rigid_solver().warm_starting(); }
-std::uint32_t layout_of(const World& w) { return warm(w) ? kLayoutRigidWarm : w.rigid() ? kLayoutRigid : kLayoutParticle; }
+std::uint32_t layout_of(const World& w) {
+    return (warm(w) ? kLayoutRigidWarm : w.rigid() ? kLayoutRigid : kLayoutParticle) | (sleeping(w) ? kLayoutSleeping : 0);
+}
 // Where layout 2's impulse count sits: right after the bodies.
 std::size_t bodies_end(const World& w) { return kSnapshotHeaderBytes + snapshot_body_bytes(w) * w.dynamic_count(); }
 
@@ -146,10 +153,11 @@ std::uint64_t hash_body(const std::uint8_t* body, std::size_t body_bytes, BodyId
 std::size_t field_offset(int field) {
     if (field < 6) return 8 * static_cast<std::size_t>(field);
     if (field < 10) return kSnapshotBodyBytes + 4 * static_cast<std::size_t>(field - 6);
-    return kSnapshotBodyBytes + 16 + 8 * static_cast<std::size_t>(field - 10);
+    if (field < 13) return kSnapshotBodyBytes + 16 + 8 * static_cast<std::size_t>(field - 10);
+    return kSnapshotRigidBodyBytes;  // the sleep word
 }
 int field_at(std::size_t byte) {
-    for (int f = kRigidFields - 1; f > 0; --f)
+    for (int f = kSleepFields - 1; f > 0; --f)
         if (byte >= field_offset(f)) return f;
     return 0;
 }
@@ -162,12 +170,16 @@ std::vector<std::uint8_t>& scratch(std::size_t size) {
 }
 }  // namespace
 
-std::size_t snapshot_body_bytes(const World& w) { return w.rigid() ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes; }
-int body_field_count(const World& w) { return w.rigid() ? kRigidFields : kParticleFields; }
+std::size_t snapshot_body_bytes(const World& w) {
+    return sleeping(w) ? kSnapshotSleepBodyBytes : w.rigid() ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes;
+}
+int body_field_count(const World& w) { return sleeping(w) ? kSleepFields : w.rigid() ? kRigidFields : kParticleFields; }
 std::size_t snapshot_body_bytes(std::span<const std::uint8_t> s) {
     if (s.size() < kSnapshotHeaderBytes) return kSnapshotBodyBytes;
     const std::uint32_t layout = get_u32(s.data() + 12);
-    return layout == kLayoutRigid || layout == kLayoutRigidWarm ? kSnapshotRigidBodyBytes : kSnapshotBodyBytes;
+    const std::uint32_t base = layout & ~kLayoutSleeping;
+    if (base != kLayoutRigid && base != kLayoutRigidWarm) return kSnapshotBodyBytes;
+    return layout & kLayoutSleeping ? kSnapshotSleepBodyBytes : kSnapshotRigidBodyBytes;
 }
 
 std::size_t snapshot_size(const World& w) {
@@ -186,7 +198,7 @@ void save(const World& w, std::span<std::uint8_t> out) {
     put_u32(p + 12, layout_of(w));
     put_u64(p + 16, SnapshotAccess::overflow(w));
     p += kSnapshotHeaderBytes;
-    p = w.rigid() ? put_bodies<true>(p, w) : put_bodies<false>(p, w);
+    p = sleeping(w) ? put_bodies<true, true>(p, w) : w.rigid() ? put_bodies<true>(p, w) : put_bodies<false>(p, w);
     if (!warm(w)) return;
     put_u32(p, static_cast<std::uint32_t>(w.contact_impulses().size()));
     p += 4;
@@ -208,7 +220,10 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
     const std::uint32_t layout = get_u32(p + 12), want = layout_of(w);
     if (layout != want)
         return "snapshot layout is " + std::to_string(layout) + ", the world needs " + std::to_string(want) +
-               (want == kLayoutRigidWarm ? " (rigid, warm starting)" : want == kLayoutRigid ? " (rigid)" : " (particle)");
+               ((want & ~kLayoutSleeping) == kLayoutRigidWarm ? " (rigid, warm starting" :
+                (want & ~kLayoutSleeping) == kLayoutRigid   ? " (rigid"
+                                                             : " (particle") +
+               (want & kLayoutSleeping ? ", sleeping)" : ")");
     const std::size_t end = bodies_end(w);
     std::size_t expected = end, impulses = 0;
     if (warm(w)) {
@@ -234,6 +249,26 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
         if (k > 0 && !key_less(get_impulse(p + end + 4 + kSnapshotImpulseBytes * (k - 1)), c))
             return at + " is out of key order";
     }
+    // Sleep words: a count up to the frames to sleep, or asleep (then still, and no player's).
+    if (sleeping(w)) {
+        const std::size_t body = snapshot_body_bytes(w);
+        const std::uint32_t frames = w.rigid_solver().sleep_frames();
+        for (std::size_t i = 0; i < w.dynamic_count(); ++i) {
+            const std::uint8_t* b = p + kSnapshotHeaderBytes + body * i;
+            const std::uint32_t word = get_u32(b + kSnapshotRigidBodyBytes);
+            const BodyId id = w.dynamic_ids()[i];
+            const std::string at = "snapshot body " + std::to_string(id) + " sleep word " + std::to_string(word);
+            if (word != World::kAsleep && word > frames)
+                return at + " is neither asleep nor a still count within the scene's " + std::to_string(frames) +
+                       " frames to sleep";
+            if (word != World::kAsleep) continue;
+            if (w.scene().bodies[id].player >= 0) return at + ": a player body never sleeps";
+            const auto zero = [&](std::size_t off) { return get_u64(b + off) == 0; };
+            for (std::size_t off : {std::size_t{24}, std::size_t{32}, std::size_t{40}, std::size_t{64}, std::size_t{72},
+                                    std::size_t{80}})
+                if (!zero(off)) return at + ": a sleeping body must have zero velocity and angular velocity";
+        }
+    }
     SnapshotAccess::set(w, get_u32(p + 8), get_u64(p + 16));
     auto& pos = SnapshotAccess::pos(w);
     auto& vel = SnapshotAccess::vel(w);
@@ -251,6 +286,7 @@ std::string load(World& w, std::span<const std::uint8_t> in) {
             for (int k = 0; k < 3; ++k) a[k] = Fixed::from_raw(static_cast<std::int64_t>(get_u64(r + 16 + 8 * k)));
             SnapshotAccess::angvel(w)[id] = {a[0], a[1], a[2]};
         }
+        if (sleeping(w)) SnapshotAccess::sleep(w)[id] = get_u32(p + kSnapshotRigidBodyBytes);
         p += snapshot_body_bytes(w);
     }
     auto& carried = SnapshotAccess::impulses(w);
@@ -267,7 +303,7 @@ std::uint64_t checksum(const World& w) {
 }
 
 std::uint64_t body_hash(const World& w, BodyId id) {
-    std::uint8_t bytes[kSnapshotRigidBodyBytes];
+    std::uint8_t bytes[kSnapshotSleepBodyBytes];
     put_world_body(bytes, w, id);
     const auto& carried = w.contact_impulses();
     ContactImpulse first;
@@ -304,11 +340,12 @@ std::uint64_t snapshot_body_hash(const World& w, std::span<const std::uint8_t> s
 
 std::int64_t snapshot_field(std::span<const std::uint8_t> s, std::size_t index, int field) {
     const std::size_t body = snapshot_body_bytes(s);
-    const int fields = body == kSnapshotRigidBodyBytes ? kRigidFields : kParticleFields;
+    const int fields = body == kSnapshotSleepBodyBytes ? kSleepFields : body == kSnapshotRigidBodyBytes ? kRigidFields : kParticleFields;
     if (field < 0 || field >= fields) throw std::out_of_range("snapshot_field");
     const std::size_t at = kSnapshotHeaderBytes + index * body + field_offset(field);
-    const bool narrow = field >= 6 && field < 10;
+    const bool narrow = (field >= 6 && field < 10) || field == 13;
     if (at + (narrow ? 4 : 8) > s.size()) throw std::out_of_range("snapshot_field");
+    if (field == 13) return std::int64_t{get_u32(s.data() + at)};
     if (narrow) return std::int64_t{static_cast<std::int32_t>(get_u32(s.data() + at))} * 4;
     return static_cast<std::int64_t>(get_u64(s.data() + at));
 }

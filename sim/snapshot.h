@@ -19,6 +19,12 @@
 //    snapshot_capacity(), with at most kImpulsesPerBody impulses per dynamic body).
 //    Layout 0 is exactly the format before rigid bodies (the word was reserved, always 0), so
 //    particle scenes keep their bytes and checksums.
+//    A rigid scene with rigid.sleeping sets kLayoutSleeping (0x100) in the layout word (257 or
+//    258), and each body's bytes end with one more word: u32 sleep (World::sleep_state(): the
+//    frames it has been still, at most the scene's frames to sleep, or 0xFFFFFFFF asleep), 92
+//    bytes per body. Scenes without sleeping keep their bytes and checksums.
+//    Loading rejects a sleep word above the frames to sleep that is not asleep, a sleeping
+//    player body, and a sleeping body with a non-zero velocity or angular velocity.
 //  - When: between steps, at any time; saving never changes the world.
 //  - Size: snapshot_size(world) bytes now, at most snapshot_capacity(world) (layout 2 grows and
 //    shrinks with the carried impulses); the caller owns the buffer (a rollback ring buffer
@@ -48,16 +54,19 @@ inline constexpr std::uint32_t kSnapshotMagic = 0x3153524Cu;  // "LRS1" little-e
 inline constexpr std::size_t kSnapshotHeaderBytes = 24;
 inline constexpr std::size_t kSnapshotBodyBytes = 48;
 inline constexpr std::size_t kSnapshotRigidBodyBytes = 88;
+inline constexpr std::size_t kSnapshotSleepBodyBytes = 92;  // rigid + the sleep word
 inline constexpr std::size_t kSnapshotImpulseBytes = 33;
 inline constexpr std::uint32_t kLayoutParticle = 0, kLayoutRigid = 1, kLayoutRigidWarm = 2;
+inline constexpr std::uint32_t kLayoutSleeping = 0x100;  // a flag on layouts 1 and 2
 
 // The state words of a body, in snapshot order; names for desync reports. Particle scenes have
-// the first kParticleFields, rigid scenes all kRigidFields.
-inline constexpr int kParticleFields = 6, kRigidFields = 13;
-inline constexpr const char* kBodyFieldNames[kRigidFields] = {
+// the first kParticleFields, rigid scenes kRigidFields, rigid scenes with sleeping all
+// kSleepFields (field 13, "sleep", is the sleep word as an unsigned value).
+inline constexpr int kParticleFields = 6, kRigidFields = 13, kSleepFields = 14;
+inline constexpr const char* kBodyFieldNames[kSleepFields] = {
     "position.x",    "position.y",    "position.z",    "velocity.x",         "velocity.y",
     "velocity.z",    "orientation.w", "orientation.x", "orientation.y",      "orientation.z",
-    "angular_velocity.x", "angular_velocity.y", "angular_velocity.z"};
+    "angular_velocity.x", "angular_velocity.y", "angular_velocity.z", "sleep"};
 
 // Bytes and fields per body in this world's snapshots.
 std::size_t snapshot_body_bytes(const World& world);

@@ -20,6 +20,7 @@ struct World::Engine {
     Broadphase broadphase;
     RigidSolver rigid;                      // configured only for rigid scenes
     std::vector<ContactImpulse> impulses;   // state: rigid scenes with warm starting only
+    std::vector<std::uint32_t> sleep;       // state: rigid scenes with sleeping only (by id)
 };
 
 // How this world runs its parallel phases (World::set_workers, set_task_runner).
@@ -51,6 +52,7 @@ World::World(const SceneDesc& scene)
     rigid_enabled_ = rigid_.enabled();
     if (rigid_.enabled()) rigid_.initial_state(scene_, orient_, angvel_);
     engine_->impulses.reserve(rigid_.impulse_capacity());  // steps and loads never allocate for it
+    if (rigid_.sleeping()) engine_->sleep.assign(scene_.bodies.size(), 0);
     engine_->broadphase.configure(scene_.broadphase, kernel_.dynamic_ids(), kernel_.static_ids(), pos_,
                           rigid_.enabled() ? rigid_.extent() : kernel_.extent(), scene_.contact_margin);
     // Whatever scene construction saturated is part of the initial state.
@@ -108,6 +110,9 @@ Shape World::shape(BodyId id) const { return engine_->kernel.shape(id); }
 const RigidSolver& World::rigid_solver() const { return engine_->rigid; }
 const std::vector<ContactImpulse>& World::contact_impulses() const { return engine_->impulses; }
 std::vector<ContactImpulse>& World::carried_impulses() { return engine_->impulses; }
+const std::vector<std::uint32_t>& World::sleep_state() const { return engine_->sleep; }
+std::vector<std::uint32_t>& World::sleep_words() { return engine_->sleep; }
+bool World::asleep(BodyId id) const { return !engine_->sleep.empty() && engine_->sleep[id] == kAsleep; }
 Fixed World::inv_mass(BodyId id) const { return engine_->kernel.inv_mass(id); }
 Fixed World::dt() const { return engine_->kernel.dt(); }
 const std::vector<BodyId>& World::dynamic_ids() const { return engine_->kernel.dynamic_ids(); }
@@ -124,7 +129,7 @@ void World::step(std::span<const PlayerInput> inputs) {
     };
     if (rigid_.enabled())
         rigid_.step(
-            pos_, vel_, orient_, angvel_, engine_->impulses,
+            pos_, vel_, orient_, angvel_, engine_->impulses, engine_->sleep,
             [&broadphase_, &rigid_, &tasks](const std::vector<Vec3>& pos, std::vector<BodyPair>& out) {
                 broadphase_.find_pairs(pos, rigid_.extent(), out, tasks);
             },

@@ -101,6 +101,12 @@ public:
     // Rigid scenes with rigid.warm_starting: the impulses carried to the next step (state,
     // sorted by key; at most rigid_solver().impulse_capacity()). Empty otherwise.
     const std::vector<ContactImpulse>& contact_impulses() const;
+    // Rigid scenes with rigid.sleeping: each body's sleep word (state, by id; 0 for static
+    // bodies): how many frames in a row it has been still (saturating at the scene's frames to
+    // sleep), or kAsleep. Empty otherwise. asleep(id): false in scenes without sleeping.
+    static constexpr std::uint32_t kAsleep = ~std::uint32_t{0};
+    const std::vector<std::uint32_t>& sleep_state() const;
+    bool asleep(BodyId id) const;
     Fixed inv_mass(BodyId id) const;
     Fixed dt() const;
     const std::vector<BodyId>& dynamic_ids() const;
@@ -121,6 +127,7 @@ private:
 
     void apply_controller(std::span<const PlayerInput> inputs);
     std::vector<ContactImpulse>& carried_impulses();  // SnapshotAccess loads them
+    std::vector<std::uint32_t>& sleep_words();        // likewise
 
     SceneDesc scene_;
     std::unique_ptr<Engine> engine_;

@@ -212,6 +212,20 @@ void read_pair_table(const Reader& t, const char* hi, sim::Fixed (&table)[sim::k
     }
 }
 
+// "sleeping": true (the default thresholds) or {"linear_speed", "angular_speed", "time"}.
+void read_sleeping(const Reader& r, sim::RigidDesc::Sleeping& sl) {
+    sl.enabled = true;
+    if (r.raw().is_boolean()) {
+        sl.enabled = r.raw().get<bool>();
+        return;
+    }
+    r.expect_object({"linear_speed", "angular_speed", "time"});
+    // The lower bounds are exclusive (sim::validate): 0 is rejected there with its field's name.
+    if (r.has("linear_speed")) sl.linear_speed = r.at("linear_speed").fixed_in("0", "100");
+    if (r.has("angular_speed")) sl.angular_speed = r.at("angular_speed").fixed_in("0", "100");
+    if (r.has("time")) sl.time = r.at("time").fixed_in("0", "60");
+}
+
 // A rigid scene's bodies may turn and rub; every key of "rigid" defaults to sim::RigidDesc.
 void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     rg.enabled = true;
@@ -221,7 +235,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
                      "restitution_threshold", "shock_propagation", "warm_starting", "split_impulse",
-                     "reduce_manifold", "block_solver", "graph_colouring"});
+                     "reduce_manifold", "block_solver", "graph_colouring", "sleeping"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -248,6 +262,7 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("reduce_manifold")) rg.reduce_manifold = r.at("reduce_manifold").boolean();
     if (r.has("block_solver")) rg.block_solver = r.at("block_solver").boolean();
     if (r.has("graph_colouring")) rg.graph_colouring = r.at("graph_colouring").boolean();
+    if (r.has("sleeping")) read_sleeping(r.at("sleeping"), rg.sleeping);
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.

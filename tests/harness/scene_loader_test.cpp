@@ -229,5 +229,25 @@ TEST(SceneLoader, RigidKeysOutsideARigidSceneAreErrors) {
               "test.json: /: rigid scenes use their own solver: drop the \"solver\" settings");
 }
 
+TEST(SceneLoader, RigidSleepingReadsItsThresholdsAndRejectsBadOnes) {
+    EXPECT_FALSE(load_scene("bodies_10k_rigid").rigid.sleeping.enabled);  // opt-in
+    const sim::SceneDesc on = parse_scene(R"({"rigid": {"sleeping": true}})", "t.json");
+    EXPECT_TRUE(on.rigid.sleeping.enabled);
+    EXPECT_EQ(on.rigid.sleeping.linear_speed, *sim::Fixed::parse("0.05"));
+    EXPECT_EQ(on.rigid.sleeping.time, *sim::Fixed::parse("0.5"));
+    const sim::SceneDesc set =
+        parse_scene(R"({"rigid": {"sleeping": {"linear_speed": 0.1, "angular_speed": 0.2, "time": 2}}})", "t.json");
+    EXPECT_TRUE(set.rigid.sleeping.enabled);
+    EXPECT_EQ(set.rigid.sleeping.linear_speed, *sim::Fixed::parse("0.1"));
+    EXPECT_EQ(set.rigid.sleeping.angular_speed, *sim::Fixed::parse("0.2"));
+    EXPECT_EQ(set.rigid.sleeping.time, sim::Fixed::from_int(2));
+    EXPECT_EQ(error_of(R"({"rigid": {"sleeping": {"time": 61}}})"), "test.json: /rigid/sleeping/time: must be within [0, 60], got 61");
+    EXPECT_EQ(error_of(R"({"rigid": {"sleeping": {"linear_speed": 0}}})"),
+              "test.json: /: rigid.sleeping.linear_speed must be within (0, 100]");
+    EXPECT_EQ(error_of(R"({"rigid": {"sleeping": {"angular_speed": -1}}})"),
+              "test.json: /rigid/sleeping/angular_speed: must be within [0, 100], got -1");
+    EXPECT_EQ(error_of(R"({"rigid": {"sleeping": {"speed": 1}}})").find("test.json: /rigid/sleeping"), 0u);
+}
+
 }  // namespace
 }  // namespace lockroll::harness

@@ -538,3 +538,28 @@ TEST(DesyncDetector, AnswersHostileQueriesWithUnavailable) {
 
 }  // namespace
 }  // namespace lockroll::rollback
+
+namespace lockroll::rollback {
+namespace {
+
+// A rigid scene with rigid.sleeping: the state words per body include the sleep word (field 13,
+// "sleep"), and the state dump prints it as the count it is (no Q32.32 decimal).
+TEST(DesyncDetector, SleepingScenesNameAndPrintTheSleepWord) {
+    sim::SceneDesc scene = make_scene(2, 0);
+    scene.rigid.enabled = true;
+    scene.rigid.sleeping.enabled = true;
+    WorldSimulation sim(scene, 2);
+    ASSERT_EQ(sim.field_count(), 14);
+    EXPECT_STREQ(sim.field_name(13), "sleep");
+    std::vector<std::uint8_t> state(sim.state_size());
+    sim.save(state);
+    const std::string text = sim.describe_state(state);
+    EXPECT_NE(text.find(" angular_velocity.z sleep  ("), std::string::npos) << text;
+    // Every body starts with a count of 0: each line ends " 0".
+    const std::size_t line = text.find('\n', text.find("(Q32.32 raw")) + 1;
+    const std::string first = text.substr(line, text.find('\n', line) - line);
+    EXPECT_EQ(first.substr(first.size() - 2), " 0") << first;
+}
+
+}  // namespace
+}  // namespace lockroll::rollback
