@@ -198,9 +198,12 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
             if (r.slot == slot && r.started) f = r.last_progress;
         return f;
     };
+    // Killed and reaped: SIGKILL is asynchronous, and until the process is gone its socket
+    // still holds the slot's port, which the process that comes back binds again (a rejoin
+    // started at once failed with "cannot create a host bound to 127.0.0.1:<port>").
     const auto killed = [&](int slot) {
-        for (const auto& r : recs)
-            if (r.slot == slot && r.killed) return true;
+        for (std::size_t i = 0; i < recs.size(); ++i)
+            if (recs[i].slot == slot && recs[i].killed && procs[i] && !procs[i]->running()) return true;
         return false;
     };
 
