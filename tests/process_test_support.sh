@@ -4,7 +4,8 @@
 #   pids      add every background process: it is killed (-9) at exit
 #   fail MSG  prints FAIL: MSG and counts it; `failures` holds the count
 #   show_logs DIR   the last lines of every process log under DIR (server.log, peer.log,
-#                   *.stderr.log), so a failure can be diagnosed from CI's output alone
+#                   *.stderr.log), and the first lines of any sanitizer report in it, so a
+#                   failure can be diagnosed from CI's output alone
 #   expect_2 WHAT MESSAGE COMMAND...   COMMAND exits 2 printing MESSAGE (bad flags), else fail
 #   start_relay_server [--stderr PATH] DIR COMMAND...   a relay server, COMMAND (`"$lockroll"
 #                   server [ARGS...]` or `"$server_exe" [ARGS...]`) given --listen on a free port
@@ -29,7 +30,8 @@ fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
 show_logs() {
     local f
     for f in $(find "$1" -name 'server.log' -o -name 'peer.log' -o -name '*.stderr.log' | sort); do
-        echo "--- ${f#"$1"/} (last 8 lines)"
+        echo "--- ${f#"$1"/} (its sanitizer reports' first lines, then its last 8 lines)"
+        grep -m3 -E 'ERROR: [A-Za-z]*Sanitizer|: runtime error: ' "$f"
         tail -8 "$f"
     done
 }

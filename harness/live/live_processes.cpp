@@ -271,6 +271,7 @@ std::vector<ProcessRecord> run_processes(const LivePlan& p, Mode mode, const fs:
         ProcessRecord& r = recs[i];
         if (!procs[i]) continue;
         r.exit_status = *procs[i]->poll_exit();
+        if (r.exit_status != 0 && !r.killed) r.failure = failure_line(dir / (r.name + ".stderr.log"));
         const fs::path pd = dir / r.name;
         if (fs::exists(pd / "summary.json")) r.summary = json::parse(read_text(pd / "summary.json"), nullptr, false);
         std::ifstream ev(pd / "events.jsonl");

@@ -30,6 +30,7 @@ struct ProcessRecord {
     bool restart = false;        // a --restart: a killed slot's process again, WITHOUT --join
     std::string name;            // output directory under the mode's directory
     int exit_status = -1;
+    std::string failure;         // a failed process's own word on why (failure_line of its stderr log)
     bool started = false;
     bool killed = false;
     int killed_at_frame = -1;

@@ -101,7 +101,8 @@ RunResult live_run_result(const LivePlan& p, Mode mode, const fs::path& dir, con
         if (!s.is_object() || !samples.is_object()) {
             r.completed = false;
             r.notes.push_back(rec.name + " (slot " + std::to_string(rec.slot) + "): left no summary (exit status " +
-                              std::to_string(rec.exit_status) + "); it counts in no figure");
+                              std::to_string(rec.exit_status) + (rec.failure.empty() ? "" : ": " + rec.failure) +
+                              "; its log: " + rec.name + ".stderr.log); it counts in no figure");
             continue;
         }
         recorded.push_back(RecordedSamples::from_json(samples));
@@ -254,6 +255,7 @@ json live_json(const std::vector<ProcessRecord>& recs, const fs::path& dir) {
                   {"name", r.name},
                   {"role", r.spectator ? "spectator" : r.restart ? "restarted" : r.joiner ? "joiner" : "player"},
                   {"exit_status", r.exit_status},
+                  {"failure", r.failure},
                   {"outcome", s.is_object() ? s.value("outcome", "") : (r.killed ? "killed" : "no summary")},
                   {"final_checksum", s.is_object() ? s.value("final_checksum", json(nullptr)) : json(nullptr)},
                   {"frames_shown", s.is_object() ? s.value("shown_frame", 0) : r.last_progress},

@@ -39,4 +39,22 @@ std::vector<std::vector<std::string>> read_csv_rows(const fs::path& p) {
     return rows;
 }
 
+std::string failure_line(const fs::path& stderr_log) {
+    std::ifstream f(stderr_log);
+    std::string line, sanitizer, own, logged;
+    while (std::getline(f, line)) {
+        if (sanitizer.empty() && (line.find("ERROR: ") != std::string::npos && line.find("Sanitizer") != std::string::npos))
+            sanitizer = line;
+        else if (sanitizer.empty() && line.find(": runtime error: ") != std::string::npos)
+            sanitizer = line;
+        else if (line.rfind("lockroll: ", 0) == 0)
+            own = line;
+        else if (line.find("[error]") != std::string::npos || line.find("[critical]") != std::string::npos)
+            logged = line;
+    }
+    std::string why = !sanitizer.empty() ? sanitizer : !own.empty() ? own : logged;
+    if (why.size() > 300) why = why.substr(0, 297) + "...";
+    return why;
+}
+
 }  // namespace lockroll::harness

@@ -18,5 +18,11 @@ std::string read_text(const std::filesystem::path& p);
 // Comma-separated cells of every line after the header line (no quoting: the processes write
 // none).
 std::vector<std::vector<std::string>> read_csv_rows(const std::filesystem::path& p);
+// The line of a child's stderr log that says why it failed, so a run's report names the cause
+// without anyone opening the log: a sanitizer's first report line ("ERROR: AddressSanitizer:
+// ...", "...: runtime error: ..."), else the program's last own line ("lockroll: error: ..."),
+// else the last error- or critical-level log line; trimmed to 300 bytes. Empty when the log is
+// missing or holds none of these.
+std::string failure_line(const std::filesystem::path& stderr_log);
 
 }  // namespace lockroll::harness

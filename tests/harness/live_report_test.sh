@@ -21,7 +21,7 @@ checker="$here/live_report_check.py"
 #    reports partitioned, truthfully, and the run is not the one this test is about.)
 "$lockroll" live --players 3 --frames 600 --latency 8 --jitter 2 --mode rollback --no-virtual --join 1@60 \
     --kill 2@240 --rejoin 2@420 --spectators 1 --disconnect-timeout 1 --out "$tmp/run" >"$tmp/run.out" 2>&1 ||
-    { fail "run: exit status $?"; tail -20 "$tmp/run.out"; }
+    { fail "run: exit status $?"; tail -20 "$tmp/run.out"; show_logs "$tmp/run"; }
 if grep -q "INCOMPLETE" "$tmp/run.out"; then fail "run: the console says INCOMPLETE though every survivor and joiner completed"; fi
 grep -q "note .*p2 (slot 2): killed by --kill at frame" "$tmp/run.out" || fail "run: the console does not say what happened to p2"
 check run "$tmp/run" rollback '
@@ -73,7 +73,7 @@ else fail "the failed run's report differs from the raw data"; cat "$tmp/check-f
 # 4. Both modes: compare's three columns (lockstep, rollback, rollback at input delay 0), each
 #    recomputed from its own processes' files.
 "$lockroll" live --players 2 --frames 240 --latency 10 --jitter 3 --mode both --no-virtual \
-    --out "$tmp/both" >"$tmp/both.out" 2>&1 || { fail "both: exit status $?"; tail -20 "$tmp/both.out"; }
+    --out "$tmp/both" >"$tmp/both.out" 2>&1 || { fail "both: exit status $?"; tail -20 "$tmp/both.out"; show_logs "$tmp/both"; }
 column=1
 for mode in lockstep rollback rollback-delay0; do
     if /usr/bin/python3 "$checker" "$tmp/both" "$mode" "$tmp/both/report.md" "$column" >"$tmp/check-$mode.out"; then
