@@ -45,22 +45,37 @@ void RigidSolver::solve_angular(const Point& p, AngularRows& r, Bodies& bodies, 
     const bool move_a = a.inv_mass.raw != 0, move_b = b.inv_mass.raw != 0;
     if (build) {
         // I^-1 d: an isotropic body's scalar times d, a box's world inverse inertia times d,
-        // zero for a static body (whose inverse inertia is zero anyway).
+        // zero for a static body (whose inverse inertia is zero anyway). Only the rows in use
+        // are built.
         const auto inertia_times = [&](const SolverBody& body, BodyId id, const Vec3& d) {
             if (body.inv_mass.raw == 0) return Vec3{};
             if (body.iso_inv_inertia.raw >= 0) return d * body.iso_inv_inertia;
             return inv_i_world_[id] * d;
         };
+        // Both bodies isotropic (or static): every unit direction has the effective mass
+        // 1 / (s_a + s_b), taken once (spheres, the common case: one division, not three).
+        const auto iso = [](const SolverBody& body) { return body.inv_mass.raw == 0 ? Fixed::zero() : body.iso_inv_inertia; };
+        const Fixed sa = iso(a), sb = iso(b);
+        const bool isotropic = sa.raw >= 0 && sb.raw >= 0;
+        const Fixed iso_inv = sa + sb;
+        const Fixed iso_mass = isotropic && iso_inv.raw > 0 ? reciprocal(iso_inv) : Fixed::zero();
         const Vec3* dirs[3] = {&p.n, &p.t1, &p.t2};
-        for (int k = 0; k < 3; ++k) {
+        for (int k = spin_mu_.raw > 0 ? 0 : 1; k < (roll_mu_.raw > 0 ? 3 : 1); ++k) {
             const Vec3& d = *dirs[k];
             r.ia[k] = inertia_times(a, p.a, d);
             r.ib[k] = inertia_times(b, p.b, d);
-            const Fixed inv = dot(d, r.ia[k]) + dot(d, r.ib[k]);
-            r.mass[k] = inv.raw > 0 ? reciprocal(inv) : Fixed::zero();
-            r.acc[k] = Fixed::zero();
+            if (isotropic) {
+                r.mass[k] = iso_mass;
+            } else {
+                const Fixed inv = dot(d, r.ia[k]) + dot(d, r.ib[k]);
+                r.mass[k] = inv.raw > 0 ? reciprocal(inv) : Fixed::zero();
+            }
         }
+        r.acc[0] = r.acc[1] = r.acc[2] = Fixed::zero();
     }
+    // Not pressing and nothing accumulated: every bound is 0 and no impulse to take back (most
+    // speculative points).
+    if (p.pn.raw == 0 && r.acc[0].raw == 0 && r.acc[1].raw == 0 && r.acc[2].raw == 0) return;
     const auto apply = [&](int k, Fixed l) {
         if (move_a) a.w -= r.ia[k] * l;
         if (move_b) b.w += r.ib[k] * l;
