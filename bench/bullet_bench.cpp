@@ -11,6 +11,12 @@
 // 0.05 rad/s, 0.5 s) in every lockroll scene, and Bullet's deactivation for every dynamic body
 // with the same rule (setSleepingThresholds(linear, angular), gDeactivationTime = time), so
 // both engines sleep alike; with --settle it also prints how many bodies each has asleep.
+// `--spin MU` and `--roll MU` set rigid.spinning_friction and rigid.rolling_friction (metres)
+// in every lockroll scene and the same coefficients in Bullet: setSpinningFriction and
+// setRollingFriction on every body, and each contact point's combined values set to MU in the
+// material callback (Bullet would otherwise combine them as spin_a mu_b + mu_a spin_b). Bullet
+// builds its torsional rows only when the combined rolling friction is > 0: with --spin alone
+// its rolling coefficient is 1e-9 (no measurable resistance) so the spin row exists.
 // Players are driven as in the paper scene's matches: each slot's input is the random bot's
 // (harness/match/bots.h, seed 1, 4 changes a second, as `lockroll compare` runs them), a pure
 // function of slot and frame, and both engines apply it by lockroll's controller rule
@@ -89,12 +95,17 @@ struct Materials {
     }
 };
 Materials g_materials;
+double g_spin = 0, g_roll = 0;  // --spin, --roll (metres)
+// Bullet's combined rolling friction: > 0 whenever either is on (see the header).
+double bullet_roll() { return g_roll > 0 ? g_roll : g_spin > 0 ? 1e-9 : 0; }
 
 bool material_callback(btManifoldPoint& cp, const btCollisionObjectWrapper* a, int, int, const btCollisionObjectWrapper* b,
                        int, int) {
     const int ia = a->getCollisionObject()->getUserIndex(), ib = b->getCollisionObject()->getUserIndex();
     cp.m_combinedRestitution = static_cast<btScalar>(g_materials.restitution(ia, ib));
     cp.m_combinedFriction = static_cast<btScalar>(g_materials.friction(ia, ib));
+    cp.m_combinedSpinningFriction = static_cast<btScalar>(g_spin);
+    cp.m_combinedRollingFriction = static_cast<btScalar>(bullet_roll());
     return true;
 }
 
@@ -142,6 +153,8 @@ public:
             auto body = std::make_unique<btRigidBody>(info);
             body->setUserIndex(static_cast<int>(i));
             body->setCollisionFlags(body->getCollisionFlags() | btCollisionObject::CF_CUSTOM_MATERIAL_CALLBACK);
+            body->setSpinningFriction(static_cast<btScalar>(g_spin));
+            body->setRollingFriction(static_cast<btScalar>(bullet_roll()));
             if (mass > 0) {
                 body->setLinearVelocity(vec(b.velocity));
                 body->setAngularVelocity(vec(b.angular_velocity));
@@ -350,6 +363,10 @@ int main(int argc, char** argv) {
     app.add_flag("--sleep", g_sleep,
                  "Both engines sleep: rigid.sleeping on in every scene, Bullet's deactivation with the same "
                  "thresholds and time (else both step every body)");
+    app.add_option("--spin", g_spin, "Spinning friction (metres) in both engines: rigid.spinning_friction")
+        ->check(CLI::Range(0.0, 1.0));
+    app.add_option("--roll", g_roll, "Rolling resistance (metres) in both engines: rigid.rolling_friction")
+        ->check(CLI::Range(0.0, 1.0));
     app.add_flag("--lockroll-only", lockroll_only, "With --settle: leave Bullet out (quick what-ifs on scene files)");
     try {
         app.parse(argc, argv);
@@ -382,6 +399,12 @@ int main(int argc, char** argv) {
         for (sim::SceneDesc& scene : loaded) scene.rigid.sleeping.enabled = true;
         // One time for every scene (Bullet's is a global): the first scene's.
         gDeactivationTime = static_cast<btScalar>(num(loaded.front().rigid.sleeping.time));
+    }
+    for (sim::SceneDesc& scene : loaded) {
+        // The bench's doubles to Fixed by the loader's own parser (the same bits as in JSON).
+        const auto fixed = [](double v) { return *sim::Fixed::parse(std::to_string(v)); };
+        if (g_spin > 0) scene.rigid.spinning_friction = fixed(g_spin);
+        if (g_roll > 0) scene.rigid.rolling_friction = fixed(g_roll);
     }
     if (settle_frames > 0) {
         for (const sim::SceneDesc& scene : loaded) {

@@ -222,6 +222,9 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     }
     dynamic_ = k.dynamic_ids();
     impulse_capacity_ = warm_ ? kImpulsesPerBody * dynamic_.size() : 0;
+    spin_mu_ = rg.spinning_friction;
+    roll_mu_ = rg.rolling_friction;
+    spin_roll_ = spin_mu_.raw > 0 || roll_mu_.raw > 0;
     sleep_ = rg.sleeping.enabled;
     if (sleep_) {
         every_dynamic_ = dynamic_;
@@ -702,6 +705,11 @@ void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t firs
 }
 
 void RigidSolver::solve(const std::vector<ContactImpulse>& impulses) {
+    // One branch a step when off (sim/rigid_solver_angular_friction.cpp has the other loop).
+    if (spin_roll_) {
+        solve_with_angular(impulses);
+        return;
+    }
     if (warm_) warm_start(impulses, AllPoints{});
     for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, AllPoints{});
 }

@@ -26,6 +26,9 @@
 //     solves every normal row before every friction row, odd passes in reverse order.
 //     With rigid.block_solver (either way, rows ordered as with warm starting) each manifold's
 //     normal rows are swept forward and back until they stop changing before the next manifold.
+//      With rigid.spinning_friction or rigid.rolling_friction each pass is followed, over the
+//      same points, by their angular rows: about n, |impulse| <= mu_spin pn; about t1, t2, on
+//      the disc of radius mu_roll pn (sim/rigid_solver_angular_friction.cpp; no warm start).
 //  5a. (rigid.split_impulse) the overlap beyond slop is not in the targets of step 4 (a
 //     pressing point's target is 0): `iterations` passes over the normal rows solve it on
 //     separate pseudo velocities, which move the bodies in step 6 and are then dropped.
@@ -364,6 +367,29 @@ private:
     // reached sleep_frames_ falls asleep: v = w = 0, kAsleep, its carried impulses dropped.
     void fall_asleep(std::vector<Vec3>& vel, std::vector<Vec3>& angvel, std::vector<ContactImpulse>& impulses,
                      std::vector<std::uint32_t>& sleep);
+    // rigid.spinning_friction and rigid.rolling_friction (sim/rigid_solver_angular_friction.cpp;
+    // docs/physics.md, "Spinning and rolling friction"). Each point's angular rows: about n
+    // (spin) and about t1, t2 (rolling), on the relative angular velocity w_b - w_a alone.
+    // They start from zero each step (scene constants, no warm start: nothing in the snapshot).
+    struct AngularRows {
+        Vec3 ia[3], ib[3];  // I_a^-1 d, I_b^-1 d for d = n, t1, t2 (zero for a static body)
+        Fixed mass[3];      // 1 / (d.ia + d.ib), or 0
+        Fixed acc[3];       // accumulated angular impulses (N m s)
+    };
+    // Sizes angular_rows_ to the step's points (before the iterations; sequential).
+    void prepare_angular();
+    // solve() with the angular rows: each pass's angular_sweep() after its solve_pass(). Kept
+    // out of rigid_solver.cpp, so the sequential step's loop is what it was (one branch a step).
+    void solve_with_angular(const std::vector<ContactImpulse>& impulses);
+    // One sweep of the angular rows over `points`, right after solve_pass() over the same
+    // points (its callers: solve(), solve_islands(), solve_coloured()), in the direction of the
+    // pass's friction sweep; pass 0 builds each point's rows first. Called only when
+    // spin_roll_ (one branch a pass when off: solve_pass() itself is unchanged).
+    template <class Points>
+    void angular_sweep(Bodies& bodies, int pass, Points points);
+    // Point p's spin row (|impulse| <= spin_mu_ pn), then its rolling pair (the impulse on the
+    // tangent plane clamped to the disc of radius roll_mu_ pn), Gauss-Seidel, rows `r`.
+    void solve_angular(const Point& p, AngularRows& r, Bodies& bodies, bool build) const;
     static constexpr BodyId kEveryBody = ~BodyId{0};
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
@@ -387,6 +413,8 @@ private:
     bool enabled_ = false, damped_ = false, shock_ = false, warm_ = false, split_ = false, reduce_ = false, block_ = false;
     bool colour_ = false;
     bool sleep_ = false;
+    bool spin_roll_ = false;  // spin_mu_ or roll_mu_ > 0
+    Fixed spin_mu_, roll_mu_;  // metres (torque per unit normal force)
     std::uint32_t sleep_frames_ = 0;
     u128 sleep_lin_sq_{}, sleep_ang_sq_{};  // the thresholds' squares, as length_sq_wide gives them
     std::size_t impulse_capacity_ = 0;
@@ -428,6 +456,8 @@ private:
     // Grown without zero-filling: build_points() writes every member of a point before any
     // pass reads it (sim/uninitialized_allocator.h).
     std::vector<Point, UninitializedAllocator<Point>> points_;
+    // By point (points_' index): spinning and rolling rows, only when spin_roll_.
+    std::vector<AngularRows, UninitializedAllocator<AngularRows>> angular_rows_;
     // rigid.block_solver, or a parallel (or coloured) step: first point of each manifold, then
     // points_.size() (empty otherwise); a coloured step numbers the manifolds colour by colour
     // (lay_out_colours()).

@@ -44,10 +44,14 @@ void RigidSolver::each_colour(const ParallelTasks& tasks, bool backwards, F&& f)
 }
 
 void RigidSolver::solve_coloured(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
+    if (spin_roll_) prepare_angular();
     if (warm_) each_colour(tasks, false, [&](ManifoldRange range) { warm_start(impulses, range); });
     const bool alternate = warm_ || block_;
     for (int pass = 0; pass < iterations_; ++pass)
-        each_colour(tasks, alternate && (pass & 1) != 0, [&](ManifoldRange range) { solve_pass(bodies_, pass, range); });
+        each_colour(tasks, alternate && (pass & 1) != 0, [&](ManifoldRange range) {
+            solve_pass(bodies_, pass, range);
+            if (spin_roll_) angular_sweep(bodies_, pass, range);
+        });
 }
 
 void RigidSolver::split_coloured(const ParallelTasks& tasks) {

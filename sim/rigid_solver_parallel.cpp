@@ -86,12 +86,16 @@ void RigidSolver::scatter_parallel(std::vector<Vec3>& vel, std::vector<Vec3>& an
 
 void RigidSolver::solve_islands(const std::vector<ContactImpulse>& impulses, const ParallelTasks& tasks) {
     islands_.build(bodies_.size(), links_, tasks);
+    if (spin_roll_) prepare_angular();
     const std::size_t pieces = std::min(tasks.piece_count(links_.size(), kManifoldGrain), islands_.count());
     tasks.run(pieces, [&](std::size_t k) {
         for (std::size_t i = islands_.first(pieces, k), e = islands_.first(pieces, k + 1); i < e; ++i) {
             const ManifoldSet set = islands_.links(i);
             if (warm_) warm_start(impulses, set);
-            for (int pass = 0; pass < iterations_; ++pass) solve_pass(bodies_, pass, set);
+            for (int pass = 0; pass < iterations_; ++pass) {
+                solve_pass(bodies_, pass, set);
+                if (spin_roll_) angular_sweep(bodies_, pass, set);
+            }
         }
     });
 }

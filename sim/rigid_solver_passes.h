@@ -1,7 +1,8 @@
 // RigidSolver's passes over the contact points (sim/rigid_solver.h), as templates over which
 // points they visit: every point (AllPoints, the sequential step), one island's manifolds
 // (ManifoldSet, the parallel step) or a run of a coloured scene's manifolds (ManifoldRange).
-// Included by rigid_solver.cpp, which instantiates them for AllPoints only, by
+// Included by rigid_solver.cpp, which instantiates them for AllPoints only (as does
+// rigid_solver_angular_friction.cpp, for the spinning and rolling rows' own loop), by
 // rigid_solver_parallel.cpp for ManifoldSet only and by rigid_solver_coloured.cpp for
 // ManifoldRange only: the sequential step's file then holds the loops it ran before the
 // parallel step existed, and its inlining is not shared with the other versions
@@ -81,6 +82,19 @@ void RigidSolver::solve_pass(Bodies& bodies, int pass, Points points) {
         sweep(Rows::Normal);
     }
     sweep(Rows::Friction);
+}
+
+// Each point's rows sit at its own index in angular_rows_, so any subset of the points (an
+// island, a colour's range) reaches its rows without a lookup.
+// Out of line (cold when off): inlined into solve()'s loop it grew the sequential file's code
+// and gcc stopped inlining solve_pass() there (90 instructions a step on paper_rigid).
+template <class Points>
+[[gnu::noinline]] void RigidSolver::angular_sweep(Bodies& bodies, int pass, Points points) {
+    // The direction the pass's friction sweep went (solve_pass()).
+    const bool backwards = (warm_ || block_) && (pass & 1) != 0;
+    each_point(points, backwards, [&](Point& p) {
+        solve_angular(p, angular_rows_[static_cast<std::size_t>(&p - points_.data())], bodies, pass == 0);
+    });
 }
 
 template <class Points>

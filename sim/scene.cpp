@@ -185,6 +185,10 @@ std::string validate(const SceneDesc& scene) {
         if (sl.angular_speed.raw <= 0 || sl.angular_speed > Fixed::from_int(100))
             return "rigid.sleeping.angular_speed must be within (0, 100]";
         if (sl.time.raw <= 0 || sl.time > Fixed::from_int(60)) return "rigid.sleeping.time must be within (0, 60]";
+        if (rg.spinning_friction.raw < 0 || rg.spinning_friction > Fixed::one())
+            return "rigid.spinning_friction must be within [0, 1] (metres)";
+        if (rg.rolling_friction.raw < 0 || rg.rolling_friction > Fixed::one())
+            return "rigid.rolling_friction must be within [0, 1] (metres)";
     }
     std::set<int> slots;
     for (std::size_t i = 0; i < scene.bodies.size(); ++i) {

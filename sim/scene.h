@@ -164,6 +164,13 @@ struct RigidDesc {
         Fixed angular_speed = Fixed::ratio(1, 20);  // 0.05 rad/s
         Fixed time = Fixed::from_raw(Fixed::kOne / 2);            // 0.5 s
     } sleeping;
+    // Spinning (torsional) friction and rolling resistance (docs/physics.md, "Spinning and
+    // rolling friction"): per contact point, an angular impulse about the normal of at most
+    // spinning_friction times the point's normal impulse, and one about the tangent plane of at
+    // most rolling_friction times it. Each coefficient is a length (metres: torque per unit of
+    // normal force, Bullet's convention), 0 (the default) is off and costs nothing. Scene
+    // constants, not state: the rows start from zero each step (no warm start).
+    Fixed spinning_friction, rolling_friction;
 
     RigidDesc();
 };

@@ -235,7 +235,8 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     }
     r.expect_object({"friction", "static_friction", "linear_damping", "angular_damping", "baumgarte", "slop",
                      "restitution_threshold", "shock_propagation", "warm_starting", "split_impulse",
-                     "reduce_manifold", "block_solver", "graph_colouring", "sleeping"});
+                     "reduce_manifold", "block_solver", "graph_colouring", "sleeping",
+                     "spinning_friction", "rolling_friction"});
     auto table = [&](const char* key, sim::Fixed (&t)[sim::kShapeCount][sim::kShapeCount]) {
         const Reader tr = r.at(key);
         if (tr.raw().is_object()) {
@@ -263,6 +264,9 @@ void read_rigid(const Reader& r, sim::RigidDesc& rg) {
     if (r.has("block_solver")) rg.block_solver = r.at("block_solver").boolean();
     if (r.has("graph_colouring")) rg.graph_colouring = r.at("graph_colouring").boolean();
     if (r.has("sleeping")) read_sleeping(r.at("sleeping"), rg.sleeping);
+    // Lengths in metres (torque per unit normal force); sim::validate bounds them again.
+    if (r.has("spinning_friction")) rg.spinning_friction = r.at("spinning_friction").fixed_in("0", "1");
+    if (r.has("rolling_friction")) rg.rolling_friction = r.at("rolling_friction").fixed_in("0", "1");
 }
 
 // Rigid-only body keys: a clear message when the scene is not rigid.
