@@ -249,5 +249,20 @@ TEST(SceneLoader, RigidSleepingReadsItsThresholdsAndRejectsBadOnes) {
     EXPECT_EQ(error_of(R"({"rigid": {"sleeping": {"speed": 1}}})").find("test.json: /rigid/sleeping"), 0u);
 }
 
+// rigid.spinning_friction and rigid.rolling_friction: metres, absent = 0 (off).
+TEST(SceneLoader, RigidSpinningAndRollingFrictionReadAsMetresAndRejectBadOnes) {
+    const sim::SceneDesc off = parse_scene(R"({"rigid": true})", "t.json");
+    EXPECT_EQ(off.rigid.spinning_friction, sim::Fixed::zero());
+    EXPECT_EQ(off.rigid.rolling_friction, sim::Fixed::zero());
+    const sim::SceneDesc on = parse_scene(R"({"rigid": {"spinning_friction": 0.02, "rolling_friction": 0.005}})", "t.json");
+    EXPECT_EQ(on.rigid.spinning_friction, *sim::Fixed::parse("0.02"));
+    EXPECT_EQ(on.rigid.rolling_friction, *sim::Fixed::parse("0.005"));
+    EXPECT_EQ(error_of(R"({"rigid": {"spinning_friction": -1}})"),
+              "test.json: /rigid/spinning_friction: must be within [0, 1], got -1");
+    EXPECT_EQ(error_of(R"({"rigid": {"rolling_friction": 2}})"),
+              "test.json: /rigid/rolling_friction: must be within [0, 1], got 2");
+    EXPECT_EQ(error_of(R"({"rigid": {"rolling_friction": "x"}})"), "test.json: /rigid/rolling_friction: expected a number");
+}
+
 }  // namespace
 }  // namespace lockroll::harness
