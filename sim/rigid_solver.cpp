@@ -228,7 +228,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
         player_.assign(n, 0);
         for (std::size_t i = 0; i < n; ++i) player_[i] = scene.bodies[i].player >= 0;
         mark_.assign(n, 0);
-        root_.assign(n, 0);
+        components_.reset(n);
         // ceil(time * tick_rate): time is Q32.32, so the product's raw value over 2^32, up.
         const i128 t = mul_wide(rg.sleeping.time.raw, scene.tick_rate);
         const auto whole = static_cast<std::uint64_t>(static_cast<u128>(t) >> Fixed::kFracBits);
