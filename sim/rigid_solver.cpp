@@ -627,15 +627,16 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         p.feature = c.feature;
         p.n = c.normal;
         // The tangent basis is a function of n alone: an axis's comes from a table the general
-        // arithmetic made, and a manifold's points that share a normal (box faces) share it.
-        p.axis_n = axis_code(p.n);
-        if (p.axis_n != 0) {
-            rigid_detail::axis_tangents(p.axis_n, p.t1, p.t2, p.axis_t1, p.axis_t2);
-        } else if (i > 0 && p.n == out[i - 1].n) {
+        // arithmetic made, and a manifold's points that share a normal (box faces) share it and
+        // its axis codes (the previous point's are copied: no test of n at all).
+        if (i > 0 && p.n == out[i - 1].n) {
+            p.axis_n = out[i - 1].axis_n;
             p.t1 = out[i - 1].t1;
             p.t2 = out[i - 1].t2;
             p.axis_t1 = out[i - 1].axis_t1;
             p.axis_t2 = out[i - 1].axis_t2;
+        } else if ((p.axis_n = axis_code(p.n)) != 0) {
+            rigid_detail::axis_tangents(p.axis_n, p.t1, p.t2, p.axis_t1, p.axis_t2);
         } else {
             tangents(p.n, p.t1, p.t2);
             p.axis_t1 = axis_code(p.t1);
