@@ -525,13 +525,25 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
 // here only where |c|^2 is below 2^-12 by more than its error. Any doubt (large values, an
 // axis near the limit) says false and box_box runs its loop; tests/sim/rigid_contact_test.cpp
 // compares the two on random pairs.
-bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[3], const Vec3& d, const Vec3& ha,
+// Out of line: inlined into box_box() it cost stacks_100x5 10 M instructions more over 240
+// frames (docs/performance.md, "Box-box contacts, the same bits").
+[[gnu::noinline]] bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[3], const Vec3& d, const Vec3& ha,
                          const Vec3& hb, bool exact_a, bool exact_b, std::int64_t limit) {
     constexpr std::int64_t kSmall = std::int64_t{1} << 40;  // 256 m: every product below fits
     const auto mag = [](Fixed f) { return f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw); };
     const i128 sum_a = mag(ha.x) + mag(ha.y) + mag(ha.z), sum_b = mag(hb.x) + mag(hb.y) + mag(hb.z);
     const i128 size = std::max({mag(d.x), mag(d.y), mag(d.z)}) + sum_a + sum_b;
     if (size >= kSmall || limit >= kSmall || limit <= -kSmall) return false;
+    // The wide products below stay far inside i128 (and N inside int64) for frames whose
+    // entries are at most 2 and distances along the axes below 2^42 raw (1024 m): anything
+    // else (never a rotation of a unit quaternion with the sizes above) says false.
+    constexpr std::int64_t kEntry = std::int64_t{2} << Fixed::kFracBits, kAlong = std::int64_t{1} << 42;
+    const auto mag64 = [](Fixed f) { return f.raw < 0 ? -f.raw : f.raw; };
+    for (int i = 0; i < 3; ++i) {
+        if (mag(ta[i]) >= kAlong || mag(tb[i]) >= kAlong) return false;
+        for (int j = 0; j < 3; ++j)
+            if (mag(r[i][j]) > kEntry) return false;
+    }
     const bool in_b = !exact_a && exact_b;  // the frame the formulas are taken in
     const i128 err = exact_a ? sum_b : exact_b ? sum_a : size;
     const std::int64_t e = static_cast<std::int64_t>(err >> 16) + 1024;
@@ -550,9 +562,13 @@ bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[
             const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
             const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
             if (len_sq < kSkipBelow) continue;
-            const Fixed n = abs(tp * p - tq * q) - comp(ha, i1) * abs(r[i2][j]) - comp(ha, i2) * abs(r[i1][j]) -
-                            comp(hb, j1) * abs(r[i][j2]) - comp(hb, j2) * abs(r[i][j1]);
-            const std::int64_t l = n.raw + e;
+            // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
+            // Fixed products were within 3), so the slack e covers it as before.
+            const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
+            const i128 h = mul_wide(comp(ha, i1).raw, mag64(r[i2][j])) + mul_wide(comp(ha, i2).raw, mag64(r[i1][j])) +
+                           mul_wide(comp(hb, j1).raw, mag64(r[i][j2])) + mul_wide(comp(hb, j2).raw, mag64(r[i][j1]));
+            const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
+            const std::int64_t l = n + e;
             const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
             if (bound >= 0) {
                 if (l <= 0) continue;
