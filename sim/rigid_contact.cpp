@@ -538,11 +538,13 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     // entries are at most 2 and distances along the axes below 2^42 raw (1024 m): anything
     // else (never a rotation of a unit quaternion with the sizes above) says false.
     constexpr std::int64_t kEntry = std::int64_t{2} << Fixed::kFracBits, kAlong = std::int64_t{1} << 42;
-    const auto mag64 = [](Fixed f) { return f.raw < 0 ? -f.raw : f.raw; };
+    std::int64_t ar[3][3];  // |r[i][j]|
     for (int i = 0; i < 3; ++i) {
         if (mag(ta[i]) >= kAlong || mag(tb[i]) >= kAlong) return false;
-        for (int j = 0; j < 3; ++j)
+        for (int j = 0; j < 3; ++j) {
             if (mag(r[i][j]) > kEntry) return false;
+            ar[i][j] = r[i][j].raw < 0 ? -r[i][j].raw : r[i][j].raw;
+        }
     }
     const bool in_b = !exact_a && exact_b;  // the frame the formulas are taken in
     const i128 err = exact_a ? sum_b : exact_b ? sum_a : size;
@@ -553,10 +555,11 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     const u128 b_sq = mul_wide_unsigned(b_abs, b_abs);
     // The loop skips |c|^2 < 2^-12 (2^52 in Q64.64); here |c|^2 may be off by 2^-20.
     constexpr u128 kSkipBelow = (u128{1} << 52) - (u128{1} << 45);
+    constexpr int kNext[3] = {1, 2, 0}, kAfter[3] = {2, 0, 1};
     for (int i = 0; i < 3; ++i) {
-        const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
+        const int i1 = kNext[i], i2 = kAfter[i];
         for (int j = 0; j < 3; ++j) {
-            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            const int j1 = kNext[j], j2 = kAfter[j];
             // c's two coordinates in the chosen frame, and the distances along those axes.
             const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
             const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
@@ -565,17 +568,19 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
             // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
             // Fixed products were within 3), so the slack e covers it as before.
             const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
-            const i128 h = mul_wide(comp(ha, i1).raw, mag64(r[i2][j])) + mul_wide(comp(ha, i2).raw, mag64(r[i1][j])) +
-                           mul_wide(comp(hb, j1).raw, mag64(r[i][j2])) + mul_wide(comp(hb, j2).raw, mag64(r[i][j1]));
+            const i128 h = mul_wide(comp(ha, i1).raw, ar[i2][j]) + mul_wide(comp(ha, i2).raw, ar[i1][j]) +
+                           mul_wide(comp(hb, j1).raw, ar[i][j2]) + mul_wide(comp(hb, j2).raw, ar[i][j1]);
             const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
             const std::int64_t l = n + e;
-            const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
+            // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
+            // factor, which halves the wide products below).
+            const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
             if (bound >= 0) {
                 if (l <= 0) continue;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * cc) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
             } else {
                 if (l >= 0) return false;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * (cc + 1)) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
             }
         }
     }
