@@ -9,8 +9,8 @@
 namespace lockroll::sim {
 
 namespace {
-// parent_'s atomic accesses in the parallel build. std::atomic_ref where the standard library
-// has it; libc++ 14 (the WebAssembly build's, scripts/cross-check.sh) has not, and there the
+// forest_'s parents' atomic accesses in the parallel build. std::atomic_ref where the standard
+// library has it; libc++ 14 (the WebAssembly build's, scripts/cross-check.sh) has not, and there the
 // same operations go through the compiler's __atomic builtins (gcc and clang both have them).
 #if defined(__cpp_lib_atomic_ref)
 std::uint32_t load(std::uint32_t& x, std::memory_order order) { return std::atomic_ref<std::uint32_t>(x).load(order); }
@@ -29,30 +29,15 @@ bool replace(std::uint32_t& x, std::uint32_t expected, std::uint32_t desired) {
 #endif
 }  // namespace
 
-std::uint32_t Islands::find(std::uint32_t x) {
-    while (parent_[x] != x) {
-        parent_[x] = parent_[parent_[x]];  // path halving
-        x = parent_[x];
-    }
-    return x;
-}
-
 void Islands::build(std::size_t nodes, std::span<const Link> links) {
-    parent_.resize(nodes);
-    for (std::size_t i = 0; i < nodes; ++i) parent_[i] = static_cast<std::uint32_t>(i);
-    for (const Link& l : links) {
-        if (l.a == kStatic || l.b == kStatic) continue;
-        const std::uint32_t ra = find(l.a), rb = find(l.b);
-        // The smaller root wins: the forest is a function of the links alone.
-        if (ra < rb)
-            parent_[rb] = ra;
-        else if (rb < ra)
-            parent_[ra] = rb;
-    }
+    // The smaller root wins (sim/union_find.h): the forest is a function of the links alone.
+    forest_.reset(nodes);
+    for (const Link& l : links)
+        if (l.a != kStatic && l.b != kStatic) forest_.unite(l.a, l.b);
     link_root_.resize(links.size());
     for (std::size_t k = 0; k < links.size(); ++k) {
         const std::uint32_t node = links[k].a != kStatic ? links[k].a : links[k].b;
-        link_root_[k] = node == kStatic ? kStatic : find(node);
+        link_root_[k] = node == kStatic ? kStatic : forest_.find(node);
     }
     label_.assign(nodes, kStatic);
     group(link_root_);
@@ -64,8 +49,7 @@ void Islands::build(std::size_t nodes, std::span<const Link> links, const Parall
         build(nodes, links);
         return;
     }
-    parent_.resize(nodes);
-    for (std::size_t i = 0; i < nodes; ++i) parent_[i] = static_cast<std::uint32_t>(i);
+    forest_.reset(nodes);
     const std::size_t n = links.size();
     const auto range = [&](std::size_t k, auto&& body) {
         for (std::size_t i = n * k / pieces, e = n * (k + 1) / pieces; i < e; ++i) body(links[i], i);
@@ -93,34 +77,37 @@ void Islands::build(std::size_t nodes, std::span<const Link> links, const Parall
 }
 
 void Islands::unite_concurrent(std::uint32_t a, std::uint32_t b) {
+    const std::span<std::uint32_t> parent = forest_.parents();
     for (;;) {
         std::uint32_t ra = find_concurrent(a), rb = find_concurrent(b);
         if (ra == rb) return;
         if (rb < ra) std::swap(ra, rb);
         // Link the larger root under the smaller, if it is still a root (another range may
         // have linked it meanwhile: then walk up again).
-        if (replace(parent_[rb], rb, ra)) return;
+        if (replace(parent[rb], rb, ra)) return;
     }
 }
 
 std::uint32_t Islands::find_concurrent(std::uint32_t x) {
+    const std::span<std::uint32_t> parent = forest_.parents();
     for (;;) {
-        const std::uint32_t p = load(parent_[x], std::memory_order_acquire);
+        const std::uint32_t p = load(parent[x], std::memory_order_acquire);
         if (p == x) return x;
-        const std::uint32_t gp = load(parent_[p], std::memory_order_acquire);
+        const std::uint32_t gp = load(parent[p], std::memory_order_acquire);
         // Path halving. x is not a root, so nothing links x any more; other threads only
         // shorten its path too, and any ancestor of x is a correct parent for it.
-        if (gp != p) store(parent_[x], gp);
+        if (gp != p) store(parent[x], gp);
         x = gp;
     }
 }
 
 std::uint32_t Islands::root_after_unite(std::uint32_t x) {
     // Other ranges read the same trees at the same time; nothing writes them any more, but
-    // parent_ is reached atomically everywhere in the parallel build for the race
+    // the parents are reached atomically everywhere in the parallel build for the race
     // detector's sake (relaxed loads cost a plain load).
+    const std::span<std::uint32_t> parent = forest_.parents();
     for (;;) {
-        const std::uint32_t p = load(parent_[x], std::memory_order_relaxed);
+        const std::uint32_t p = load(parent[x], std::memory_order_relaxed);
         if (p == x) return x;
         x = p;
     }

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "sim/parallel_tasks.h"
+#include "sim/union_find.h"
 
 namespace lockroll::sim {
 
@@ -48,16 +49,17 @@ private:
     // Links per range of the parallel union-find, at least.
     static constexpr std::size_t kLinkGrain = 1024;
 
-    std::uint32_t find(std::uint32_t x);
-    // parent_ in the parallel build: every access atomic (std::atomic_ref or the __atomic builtins, islands.cpp), so ranges on other
-    // threads may join and walk the same trees.
+    // forest_'s parents in the parallel build: every access atomic (std::atomic_ref or the
+    // __atomic builtins, islands.cpp), so ranges on other threads may join and walk the same
+    // trees.
     void unite_concurrent(std::uint32_t a, std::uint32_t b);
     std::uint32_t find_concurrent(std::uint32_t x);
     std::uint32_t root_after_unite(std::uint32_t x);
     // The numbering and grouping from each link's root (kStatic for a link with no dynamic end).
     void group(std::span<const std::uint32_t> link_root);
 
-    std::vector<std::uint32_t> parent_, label_;  // by node
+    UnionFind forest_;                           // by node
+    std::vector<std::uint32_t> label_;           // by node
     std::vector<std::uint32_t> link_root_;       // by link: its root, or kStatic
     std::vector<std::uint32_t> island_of_;       // by link
     std::vector<std::uint32_t> start_, order_;   // links grouped by island

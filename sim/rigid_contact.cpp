@@ -393,6 +393,16 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     face_point(c, box, k, sign[k] < 0, far_is_t1 ? f.t1 : f.t0, far_is_t1 ? f.code1 : f.code0, m);
 }
 
+// The identity rotation exactly (an unturned box: every room wall, and a box that has not turned
+// yet). Multiplying by it, either way round, gives v bit for bit (each dot product with a unit
+// axis is one exact term rounded once), so the products are skipped.
+// Always inline: point_box() is a hot caller too (called out of line, it cost paper_rigid
+// ~190 instructions a step).
+[[gnu::always_inline]] inline bool identity(const Mat3& m) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one();
+    return m.row[0] == Vec3{one, zero, zero} && m.row[1] == Vec3{zero, one, zero} && m.row[2] == Vec3{zero, zero, one};
+}
+
 // Box-box by the separating-axis test over the 15 axes (3 face normals of each box, 9 edge
 // cross products). A face axis with the least penetration gives a face contact: the incident
 // box's face most opposed to it, clipped (Sutherland-Hodgman) to the reference face's side
@@ -413,7 +423,9 @@ struct Poly {
 };
 
 // Keeps the part of poly where dot(dir, p) <= limit; `plane` (0..3) names the side plane.
-void clip(const Poly& in, const Vec3& dir, Fixed limit, int plane, Poly& out) {
+// unit: dir is exactly +-e_k (unit = +-(k + 1), else 0): dot(dir, p) is then +-p_k bit for bit
+// (one exact term rounded once; -p_k saturates as the rounding does), taken without products.
+void clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int plane, Poly& out) {
     out.n = 0;
     const auto push = [&](const Vec3& p, int id, int edge) {
         if (out.n >= 8) return;
@@ -421,11 +433,20 @@ void clip(const Poly& in, const Vec3& dir, Fixed limit, int plane, Poly& out) {
         out.id[out.n] = static_cast<std::uint8_t>(id);
         out.edge[out.n++] = static_cast<std::uint8_t>(edge);
     };
+    // Each vertex's signed distance once: the end of one edge is the start of the next.
+    Fixed dist[8];
+    if (unit == 0) {
+        for (int i = 0; i < in.n; ++i) dist[i] = dot(dir, in.v[i]) - limit;
+    } else {
+        const int k = (unit > 0 ? unit : -unit) - 1;
+        for (int i = 0; i < in.n; ++i) dist[i] = (unit > 0 ? comp(in.v[i], k) : -comp(in.v[i], k)) - limit;
+    }
     for (int i = 0; i < in.n; ++i) {
+        const int next = i + 1 == in.n ? 0 : i + 1;
         const Vec3& p = in.v[i];
-        const Vec3& q = in.v[(i + 1) % in.n];
+        const Vec3& q = in.v[next];
         const int on = in.edge[i];
-        const Fixed dp = dot(dir, p) - limit, dq = dot(dir, q) - limit;
+        const Fixed dp = dist[i], dq = dist[next];
         if (dp.raw <= 0) push(p, in.id[i], on);
         if ((dp.raw < 0) != (dq.raw < 0) && dp.raw != 0 && dq.raw != 0) {
             const int id = on < 4 ? 4 + 4 * plane + on : 20 + 4 * (on - 4) + plane;
@@ -462,13 +483,15 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     a.v[2] = fc - eu - ev;
     a.v[3] = fc + eu - ev;
     for (int i = 0; i < 4; ++i) a.id[i] = a.edge[i] = static_cast<std::uint8_t>(i);
-    // Side planes of the reference face.
+    // Side planes of the reference face (an unturned reference's are unit axes: identity()).
+    const bool unturned = identity(*ref.rot);
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
         const Vec3 axis = column(*ref.rot, t);
         const Fixed c = dot(axis, ref.center), h = comp(ref.half, t);
-        clip(a, axis, c + h, 2 * s - 2, b);
-        clip(b, -axis, h - c, 2 * s - 1, a);
+        const int unit = unturned ? t + 1 : 0;
+        clip(a, axis, unit, c + h, 2 * s - 2, b);
+        clip(b, -axis, -unit, h - c, 2 * s - 1, a);
     }
     const Fixed plane = dot(n, ref.center) + comp(ref.half, k);
     // Which box is the reference is part of the feature: the other choice gives other points.
@@ -502,13 +525,27 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
 // here only where |c|^2 is below 2^-12 by more than its error. Any doubt (large values, an
 // axis near the limit) says false and box_box runs its loop; tests/sim/rigid_contact_test.cpp
 // compares the two on random pairs.
-bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[3], const Vec3& d, const Vec3& ha,
+// Out of line: inlined into box_box() it cost stacks_100x5 10 M instructions more over 240
+// frames (docs/performance.md, "Box-box contacts, the same bits").
+[[gnu::noinline]] bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[3], const Vec3& d, const Vec3& ha,
                          const Vec3& hb, bool exact_a, bool exact_b, std::int64_t limit) {
     constexpr std::int64_t kSmall = std::int64_t{1} << 40;  // 256 m: every product below fits
     const auto mag = [](Fixed f) { return f.raw < 0 ? -static_cast<i128>(f.raw) : static_cast<i128>(f.raw); };
     const i128 sum_a = mag(ha.x) + mag(ha.y) + mag(ha.z), sum_b = mag(hb.x) + mag(hb.y) + mag(hb.z);
     const i128 size = std::max({mag(d.x), mag(d.y), mag(d.z)}) + sum_a + sum_b;
     if (size >= kSmall || limit >= kSmall || limit <= -kSmall) return false;
+    // The wide products below stay far inside i128 (and N inside int64) for frames whose
+    // entries are at most 2 and distances along the axes below 2^42 raw (1024 m): anything
+    // else (never a rotation of a unit quaternion with the sizes above) says false.
+    constexpr std::int64_t kEntry = std::int64_t{2} << Fixed::kFracBits, kAlong = std::int64_t{1} << 42;
+    std::int64_t ar[3][3];  // |r[i][j]|
+    for (int i = 0; i < 3; ++i) {
+        if (mag(ta[i]) >= kAlong || mag(tb[i]) >= kAlong) return false;
+        for (int j = 0; j < 3; ++j) {
+            if (mag(r[i][j]) > kEntry) return false;
+            ar[i][j] = r[i][j].raw < 0 ? -r[i][j].raw : r[i][j].raw;
+        }
+    }
     const bool in_b = !exact_a && exact_b;  // the frame the formulas are taken in
     const i128 err = exact_a ? sum_b : exact_b ? sum_a : size;
     const std::int64_t e = static_cast<std::int64_t>(err >> 16) + 1024;
@@ -518,25 +555,32 @@ bool edges_cannot_matter(const Fixed r[3][3], const Fixed ta[3], const Fixed tb[
     const u128 b_sq = mul_wide_unsigned(b_abs, b_abs);
     // The loop skips |c|^2 < 2^-12 (2^52 in Q64.64); here |c|^2 may be off by 2^-20.
     constexpr u128 kSkipBelow = (u128{1} << 52) - (u128{1} << 45);
+    constexpr int kNext[3] = {1, 2, 0}, kAfter[3] = {2, 0, 1};
     for (int i = 0; i < 3; ++i) {
-        const int i1 = (i + 1) % 3, i2 = (i + 2) % 3;
+        const int i1 = kNext[i], i2 = kAfter[i];
         for (int j = 0; j < 3; ++j) {
-            const int j1 = (j + 1) % 3, j2 = (j + 2) % 3;
+            const int j1 = kNext[j], j2 = kAfter[j];
             // c's two coordinates in the chosen frame, and the distances along those axes.
             const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
             const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
             const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
             if (len_sq < kSkipBelow) continue;
-            const Fixed n = abs(tp * p - tq * q) - comp(ha, i1) * abs(r[i2][j]) - comp(ha, i2) * abs(r[i1][j]) -
-                            comp(hb, j1) * abs(r[i][j2]) - comp(hb, j2) * abs(r[i][j1]);
-            const std::int64_t l = n.raw + e;
-            const u128 cc = len_sq >> 32;  // |c|^2 in Q32.32, rounded down
+            // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
+            // Fixed products were within 3), so the slack e covers it as before.
+            const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
+            const i128 h = mul_wide(comp(ha, i1).raw, ar[i2][j]) + mul_wide(comp(ha, i2).raw, ar[i1][j]) +
+                           mul_wide(comp(hb, j1).raw, ar[i][j2]) + mul_wide(comp(hb, j2).raw, ar[i][j1]);
+            const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
+            const std::int64_t l = n + e;
+            // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
+            // factor, which halves the wide products below).
+            const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
             if (bound >= 0) {
                 if (l <= 0) continue;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * cc) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
             } else {
                 if (l >= 0) return false;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * (cc + 1)) return false;
+                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
             }
         }
     }
@@ -565,16 +609,21 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     Fixed face_sep = Fixed::min();
     int face_box = 0, face_k = 0;
     Vec3 face_n{};
+    // An unturned box's axes are the unit axes: a dot product with one is the other vector's
+    // component, bit for bit (identity()), so the floor's and an unturned box's take no products.
+    const bool a_unturned = identity(*a.rot), b_unturned = identity(*b.rot);
     for (int box = 0; box < 2; ++box) {
         const Vec3& xh = box == 0 ? a.half : b.half;
         const Vec3& yh = box == 0 ? b.half : a.half;
+        const bool unturned = box == 0 ? a_unturned : b_unturned;
         for (int k = 0; k < 3; ++k) {
             const Vec3& axis = box == 0 ? ca[k] : cb[k];
-            const Fixed dist = dot(d, axis);
+            const Fixed dist = unturned ? comp(d, k) : dot(d, axis);
             Fixed radius;
             (box == 0 ? ta : tb)[k] = dist;
             if (box == 0) {
-                for (int j = 0; j < 3; ++j) c[k][j] = dot(cb[j], axis);
+                for (int j = 0; j < 3; ++j)
+                    c[k][j] = a_unturned ? comp(cb[j], k) : b_unturned ? comp(axis, j) : dot(cb[j], axis);
                 radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
             } else {
                 radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
@@ -632,16 +681,6 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         face_contact(a, face_k, face_n, b, margin, false, m);
     else
         face_contact(b, face_k, face_n, a, margin, true, m);
-}
-}  // namespace
-
-namespace {
-// The identity rotation exactly (an unturned box: every room wall). Multiplying by it, either
-// way round, gives v bit for bit (each row's dot product is one exact term rounded once), so
-// the products are skipped.
-bool identity(const Mat3& m) {
-    const Fixed zero = Fixed::zero(), one = Fixed::one();
-    return m.row[0] == Vec3{one, zero, zero} && m.row[1] == Vec3{zero, one, zero} && m.row[2] == Vec3{zero, zero, one};
 }
 }  // namespace
 

@@ -231,7 +231,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
         player_.assign(n, 0);
         for (std::size_t i = 0; i < n; ++i) player_[i] = scene.bodies[i].player >= 0;
         mark_.assign(n, 0);
-        root_.assign(n, 0);
+        components_.reset(n);
         // ceil(time * tick_rate): time is Q32.32, so the product's raw value over 2^32, up.
         const i128 t = mul_wide(rg.sleeping.time.raw, scene.tick_rate);
         const auto whole = static_cast<std::uint64_t>(static_cast<u128>(t) >> Fixed::kFracBits);
@@ -630,15 +630,16 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         p.feature = c.feature;
         p.n = c.normal;
         // The tangent basis is a function of n alone: an axis's comes from a table the general
-        // arithmetic made, and a manifold's points that share a normal (box faces) share it.
-        p.axis_n = axis_code(p.n);
-        if (p.axis_n != 0) {
-            rigid_detail::axis_tangents(p.axis_n, p.t1, p.t2, p.axis_t1, p.axis_t2);
-        } else if (i > 0 && p.n == out[i - 1].n) {
+        // arithmetic made, and a manifold's points that share a normal (box faces) share it and
+        // its axis codes (the previous point's are copied: no test of n at all).
+        if (i > 0 && p.n == out[i - 1].n) {
+            p.axis_n = out[i - 1].axis_n;
             p.t1 = out[i - 1].t1;
             p.t2 = out[i - 1].t2;
             p.axis_t1 = out[i - 1].axis_t1;
             p.axis_t2 = out[i - 1].axis_t2;
+        } else if ((p.axis_n = axis_code(p.n)) != 0) {
+            rigid_detail::axis_tangents(p.axis_n, p.t1, p.t2, p.axis_t1, p.axis_t2);
         } else {
             tangents(p.n, p.t1, p.t2);
             p.axis_t1 = axis_code(p.t1);

@@ -53,6 +53,7 @@
 #include "sim/broadphase.h"
 #include "sim/graph_colouring.h"
 #include "sim/islands.h"
+#include "sim/union_find.h"
 #include "sim/parallel_tasks.h"
 #include "sim/rigid_contact.h"
 #include "sim/step_kernel.h"
@@ -444,10 +445,9 @@ private:
     // is a player's, and the sleep bookkeeping's scratch (by id, and the islands' links).
     std::vector<BodyId> every_dynamic_;
     std::vector<std::uint8_t> player_, mark_;
-    std::vector<std::uint32_t> root_;  // fall_asleep's union-find, by id
-    std::vector<Islands::Link> sleep_links_;
+    UnionFind components_;  // wake's and fall_asleep's union-find, by id
+    std::vector<BodyPair> sleep_links_;
     std::vector<BodyId> woken_;
-    Islands sleep_islands_;
 
     // Per step.
     std::vector<Mat3> rot_;          // body to world; static bodies set once

@@ -12,6 +12,9 @@ namespace lockroll::sim {
 
 namespace {
 constexpr std::uint32_t kAsleep = World::kAsleep;
+// wake()'s marks (mark_, by id): a sleeping body an awake dynamic body touches, and the root of
+// a component of sleeping bodies that wakes.
+constexpr std::uint8_t kTouched = 1, kWakes = 2;
 }  // namespace
 
 void RigidSolver::awake_set(const std::vector<std::uint32_t>& sleep) {
@@ -25,44 +28,34 @@ void RigidSolver::wake(std::vector<Vec3>& vel, const std::vector<Quat>& orient, 
     if (dynamic_.size() == every_dynamic_.size()) return;  // nobody asleep: every pair has an awake end
     const auto asleep = [&](BodyId id) { return sleep[id] == kAsleep; };
     const auto awake_dynamic = [&](BodyId id) { return inv_mass_[id].raw != 0 && !asleep(id); };
-    // mark_: 1 for a sleeping body that has a pair with an awake dynamic body.
+    // mark_: kTouched for a sleeping body that has a pair with an awake dynamic body.
     sleep_links_.clear();
     woken_.clear();
     for (const BodyPair& p : pairs_) {
         const bool sa = asleep(p.a), sb = asleep(p.b);
         if (sa && sb)
-            sleep_links_.push_back({p.a, p.b});
+            sleep_links_.push_back(p);
         else if (sa && awake_dynamic(p.b))
-            mark_[p.a] = 1;
+            mark_[p.a] = kTouched;
         else if (sb && awake_dynamic(p.a))
-            mark_[p.b] = 1;
+            mark_[p.b] = kTouched;
     }
-    const auto wake_one = [&](BodyId id) {
-        if (!asleep(id)) return;
-        sleep[id] = 0;
-        woken_.push_back(id);
-    };
     bool any = false;
     for (BodyId id : every_dynamic_) any = any || mark_[id] != 0;
     if (any) {
-        // Components of sleeping bodies over their pairs: one with a marked body wakes whole.
-        sleep_islands_.build(sleep.size(), sleep_links_);
-        for (std::size_t i = 0; i < sleep_islands_.count(); ++i) {
-            const auto links = sleep_islands_.links(i);
-            const bool touched = std::any_of(links.begin(), links.end(), [&](std::uint32_t k) {
-                return mark_[sleep_links_[k].a] != 0 || mark_[sleep_links_[k].b] != 0;
-            });
-            if (!touched) continue;
-            for (std::uint32_t k : links) {
-                wake_one(sleep_links_[k].a);
-                wake_one(sleep_links_[k].b);
-            }
-        }
+        // Components of sleeping bodies over their pairs (every dynamic body alone first, so an
+        // awake one stays alone): one with a touched body wakes whole. The order of waking is
+        // immaterial (woken_ is sorted below).
+        for (BodyId id : every_dynamic_) components_.isolate(id);
+        for (const BodyPair& p : sleep_links_) components_.unite(p.a, p.b);
         for (BodyId id : every_dynamic_)
-            if (mark_[id] != 0) {
-                wake_one(id);  // a marked body in no sleeping pair
-                mark_[id] = 0;
+            if ((mark_[id] & kTouched) != 0) mark_[components_.find(id)] |= kWakes;
+        for (BodyId id : every_dynamic_)
+            if ((mark_[components_.find(id)] & kWakes) != 0 && asleep(id)) {
+                sleep[id] = 0;
+                woken_.push_back(id);
             }
+        for (BodyId id : every_dynamic_) mark_[id] = 0;
     }
     if (!woken_.empty()) {
         // The woken bodies' per-body phases (v = w = 0 while asleep: no damping or control to
@@ -97,27 +90,14 @@ void RigidSolver::fall_asleep(std::vector<Vec3>& vel, std::vector<Vec3>& angvel,
     // body of it is short of the time to sleep: mark_ taints the roots of those that are.
     // (Islands::build gives the same components but also numbers and sorts the links, which
     // cost 160 M instructions over bodies_1k_rigid's 720 frames: docs/performance.md.)
-    const auto find = [&](std::uint32_t x) {
-        while (root_[x] != x) {
-            root_[x] = root_[root_[x]];  // path halving
-            x = root_[x];
-        }
-        return x;
-    };
-    for (BodyId id : dynamic_) root_[id] = id;
-    for (const BodyPair& p : pairs_) {
-        if (inv_mass_[p.a].raw == 0 || inv_mass_[p.b].raw == 0) continue;
-        const std::uint32_t ra = find(p.a), rb = find(p.b);
-        if (ra < rb)
-            root_[rb] = ra;
-        else if (rb < ra)
-            root_[ra] = rb;
-    }
+    for (BodyId id : dynamic_) components_.isolate(id);
+    for (const BodyPair& p : pairs_)
+        if (inv_mass_[p.a].raw != 0 && inv_mass_[p.b].raw != 0) components_.unite(p.a, p.b);
     for (BodyId id : dynamic_)
-        if (sleep[id] != sleep_frames_) mark_[find(id)] = 1;
+        if (sleep[id] != sleep_frames_) mark_[components_.find(id)] = 1;
     bool fell = false;
     for (BodyId id : dynamic_) {
-        if (sleep[id] != sleep_frames_ || mark_[find(id)] != 0) continue;
+        if (sleep[id] != sleep_frames_ || mark_[components_.find(id)] != 0) continue;
         sleep[id] = kAsleep;
         vel[id] = Vec3{};
         angvel[id] = Vec3{};
