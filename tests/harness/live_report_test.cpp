@@ -182,12 +182,24 @@ TEST(LiveRunResult, ProcessesThatLeftNothingAreNamedAndEveryFigureIsNa) {
     killed.killed_at_frame = 30;
     ProcessRecord silent = player(1, "", "", 1);
     silent.summary = json();  // exited without a summary
-    const RunResult r = live_run_result(p, Mode::Rollback, kNoDir, {killed, silent}, 2);
+    silent.failure = "lockroll: error: cannot create a host bound to 127.0.0.1:27589";
+    ProcessRecord mute = player(1, "", "", 1);  // a failure whose log says nothing
+    mute.name = "p1-again";
+    mute.summary = json();
+    const RunResult r = live_run_result(p, Mode::Rollback, kNoDir, {killed, silent, mute}, 2);
     EXPECT_FALSE(r.completed);
     EXPECT_TRUE(r.clients.empty());
-    ASSERT_EQ(r.notes.size(), 2u);
+    ASSERT_EQ(r.notes.size(), 3u);
     EXPECT_NE(r.notes[0].find("killed by --kill at frame 30, not rejoined"), std::string::npos) << r.notes[0];
-    EXPECT_NE(r.notes[1].find("left no summary (exit status 1)"), std::string::npos) << r.notes[1];
+    // The note quotes the process's own word on why, and names its log.
+    EXPECT_NE(r.notes[1].find("left no summary (exit status 1: lockroll: error: cannot create a host bound to 127.0.0.1:27589; "
+                              "its log: p1.stderr.log)"),
+              std::string::npos)
+        << r.notes[1];
+    EXPECT_NE(r.notes[2].find("left no summary (exit status 1; its log: p1-again.stderr.log)"), std::string::npos) << r.notes[2];
+    const json j = live_json({killed, silent, mute}, kNoDir);
+    EXPECT_EQ(j["processes"][1]["failure"].get<std::string>(), silent.failure);
+    EXPECT_EQ(j["processes"][2]["failure"].get<std::string>(), "");
     EXPECT_EQ(r.input_delay, 2);
     EXPECT_EQ(r.position_error.count, 0u);
     for (const char* field : {"position_error", "input_latency_local", "input_latency_remote", "measured_rtt"})
