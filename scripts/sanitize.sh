@@ -25,11 +25,11 @@ run_tsan() {
   cmake -S . -B "$tsan_build" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_COMPILER=clang++ \
     -DCMAKE_CXX_FLAGS_DEBUG="-O1 -gline-tables-only -fsanitize=thread" -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=thread \
     -DLOCKROLL_WERROR=ON >/dev/null  # benchmarks on: tests/server names relay_bench (built only if asked)
-  cmake --build "$tsan_build" -j"$(nproc)" --target golden_main task_pool_test parallel_tasks_test world_test islands_test
+  cmake --build "$tsan_build" -j"$(nproc)" --target golden_main task_pool_test parallel_tasks_test world_test islands_test angular_friction_test
   # halt_on_error: a race fails the test that ran into it.
   TSAN_OPTIONS=${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1} \
     ctest --test-dir "$tsan_build" --output-on-failure -j"$(nproc)" \
-      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|World\.Coloured|World\.Sleeping|Islands\.Parallel)'
+      -R '^(golden_checksums_workers_2|golden_checksums_runner_spawn|TaskPool\.|ParallelTasks\.|World\.Parallel|World\.Coloured|World\.Sleeping|AngularFriction\.SameBits|Islands\.Parallel)'
 }
 if [[ "${1:-}" == "--tsan-only" ]]; then
   run_tsan
