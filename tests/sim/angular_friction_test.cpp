@@ -11,36 +11,22 @@
 #include "sim/scene.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
+#include "tests/sim/scene_parts.h"
 
 namespace lockroll::sim {
 namespace {
 
-Fixed fx(const char* t) { return *Fixed::parse(t); }
-Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
+using test::ball;
+using test::fx;
+using test::v3;
 
 // A rigid scene without bounce on a static floor whose top face is y = 0.
 SceneDesc floor_scene(const char* spin, const char* roll) {
-    SceneDesc s;
-    s.rigid.enabled = true;
+    SceneDesc s = test::rigid_floor("50");
     s.rigid.spinning_friction = fx(spin);
     s.rigid.rolling_friction = fx(roll);
-    for (auto& row : s.restitution)
-        for (auto& e : row) e = Fixed::zero();
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-0.5", "0");
-    floor.half_extents = v3("50", "0.5", "50");
-    s.bodies.push_back(floor);
+    test::no_bounce(s);
     return s;
-}
-
-BodyDesc ball(Vec3 pos) {
-    BodyDesc b;
-    b.shape = Shape::Sphere;
-    b.radius = fx("0.5");
-    b.mass = fx("1");
-    b.position = pos;
-    return b;
 }
 
 // A 1 kg ball of radius 0.5 resting on the floor, spinning at 5 rad/s about the vertical.

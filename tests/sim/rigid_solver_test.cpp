@@ -10,35 +10,26 @@
 #include "sim/snapshot.h"
 #include "sim/rigid_solver.h"
 #include "sim/world.h"
+#include "tests/sim/scene_parts.h"
 
 namespace lockroll::sim {
 namespace {
 
-double d(Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
-Fixed fx(const char* t) { return *Fixed::parse(t); }
-Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
+using test::d;
+using test::fx;
+using test::v3;
 
 SceneDesc floor_scene(const char* mu) {
-    SceneDesc s;
-    s.rigid.enabled = true;
+    SceneDesc s = test::rigid_floor("100");
     for (auto& row : s.rigid.friction)
         for (auto& f : row) f = fx(mu);
     for (auto& row : s.rigid.static_friction)
         for (auto& f : row) f = fx(mu);
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-0.5", "0");
-    floor.half_extents = v3("100", "0.5", "100");
-    s.bodies.push_back(floor);
     return s;
 }
 
 BodyDesc ball(const char* vx, const char* wz) {
-    BodyDesc b;
-    b.shape = Shape::Sphere;
-    b.radius = fx("0.5");
-    b.mass = fx("1");
-    b.position = v3("0", "0.5", "0");
+    BodyDesc b = test::ball(v3("0", "0.5", "0"));
     b.velocity = v3(vx, "0", "0");
     b.angular_velocity = v3("0", "0", wz);
     return b;
@@ -502,14 +493,7 @@ TEST(RigidSolver, WarmStartSnapshotsAreValidatedBeforeLoading) {
 
 
 // A dynamic unit cube of 1 kg centred at (0, y, 0).
-BodyDesc cube(const char* y) {
-    BodyDesc b;
-    b.shape = Shape::Box;
-    b.mass = fx("1");
-    b.half_extents = v3("0.5", "0.5", "0.5");
-    b.position = v3("0", y, "0");
-    return b;
-}
+BodyDesc cube(const char* y) { return test::box(v3("0", y, "0"), v3("0.5", "0.5", "0.5")); }
 
 // A unit box on the floor sunk 1 cm into it, or resting on an equal static box yawed by about
 // 1.15 degrees (the two faces clip to an octagon of eight points).

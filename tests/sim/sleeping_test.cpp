@@ -9,46 +9,25 @@
 #include "sim/rigid_solver.h"
 #include "sim/snapshot.h"
 #include "sim/world.h"
+#include "tests/sim/scene_parts.h"
 
 namespace lockroll::sim {
 namespace {
 
-Fixed fx(const char* t) { return *Fixed::parse(t); }
-Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
+using test::fx;
+using test::v3;
 
 // A rigid scene with sleeping on (default thresholds: 0.05 m/s, 0.05 rad/s, 0.5 s = 30 frames
 // at 60 Hz), no bounce, and a static floor whose top face is y = 0.
 SceneDesc sleepy_floor() {
-    SceneDesc s;
-    s.rigid.enabled = true;
+    SceneDesc s = test::rigid_floor("50");
     s.rigid.sleeping.enabled = true;
-    for (auto& row : s.restitution)
-        for (auto& e : row) e = Fixed::zero();
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-0.5", "0");
-    floor.half_extents = v3("50", "0.5", "50");
-    s.bodies.push_back(floor);
+    test::no_bounce(s);
     return s;
 }
 
-BodyDesc ball(const char* x, const char* y) {
-    BodyDesc b;
-    b.shape = Shape::Sphere;
-    b.radius = fx("0.5");
-    b.mass = fx("1");
-    b.position = v3(x, y, "0");
-    return b;
-}
-
-BodyDesc box(const char* x, const char* y) {
-    BodyDesc b;
-    b.shape = Shape::Box;
-    b.half_extents = v3("0.5", "0.5", "0.5");
-    b.mass = fx("1");
-    b.position = v3(x, y, "0");
-    return b;
-}
+BodyDesc ball(const char* x, const char* y) { return test::ball(v3(x, y, "0")); }
+BodyDesc box(const char* x, const char* y) { return test::box(v3(x, y, "0"), v3("0.5", "0.5", "0.5")); }
 
 bool still(const World& w, BodyId id, const SceneDesc& s) {
     const auto sq = [](const Vec3& v) { return length_sq_wide(v); };

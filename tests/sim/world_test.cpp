@@ -12,34 +12,23 @@
 
 #include "sim/snapshot.h"
 #include "sim/world.h"
+#include "tests/sim/scene_parts.h"
 
 namespace lockroll::sim {
 namespace {
 
-double d(Fixed f) { return static_cast<double>(f.raw) / 4294967296.0; }
-Fixed fx(const char* text) { return *Fixed::parse(text); }
+using test::d;
+using test::fx;
+using test::v3;
 
 BodyDesc sphere(Vec3 pos, Vec3 vel, const char* radius, const char* mass) {
-    BodyDesc b;
-    b.shape = Shape::Sphere;
-    b.position = pos;
+    BodyDesc b = test::ball(pos, radius, mass);
     b.velocity = vel;
-    b.radius = fx(radius);
-    b.mass = fx(mass);
     return b;
 }
 
-Vec3 v3(const char* x, const char* y, const char* z) { return {fx(x), fx(y), fx(z)}; }
-
-// A static box whose top face is y = 0, `half` wide each way.
-BodyDesc floor_box(const char* half) {
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-1", "0");
-    floor.half_extents = v3(half, "1", half);
-    floor.mass = Fixed::zero();
-    return floor;
-}
+// A static box whose top face is y = 0, `half` wide each way and 2 m deep.
+BodyDesc floor_box(const char* half) { return test::floor_box(half, "1"); }
 
 TEST(World, FreeFallMatchesSemiImplicitEulerClosedForm) {
     SceneDesc s;
@@ -111,11 +100,7 @@ TEST(World, SphereOnStaticBoxBouncesWithRestitutionPointEight) {
 TEST(World, PerBodyRestitutionOverridesTable) {
     SceneDesc s;
     s.gravity = {};
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-1", "0");
-    floor.half_extents = v3("10", "1", "10");
-    s.bodies.push_back(floor);
+    s.bodies.push_back(floor_box("10"));
     BodyDesc ball = sphere(v3("0", "0.6", "0"), v3("0", "-6", "0"), "0.5", "1");
     ball.restitution = Fixed::zero();
     s.bodies.push_back(ball);
@@ -126,11 +111,7 @@ TEST(World, PerBodyRestitutionOverridesTable) {
 
 TEST(World, CapsuleStandsOnFloorAndSpheresBounceOffIt) {
     SceneDesc s;
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-1", "0");
-    floor.half_extents = v3("10", "1", "10");
-    s.bodies.push_back(floor);
+    s.bodies.push_back(floor_box("10"));
     BodyDesc cap;
     cap.shape = Shape::Capsule;
     cap.position = v3("0", "1.2", "0");
@@ -148,11 +129,7 @@ TEST(World, CapsuleStandsOnFloorAndSpheresBounceOffIt) {
 
 TEST(World, BoxesStackWithoutSinking) {
     SceneDesc s;
-    BodyDesc floor;
-    floor.shape = Shape::Box;
-    floor.position = v3("0", "-1", "0");
-    floor.half_extents = v3("10", "1", "10");
-    s.bodies.push_back(floor);
+    s.bodies.push_back(floor_box("10"));
     for (int k = 0; k < 3; ++k) {
         BodyDesc b;
         b.shape = Shape::Box;
