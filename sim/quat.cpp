@@ -16,6 +16,13 @@ Fixed to_grid(Fixed f) {
     return Fixed::from_raw(g * 4);
 }
 
+// b 2^32 + v rounded as round_wide() rounds it, for |b| < 2^34 and |v| < 2^63 (no saturation):
+// the floor of the quotient by 2^32 is b + floor(v / 2^32), the remainder v's low 32 bits.
+Fixed plus_scaled(std::int64_t b, std::int64_t v) {
+    const std::int64_t q = b + (v >> 32);  // arithmetic shift: the floor
+    const std::uint64_t rem = static_cast<std::uint64_t>(v) & 0xFFFFFFFFu;
+    return Fixed::from_raw(q + static_cast<std::int64_t>(rem + static_cast<std::uint64_t>(q & 1) > 0x80000000u));
+}
 // x * f rounded (to nearest, ties to even, as round_wide), for f = 1 + d ulp and |x.raw d| < 2^62:
 // a small() component (|x.raw| <= 2^34) with |d| < 2^28, or |x| <= 1 with |d| < kNearOne = 2^30.
 // x.raw * f.raw = x.raw 2^32 + x.raw d, so the floor of its quotient by 2^32 is x.raw +
@@ -23,11 +30,35 @@ Fixed to_grid(Fixed f) {
 // product x.raw d instead of a 128-bit one. Quat.IntegratedShortcutsGiveTheGeneralBits compares
 // renormalised() and integrated() with the 128-bit products.
 constexpr std::int64_t kNearOne = std::int64_t{1} << 30;
-Fixed times_one_plus(Fixed x, std::int64_t d) {
-    const std::int64_t v = x.raw * d;
-    const std::int64_t q = x.raw + (v >> 32);  // arithmetic shift: the floor
-    const std::uint64_t rem = static_cast<std::uint64_t>(v) & 0xFFFFFFFFu;
-    return Fixed::from_raw(q + static_cast<std::int64_t>(rem + static_cast<std::uint64_t>(q & 1) > 0x80000000u));
+Fixed times_one_plus(Fixed x, std::int64_t d) { return plus_scaled(x.raw, x.raw * d); }
+
+// The Hamilton product dq q (operator*(Quat, Quat), the same bits) for a step's rotation dq =
+// (c, v) close to 1 and q a rotation: c = 1 + dc ulp with |dc| + |v_x| + |v_y| + |v_z| below
+// 2^30 raw (a half angle under about 1/4 rad: |w| under about 30 rad/s at 60 Hz) and q's
+// components below 1.5 (raw 3 2^31). Each component of the product is c b_i plus three
+// products v_k b_j, whose exact sum is b_i 2^32 + V with V = dc b_i + sum +-v_k b_j:
+// |V| <= (|dc| + sum |v_k|) max |b| < 2^30 3 2^31 < 2^63, and so is every partial sum, in int64.
+// The floor of the sum over 2^32 is b_i + floor(V / 2^32) and its low 32 bits are V's, the
+// integers round_wide() rounds (to nearest, ties to even; no saturation this close to b_i):
+// four 64-bit products a component instead of four 128-bit ones.
+// Quat.NearOneProductGivesTheGeneralBits compares it with operator*.
+bool near_one_times(const Quat& dq, const Quat& q) {
+    constexpr std::uint64_t kStep = std::uint64_t{1} << 30, kQ = std::uint64_t{3} << 31;
+    const auto in = [](std::int64_t x) -> unsigned {  // |x| < 1.5, as one unsigned comparison
+        return static_cast<std::uint64_t>(x) + (kQ - 1) < 2 * kQ - 1;
+    };
+    // One branch, not eight.
+    if ((in(q.w.raw) & in(q.x.raw) & in(q.y.raw) & in(q.z.raw) & in(dq.w.raw) & in(dq.x.raw) & in(dq.y.raw) & in(dq.z.raw)) == 0)
+        return false;
+    // Every component below 1.5: the magnitudes and their sum are far from wrapping.
+    const auto mag = [](std::int64_t x) { return static_cast<std::uint64_t>(x < 0 ? -x : x); };
+    return mag(dq.w.raw - Fixed::kOne) + mag(dq.x.raw) + mag(dq.y.raw) + mag(dq.z.raw) < kStep;
+}
+Quat near_one_product(const Quat& dq, const Quat& q) {
+    const std::int64_t dc = dq.w.raw - Fixed::kOne, x = dq.x.raw, y = dq.y.raw, z = dq.z.raw;
+    const std::int64_t bw = q.w.raw, bx = q.x.raw, by = q.y.raw, bz = q.z.raw;
+    return {plus_scaled(bw, dc * bw - x * bx - y * by - z * bz), plus_scaled(bx, dc * bx + x * bw + y * bz - z * by),
+            plus_scaled(by, dc * by - x * bz + y * bw + z * bx), plus_scaled(bz, dc * bz + x * by - y * bx + z * bw)};
 }
 }  // namespace
 
@@ -107,7 +138,7 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
     const Quat dq = s <= Fixed::one() && d > -kNearOne && d <= 0
                         ? Quat{c, times_one_plus(a.x, d), times_one_plus(a.y, d), times_one_plus(a.z, d)}
                         : Quat{c, a.x * k, a.y * k, a.z * k};
-    return renormalised(dq * q);
+    return renormalised(near_one_times(dq, q) ? near_one_product(dq, q) : dq * q);
 }
 
 Quat normalised(const Quat& q) {

@@ -15,6 +15,10 @@ Vec3 column(const Mat3& r, int k) {
 
 Fixed& comp(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 Fixed comp(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+Vec3 unit_axis(int k) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one();
+    return k == 0 ? Vec3{one, zero, zero} : k == 1 ? Vec3{zero, one, zero} : Vec3{zero, zero, one};
+}
 
 void add(Manifold& m, const Vec3& n, const Vec3& p, Fixed depth, std::uint8_t feature) {
     if (m.count >= kMaxManifold) return;
@@ -464,15 +468,24 @@ Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
 // Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
 void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
                   bool flip, Manifold& m) {
+    // n is +-e_k exactly when the reference's axis k is a unit axis (an unturned reference: the
+    // floor, a wall): then n . v is +-v_k bit for bit (one exact term rounded once; -v_k
+    // saturates as the rounding does, as in clip()), so the dot products with n are components.
+    const int n_unit = n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
+    const auto along_n = [&](const Vec3& v) {
+        if (n_unit == 0) return dot(n, v);
+        return n_unit > 0 ? comp(v, n_unit - 1) : -comp(v, -n_unit - 1);
+    };
     // Incident face: the face of inc whose outward normal is most opposed to n.
     int j = 0;
-    Fixed best = Fixed::zero();
+    Fixed best = Fixed::zero(), along[3];
     for (int i = 0; i < 3; ++i) {
-        const Fixed c = abs(dot(n, column(*inc.rot, i)));
+        along[i] = along_n(column(*inc.rot, i));
+        const Fixed c = abs(along[i]);
         if (c > best) { best = c; j = i; }
     }
     const Vec3 ij = column(*inc.rot, j);
-    const Vec3 f = dot(n, ij).raw > 0 ? -ij : ij;  // outward normal of the incident face
+    const Vec3 f = along[j].raw > 0 ? -ij : ij;  // outward normal of the incident face
     const Vec3 fc = inc.center + f * comp(inc.half, j);
     const int u = (j + 1) % 3, v = (j + 2) % 3;
     const Vec3 eu = column(*inc.rot, u) * comp(inc.half, u), ev = column(*inc.rot, v) * comp(inc.half, v);
@@ -493,11 +506,11 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
         clip(a, axis, unit, c + h, 2 * s - 2, b);
         clip(b, -axis, -unit, h - c, 2 * s - 1, a);
     }
-    const Fixed plane = dot(n, ref.center) + comp(ref.half, k);
+    const Fixed plane = along_n(ref.center) + comp(ref.half, k);
     // Which box is the reference is part of the feature: the other choice gives other points.
     const int base = flip ? kFeatureFlipped : 0;
     for (int i = 0; i < a.n; ++i) {
-        const Fixed sep = dot(n, a.v[i]) - plane;
+        const Fixed sep = along_n(a.v[i]) - plane;
         if (sep > margin) continue;
         add(m, flip ? -n : n, a.v[i], -sep, static_cast<std::uint8_t>(base + a.id[i]));
     }
@@ -701,6 +714,8 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
     }
     const Fixed zero = Fixed::zero(), one = Fixed::one();
     Vec3 nl;
+    int axis = -1;  // nl = e_axis (-e_axis when axis_neg), or -1 for a general nl
+    bool axis_neg = false;
     if (!inside) {
         const Vec3 d = q - local;
         const u128 dsq = length_sq_wide(d);
@@ -716,6 +731,8 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
             distance = abs(c);
             nl = {zero, zero, zero};
             comp(nl, k) = c.raw > 0 ? one : -one;
+            axis = k;
+            axis_neg = c.raw < 0;
         } else {
             distance = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dsq)));
             if (distance.raw == 0) return false;
@@ -736,8 +753,19 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
         comp(nl, best_axis) = best_neg ? one : -one;
         comp(q, best_axis) = best_neg ? -comp(h, best_axis) : comp(h, best_axis);
         distance = -best;
+        axis = best_axis;
+        axis_neg = !best_neg;
     }
-    normal = unturned ? nl : r * nl;
+    // r e_k is column k bit for bit (each row's dot product has one exact term, rounded once),
+    // and r (-e_k) its negation (an entry of Fixed::min() saturates either way, counted once).
+    if (unturned) {
+        normal = nl;
+    } else if (axis >= 0) {
+        const Vec3 col = column(r, axis);
+        normal = axis_neg ? -col : col;
+    } else {
+        normal = r * nl;
+    }
     surface = box.center + (unturned ? q : r * q);
     return true;
 }

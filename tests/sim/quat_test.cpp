@@ -195,6 +195,56 @@ TEST(Quat, IntegratedShortcutsGiveTheGeneralBits) {
     EXPECT_GE(at_edge, 4);
 }
 
+// integrated() takes the Hamilton product of a step's rotation dq = (c, v) near 1 (|c - 1| +
+// |v_x| + |v_y| + |v_z| below 2^30 raw) in 64-bit products; it must give operator*'s bits:
+// rates swept in single ulps of a = w dt / 2 across that bound about each axis and about a
+// diagonal, and orientations of components 1/2 (raw 2^31), which put a product's remainder
+// exactly on a tie whenever its sum of raw factors is odd.
+TEST(Quat, NearOneProductGivesTheGeneralBits) {
+    const Fixed dt = Fixed::ratio(1, 60);
+    const Fixed h = Fixed::from_raw(std::int64_t{1} << 31);
+    const Quat halves[] = {Quat{h, h, h, h}, Quat{h, -h, h, -h}, Quat{-h, h, -h, -h}};
+    std::mt19937_64 rng(2019);
+    std::uniform_real_distribution<double> u(-1, 1);
+    // dq as integrated_general() forms it, to count the sweep's cases on each side of the bound.
+    const auto sum_of_dq = [&](const Vec3& w) {
+        const Vec3 a = w * Fixed::from_raw(dt.raw / 2);
+        const Fixed s = dot(a, a), s2 = s * s, s3 = s2 * s;
+        const Fixed c = Fixed::one() - Fixed::from_raw(s.raw / 2) + s2 * Fixed::ratio(1, 24) - s3 * Fixed::ratio(1, 720);
+        const Fixed k = Fixed::one() - s * Fixed::ratio(1, 6) + s2 * Fixed::ratio(1, 120) - s3 * Fixed::ratio(1, 5040);
+        return std::llabs(c.raw - Fixed::kOne) + std::llabs((a.x * k).raw) + std::llabs((a.y * k).raw) +
+               std::llabs((a.z * k).raw);
+    };
+    constexpr std::int64_t kBound = std::int64_t{1} << 30;
+    int near = 0, beyond = 0;
+    for (const Vec3 dir : {Vec3{Fixed::one(), Fixed::zero(), Fixed::zero()}, Vec3{Fixed::zero(), -Fixed::one(), Fixed::zero()},
+                           Vec3{Fixed::zero(), Fixed::zero(), Fixed::one()}, Vec3{Fixed::one(), -Fixed::one(), Fixed::one()}}) {
+        // The largest a along dir with sum_of_dq below the bound (the sum grows with a), by
+        // bisection; the sweep runs single ulps of a on both sides of it.
+        std::int64_t lo = 0, hi = Fixed::kOne / 2;
+        while (hi - lo > 1) {
+            const std::int64_t mid = lo + (hi - lo) / 2;
+            (sum_of_dq(dir * Fixed::from_raw(mid * 120)) < kBound ? lo : hi) = mid;
+        }
+        const std::int64_t t_edge = lo;
+        for (std::int64_t e = -400; e <= 400; ++e) {
+            const Fixed a = Fixed::from_raw(t_edge + e);
+            const Vec3 w = dir * Fixed::from_raw(a.raw * 120);  // a = w dt / 2 along dir, within a few ulps
+            (sum_of_dq(w) < kBound ? near : beyond) += 1;
+            for (const Quat& q0 : halves) ASSERT_EQ(integrated(q0, w, dt), integrated_general(q0, w, dt)) << e;
+            const Quat q = normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))});
+            ASSERT_EQ(integrated(q, w, dt), integrated_general(q, w, dt)) << e;
+        }
+    }
+    EXPECT_GT(near, 800);  // both sides of the bound, about every direction
+    EXPECT_GT(beyond, 800);
+    // Slower rates on the halves: ties in most components.
+    for (int i = 0; i < 20000; ++i) {
+        const Vec3 w{fx(u(rng) * 6), fx(u(rng) * 6), fx(u(rng) * 6)};
+        for (const Quat& q0 : halves) ASSERT_EQ(integrated(q0, w, dt), integrated_general(q0, w, dt)) << i;
+    }
+}
+
 // The thresholds below which integrated() leaves out the s^2 and s^3 terms are exactly the
 // largest s at which those terms, by the general arithmetic, round to 0: one more ulp of s and
 // one of them does not.

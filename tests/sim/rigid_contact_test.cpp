@@ -41,7 +41,8 @@ TEST(RigidContact, SphereOnFloorTouchesAtItsLowestPoint) {
 }
 
 // point_box's general arithmetic, written out: what its shortcuts for an unturned box (no
-// matrix products) and for a point off one face only (no root, no divisions) must reproduce.
+// matrix products), for a point off one face only (no root, no divisions) and for a normal
+// along a box axis (a column of the rotation, no product) must reproduce.
 bool point_box_general(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& normal, Vec3& surface,
                        Fixed& distance) {
     const Mat3& r = *box.rot;
@@ -55,7 +56,23 @@ bool point_box_general(const Vec3& p, const OrientedCollider& box, Fixed reach, 
         q[k] = clamp(lc[k], -hc[k], hc[k]);
         inside = inside && q[k] == lc[k];
     }
-    if (inside) return point_box(p, box, reach, normal, surface, distance);  // not a shortcut's case
+    if (inside) {  // out through the nearest face (ties: x, y, z), normal into the box
+        int best_axis = 0;
+        bool best_neg = false;
+        Fixed best = hc[0] - lc[0];
+        for (int k = 0; k < 3; ++k) {
+            const Fixed up = hc[k] - lc[k], down = lc[k] + hc[k];
+            if (up < best) { best = up; best_axis = k; best_neg = false; }
+            if (down < best) { best = down; best_axis = k; best_neg = true; }
+        }
+        Fixed nl[3] = {Fixed::zero(), Fixed::zero(), Fixed::zero()};
+        nl[best_axis] = best_neg ? Fixed::one() : -Fixed::one();
+        q[best_axis] = best_neg ? -hc[best_axis] : hc[best_axis];
+        distance = -best;
+        normal = r * Vec3{nl[0], nl[1], nl[2]};
+        surface = box.center + r * Vec3{q[0], q[1], q[2]};
+        return true;
+    }
     const Vec3 dl{q[0] - lc[0], q[1] - lc[1], q[2] - lc[2]};
     const u128 dsq = length_sq_wide(dl);
     if (dsq >= static_cast<u128>(mul_wide(reach.raw, reach.raw))) return false;
@@ -73,8 +90,11 @@ TEST(RigidContact, PointBoxShortcutsGiveTheGeneralBits) {
     box.shape = Shape::Box;
     box.rot = &kIdentity;
     box.half = v3(1.5, 0.5, 0.75);
-    int off_one_face = 0, off_an_edge = 0;
+    int off_one_face = 0, off_an_edge = 0, inside = 0, turned = 0;
     for (int i = 0; i < 200000; ++i) {
+        // Every other box turned (any unit quaternion): its normals along an axis are columns.
+        const Mat3 rot = rotation(normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))}));
+        box.rot = i % 2 == 0 ? &kIdentity : &rot;
         box.center = v3(u(rng) * 100, u(rng), u(rng) * 100);
         const Vec3 p = box.center + v3(u(rng), u(rng), u(rng));
         const Fixed reach = fx(0.2 + (u(rng) + 2.5) / 5);
@@ -86,11 +106,17 @@ TEST(RigidContact, PointBoxShortcutsGiveTheGeneralBits) {
         ASSERT_EQ(n1, n2) << i;
         ASSERT_EQ(s1, s2) << i;
         ASSERT_EQ(d1, d2) << i;
-        const int axes = (n1.x.raw != 0) + (n1.y.raw != 0) + (n1.z.raw != 0);
-        (axes == 1 ? off_one_face : off_an_edge) += d1.raw > 0;
+        const Vec3 nl = transpose_times(*box.rot, n1);  // within rounding of the local normal
+        const auto big = [](Fixed f) { return abs(f) > Fixed::ratio(1, 2); };
+        const bool axis = big(nl.x) + big(nl.y) + big(nl.z) == 1 && abs(nl.x) + abs(nl.y) + abs(nl.z) < Fixed::ratio(101, 100);
+        if (d1.raw <= 0) ++inside;
+        else (axis ? off_one_face : off_an_edge) += 1;
+        turned += i % 2 == 1 && axis;
     }
-    EXPECT_GT(off_one_face, 1000);  // both cases are exercised
+    EXPECT_GT(off_one_face, 1000);  // every case is exercised
     EXPECT_GT(off_an_edge, 1000);
+    EXPECT_GT(inside, 1000);
+    EXPECT_GT(turned, 1000);
 }
 
 TEST(RigidContact, SpeculativeWithinTheMarginOnly) {
@@ -279,6 +305,51 @@ TEST(RigidContact, BoxBoxEdgeShortcutChangesNoManifold) {
     // The sample reaches both kinds of contact, so the comparison means something.
     EXPECT_GT(touching, 20000);
     EXPECT_GT(edge, 500);
+}
+
+// face_contact() takes n . v as a component when the reference face's normal n is exactly a
+// unit axis (an unturned reference: the floor, a wall); every face point's depth must be the
+// general plane distance -(n . p - (n . c + h_k)) with dot products, bit for bit, whichever
+// box is the reference and whichever way n points.
+TEST(RigidContact, UnturnedReferenceFaceDepthsAreTheDotProducts) {
+    std::mt19937_64 rng(1919);
+    std::uniform_real_distribution<double> u(-1, 1), size(0.1, 0.6), tilt(-0.3, 0.3);
+    int points = 0, flipped = 0, negative = 0;
+    for (int n = 0; n < 40000; ++n) {
+        // An unturned box and a tilted one, either first; the tilted one is placed just
+        // touching along a random unit axis of the unturned box (pile contacts).
+        const Mat3 turned = rotation(quat(1, tilt(rng), tilt(rng), tilt(rng)));
+        const D3 hu{size(rng) * 4, size(rng), size(rng) * 4}, ht{size(rng), size(rng), size(rng)};
+        const int axis = n % 3;
+        const double sign = n / 3 % 2 == 0 ? 1 : -1;
+        const double hu_k = axis == 0 ? hu.x : axis == 1 ? hu.y : hu.z;
+        const double reach = hu_k + std::sqrt(dotd(ht, ht)) * (0.55 + 0.4 * (u(rng) + 1) / 2);
+        D3 c{u(rng) * 0.3, u(rng) * 0.3, u(rng) * 0.3};
+        (axis == 0 ? c.x : axis == 1 ? c.y : c.z) = sign * reach;
+        const bool unturned_first = n / 6 % 2 == 0;
+        const OrientedCollider fixed_box = box(kIdentity, {0, 0, 0}, hu), tilted = box(turned, c, ht);
+        const OrientedCollider& a = unturned_first ? fixed_box : tilted;
+        const OrientedCollider& b = unturned_first ? tilted : fixed_box;
+        Manifold m;
+        contact_points(a, b, fx(0.02), m);
+        for (int i = 0; i < m.count; ++i) {
+            const ContactPoint& p = m.points[i];
+            if (p.feature >= kFeatureEdge) continue;
+            const bool flip = p.feature >= kFeatureFlipped;
+            const OrientedCollider& ref = flip ? b : a;
+            if (ref.rot != &kIdentity) continue;  // a tilted reference: the general path
+            const Vec3 nr = flip ? -p.normal : p.normal;  // from the reference toward the other
+            const int k = nr.x.raw != 0 ? 0 : nr.y.raw != 0 ? 1 : 2;
+            const Fixed h = k == 0 ? ref.half.x : k == 1 ? ref.half.y : ref.half.z;
+            ASSERT_EQ(p.depth, -(dot(nr, p.point) - (dot(nr, ref.center) + h))) << n << " " << i;
+            ++points;
+            flipped += flip;
+            negative += (k == 0 ? nr.x : k == 1 ? nr.y : nr.z).raw < 0;
+        }
+    }
+    EXPECT_GT(points, 20000);  // both references, both directions
+    EXPECT_GT(flipped, 5000);
+    EXPECT_GT(negative, 5000);
 }
 
 // Reference distance from the capsule's core segment to the box, in double: the distance is
