@@ -399,7 +399,7 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     row.mass = k.raw > 0 ? reciprocal(k) : Fixed::zero();
 }
 
-Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
+[[gnu::always_inline]] inline Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
     const Vec3& d = k == 0 ? p.n : k == 1 ? p.t1 : p.t2;
     const Row& r = p.row[k];
     WideSum s;
@@ -407,8 +407,8 @@ Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies
     // A body that does not turn (static, or at rest) adds exactly zero: skipped.
     const Vec3& wa = bodies[p.sa].w;
     const Vec3& wb = bodies[p.sb].w;
-    if (wb != Vec3{} && r.cb != Vec3{}) s.add(dot_wide(r.cb, wb));
-    if (wa != Vec3{} && r.ca != Vec3{}) s.add(-dot_wide(r.ca, wa));  // |dot_wide| < 2^127: no overflow
+    if ((p.nonzero & (kArmB << k)) != 0 && wb != Vec3{}) s.add(dot_wide(r.cb, wb));
+    if ((p.nonzero & (kArmA << k)) != 0 && wa != Vec3{}) s.add(-dot_wide(r.ca, wa));  // |dot_wide| < 2^127: no overflow
     return s.rounded();
 }
 
@@ -450,14 +450,14 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
             subtract_along(a.v, p.axis_n, l * a.inv_mass);
         else
             a.v -= p.n * (l * a.inv_mass);
-        if (p.row[0].ia != Vec3{}) a.w -= p.row[0].ia * l;
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
     }
     if (move_b) {
         if (p.axis_n != 0)
             add_along(b.v, p.axis_n, l * b.inv_mass);
         else
             b.v += p.n * (l * b.inv_mass);
-        if (p.row[0].ib != Vec3{}) b.w += p.row[0].ib * l;
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
     }
 }
 
@@ -620,6 +620,17 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     const std::uint32_t sa = slot_[a], sb = slot_[b];
     const auto sphere_or_static = [&](BodyId id) { return shape_[id] == Shape::Sphere || inv_mass_[id].raw == 0; };
     const bool sphere_pair = sphere_or_static(a) && sphere_or_static(b);
+    // Which products may be non-zero, from what arms() and make_row() leave exactly zero: a
+    // static body's arms (and inertia products), a sphere's normal arm, and the inertia
+    // products of a body with zero inverse inertia. A bit may be set for a product that turns
+    // out zero (it is then added as zero): only a clear bit skips work.
+    const auto may_turn = [&](BodyId id, std::uint32_t slot, std::uint16_t arm, std::uint16_t inertia) {
+        if (inv_mass_[id].raw == 0) return std::uint16_t{0};
+        const std::uint16_t rows = shape_[id] == Shape::Sphere ? 6 : 7;  // rows 1, 2 (or 0, 1, 2)
+        const std::uint16_t arms = static_cast<std::uint16_t>(rows * arm);
+        return bodies_[slot].iso_inv_inertia.raw == 0 ? arms : static_cast<std::uint16_t>(arms | rows * inertia);
+    };
+    const auto nonzero = static_cast<std::uint16_t>(may_turn(a, sa, kArmA, kInertiaA) | may_turn(b, sb, kArmB, kInertiaB));
     for (int i = 0; i < m.count; ++i) {
         const ContactPoint& c = m.points[i];
         Point& p = out[i];
@@ -654,6 +665,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
         // one division serves both.
         make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
+        p.nonzero = nonzero;
         p.mu_k = mu_k;
         p.mu_s = mu_s;
         p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
@@ -730,18 +742,39 @@ void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
     }
     // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
     // adds impulse (it never takes back what the iterations gave).
+    // The relative velocity, taken again for friction only when the normal impulse changed it
+    // or a component saturated (so the overflow count is what two subtractions give).
+    bool dv_exact = true;
+    const auto relative = [&] {
+        const Vec3& vb = bodies[p.sb].v;
+        const Vec3& va = bodies[p.sa].v;
+        const auto sub = [&](Fixed x, Fixed y) {
+            std::int64_t r;
+            if (sub_overflow(x.raw, y.raw, &r)) {
+                dv_exact = false;
+                return x - y;
+            }
+            return Fixed::from_raw(r);
+        };
+        return Vec3{sub(vb.x, va.x), sub(vb.y, va.y), sub(vb.z, va.z)};
+    };
+    Vec3 dv = relative();
+    bool dv_stale = false;
     if (rows != Rows::Friction) {
-        const Fixed vn = row_speed(p, 0, bodies[p.sb].v - bodies[p.sa].v, bodies);
+        const Fixed vn = row_speed(p, 0, dv, bodies);
         const Fixed floor = shock ? p.pn : Fixed::zero();
         const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
         const Fixed dpn = pn - p.pn;
         p.pn = pn;
-        if (dpn.raw != 0) apply_normal(p, dpn, bodies, only);
+        if (dpn.raw != 0) {
+            apply_normal(p, dpn, bodies, only);
+            dv_stale = true;
+        }
     }
     if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
+    if (rows != Rows::Friction && (dv_stale || !dv_exact)) dv = bodies[p.sb].v - bodies[p.sa].v;
     // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
-    const Vec3 dv = bodies[p.sb].v - bodies[p.sa].v;
     Fixed t1 = p.pt1 - m1 * row_speed(p, 1, dv, bodies);
     Fixed t2 = p.pt2 - m2 * row_speed(p, 2, dv, bodies);
     const Fixed limit_s = p.mu_s * p.pn;
