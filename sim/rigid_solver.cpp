@@ -22,6 +22,7 @@ Vec3 unit(const Vec3& v) {
 constexpr std::uint8_t kFeatureReduced = 240;
 
 Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+Fixed component(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 // v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
 void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
     Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
@@ -407,8 +408,15 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     // A body that does not turn (static, or at rest) adds exactly zero: skipped.
     const Vec3& wa = bodies[p.sa].w;
     const Vec3& wb = bodies[p.sb].w;
-    if ((p.nonzero & (kArmB << k)) != 0 && wb != Vec3{}) s.add(dot_wide(r.cb, wb));
-    if ((p.nonzero & (kArmA << k)) != 0 && wa != Vec3{}) s.add(-dot_wide(r.ca, wa));  // |dot_wide| < 2^127: no overflow
+    // A tangent row's axis arm (kAxisArmsA/B) has one non-zero component, on the other
+    // tangent's axis: its dot product is that one product (the others are exact zeros).
+    const int axis = k == 0 ? 0 : std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
+    const auto arm_dot = [&](const Vec3& c, const Vec3& w, std::uint16_t axis_bit) {
+        if (k != 0 && (p.nonzero & axis_bit) != 0) return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        return dot_wide(c, w);
+    };
+    if ((p.nonzero & (kArmB << k)) != 0 && wb != Vec3{}) s.add(arm_dot(r.cb, wb, kAxisArmsB));
+    if ((p.nonzero & (kArmA << k)) != 0 && wa != Vec3{}) s.add(-arm_dot(r.ca, wa, kAxisArmsA));  // |dot_wide| < 2^127: no overflow
     return s.rounded();
 }
 
@@ -461,6 +469,21 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
     }
 }
 
+// w -+= u1 l1 + u2 l2 for a sphere's axis arms (kAxisArmsA/B): u1 lies on t2's axis, u2 on
+// t1's (a different one), so each sum has one non-zero product (x l + 0, rounded once, is x l)
+// and the third component subtracts an exact zero: two products instead of six.
+void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign) {
+    const int k2 = std::abs(p.axis_t2) - 1, k1 = std::abs(p.axis_t1) - 1;
+    const Fixed d2 = component(u1, k2) * l1, d1 = component(u2, k1) * l2;
+    if (sign < 0) {
+        component(w, k2) -= d2;
+        component(w, k1) -= d1;
+    } else {
+        component(w, k2) += d2;
+        component(w, k1) += d1;
+    }
+}
+
 void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
@@ -479,7 +502,10 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+        if ((p.nonzero & kAxisArmsA) != 0)
+            turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
+        else
+            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
     }
     if (move_b) {
         const Fixed m = b.inv_mass;
@@ -489,7 +515,10 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+        if ((p.nonzero & kAxisArmsB) != 0)
+            turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
+        else
+            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
     }
 }
 
@@ -631,6 +660,12 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         return bodies_[slot].iso_inv_inertia.raw == 0 ? arms : static_cast<std::uint16_t>(arms | rows * inertia);
     };
     const auto nonzero = static_cast<std::uint16_t>(may_turn(a, sa, kArmA, kInertiaA) | may_turn(b, sb, kArmB, kInertiaB));
+    // A dynamic sphere's arms on an all-axes point (arms()'s wall case), with a scalar inverse
+    // inertia (its products keep the zero components zero).
+    const auto axis_arms = [&](BodyId id, std::uint32_t slot, std::uint16_t bit) {
+        return shape_[id] == Shape::Sphere && inv_mass_[id].raw != 0 && bodies_[slot].iso_inv_inertia.raw >= 0 ? bit : 0;
+    };
+    const auto axis_arms_ab = static_cast<std::uint16_t>(axis_arms(a, sa, kAxisArmsA) | axis_arms(b, sb, kAxisArmsB));
     for (int i = 0; i < m.count; ++i) {
         const ContactPoint& c = m.points[i];
         Point& p = out[i];
@@ -665,7 +700,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
         // one division serves both.
         make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
-        p.nonzero = nonzero;
+        p.nonzero = p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0 ? static_cast<std::uint16_t>(nonzero | axis_arms_ab) : nonzero;
         p.mu_k = mu_k;
         p.mu_s = mu_s;
         p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();

@@ -220,6 +220,10 @@ private:
         Fixed pn, pt1, pt2;  // accumulated impulses
     };
     static constexpr std::uint16_t kArmA = 1, kArmB = 1 << 3, kInertiaA = 1 << 6, kInertiaB = 1 << 9;
+    // A turning sphere's arms on a point whose n, t1, t2 are all exact axes (arms() took them
+    // as single components): row[1]'s arm and inertia product lie on t2's axis alone, row[2]'s
+    // on t1's, so each of their dot products and friction sums is one product.
+    static constexpr std::uint16_t kAxisArmsA = 1 << 12, kAxisArmsB = 1 << 13;
 
     // Per-body phases cut into ranges of at least this many dynamic bodies.
     static constexpr std::size_t kBodyGrain = 256;
@@ -405,6 +409,7 @@ private:
     // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero).
     static void apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only);
     static void apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only);
+    static void turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign);
     // The speed along row k of p (> 0 separates for the normal), rounded once. Inline in
     // every caller (rigid_solver.cpp only): out of line it cost 5.7 M of paper_rigid's 180 M.
     static Fixed row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies);
