@@ -33,6 +33,17 @@ void add_along(Vec3& v, std::int8_t code, Fixed s) {
     c += code > 0 ? s : -s;
 }
 
+// f() (a velocity change both bodies of a contact get), with any overflow events it noted
+// noted once more: what computing it for each body gives, once.
+template <class F>
+Vec3 shared_change(F&& f) {
+    const std::uint64_t before = overflow_events();
+    const Vec3 v = f();
+    const std::uint64_t noted = overflow_events() - before;
+    if (noted != 0) note_overflows(noted);
+    return v;
+}
+
 Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 
 Fixed damping_factor(Fixed c, Fixed dt) { return reciprocal(Fixed::one() + c * dt); }
@@ -453,6 +464,17 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
     const bool move_b = moves(b, p.b, only);
+    if (move_a && move_b && p.axis_n == 0 && a.inv_mass == b.inv_mass) {
+        // Equal masses (every dynamic pair of the piles): both bodies' velocity changes are the
+        // same products of the same numbers, taken once (shared_change() repeats any overflow
+        // events they noted, so the count is what two computations give).
+        const Vec3 dv = shared_change([&] { return p.n * (l * a.inv_mass); });
+        a.v -= dv;
+        b.v += dv;
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
+        return;
+    }
     if (move_a) {
         if (p.axis_n != 0)
             subtract_along(a.v, p.axis_n, l * a.inv_mass);
@@ -492,8 +514,30 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
     const auto sum = [](const Vec3& u, Fixed x, const Vec3& w, Fixed y) {
         return Vec3{mul_add(u.x, x, w.x, y), mul_add(u.y, x, w.y, y), mul_add(u.z, x, w.z, y)};
     };
+    const auto turn_a = [&] {
+        if ((p.nonzero & kAxisArmsA) != 0)
+            turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
+        else
+            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+    };
+    const auto turn_b = [&] {
+        if ((p.nonzero & kAxisArmsB) != 0)
+            turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
+        else
+            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+    };
     // Both tangents axes (then different ones, being orthogonal): x on one, y on the other.
     const bool axes = p.axis_t1 != 0 && p.axis_t2 != 0;
+    if (move_a && move_b && !axes && a.inv_mass == b.inv_mass) {
+        // Equal masses: one velocity change for both (as in apply_normal()).
+        const Fixed m = a.inv_mass;
+        const Vec3 dv = shared_change([&] { return sum(p.t1, l1 * m, p.t2, l2 * m); });
+        a.v -= dv;
+        b.v += dv;
+        turn_a();
+        turn_b();
+        return;
+    }
     if (move_a) {
         const Fixed m = a.inv_mass;
         if (axes) {
@@ -502,10 +546,7 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        if ((p.nonzero & kAxisArmsA) != 0)
-            turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
-        else
-            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+        turn_a();
     }
     if (move_b) {
         const Fixed m = b.inv_mass;
@@ -515,10 +556,7 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        if ((p.nonzero & kAxisArmsB) != 0)
-            turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
-        else
-            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+        turn_b();
     }
 }
 
