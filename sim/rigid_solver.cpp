@@ -415,7 +415,14 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     const Vec3& d = k == 0 ? p.n : k == 1 ? p.t1 : p.t2;
     const Row& r = p.row[k];
     WideSum s;
-    s.add(dot_wide(d, dv));
+    // An axis row (kAxisRows): d.dv is its one non-zero product, the others exact zeros.
+    if ((p.nonzero & kAxisRows) != 0) {
+        const std::int8_t code = k == 0 ? p.axis_n : k == 1 ? p.axis_t1 : p.axis_t2;
+        const int j = std::abs(code) - 1;
+        s.add(mul_wide(component(d, j).raw, component(dv, j).raw));
+    } else {
+        s.add(dot_wide(d, dv));
+    }
     // A body that does not turn (static, or at rest) adds exactly zero: skipped.
     const Vec3& wa = bodies[p.sa].w;
     const Vec3& wb = bodies[p.sb].w;
@@ -738,7 +745,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
         // one division serves both.
         make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
-        p.nonzero = p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0 ? static_cast<std::uint16_t>(nonzero | axis_arms_ab) : nonzero;
+        p.nonzero = p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0 ? static_cast<std::uint16_t>(nonzero | axis_arms_ab | kAxisRows) : nonzero;
         p.mu_k = mu_k;
         p.mu_s = mu_s;
         p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();

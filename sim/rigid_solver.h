@@ -224,6 +224,8 @@ private:
     // as single components): row[1]'s arm and inertia product lie on t2's axis alone, row[2]'s
     // on t1's, so each of their dot products and friction sums is one product.
     static constexpr std::uint16_t kAxisArmsA = 1 << 12, kAxisArmsB = 1 << 13;
+    // n, t1 and t2 are all exact axes (axis_n, axis_t1, axis_t2 non-zero).
+    static constexpr std::uint16_t kAxisRows = 1 << 14;
 
     // Per-body phases cut into ranges of at least this many dynamic bodies.
     static constexpr std::size_t kBodyGrain = 256;
