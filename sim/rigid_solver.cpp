@@ -146,6 +146,21 @@ Vec3 scaled_axis(std::int8_t code, Fixed s) {
     return v;
 }
 
+Vec3 cross_axis(const Vec3& r, std::int8_t code) {
+    // r x e_x = (0, r.z, -r.y), r x e_y = (-r.z, 0, r.x), r x e_z = (r.y, -r.x, 0); for -e_k every
+    // sign flips. Each non-zero component is one exact product by +-1 rounded once: the
+    // component or its negation (-INT64_MIN saturating and counting, as the rounding does).
+    const bool flip = code < 0;
+    const auto pos = [flip](Fixed x) { return flip ? -x : x; };
+    const auto neg = [flip](Fixed x) { return flip ? x : -x; };
+    const Fixed z = Fixed::zero();
+    switch (code > 0 ? code : -code) {
+    case 1: return {z, pos(r.z), neg(r.y)};
+    case 2: return {neg(r.z), z, pos(r.x)};
+    default: return {pos(r.y), neg(r.x), z};
+    }
+}
+
 Fixed dot_axis(std::int8_t code, const Vec3& v) {
     const Fixed c = code == 1 || code == -1 ? v.x : code == 2 || code == -2 ? v.y : v.z;
     return code > 0 ? c : -c;
@@ -376,6 +391,14 @@ void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) c
         const Fixed len = dot(r, p.n);
         c[1] = p.t2 * len;
         c[2] = -(p.t1 * len);
+        return;
+    }
+    if (p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0) {
+        // A box (or capsule) on a wall, the floor or an unturned box's face: r x an axis is a
+        // permutation of r's components with signs, no products (rigid_detail::cross_axis).
+        c[0] = rigid_detail::cross_axis(r, p.axis_n);
+        c[1] = rigid_detail::cross_axis(r, p.axis_t1);
+        c[2] = rigid_detail::cross_axis(r, p.axis_t2);
         return;
     }
     c[0] = cross(r, p.n);

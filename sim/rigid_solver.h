@@ -509,6 +509,9 @@ std::int8_t axis_code(const Vec3& d);
 // and dot(e, v): what the rounded products give, saturation and overflow count included.
 Vec3 scaled_axis(std::int8_t code, Fixed s);
 Fixed dot_axis(std::int8_t code, const Vec3& v);
+// cross(r, e) for the axis e with axis code `code` != 0, without the products (the same bits
+// and overflow count).
+Vec3 cross_axis(const Vec3& r, std::int8_t code);
 // tangents(e) and their axis codes for the axis e with axis code `code` != 0, from a table.
 void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2);
 }  // namespace rigid_detail
