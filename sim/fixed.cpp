@@ -1,6 +1,7 @@
 #include "sim/fixed.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <vector>
 
@@ -79,16 +80,45 @@ Fixed operator/(Fixed a, Fixed b) {
     return divide_round(mul_wide(a.raw, Fixed::kOne), b.raw);
 }
 
+// ceil(sqrt((i + 1) 2^16)) for i < 512: from the top 8 or 9 bits `top` of a radicand n with e
+// bits below them, sqrt(n) < sqrt((top + 1) 2^e) <= kSqrtStart[top] 2^(e/2 - 8).
+constexpr std::array<std::uint16_t, 512> kSqrtStart = [] {
+    std::array<std::uint16_t, 512> t{};
+    std::uint32_t r = 0;
+    for (std::uint32_t i = 0; i < 512; ++i) {
+        const std::uint32_t v = (i + 1) << 16;
+        while (r * r < v) ++r;  // nondecreasing in i: r carries on from the last entry
+        t[i] = static_cast<std::uint16_t>(r);
+    }
+    return t;
+}();
+
 std::uint64_t isqrt_floor(u128 n) {
     if (n == 0) return 0;
-    // Start at a power of two no smaller than sqrt(n); Newton's iteration from above then
-    // decreases monotonically and stops exactly at floor(sqrt(n)).
-    // The first step divides by a power of two, a shift; later ones by x < 2^64 with a quotient
-    // n / x <= sqrt(n) < 2^64, one 128/64 division each (divmod_unsigned's fast path). The
-    // iterates are the same integers however the quotients are found.
-    const int shift = (bit_length(n) + 1) / 2;
-    u128 x = u128{1} << shift;
-    u128 y = (x + (n >> shift)) >> 1;
+    // Newton's iteration x <- floor((x + floor(n / x)) / 2) from any x >= floor(sqrt(n))
+    // decreases strictly while x > floor(sqrt(n)) and never below it, and stops there (the
+    // next iterate is not smaller): the result is the same integer whatever the start, which
+    // only sets how many steps it takes. A start from a power of two (up to a factor sqrt(2)
+    // high) took about 6 divisions for a 50-bit radicand; from the table (within 2^-7) it
+    // takes about 3 (docs/performance.md, "Rigid solver, fourth pass").
+    // Each step divides by x < 2^64 with a quotient n / x <= sqrt(n) < 2^64, one 128/64
+    // division (divmod_unsigned's fast path); the iterates are the same integers however the
+    // quotients are found.
+    const int len = bit_length(n);
+    u128 x, y;
+    if (len < 24) {
+        // Short radicands: a power of two no smaller than sqrt(n); its first division a shift.
+        const int shift = (len + 1) / 2;
+        x = u128{1} << shift;
+        y = (x + (n >> shift)) >> 1;
+    } else {
+        const int e = (len - 8) & ~1;                       // even, >= 16: top has 8 or 9 bits
+        const auto top = static_cast<std::uint32_t>(n >> e);  // in [128, 512)
+        x = static_cast<u128>(kSqrtStart[top]) << (e / 2 - 8);  // >= sqrt(n), at most 2^64
+        u128 q, r;
+        divmod_unsigned(n, x, q, r);
+        y = (x + q) >> 1;
+    }
     while (y < x) {
         x = y;
         u128 q, r;

@@ -22,6 +22,7 @@ Vec3 unit(const Vec3& v) {
 constexpr std::uint8_t kFeatureReduced = 240;
 
 Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
+Fixed component(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 // v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
 void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
     Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
@@ -30,6 +31,17 @@ void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
 void add_along(Vec3& v, std::int8_t code, Fixed s) {
     Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
     c += code > 0 ? s : -s;
+}
+
+// f() (a velocity change both bodies of a contact get), with any overflow events it noted
+// noted once more: what computing it for each body gives, once.
+template <class F>
+Vec3 shared_change(F&& f) {
+    const std::uint64_t before = overflow_events();
+    const Vec3 v = f();
+    const std::uint64_t noted = overflow_events() - before;
+    if (noted != 0) note_overflows(noted);
+    return v;
 }
 
 Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
@@ -132,6 +144,21 @@ Vec3 scaled_axis(std::int8_t code, Fixed s) {
     Vec3 v;
     component(v, code > 0 ? code - 1 : -code - 1) = code > 0 ? s : -s;
     return v;
+}
+
+Vec3 cross_axis(const Vec3& r, std::int8_t code) {
+    // r x e_x = (0, r.z, -r.y), r x e_y = (-r.z, 0, r.x), r x e_z = (r.y, -r.x, 0); for -e_k every
+    // sign flips. Each non-zero component is one exact product by +-1 rounded once: the
+    // component or its negation (-INT64_MIN saturating and counting, as the rounding does).
+    const bool flip = code < 0;
+    const auto pos = [flip](Fixed x) { return flip ? -x : x; };
+    const auto neg = [flip](Fixed x) { return flip ? x : -x; };
+    const Fixed z = Fixed::zero();
+    switch (code > 0 ? code : -code) {
+    case 1: return {z, pos(r.z), neg(r.y)};
+    case 2: return {neg(r.z), z, pos(r.x)};
+    default: return {pos(r.y), neg(r.x), z};
+    }
 }
 
 Fixed dot_axis(std::int8_t code, const Vec3& v) {
@@ -366,6 +393,14 @@ void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) c
         c[2] = -(p.t1 * len);
         return;
     }
+    if (p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0) {
+        // A box (or capsule) on a wall, the floor or an unturned box's face: r x an axis is a
+        // permutation of r's components with signs, no products (rigid_detail::cross_axis).
+        c[0] = rigid_detail::cross_axis(r, p.axis_n);
+        c[1] = rigid_detail::cross_axis(r, p.axis_t1);
+        c[2] = rigid_detail::cross_axis(r, p.axis_t2);
+        return;
+    }
     c[0] = cross(r, p.n);
     c[1] = cross(r, p.t1);
     c[2] = cross(r, p.t2);
@@ -399,16 +434,30 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     row.mass = k.raw > 0 ? reciprocal(k) : Fixed::zero();
 }
 
-Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
+[[gnu::always_inline]] inline Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
     const Vec3& d = k == 0 ? p.n : k == 1 ? p.t1 : p.t2;
     const Row& r = p.row[k];
     WideSum s;
-    s.add(dot_wide(d, dv));
+    // An axis row (kAxisRows): d.dv is its one non-zero product, the others exact zeros.
+    if ((p.nonzero & kAxisRows) != 0) {
+        const std::int8_t code = k == 0 ? p.axis_n : k == 1 ? p.axis_t1 : p.axis_t2;
+        const int j = std::abs(code) - 1;
+        s.add(mul_wide(component(d, j).raw, component(dv, j).raw));
+    } else {
+        s.add(dot_wide(d, dv));
+    }
     // A body that does not turn (static, or at rest) adds exactly zero: skipped.
     const Vec3& wa = bodies[p.sa].w;
     const Vec3& wb = bodies[p.sb].w;
-    if (wb != Vec3{} && r.cb != Vec3{}) s.add(dot_wide(r.cb, wb));
-    if (wa != Vec3{} && r.ca != Vec3{}) s.add(-dot_wide(r.ca, wa));  // |dot_wide| < 2^127: no overflow
+    // A tangent row's axis arm (kAxisArmsA/B) has one non-zero component, on the other
+    // tangent's axis: its dot product is that one product (the others are exact zeros).
+    const int axis = k == 0 ? 0 : std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
+    const auto arm_dot = [&](const Vec3& c, const Vec3& w, std::uint16_t axis_bit) {
+        if (k != 0 && (p.nonzero & axis_bit) != 0) return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        return dot_wide(c, w);
+    };
+    if ((p.nonzero & (kArmB << k)) != 0 && wb != Vec3{}) s.add(arm_dot(r.cb, wb, kAxisArmsB));
+    if ((p.nonzero & (kArmA << k)) != 0 && wa != Vec3{}) s.add(-arm_dot(r.ca, wa, kAxisArmsA));  // |dot_wide| < 2^127: no overflow
     return s.rounded();
 }
 
@@ -445,19 +494,45 @@ void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId o
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
     const bool move_b = moves(b, p.b, only);
+    if (move_a && move_b && p.axis_n == 0 && a.inv_mass == b.inv_mass) {
+        // Equal masses (every dynamic pair of the piles): both bodies' velocity changes are the
+        // same products of the same numbers, taken once (shared_change() repeats any overflow
+        // events they noted, so the count is what two computations give).
+        const Vec3 dv = shared_change([&] { return p.n * (l * a.inv_mass); });
+        a.v -= dv;
+        b.v += dv;
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
+        return;
+    }
     if (move_a) {
         if (p.axis_n != 0)
             subtract_along(a.v, p.axis_n, l * a.inv_mass);
         else
             a.v -= p.n * (l * a.inv_mass);
-        if (p.row[0].ia != Vec3{}) a.w -= p.row[0].ia * l;
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
     }
     if (move_b) {
         if (p.axis_n != 0)
             add_along(b.v, p.axis_n, l * b.inv_mass);
         else
             b.v += p.n * (l * b.inv_mass);
-        if (p.row[0].ib != Vec3{}) b.w += p.row[0].ib * l;
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
+    }
+}
+
+// w -+= u1 l1 + u2 l2 for a sphere's axis arms (kAxisArmsA/B): u1 lies on t2's axis, u2 on
+// t1's (a different one), so each sum has one non-zero product (x l + 0, rounded once, is x l)
+// and the third component subtracts an exact zero: two products instead of six.
+void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign) {
+    const int k2 = std::abs(p.axis_t2) - 1, k1 = std::abs(p.axis_t1) - 1;
+    const Fixed d2 = component(u1, k2) * l1, d1 = component(u2, k1) * l2;
+    if (sign < 0) {
+        component(w, k2) -= d2;
+        component(w, k1) -= d1;
+    } else {
+        component(w, k2) += d2;
+        component(w, k1) += d1;
     }
 }
 
@@ -469,8 +544,30 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
     const auto sum = [](const Vec3& u, Fixed x, const Vec3& w, Fixed y) {
         return Vec3{mul_add(u.x, x, w.x, y), mul_add(u.y, x, w.y, y), mul_add(u.z, x, w.z, y)};
     };
+    const auto turn_a = [&] {
+        if ((p.nonzero & kAxisArmsA) != 0)
+            turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
+        else
+            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+    };
+    const auto turn_b = [&] {
+        if ((p.nonzero & kAxisArmsB) != 0)
+            turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
+        else
+            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+    };
     // Both tangents axes (then different ones, being orthogonal): x on one, y on the other.
     const bool axes = p.axis_t1 != 0 && p.axis_t2 != 0;
+    if (move_a && move_b && !axes && a.inv_mass == b.inv_mass) {
+        // Equal masses: one velocity change for both (as in apply_normal()).
+        const Fixed m = a.inv_mass;
+        const Vec3 dv = shared_change([&] { return sum(p.t1, l1 * m, p.t2, l2 * m); });
+        a.v -= dv;
+        b.v += dv;
+        turn_a();
+        turn_b();
+        return;
+    }
     if (move_a) {
         const Fixed m = a.inv_mass;
         if (axes) {
@@ -479,7 +576,7 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+        turn_a();
     }
     if (move_b) {
         const Fixed m = b.inv_mass;
@@ -489,7 +586,7 @@ void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bod
         } else {
             b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
         }
-        b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+        turn_b();
     }
 }
 
@@ -620,6 +717,23 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     const std::uint32_t sa = slot_[a], sb = slot_[b];
     const auto sphere_or_static = [&](BodyId id) { return shape_[id] == Shape::Sphere || inv_mass_[id].raw == 0; };
     const bool sphere_pair = sphere_or_static(a) && sphere_or_static(b);
+    // Which products may be non-zero, from what arms() and make_row() leave exactly zero: a
+    // static body's arms (and inertia products), a sphere's normal arm, and the inertia
+    // products of a body with zero inverse inertia. A bit may be set for a product that turns
+    // out zero (it is then added as zero): only a clear bit skips work.
+    const auto may_turn = [&](BodyId id, std::uint32_t slot, std::uint16_t arm, std::uint16_t inertia) {
+        if (inv_mass_[id].raw == 0) return std::uint16_t{0};
+        const std::uint16_t rows = shape_[id] == Shape::Sphere ? 6 : 7;  // rows 1, 2 (or 0, 1, 2)
+        const std::uint16_t arms = static_cast<std::uint16_t>(rows * arm);
+        return bodies_[slot].iso_inv_inertia.raw == 0 ? arms : static_cast<std::uint16_t>(arms | rows * inertia);
+    };
+    const auto nonzero = static_cast<std::uint16_t>(may_turn(a, sa, kArmA, kInertiaA) | may_turn(b, sb, kArmB, kInertiaB));
+    // A dynamic sphere's arms on an all-axes point (arms()'s wall case), with a scalar inverse
+    // inertia (its products keep the zero components zero).
+    const auto axis_arms = [&](BodyId id, std::uint32_t slot, std::uint16_t bit) {
+        return shape_[id] == Shape::Sphere && inv_mass_[id].raw != 0 && bodies_[slot].iso_inv_inertia.raw >= 0 ? bit : 0;
+    };
+    const auto axis_arms_ab = static_cast<std::uint16_t>(axis_arms(a, sa, kAxisArmsA) | axis_arms(b, sb, kAxisArmsB));
     for (int i = 0; i < m.count; ++i) {
         const ContactPoint& c = m.points[i];
         Point& p = out[i];
@@ -654,6 +768,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
         // one division serves both.
         make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
+        p.nonzero = p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0 ? static_cast<std::uint16_t>(nonzero | axis_arms_ab | kAxisRows) : nonzero;
         p.mu_k = mu_k;
         p.mu_s = mu_s;
         p.pn = p.pt1 = p.pt2 = p.pb = p.bias = Fixed::zero();
@@ -730,18 +845,39 @@ void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
     }
     // Normal: accumulated impulse stays >= 0 (contacts push, never pull). The shock pass only
     // adds impulse (it never takes back what the iterations gave).
+    // The relative velocity, taken again for friction only when the normal impulse changed it
+    // or a component saturated (so the overflow count is what two subtractions give).
+    bool dv_exact = true;
+    const auto relative = [&] {
+        const Vec3& vb = bodies[p.sb].v;
+        const Vec3& va = bodies[p.sa].v;
+        const auto sub = [&](Fixed x, Fixed y) {
+            std::int64_t r;
+            if (sub_overflow(x.raw, y.raw, &r)) {
+                dv_exact = false;
+                return x - y;
+            }
+            return Fixed::from_raw(r);
+        };
+        return Vec3{sub(vb.x, va.x), sub(vb.y, va.y), sub(vb.z, va.z)};
+    };
+    Vec3 dv = relative();
+    bool dv_stale = false;
     if (rows != Rows::Friction) {
-        const Fixed vn = row_speed(p, 0, bodies[p.sb].v - bodies[p.sa].v, bodies);
+        const Fixed vn = row_speed(p, 0, dv, bodies);
         const Fixed floor = shock ? p.pn : Fixed::zero();
         const Fixed pn = max(p.pn + mn * (p.target - vn), floor);
         const Fixed dpn = pn - p.pn;
         p.pn = pn;
-        if (dpn.raw != 0) apply_normal(p, dpn, bodies, only);
+        if (dpn.raw != 0) {
+            apply_normal(p, dpn, bodies, only);
+            dv_stale = true;
+        }
     }
     if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
+    if (rows != Rows::Friction && (dv_stale || !dv_exact)) dv = bodies[p.sb].v - bodies[p.sa].v;
     // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
-    const Vec3 dv = bodies[p.sb].v - bodies[p.sa].v;
     Fixed t1 = p.pt1 - m1 * row_speed(p, 1, dv, bodies);
     Fixed t2 = p.pt2 - m2 * row_speed(p, 2, dv, bodies);
     const Fixed limit_s = p.mu_s * p.pn;

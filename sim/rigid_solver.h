@@ -205,6 +205,12 @@ private:
         std::uint8_t feature;  // ContactPoint::feature
         // +-(k + 1) when n (t1, t2) is exactly +-e_k (a room wall's face), else 0: see axis_code().
         std::int8_t axis_n, axis_t1, axis_t2;
+        // Which Jacobian products are not exactly zero, decided once when the point is built
+        // (kArmA << k: row[k].ca, kArmB << k: row[k].cb, kInertiaA << k: row[k].ia,
+        // kInertiaB << k: row[k].ib), so the passes test a bit instead of three components.
+        // A zero term adds exactly zero to a row speed or a velocity: skipping it (or not)
+        // changes no bit, so the bits only save work.
+        std::uint16_t nonzero;
         Vec3 n, t1, t2;
         Row row[3];          // along n, t1, t2
         Fixed target;        // normal speed the impulse drives toward (>= -gap/dt)
@@ -213,6 +219,13 @@ private:
         Fixed mu_k, mu_s;
         Fixed pn, pt1, pt2;  // accumulated impulses
     };
+    static constexpr std::uint16_t kArmA = 1, kArmB = 1 << 3, kInertiaA = 1 << 6, kInertiaB = 1 << 9;
+    // A turning sphere's arms on a point whose n, t1, t2 are all exact axes (arms() took them
+    // as single components): row[1]'s arm and inertia product lie on t2's axis alone, row[2]'s
+    // on t1's, so each of their dot products and friction sums is one product.
+    static constexpr std::uint16_t kAxisArmsA = 1 << 12, kAxisArmsB = 1 << 13;
+    // n, t1 and t2 are all exact axes (axis_n, axis_t1, axis_t2 non-zero).
+    static constexpr std::uint16_t kAxisRows = 1 << 14;
 
     // Per-body phases cut into ranges of at least this many dynamic bodies.
     static constexpr std::size_t kBodyGrain = 256;
@@ -398,7 +411,9 @@ private:
     // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero).
     static void apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only);
     static void apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only);
-    // The speed along row k of p (> 0 separates for the normal), rounded once.
+    static void turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign);
+    // The speed along row k of p (> 0 separates for the normal), rounded once. Inline in
+    // every caller (rigid_solver.cpp only): out of line it cost 5.7 M of paper_rigid's 180 M.
     static Fixed row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies);
     // c[k] = r x (p's row k direction) for body id's arm r (exact zeros for a sphere's normal).
     void arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const;
@@ -494,6 +509,9 @@ std::int8_t axis_code(const Vec3& d);
 // and dot(e, v): what the rounded products give, saturation and overflow count included.
 Vec3 scaled_axis(std::int8_t code, Fixed s);
 Fixed dot_axis(std::int8_t code, const Vec3& v);
+// cross(r, e) for the axis e with axis code `code` != 0, without the products (the same bits
+// and overflow count).
+Vec3 cross_axis(const Vec3& r, std::int8_t code);
 // tangents(e) and their axis codes for the axis e with axis code `code` != 0, from a table.
 void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2);
 }  // namespace rigid_detail

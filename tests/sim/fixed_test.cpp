@@ -297,6 +297,33 @@ TEST(FixedSqrt, IntegerSquareRootsOverTheWhole128BitDomain) {
     }
 }
 
+// isqrt_floor starts Newton's iteration from a table of the radicand's top bits (sim/fixed.cpp);
+// a start below floor(sqrt(n)) would stop at once with a result too small. The edges of every
+// root: k^2 - 1, k^2 and k^2 + 2k (the largest radicand whose root floors to k), for k of every
+// size and at the powers of two, where the table's buckets begin and end.
+TEST(FixedSqrt, IntegerSquareRootsAtTheEdgesOfEveryRoot) {
+    std::mt19937_64 g(kSeed + 8);
+    const auto check = [](std::uint64_t k) {
+        const u128 sq = static_cast<u128>(k) * k;
+        ASSERT_EQ(isqrt_floor(sq), k);
+        if (k > 0) {
+            ASSERT_EQ(isqrt_floor(sq - 1), k - 1);
+        }
+        if (k < UINT64_MAX) {
+            ASSERT_EQ(isqrt_floor(sq + 2 * static_cast<u128>(k)), k);
+            ASSERT_EQ(isqrt_floor(sq + 2 * static_cast<u128>(k) + 1), k + 1);
+        }
+    };
+    for (int bits = 1; bits <= 64; ++bits) {
+        const std::uint64_t p = std::uint64_t{1} << (bits - 1);
+        for (std::uint64_t d = 0; d < 64; ++d) {
+            check(p + d);
+            check(p - d);
+        }
+        for (int i = 0; i < 20'000; ++i) check((g() >> (64 - bits)) | p);
+    }
+}
+
 // ---------------------------------------------------------------- add, subtract, negate
 
 TEST(FixedAddSub, ExactOrSaturatedWithOneOverflowEventOnAMillionRandomInputs) {

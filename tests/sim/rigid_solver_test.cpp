@@ -85,20 +85,21 @@ TEST(RigidSolver, AxisShortcutsGiveTheGeneralBits) {
         for (int i = 0; i < 200000; ++i) {
             const Fixed s = raw();
             const Vec3 v{raw(), raw(), raw()};
-            std::uint64_t before = overflow_events();
-            const Vec3 got = rigid_detail::scaled_axis(code, s);
-            const std::uint64_t got_events = overflow_events() - before;
-            before = overflow_events();
-            ASSERT_EQ(got, n * s) << i;
-            ASSERT_EQ(got_events, overflow_events() - before) << i;
-            before = overflow_events();
-            const Fixed got_dot = rigid_detail::dot_axis(code, v);
-            const std::uint64_t dot_events = overflow_events() - before;
-            before = overflow_events();
-            ASSERT_EQ(got_dot, dot(n, v)) << i;
-            ASSERT_EQ(dot_events, overflow_events() - before) << i;
+            // The shortcut and the general arithmetic: the same value and overflow events.
+            const auto same_bits = [](auto shortcut, auto general) {
+                const std::uint64_t start = overflow_events();
+                const auto got = shortcut();
+                const std::uint64_t got_events = overflow_events() - start;
+                const std::uint64_t middle = overflow_events();
+                const auto want = general();
+                return got == want && got_events == overflow_events() - middle;
+            };
+            ASSERT_TRUE(same_bits([&] { return rigid_detail::scaled_axis(code, s); }, [&] { return n * s; })) << i;
+            ASSERT_TRUE(same_bits([&] { return rigid_detail::dot_axis(code, v); }, [&] { return dot(n, v); })) << i;
+            // A box's arms on a wall: r x e without the products.
+            ASSERT_TRUE(same_bits([&] { return rigid_detail::cross_axis(v, code); }, [&] { return cross(v, n); })) << i;
             // A product by an exact zero is an exact zero and counts nothing (make_row skips it).
-            before = overflow_events();
+            const std::uint64_t before = overflow_events();
             ASSERT_EQ(s * Fixed::zero(), Fixed::zero());
             ASSERT_EQ(overflow_events(), before);
         }
