@@ -18,9 +18,6 @@ Vec3 unit(const Vec3& v) {
     return v * reciprocal(sqrt_wide(sq));
 }
 
-// Feature ids of a reduced manifold's points (above every id sim/rigid_contact.h makes).
-constexpr std::uint8_t kFeatureReduced = 240;
-
 Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 Fixed component(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 // v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
@@ -609,72 +606,6 @@ void RigidSolver::scatter(std::vector<Vec3>& vel, std::vector<Vec3>& angvel) con
         vel[slot_ids_[k]] = bodies_[k].v;
         angvel[slot_ids_[k]] = bodies_[k].w;
     }
-}
-
-void RigidSolver::reduce(Manifold& m) {
-    // The diagonals of the tangent basis (a fixed function of the normal): for a box resting
-    // on a box's face each picks one corner of the touching patch, and keeps picking it while
-    // the boxes wobble, so the id (kFeatureReduced + diagonal) finds last step's impulse.
-    Vec3 t1, t2;
-    tangents(m.points[0].normal, t1, t2);
-    const Vec3 diag[4] = {t1 + t2, t1 - t2, -(t1 + t2), t2 - t1};
-    Manifold out;
-    bool taken[kMaxManifold] = {};
-    for (int k = 0; k < 4; ++k) {
-        int best = 0;
-        Fixed best_d = dot(m.points[0].point, diag[k]);
-        for (int i = 1; i < m.count; ++i) {
-            const Fixed d = dot(m.points[i].point, diag[k]);
-            if (d > best_d) {
-                best = i;
-                best_d = d;
-            }
-        }
-        if (taken[best]) continue;
-        taken[best] = true;
-        out.points[out.count] = m.points[best];
-        out.points[out.count].feature = static_cast<std::uint8_t>(kFeatureReduced + k);
-        ++out.count;
-    }
-    m = out;
-}
-
-void RigidSolver::closing_reach(const std::vector<Vec3>& vel, const std::vector<Vec3>& angvel, std::size_t begin,
-                                std::size_t end) {
-    // A point further apart than the surfaces can close within the step (plus the base, for
-    // what the iterations add: a body pushed by its neighbours) constrains nothing this step;
-    // with every pair within the scene's margin getting points, the piles solved ~1.5x Bullet's
-    // points (docs/performance.md, "Fewer contact points"). |v_a|_1 + |v_b|_1 bounds the
-    // pairs' relative normal speed from above, and |w|_1 r the speed a turn gives a surface
-    // point at distance r from the centre; exact integer arithmetic, per body, so a pair costs
-    // two additions (pair_margin()).
-    for (std::size_t i = begin; i < end; ++i) {
-        const BodyId id = dynamic_[i];
-        closing_[id] = closing_bound(vel[id], angvel[id], turn_reach_[id], cap_speed_, margin_, dt_);
-    }
-}
-
-Fixed RigidSolver::closing_bound(const Vec3& v, const Vec3& w, Fixed reach, Fixed cap_speed, Fixed margin, Fixed dt) {
-    const auto magnitude = [](Fixed f) {
-        return f.raw < 0 ? std::uint64_t{0} - static_cast<std::uint64_t>(f.raw) : static_cast<std::uint64_t>(f.raw);
-    };
-    // Each magnitude < 2^64, so three sum below 2^66, and three products with reach < 2^63
-    // below 2^128: nothing wraps.
-    u128 speed = u128(magnitude(v.x)) + magnitude(v.y) + magnitude(v.z);
-    if (reach.raw != 0) {
-        const std::uint64_t r = magnitude(reach);
-        const u128 turn = mul_wide_unsigned(magnitude(w.x), r) + mul_wide_unsigned(magnitude(w.y), r) +
-                          mul_wide_unsigned(magnitude(w.z), r);
-        // To Fixed as a Fixed product rounds: to nearest, ties to even.
-        u128 q = turn >> Fixed::kFracBits;
-        const std::uint64_t rem = static_cast<std::uint64_t>(turn) & ((std::uint64_t{1} << Fixed::kFracBits) - 1);
-        const std::uint64_t half = std::uint64_t{1} << (Fixed::kFracBits - 1);
-        if (rem > half || (rem == half && (static_cast<std::uint64_t>(q) & 1) != 0)) q = q + 1;
-        speed = speed + q;
-    }
-    // speed dt > margin, without forming the product for absurd speeds.
-    if (speed > u128(static_cast<std::uint64_t>(cap_speed.raw))) return margin;
-    return Fixed::from_raw(static_cast<std::int64_t>(static_cast<std::uint64_t>(speed))) * dt;
 }
 
 [[gnu::always_inline]] inline void RigidSolver::manifold_of(const BodyPair& pair, const std::vector<Vec3>& pos, BodyId& a, BodyId& b,
