@@ -429,7 +429,27 @@ struct Poly {
 // Keeps the part of poly where dot(dir, p) <= limit; `plane` (0..3) names the side plane.
 // unit: dir is exactly +-e_k (unit = +-(k + 1), else 0): dot(dir, p) is then +-p_k bit for bit
 // (one exact term rounded once; -p_k saturates as the rounding does), taken without products.
-void clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int plane, Poly& out) {
+// Returns the clipped polygon: `in` itself when no vertex lies beyond the plane (every vertex
+// is then kept with its id and edge, and no edge crosses, so `out` would be a copy of `in`:
+// a face resting well inside the reference face, as on the floor, is not copied four times),
+// else `out`.
+const Poly& clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int plane, Poly& out, bool shortcut) {
+    // Each vertex's signed distance once: the end of one edge is the start of the next.
+    Fixed dist[8];
+    bool beyond = false;
+    if (unit == 0) {
+        for (int i = 0; i < in.n; ++i) {
+            dist[i] = dot(dir, in.v[i]) - limit;
+            beyond |= dist[i].raw > 0;
+        }
+    } else {
+        const int k = (unit > 0 ? unit : -unit) - 1;
+        for (int i = 0; i < in.n; ++i) {
+            dist[i] = (unit > 0 ? comp(in.v[i], k) : -comp(in.v[i], k)) - limit;
+            beyond |= dist[i].raw > 0;
+        }
+    }
+    if (!beyond && shortcut) return in;
     out.n = 0;
     const auto push = [&](const Vec3& p, int id, int edge) {
         if (out.n >= 8) return;
@@ -437,14 +457,6 @@ void clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int plane, Pol
         out.id[out.n] = static_cast<std::uint8_t>(id);
         out.edge[out.n++] = static_cast<std::uint8_t>(edge);
     };
-    // Each vertex's signed distance once: the end of one edge is the start of the next.
-    Fixed dist[8];
-    if (unit == 0) {
-        for (int i = 0; i < in.n; ++i) dist[i] = dot(dir, in.v[i]) - limit;
-    } else {
-        const int k = (unit > 0 ? unit : -unit) - 1;
-        for (int i = 0; i < in.n; ++i) dist[i] = (unit > 0 ? comp(in.v[i], k) : -comp(in.v[i], k)) - limit;
-    }
     for (int i = 0; i < in.n; ++i) {
         const int next = i + 1 == in.n ? 0 : i + 1;
         const Vec3& p = in.v[i];
@@ -458,6 +470,7 @@ void clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int plane, Pol
             push(p + (q - p) * (dp / (dp - dq)), id, dp.raw < 0 ? 4 + plane : on);
         }
     }
+    return out;
 }
 
 Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
@@ -466,8 +479,9 @@ Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
 }
 
 // Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
+// shortcuts: clip() may return an unchanged polygon uncopied (off only in tests).
 void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
-                  bool flip, Manifold& m) {
+                  bool flip, Manifold& m, bool shortcuts) {
     // n is +-e_k exactly when the reference's axis k is a unit axis (an unturned reference: the
     // floor, a wall): then n . v is +-v_k bit for bit (one exact term rounded once; -v_k
     // saturates as the rounding does, as in clip()), so the dot products with n are components.
@@ -498,21 +512,22 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     for (int i = 0; i < 4; ++i) a.id[i] = a.edge[i] = static_cast<std::uint8_t>(i);
     // Side planes of the reference face (an unturned reference's are unit axes: identity()).
     const bool unturned = identity(*ref.rot);
+    const Poly* poly = &a;  // the polygon so far; a clip writes into whichever buffer it is not
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
         const Vec3 axis = column(*ref.rot, t);
         const Fixed c = dot(axis, ref.center), h = comp(ref.half, t);
         const int unit = unturned ? t + 1 : 0;
-        clip(a, axis, unit, c + h, 2 * s - 2, b);
-        clip(b, -axis, -unit, h - c, 2 * s - 1, a);
+        poly = &clip(*poly, axis, unit, c + h, 2 * s - 2, poly == &a ? b : a, shortcuts);
+        poly = &clip(*poly, -axis, -unit, h - c, 2 * s - 1, poly == &a ? b : a, shortcuts);
     }
     const Fixed plane = along_n(ref.center) + comp(ref.half, k);
     // Which box is the reference is part of the feature: the other choice gives other points.
     const int base = flip ? kFeatureFlipped : 0;
-    for (int i = 0; i < a.n; ++i) {
-        const Fixed sep = along_n(a.v[i]) - plane;
+    for (int i = 0; i < poly->n; ++i) {
+        const Fixed sep = along_n(poly->v[i]) - plane;
         if (sep > margin) continue;
-        add(m, flip ? -n : n, a.v[i], -sep, static_cast<std::uint8_t>(base + a.id[i]));
+        add(m, flip ? -n : n, poly->v[i], -sep, static_cast<std::uint8_t>(base + poly->id[i]));
     }
 }
 
@@ -608,9 +623,9 @@ bool axis_aligned(const Mat3& m) {
     return true;
 }
 
-// edge_shortcut: edges_cannot_matter() may skip the edge axes' loop (off only in tests, which
-// check that it changes nothing).
-void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m, bool edge_shortcut) {
+// shortcuts: edges_cannot_matter() may skip the edge axes' loop, and clip() an unchanged
+// polygon's copy (off only in tests, which check that they change nothing).
+void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m, bool shortcuts) {
     const Vec3 d = b.center - a.center;
     const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
     const Vec3 cb[3] = {column(*b.rot, 0), column(*b.rot, 1), column(*b.rot, 2)};
@@ -657,7 +672,7 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     int edge_i = 0, edge_j = 0;
     Vec3 edge_n{};
     const i128 limit = std::min<i128>(static_cast<i128>(margin.raw), static_cast<i128>(face_sep.raw) + kEdgeBias);
-    if (!edge_shortcut || !edges_cannot_matter(c, ta, tb, d, a.half, b.half, axis_aligned(*a.rot), axis_aligned(*b.rot),
+    if (!shortcuts || !edges_cannot_matter(c, ta, tb, d, a.half, b.half, axis_aligned(*a.rot), axis_aligned(*b.rot),
                                                  static_cast<std::int64_t>(limit)))
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) {
@@ -691,9 +706,9 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         return;
     }
     if (face_box == 0)
-        face_contact(a, face_k, face_n, b, margin, false, m);
+        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts);
     else
-        face_contact(b, face_k, face_n, a, margin, true, m);
+        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts);
 }
 }  // namespace
 

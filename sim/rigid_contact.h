@@ -60,7 +60,8 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
 
 // Two boxes as contact_points() does them, but with every edge axis of the separating-axis
 // test normalised and tested (contact_points() skips them when a cheaper bound shows none can
-// matter). The same manifold, bit for bit: for tests.
+// matter) and every clip of the incident face written out. The same manifold, bit for bit:
+// for tests.
 void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
 
 // Point against an oriented box: closest point, unit normal from the point toward the box

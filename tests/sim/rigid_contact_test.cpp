@@ -352,6 +352,56 @@ TEST(RigidContact, UnturnedReferenceFaceDepthsAreTheDotProducts) {
     EXPECT_GT(negative, 5000);
 }
 
+// clip() returns the incident face uncopied when no vertex lies beyond a side plane; the
+// manifold must be the one the full clipping gives, bit for bit. Face contacts of every kind:
+// a face well inside the reference face (every clip unchanged: a box on the floor), one
+// overhanging an edge or a corner of it (some clips cut), equal unturned boxes stacked exactly
+// (vertices on the side planes, at distance 0), against unturned references (a component for
+// the distance) and turned ones (a dot product), either box the reference.
+TEST(RigidContact, UnchangedClipShortcutChangesNoManifold) {
+    std::mt19937_64 rng(2020);
+    std::uniform_real_distribution<double> u(-1, 1), size(0.1, 0.6), tilt(-0.08, 0.08), unit(0, 1);
+    int faces = 0, inside = 0, cut = 0, differ = 0;
+    for (int n = 0; n < 40000; ++n) {
+        const int mode = n % 4;  // 0 on a big unturned box, 1 overhanging, 2 stacked exactly, 3 both turned
+        const Mat3 upper = mode == 2 && n / 4 % 2 == 0 ? kIdentity : rotation(quat(1, tilt(rng), tilt(rng), tilt(rng)));
+        const Mat3 lower = mode == 3 ? rotation(quat(1, tilt(rng), tilt(rng), tilt(rng))) : kIdentity;
+        const D3 hu{size(rng), size(rng), size(rng)};
+        const D3 hl = mode == 0 ? D3{5, 0.5, 5} : mode == 2 ? hu : D3{size(rng), size(rng), size(rng)};
+        // Upper box's centre: over the lower one's top face, offset sideways (within it, or over
+        // its edges), resting at a small gap or overlap.
+        const double spread = mode == 0 ? 3 : mode == 2 ? (n / 8 % 2 == 0 ? 0 : 0.1) : 1;
+        const double dx = mode == 2 && spread == 0 ? 0 : spread * u(rng) * (hl.x + hu.x);
+        const double dz = mode == 2 && spread == 0 ? 0 : spread * u(rng) * (hl.z + hu.z);
+        const D3 c{dx, hl.y + hu.y + 0.01 * u(rng), dz};
+        const OrientedCollider lo = box(lower, {0, 0, 0}, hl), up = box(upper, c, hu);
+        const bool lower_first = n / 16 % 2 == 0;
+        const OrientedCollider& a = lower_first ? lo : up;
+        const OrientedCollider& b = lower_first ? up : lo;
+        Manifold fast, full;
+        contact_points(a, b, fx(0.02), fast);
+        box_box_exhaustive(a, b, fx(0.02), full);
+        bool same = fast.count == full.count;
+        for (int i = 0; same && i < fast.count; ++i) {
+            const ContactPoint &p = fast.points[i], &q = full.points[i];
+            same = p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature;
+        }
+        if (!same) ++differ;
+        if (full.count == 0 || full.points[0].feature >= kFeatureEdge) continue;
+        ++faces;
+        // Ids 0..3 (mod the flip) are the incident face's own corners: all four kept and no
+        // other is an unchanged face; any id 4 or more is a cut.
+        bool any_cut = false;
+        for (int i = 0; i < full.count; ++i) any_cut |= (full.points[i].feature % kFeatureFlipped) >= 4;
+        (any_cut ? cut : inside) += 1;
+    }
+    EXPECT_EQ(differ, 0);
+    // Both kinds of face contact are reached, so the comparison means something.
+    EXPECT_GT(faces, 20000) << inside << " " << cut;
+    EXPECT_GT(inside, 4000);
+    EXPECT_GT(cut, 5000);
+}
+
 // Reference distance from the capsule's core segment to the box, in double: the distance is
 // convex along the segment, so a golden-section search finds its minimum.
 double segment_box_distance(const OrientedCollider& c, const OrientedCollider& b) {
