@@ -591,8 +591,6 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
             // c's two coordinates in the chosen frame, and the distances along those axes.
             const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
             const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
-            const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
-            if (len_sq < kSkipBelow) continue;
             // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
             // Fixed products were within 3), so the slack e covers it as before.
             const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
@@ -600,11 +598,16 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
                            mul_wide(comp(hb, j1).raw, ar[i][j2]) + mul_wide(comp(hb, j2).raw, ar[i][j1]);
             const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
             const std::int64_t l = n + e;
+            // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
+            // |c|^2 is taken only after that test (the products above are in range for every
+            // axis: the checks at the top bound every entry and distance, skipped axes too).
+            if (bound >= 0 && l <= 0) continue;
+            const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
+            if (len_sq < kSkipBelow) continue;
             // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
             // factor, which halves the wide products below).
             const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
             if (bound >= 0) {
-                if (l <= 0) continue;
                 if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
             } else {
                 if (l >= 0) return false;
