@@ -20,6 +20,16 @@ Vec3 unit_axis(int k) {
     return k == 0 ? Vec3{one, zero, zero} : k == 1 ? Vec3{zero, one, zero} : Vec3{zero, zero, one};
 }
 
+// The identity rotation exactly (an unturned box: every room wall, and a box that has not turned
+// yet). Multiplying by it, either way round, gives v bit for bit (each dot product with a unit
+// axis is one exact term rounded once), so the products are skipped.
+// Always inline: point_box() is a hot caller too (called out of line, it cost paper_rigid
+// ~190 instructions a step).
+[[gnu::always_inline]] inline bool identity(const Mat3& m) {
+    const Fixed zero = Fixed::zero(), one = Fixed::one();
+    return m.row[0] == Vec3{one, zero, zero} && m.row[1] == Vec3{zero, one, zero} && m.row[2] == Vec3{zero, zero, one};
+}
+
 void add(Manifold& m, const Vec3& n, const Vec3& p, Fixed depth, std::uint8_t feature) {
     if (m.count >= kMaxManifold) return;
     m.points[m.count++] = {n, p, depth, feature};
@@ -215,10 +225,16 @@ Fixed closest_to_box(const Vec3& a, const Vec3& d, const Vec3& h) {
 }
 
 // A capsule in the box's frame: segment a + d t, radius r; writes local normals and points.
+// unturned: the box's rotation is the identity (identity()) and the shortcuts are on, so its
+// products, r v (to world) and r^T v (to the box's frame), are v itself, bit for bit, and are
+// skipped: a player's capsule against a room's wall.
 struct LocalCapsule {
     Vec3 a, d;
     Fixed r, reach;
+    bool unturned = false;
 };
+
+Vec3 to_world(const LocalCapsule& c, const Mat3& r, const Vec3& v) { return c.unturned ? v : r * v; }
 
 // num / d where that is within [-1, 1]; beyond, +-2 (outside the segment either way), so the
 // division never saturates.
@@ -268,7 +284,7 @@ void face_point(const LocalCapsule& c, const OrientedCollider& box, int k, bool 
     comp(p, k) = negative ? -hk : hk;  // on the face
     const Vec3 ek = column(*box.rot, k);
     const int face = 2 * k + (negative ? 1 : 0);
-    add(m, negative ? ek : -ek, box.center + *box.rot * p, c.r - sep, static_cast<std::uint8_t>(8 * face + code));
+    add(m, negative ? ek : -ek, box.center + to_world(c, *box.rot, p), c.r - sep, static_cast<std::uint8_t>(8 * face + code));
 }
 
 // Face k as the reference: each end of the segment's part over it within reach.
@@ -337,10 +353,11 @@ void capsule_box_sat(const LocalCapsule& c, const OrientedCollider& box, Manifol
     }
     Vec3 cs, ce;
     closest_segments(c.a, b, e0, e1, cs, ce);
-    add(m, *box.rot * -edge_u, box.center + *box.rot * ce, edge_pen + c.r, box_feature(sign));
+    add(m, to_world(c, *box.rot, -edge_u), box.center + to_world(c, *box.rot, ce), edge_pen + c.r, box_feature(sign));
 }
 
-void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed margin, Manifold& m) {
+// shortcuts: as box_box()'s (off only in tests): an unturned box's products are skipped.
+void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed margin, Manifold& m, bool shortcuts) {
     if (a.core_half.raw == 0) {
         sphere_box(a.center, a.radius, box, margin, m, 0);
         return;
@@ -348,8 +365,9 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     Vec3 p0, p1;
     segment(a, p0, p1);
     LocalCapsule c;
-    c.a = transpose_times(*box.rot, p0 - box.center);
-    c.d = transpose_times(*box.rot, p1 - box.center) - c.a;
+    c.unturned = shortcuts && identity(*box.rot);
+    c.a = c.unturned ? p0 - box.center : transpose_times(*box.rot, p0 - box.center);
+    c.d = (c.unturned ? p1 - box.center : transpose_times(*box.rot, p1 - box.center)) - c.a;
     c.r = a.radius;
     c.reach = a.radius + margin;
     const Vec3& h = box.half;
@@ -384,7 +402,7 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     }
     const Fixed dist = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dist_sq)));
     const Vec3 nl{diff.x / dist, diff.y / dist, diff.z / dist};
-    add(m, *box.rot * nl, box.center + *box.rot * (q + diff), a.radius - dist, box_feature(sign));
+    add(m, to_world(c, *box.rot, nl), box.center + to_world(c, *box.rot, q + diff), a.radius - dist, box_feature(sign));
     // Over an edge: the far end of the segment's part over the face the normal leans to most is
     // a second point when within reach. A capsule lying along that face and over its edge then
     // keeps two supports whichever way it tilts by a hair (the face case gives the same two).
@@ -395,16 +413,6 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     if (!clip_to_face(c, h, k, f) || f.t0 == f.t1) return;
     const bool far_is_t1 = abs(f.t1 - t) > abs(f.t0 - t);
     face_point(c, box, k, sign[k] < 0, far_is_t1 ? f.t1 : f.t0, far_is_t1 ? f.code1 : f.code0, m);
-}
-
-// The identity rotation exactly (an unturned box: every room wall, and a box that has not turned
-// yet). Multiplying by it, either way round, gives v bit for bit (each dot product with a unit
-// axis is one exact term rounded once), so the products are skipped.
-// Always inline: point_box() is a hot caller too (called out of line, it cost paper_rigid
-// ~190 instructions a step).
-[[gnu::always_inline]] inline bool identity(const Mat3& m) {
-    const Fixed zero = Fixed::zero(), one = Fixed::one();
-    return m.row[0] == Vec3{one, zero, zero} && m.row[1] == Vec3{zero, one, zero} && m.row[2] == Vec3{zero, zero, one};
 }
 
 // Box-box by the separating-axis test over the 15 axes (3 face normals of each box, 9 edge
@@ -788,19 +796,31 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
     return true;
 }
 
-void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+namespace {
+// shortcuts: on in contact_points(), off in contact_points_general() (tests).
+[[gnu::always_inline]] inline void contact_points_with(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
+                                                       Manifold& m, bool shortcuts) {
     m.count = 0;
     const bool a_box = a.shape == Shape::Box, b_box = b.shape == Shape::Box;
     if (!a_box && !b_box) {
         round_round(a, b, margin, m);
     } else if (!a_box) {
-        round_box(a, b, margin, m);
+        round_box(a, b, margin, m, shortcuts);
     } else if (!b_box) {
-        round_box(b, a, margin, m);
+        round_box(b, a, margin, m, shortcuts);
         for (int i = 0; i < m.count; ++i) m.points[i].normal = -m.points[i].normal;
     } else {
-        box_box(a, b, margin, m, true);
+        box_box(a, b, margin, m, shortcuts);
     }
+}
+}  // namespace
+
+void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    contact_points_with(a, b, margin, m, true);
+}
+
+void contact_points_general(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+    contact_points_with(a, b, margin, m, false);
 }
 
 void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {

@@ -64,6 +64,10 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
 // for tests.
 void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
 
+// contact_points() with every shortcut off (those of box_box_exhaustive(), and a capsule against
+// an unturned box through its rotation's products). The same manifold, bit for bit: for tests.
+void contact_points_general(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
+
 // Point against an oriented box: closest point, unit normal from the point toward the box
 // surface (out of the box through the nearest face when the point is inside), and the signed
 // distance (negative inside). Returns false when the point is farther than `reach`.

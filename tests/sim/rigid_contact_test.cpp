@@ -402,6 +402,49 @@ TEST(RigidContact, UnchangedClipShortcutChangesNoManifold) {
     EXPECT_GT(cut, 5000);
 }
 
+// A capsule against an unturned box (a player against a room's wall) skips the rotation's
+// products; the manifold must be the general one (contact_points_general), bit for bit, for
+// capsules touching a face (one or two points), an edge or a corner, or deep inside, either
+// collider first, and far boxes (the products of a centre far from the origin).
+TEST(RigidContact, CapsuleUnturnedBoxShortcutGivesTheGeneralBits) {
+    std::mt19937_64 rng(2021);
+    std::uniform_real_distribution<double> u(-1, 1), unit(0, 1);
+    int face = 0, two = 0, edge = 0, deep = 0, differ = 0;
+    for (int n = 0; n < 60000; ++n) {
+        const Mat3 rc = rotation(quat(u(rng), u(rng), u(rng), u(rng)));
+        // Every fourth capsule lies along a face (its axis along the box's x or z).
+        const Mat3 lying = rotation(quat(1, 0, 0, n % 8 < 4 ? 1 : 0));
+        const bool flat = n % 4 == 0;
+        const D3 hb{0.2 + 3 * unit(rng), 0.2 + unit(rng), 0.2 + 3 * unit(rng)};
+        const D3 far{n % 3 == 0 ? 0 : 100 * u(rng), 0, n % 3 == 0 ? 0 : 100 * u(rng)};
+        const double radius = 0.05 + 0.4 * unit(rng), core = 0.05 + 0.8 * unit(rng);
+        // The capsule's centre: around the box's surface, from inside to just beyond the reach.
+        D3 c{u(rng) * (hb.x + core), u(rng) * (hb.y + core), u(rng) * (hb.z + core)};
+        if (flat) c.y = (hb.y + radius + 0.02 * u(rng)) * (n % 16 < 8 ? 1 : -1);
+        const OrientedCollider b = box(kIdentity, far, hb), a = capsule(flat ? lying : rc, far + c, radius, core);
+        const bool capsule_first = n % 2 == 0;
+        Manifold fast, full;
+        contact_points(capsule_first ? a : b, capsule_first ? b : a, fx(0.02), fast);
+        contact_points_general(capsule_first ? a : b, capsule_first ? b : a, fx(0.02), full);
+        bool same = fast.count == full.count;
+        for (int i = 0; same && i < fast.count; ++i) {
+            const ContactPoint &p = fast.points[i], &q = full.points[i];
+            same = p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature;
+        }
+        if (!same) ++differ;
+        if (full.count == 0) continue;
+        if (full.points[0].feature >= kFeatureEdge) ++edge;
+        else ++face;
+        two += full.count == 2;
+        deep += full.points[0].depth > fx(radius);
+    }
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(face, 3000) << edge << " " << two << " " << deep;  // every case is exercised
+    EXPECT_GT(edge, 3000);
+    EXPECT_GT(two, 1000);
+    EXPECT_GT(deep, 1000);
+}
+
 // Reference distance from the capsule's core segment to the box, in double: the distance is
 // convex along the segment, so a golden-section search finds its minimum.
 double segment_box_distance(const OrientedCollider& c, const OrientedCollider& b) {
