@@ -96,7 +96,9 @@ void closest_segments(const Vec3& p1, const Vec3& q1, const Vec3& p2, const Vec3
     c2 = p2 + d2 * t;
 }
 
-void round_round(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
+// Always inline: contact_points() is its one hot caller (out of line, with contact_points_general()
+// a second caller, it cost bodies_1k_rigid 6.9 M instructions over 360 steps).
+[[gnu::always_inline]] inline void round_round(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
     // Two spheres: closest_segments() of two points gives the centres themselves (every product
     // it takes is of zero vectors), so the centres go straight in.
     if (a.core_half.raw == 0 && b.core_half.raw == 0) {
