@@ -429,11 +429,19 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
 // incident edge e cut by reference side plane s (4 + 4 s + e), or a corner where side planes
 // s1 then s2 cut (20 + 4 s1 + s2). edge[i] says what the edge from v[i] to v[i+1] lies on: an
 // incident edge (0..3) or a side plane (4 + s).
+// Vertices, ids and edges are written before they are read (face_contact() the first four,
+// clip() each one it keeps), so they are not zero-filled: Fixed's default member initialiser
+// would have face_contact() write both buffers' 8 vertices each call. The vertices are an
+// anonymous union's member so that Poly() leaves them unconstructed; assigning one (Vec3's
+// assignment is trivial) begins the array's lifetime ([class.union.general]).
 struct Poly {
+    Poly() {}
     int n = 0;
-    Vec3 v[8];
-    std::uint8_t id[8] = {};
-    std::uint8_t edge[8] = {};
+    union {
+        Vec3 v[8];
+    };
+    std::uint8_t id[8];
+    std::uint8_t edge[8];
 };
 
 // Keeps the part of poly where dot(dir, p) <= limit; `plane` (0..3) names the side plane.
