@@ -345,13 +345,14 @@ OrientedCollider RigidSolver::collider(BodyId id, const std::vector<Vec3>& pos) 
     return {shape_[id], pos[id], &rot_[id], radius_[id], core_half_[id], half_[id]};
 }
 
-Fixed RigidSolver::pair_restitution(BodyId a, BodyId b) const {
+// Inline in build_points(), their one caller (out of line: a call per manifold).
+[[gnu::always_inline]] inline Fixed RigidSolver::pair_restitution(BodyId a, BodyId b) const {
     const Fixed ea = restitution_[a], eb = restitution_[b];
     if (ea.raw >= 0 || eb.raw >= 0) return max(ea, eb);
     return rest_[static_cast<int>(shape_[a])][static_cast<int>(shape_[b])];
 }
 
-void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const {
+[[gnu::always_inline]] inline void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const {
     const auto combine = [](Fixed x, Fixed y, Fixed table) {
         if (x.raw >= 0 && y.raw >= 0) return sqrt(x * y);
         if (x.raw >= 0) return x;
@@ -363,13 +364,17 @@ void RigidSolver::pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) co
     mu_s = max(mu_k, combine(static_friction_[a], static_friction_[b], stat_[sa][sb]));
 }
 
-void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const {
+void RigidSolver::arms(BodyId id, const Vec3& r, Point& p, Vec3 Row::*arm) const {
+    // Written where the rows keep them (make_row() reads them there): no copy of 9 values.
+    Vec3& c0 = p.row[0].*arm;
+    Vec3& c1 = p.row[1].*arm;
+    Vec3& c2 = p.row[2].*arm;
     if (inv_mass_[id].raw == 0) {
         // A static body's arms are never read for a result: its angular velocity is zero (every
         // row speed skips its term), its inverse inertia is zero (so are its Jacobian products
         // and its share of the effective masses), and no pass moves it. Zeros change no bits
         // and save the room's walls three cross products per point.
-        c[0] = c[1] = c[2] = Vec3{};
+        c0 = c1 = c2 = Vec3{};
         return;
     }
     if (shape_[id] == Shape::Sphere) {
@@ -378,34 +383,34 @@ void RigidSolver::arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) c
         // Taken exactly, so rounding does not give the sphere a spurious twist.
         // On a wall (normal and tangents exact axes) the products by exact 0 and +-1 are taken
         // as what they give (rigid_detail::scaled_axis, dot_axis).
-        c[0] = Vec3{};
+        c0 = Vec3{};
         if (p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0) {
             const Fixed len = rigid_detail::dot_axis(p.axis_n, r);
-            c[1] = rigid_detail::scaled_axis(p.axis_t2, len);
-            c[2] = -rigid_detail::scaled_axis(p.axis_t1, len);
+            c1 = rigid_detail::scaled_axis(p.axis_t2, len);
+            c2 = -rigid_detail::scaled_axis(p.axis_t1, len);
             return;
         }
         const Fixed len = dot(r, p.n);
-        c[1] = p.t2 * len;
-        c[2] = -(p.t1 * len);
+        c1 = p.t2 * len;
+        c2 = -(p.t1 * len);
         return;
     }
     if (p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0) {
         // A box (or capsule) on a wall, the floor or an unturned box's face: r x an axis is a
         // permutation of r's components with signs, no products (rigid_detail::cross_axis).
-        c[0] = rigid_detail::cross_axis(r, p.axis_n);
-        c[1] = rigid_detail::cross_axis(r, p.axis_t1);
-        c[2] = rigid_detail::cross_axis(r, p.axis_t2);
+        c0 = rigid_detail::cross_axis(r, p.axis_n);
+        c1 = rigid_detail::cross_axis(r, p.axis_t1);
+        c2 = rigid_detail::cross_axis(r, p.axis_t2);
         return;
     }
-    c[0] = cross(r, p.n);
-    c[1] = cross(r, p.t1);
-    c[2] = cross(r, p.t2);
+    c0 = cross(r, p.n);
+    c1 = cross(r, p.t1);
+    c2 = cross(r, p.t2);
 }
 
-void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass) const {
-    row.ca = ca;
-    row.cb = cb;
+[[gnu::always_inline]] inline void RigidSolver::make_row(const Point& p, Row& row, rigid_detail::ReciprocalMemo& memo, const Row* same_mass) const {
+    const Vec3& ca = row.ca;
+    const Vec3& cb = row.cb;
     const SolverBody& a = bodies_[p.sa];
     const SolverBody& b = bodies_[p.sb];
     // A static body has zero inverse inertia, and a zero arm turns nothing: ia (ib) is then
@@ -428,7 +433,7 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     Fixed k = a.inv_mass + b.inv_mass;
     if (row.ia != Vec3{}) k = k + dot(ca, row.ia);
     if (row.ib != Vec3{}) k = k + dot(cb, row.ib);
-    row.mass = k.raw > 0 ? reciprocal(k) : Fixed::zero();
+    row.mass = k.raw > 0 ? memo.reciprocal_of(k) : Fixed::zero();
 }
 
 [[gnu::always_inline]] inline Fixed RigidSolver::row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies) {
@@ -627,6 +632,7 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
     points_.clear();
     manifold_start_.clear();
     Manifold m;
+    rigid_detail::ReciprocalMemo memo;
     for (const BodyPair& pair : pairs_) {
         BodyId a, b;
         manifold_of(pair, pos, a, b, m);
@@ -636,12 +642,13 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
         slot_of(b, vel, angvel);
         const std::size_t first = points_.size();
         points_.resize(first + static_cast<std::size_t>(m.count));
-        build_points(a, b, m, pos, points_.data() + first);
+        build_points(a, b, m, pos, points_.data() + first, memo);
     }
     if (block_) manifold_start_.push_back(static_cast<std::uint32_t>(points_.size()));
 }
 
-[[gnu::always_inline]] inline void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const {
+[[gnu::always_inline]] inline void RigidSolver::build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out,
+                                                          rigid_detail::ReciprocalMemo& memo) const {
     const Fixed e = pair_restitution(a, b);
     Fixed mu_k, mu_s;
     pair_friction(a, b, mu_k, mu_s);
@@ -690,15 +697,14 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
             p.axis_t1 = axis_code(p.t1);
             p.axis_t2 = axis_code(p.t2);
         }
-        Vec3 ca[3], cb[3];
-        arms(a, c.point - pos[a], p, ca);
-        arms(b, c.point - pos[b], p, cb);
-        make_row(p, ca[0], cb[0], p.row[0]);
-        make_row(p, ca[1], cb[1], p.row[1]);
+        arms(a, c.point - pos[a], p, &Row::ca);
+        arms(b, c.point - pos[b], p, &Row::cb);
+        make_row(p, p.row[0], memo);
+        make_row(p, p.row[1], memo);
         // Between spheres (or a sphere and a static body) the two tangent rows' effective
         // masses are equal (each turning body's arm is L n, so |r x t1| = |r x t2| = |L|):
         // one division serves both.
-        make_row(p, ca[2], cb[2], p.row[2], sphere_pair ? &p.row[1] : nullptr);
+        make_row(p, p.row[2], memo, sphere_pair ? &p.row[1] : nullptr);
         p.nonzero = p.axis_n != 0 && p.axis_t1 != 0 && p.axis_t2 != 0 ? static_cast<std::uint16_t>(nonzero | axis_arms_ab | kAxisRows) : nonzero;
         p.mu_k = mu_k;
         p.mu_s = mu_s;
@@ -744,10 +750,11 @@ void RigidSolver::find_manifolds(std::size_t begin, std::size_t end, const std::
 
 void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
                               const std::vector<Vec3>& pos) {
+    rigid_detail::ReciprocalMemo memo;
     for (const Found& f : list) {
         const BodyPair& pair = pairs_[f.pair];
         const bool swapped = shape_[pair.a] == Shape::Box && shape_[pair.b] != Shape::Box;
-        build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + place[first++]);
+        build_points(swapped ? pair.b : pair.a, swapped ? pair.a : pair.b, f.m, pos, points_.data() + place[first++], memo);
     }
 }
 

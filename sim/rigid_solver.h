@@ -80,6 +80,10 @@ inline bool key_less(const ContactImpulse& x, const ContactImpulse& y) {
 // points); beyond, the last ones in key order are dropped, so the state has a fixed capacity.
 inline constexpr std::size_t kImpulsesPerBody = 8;
 
+namespace rigid_detail {
+class ReciprocalMemo;
+}
+
 class RigidSolver {
 public:
     // The speculative margin every pair gets whatever its speed (pair_margin()): 1 cm, for the
@@ -276,7 +280,9 @@ private:
     // manifold_of() and build_points() are inline, defined and used in rigid_solver.cpp only
     // (build_contacts()'s loop, as before the parallel step); rigid_solver_parallel.cpp reaches
     // them through the per-range phases find_manifolds() and build_found().
-    inline void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out) const;
+    // memo: the effective masses' reciprocals already taken by this loop (one per thread).
+    inline void build_points(BodyId a, BodyId b, const Manifold& m, const std::vector<Vec3>& pos, Point* out,
+                             rigid_detail::ReciprocalMemo& memo) const;
     // build_contacts() in three phases (RigidSolver::step), the same points in the same places.
     void build_contacts_parallel(const std::vector<Vec3>& pos, const std::vector<Vec3>& vel,
                                  const std::vector<Vec3>& angvel, const ParallelTasks& tasks);
@@ -415,11 +421,12 @@ private:
     // The speed along row k of p (> 0 separates for the normal), rounded once. Inline in
     // every caller (rigid_solver.cpp only): out of line it cost 5.7 M of paper_rigid's 180 M.
     static Fixed row_speed(const Point& p, int k, const Vec3& dv, const Bodies& bodies);
-    // c[k] = r x (p's row k direction) for body id's arm r (exact zeros for a sphere's normal).
-    void arms(BodyId id, const Vec3& r, const Point& p, Vec3 (&c)[3]) const;
-    // Fills a row from its arms ca, cb: the inverse inertia products and the effective mass
-    // (same_mass's when given: a row known to have the same one).
-    void make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& row, const Row* same_mass = nullptr) const;
+    // p.row[k].*arm = r x (p's row k direction) for body id's arm r (arm: &Row::ca or &Row::cb;
+    // exact zeros for a sphere's normal).
+    void arms(BodyId id, const Vec3& r, Point& p, Vec3 Row::*arm) const;
+    // Fills a row from its arms row.ca, row.cb: the inverse inertia products and the effective
+    // mass (same_mass's when given: a row known to have the same one; else 1/k through memo).
+    void make_row(const Point& p, Row& row, rigid_detail::ReciprocalMemo& memo, const Row* same_mass = nullptr) const;
     Fixed pair_restitution(BodyId a, BodyId b) const;
     void pair_friction(BodyId a, BodyId b, Fixed& mu_k, Fixed& mu_s) const;
     OrientedCollider collider(BodyId id, const std::vector<Vec3>& pos) const;
@@ -514,6 +521,32 @@ Fixed dot_axis(std::int8_t code, const Vec3& v);
 Vec3 cross_axis(const Vec3& r, std::int8_t code);
 // tangents(e) and their axis codes for the axis e with axis code `code` != 0, from a table.
 void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2);
+// 1/k for the effective masses, remembered for the last two k a loop met: reciprocal() is a pure
+// function of k, so a remembered value has its bits. Between 1 kg bodies most rows with no
+// turning arm (a ball's normal row: k = 1/m_a + 1/m_b) share a handful of k. Only
+// k >= 2^-16 is remembered: 1/k <= 2^16 then, so reciprocal() never saturates and counts no
+// overflow that a hit would leave uncounted. One per loop (and thread).
+class ReciprocalMemo {
+public:
+    static constexpr std::int64_t kLeast = std::int64_t{1} << (Fixed::kFracBits - 16);
+    // reciprocal(x) for x > 0.
+    Fixed reciprocal_of(Fixed x) {
+        if (x.raw == k_[0]) return inv_[0];
+        if (x.raw == k_[1]) return inv_[1];
+        const Fixed r = reciprocal(x);
+        if (x.raw >= kLeast) {
+            k_[next_] = x.raw;
+            inv_[next_] = r;
+            next_ ^= 1;
+        }
+        return r;
+    }
+
+private:
+    std::int64_t k_[2] = {0, 0};  // raw k; 0 is never asked for (k > 0)
+    Fixed inv_[2];
+    int next_ = 0;
+};
 }  // namespace rigid_detail
 
 }  // namespace lockroll::sim

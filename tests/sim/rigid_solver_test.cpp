@@ -51,6 +51,17 @@ std::vector<std::uint8_t> expect_replays_bit_for_bit(const SceneDesc& s, World& 
     return snap;
 }
 
+// A shortcut and the general arithmetic: the same value and the same overflow events.
+template <class S, class G>
+bool same_bits(S shortcut, G general) {
+    const std::uint64_t start = overflow_events();
+    const auto got = shortcut();
+    const std::uint64_t got_events = overflow_events() - start;
+    const std::uint64_t middle = overflow_events();
+    const auto want = general();
+    return got == want && got_events == overflow_events() - middle;
+}
+
 // The contact setup takes an axis normal's tangent basis (and the tangents' axis codes) from a
 // table (rigid_detail::axis_tangents), and a sphere's arms on a wall without products by 0 and
 // +-1 (scaled_axis, dot_axis): each must be exactly what the general arithmetic gives, bits and
@@ -85,15 +96,6 @@ TEST(RigidSolver, AxisShortcutsGiveTheGeneralBits) {
         for (int i = 0; i < 200000; ++i) {
             const Fixed s = raw();
             const Vec3 v{raw(), raw(), raw()};
-            // The shortcut and the general arithmetic: the same value and overflow events.
-            const auto same_bits = [](auto shortcut, auto general) {
-                const std::uint64_t start = overflow_events();
-                const auto got = shortcut();
-                const std::uint64_t got_events = overflow_events() - start;
-                const std::uint64_t middle = overflow_events();
-                const auto want = general();
-                return got == want && got_events == overflow_events() - middle;
-            };
             ASSERT_TRUE(same_bits([&] { return rigid_detail::scaled_axis(code, s); }, [&] { return n * s; })) << i;
             ASSERT_TRUE(same_bits([&] { return rigid_detail::dot_axis(code, v); }, [&] { return dot(n, v); })) << i;
             // A box's arms on a wall: r x e without the products.
@@ -108,6 +110,26 @@ TEST(RigidSolver, AxisShortcutsGiveTheGeneralBits) {
     EXPECT_EQ(rigid_detail::axis_code({one, Fixed::from_raw(1), z}), 0);
     EXPECT_EQ(rigid_detail::axis_code({Fixed::from_raw(Fixed::kOne - 1), z, z}), 0);
     EXPECT_EQ(rigid_detail::axis_code({Fixed::from_raw(2 * Fixed::kOne), z, z}), 0);
+}
+
+// The contact setup's effective masses (make_row) take 1/k through a memo of the last two k
+// (rigid_detail::ReciprocalMemo): it must give reciprocal()'s bits and overflow counts, on k
+// drawn from a small pool (so most are repeats) that holds k whose reciprocal saturates and
+// counts (raw 1 and 2), k at the memo's least and just below it, and k of every size.
+TEST(RigidSolver, ReciprocalMemoGivesTheGeneralBits) {
+    std::mt19937_64 rng(2020);
+    const std::int64_t least = rigid_detail::ReciprocalMemo::kLeast;
+    std::vector<Fixed> pool = {Fixed::from_raw(1), Fixed::from_raw(2), Fixed::from_raw(least), Fixed::from_raw(least - 1),
+                               Fixed::one(), Fixed::from_int(2), Fixed::max()};
+    for (int i = 0; i < 9; ++i) pool.push_back(Fixed::from_raw(static_cast<std::int64_t>(rng() >> (1 + rng() % 63)) + 1));
+    rigid_detail::ReciprocalMemo memo;
+    int saturating = 0;
+    for (int i = 0; i < 100000; ++i) {
+        const Fixed k = pool[rng() % pool.size()];
+        saturating += k.raw <= 2;
+        ASSERT_TRUE(same_bits([&] { return memo.reciprocal_of(k); }, [&] { return reciprocal(k); })) << i << " k " << k.raw;
+    }
+    EXPECT_GT(saturating, 1000);
 }
 
 TEST(RigidSolver, SlidingBallEndsRollingAtFiveSevenths) {
