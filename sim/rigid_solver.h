@@ -314,6 +314,14 @@ private:
     void each_point(ManifoldSet set, bool backwards, F&& f);
     template <class F>
     void each_point(ManifoldRange range, bool backwards, F&& f);
+    // f(begin, end) for runs of contiguous points: together each_point(points, false)'s visits
+    // in its order (one run for AllPoints and ManifoldRange, one per manifold for ManifoldSet).
+    template <class F>
+    void each_run(AllPoints, F&& f);
+    template <class F>
+    void each_run(ManifoldSet set, F&& f);
+    template <class F>
+    void each_run(ManifoldRange range, F&& f);
     std::size_t manifold_count(AllPoints) const { return manifold_start_.size() - 1; }
     static std::size_t manifold_count(ManifoldSet set) { return set.size(); }
     static std::size_t manifold_at(AllPoints, std::size_t k) { return k; }
@@ -363,6 +371,11 @@ private:
     enum class Rows : std::uint8_t { Both, Normal, Friction };
     void solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                      Rows rows = Rows::Both);
+    // solve_point()'s body, inline in rigid_solver.cpp's callers only (as row_speed()).
+    void solve_one(Point& p, Bodies& bodies, BodyId only, bool shock, Rows rows);
+    // solve_point(p, bodies, kEveryBody, false) for each point of [begin, end) in order: the
+    // passes' common case, with the point's solve inline.
+    void solve_run(Point* begin, Point* end, Bodies& bodies);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
     // rigid.sleeping (sim/rigid_solver_sleeping.cpp; docs/physics.md, "Sleeping").
@@ -514,6 +527,17 @@ Fixed dot_axis(std::int8_t code, const Vec3& v);
 Vec3 cross_axis(const Vec3& r, std::int8_t code);
 // tangents(e) and their axis codes for the axis e with axis code `code` != 0, from a table.
 void axis_tangents(std::int8_t code, Vec3& t1, Vec3& t2, std::int8_t& code1, std::int8_t& code2);
+// f() (a velocity change both bodies of a contact get, equal masses), with any overflow events
+// it noted noted once more: what computing it for each body gives, once (apply_normal(),
+// apply_friction()).
+template <class F>
+Vec3 shared_change(F&& f) {
+    const std::uint64_t before = overflow_events();
+    const Vec3 v = f();
+    const std::uint64_t noted = overflow_events() - before;
+    if (noted != 0) note_overflows(noted);
+    return v;
+}
 }  // namespace rigid_detail
 
 }  // namespace lockroll::sim
