@@ -441,9 +441,11 @@ void RigidSolver::make_row(const Point& p, const Vec3& ca, const Vec3& cb, Row& 
     const Vec3& wb = bodies[p.sb].w;
     // A tangent row's axis arm (kAxisArmsA/B) has one non-zero component, on the other
     // tangent's axis: its dot product is that one product (the others are exact zeros).
-    const int axis = k == 0 ? 0 : std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
     const auto arm_dot = [&](const Vec3& c, const Vec3& w, std::uint16_t axis_bit) {
-        if (k != 0 && (p.nonzero & axis_bit) != 0) return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        if (k != 0 && (p.nonzero & axis_bit) != 0) {
+            const int axis = std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
+            return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        }
         return dot_wide(c, w);
     };
     if ((p.nonzero & (kArmB << k)) != 0) s.add(arm_dot(r.cb, wb, kAxisArmsB));
@@ -479,7 +481,7 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
 // The two common cases of apply(), with the same bits: a normal impulse alone (each component
 // one product, as combine3 gives for one weight), and friction alone (two weights: each
 // component a x + b y rounded once, which is also what combine3 gives when one of them is zero).
-void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
+[[gnu::always_inline]] inline void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
@@ -526,7 +528,7 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
     }
 }
 
-void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
+[[gnu::always_inline]] inline void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
