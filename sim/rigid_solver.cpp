@@ -30,16 +30,7 @@ void add_along(Vec3& v, std::int8_t code, Fixed s) {
     c += code > 0 ? s : -s;
 }
 
-// f() (a velocity change both bodies of a contact get), with any overflow events it noted
-// noted once more: what computing it for each body gives, once.
-template <class F>
-Vec3 shared_change(F&& f) {
-    const std::uint64_t before = overflow_events();
-    const Vec3 v = f();
-    const std::uint64_t noted = overflow_events() - before;
-    if (noted != 0) note_overflows(noted);
-    return v;
-}
+using rigid_detail::shared_change;
 
 Vec3 hadamard(const Vec3& a, const Vec3& b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
 
@@ -448,18 +439,22 @@ void RigidSolver::arms(BodyId id, const Vec3& r, Point& p, Vec3 Row::*arm) const
     } else {
         s.add(dot_wide(d, dv));
     }
-    // A body that does not turn (static, or at rest) adds exactly zero: skipped.
+    // A body at rest adds dot_wide(c, 0) = 0, exactly and with nothing noted: its term is taken
+    // anyway (testing w for zero cost more than the three products it saved, a dynamic body of
+    // a pile almost always turning). A static body's arms are skipped by their mask bits.
     const Vec3& wa = bodies[p.sa].w;
     const Vec3& wb = bodies[p.sb].w;
     // A tangent row's axis arm (kAxisArmsA/B) has one non-zero component, on the other
     // tangent's axis: its dot product is that one product (the others are exact zeros).
-    const int axis = k == 0 ? 0 : std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
     const auto arm_dot = [&](const Vec3& c, const Vec3& w, std::uint16_t axis_bit) {
-        if (k != 0 && (p.nonzero & axis_bit) != 0) return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        if (k != 0 && (p.nonzero & axis_bit) != 0) {
+            const int axis = std::abs(k == 1 ? p.axis_t2 : p.axis_t1) - 1;
+            return mul_wide(component(c, axis).raw, component(w, axis).raw);
+        }
         return dot_wide(c, w);
     };
-    if ((p.nonzero & (kArmB << k)) != 0 && wb != Vec3{}) s.add(arm_dot(r.cb, wb, kAxisArmsB));
-    if ((p.nonzero & (kArmA << k)) != 0 && wa != Vec3{}) s.add(-arm_dot(r.ca, wa, kAxisArmsA));  // |dot_wide| < 2^127: no overflow
+    if ((p.nonzero & (kArmB << k)) != 0) s.add(arm_dot(r.cb, wb, kAxisArmsB));
+    if ((p.nonzero & (kArmA << k)) != 0) s.add(-arm_dot(r.ca, wa, kAxisArmsA));  // |dot_wide| < 2^127: no overflow
     return s.rounded();
 }
 
@@ -491,7 +486,7 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
 // The two common cases of apply(), with the same bits: a normal impulse alone (each component
 // one product, as combine3 gives for one weight), and friction alone (two weights: each
 // component a x + b y rounded once, which is also what combine3 gives when one of them is zero).
-void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
+[[gnu::always_inline]] inline void RigidSolver::apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
@@ -538,7 +533,7 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
     }
 }
 
-void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
+[[gnu::always_inline]] inline void RigidSolver::apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only) {
     SolverBody& a = bodies[p.sa];
     SolverBody& b = bodies[p.sb];
     const bool move_a = moves(a, p.a, only);
@@ -768,8 +763,18 @@ void RigidSolver::solve(const std::vector<ContactImpulse>& impulses) {
     for (int i = 0; i < iterations_; ++i) solve_pass(bodies_, i, AllPoints{});
 }
 
-void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
-                              Rows rows) {
+void RigidSolver::solve_point(Point& p, Bodies& bodies, BodyId only, bool shock, Rows rows) {
+    solve_one(p, bodies, only, shock, rows);
+}
+
+// The iterations' common case (no warm start, no block solver): each point's normal and
+// friction rows with every body moving, solve_one() inlined into the loop, so the call and the
+// tests of `only`, `shock` and `rows` are gone (the same operations in the same order).
+void RigidSolver::solve_run(Point* begin, Point* end, Bodies& bodies) {
+    for (Point* p = begin; p != end; ++p) solve_one(*p, bodies, kEveryBody, false, Rows::Both);
+}
+
+[[gnu::always_inline]] inline void RigidSolver::solve_one(Point& p, Bodies& bodies, BodyId only, bool shock, Rows rows) {
     // Effective masses as if only `only` moved (shock pass), else the pair's.
     Fixed mn = p.row[0].mass, m1 = p.row[1].mass, m2 = p.row[2].mass;
     if (only != kEveryBody) {

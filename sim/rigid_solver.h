@@ -320,6 +320,14 @@ private:
     void each_point(ManifoldSet set, bool backwards, F&& f);
     template <class F>
     void each_point(ManifoldRange range, bool backwards, F&& f);
+    // f(begin, end) for runs of contiguous points: together each_point(points, false)'s visits
+    // in its order (one run for AllPoints and ManifoldRange, one per manifold for ManifoldSet).
+    template <class F>
+    void each_run(AllPoints, F&& f);
+    template <class F>
+    void each_run(ManifoldSet set, F&& f);
+    template <class F>
+    void each_run(ManifoldRange range, F&& f);
     std::size_t manifold_count(AllPoints) const { return manifold_start_.size() - 1; }
     static std::size_t manifold_count(ManifoldSet set) { return set.size(); }
     static std::size_t manifold_at(AllPoints, std::size_t k) { return k; }
@@ -369,6 +377,11 @@ private:
     enum class Rows : std::uint8_t { Both, Normal, Friction };
     void solve_point(Point& p, Bodies& bodies, BodyId only, bool shock,
                      Rows rows = Rows::Both);
+    // solve_point()'s body, inline in rigid_solver.cpp's callers only (as row_speed()).
+    void solve_one(Point& p, Bodies& bodies, BodyId only, bool shock, Rows rows);
+    // solve_point(p, bodies, kEveryBody, false) for each point of [begin, end) in order: the
+    // passes' common case, with the point's solve inline.
+    void solve_run(Point* begin, Point* end, Bodies& bodies);
     void integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,
                    std::vector<Vec3>& angvel, std::size_t begin, std::size_t end) const;
     // rigid.sleeping (sim/rigid_solver_sleeping.cpp; docs/physics.md, "Sleeping").
@@ -414,7 +427,9 @@ private:
     // Applies impulses l0, l1, l2 along p's rows n, t1, t2 (to `only` alone when set).
     static void apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bodies, BodyId only = kEveryBody);
     static bool moves(const SolverBody& body, BodyId id, BodyId only);
-    // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero).
+    // apply() for a normal impulse alone, and for friction alone (l1, l2 not both zero). Inline
+    // in their callers (rigid_solver.cpp only): in solve_run()'s loop the calls cost 2.2 % of
+    // bodies_1k_rigid's step (docs/performance.md, "Rigid solver iterations, fifth pass").
     static void apply_normal(const Point& p, Fixed l, Bodies& bodies, BodyId only);
     static void apply_friction(const Point& p, Fixed l1, Fixed l2, Bodies& bodies, BodyId only);
     static void turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign);
@@ -547,6 +562,18 @@ private:
     Fixed inv_[2];
     int next_ = 0;
 };
+
+// f() (a velocity change both bodies of a contact get, equal masses), with any overflow events
+// it noted noted once more: what computing it for each body gives, once (apply_normal(),
+// apply_friction()).
+template <class F>
+Vec3 shared_change(F&& f) {
+    const std::uint64_t before = overflow_events();
+    const Vec3 v = f();
+    const std::uint64_t noted = overflow_events() - before;
+    if (noted != 0) note_overflows(noted);
+    return v;
+}
 }  // namespace rigid_detail
 
 }  // namespace lockroll::sim

@@ -48,6 +48,21 @@ void RigidSolver::each_point(ManifoldRange range, bool backwards, F&& f) {
         for (std::uint32_t j = begin; j < end; ++j) f(points_[j]);
 }
 
+// f(begin, end) over runs of contiguous points: together what each_point(points, false) visits,
+// in its order.
+template <class F>
+void RigidSolver::each_run(AllPoints, F&& f) {
+    f(points_.data(), points_.data() + points_.size());
+}
+template <class F>
+void RigidSolver::each_run(ManifoldSet set, F&& f) {
+    for (const std::uint32_t m : set) f(points_.data() + manifold_start_[m], points_.data() + manifold_start_[m + 1]);
+}
+template <class F>
+void RigidSolver::each_run(ManifoldRange range, F&& f) {
+    f(points_.data() + manifold_start_[range.begin], points_.data() + manifold_start_[range.end]);
+}
+
 template <class Points>
 void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, Points points) {
     if (impulses.empty()) return;
@@ -65,7 +80,7 @@ void RigidSolver::warm_start(const std::vector<ContactImpulse>& impulses, Points
 template <class Points>
 void RigidSolver::solve_pass(Bodies& bodies, int pass, Points points) {
     if (!warm_ && !block_) {
-        each_point(points, false, [&](Point& p) { solve_point(p, bodies, kEveryBody, false); });
+        each_run(points, [&](Point* begin, Point* end) { solve_run(begin, end, bodies); });
         return;
     }
     // Warm-started scenes: every normal row, then every friction row, odd passes backwards.

@@ -62,20 +62,22 @@ bool same_bits(S shortcut, G general) {
     return got == want && got_events == overflow_events() - middle;
 }
 
+// A value of every magnitude (its bit length uniform), both signs, and the extremes.
+Fixed any_magnitude(std::mt19937_64& rng) {
+    const int bits = static_cast<int>(rng() % 66);
+    if (bits == 64) return Fixed::min();
+    if (bits == 65) return Fixed::max();
+    const std::uint64_t r = bits == 63 ? rng() : rng() >> (63 - bits);
+    return Fixed::from_raw(static_cast<std::int64_t>(r));
+}
+
 // The contact setup takes an axis normal's tangent basis (and the tangents' axis codes) from a
 // table (rigid_detail::axis_tangents), and a sphere's arms on a wall without products by 0 and
 // +-1 (scaled_axis, dot_axis): each must be exactly what the general arithmetic gives, bits and
 // overflow counts, for each of the six axes and values of every magnitude.
 TEST(RigidSolver, AxisShortcutsGiveTheGeneralBits) {
     std::mt19937_64 rng(1919);
-    const auto raw = [&] {
-        // Every magnitude, both signs, and the extremes.
-        const int bits = static_cast<int>(rng() % 66);
-        if (bits == 64) return Fixed::min();
-        if (bits == 65) return Fixed::max();
-        const std::uint64_t r = bits == 63 ? rng() : rng() >> (63 - bits);
-        return Fixed::from_raw(static_cast<std::int64_t>(r));
-    };
+    const auto raw = [&] { return any_magnitude(rng); };
     const Fixed one = Fixed::one(), z = Fixed::zero();
     const Vec3 axes[6] = {{one, z, z}, {z, one, z}, {z, z, one}, {-one, z, z}, {z, -one, z}, {z, z, -one}};
     for (const Vec3& n : axes) {
@@ -130,6 +132,45 @@ TEST(RigidSolver, ReciprocalMemoGivesTheGeneralBits) {
         ASSERT_TRUE(same_bits([&] { return memo.reciprocal_of(k); }, [&] { return reciprocal(k); })) << i << " k " << k.raw;
     }
     EXPECT_GT(saturating, 1000);
+}
+
+// Equal masses (every dynamic pair of the piles): apply_normal() and apply_friction() take the
+// velocity change both bodies get once (rigid_detail::shared_change), which must note any
+// overflow event of it twice, as one computation per body does. Values of every magnitude, so
+// products saturate. And a body at rest adds exactly zero to a row speed (row_speed() takes its
+// arm term without testing w): dot_wide(c, 0) is 0 with nothing noted, for every c.
+TEST(RigidSolver, EqualMassChangeCountsEachBodysOverflows) {
+    std::mt19937_64 rng(2020);
+    const auto raw = [&] { return any_magnitude(rng); };
+    const auto vec = [&] { return Vec3{raw(), raw(), raw()}; };
+    int saturating = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const Vec3 d = vec(), e = vec(), va = vec(), vb = vec();
+        const Fixed l = raw(), k = raw(), m = raw();
+        // A normal impulse's change d (l m), and a friction impulse's d (l m) + e (k m).
+        const auto normal = [&] { return d * (l * m); };
+        const auto friction = [&] { return d * (l * m) + e * (k * m); };
+        const auto check = [&](auto change) {
+            std::uint64_t start = overflow_events();
+            const Vec3 ga = va - change(), gb = vb + change();  // each body its own
+            const std::uint64_t general = overflow_events() - start;
+            start = overflow_events();
+            const Vec3 dv = rigid_detail::shared_change(change);
+            const Vec3 sa = va - dv, sb = vb + dv;
+            const std::uint64_t shared = overflow_events() - start;
+            // Only the change's own events are repeated (each body's sum notes its own).
+            start = overflow_events();
+            (void)change();
+            if (overflow_events() != start) ++saturating;
+            return ga == sa && gb == sb && general == shared;
+        };
+        ASSERT_TRUE(check(normal)) << i;
+        ASSERT_TRUE(check(friction)) << i;
+        const std::uint64_t before = overflow_events();
+        ASSERT_EQ(dot_wide(d, Vec3{}), i128{0});
+        ASSERT_EQ(overflow_events(), before);
+    }
+    EXPECT_GT(saturating, 10000);  // the repeat was exercised
 }
 
 TEST(RigidSolver, SlidingBallEndsRollingAtFiveSevenths) {
