@@ -18,7 +18,23 @@ int bit_length(u128 n) {
     return 64 - std::countl_zero(static_cast<std::uint64_t>(n));
 }
 
-// Correctly rounded n / d (ties to even) for d != 0, saturating to int64.
+// (hi * 2^64 + lo) / d and its remainder for hi < d (the quotient fits 64 bits): one divq on
+// x86-64 with __int128, the compiler's 128-bit division elsewhere, Knuth's algorithm D in the
+// portable build. The same integers every way.
+std::uint64_t div_128_64(std::uint64_t hi, std::uint64_t lo, std::uint64_t d, std::uint64_t& r) {
+#if LOCKROLL_BUILTIN_INT128 && defined(__x86_64__)
+    std::uint64_t q;
+    __asm__("divq %4" : "=a"(q), "=d"(r) : "a"(lo), "d"(hi), "rm"(d));
+    return q;
+#elif LOCKROLL_BUILTIN_INT128
+    const u128 n = (static_cast<u128>(hi) << 64) | lo;
+    r = static_cast<std::uint64_t>(n % d);
+    return static_cast<std::uint64_t>(n / d);
+#else
+    return wide_detail::div_128_64(hi, lo, d, r);
+#endif
+}
+
 // |n| / |d| and |n| % |d| for d != 0. On x86-64, when the quotient fits 64 bits (every
 // in-range result), one divq instruction gives exactly what the generic 128-bit division does,
 // several times faster; the results are the same integers either way, so determinism holds.
@@ -27,9 +43,8 @@ void divmod_unsigned(u128 n, u128 d, u128& q, u128& r) {
 #if LOCKROLL_BUILTIN_INT128 && defined(__x86_64__)
     const auto hi = static_cast<std::uint64_t>(n >> 64);
     if ((d >> 64) == 0 && hi < static_cast<std::uint64_t>(d)) {
-        std::uint64_t q64, r64;
-        __asm__("divq %4" : "=a"(q64), "=d"(r64) : "a"(static_cast<std::uint64_t>(n)), "d"(hi), "rm"(static_cast<std::uint64_t>(d)));
-        q = q64;
+        std::uint64_t r64;
+        q = div_128_64(hi, static_cast<std::uint64_t>(n), static_cast<std::uint64_t>(d), r64);
         r = r64;
         return;
     }
@@ -37,6 +52,7 @@ void divmod_unsigned(u128 n, u128 d, u128& q, u128& r) {
     divmod(n, d, q, r);
 }
 
+// Correctly rounded n / d (ties to even) for d != 0, saturating to int64.
 Fixed divide_round(i128 n, i128 d) {
     const bool negative = (n < 0) != (d < 0);
     const u128 an = static_cast<u128>(n < 0 ? -n : n);
@@ -49,6 +65,32 @@ Fixed divide_round(i128 n, i128 d) {
     // |quotient| up to 2^96 here; saturate_i128 takes the sign back on.
     const i128 mag = q > (u128{1} << 100) ? static_cast<i128>(u128{1} << 100) : static_cast<i128>(q);
     return saturate_i128(negative ? -mag : mag);
+}
+
+// a / b in Fixed (raw a * 2^32 / raw b) for b != 0: exactly divide_round(mul_wide(a, 2^32), b),
+// results and overflow counts, on 64-bit words. |a| * 2^32 is |a| >> 32 : |a| << 32; when the
+// high word is below |b| the quotient fits 64 bits and one 128/64 division gives it, else the
+// quotient is at least 2^64 and saturates (one event, like divide_round). Rounding compares the
+// remainder r with |b| - r (no overflow: r < |b|). The round-up cannot wrap: the quotient is at
+// most 2^63 for |b| >= 2^32 (|a| <= 2^63), and for |b| < 2^32 the test gives |a| <= |b| 2^32 - 1,
+// so the quotient is at most 2^64 - 2^32 / |b| < 2^64 - 1. A rounded quotient of 2^63 fits only
+// when negative.
+Fixed divide_fixed(std::int64_t a, std::int64_t b) {
+    const bool negative = (a < 0) != (b < 0);
+    const std::uint64_t ua = a < 0 ? 0 - static_cast<std::uint64_t>(a) : static_cast<std::uint64_t>(a);
+    const std::uint64_t ub = b < 0 ? 0 - static_cast<std::uint64_t>(b) : static_cast<std::uint64_t>(b);
+    constexpr std::uint64_t kTwo63 = std::uint64_t{1} << 63;
+    const std::uint64_t hi = ua >> 32;
+    if (hi < ub) {
+        std::uint64_t r;
+        std::uint64_t q = div_128_64(hi, ua << 32, ub, r);
+        const std::uint64_t rest = ub - r;
+        q += (r > rest || (r == rest && (q & 1))) ? 1 : 0;
+        if (q < kTwo63) return Fixed::from_raw(negative ? -static_cast<std::int64_t>(q) : static_cast<std::int64_t>(q));
+        if (q == kTwo63 && negative) return Fixed::min();
+    }
+    note_overflow();
+    return negative ? Fixed::min() : Fixed::max();
 }
 }  // namespace
 
@@ -77,7 +119,7 @@ Fixed operator/(Fixed a, Fixed b) {
         note_overflow();
         return a.raw > 0 ? Fixed::max() : a.raw < 0 ? Fixed::min() : Fixed::zero();
     }
-    return divide_round(mul_wide(a.raw, Fixed::kOne), b.raw);
+    return divide_fixed(a.raw, b.raw);
 }
 
 // ceil(sqrt((i + 1) 2^16)) for i < 512: from the top 8 or 9 bits `top` of a radicand n with e
@@ -93,6 +135,31 @@ constexpr std::array<std::uint16_t, 512> kSqrtStart = [] {
     return t;
 }();
 
+namespace {
+// Newton's iteration for floor(sqrt(n)), len = bit_length(n) > 0, on words W with a division
+// divide(x) = floor(n / x). See isqrt_floor for why the result does not depend on W or start.
+template <class W, class Divide>
+W isqrt_newton(u128 n, int len, Divide divide) {
+    W x, y;
+    if (len < 24) {
+        // Short radicands: a power of two no smaller than sqrt(n); its first division a shift.
+        const int shift = (len + 1) / 2;
+        x = W{1} << shift;
+        y = (x + static_cast<W>(n >> shift)) >> 1;
+    } else {
+        const int e = (len - 8) & ~1;                       // even, >= 16: top has 8 or 9 bits
+        const auto top = static_cast<std::uint32_t>(n >> e);  // in [128, 512)
+        x = static_cast<W>(kSqrtStart[top]) << (e / 2 - 8);   // >= sqrt(n), at most 2^64
+        y = (x + divide(x)) >> 1;
+    }
+    while (y < x) {
+        x = y;
+        y = (x + divide(x)) >> 1;
+    }
+    return x;
+}
+}  // namespace
+
 std::uint64_t isqrt_floor(u128 n) {
     if (n == 0) return 0;
     // Newton's iteration x <- floor((x + floor(n / x)) / 2) from any x >= floor(sqrt(n))
@@ -102,30 +169,25 @@ std::uint64_t isqrt_floor(u128 n) {
     // high) took about 6 divisions for a 50-bit radicand; from the table (within 2^-7) it
     // takes about 3 (docs/performance.md, "Rigid solver, fourth pass").
     // Each step divides by x < 2^64 with a quotient n / x <= sqrt(n) < 2^64, one 128/64
-    // division (divmod_unsigned's fast path); the iterates are the same integers however the
-    // quotients are found.
+    // division; the iterates are the same integers however the quotients are found.
+    // Below 2^124 every iterate is a 64-bit word: sqrt(n) < 2^62, the start is at most
+    // sqrt(n) (1 + 2^-7) + 2^(e/2 - 8) < 2^62.1, the quotients n / x <= n / floor(sqrt(n)) <
+    // floor(sqrt(n)) + 3 < 2^63 (so n's high word is below x, as the 128/64 division needs), and
+    // x + n / x < 2^64: the same integers as the 128-bit iteration for wider n, with no 128-bit
+    // adds, shifts and compares around each division.
     const int len = bit_length(n);
-    u128 x, y;
-    if (len < 24) {
-        // Short radicands: a power of two no smaller than sqrt(n); its first division a shift.
-        const int shift = (len + 1) / 2;
-        x = u128{1} << shift;
-        y = (x + (n >> shift)) >> 1;
-    } else {
-        const int e = (len - 8) & ~1;                       // even, >= 16: top has 8 or 9 bits
-        const auto top = static_cast<std::uint32_t>(n >> e);  // in [128, 512)
-        x = static_cast<u128>(kSqrtStart[top]) << (e / 2 - 8);  // >= sqrt(n), at most 2^64
+    if (len <= 124) {
+        const auto hi = static_cast<std::uint64_t>(n >> 64), lo = static_cast<std::uint64_t>(n);
+        return isqrt_newton<std::uint64_t>(n, len, [hi, lo](std::uint64_t x) {
+            std::uint64_t r;
+            return div_128_64(hi, lo, x, r);
+        });
+    }
+    return static_cast<std::uint64_t>(isqrt_newton<u128>(n, len, [&n](const u128& x) {
         u128 q, r;
         divmod_unsigned(n, x, q, r);
-        y = (x + q) >> 1;
-    }
-    while (y < x) {
-        x = y;
-        u128 q, r;
-        divmod_unsigned(n, x, q, r);
-        y = (x + q) >> 1;
-    }
-    return static_cast<std::uint64_t>(x);
+        return q;
+    }));
 }
 
 std::uint64_t isqrt_round(u128 n) {

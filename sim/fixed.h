@@ -434,9 +434,16 @@ constexpr I round_shift(I v, int shift) {
 
 // v / 2^32 rounded to nearest, ties to even, saturated (and counted): exactly
 // saturate_i128(round_shift(v, Fixed::kFracBits)), the rounding under every product and dot
-// product. The common case (the result fits) is taken on v's two 64-bit halves, with the
-// round-up as a flag rather than a branch on the discarded bits (which are as good as random):
-// about 20 instructions where the generic i128 code compiles to 30 and a mispredicted branch.
+// product. The common case (the result fits) is taken on v's two 64-bit halves: first add the
+// bias 2^31 - 1 + (bit 32 of v), then the result is the biased value's floor >> 32, because
+//   floor((v + 2^31 - 1 + odd) / 2^32) = q + (rem + odd > 2^31)
+// with q = floor(v / 2^32), rem = v mod 2^32, odd = q & 1 (round half to even). Rounding before
+// the range test means the test sees the rounded result, so no add-with-overflow after it (a
+// value just below INT64_MIN that rounds back into range, or INT64_MAX + 1/2 that rounds out,
+// is decided by the same test). The biased value fits int64 after >> 32 exactly when its high
+// word is the sign extension of its bit 31. The add is done on unsigned words (it wraps only
+// for v within 2^31 of the i128 maximum, whose high word then fails the test). About 10
+// instructions, no data-dependent branch but the range test (never taken in a sane step).
 // Anything else goes the generic way, so results and overflow counts are the same integers
 // (tests/sim/fixed_test.cpp compares the two). The generic way is out of line (fixed.cpp): the
 // inline part stays small, so gcc's per-file inlining budget (inline-unit-growth) reaches every
@@ -446,16 +453,14 @@ Fixed round_wide_generic(i128 v);  // saturate_i128(round_shift(v, Fixed::kFracB
 inline Fixed round_wide(i128 v) {
 #if LOCKROLL_BUILTIN_INT128
     const auto lo = static_cast<std::uint64_t>(v);
-    const auto hi = static_cast<std::uint64_t>(v >> 64);
+    const auto hi = static_cast<std::uint64_t>(static_cast<u128>(v) >> 64);
 #else
     const std::uint64_t lo = v.low(), hi = v.high();
 #endif
-    if (((hi + 0x80000000u) >> 32) == 0) {  // v >> 32 fits in int64: hi sign-extends its bit 31
-        const std::uint64_t q = (lo >> 32) | (hi << 32);
-        const std::uint64_t up = ((lo & 0xFFFFFFFFu) + (q & 1)) > 0x80000000u;
-        std::int64_t r;
-        if (!add_overflow(static_cast<std::int64_t>(q), static_cast<std::int64_t>(up), &r)) return Fixed::from_raw(r);
-    }
+    const std::uint64_t lo_biased = lo + (0x7FFFFFFFu + ((lo >> 32) & 1));
+    const std::uint64_t hi_biased = hi + (lo_biased < lo ? 1 : 0);
+    if (static_cast<std::int64_t>(hi_biased) == static_cast<std::int32_t>(hi_biased))
+        return Fixed::from_raw(static_cast<std::int64_t>((lo_biased >> 32) | (hi_biased << 32)));
     return round_wide_generic(v);
 }
 

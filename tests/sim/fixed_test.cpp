@@ -82,15 +82,17 @@ TEST(FixedMul, CorrectlyRoundedOnAMillionRandomInputsAndAllEdgePairs) {
 // round_wide's fast path (two 64-bit halves) against the generic i128 rounding it stands for:
 // the same result and the same overflow count for every kind of input, the edges of the int64
 // range (where rounding up brings a value just below INT64_MIN back into range) included.
+bool round_wide_matches_generic(i128 v) {
+    const auto before = overflow_events();
+    const Fixed fast = round_wide(v);
+    const auto fast_events = overflow_events() - before;
+    const Fixed generic = saturate_i128(round_shift(v, Fixed::kFracBits));
+    const auto generic_events = overflow_events() - before - fast_events;
+    return fast == generic && fast_events == generic_events;
+}
+
 TEST(FixedMul, RoundWideMatchesTheGenericRounding) {
-    const auto check = [](i128 v) {
-        const auto before = overflow_events();
-        const Fixed fast = round_wide(v);
-        const auto fast_events = overflow_events() - before;
-        const Fixed generic = saturate_i128(round_shift(v, Fixed::kFracBits));
-        const auto generic_events = overflow_events() - before - fast_events;
-        return fast == generic && fast_events == generic_events;
-    };
+    const auto check = round_wide_matches_generic;
     std::vector<i128> edges;
     for (const i128 base : {i128{0}, static_cast<i128>(INT64_MAX) << 32, static_cast<i128>(INT64_MIN) << 32,
                             (static_cast<i128>(INT64_MIN) - 1) << 32, (static_cast<i128>(INT64_MAX) + 1) << 32})
@@ -110,6 +112,38 @@ TEST(FixedMul, RoundWideMatchesTheGenericRounding) {
         ASSERT_TRUE(check(near)) << i;
         ASSERT_TRUE(check(wide >> shift)) << i;
     }
+}
+
+// The fast path's bias-then-test (sim/fixed.h) on a grid: every power of two 2^k (k < 127) and
+// its neighbours, both signs, each as the integer part q with every fraction where rounding
+// changes (0, 1, half - 1, half, half + 1, one - 1: the ties go to even, so both parities of q
+// matter), and the carry from the low word into the high word; the saturation edges (results
+// of INT64_MAX, INT64_MIN and one past each, reached by rounding up or down) come out of
+// k = 63 and its neighbours.
+TEST(FixedMul, RoundWideMatchesTheGenericRoundingNearEveryPowerOfTwo) {
+    const i128 kMax = static_cast<i128>(~u128{0} >> 1), kMin = -kMax - 1;
+    const i128 half = i128{1} << 31, one = i128{1} << 32;
+    const i128 fractions[] = {0, 1, half - 1, half, half + 1, one - 1};
+    int checked = 0;
+    for (int k = 0; k < 127; ++k)
+        for (const i128 delta : {i128{-2}, i128{-1}, i128{0}, i128{1}, i128{2}})
+            for (const int sign : {1, -1}) {
+                const i128 p = i128{1} << k;
+                // q = +-2^k + delta as the integer part (its << 32 kept inside i128)...
+                if (k < 95) {
+                    const i128 q = sign * p + delta;
+                    for (const i128 f : fractions) {
+                        ASSERT_TRUE(round_wide_matches_generic(q * one + f)) << k << " " << static_cast<long long>(delta) << " " << sign;
+                        ++checked;
+                    }
+                }
+                // ... and +-2^k + delta as the whole value (the low word's carry, tiny values).
+                ASSERT_TRUE(round_wide_matches_generic(sign * p + delta)) << k;
+                ++checked;
+            }
+    for (const i128 v : {kMax, kMax - 1, kMax - half, kMax - half + 1, kMin, kMin + 1, kMin + half, i128{0}})
+        ASSERT_TRUE(round_wide_matches_generic(v));
+    EXPECT_GT(checked, 5000);
 }
 
 TEST(FixedMul, ExactHalfUlpTiesGoToEven) {
@@ -160,6 +194,39 @@ TEST(FixedDiv, CorrectlyRoundedOnAMillionRandomInputsAndAllEdgePairs) {
         for (auto b : edge_values()) ASSERT_TRUE(check_div(st, a, b));
     std::mt19937_64 g(kSeed + 2);
     for (int i = 0; i < kRandomCases; ++i) ASSERT_TRUE(check_div(st, random_raw(g), random_raw(g)));
+    st.report();
+    EXPECT_LE(st.max_err, 0.5L);
+    EXPECT_GT(st.saturated, 0);
+}
+
+// operator/'s 64-bit path (sim/fixed.cpp, divide_fixed) on a grid: dividends and divisors at
+// every power of two and its neighbours, both signs, INT64_MIN and INT64_MAX; then quotients at
+// the int64 range's ends, where rounding up makes 2^63 (saturates if positive, fits if
+// negative) or where the high word of a * 2^32 meets the divisor (the quotient reaches 2^64).
+TEST(FixedDiv, CorrectlyRoundedNearEveryPowerOfTwoAndTheRangeEnds) {
+    Stats st("div-grid");
+    std::vector<std::int64_t> values{INT64_MIN, INT64_MAX, INT64_MIN + 1, INT64_MAX - 1};
+    for (int k = 0; k < 63; ++k)
+        for (const std::int64_t delta : {-1, 0, 1}) {
+            const std::int64_t v = (std::int64_t{1} << k) + delta;
+            values.push_back(v);
+            values.push_back(-v);
+        }
+    for (const auto a : values)
+        for (const auto b : values) ASSERT_TRUE(check_div(st, a, b));
+    // a / b near 2^63 ulps: a = b * 2^31 + d for b < 2^32, where the quotient is 2^63 + d / b.
+    std::mt19937_64 g(kSeed + 21);
+    for (int i = 0; i < 200'000; ++i) {
+        const auto b = static_cast<std::int64_t>((g() >> (32 + g() % 32)) | 1);  // [1, 2^32)
+        const std::int64_t d = static_cast<std::int64_t>(g() % 7) - 3 - (i % 2 ? b / 2 : 0);
+        std::int64_t a = 0;
+        if (__builtin_add_overflow(b << 31, d, &a)) continue;
+        ASSERT_TRUE(check_div(st, (g() & 1) ? a : -a, (g() & 1) ? b : -b));
+        // The high word of |a| * 2^32 equal to (or one below) |b|: a quotient of 2^64 (or just under).
+        const auto c = static_cast<std::int64_t>(g() >> (33 + g() % 31)) | 1;   // < 2^31
+        ASSERT_TRUE(check_div(st, (c << 32) + static_cast<std::int64_t>(g() & 0xFFFFFFFFu), c));
+        ASSERT_TRUE(check_div(st, -((c << 32) - 1 - static_cast<std::int64_t>(g() & 0xFFFFu)), c));
+    }
     st.report();
     EXPECT_LE(st.max_err, 0.5L);
     EXPECT_GT(st.saturated, 0);
