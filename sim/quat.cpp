@@ -16,6 +16,30 @@ Fixed to_grid(Fixed f) {
     return Fixed::from_raw(g * 4);
 }
 
+// Round a component of |raw| below 2^35 (a small() quaternion's, or one times a factor within
+// 2^-4 of 1) to the 2^-30 grid: to_grid()'s value, which saturates only beyond 2^61, without
+// its range checks.
+Fixed to_grid_small(Fixed f) { return Fixed::from_raw(round_shift(f.raw, 2) * 4); }
+
+// v / 2^32 rounded as round_wide() rounds it, for |v| < 2^94: the quotient then fits in int64
+// with room to spare, so round_wide's fast path always applies and its range checks (the
+// quotient's fit, the round-up's overflow) are always passed: the same integer without them.
+std::int64_t rounded_fits(i128 v) {
+    const auto q = static_cast<std::uint64_t>(v >> 32);  // the floor, whole in 64 bits here
+    const auto rem = static_cast<std::uint64_t>(v) & 0xFFFFFFFFu;
+    return static_cast<std::int64_t>(q + (rem + (q & 1) > 0x80000000u));
+}
+// a b rounded (Fixed's operator*), for |a|, |b| <= 2^33 raw (|a b| <= 2^66 < 2^94).
+std::int64_t times_small(std::int64_t a, std::int64_t b) { return rounded_fits(mul_wide(a, b)); }
+
+// Every component within [-2, 2] (raw 2^33): rotation()'s products are then at most 4 and every
+// sum and doubling in it at most 16 in magnitude, far inside Fixed's range.
+inline bool within_two(const Quat& q) {
+    constexpr std::uint64_t kTwo = std::uint64_t{1} << 33;
+    const auto in = [](std::int64_t x) -> unsigned { return static_cast<std::uint64_t>(x) + kTwo <= 2 * kTwo; };
+    return (in(q.w.raw) & in(q.x.raw) & in(q.y.raw) & in(q.z.raw)) != 0;  // one branch, not four
+}
+
 // b 2^32 + v rounded as round_wide() rounds it, for |b| < 2^34 and |v| < 2^63 (no saturation):
 // the floor of the quotient by 2^32 is b + floor(v / 2^32), the remainder v's low 32 bits.
 Fixed plus_scaled(std::int64_t b, std::int64_t v) {
@@ -63,6 +87,23 @@ Quat near_one_product(const Quat& dq, const Quat& q) {
 }  // namespace
 
 Mat3 rotation(const Quat& q) {
+    if (within_two(q)) {
+        // The general arithmetic below with nothing that can overflow or saturate (products at
+        // most 4, sums and doublings at most 16): the same integers from plain int64 sums and
+        // products rounded without range checks. Quat.RotationShortcutGivesTheGeneralBits.
+        const std::int64_t w = q.w.raw, x = q.x.raw, y = q.y.raw, z = q.z.raw, one = Fixed::kOne;
+        const std::int64_t xx = times_small(x, x), yy = times_small(y, y), zz = times_small(z, z);
+        const std::int64_t xy = times_small(x, y), xz = times_small(x, z), yz = times_small(y, z);
+        const std::int64_t wx = times_small(w, x), wy = times_small(w, y), wz = times_small(w, z);
+        const auto f = [](std::int64_t r) { return Fixed::from_raw(r); };
+        return {{{f(one - 2 * (yy + zz)), f(2 * (xy - wz)), f(2 * (xz + wy))},
+                 {f(2 * (xy + wz)), f(one - 2 * (xx + zz)), f(2 * (yz - wx))},
+                 {f(2 * (xz - wy)), f(2 * (yz + wx)), f(one - 2 * (xx + yy))}}};
+    }
+    return rotation_general(q);
+}
+
+Mat3 rotation_general(const Quat& q) {
     const Fixed one = Fixed::one();
     const Fixed xx = q.x * q.x, yy = q.y * q.y, zz = q.z * q.z;
     const Fixed xy = q.x * q.y, xz = q.x * q.z, yz = q.y * q.z;
@@ -87,13 +128,18 @@ Quat renormalised(const Quat& q) {
     const Fixed f = Fixed::from_raw((3 * Fixed::kOne - s.raw) / 2);  // |s - 1| is tiny: no overflow
     // |q|^2 within an ulp of 1 gives f = 1 exactly, and x * 1 is x bit for bit (raw * 2^32,
     // shifted back with nothing to round, never out of range): the four products are skipped.
-    if (f == Fixed::one()) return {to_grid(q.w), to_grid(q.x), to_grid(q.y), to_grid(q.z)};
+    if (f == Fixed::one()) {
+        if (small) return {to_grid_small(q.w), to_grid_small(q.x), to_grid_small(q.y), to_grid_small(q.z)};
+        return {to_grid(q.w), to_grid(q.x), to_grid(q.y), to_grid(q.z)};
+    }
     // A product's |q|^2 leaves 1 by a few ulps, so f = 1 + d ulp with d small: the products
     // x * f are taken as x + x d / 2^32 in 64 bits (the same rounded value, see times_one_plus).
     const std::int64_t d = f.raw - Fixed::kOne;
     if (small && d > -kNearOne / 4 && d < kNearOne / 4)
-        return {to_grid(times_one_plus(q.w, d)), to_grid(times_one_plus(q.x, d)), to_grid(times_one_plus(q.y, d)),
-                to_grid(times_one_plus(q.z, d))};
+        // x (1 + d ulp) with |x| <= 4, |d| < 2^28: within 4 (1 + 2^-4) plus an ulp, raw below 2^34.1,
+        // nowhere near to_grid's saturation.
+        return {to_grid_small(times_one_plus(q.w, d)), to_grid_small(times_one_plus(q.x, d)),
+                to_grid_small(times_one_plus(q.y, d)), to_grid_small(times_one_plus(q.z, d))};
     return {to_grid(q.w * f), to_grid(q.x * f), to_grid(q.y * f), to_grid(q.z * f)};
 }
 

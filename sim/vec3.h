@@ -182,6 +182,10 @@ inline Vec3 transpose_times(const Mat3& m, const Vec3& v) {
 
 // The rotation matrix of a unit quaternion (its columns are the body axes in world space).
 Mat3 rotation(const Quat& q);
+// rotation()'s general arithmetic (every product and sum range-checked); rotation() gives the
+// same bits by a shorter path for a quaternion with every component within [-2, 2] (the tests
+// compare).
+Mat3 rotation_general(const Quat& q);
 
 // R diag(d) R^T: a body-frame diagonal tensor (inverse inertia) in world space. Symmetric.
 Mat3 rotate_diagonal(const Mat3& r, const Vec3& d);

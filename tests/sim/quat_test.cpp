@@ -245,6 +245,40 @@ TEST(Quat, NearOneProductGivesTheGeneralBits) {
     }
 }
 
+// rotation() takes quaternions within [-2, 2] by plain int64 sums and products rounded without
+// range checks; it must give rotation_general()'s bits: on unit quaternions, on components at
+// and one ulp either side of +-2 (the edge of the shortcut), and on components of odd multiples
+// of 2^-17 and 2^-16, whose products sit on exact ties (the rounding's ties to even).
+TEST(Quat, RotationShortcutGivesTheGeneralBits) {
+    std::mt19937_64 rng(1920);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::uniform_int_distribution<std::int64_t> odd(-(1 << 16), 1 << 16);
+    const auto same = [](const Quat& q) {
+        const Mat3 a = rotation(q), b = rotation_general(q);
+        for (int i = 0; i < 3; ++i)
+            if (!(a.row[i] == b.row[i])) return false;
+        return true;
+    };
+    int ties = 0;
+    for (int i = 0; i < 20000; ++i) {
+        ASSERT_TRUE(same(normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))}))) << i;
+        ASSERT_TRUE(same({fx(2 * u(rng)), fx(2 * u(rng)), fx(2 * u(rng)), fx(2 * u(rng))})) << i;
+        const auto tie = [&](int shift) { return Fixed::from_raw((2 * odd(rng) + 1) << shift); };
+        const Quat t{tie(15), tie(16), tie(15), tie(16)};
+        ASSERT_TRUE(same(t)) << i;
+        ties += (mul_wide(t.x.raw, t.y.raw) & 0xFFFFFFFF) == 0x80000000;
+    }
+    EXPECT_GT(ties, 10000);
+    const std::int64_t two = std::int64_t{2} << 32;
+    for (std::int64_t e = -2; e <= 2; ++e)
+        for (std::int64_t edge : {two + e, -two + e}) {
+            const Fixed f = Fixed::from_raw(edge), h = Fixed::from_raw(std::int64_t{3} << 31);
+            ASSERT_TRUE(same({f, f, f, f})) << edge;
+            ASSERT_TRUE(same({h, f, -h, f})) << edge;
+            ASSERT_TRUE(same({f, -h, f, h})) << edge;
+        }
+}
+
 // The thresholds below which integrated() leaves out the s^2 and s^3 terms are exactly the
 // largest s at which those terms, by the general arithmetic, round to 0: one more ulp of s and
 // one of them does not.
