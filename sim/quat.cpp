@@ -143,9 +143,68 @@ Quat renormalised(const Quat& q) {
     return {to_grid(q.w * f), to_grid(q.x * f), to_grid(q.y * f), to_grid(q.z * f)};
 }
 
+// integrated()'s step rotation for a tame rate: every |w_i| and |dt / 2| below 2^40 and 2^31
+// raw (256 rad/s, 1/2 s) and every |a_i| = |w_i dt / 2| within 2^30 raw (1/4 rad). Then no
+// product or sum below can overflow or saturate: w_i dt / 2 is below 2^71 (rounded_fits), a_i^2
+// below 2^60 and s = |a|^2 below 3 2^28 raw (3/16, under 1: no capping), s k6 below 2^60, s^2
+// below 9 2^56, s^3 below 2^57 and every coefficient product below 2^57, all in int64; each
+// rounded as round_wide() rounds it (plus_scaled(0, v): to nearest, ties to even) and the sums
+// of c and k far inside the range: the general arithmetic's integers without its 128-bit
+// products and range checks. False (nothing computed, nothing counted) outside those bounds.
+// Quat.TameRateShortcutGivesTheGeneralBits compares it with the general arithmetic.
+bool quat_detail::tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a_out, Fixed& c_out, Fixed& k_out) {
+    constexpr std::uint64_t kW = std::uint64_t{1} << 40, kH = std::uint64_t{1} << 31, kA = std::uint64_t{1} << 30;
+    const auto within = [](std::int64_t x, std::uint64_t b) -> unsigned {  // -b <= x < b
+        return static_cast<std::uint64_t>(x) + b < 2 * b;
+    };
+    if ((within(w.x.raw, kW) & within(w.y.raw, kW) & within(w.z.raw, kW) & within(half_dt.raw, kH)) == 0) return false;
+    const std::int64_t ax = rounded_fits(mul_wide(w.x.raw, half_dt.raw));
+    const std::int64_t ay = rounded_fits(mul_wide(w.y.raw, half_dt.raw));
+    const std::int64_t az = rounded_fits(mul_wide(w.z.raw, half_dt.raw));
+    if ((within(ax, kA) & within(ay, kA) & within(az, kA)) == 0) return false;
+    const auto r = [](std::int64_t v) { return plus_scaled(0, v).raw; };  // v / 2^32 rounded
+    const quat_detail::SeriesCoefficients& k_ = quat_detail::kSeries;
+    const std::int64_t s = r(ax * ax + ay * ay + az * az);
+    std::int64_t c = Fixed::kOne - s / 2, k = Fixed::kOne - r(s * k_.k6.raw);
+    if (s > k_.s2_terms_zero_up_to) {  // the thresholds as in integrated()
+        const std::int64_t s2 = r(s * s);
+        c += r(s2 * k_.c24.raw);
+        k += r(s2 * k_.k120.raw);
+        if (s > k_.s3_terms_zero_up_to) {
+            const std::int64_t s3 = r(s2 * s);
+            c -= r(s3 * k_.c720.raw);
+            k -= r(s3 * k_.k5040.raw);
+        }
+    }
+    a_out = {Fixed::from_raw(ax), Fixed::from_raw(ay), Fixed::from_raw(az)};
+    c_out = Fixed::from_raw(c);
+    k_out = Fixed::from_raw(k);
+    return true;
+}
+
+namespace {
+
+// The step's rotation dq = (c, a k) applied to q, renormalised (integrated()'s tail).
+Quat turned(const Quat& q, const Vec3& a, Fixed s, Fixed c, Fixed k) {
+    // k = 1 + d ulp with -2^30 < d <= 0 for s <= 1, and |a| <= 1: a * k in 64 bits
+    // (times_one_plus; |a.raw d| < 2^62), the same rounded value as the 128-bit product.
+    const std::int64_t d = k.raw - Fixed::kOne;
+    const Quat dq = s <= Fixed::one() && d > -kNearOne && d <= 0
+                        ? Quat{c, times_one_plus(a.x, d), times_one_plus(a.y, d), times_one_plus(a.z, d)}
+                        : Quat{c, a.x * k, a.y * k, a.z * k};
+    return renormalised(near_one_times(dq, q) ? near_one_product(dq, q) : dq * q);
+}
+}  // namespace
+
 Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
     // a = w dt / 2 (the half angle as a vector); s = |a|^2.
     const Fixed half_dt = Fixed::from_raw(dt.raw / 2);
+    {
+        Vec3 a;
+        Fixed c, k;
+        // s (at most 3/16 there) only decides turned()'s 64-bit products: any s <= 1 will do.
+        if (quat_detail::tame_half_turn(w, half_dt, a, c, k)) return turned(q, a, Fixed::zero(), c, k);
+    }
     Vec3 a = w * half_dt;
     Fixed s = dot(a, a);
     // The series below is for small angles. A body spun past any sane rate (a half angle above
@@ -178,13 +237,7 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
             k = k - s3 * k_.k5040;
         }
     }
-    // k = 1 + d ulp with -2^30 < d <= 0 for s <= 1, and |a| <= 1: a * k in 64 bits
-    // (times_one_plus; |a.raw d| < 2^62), the same rounded value as the 128-bit product.
-    const std::int64_t d = k.raw - Fixed::kOne;
-    const Quat dq = s <= Fixed::one() && d > -kNearOne && d <= 0
-                        ? Quat{c, times_one_plus(a.x, d), times_one_plus(a.y, d), times_one_plus(a.z, d)}
-                        : Quat{c, a.x * k, a.y * k, a.z * k};
-    return renormalised(near_one_times(dq, q) ? near_one_product(dq, q) : dq * q);
+    return turned(q, a, s, c, k);
 }
 
 Quat normalised(const Quat& q) {

@@ -156,6 +156,10 @@ inline constexpr SeriesCoefficients kSeries{Fixed::from_raw(178956971), Fixed::f
                                             Fixed::from_raw(715827883), Fixed::from_raw(35791394),
                                             Fixed::from_raw(852176),    222243,  // s = 5.17e-5
                                             18805087};                           // s = 4.378e-3
+// integrated()'s half angle a = w dt / 2 and its series c (cos|a|) and k (sin|a| / |a|) for a
+// tame rate (|w_i| < 2^40, |half_dt| < 2^31, |a_i| <= 2^30 raw), the general arithmetic's bits
+// by 64-bit products; false, with nothing computed or counted, for any other (sim/quat.cpp).
+bool tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a, Fixed& c, Fixed& k);
 }  // namespace quat_detail
 
 // Hamilton product a b (apply b, then a).

@@ -245,6 +245,94 @@ TEST(Quat, NearOneProductGivesTheGeneralBits) {
     }
 }
 
+// integrated() takes a tame rate (|w_i| < 2^40 and |dt / 2| < 2^31 raw, |w_i dt / 2| within
+// 2^30 raw) in 64-bit products without range checks; it must give the general arithmetic's bits
+// and overflow count: at and one ulp either side of each bound (w, dt / 2 and a = w dt / 2 about
+// each axis and a diagonal, a few ulps beyond 2^30 where int64 sums of squares would still fit
+// if the bound were larger), at exact ties of w dt / 2 (dt / 2 = 2^-k), and at random rates.
+TEST(Quat, TameRateShortcutGivesTheGeneralBits) {
+    std::mt19937_64 rng(2119);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const Quat q0 = normalised({fx(0.3), fx(-0.5), fx(0.7), fx(0.1)});
+    int tame = 0, wild = 0;  // cases the shortcut took and left
+    const auto same = [&](const Quat& q, const Vec3& w, Fixed dt) {
+        const std::uint64_t before = overflow_events();
+        const Quat got = integrated(q, w, dt);
+        const std::uint64_t got_events = overflow_events() - before;
+        const Quat want = integrated_general(q, w, dt);
+        if (got != want || got_events != overflow_events() - before - got_events) return false;
+        // The shortcut's own a, c and k (the final rounding to the 2^-30 grid would hide an
+        // ulp's difference in them): integrated_general()'s, when it applies.
+        const Fixed half_dt = Fixed::from_raw(dt.raw / 2);
+        Vec3 a;
+        Fixed c, k;
+        if (!quat_detail::tame_half_turn(w, half_dt, a, c, k)) return ++wild, true;
+        ++tame;
+        const Vec3 ga = w * half_dt;
+        const Fixed s = dot(ga, ga), s2 = s * s, s3 = s2 * s;
+        const Fixed gc = Fixed::one() - Fixed::from_raw(s.raw / 2) + s2 * Fixed::ratio(1, 24) - s3 * Fixed::ratio(1, 720);
+        const Fixed gk = Fixed::one() - s * Fixed::ratio(1, 6) + s2 * Fixed::ratio(1, 120) - s3 * Fixed::ratio(1, 5040);
+        return a == ga && c == gc && k == gk;
+    };
+    constexpr std::int64_t kA = std::int64_t{1} << 30, kW = std::int64_t{1} << 40, kH = std::int64_t{1} << 31;
+    const Fixed z = Fixed::zero();
+    int checked = 0;
+    for (const Fixed dt : {Fixed::ratio(1, 60), Fixed::ratio(1, 240), Fixed::ratio(1, 7), -Fixed::ratio(1, 60),
+                           Fixed::from_raw(2 * kH - 2), Fixed::from_raw(2 * kH), Fixed::from_raw(2 * kH + 2),
+                           Fixed::from_raw(std::int64_t{1} << 20), Fixed::from_raw(2)}) {
+        const std::int64_t h = dt.raw / 2;
+        // a = w dt / 2 swept across +-2^30 (and up to 2^33, where the squares' sum passes 2^63).
+        for (const std::int64_t target : {kA, -kA, kA + kA / 2, 2 * kA, 4 * kA, 8 * kA, kA / 3}) {
+            const std::int64_t w_edge = static_cast<std::int64_t>((static_cast<long double>(target) * 4294967296.0L) / h);
+            for (std::int64_t e = -6; e <= 6; ++e) {
+                const Fixed wv = Fixed::from_raw(w_edge + e * std::max<std::int64_t>(1, 4294967296 / std::llabs(h) / 4));
+                for (const Vec3 w : {Vec3{wv, z, z}, Vec3{z, -wv, z}, Vec3{z, z, wv}, Vec3{wv, wv, -wv}, Vec3{wv, Fixed::from_raw(wv.raw / 2), wv}}) {
+                    ASSERT_TRUE(same(q0, w, dt)) << dt.raw << " " << target << " " << e;
+                    ++checked;
+                }
+            }
+        }
+        // w across +-2^40 raw.
+        for (std::int64_t e = -3; e <= 3; ++e) {
+            const Fixed wv = Fixed::from_raw(kW + e);
+            for (const Vec3 w : {Vec3{wv, z, z}, Vec3{z, -wv, z}, Vec3{z, z, wv}, Vec3{-wv, -wv, -wv}})
+                ASSERT_TRUE(same(q0, w, dt)) << dt.raw << " " << e;
+        }
+    }
+    // Ties: dt / 2 = 2^-k makes w_i dt / 2 land exactly halfway between grid points for odd w_i.
+    for (int k = 1; k <= 12; ++k) {
+        const Fixed dt = Fixed::from_raw(std::int64_t{1} << (33 - k));
+        for (std::int64_t i = -40; i <= 40; ++i) {
+            const Vec3 w{Fixed::from_raw(2 * i + 1), Fixed::from_raw(3 * i + 5), Fixed::from_raw((i << 20) + 1)};
+            ASSERT_TRUE(same(q0, w, dt)) << k << " " << i;
+        }
+    }
+    // Ties in s = |a|^2: with dt / 2 = 1/4 (a = w / 4 exactly) and a_i = 2^15 m_i or 2^14 m_i,
+    // the sum of squares is a multiple of 2^28 that sits halfway between grid points whenever
+    // sum m_i^2 is 2 mod 4 (or 8 mod 16), on both even and odd quotients.
+    int s_ties = 0;
+    for (const int shift : {17, 16})
+        for (std::int64_t m1 = -12; m1 <= 12; ++m1)
+            for (std::int64_t m2 = -12; m2 <= 12; ++m2)
+                for (std::int64_t m3 = -12; m3 <= 12; ++m3) {
+                    const Vec3 w{Fixed::from_raw(m1 << shift), Fixed::from_raw(m2 << shift), Fixed::from_raw(m3 << shift)};
+                    const std::int64_t sq = (m1 * m1 + m2 * m2 + m3 * m3) << (2 * (shift - 2));
+                    s_ties += (sq & 0xFFFFFFFF) == 0x80000000;
+                    ASSERT_TRUE(same(q0, w, Fixed::from_raw(kH))) << shift << " " << m1 << " " << m2 << " " << m3;
+                }
+    EXPECT_GT(s_ties, 1000);
+    // Random rates from 0.3 rad/s to far past the bound, random orientations.
+    for (int i = 0; i < 100000; ++i) {
+        const auto rate = [&] { return fx(u(rng) * std::pow(10.0, 2.5 + 3 * u(rng))); };
+        const Vec3 w{rate(), rate(), rate()};
+        const Quat q = normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))});
+        ASSERT_TRUE(same(q, w, i % 2 ? Fixed::ratio(1, 60) : Fixed::ratio(1, 120))) << i;
+    }
+    EXPECT_GT(checked, 3000);
+    EXPECT_GT(tame, 30000);  // both sides of the bounds
+    EXPECT_GT(wild, 20000);
+}
+
 // rotation() takes quaternions within [-2, 2] by plain int64 sums and products rounded without
 // range checks; it must give rotation_general()'s bits: on unit quaternions, on components at
 // and one ulp either side of +-2 (the edge of the shortcut), and on components of odd multiples
