@@ -121,6 +121,30 @@ Mat3 rotate_diagonal(const Mat3& r, const Vec3& d) {
     return {{{m00, m01, m02}, {m01, m11, m12}, {m02, m12, m22}}};
 }
 
+// R's entries for within_two(q) are at most 16 in magnitude (1 - 2 (yy + zz) >= -15, 2 (xy + wz)
+// <= 16: raw 2^36), so for |v_i| < 2^55 raw each dot's three exact products are below 2^91 and
+// their sum below 2^93: dot()'s checked sums never overflow and its rounding never saturates,
+// the same integers as rounded_fits() of the plain sum. Quat.RotateScaledGivesTheGeneralBits.
+Vec3 rotate_scaled(const Quat& q, const Mat3& r, const Vec3& d, const Vec3& l) {
+    constexpr std::uint64_t kV = std::uint64_t{1} << 55;
+    const auto below = [](Fixed x) -> unsigned { return static_cast<std::uint64_t>(x.raw) + kV < 2 * kV; };
+    const auto tame = [&](const Vec3& v) { return (below(v.x) & below(v.y) & below(v.z)) != 0; };
+    const auto dot3 = [](const Vec3& a, Fixed b0, Fixed b1, Fixed b2) {
+        return Fixed::from_raw(rounded_fits(mul_wide(a.x.raw, b0.raw) + mul_wide(a.y.raw, b1.raw) + mul_wide(a.z.raw, b2.raw)));
+    };
+    if (!within_two(q) || !tame(l)) {
+        const Vec3 t = transpose_times(r, l);
+        return r * Vec3{d.x * t.x, d.y * t.y, d.z * t.z};
+    }
+    const Vec3& r0 = r.row[0];
+    const Vec3& r1 = r.row[1];
+    const Vec3& r2 = r.row[2];
+    const Vec3 t{dot3(l, r0.x, r1.x, r2.x), dot3(l, r0.y, r1.y, r2.y), dot3(l, r0.z, r1.z, r2.z)};
+    const Vec3 b{d.x * t.x, d.y * t.y, d.z * t.z};
+    if (!tame(b)) return r * b;
+    return {dot3(b, r0.x, r0.y, r0.z), dot3(b, r1.x, r1.y, r1.z), dot3(b, r2.x, r2.y, r2.z)};
+}
+
 Quat renormalised(const Quat& q) {
     const bool small = quat_detail::small(q);
     const Fixed s = small ? quat_detail::sum4_small(q.w.raw, q.w.raw, q.x.raw, q.x.raw, q.y.raw, q.y.raw, q.z.raw, q.z.raw)
@@ -151,8 +175,10 @@ Quat renormalised(const Quat& q) {
 // rounded as round_wide() rounds it (plus_scaled(0, v): to nearest, ties to even) and the sums
 // of c and k far inside the range: the general arithmetic's integers without its 128-bit
 // products and range checks. False (nothing computed, nothing counted) outside those bounds.
-// Quat.TameRateShortcutGivesTheGeneralBits compares it with the general arithmetic.
-bool quat_detail::tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a_out, Fixed& c_out, Fixed& k_out) {
+// Quat.TameRateShortcutGivesTheGeneralBits compares it with the general arithmetic (through
+// quat_detail::tame_half_turn; integrated() has it inline).
+namespace {
+[[gnu::always_inline]] inline bool tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a_out, Fixed& c_out, Fixed& k_out) {
     constexpr std::uint64_t kW = std::uint64_t{1} << 40, kH = std::uint64_t{1} << 31, kA = std::uint64_t{1} << 30;
     const auto within = [](std::int64_t x, std::uint64_t b) -> unsigned {  // -b <= x < b
         return static_cast<std::uint64_t>(x) + b < 2 * b;
@@ -182,8 +208,6 @@ bool quat_detail::tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a_out, Fixe
     return true;
 }
 
-namespace {
-
 // The step's rotation dq = (c, a k) applied to q, renormalised (integrated()'s tail).
 Quat turned(const Quat& q, const Vec3& a, Fixed s, Fixed c, Fixed k) {
     // k = 1 + d ulp with -2^30 < d <= 0 for s <= 1, and |a| <= 1: a * k in 64 bits
@@ -196,6 +220,10 @@ Quat turned(const Quat& q, const Vec3& a, Fixed s, Fixed c, Fixed k) {
 }
 }  // namespace
 
+bool quat_detail::tame_half_turn(const Vec3& w, Fixed half_dt, Vec3& a, Fixed& c, Fixed& k) {
+    return lockroll::sim::tame_half_turn(w, half_dt, a, c, k);
+}
+
 Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
     // a = w dt / 2 (the half angle as a vector); s = |a|^2.
     const Fixed half_dt = Fixed::from_raw(dt.raw / 2);
@@ -203,7 +231,7 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
         Vec3 a;
         Fixed c, k;
         // s (at most 3/16 there) only decides turned()'s 64-bit products: any s <= 1 will do.
-        if (quat_detail::tame_half_turn(w, half_dt, a, c, k)) return turned(q, a, Fixed::zero(), c, k);
+        if (tame_half_turn(w, half_dt, a, c, k)) return turned(q, a, Fixed::zero(), c, k);
     }
     Vec3 a = w * half_dt;
     Fixed s = dot(a, a);

@@ -947,8 +947,7 @@ void RigidSolver::split_passes(const ParallelTasks& tasks) {
 }
 
 Vec3 RigidSolver::omega_from(BodyId id, const Quat& q, const Vec3& l) const {
-    const Mat3 r = rotation(q);
-    return r * hadamard(inv_inertia_[id], transpose_times(r, l));
+    return rotate_scaled(q, rotation(q), inv_inertia_[id], l);
 }
 
 void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel, std::vector<Quat>& orient,

@@ -194,6 +194,12 @@ Mat3 rotation_general(const Quat& q);
 // R diag(d) R^T: a body-frame diagonal tensor (inverse inertia) in world space. Symmetric.
 Mat3 rotate_diagonal(const Mat3& r, const Vec3& d);
 
+// R diag(d) R^T l for R = rotation(q) (a body's world-frame inverse inertia times l): the
+// bits of r * {d.x t.x, d.y t.y, d.z t.z} with t = transpose_times(r, l). With q's components
+// within [-2, 2] R's entries are at most 16 and a vector's dots need no overflow checks when
+// its components are below 2^55 raw (sim/quat.cpp); any other case goes the general way.
+Vec3 rotate_scaled(const Quat& q, const Mat3& r, const Vec3& d, const Vec3& l);
+
 Quat renormalised(const Quat& q);
 Quat integrated(const Quat& q, const Vec3& angular_velocity, Fixed dt);
 

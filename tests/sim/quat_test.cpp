@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "sim/vec3.h"
 
@@ -331,6 +332,58 @@ TEST(Quat, TameRateShortcutGivesTheGeneralBits) {
     EXPECT_GT(checked, 3000);
     EXPECT_GT(tame, 30000);  // both sides of the bounds
     EXPECT_GT(wild, 20000);
+}
+
+// rotate_scaled() takes R diag(d) R^T l by plain 128-bit sums when q is within [-2, 2] and the
+// vectors below 2^55 raw; it must give the general products' bits and overflow count: q at and
+// one ulp beyond +-2 (R's entries up to 16), l and the scaled vector at and beyond +-2^55 (up
+// to 2^62, where unchecked sums with entries of 16 would pass 2^94), and random unit q.
+TEST(Quat, RotateScaledGivesTheGeneralBits) {
+    std::mt19937_64 rng(2219);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const auto general = [](const Mat3& r, const Vec3& d, const Vec3& l) {
+        const Vec3 t = transpose_times(r, l);
+        return r * Vec3{d.x * t.x, d.y * t.y, d.z * t.z};
+    };
+    const auto same = [&](const Quat& q, const Vec3& d, const Vec3& l) {
+        const Mat3 r = rotation(q);
+        const std::uint64_t before = overflow_events();
+        const Vec3 got = rotate_scaled(q, r, d, l);
+        const std::uint64_t got_events = overflow_events() - before;
+        const Vec3 want = general(r, d, l);
+        return got == want && got_events == overflow_events() - before - got_events;
+    };
+    const std::int64_t two = std::int64_t{1} << 33, v55 = std::int64_t{1} << 55;
+    const Fixed t2 = Fixed::from_raw(two);
+    std::vector<Quat> qs;
+    for (const std::int64_t e : {-1, 0, 1}) {
+        const Fixed a = Fixed::from_raw(two + e), b = Fixed::from_raw(-two - e);
+        qs.push_back({a, a, a, a});
+        qs.push_back({b, a, b, a});
+        qs.push_back({a, t2, -t2, Fixed::zero()});
+        qs.push_back({Fixed::zero(), a, t2, b});
+    }
+    for (int i = 0; i < 20; ++i) qs.push_back(normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))}));
+    std::vector<std::int64_t> mags;
+    for (const int p : {0, 20, 40, 50, 54, 56, 58, 60, 62})
+        for (const std::int64_t e : {-1, 0, 1}) mags.push_back((std::int64_t{1} << p) + e);
+    mags.push_back(v55 - 1);
+    int cases = 0;
+    for (const Quat& q : qs)
+        for (const std::int64_t m : mags)
+            for (const Fixed dd : {Fixed::one(), Fixed::from_raw(3), Fixed::from_raw(std::int64_t{1} << 40)}) {
+                const Fixed f = Fixed::from_raw(m);
+                for (const Vec3 l : {Vec3{f, f, f}, Vec3{-f, f, -f}, Vec3{f, Fixed::zero(), -f}}) {
+                    ASSERT_TRUE(same(q, Vec3{dd, dd, Fixed::one()}, l)) << m << " " << dd.raw;
+                    ++cases;
+                }
+            }
+    for (int i = 0; i < 50000; ++i) {
+        const Quat q = normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))});
+        const auto big = [&] { return fx(u(rng) * std::pow(10.0, 4 * u(rng))); };
+        ASSERT_TRUE(same(q, {big(), big(), big()}, {big(), big(), big()})) << i;
+    }
+    EXPECT_GT(cases, 5000);
 }
 
 // rotation() takes quaternions within [-2, 2] by plain int64 sums and products rounded without
