@@ -483,6 +483,15 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
     }
 }
 
+namespace {
+// v * s, v + d and v - d with the same operations as Vec3's operators (sim/vec3.h), inline in
+// the solver's loop: gcc's per-file inlining budget leaves those as calls from solve_run(),
+// and a 24-byte Vec3 returned through memory (issue 19, solve21).
+[[gnu::always_inline]] inline Vec3 times(const Vec3& v, Fixed s) { return {v.x * s, v.y * s, v.z * s}; }
+[[gnu::always_inline]] inline void add_to(Vec3& v, const Vec3& d) { v = {v.x + d.x, v.y + d.y, v.z + d.z}; }
+[[gnu::always_inline]] inline void sub_from(Vec3& v, const Vec3& d) { v = {v.x - d.x, v.y - d.y, v.z - d.z}; }
+}  // namespace
+
 // The two common cases of apply(), with the same bits: a normal impulse alone (each component
 // one product, as combine3 gives for one weight), and friction alone (two weights: each
 // component a x + b y rounded once, which is also what combine3 gives when one of them is zero).
@@ -495,33 +504,33 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
         // Equal masses (every dynamic pair of the piles): both bodies' velocity changes are the
         // same products of the same numbers, taken once (shared_change() repeats any overflow
         // events they noted, so the count is what two computations give).
-        const Vec3 dv = shared_change([&] { return p.n * (l * a.inv_mass); });
-        a.v -= dv;
-        b.v += dv;
-        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
-        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
+        const Vec3 dv = shared_change([&] { return times(p.n, l * a.inv_mass); });
+        sub_from(a.v, dv);
+        add_to(b.v, dv);
+        if ((p.nonzero & kInertiaA) != 0) sub_from(a.w, times(p.row[0].ia, l));
+        if ((p.nonzero & kInertiaB) != 0) add_to(b.w, times(p.row[0].ib, l));
         return;
     }
     if (move_a) {
         if (p.axis_n != 0)
             subtract_along(a.v, p.axis_n, l * a.inv_mass);
         else
-            a.v -= p.n * (l * a.inv_mass);
-        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
+            sub_from(a.v, times(p.n, l * a.inv_mass));
+        if ((p.nonzero & kInertiaA) != 0) sub_from(a.w, times(p.row[0].ia, l));
     }
     if (move_b) {
         if (p.axis_n != 0)
             add_along(b.v, p.axis_n, l * b.inv_mass);
         else
-            b.v += p.n * (l * b.inv_mass);
-        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
+            add_to(b.v, times(p.n, l * b.inv_mass));
+        if ((p.nonzero & kInertiaB) != 0) add_to(b.w, times(p.row[0].ib, l));
     }
 }
 
 // w -+= u1 l1 + u2 l2 for a sphere's axis arms (kAxisArmsA/B): u1 lies on t2's axis, u2 on
 // t1's (a different one), so each sum has one non-zero product (x l + 0, rounded once, is x l)
 // and the third component subtracts an exact zero: two products instead of six.
-void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign) {
+[[gnu::always_inline]] inline void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, const Vec3& u2, Fixed l2, int sign) {
     const int k2 = std::abs(p.axis_t2) - 1, k1 = std::abs(p.axis_t1) - 1;
     const Fixed d2 = component(u1, k2) * l1, d1 = component(u2, k1) * l2;
     if (sign < 0) {
@@ -545,13 +554,13 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
         if ((p.nonzero & kAxisArmsA) != 0)
             turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
         else
-            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
+            sub_from(a.w, sum(p.row[1].ia, l1, p.row[2].ia, l2));
     };
     const auto turn_b = [&] {
         if ((p.nonzero & kAxisArmsB) != 0)
             turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
         else
-            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
+            add_to(b.w, sum(p.row[1].ib, l1, p.row[2].ib, l2));
     };
     // Both tangents axes (then different ones, being orthogonal): x on one, y on the other.
     const bool axes = p.axis_t1 != 0 && p.axis_t2 != 0;
@@ -559,8 +568,8 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
         // Equal masses: one velocity change for both (as in apply_normal()).
         const Fixed m = a.inv_mass;
         const Vec3 dv = shared_change([&] { return sum(p.t1, l1 * m, p.t2, l2 * m); });
-        a.v -= dv;
-        b.v += dv;
+        sub_from(a.v, dv);
+        add_to(b.v, dv);
         turn_a();
         turn_b();
         return;
@@ -571,7 +580,7 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
             subtract_along(a.v, p.axis_t1, l1 * m);
             subtract_along(a.v, p.axis_t2, l2 * m);
         } else {
-            a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
+            sub_from(a.v, sum(p.t1, l1 * m, p.t2, l2 * m));
         }
         turn_a();
     }
@@ -581,7 +590,7 @@ void RigidSolver::turn_axes(Vec3& w, const Point& p, const Vec3& u1, Fixed l1, c
             add_along(b.v, p.axis_t1, l1 * m);
             add_along(b.v, p.axis_t2, l2 * m);
         } else {
-            b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
+            add_to(b.v, sum(p.t1, l1 * m, p.t2, l2 * m));
         }
         turn_b();
     }
@@ -819,18 +828,15 @@ void RigidSolver::solve_run(Point* begin, Point* end, Bodies& bodies) {
     }
     if (rows == Rows::Normal) return;
     if (p.pn.raw == 0 && p.pt1.raw == 0 && p.pt2.raw == 0) return;
-    if (rows != Rows::Friction && (dv_stale || !dv_exact)) dv = bodies[p.sb].v - bodies[p.sa].v;
+    if (rows != Rows::Friction && (dv_stale || !dv_exact)) {
+        const Vec3& vb = bodies[p.sb].v;
+        const Vec3& va = bodies[p.sa].v;
+        dv = {vb.x - va.x, vb.y - va.y, vb.z - va.z};
+    }
     // Friction on the tangent plane, clamped to the cone: stick within mu_s pn, slide at mu_k pn.
     Fixed t1 = p.pt1 - m1 * row_speed(p, 1, dv, bodies);
     Fixed t2 = p.pt2 - m2 * row_speed(p, 2, dv, bodies);
-    const Fixed limit_s = p.mu_s * p.pn;
-    const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
-    if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
-        const Fixed mag = sqrt_wide(mag_sq);
-        const Fixed scale = p.mu_k * p.pn / mag;
-        t1 = t1 * scale;
-        t2 = t2 * scale;
-    }
+    rigid_detail::clamp_to_cone(t1, t2, p.pn, p.mu_s, p.mu_k);
     const Fixed d1 = t1 - p.pt1, d2 = t2 - p.pt2;
     p.pt1 = t1;
     p.pt2 = t2;

@@ -567,12 +567,39 @@ private:
 // it noted noted once more: what computing it for each body gives, once (apply_normal(),
 // apply_friction()).
 template <class F>
-Vec3 shared_change(F&& f) {
+[[gnu::always_inline]] inline Vec3 shared_change(F&& f) {
     const std::uint64_t before = overflow_events();
     const Vec3 v = f();
     const std::uint64_t noted = overflow_events() - before;
     if (noted != 0) note_overflows(noted);
     return v;
+}
+
+// Friction (t1, t2) clamped to the cone of normal impulse pn >= 0 (solve_one()): kept when
+// |t| <= mu_s pn, else scaled to mu_k pn / |t| (|t| correctly rounded, each step rounded once).
+// A zero cone (the contact let go) is set to zero without the square root and the division: the
+// limit mu_s 0 is 0, so any non-zero (t1, t2) is outside; |t|^2 >= 1 in Q64.64 gives |t| != 0
+// (its raw value may wrap negative only for |t| >= 2^31, still non-zero), so the scale is
+// (mu_k 0) / |t| = 0 / |t| = 0 and t1 0 = t2 0 = 0, none of it noting an overflow; a zero
+// (t1, t2) stays zero. The same bits and count as the general clamp, clamp_to_cone_general()
+// (tests/sim/rigid_solver_test.cpp compares them).
+[[gnu::always_inline]] inline void clamp_to_cone_general(Fixed& t1, Fixed& t2, Fixed pn, Fixed mu_s, Fixed mu_k) {
+    const Fixed limit_s = mu_s * pn;
+    const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
+    if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
+        const Fixed mag = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(mag_sq)));
+        const Fixed scale = mu_k * pn / mag;
+        t1 = t1 * scale;
+        t2 = t2 * scale;
+    }
+}
+[[gnu::always_inline]] inline void clamp_to_cone(Fixed& t1, Fixed& t2, Fixed pn, Fixed mu_s, Fixed mu_k) {
+    if (pn.raw == 0) {
+        t1 = Fixed::zero();
+        t2 = Fixed::zero();
+        return;
+    }
+    clamp_to_cone_general(t1, t2, pn, mu_s, mu_k);
 }
 }  // namespace rigid_detail
 

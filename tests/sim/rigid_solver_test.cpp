@@ -134,6 +134,34 @@ TEST(RigidSolver, ReciprocalMemoGivesTheGeneralBits) {
     EXPECT_GT(saturating, 1000);
 }
 
+// The friction clamp's zero cone (rigid_detail::clamp_to_cone with pn = 0, a contact that let
+// go) skips the square root and the division: the same bits and overflow count as the general
+// clamp, for friction of every magnitude (|t|^2 near 2^127, where |t|'s raw value wraps) and
+// any coefficients (and, half the time, any pn: the rest of the clamp).
+TEST(RigidSolver, ZeroConeClampIsTheGeneralClamp) {
+    std::mt19937_64 rng(2121);
+    const auto raw = [&] { return any_magnitude(rng); };
+    for (int i = 0; i < 200000; ++i) {
+        Fixed t1 = raw(), t2 = raw();
+        if (i % 7 == 0) t1 = Fixed::zero();
+        if (i % 11 == 0) t2 = Fixed::zero();
+        if (i % 13 == 0) t1 = Fixed::min();
+        const Fixed mu_s = raw(), mu_k = raw(), pn = i % 2 == 0 ? Fixed::zero() : raw();  // half the general way
+        // The clamp without the shortcut (what solve_one() took before it).
+        std::uint64_t start = overflow_events();
+        Fixed g1 = t1, g2 = t2;
+        rigid_detail::clamp_to_cone_general(g1, g2, pn, mu_s, mu_k);
+        const std::uint64_t general = overflow_events() - start;
+        start = overflow_events();
+        Fixed s1 = t1, s2 = t2;
+        rigid_detail::clamp_to_cone(s1, s2, pn, mu_s, mu_k);
+        const std::uint64_t shortcut = overflow_events() - start;
+        ASSERT_EQ(g1, s1) << i;
+        ASSERT_EQ(g2, s2) << i;
+        ASSERT_EQ(general, shortcut) << i;
+    }
+}
+
 // Equal masses (every dynamic pair of the piles): apply_normal() and apply_friction() take the
 // velocity change both bodies get once (rigid_detail::shared_change), which must note any
 // overflow event of it twice, as one computation per body does. Values of every magnitude, so
