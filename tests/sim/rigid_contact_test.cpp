@@ -253,6 +253,17 @@ OrientedCollider box(const Mat3& r, D3 center, D3 half) {
     return c;
 }
 
+// The same points, in the same order, bit for bit: what a shortcut must give against the
+// general path (contact_points_general, box_box_exhaustive).
+bool same_manifold(const Manifold& fast, const Manifold& full) {
+    if (fast.count != full.count) return false;
+    for (int i = 0; i < fast.count; ++i) {
+        const ContactPoint &p = fast.points[i], &q = full.points[i];
+        if (!(p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature)) return false;
+    }
+    return true;
+}
+
 // The edge-axis shortcut (edges_cannot_matter) must never change a manifold: random pairs of
 // boxes at every orientation and distance, from apart to deep, compared bit for bit with the
 // exhaustive test of all 15 axes. A quarter of the pairs have an exact axis-aligned box (a
@@ -292,12 +303,7 @@ TEST(RigidContact, BoxBoxEdgeShortcutChangesNoManifold) {
         Manifold fast, full;
         contact_points(a, b, fx(0.02), fast);
         box_box_exhaustive(a, b, fx(0.02), full);
-        bool same = fast.count == full.count;
-        for (int i = 0; same && i < fast.count; ++i) {
-            const ContactPoint &p = fast.points[i], &q = full.points[i];
-            same = p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature;
-        }
-        if (!same) ++differ;
+        if (!same_manifold(fast, full)) ++differ;
         if (full.count > 0) ++touching;
         if (full.count > 0 && full.points[0].feature >= kFeatureEdge) ++edge;
     }
@@ -381,12 +387,7 @@ TEST(RigidContact, UnchangedClipShortcutChangesNoManifold) {
         Manifold fast, full;
         contact_points(a, b, fx(0.02), fast);
         box_box_exhaustive(a, b, fx(0.02), full);
-        bool same = fast.count == full.count;
-        for (int i = 0; same && i < fast.count; ++i) {
-            const ContactPoint &p = fast.points[i], &q = full.points[i];
-            same = p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature;
-        }
-        if (!same) ++differ;
+        if (!same_manifold(fast, full)) ++differ;
         if (full.count == 0 || full.points[0].feature >= kFeatureEdge) continue;
         ++faces;
         // Ids 0..3 (mod the flip) are the incident face's own corners: all four kept and no
@@ -426,12 +427,7 @@ TEST(RigidContact, CapsuleUnturnedBoxShortcutGivesTheGeneralBits) {
         Manifold fast, full;
         contact_points(capsule_first ? a : b, capsule_first ? b : a, fx(0.02), fast);
         contact_points_general(capsule_first ? a : b, capsule_first ? b : a, fx(0.02), full);
-        bool same = fast.count == full.count;
-        for (int i = 0; same && i < fast.count; ++i) {
-            const ContactPoint &p = fast.points[i], &q = full.points[i];
-            same = p.normal == q.normal && p.point == q.point && p.depth == q.depth && p.feature == q.feature;
-        }
-        if (!same) ++differ;
+        if (!same_manifold(fast, full)) ++differ;
         if (full.count == 0) continue;
         if (full.points[0].feature >= kFeatureEdge) ++edge;
         else ++face;
