@@ -13,8 +13,6 @@ Vec3 column(const Mat3& r, int k) {
                     : Vec3{r.row[0].z, r.row[1].z, r.row[2].z};
 }
 
-Fixed& comp(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
-Fixed comp(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 Vec3 unit_axis(int k) {
     const Fixed zero = Fixed::zero(), one = Fixed::one();
     return k == 0 ? Vec3{one, zero, zero} : k == 1 ? Vec3{zero, one, zero} : Vec3{zero, zero, one};
@@ -183,10 +181,10 @@ Fixed closest_to_box(const Vec3& a, const Vec3& d, const Vec3& h) {
     Fixed bp[6];
     int n = 0;
     for (int k = 0; k < 3; ++k) {
-        const Fixed dk = comp(d, k);
+        const Fixed dk = component(d, k);
         if (dk.raw == 0) continue;
-        for (const Fixed bound : {-comp(h, k), comp(h, k)}) {
-            const Fixed num = bound - comp(a, k);
+        for (const Fixed bound : {-component(h, k), component(h, k)}) {
+            const Fixed num = bound - component(a, k);
             // Inside (0, 1) only: no division that could saturate.
             const bool in = dk.raw > 0 ? num.raw > 0 && num < dk : num.raw < 0 && num > dk;
             if (!in) continue;
@@ -213,10 +211,10 @@ Fixed closest_to_box(const Vec3& a, const Vec3& d, const Vec3& h) {
     const Vec3 q = a + d * mid;
     Vec3 dn, off;
     for (int k = 0; k < 3; ++k) {
-        const Fixed qk = comp(q, k), hk = comp(h, k);
+        const Fixed qk = component(q, k), hk = component(h, k);
         if (qk > hk || qk < -hk) {
-            comp(dn, k) = comp(d, k);
-            comp(off, k) = qk > hk ? comp(a, k) - hk : comp(a, k) + hk;
+            component(dn, k) = component(d, k);
+            component(off, k) = qk > hk ? component(a, k) - hk : component(a, k) + hk;
         }
     }
     const i128 den = dot_wide(dn, dn);
@@ -257,7 +255,7 @@ bool clip_to_face(const LocalCapsule& c, const Vec3& h, int k, FaceClip& f) {
     f.t1 = Fixed::one();
     for (int s = 1; s <= 2; ++s) {
         const int j = (k + s) % 3;
-        const Fixed dj = comp(c.d, j), aj = comp(c.a, j), hj = comp(h, j);
+        const Fixed dj = component(c.d, j), aj = component(c.a, j), hj = component(h, j);
         const int plus = 2 * s, minus = plus + 1;
         if (dj.raw == 0) {
             if (aj > hj || aj < -hj) return false;
@@ -279,11 +277,11 @@ bool clip_to_face(const LocalCapsule& c, const Vec3& h, int k, FaceClip& f) {
 // The segment point at t as a contact on face f = 2 k + negative, when within reach: the point on
 // the face under it, normal -(outward face normal) (capsule toward box).
 void face_point(const LocalCapsule& c, const OrientedCollider& box, int k, bool negative, Fixed t, int code, Manifold& m) {
-    const Fixed hk = comp(box.half, k);
+    const Fixed hk = component(box.half, k);
     Vec3 p = c.a + c.d * t;
-    const Fixed sep = (negative ? -comp(p, k) : comp(p, k)) - hk;
+    const Fixed sep = (negative ? -component(p, k) : component(p, k)) - hk;
     if (sep >= c.reach) return;
-    comp(p, k) = negative ? -hk : hk;  // on the face
+    component(p, k) = negative ? -hk : hk;  // on the face
     const Vec3 ek = column(*box.rot, k);
     const int face = 2 * k + (negative ? 1 : 0);
     add(m, negative ? ek : -ek, box.center + to_world(c, *box.rot, p), c.r - sep, static_cast<std::uint8_t>(8 * face + code));
@@ -317,8 +315,8 @@ void capsule_box_sat(const LocalCapsule& c, const OrientedCollider& box, Manifol
     int face_k = 0;
     bool face_neg = false;
     for (int k = 0; k < 3; ++k) {
-        const Fixed lo = min(comp(c.a, k), comp(b, k)), hi = max(comp(c.a, k), comp(b, k));
-        const Fixed up = comp(h, k) - lo, down = hi + comp(h, k);  // push out through +x_k, -x_k
+        const Fixed lo = min(component(c.a, k), component(b, k)), hi = max(component(c.a, k), component(b, k));
+        const Fixed up = component(h, k) - lo, down = hi + component(h, k);  // push out through +x_k, -x_k
         if (up < face_pen) { face_pen = up; face_k = k; face_neg = false; }
         if (down < face_pen) { face_pen = down; face_k = k; face_neg = true; }
     }
@@ -346,12 +344,12 @@ void capsule_box_sat(const LocalCapsule& c, const OrientedCollider& box, Manifol
     Vec3 e0 = {}, e1 = {};
     for (int j = 0; j < 3; ++j) {
         if (j == edge_k) {
-            comp(e0, j) = -comp(h, j);
-            comp(e1, j) = comp(h, j);
+            component(e0, j) = -component(h, j);
+            component(e1, j) = component(h, j);
             continue;
         }
-        sign[j] = comp(edge_u, j).raw >= 0 ? 1 : -1;
-        comp(e0, j) = comp(e1, j) = sign[j] > 0 ? comp(h, j) : -comp(h, j);
+        sign[j] = component(edge_u, j).raw >= 0 ? 1 : -1;
+        component(e0, j) = component(e1, j) = sign[j] > 0 ? component(h, j) : -component(h, j);
     }
     Vec3 cs, ce;
     closest_segments(c.a, b, e0, e1, cs, ce);
@@ -376,16 +374,16 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     // Quick reject: the whole segment beyond one face's slab by the reach.
     const Vec3 b = c.a + c.d;
     for (int k = 0; k < 3; ++k) {
-        const Fixed lo = min(comp(c.a, k), comp(b, k)), hi = max(comp(c.a, k), comp(b, k));
-        if (lo - comp(h, k) >= c.reach || -hi - comp(h, k) >= c.reach) return;
+        const Fixed lo = min(component(c.a, k), component(b, k)), hi = max(component(c.a, k), component(b, k));
+        if (lo - component(h, k) >= c.reach || -hi - component(h, k) >= c.reach) return;
     }
     const Fixed t = closest_to_box(c.a, c.d, h);
     const Vec3 q = c.a + c.d * t;
     Vec3 diff;  // closest box point minus q
     int sign[3], outside = 0, face_k = 0;
     for (int k = 0; k < 3; ++k) {
-        const Fixed e = excess(comp(q, k), comp(h, k));
-        comp(diff, k) = -e;
+        const Fixed e = excess(component(q, k), component(h, k));
+        component(diff, k) = -e;
         sign[k] = e.raw > 0 ? 1 : e.raw < 0 ? -1 : 0;
         if (sign[k] != 0) {
             ++outside;
@@ -410,7 +408,7 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
     // keeps two supports whichever way it tilts by a hair (the face case gives the same two).
     int k = 0;
     for (int j = 1; j < 3; ++j)
-        if (abs(comp(diff, j)) > abs(comp(diff, k))) k = j;
+        if (abs(component(diff, j)) > abs(component(diff, k))) k = j;
     FaceClip f;
     if (!clip_to_face(c, h, k, f) || f.t0 == f.t1) return;
     const bool far_is_t1 = abs(f.t1 - t) > abs(f.t0 - t);
@@ -463,7 +461,7 @@ const Poly& clip(const Poly& in, const Vec3& dir, int unit, Fixed limit, int pla
     } else {
         const int k = (unit > 0 ? unit : -unit) - 1;
         for (int i = 0; i < in.n; ++i) {
-            dist[i] = (unit > 0 ? comp(in.v[i], k) : -comp(in.v[i], k)) - limit;
+            dist[i] = (unit > 0 ? component(in.v[i], k) : -component(in.v[i], k)) - limit;
             beyond |= dist[i].raw > 0;
         }
     }
@@ -506,7 +504,7 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     const int n_unit = n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
     const auto along_n = [&](const Vec3& v) {
         if (n_unit == 0) return dot(n, v);
-        return n_unit > 0 ? comp(v, n_unit - 1) : -comp(v, -n_unit - 1);
+        return n_unit > 0 ? component(v, n_unit - 1) : -component(v, -n_unit - 1);
     };
     // Incident face: the face of inc whose outward normal is most opposed to n.
     int j = 0;
@@ -518,9 +516,9 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     }
     const Vec3 ij = column(*inc.rot, j);
     const Vec3 f = along[j].raw > 0 ? -ij : ij;  // outward normal of the incident face
-    const Vec3 fc = inc.center + f * comp(inc.half, j);
+    const Vec3 fc = inc.center + f * component(inc.half, j);
     const int u = (j + 1) % 3, v = (j + 2) % 3;
-    const Vec3 eu = column(*inc.rot, u) * comp(inc.half, u), ev = column(*inc.rot, v) * comp(inc.half, v);
+    const Vec3 eu = column(*inc.rot, u) * component(inc.half, u), ev = column(*inc.rot, v) * component(inc.half, v);
     Poly a, b;
     a.n = 4;
     a.v[0] = fc + eu + ev;
@@ -534,12 +532,12 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
         const Vec3 axis = column(*ref.rot, t);
-        const Fixed c = dot(axis, ref.center), h = comp(ref.half, t);
+        const Fixed c = dot(axis, ref.center), h = component(ref.half, t);
         const int unit = unturned ? t + 1 : 0;
         poly = &clip(*poly, axis, unit, c + h, 2 * s - 2, poly == &a ? b : a, shortcuts);
         poly = &clip(*poly, -axis, -unit, h - c, 2 * s - 1, poly == &a ? b : a, shortcuts);
     }
-    const Fixed plane = along_n(ref.center) + comp(ref.half, k);
+    const Fixed plane = along_n(ref.center) + component(ref.half, k);
     // Which box is the reference is part of the feature: the other choice gives other points.
     const int base = flip ? kFeatureFlipped : 0;
     for (int i = 0; i < poly->n; ++i) {
@@ -612,8 +610,8 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
             // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
             // Fixed products were within 3), so the slack e covers it as before.
             const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
-            const i128 h = mul_wide(comp(ha, i1).raw, ar[i2][j]) + mul_wide(comp(ha, i2).raw, ar[i1][j]) +
-                           mul_wide(comp(hb, j1).raw, ar[i][j2]) + mul_wide(comp(hb, j2).raw, ar[i][j1]);
+            const i128 h = mul_wide(component(ha, i1).raw, ar[i2][j]) + mul_wide(component(ha, i2).raw, ar[i1][j]) +
+                           mul_wide(component(hb, j1).raw, ar[i][j2]) + mul_wide(component(hb, j2).raw, ar[i][j1]);
             const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
             const std::int64_t l = n + e;
             // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
@@ -667,17 +665,17 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         const bool unturned = box == 0 ? a_unturned : b_unturned;
         for (int k = 0; k < 3; ++k) {
             const Vec3& axis = box == 0 ? ca[k] : cb[k];
-            const Fixed dist = unturned ? comp(d, k) : dot(d, axis);
+            const Fixed dist = unturned ? component(d, k) : dot(d, axis);
             Fixed radius;
             (box == 0 ? ta : tb)[k] = dist;
             if (box == 0) {
                 for (int j = 0; j < 3; ++j)
-                    c[k][j] = a_unturned ? comp(cb[j], k) : b_unturned ? comp(axis, j) : dot(cb[j], axis);
+                    c[k][j] = a_unturned ? component(cb[j], k) : b_unturned ? component(axis, j) : dot(cb[j], axis);
                 radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
             } else {
                 radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
             }
-            const Fixed sep = abs(dist) - comp(xh, k) - radius;
+            const Fixed sep = abs(dist) - component(xh, k) - radius;
             if (sep > margin) return;
             if (sep > face_sep) {
                 face_sep = sep;
@@ -716,10 +714,10 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         Vec3 pa = a.center, pb = b.center;
         for (int k = 0; k < 3; ++k) {
             const Vec3 ak = column(*a.rot, k), bk = column(*b.rot, k);
-            if (k != edge_i) pa += dot(ak, edge_n).raw >= 0 ? ak * comp(a.half, k) : -(ak * comp(a.half, k));
-            if (k != edge_j) pb += dot(bk, edge_n).raw >= 0 ? -(bk * comp(b.half, k)) : bk * comp(b.half, k);
+            if (k != edge_i) pa += dot(ak, edge_n).raw >= 0 ? ak * component(a.half, k) : -(ak * component(a.half, k));
+            if (k != edge_j) pb += dot(bk, edge_n).raw >= 0 ? -(bk * component(b.half, k)) : bk * component(b.half, k);
         }
-        const Vec3 ea = column(*a.rot, edge_i) * comp(a.half, edge_i), eb = column(*b.rot, edge_j) * comp(b.half, edge_j);
+        const Vec3 ea = column(*a.rot, edge_i) * component(a.half, edge_i), eb = column(*b.rot, edge_j) * component(b.half, edge_j);
         Vec3 ca, cb;
         closest_segments(pa - ea, pa + ea, pb - eb, pb + eb, ca, cb);
         add(m, edge_n, ca + (cb - ca) * Fixed::from_raw(Fixed::kOne / 2), -edge_sep,
@@ -740,13 +738,13 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
     const Vec3& h = box.half;
     // Quick reject on each axis before any square root.
     for (int k = 0; k < 3; ++k)
-        if (abs(comp(local, k)) - comp(h, k) >= reach) return false;
+        if (abs(component(local, k)) - component(h, k) >= reach) return false;
     Vec3 q = local;
     bool inside = true;
     for (int k = 0; k < 3; ++k) {
-        const Fixed c = clamp(comp(local, k), -comp(h, k), comp(h, k));
-        if (c != comp(local, k)) inside = false;
-        comp(q, k) = c;
+        const Fixed c = clamp(component(local, k), -component(h, k), component(h, k));
+        if (c != component(local, k)) inside = false;
+        component(q, k) = c;
     }
     const Fixed zero = Fixed::zero(), one = Fixed::one();
     Vec3 nl;
@@ -763,10 +761,10 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
         const int nonzero = (d.x.raw != 0) + (d.y.raw != 0) + (d.z.raw != 0);
         if (nonzero == 1) {
             const int k = d.x.raw != 0 ? 0 : d.y.raw != 0 ? 1 : 2;
-            const Fixed c = comp(d, k);
+            const Fixed c = component(d, k);
             distance = abs(c);
             nl = {zero, zero, zero};
-            comp(nl, k) = c.raw > 0 ? one : -one;
+            component(nl, k) = c.raw > 0 ? one : -one;
             axis = k;
             axis_neg = c.raw < 0;
         } else {
@@ -781,13 +779,13 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
         bool best_neg = false;
         Fixed best = h.x - local.x;
         for (int k = 0; k < 3; ++k) {
-            const Fixed up = comp(h, k) - comp(local, k), down = comp(local, k) + comp(h, k);
+            const Fixed up = component(h, k) - component(local, k), down = component(local, k) + component(h, k);
             if (up < best) { best = up; best_axis = k; best_neg = false; }
             if (down < best) { best = down; best_axis = k; best_neg = true; }
         }
         nl = {zero, zero, zero};
-        comp(nl, best_axis) = best_neg ? one : -one;
-        comp(q, best_axis) = best_neg ? -comp(h, best_axis) : comp(h, best_axis);
+        component(nl, best_axis) = best_neg ? one : -one;
+        component(q, best_axis) = best_neg ? -component(h, best_axis) : component(h, best_axis);
         distance = -best;
         axis = best_axis;
         axis_neg = !best_neg;

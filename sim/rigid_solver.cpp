@@ -18,8 +18,6 @@ Vec3 unit(const Vec3& v) {
     return v * reciprocal(sqrt_wide(sq));
 }
 
-Fixed& component(Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
-Fixed component(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.y : v.z; }
 // v -= d * s for d with axis code `code` != 0: only the axis component changes (v - 0 = v).
 void subtract_along(Vec3& v, std::int8_t code, Fixed s) {
     Fixed& c = component(v, code > 0 ? code - 1 : -code - 1);
