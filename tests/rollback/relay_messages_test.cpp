@@ -124,7 +124,9 @@ TEST(RelayMessages, HelloOfAnotherVersionDecodesToItsVersionAlone) {
     EXPECT_NE(decode(std::span(b).first(2), g), nullptr);  // not even a version
 }
 
-TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
+// Four frames of a room of three players with 2-byte inputs: an absent slot, a replaced one, an
+// unchanged frame, one changed input (the delta coding's cases).
+RelayFrames four_frames_of_three() {
     RelayFrames f;
     f.players = 3;
     f.input_size = 2;
@@ -134,6 +136,11 @@ TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
     f.input_ack = 1006;
     f.flags = {0, kRelayAbsent, 0, 0, kRelayAbsent, 0, 0, kRelayAbsent, kRelayReplaced, 0, kRelayAbsent, kRelayReplaced};
     f.inputs = {1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 2, 2, 0, 0, 5, 5};
+    return f;
+}
+
+TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
+    const RelayFrames f = four_frames_of_three();
     std::vector<std::uint8_t> b;
     encode(f, b);
     // Frame 0: slots 0 and 2 and the absent slot 1 (flags != 0) listed; frame 1: nothing
@@ -155,18 +162,10 @@ TEST(RelayMessages, FramesAreDeltaCodedAndRoundTrip) {
 // The relay server encodes Frames straight from its history's records (flags then inputs per
 // frame): the bytes are encode()'s for the same frames, and a record read out of place shows.
 TEST(RelayMessages, FramesFromRecordsAreTheSameBytes) {
-    RelayFrames f;
-    f.players = 3;
-    f.input_size = 2;
-    f.first_frame = 1000;
-    f.frame_count = 4;
-    f.server_frame = 1003;
-    f.input_ack = 1006;
+    RelayFrames f = four_frames_of_three();
     f.stamp = 77;
     f.echo = 5;
     f.hold = 9;
-    f.flags = {0, kRelayAbsent, 0, 0, kRelayAbsent, 0, 0, kRelayAbsent, kRelayReplaced, 0, kRelayAbsent, kRelayReplaced};
-    f.inputs = {1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 1, 1, 0, 0, 5, 5, 2, 2, 0, 0, 5, 5};
     std::vector<std::uint8_t> records;  // per frame: 3 flags, then 3 x 2 inputs
     for (std::size_t i = 0; i < 4; ++i) {
         records.insert(records.end(), f.flags.begin() + static_cast<std::ptrdiff_t>(i * 3), f.flags.begin() + static_cast<std::ptrdiff_t>(i * 3 + 3));
