@@ -224,6 +224,7 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     lin_damp_.assign(n, Fixed::one());
     ang_damp_.assign(n, Fixed::one());
     rot_.resize(n);
+    rot_memo_.assign(n, RotationMemo{});
     slot_.assign(n, kNoSlot);
     slot_ids_.clear();
     bodies_.clear();

@@ -518,6 +518,18 @@ private:
     // Shock propagation scratch.
     std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
     std::vector<BodyId> queue_;
+    // rotation() of one quaternion per body, by id: integrate() builds the rotation of a turning
+    // box's new orientation (for its w) and keeps it here; the next update_inertia() takes it
+    // when orient[id] is that quaternion, bit for bit, instead of building it again. Contract:
+    // m == rotation(q) for every entry at all times (a new entry holds the identity's), so a hit has
+    // rotation()'s bits whatever wrote the orientations in between (the split impulses' pseudo
+    // motion, a snapshot load, flip_bit): those only make the comparison miss. Mutable as
+    // integrate() is const; each body's entry is written only by the range holding the body.
+    struct RotationMemo {
+        Quat q;
+        Mat3 m = rotation(Quat{});
+    };
+    mutable std::vector<RotationMemo> rot_memo_;
 };
 
 // Pieces of the contact setup, exposed for the test that compares them with the general

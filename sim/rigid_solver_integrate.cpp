@@ -29,7 +29,12 @@ void RigidSolver::update_inertia(const std::vector<Quat>& orient, std::size_t be
         const BodyId id = dynamic_[i];
         // A sphere's collider never reads its rotation (nor does an isotropic body's inertia or
         // integration), so it is not built.
-        if (shape_[id] == Shape::Box || core_half_[id].raw != 0) rot_[id] = rotation(orient[id]);
+        // A box integrate() turned has its new rotation in rot_memo_ (unless something turned
+        // it since: then the quaternions differ).
+        if (shape_[id] == Shape::Box || core_half_[id].raw != 0) {
+            const RotationMemo& memo = rot_memo_[id];
+            rot_[id] = memo.q == orient[id] ? memo.m : rotation(orient[id]);
+        }
         if (isotropic_[id]) {
             const Fixed s = inv_inertia_[id].x, z = Fixed::zero();
             inv_i_world_[id] = {{{s, z, z}, {z, s, z}, {z, z, s}}};
@@ -62,7 +67,10 @@ void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel
         const Quat half = integrated(orient[id], w, half_dt);
         const Vec3 w_half = omega_from(id, half, l);
         orient[id] = integrated(orient[id], w_half, dt_);
-        angvel[id] = omega_from(id, orient[id], l);
+        RotationMemo& memo = rot_memo_[id];
+        memo.q = orient[id];
+        memo.m = rotation(memo.q);
+        angvel[id] = rotate_scaled(memo.q, memo.m, inv_inertia_[id], l);
     }
     if (!split_) return;
     // Split impulses: the pseudo motion, after the real one, then dropped.
