@@ -284,7 +284,11 @@ TEST(Quat, TameRateShortcutGivesTheGeneralBits) {
         const std::int64_t h = dt.raw / 2;
         // a = w dt / 2 swept across +-2^30 (and up to 2^33, where the squares' sum passes 2^63).
         for (const std::int64_t target : {kA, -kA, kA + kA / 2, 2 * kA, 4 * kA, 8 * kA, kA / 3}) {
-            const std::int64_t w_edge = static_cast<std::int64_t>((static_cast<long double>(target) * 4294967296.0L) / h);
+            // Clamped to +-2^62 (for the tiniest dt the edge lies past the int64 range; there the
+            // rate is far beyond the 2^40 bound anyway), so w_edge + e step cannot overflow.
+            const long double edge = (static_cast<long double>(target) * 4294967296.0L) / h;
+            constexpr long double kClamp = 4611686018427387904.0L;  // 2^62
+            const std::int64_t w_edge = static_cast<std::int64_t>(std::clamp(edge, -kClamp, kClamp));
             for (std::int64_t e = -6; e <= 6; ++e) {
                 const Fixed wv = Fixed::from_raw(w_edge + e * std::max<std::int64_t>(1, 4294967296 / std::llabs(h) / 4));
                 for (const Vec3 w : {Vec3{wv, z, z}, Vec3{z, -wv, z}, Vec3{z, z, wv}, Vec3{wv, wv, -wv}, Vec3{wv, Fixed::from_raw(wv.raw / 2), wv}}) {
