@@ -256,6 +256,12 @@ std::uint64_t round_root(u128 n, std::uint64_t r) {
 }
 }  // namespace
 
+namespace {
+// isqrt_round for n = 0 or n >= 2^64, out of line (a tail call: the 64-bit path saves no
+// registers for it).
+[[gnu::noinline]] std::uint64_t isqrt_round_wide(u128 n) { return round_root(n, isqrt_floor(n)); }
+}  // namespace
+
 std::uint64_t isqrt_round(u128 n) {
     const auto lo = static_cast<std::uint64_t>(n);
     if ((n >> 64) == 0 && lo != 0) {
@@ -263,7 +269,7 @@ std::uint64_t isqrt_round(u128 n) {
         const std::uint64_t r = isqrt_floor_64(lo, std::bit_width(lo));
         return lo - r * r > r ? r + 1 : r;
     }
-    return round_root(n, isqrt_floor(n));
+    return isqrt_round_wide(n);
 }
 
 Fixed sqrt(Fixed a) {
