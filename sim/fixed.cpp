@@ -136,66 +136,140 @@ constexpr std::array<std::uint16_t, 512> kSqrtStart = [] {
 }();
 
 namespace {
-// Newton's iteration for floor(sqrt(n)), len = bit_length(n) > 0, on words W with a division
-// divide(x) = floor(n / x). See isqrt_floor for why the result does not depend on W or start.
+// The first iterate of Newton's iteration for floor(sqrt(n)), len = bit_length(n) > 0, on words
+// W with a division divide(x) = floor(n / x), from a start no smaller than sqrt(n): itself no
+// smaller than floor(sqrt(n)) (see isqrt_floor).
 template <class W, class Divide>
-W isqrt_newton(u128 n, int len, Divide divide) {
-    W x, y;
+W isqrt_first_iterate(u128 n, int len, Divide divide) {
     if (len < 24) {
         // Short radicands: a power of two no smaller than sqrt(n); its first division a shift.
         const int shift = (len + 1) / 2;
-        x = W{1} << shift;
-        y = (x + static_cast<W>(n >> shift)) >> 1;
-    } else {
-        const int e = (len - 8) & ~1;                       // even, >= 16: top has 8 or 9 bits
-        const auto top = static_cast<std::uint32_t>(n >> e);  // in [128, 512)
-        x = static_cast<W>(kSqrtStart[top]) << (e / 2 - 8);   // >= sqrt(n), at most 2^64
-        y = (x + divide(x)) >> 1;
+        return ((W{1} << shift) + static_cast<W>(n >> shift)) >> 1;
     }
-    while (y < x) {
-        x = y;
-        y = (x + divide(x)) >> 1;
-    }
-    return x;
+    const int e = (len - 8) & ~1;                       // even, >= 16: top has 8 or 9 bits
+    const auto top = static_cast<std::uint32_t>(n >> e);  // in [128, 512)
+    const W x = static_cast<W>(kSqrtStart[top]) << (e / 2 - 8);  // >= sqrt(n), at most 2^64
+    return (x + divide(x)) >> 1;
 }
+
+// floor(n / x) for n < 2^124 as one 128/64 division (the caller keeps n's high word below x).
+struct DivideNarrow {
+    std::uint64_t hi, lo;
+    std::uint64_t operator()(std::uint64_t x) const {
+        std::uint64_t r;
+        return div_128_64(hi, lo, x, r);
+    }
+};
+
+// From an iterate y >= floor(sqrt(n)) of isqrt_floor's 64-bit iteration (n < 2^124), on to
+// floor(sqrt(n)): the first iterate whose square is at most n.
+std::uint64_t isqrt_narrow_from(u128 n, std::uint64_t y, const DivideNarrow& divide) {
+    while (mul_wide_unsigned(y, y) > n) y = (y + divide(y)) >> 1;
+    return y;
+}
+
+// floor(sqrt(n)) for 0 < n < 2^64, len = bit_length(n): isqrt_floor's iteration (the same
+// start, the same iterates) with 64-bit quotients. Inline in isqrt_floor and isqrt_round.
+[[gnu::always_inline]] inline std::uint64_t isqrt_floor_64(std::uint64_t n, int len) {
+    std::uint64_t y;
+    if (len < 24) {
+        const int shift = (len + 1) / 2;
+        y = ((std::uint64_t{1} << shift) + (n >> shift)) >> 1;
+    } else {
+        const int e = (len - 8) & ~1;
+        const std::uint64_t x = static_cast<std::uint64_t>(kSqrtStart[n >> e]) << (e / 2 - 8);
+        y = (x + n / x) >> 1;
+    }
+    // The start is at most 2^32 (kSqrtStart[255] 2^20 for a 64-bit n), so every iterate after
+    // it is at most (2^32 + sqrt(n)) / 2 < 2^32: its square fits a 64-bit word.
+    while (y * y > n) y = (y + n / y) >> 1;
+    return y;
+}
+
+// isqrt_floor for n >= 2^64 (out of line: its registers would cost the 64-bit path a save and
+// restore).
+[[gnu::noinline]] std::uint64_t isqrt_floor_wide(u128 n);
 }  // namespace
 
 std::uint64_t isqrt_floor(u128 n) {
-    if (n == 0) return 0;
     // Newton's iteration x <- floor((x + floor(n / x)) / 2) from any x >= floor(sqrt(n))
     // decreases strictly while x > floor(sqrt(n)) and never below it, and stops there (the
     // next iterate is not smaller): the result is the same integer whatever the start, which
     // only sets how many steps it takes. A start from a power of two (up to a factor sqrt(2)
     // high) took about 6 divisions for a 50-bit radicand; from the table (within 2^-7) it
     // takes about 3 (docs/performance.md, "Rigid solver, fourth pass").
+    // From any positive start x (even one below sqrt(n)) the first iterate is already at least
+    // floor(sqrt(n)): (x + n / x) / 2 >= sqrt(n) (the arithmetic-geometric mean), and flooring
+    // n / x and the halving loses only fractions, floor((x + floor(n / x)) / 2) =
+    // floor((x + n / x) / 2) >= floor(sqrt(n)).
+    // Since every iterate after the first is >= floor(sqrt(n)), it is floor(sqrt(n)) exactly
+    // when its square is at most n: one product tells where the iteration stops, instead of
+    // a further division that finds the next iterate no smaller (issue 19, "Sliding
+    // friction's square root" in docs/performance.md).
     // Each step divides by x < 2^64 with a quotient n / x <= sqrt(n) < 2^64, one 128/64
     // division; the iterates are the same integers however the quotients are found.
     // Below 2^124 every iterate is a 64-bit word: sqrt(n) < 2^62, the start is at most
     // sqrt(n) (1 + 2^-7) + 2^(e/2 - 8) < 2^62.1, the quotients n / x <= n / floor(sqrt(n)) <
     // floor(sqrt(n)) + 3 < 2^63 (so n's high word is below x, as the 128/64 division needs), and
-    // x + n / x < 2^64: the same integers as the 128-bit iteration for wider n, with no 128-bit
-    // adds, shifts and compares around each division.
+    // x + n / x < 2^64 (and x^2 < 2^126): the same integers as the 128-bit iteration for wider
+    // n, with no 128-bit adds, shifts and compares around each division.
+    // Below 2^64 (nearly all of the contact solver's radicands) the same iteration runs on n's
+    // low word alone: sqrt(n) < 2^32, the start is below 2^32.1, each quotient is one 64-bit
+    // division and the iterates' sum stays below 2^64; the wider iterations are out of line
+    // (isqrt_floor_wide), so this one saves and restores no registers (issue 19).
+    const auto lo = static_cast<std::uint64_t>(n);
+    if ((n >> 64) == 0) return lo == 0 ? 0 : isqrt_floor_64(lo, std::bit_width(lo));
+    return isqrt_floor_wide(n);
+}
+
+namespace {
+std::uint64_t isqrt_floor_wide(u128 n) {
     const int len = bit_length(n);
     if (len <= 124) {
-        const auto hi = static_cast<std::uint64_t>(n >> 64), lo = static_cast<std::uint64_t>(n);
-        return isqrt_newton<std::uint64_t>(n, len, [hi, lo](std::uint64_t x) {
-            std::uint64_t r;
-            return div_128_64(hi, lo, x, r);
-        });
+        const DivideNarrow divide{static_cast<std::uint64_t>(n >> 64), static_cast<std::uint64_t>(n)};
+        return isqrt_narrow_from(n, isqrt_first_iterate<std::uint64_t>(n, len, divide), divide);
     }
-    return static_cast<std::uint64_t>(isqrt_newton<u128>(n, len, [&n](const u128& x) {
+    // Wider: an iterate may be 2^64, whose square does not fit in 128 bits; stop instead where
+    // the next iterate is no smaller.
+    const auto divide = [&n](const u128& x) {
         u128 q, r;
         divmod_unsigned(n, x, q, r);
         return q;
-    }));
+    };
+    u128 x = isqrt_first_iterate<u128>(n, len, divide);
+    u128 y = (x + divide(x)) >> 1;
+    while (y < x) {
+        x = y;
+        y = (x + divide(x)) >> 1;
+    }
+    return static_cast<std::uint64_t>(x);
 }
+}  // namespace
 
-std::uint64_t isqrt_round(u128 n) {
-    const std::uint64_t r = isqrt_floor(n);
+namespace {
+// sqrt(n) rounded to nearest from r = floor(sqrt(n)).
+std::uint64_t round_root(u128 n, std::uint64_t r) {
     // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
     const u128 r2 = mul_wide_unsigned(r, r);
     // r == 2^64 - 1 can only round up to 2^64, which does not fit: saturate instead of wrapping.
     return (n - r2 > r && r != UINT64_MAX) ? r + 1 : r;
+}
+}  // namespace
+
+namespace {
+// isqrt_round for n = 0 or n >= 2^64, out of line (a tail call: the 64-bit path saves no
+// registers for it).
+[[gnu::noinline]] std::uint64_t isqrt_round_wide(u128 n) { return round_root(n, isqrt_floor(n)); }
+}  // namespace
+
+std::uint64_t isqrt_round(u128 n) {
+    const auto lo = static_cast<std::uint64_t>(n);
+    if ((n >> 64) == 0 && lo != 0) {
+        // r < 2^32: r^2 + r < 2^64, the test in 64-bit words.
+        const std::uint64_t r = isqrt_floor_64(lo, std::bit_width(lo));
+        return lo - r * r > r ? r + 1 : r;
+    }
+    return isqrt_round_wide(n);
 }
 
 Fixed sqrt(Fixed a) {

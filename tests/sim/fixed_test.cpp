@@ -391,6 +391,30 @@ TEST(FixedSqrt, IntegerSquareRootsAtTheEdgesOfEveryRoot) {
     }
 }
 
+// isqrt_floor runs radicands below 2^64 on 64-bit words, squares included (sim/fixed.cpp), which
+// holds only while every iterate stays below 2^32, as the table's start keeps them. Each bucket of the start table's top bits at
+// the high end of that range, where the start is up to 2^-7 high, checked against the root's
+// defining bounds r^2 <= n < (r + 1)^2.
+TEST(FixedSqrt, IntegerSquareRootsAtTheTopOfTheWordRange) {
+    std::mt19937_64 g(kSeed + 9);
+    const auto check = [](u128 n) {
+        const std::uint64_t r = isqrt_floor(n);
+        const u128 r2 = static_cast<u128>(r) * r;
+        ASSERT_TRUE(r2 <= n && n - r2 <= 2 * static_cast<u128>(r)) << static_cast<std::uint64_t>(n);
+        ASSERT_EQ(isqrt_round(n), n - r2 > r ? r + 1 : r) << static_cast<std::uint64_t>(n);
+    };
+    for (int len = 60; len <= 66; ++len) {
+        for (u128 top = 128; top < 512; ++top) {
+            const int e = (len - 8) & ~1;
+            if (top >> (len - e - 1) != 1) continue;  // top must have len - e bits
+            const u128 lo = top << e, hi = (top + 1) << e;
+            for (u128 n : {lo, lo + 1, hi - 1, hi - 2}) check(n);
+            for (int i = 0; i < 2'000; ++i) check(lo + (static_cast<u128>(g()) % (hi - lo)));
+        }
+    }
+    for (std::uint64_t j = 0; j < 100'000; ++j) check(~std::uint64_t{0} - j);
+}
+
 // ---------------------------------------------------------------- add, subtract, negate
 
 TEST(FixedAddSub, ExactOrSaturatedWithOneOverflowEventOnAMillionRandomInputs) {
