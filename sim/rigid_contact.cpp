@@ -642,8 +642,34 @@ bool axis_aligned(const Mat3& m) {
     return true;
 }
 
-// shortcuts: edges_cannot_matter() may skip the edge axes' loop, and clip() an unchanged
-// polygon's copy (off only in tests, which check that they change nothing).
+// A face axis's projected radius h.x |c0| + h.y |c1| + h.z |c2| (h the other box's half sizes,
+// c its axes' cosines with the face axis), as Fixed arithmetic takes it: each product rounded
+// (half to even) once, then summed. small: every h_k in [0, 2^31) raw (below 0.5 m) and every
+// |c_j| below 1.5 (kCosineBound; a rotation's entries are within 2^-20 of [-1, 1]): each exact
+// product is then below 1.5 * 2^63, so it is taken in one 64-bit word and rounded as round_wide()
+// rounds it (the same biased shift, with no high word to carry into and no range to leave: the
+// biased product stays below 2^64), and the three rounded terms, each below 1.5 * 2^31, sum
+// without overflow: the same integers, without the 128-bit products and the saturation checks.
+constexpr std::int64_t kCosineBound = Fixed::kOne + Fixed::kOne / 2;
+[[gnu::always_inline]] inline bool small_halves(const Vec3& h) {
+    return (static_cast<std::uint64_t>(h.x.raw) | static_cast<std::uint64_t>(h.y.raw) | static_cast<std::uint64_t>(h.z.raw)) <
+           (std::uint64_t{1} << 31);
+}
+[[gnu::always_inline]] inline bool small_cosine(Fixed c) {
+    return static_cast<std::uint64_t>(c.raw + kCosineBound) < static_cast<std::uint64_t>(2 * kCosineBound);
+}
+[[gnu::always_inline]] inline Fixed face_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2, bool small) {
+    if (!small) return h.x * abs(c0) + h.y * abs(c1) + h.z * abs(c2);
+    const auto term = [](Fixed hk, Fixed c) {
+        const std::uint64_t p = static_cast<std::uint64_t>(hk.raw) * static_cast<std::uint64_t>(c.raw < 0 ? -c.raw : c.raw);
+        return static_cast<std::int64_t>((p + (0x7FFFFFFFu + ((p >> 32) & 1))) >> 32);
+    };
+    return Fixed::from_raw(term(h.x, c0) + term(h.y, c1) + term(h.z, c2));
+}
+
+// shortcuts: edges_cannot_matter() may skip the edge axes' loop, clip() an unchanged polygon's
+// copy, and face_radius() take its small case (off only in tests, which check that they change
+// nothing).
 void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m, bool shortcuts) {
     const Vec3 d = b.center - a.center;
     const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
@@ -659,6 +685,10 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     // An unturned box's axes are the unit axes: a dot product with one is the other vector's
     // component, bit for bit (identity()), so the floor's and an unturned box's take no products.
     const bool a_unturned = identity(*a.rot), b_unturned = identity(*b.rot);
+    // face_radius()'s small case: A's axes take B's half sizes and a row of c, B's axes A's half
+    // sizes and a column (every row checked by then).
+    const bool small_a = shortcuts && small_halves(a.half), small_b = shortcuts && small_halves(b.half);
+    bool small_c = true;
     for (int box = 0; box < 2; ++box) {
         const Vec3& xh = box == 0 ? a.half : b.half;
         const Vec3& yh = box == 0 ? b.half : a.half;
@@ -671,9 +701,10 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
             if (box == 0) {
                 for (int j = 0; j < 3; ++j)
                     c[k][j] = a_unturned ? component(cb[j], k) : b_unturned ? component(axis, j) : dot(cb[j], axis);
-                radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
+                small_c = small_c && small_cosine(c[k][0]) && small_cosine(c[k][1]) && small_cosine(c[k][2]);
+                radius = face_radius(yh, c[k][0], c[k][1], c[k][2], small_b && small_c);
             } else {
-                radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
+                radius = face_radius(yh, c[0][k], c[1][k], c[2][k], small_a && small_c);
             }
             const Fixed sep = abs(dist) - component(xh, k) - radius;
             if (sep > margin) return;
@@ -829,6 +860,10 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
 
 void contact_points_general(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
     contact_points_with(a, b, margin, m, false);
+}
+
+Fixed face_axis_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+    return face_radius(h, c0, c1, c2, small_halves(h) && small_cosine(c0) && small_cosine(c1) && small_cosine(c2));
 }
 
 void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {

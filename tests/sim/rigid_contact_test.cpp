@@ -710,5 +710,51 @@ TEST(RigidContact, CrossedCapsulesMeetAtTheCrossing) {
     EXPECT_NEAR(d(m.points[0].point.z), 0.2, 1e-8);
 }
 
+// box_box()'s face axes take each projected radius h.x |c0| + h.y |c1| + h.z |c2| in 64-bit words
+// when the half sizes are below 2^31 raw and the cosines below 1.5; it must be Fixed arithmetic's
+// sum of rounded products, bit for bit: random sizes and cosines on both sides of both bounds,
+// the extremes of the small case, and products on an exact tie (half an ulp, rounded to even).
+TEST(RigidContact, FaceRadiusShortcutGivesTheFixedProducts) {
+    std::mt19937_64 rng(2022);
+    const std::int64_t one = Fixed::kOne, h_top = std::int64_t{1} << 31, c_top = one + one / 2;
+    std::uniform_int_distribution<std::int64_t> h_any(0, 16 * h_top), c_any(-c_top - c_top / 8, c_top + c_top / 8),
+        c_near(c_top - 4096, c_top + 4096), c_wide(0, 9 * one / 2), h_near(h_top - 4096, h_top + 4096), odd(0, std::int64_t{1} << 20);
+    const auto general = [](const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+        return h.x * abs(c0) + h.y * abs(c1) + h.z * abs(c2);
+    };
+    int differ = 0, small = 0, ties = 0;
+    const auto check = [&](const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+        if (face_axis_radius(h, c0, c1, c2) != general(h, c0, c1, c2)) ++differ;
+        const auto in = [&](std::int64_t hk, Fixed c) { return hk >= 0 && hk < h_top && c.raw > -c_top && c.raw < c_top; };
+        small += in(h.x.raw, c0) && in(h.y.raw, c1) && in(h.z.raw, c2);
+    };
+    const auto f = [](std::int64_t raw) { return Fixed::from_raw(raw); };
+    const auto sign = [&](std::int64_t v) { return rng() % 2 == 0 ? v : -v; };
+    for (int n = 0; n < 200000; ++n) {
+        const int mode = n % 4;
+        if (mode == 0) {  // sizes up to 16 m, cosines either side of their bound
+            check({f(h_any(rng)), f(h_any(rng)), f(h_any(rng))}, f(c_any(rng)), f(c_any(rng)), f(c_any(rng)));
+        } else if (mode == 1) {  // at the size bound, cosines at theirs or up to 4.5
+            auto& c = n % 8 == 1 ? c_near : c_wide;
+            check({f(h_near(rng)), f(h_near(rng)), f(h_near(rng))}, f(sign(c(rng))), f(sign(c(rng))), f(sign(c(rng))));
+        } else {  // exact ties: h = 2^(30 - s), c = 2^(s + 1) (2 m + 1), so h c = 2^31 (2 m + 1)
+            Fixed c[3];
+            Vec3 h;
+            for (int k = 0; k < 3; ++k) {
+                const int s = static_cast<int>(rng() % 8);
+                component(h, k) = f(std::int64_t{1} << (30 - s));
+                c[k] = f(sign((std::int64_t{1} << (s + 1)) * (2 * (odd(rng) + (mode == 3 ? c_top >> 21 : 0)) + 1) % c_top));
+            }
+            ties += 3;
+            check(h, c[0], c[1], c[2]);
+        }
+    }
+    for (const std::int64_t hk : {std::int64_t{0}, std::int64_t{1}, h_top - 1, h_top, -one})
+        for (const std::int64_t ck : {std::int64_t{0}, std::int64_t{1}, one, c_top - 1, c_top, 2 * one, -(c_top - 1), INT64_MIN, INT64_MAX})
+            check({f(hk), f(hk), f(hk)}, f(ck), f(-ck / 2), f(ck));
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(small, 90000) << ties;  // the small case is what is compared, ties and bounds included
+}
+
 }  // namespace
 }  // namespace lockroll::sim
