@@ -119,6 +119,57 @@ TEST(RigidContact, PointBoxShortcutsGiveTheGeneralBits) {
     EXPECT_GT(turned, 1000);
 }
 
+// point_box() takes a turned box's local coordinates one at a time and rejects on x or y
+// before the later dot products; where a skipped one would have saturated (an overflow event, which
+// a World folds into its state) it must still be taken. Matrices and offsets at every scale, from
+// rotations and metres to entries of 2^29 and offsets at Fixed's limits: the answer and the
+// overflow count must be point_box_general()'s.
+TEST(RigidContact, PointBoxEarlyRejectCountsTheGeneralOverflows) {
+    std::mt19937_64 rng(2023);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::uniform_int_distribution<int> scale(0, 62);
+    OrientedCollider box;
+    box.shape = Shape::Box;
+    box.half = v3(0.3, 0.2, 0.4);
+    int rejected = 0, overflowed = 0, hits = 0;
+    for (int i = 0; i < 100000; ++i) {
+        // A rotation, or one with a column (or all) scaled up; the point near, far, or at the limits.
+        const Mat3 rot = rotation(normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))}));
+        Mat3 m = rot;
+        const int mode = i % 4;
+        const auto big = [&] { return Fixed::from_raw(static_cast<std::int64_t>(u(rng) * std::ldexp(1.0, scale(rng)))); };
+        if (mode == 1) m.row[0].y = big(), m.row[1].y = big(), m.row[2].z = big();
+        if (mode == 2)
+            for (Vec3& row : m.row) row = {big(), big(), big()};
+        box.rot = &m;
+        box.center = v3(u(rng) * 10, u(rng), u(rng) * 10);
+        Vec3 off = mode == 0 ? v3(u(rng), u(rng), u(rng)) : Vec3{big(), big(), big()};
+        if (mode == 3) off = {Fixed::from_raw(INT64_MAX), big(), Fixed::from_raw(INT64_MIN)};
+        const Vec3 p = box.center + off;
+        const Fixed reach = fx(0.2);
+        Vec3 n1, s1, n2, s2;
+        Fixed d1, d2;
+        const auto before = overflow_events();
+        const bool hit1 = point_box(p, box, reach, n1, s1, d1);
+        const auto mid = overflow_events();
+        const bool hit2 = point_box_general(p, box, reach, n2, s2, d2);
+        const auto events = overflow_events() - mid;
+        ASSERT_EQ(hit1, hit2) << i;
+        ASSERT_EQ(mid - before, events) << i;
+        overflowed += events > 0;
+        if (!hit1) {
+            ++rejected;
+            continue;
+        }
+        ++hits;
+        ASSERT_EQ(n1, n2) << i;
+        ASSERT_EQ(s1, s2) << i;
+        ASSERT_EQ(d1, d2) << i;
+    }
+    EXPECT_GT(rejected, 50000) << hits;  // rejects with and without saturation are compared
+    EXPECT_GT(overflowed, 10000);
+}
+
 TEST(RigidContact, SpeculativeWithinTheMarginOnly) {
     OrientedCollider s;
     s.center = v3(0, 0.53, 0);
