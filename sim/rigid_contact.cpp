@@ -496,8 +496,9 @@ Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
 
 // Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
 // shortcuts: clip() may return an unchanged polygon uncopied (off only in tests).
+// cosines: n . (inc's axis i) as box_box() already has them, or null to take them here.
 void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
-                  bool flip, Manifold& m, bool shortcuts) {
+                  bool flip, Manifold& m, bool shortcuts, const Fixed* cosines) {
     // n is +-e_k exactly when the reference's axis k is a unit axis (an unturned reference: the
     // floor, a wall): then n . v is +-v_k bit for bit (one exact term rounded once; -v_k
     // saturates as the rounding does, as in clip()), so the dot products with n are components.
@@ -510,7 +511,7 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     int j = 0;
     Fixed best = Fixed::zero(), along[3];
     for (int i = 0; i < 3; ++i) {
-        along[i] = along_n(column(*inc.rot, i));
+        along[i] = cosines != nullptr ? cosines[i] : along_n(column(*inc.rot, i));
         const Fixed c = abs(along[i]);
         if (c > best) { best = c; j = i; }
     }
@@ -756,10 +757,26 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
             static_cast<std::uint8_t>(kFeatureEdge + 3 * edge_i + edge_j));
         return;
     }
+    // face_contact()'s n . (incident axis i) is +-c, the reference axis's row or column (a dot
+    // product is symmetric to the bit, and one with a unit axis is the component, as either side
+    // takes it). For n = -axis: dot(-axis, b) = -dot(axis, b) bit for bit when no entry of axis
+    // is INT64_MIN raw (-axis exact; the exact sums are negatives, and rounding half to even is
+    // symmetric) and small_c (every |c| < 1.5: no saturation either way).
+    Fixed cosines[3];
+    const Vec3& ref_axis = face_box == 0 ? ca[face_k] : cb[face_k];
+    const bool reuse = shortcuts && small_c && ref_axis.x.raw != INT64_MIN && ref_axis.y.raw != INT64_MIN &&
+                       ref_axis.z.raw != INT64_MIN;
+    if (reuse) {
+        const bool negative = !(face_n == ref_axis);
+        for (int i = 0; i < 3; ++i) {
+            const Fixed v = face_box == 0 ? c[face_k][i] : c[i][face_k];
+            cosines[i] = negative ? Fixed::from_raw(-v.raw) : v;
+        }
+    }
     if (face_box == 0)
-        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts);
+        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts, reuse ? cosines : nullptr);
     else
-        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts);
+        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts, reuse ? cosines : nullptr);
 }
 }  // namespace
 
