@@ -315,6 +315,17 @@ bool same_manifold(const Manifold& fast, const Manifold& full) {
     return true;
 }
 
+// Two boxes through contact_points() and box_box_exhaustive(), x first unless swapped, margin
+// 0.02: true when the manifolds are the same bit for bit; full gets the exhaustive one.
+bool exhaustive_agrees(const OrientedCollider& x, const OrientedCollider& y, bool swapped, Manifold& full) {
+    const OrientedCollider& a = swapped ? y : x;
+    const OrientedCollider& b = swapped ? x : y;
+    Manifold fast;
+    contact_points(a, b, fx(0.02), fast);
+    box_box_exhaustive(a, b, fx(0.02), full);
+    return same_manifold(fast, full);
+}
+
 // The edge-axis shortcut (edges_cannot_matter) must never change a manifold: random pairs of
 // boxes at every orientation and distance, from apart to deep, compared bit for bit with the
 // exhaustive test of all 15 axes. A quarter of the pairs have an exact axis-aligned box (a
@@ -432,13 +443,8 @@ TEST(RigidContact, UnchangedClipShortcutChangesNoManifold) {
         const double dz = mode == 2 && spread == 0 ? 0 : spread * u(rng) * (hl.z + hu.z);
         const D3 c{dx, hl.y + hu.y + 0.01 * u(rng), dz};
         const OrientedCollider lo = box(lower, {0, 0, 0}, hl), up = box(upper, c, hu);
-        const bool lower_first = n / 16 % 2 == 0;
-        const OrientedCollider& a = lower_first ? lo : up;
-        const OrientedCollider& b = lower_first ? up : lo;
-        Manifold fast, full;
-        contact_points(a, b, fx(0.02), fast);
-        box_box_exhaustive(a, b, fx(0.02), full);
-        if (!same_manifold(fast, full)) ++differ;
+        Manifold full;
+        if (!exhaustive_agrees(lo, up, n / 16 % 2 != 0, full)) ++differ;
         if (full.count == 0 || full.points[0].feature >= kFeatureEdge) continue;
         ++faces;
         // Ids 0..3 (mod the flip) are the incident face's own corners: all four kept and no
@@ -805,6 +811,30 @@ TEST(RigidContact, FaceRadiusShortcutGivesTheFixedProducts) {
             check({f(hk), f(hk), f(hk)}, f(ck), f(-ck / 2), f(ck));
     EXPECT_EQ(differ, 0);
     EXPECT_GT(small, 90000) << ties;  // the small case is what is compared, ties and bounds included
+}
+
+// box_box() hands face_contact() the incident axes' cosines n . b_i from its own products; they
+// only choose the incident face, so an error shows where two faces tie. A box turned exactly 45
+// degrees about x (two columns with equal |n . b_i| against a floor's normal) resting on its edge,
+// on or under an unturned or turned box, either first: the exhaustive path's manifold, bit for bit.
+TEST(RigidContact, IncidentFaceTieGivesTheExhaustiveManifold) {
+    std::mt19937_64 rng(2024);
+    std::uniform_real_distribution<double> u(-1, 1), size(0.1, 0.5);
+    const Fixed zero = Fixed::zero(), one = Fixed::one(), c = fx(std::sqrt(0.5));
+    const Mat3 tie{{{one, zero, zero}, {zero, c, -c}, {zero, c, c}}};
+    int touching = 0, differ = 0;
+    for (int n = 0; n < 20000; ++n) {
+        const Mat3 base = n % 4 < 2 ? kIdentity : rotation(quat(1, 0, 0.02 * u(rng), 0));
+        const D3 hb{size(rng) * 4, size(rng), size(rng) * 4}, ht{size(rng), size(rng), size(rng)};
+        const double side = n % 2 == 0 ? 1 : -1;  // on top of the base, or under it
+        const double reach = hb.y + (ht.y + ht.z) * std::sqrt(0.5) - 0.01 * (u(rng) + 1);
+        const OrientedCollider lo = box(base, {0, 0, 0}, hb), up = box(tie, {0.3 * u(rng), side * reach, 0.3 * u(rng)}, ht);
+        Manifold full;
+        if (!exhaustive_agrees(lo, up, n / 4 % 2 != 0, full)) ++differ;
+        touching += full.count > 0;
+    }
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(touching, 10000);
 }
 
 }  // namespace
