@@ -497,12 +497,14 @@ Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
 // Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
 // shortcuts: clip() may return an unchanged polygon uncopied (off only in tests).
 // cosines: n . (inc's axis i) as box_box() already has them, or null to take them here.
+// unturned: identity(*ref.rot), as box_box() found it (n is then +-e_k exactly).
 void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
-                  bool flip, Manifold& m, bool shortcuts, const Fixed* cosines) {
+                  bool flip, Manifold& m, bool shortcuts, const Fixed* cosines, bool unturned) {
     // n is +-e_k exactly when the reference's axis k is a unit axis (an unturned reference: the
     // floor, a wall): then n . v is +-v_k bit for bit (one exact term rounded once; -v_k
     // saturates as the rounding does, as in clip()), so the dot products with n are components.
-    const int n_unit = n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
+    const int n_unit = unturned ? (component(n, k).raw > 0 ? k + 1 : -(k + 1))
+                       : n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
     const auto along_n = [&](const Vec3& v) {
         if (n_unit == 0) return dot(n, v);
         return n_unit > 0 ? component(v, n_unit - 1) : -component(v, -n_unit - 1);
@@ -528,7 +530,6 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     a.v[3] = fc + eu - ev;
     for (int i = 0; i < 4; ++i) a.id[i] = a.edge[i] = static_cast<std::uint8_t>(i);
     // Side planes of the reference face (an unturned reference's are unit axes: identity()).
-    const bool unturned = identity(*ref.rot);
     const Poly* poly = &a;  // the polygon so far; a clip writes into whichever buffer it is not
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
@@ -774,9 +775,9 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
         }
     }
     if (face_box == 0)
-        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts, reuse ? cosines : nullptr);
+        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts, reuse ? cosines : nullptr, a_unturned);
     else
-        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts, reuse ? cosines : nullptr);
+        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts, reuse ? cosines : nullptr, b_unturned);
 }
 }  // namespace
 
