@@ -602,38 +602,44 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     // The loop skips |c|^2 < 2^-12 (2^52 in Q64.64); here |c|^2 may be off by 2^-20.
     constexpr u128 kSkipBelow = (u128{1} << 52) - (u128{1} << 45);
     constexpr int kNext[3] = {1, 2, 0}, kAfter[3] = {2, 0, 1};
-    for (int i = 0; i < 3; ++i) {
-        const int i1 = kNext[i], i2 = kAfter[i];
-        for (int j = 0; j < 3; ++j) {
-            const int j1 = kNext[j], j2 = kAfter[j];
-            // c's two coordinates in the chosen frame, and the distances along those axes.
-            const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
-            const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
-            // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
-            // Fixed products were within 3), so the slack e covers it as before.
-            const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
-            const i128 h = mul_wide(component(ha, i1).raw, ar[i2][j]) + mul_wide(component(ha, i2).raw, ar[i1][j]) +
-                           mul_wide(component(hb, j1).raw, ar[i][j2]) + mul_wide(component(hb, j2).raw, ar[i][j1]);
-            const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
-            const std::int64_t l = n + e;
-            // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
-            // |c|^2 is taken only after that test (the products above are in range for every
-            // axis: the checks at the top bound every entry and distance, skipped axes too).
-            if (bound >= 0 && l <= 0) continue;
-            const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
-            if (len_sq < kSkipBelow) continue;
-            // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
-            // factor, which halves the wide products below).
-            const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
-            if (bound >= 0) {
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
-            } else {
-                if (l >= 0) return false;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
+    // The frame and the bound's sign are fixed for the call: the loop is instantiated for each,
+    // so the nine unrolled axes select no operands and test no sign at run time.
+    const auto all_pass = [&]<bool InB, bool NonNegative>() {
+        for (int i = 0; i < 3; ++i) {
+            const int i1 = kNext[i], i2 = kAfter[i];
+            for (int j = 0; j < 3; ++j) {
+                const int j1 = kNext[j], j2 = kAfter[j];
+                // c's two coordinates in the chosen frame, and the distances along those axes.
+                const Fixed p = InB ? r[i][j2] : r[i1][j], q = InB ? r[i][j1] : r[i2][j];
+                const Fixed tp = InB ? tb[j1] : ta[i2], tq = InB ? tb[j2] : ta[i1];
+                // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
+                // Fixed products were within 3), so the slack e covers it as before.
+                const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
+                const i128 h = mul_wide(component(ha, i1).raw, ar[i2][j]) + mul_wide(component(ha, i2).raw, ar[i1][j]) +
+                               mul_wide(component(hb, j1).raw, ar[i][j2]) + mul_wide(component(hb, j2).raw, ar[i][j1]);
+                const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
+                const std::int64_t l = n + e;
+                // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
+                // |c|^2 is taken only after that test (the products above are in range for every
+                // axis: the checks at the top bound every entry and distance, skipped axes too).
+                if (NonNegative && l <= 0) continue;
+                const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
+                if (len_sq < kSkipBelow) continue;
+                // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
+                // factor, which halves the wide products below).
+                const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
+                if (NonNegative) {
+                    if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
+                } else {
+                    if (l >= 0) return false;
+                    if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
+                }
             }
         }
-    }
-    return true;
+        return true;
+    };
+    if (bound >= 0) return in_b ? all_pass.template operator()<true, true>() : all_pass.template operator()<false, true>();
+    return in_b ? all_pass.template operator()<true, false>() : all_pass.template operator()<false, false>();
 }
 
 // Every entry 0 or +-1: an exact rotation (a signed permutation), as a room's walls have.
