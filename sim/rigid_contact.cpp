@@ -496,12 +496,15 @@ Fixed projected_radius(const OrientedCollider& b, const Vec3& axis) {
 
 // Face contact: reference box `ref` (face axis k), incident box `inc`; n points from ref to inc.
 // shortcuts: clip() may return an unchanged polygon uncopied (off only in tests).
+// cosines: n . (inc's axis i) as box_box() already has them, or null to take them here.
+// unturned: identity(*ref.rot), as box_box() found it (n is then +-e_k exactly).
 void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const OrientedCollider& inc, Fixed margin,
-                  bool flip, Manifold& m, bool shortcuts) {
+                  bool flip, Manifold& m, bool shortcuts, const Fixed* cosines, bool unturned) {
     // n is +-e_k exactly when the reference's axis k is a unit axis (an unturned reference: the
     // floor, a wall): then n . v is +-v_k bit for bit (one exact term rounded once; -v_k
     // saturates as the rounding does, as in clip()), so the dot products with n are components.
-    const int n_unit = n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
+    const int n_unit = unturned ? (component(n, k).raw > 0 ? k + 1 : -(k + 1))
+                       : n == unit_axis(k) ? k + 1 : n == -unit_axis(k) ? -(k + 1) : 0;
     const auto along_n = [&](const Vec3& v) {
         if (n_unit == 0) return dot(n, v);
         return n_unit > 0 ? component(v, n_unit - 1) : -component(v, -n_unit - 1);
@@ -510,7 +513,7 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     int j = 0;
     Fixed best = Fixed::zero(), along[3];
     for (int i = 0; i < 3; ++i) {
-        along[i] = along_n(column(*inc.rot, i));
+        along[i] = cosines != nullptr ? cosines[i] : along_n(column(*inc.rot, i));
         const Fixed c = abs(along[i]);
         if (c > best) { best = c; j = i; }
     }
@@ -527,7 +530,6 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     a.v[3] = fc + eu - ev;
     for (int i = 0; i < 4; ++i) a.id[i] = a.edge[i] = static_cast<std::uint8_t>(i);
     // Side planes of the reference face (an unturned reference's are unit axes: identity()).
-    const bool unturned = identity(*ref.rot);
     const Poly* poly = &a;  // the polygon so far; a clip writes into whichever buffer it is not
     for (int s = 1; s <= 2; ++s) {
         const int t = (k + s) % 3;
@@ -600,38 +602,44 @@ void face_contact(const OrientedCollider& ref, int k, const Vec3& n, const Orien
     // The loop skips |c|^2 < 2^-12 (2^52 in Q64.64); here |c|^2 may be off by 2^-20.
     constexpr u128 kSkipBelow = (u128{1} << 52) - (u128{1} << 45);
     constexpr int kNext[3] = {1, 2, 0}, kAfter[3] = {2, 0, 1};
-    for (int i = 0; i < 3; ++i) {
-        const int i1 = kNext[i], i2 = kAfter[i];
-        for (int j = 0; j < 3; ++j) {
-            const int j1 = kNext[j], j2 = kAfter[j];
-            // c's two coordinates in the chosen frame, and the distances along those axes.
-            const Fixed p = in_b ? r[i][j2] : r[i1][j], q = in_b ? r[i][j1] : r[i2][j];
-            const Fixed tp = in_b ? tb[j1] : ta[i2], tq = in_b ? tb[j2] : ta[i1];
-            // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
-            // Fixed products were within 3), so the slack e covers it as before.
-            const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
-            const i128 h = mul_wide(component(ha, i1).raw, ar[i2][j]) + mul_wide(component(ha, i2).raw, ar[i1][j]) +
-                           mul_wide(component(hb, j1).raw, ar[i][j2]) + mul_wide(component(hb, j2).raw, ar[i][j1]);
-            const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
-            const std::int64_t l = n + e;
-            // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
-            // |c|^2 is taken only after that test (the products above are in range for every
-            // axis: the checks at the top bound every entry and distance, skipped axes too).
-            if (bound >= 0 && l <= 0) continue;
-            const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
-            if (len_sq < kSkipBelow) continue;
-            // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
-            // factor, which halves the wide products below).
-            const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
-            if (bound >= 0) {
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
-            } else {
-                if (l >= 0) return false;
-                if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
+    // The frame and the bound's sign are fixed for the call: the loop is instantiated for each,
+    // so the nine unrolled axes select no operands and test no sign at run time.
+    const auto all_pass = [&]<bool InB, bool NonNegative>() {
+        for (int i = 0; i < 3; ++i) {
+            const int i1 = kNext[i], i2 = kAfter[i];
+            for (int j = 0; j < 3; ++j) {
+                const int j1 = kNext[j], j2 = kAfter[j];
+                // c's two coordinates in the chosen frame, and the distances along those axes.
+                const Fixed p = InB ? r[i][j2] : r[i1][j], q = InB ? r[i][j1] : r[i2][j];
+                const Fixed tp = InB ? tb[j1] : ta[i2], tq = InB ? tb[j2] : ta[i1];
+                // N in Q64.64, exact, then floored once: within 1 unit of the true N (six rounded
+                // Fixed products were within 3), so the slack e covers it as before.
+                const i128 w = mul_wide(tp.raw, p.raw) - mul_wide(tq.raw, q.raw);
+                const i128 h = mul_wide(component(ha, i1).raw, ar[i2][j]) + mul_wide(component(ha, i2).raw, ar[i1][j]) +
+                               mul_wide(component(hb, j1).raw, ar[i][j2]) + mul_wide(component(hb, j2).raw, ar[i][j1]);
+                const auto n = static_cast<std::int64_t>(((w < 0 ? -w : w) - h) >> Fixed::kFracBits);
+                const std::int64_t l = n + e;
+                // An axis with N + e <= 0 passes when the bound is not negative, skipped or not, so
+                // |c|^2 is taken only after that test (the products above are in range for every
+                // axis: the checks at the top bound every entry and distance, skipped axes too).
+                if (NonNegative && l <= 0) continue;
+                const u128 len_sq = static_cast<u128>(mul_wide(p.raw, p.raw)) + static_cast<u128>(mul_wide(q.raw, q.raw));
+                if (len_sq < kSkipBelow) continue;
+                // |c|^2 in Q32.32, rounded down: below 2^36 with the entries at most 2 (so a 64-bit
+                // factor, which halves the wide products below).
+                const auto cc = static_cast<std::uint64_t>(len_sq >> 32);
+                if (NonNegative) {
+                    if ((mul_wide_unsigned(static_cast<std::uint64_t>(l), static_cast<std::uint64_t>(l)) << 32) > b_sq * u128{cc}) return false;
+                } else {
+                    if (l >= 0) return false;
+                    if ((mul_wide_unsigned(static_cast<std::uint64_t>(-l), static_cast<std::uint64_t>(-l)) << 32) < b_sq * u128{cc + 1}) return false;
+                }
             }
         }
-    }
-    return true;
+        return true;
+    };
+    if (bound >= 0) return in_b ? all_pass.template operator()<true, true>() : all_pass.template operator()<false, true>();
+    return in_b ? all_pass.template operator()<true, false>() : all_pass.template operator()<false, false>();
 }
 
 // Every entry 0 or +-1: an exact rotation (a signed permutation), as a room's walls have.
@@ -642,8 +650,34 @@ bool axis_aligned(const Mat3& m) {
     return true;
 }
 
-// shortcuts: edges_cannot_matter() may skip the edge axes' loop, and clip() an unchanged
-// polygon's copy (off only in tests, which check that they change nothing).
+// A face axis's projected radius h.x |c0| + h.y |c1| + h.z |c2| (h the other box's half sizes,
+// c its axes' cosines with the face axis), as Fixed arithmetic takes it: each product rounded
+// (half to even) once, then summed. small: every h_k in [0, 2^31) raw (below 0.5 m) and every
+// |c_j| below 1.5 (kCosineBound; a rotation's entries are within 2^-20 of [-1, 1]): each exact
+// product is then below 1.5 * 2^63, so it is taken in one 64-bit word and rounded as round_wide()
+// rounds it (the same biased shift, with no high word to carry into and no range to leave: the
+// biased product stays below 2^64), and the three rounded terms, each below 1.5 * 2^31, sum
+// without overflow: the same integers, without the 128-bit products and the saturation checks.
+constexpr std::int64_t kCosineBound = Fixed::kOne + Fixed::kOne / 2;
+[[gnu::always_inline]] inline bool small_halves(const Vec3& h) {
+    return (static_cast<std::uint64_t>(h.x.raw) | static_cast<std::uint64_t>(h.y.raw) | static_cast<std::uint64_t>(h.z.raw)) <
+           (std::uint64_t{1} << 31);
+}
+[[gnu::always_inline]] inline bool small_cosine(Fixed c) {
+    return static_cast<std::uint64_t>(c.raw + kCosineBound) < static_cast<std::uint64_t>(2 * kCosineBound);
+}
+[[gnu::always_inline]] inline Fixed face_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2, bool small) {
+    if (!small) return h.x * abs(c0) + h.y * abs(c1) + h.z * abs(c2);
+    const auto term = [](Fixed hk, Fixed c) {
+        const std::uint64_t p = static_cast<std::uint64_t>(hk.raw) * static_cast<std::uint64_t>(c.raw < 0 ? -c.raw : c.raw);
+        return static_cast<std::int64_t>((p + (0x7FFFFFFFu + ((p >> 32) & 1))) >> 32);
+    };
+    return Fixed::from_raw(term(h.x, c0) + term(h.y, c1) + term(h.z, c2));
+}
+
+// shortcuts: edges_cannot_matter() may skip the edge axes' loop, clip() an unchanged polygon's
+// copy, and face_radius() take its small case (off only in tests, which check that they change
+// nothing).
 void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m, bool shortcuts) {
     const Vec3 d = b.center - a.center;
     const Vec3 ca[3] = {column(*a.rot, 0), column(*a.rot, 1), column(*a.rot, 2)};
@@ -659,6 +693,10 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     // An unturned box's axes are the unit axes: a dot product with one is the other vector's
     // component, bit for bit (identity()), so the floor's and an unturned box's take no products.
     const bool a_unturned = identity(*a.rot), b_unturned = identity(*b.rot);
+    // face_radius()'s small case: A's axes take B's half sizes and a row of c, B's axes A's half
+    // sizes and a column (every row checked by then).
+    const bool small_a = shortcuts && small_halves(a.half), small_b = shortcuts && small_halves(b.half);
+    bool small_c = true;
     for (int box = 0; box < 2; ++box) {
         const Vec3& xh = box == 0 ? a.half : b.half;
         const Vec3& yh = box == 0 ? b.half : a.half;
@@ -671,9 +709,10 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
             if (box == 0) {
                 for (int j = 0; j < 3; ++j)
                     c[k][j] = a_unturned ? component(cb[j], k) : b_unturned ? component(axis, j) : dot(cb[j], axis);
-                radius = yh.x * abs(c[k][0]) + yh.y * abs(c[k][1]) + yh.z * abs(c[k][2]);
+                small_c = small_c && small_cosine(c[k][0]) && small_cosine(c[k][1]) && small_cosine(c[k][2]);
+                radius = face_radius(yh, c[k][0], c[k][1], c[k][2], small_b && small_c);
             } else {
-                radius = yh.x * abs(c[0][k]) + yh.y * abs(c[1][k]) + yh.z * abs(c[2][k]);
+                radius = face_radius(yh, c[0][k], c[1][k], c[2][k], small_a && small_c);
             }
             const Fixed sep = abs(dist) - component(xh, k) - radius;
             if (sep > margin) return;
@@ -691,8 +730,9 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
     int edge_i = 0, edge_j = 0;
     Vec3 edge_n{};
     const i128 limit = std::min<i128>(static_cast<i128>(margin.raw), static_cast<i128>(face_sep.raw) + kEdgeBias);
-    if (!shortcuts || !edges_cannot_matter(c, ta, tb, d, a.half, b.half, axis_aligned(*a.rot), axis_aligned(*b.rot),
-                                                 static_cast<std::int64_t>(limit)))
+    // The identity is axis-aligned: the floor's and a wall's nine entries are not read again.
+    if (!shortcuts || !edges_cannot_matter(c, ta, tb, d, a.half, b.half, a_unturned || axis_aligned(*a.rot),
+                                           b_unturned || axis_aligned(*b.rot), static_cast<std::int64_t>(limit)))
         for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) {
                 const Vec3 c = cross(ca[i], cb[j]);
@@ -724,21 +764,65 @@ void box_box(const OrientedCollider& a, const OrientedCollider& b, Fixed margin,
             static_cast<std::uint8_t>(kFeatureEdge + 3 * edge_i + edge_j));
         return;
     }
+    // face_contact()'s n . (incident axis i) is +-c, the reference axis's row or column (a dot
+    // product is symmetric to the bit, and one with a unit axis is the component, as either side
+    // takes it). For n = -axis: dot(-axis, b) = -dot(axis, b) bit for bit when no entry of axis
+    // is INT64_MIN raw (-axis exact; the exact sums are negatives, and rounding half to even is
+    // symmetric) and small_c (every |c| < 1.5: no saturation either way).
+    Fixed cosines[3];
+    const Vec3& ref_axis = face_box == 0 ? ca[face_k] : cb[face_k];
+    const bool reuse = shortcuts && small_c && ref_axis.x.raw != INT64_MIN && ref_axis.y.raw != INT64_MIN &&
+                       ref_axis.z.raw != INT64_MIN;
+    if (reuse) {
+        const bool negative = !(face_n == ref_axis);
+        for (int i = 0; i < 3; ++i) {
+            const Fixed v = face_box == 0 ? c[face_k][i] : c[i][face_k];
+            cosines[i] = negative ? Fixed::from_raw(-v.raw) : v;
+        }
+    }
     if (face_box == 0)
-        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts);
+        face_contact(a, face_k, face_n, b, margin, false, m, shortcuts, reuse ? cosines : nullptr, a_unturned);
     else
-        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts);
+        face_contact(b, face_k, face_n, a, margin, true, m, shortcuts, reuse ? cosines : nullptr, b_unturned);
 }
 }  // namespace
 
 bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& normal, Vec3& surface, Fixed& distance) {
     const Mat3& r = *box.rot;
     const bool unturned = identity(r);
-    const Vec3 local = unturned ? p - box.center : transpose_times(r, p - box.center);
     const Vec3& h = box.half;
-    // Quick reject on each axis before any square root.
-    for (int k = 0; k < 3; ++k)
-        if (abs(component(local, k)) - component(h, k) >= reach) return false;
+    Vec3 local;
+    if (unturned) {
+        local = p - box.center;
+        // Quick reject on each axis before any square root.
+        for (int k = 0; k < 3; ++k)
+            if (abs(component(local, k)) - component(h, k) >= reach) return false;
+    } else {
+        // transpose_times(r, v) a coordinate at a time, each tested as it comes: a point rejected
+        // on x or y skips the other coordinates' dot products (two thirds of a turned box's
+        // calls on bodies_1k_rigid are rejects). Skipping one changes nothing unless it would
+        // have saturated (its overflow is counted): not with |v_k| <= 2^60 raw and the column's
+        // entries within [-2, 2] (each product below 2^93, so the sum rounds below 2^63), else
+        // it is taken anyway.
+        const Vec3 v = p - box.center;
+        const auto within = [](Fixed f, std::uint64_t bound) {
+            return static_cast<std::uint64_t>(f.raw) + bound <= 2 * bound;  // |f| <= bound, wrapping
+        };
+        constexpr std::uint64_t kV = std::uint64_t{1} << 60, kEntry = std::uint64_t{2} << Fixed::kFracBits;
+        const auto safe_to_skip = [&](int k) {
+            const Vec3 col = column(r, k);
+            return within(v.x, kV) && within(v.y, kV) && within(v.z, kV) && within(col.x, kEntry) &&
+                   within(col.y, kEntry) && within(col.z, kEntry);
+        };
+        for (int k = 0; k < 3; ++k) {
+            component(local, k) = dot(column(r, k), v);
+            if (abs(component(local, k)) - component(h, k) >= reach) {
+                for (int j = k + 1; j < 3; ++j)
+                    if (!safe_to_skip(j)) (void)dot(column(r, j), v);
+                return false;
+            }
+        }
+    }
     Vec3 q = local;
     bool inside = true;
     for (int k = 0; k < 3; ++k) {
@@ -829,6 +913,10 @@ void contact_points(const OrientedCollider& a, const OrientedCollider& b, Fixed 
 
 void contact_points_general(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {
     contact_points_with(a, b, margin, m, false);
+}
+
+Fixed face_axis_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+    return face_radius(h, c0, c1, c2, small_halves(h) && small_cosine(c0) && small_cosine(c1) && small_cosine(c2));
 }
 
 void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m) {

@@ -68,6 +68,11 @@ void box_box_exhaustive(const OrientedCollider& a, const OrientedCollider& b, Fi
 // an unturned box through its rotation's products). The same manifold, bit for bit: for tests.
 void contact_points_general(const OrientedCollider& a, const OrientedCollider& b, Fixed margin, Manifold& m);
 
+// A face axis's projected radius in box_box(): h.x |c0| + h.y |c1| + h.z |c2| (h the other box's
+// half sizes, c its axes' cosines with the axis), each product rounded once, summed. Its shortcut
+// for small sizes and cosines gives these bits without the 128-bit products: for tests.
+Fixed face_axis_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2);
+
 // Point against an oriented box: closest point, unit normal from the point toward the box
 // surface (out of the box through the nearest face when the point is inside), and the signed
 // distance (negative inside). Returns false when the point is farther than `reach`.

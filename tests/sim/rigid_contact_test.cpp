@@ -119,6 +119,57 @@ TEST(RigidContact, PointBoxShortcutsGiveTheGeneralBits) {
     EXPECT_GT(turned, 1000);
 }
 
+// point_box() takes a turned box's local coordinates one at a time and rejects on x or y
+// before the later dot products; where a skipped one would have saturated (an overflow event, which
+// a World folds into its state) it must still be taken. Matrices and offsets at every scale, from
+// rotations and metres to entries of 2^29 and offsets at Fixed's limits: the answer and the
+// overflow count must be point_box_general()'s.
+TEST(RigidContact, PointBoxEarlyRejectCountsTheGeneralOverflows) {
+    std::mt19937_64 rng(2023);
+    std::uniform_real_distribution<double> u(-1, 1);
+    std::uniform_int_distribution<int> scale(0, 62);
+    OrientedCollider box;
+    box.shape = Shape::Box;
+    box.half = v3(0.3, 0.2, 0.4);
+    int rejected = 0, overflowed = 0, hits = 0;
+    for (int i = 0; i < 100000; ++i) {
+        // A rotation, or one with a column (or all) scaled up; the point near, far, or at the limits.
+        const Mat3 rot = rotation(normalised({fx(u(rng)), fx(u(rng)), fx(u(rng)), fx(u(rng))}));
+        Mat3 m = rot;
+        const int mode = i % 4;
+        const auto big = [&] { return Fixed::from_raw(static_cast<std::int64_t>(u(rng) * std::ldexp(1.0, scale(rng)))); };
+        if (mode == 1) m.row[0].y = big(), m.row[1].y = big(), m.row[2].z = big();
+        if (mode == 2)
+            for (Vec3& row : m.row) row = {big(), big(), big()};
+        box.rot = &m;
+        box.center = v3(u(rng) * 10, u(rng), u(rng) * 10);
+        Vec3 off = mode == 0 ? v3(u(rng), u(rng), u(rng)) : Vec3{big(), big(), big()};
+        if (mode == 3) off = {Fixed::from_raw(INT64_MAX), big(), Fixed::from_raw(INT64_MIN)};
+        const Vec3 p = box.center + off;
+        const Fixed reach = fx(0.2);
+        Vec3 n1, s1, n2, s2;
+        Fixed d1, d2;
+        const auto before = overflow_events();
+        const bool hit1 = point_box(p, box, reach, n1, s1, d1);
+        const auto mid = overflow_events();
+        const bool hit2 = point_box_general(p, box, reach, n2, s2, d2);
+        const auto events = overflow_events() - mid;
+        ASSERT_EQ(hit1, hit2) << i;
+        ASSERT_EQ(mid - before, events) << i;
+        overflowed += events > 0;
+        if (!hit1) {
+            ++rejected;
+            continue;
+        }
+        ++hits;
+        ASSERT_EQ(n1, n2) << i;
+        ASSERT_EQ(s1, s2) << i;
+        ASSERT_EQ(d1, d2) << i;
+    }
+    EXPECT_GT(rejected, 50000) << hits;  // rejects with and without saturation are compared
+    EXPECT_GT(overflowed, 10000);
+}
+
 TEST(RigidContact, SpeculativeWithinTheMarginOnly) {
     OrientedCollider s;
     s.center = v3(0, 0.53, 0);
@@ -264,6 +315,17 @@ bool same_manifold(const Manifold& fast, const Manifold& full) {
     return true;
 }
 
+// Two boxes through contact_points() and box_box_exhaustive(), x first unless swapped, margin
+// 0.02: true when the manifolds are the same bit for bit; full gets the exhaustive one.
+bool exhaustive_agrees(const OrientedCollider& x, const OrientedCollider& y, bool swapped, Manifold& full) {
+    const OrientedCollider& a = swapped ? y : x;
+    const OrientedCollider& b = swapped ? x : y;
+    Manifold fast;
+    contact_points(a, b, fx(0.02), fast);
+    box_box_exhaustive(a, b, fx(0.02), full);
+    return same_manifold(fast, full);
+}
+
 // The edge-axis shortcut (edges_cannot_matter) must never change a manifold: random pairs of
 // boxes at every orientation and distance, from apart to deep, compared bit for bit with the
 // exhaustive test of all 15 axes. A quarter of the pairs have an exact axis-aligned box (a
@@ -381,13 +443,8 @@ TEST(RigidContact, UnchangedClipShortcutChangesNoManifold) {
         const double dz = mode == 2 && spread == 0 ? 0 : spread * u(rng) * (hl.z + hu.z);
         const D3 c{dx, hl.y + hu.y + 0.01 * u(rng), dz};
         const OrientedCollider lo = box(lower, {0, 0, 0}, hl), up = box(upper, c, hu);
-        const bool lower_first = n / 16 % 2 == 0;
-        const OrientedCollider& a = lower_first ? lo : up;
-        const OrientedCollider& b = lower_first ? up : lo;
-        Manifold fast, full;
-        contact_points(a, b, fx(0.02), fast);
-        box_box_exhaustive(a, b, fx(0.02), full);
-        if (!same_manifold(fast, full)) ++differ;
+        Manifold full;
+        if (!exhaustive_agrees(lo, up, n / 16 % 2 != 0, full)) ++differ;
         if (full.count == 0 || full.points[0].feature >= kFeatureEdge) continue;
         ++faces;
         // Ids 0..3 (mod the flip) are the incident face's own corners: all four kept and no
@@ -708,6 +765,76 @@ TEST(RigidContact, CrossedCapsulesMeetAtTheCrossing) {
     EXPECT_NEAR(d(m.points[0].depth), 0.1, 1e-8);
     EXPECT_NEAR(d(m.points[0].point.x), 0, 1e-8);
     EXPECT_NEAR(d(m.points[0].point.z), 0.2, 1e-8);
+}
+
+// box_box()'s face axes take each projected radius h.x |c0| + h.y |c1| + h.z |c2| in 64-bit words
+// when the half sizes are below 2^31 raw and the cosines below 1.5; it must be Fixed arithmetic's
+// sum of rounded products, bit for bit: random sizes and cosines on both sides of both bounds,
+// the extremes of the small case, and products on an exact tie (half an ulp, rounded to even).
+TEST(RigidContact, FaceRadiusShortcutGivesTheFixedProducts) {
+    std::mt19937_64 rng(2022);
+    const std::int64_t one = Fixed::kOne, h_top = std::int64_t{1} << 31, c_top = one + one / 2;
+    std::uniform_int_distribution<std::int64_t> h_any(0, 16 * h_top), c_any(-c_top - c_top / 8, c_top + c_top / 8),
+        c_near(c_top - 4096, c_top + 4096), c_wide(0, 9 * one / 2), h_near(h_top - 4096, h_top + 4096), odd(0, std::int64_t{1} << 20);
+    const auto general = [](const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+        return h.x * abs(c0) + h.y * abs(c1) + h.z * abs(c2);
+    };
+    int differ = 0, small = 0, ties = 0;
+    const auto check = [&](const Vec3& h, Fixed c0, Fixed c1, Fixed c2) {
+        if (face_axis_radius(h, c0, c1, c2) != general(h, c0, c1, c2)) ++differ;
+        const auto in = [&](std::int64_t hk, Fixed c) { return hk >= 0 && hk < h_top && c.raw > -c_top && c.raw < c_top; };
+        small += in(h.x.raw, c0) && in(h.y.raw, c1) && in(h.z.raw, c2);
+    };
+    const auto f = [](std::int64_t raw) { return Fixed::from_raw(raw); };
+    const auto sign = [&](std::int64_t v) { return rng() % 2 == 0 ? v : -v; };
+    for (int n = 0; n < 200000; ++n) {
+        const int mode = n % 4;
+        if (mode == 0) {  // sizes up to 16 m, cosines either side of their bound
+            check({f(h_any(rng)), f(h_any(rng)), f(h_any(rng))}, f(c_any(rng)), f(c_any(rng)), f(c_any(rng)));
+        } else if (mode == 1) {  // at the size bound, cosines at theirs or up to 4.5
+            auto& c = n % 8 == 1 ? c_near : c_wide;
+            check({f(h_near(rng)), f(h_near(rng)), f(h_near(rng))}, f(sign(c(rng))), f(sign(c(rng))), f(sign(c(rng))));
+        } else {  // exact ties: h = 2^(30 - s), c = 2^(s + 1) (2 m + 1), so h c = 2^31 (2 m + 1)
+            Fixed c[3];
+            Vec3 h;
+            for (int k = 0; k < 3; ++k) {
+                const int s = static_cast<int>(rng() % 8);
+                component(h, k) = f(std::int64_t{1} << (30 - s));
+                c[k] = f(sign((std::int64_t{1} << (s + 1)) * (2 * (odd(rng) + (mode == 3 ? c_top >> 21 : 0)) + 1) % c_top));
+            }
+            ties += 3;
+            check(h, c[0], c[1], c[2]);
+        }
+    }
+    for (const std::int64_t hk : {std::int64_t{0}, std::int64_t{1}, h_top - 1, h_top, -one})
+        for (const std::int64_t ck : {std::int64_t{0}, std::int64_t{1}, one, c_top - 1, c_top, 2 * one, -(c_top - 1), INT64_MIN, INT64_MAX})
+            check({f(hk), f(hk), f(hk)}, f(ck), f(-ck / 2), f(ck));
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(small, 90000) << ties;  // the small case is what is compared, ties and bounds included
+}
+
+// box_box() hands face_contact() the incident axes' cosines n . b_i from its own products; they
+// only choose the incident face, so an error shows where two faces tie. A box turned exactly 45
+// degrees about x (two columns with equal |n . b_i| against a floor's normal) resting on its edge,
+// on or under an unturned or turned box, either first: the exhaustive path's manifold, bit for bit.
+TEST(RigidContact, IncidentFaceTieGivesTheExhaustiveManifold) {
+    std::mt19937_64 rng(2024);
+    std::uniform_real_distribution<double> u(-1, 1), size(0.1, 0.5);
+    const Fixed zero = Fixed::zero(), one = Fixed::one(), c = fx(std::sqrt(0.5));
+    const Mat3 tie{{{one, zero, zero}, {zero, c, -c}, {zero, c, c}}};
+    int touching = 0, differ = 0;
+    for (int n = 0; n < 20000; ++n) {
+        const Mat3 base = n % 4 < 2 ? kIdentity : rotation(quat(1, 0, 0.02 * u(rng), 0));
+        const D3 hb{size(rng) * 4, size(rng), size(rng) * 4}, ht{size(rng), size(rng), size(rng)};
+        const double side = n % 2 == 0 ? 1 : -1;  // on top of the base, or under it
+        const double reach = hb.y + (ht.y + ht.z) * std::sqrt(0.5) - 0.01 * (u(rng) + 1);
+        const OrientedCollider lo = box(base, {0, 0, 0}, hb), up = box(tie, {0.3 * u(rng), side * reach, 0.3 * u(rng)}, ht);
+        Manifold full;
+        if (!exhaustive_agrees(lo, up, n / 4 % 2 != 0, full)) ++differ;
+        touching += full.count > 0;
+    }
+    EXPECT_EQ(differ, 0);
+    EXPECT_GT(touching, 10000);
 }
 
 }  // namespace
