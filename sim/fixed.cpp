@@ -122,6 +122,7 @@ Fixed operator/(Fixed a, Fixed b) {
     return divide_fixed(a.raw, b.raw);
 }
 
+namespace {
 // ceil(sqrt((i + 1) 2^16)) for i < 512: from the top 8 or 9 bits `top` of a radicand n with e
 // bits below them, sqrt(n) < sqrt((top + 1) 2^e) <= kSqrtStart[top] 2^(e/2 - 8).
 constexpr std::array<std::uint16_t, 512> kSqrtStart = [] {
@@ -135,12 +136,13 @@ constexpr std::array<std::uint16_t, 512> kSqrtStart = [] {
     return t;
 }();
 
-namespace {
 // The first iterate of Newton's iteration for floor(sqrt(n)), len = bit_length(n) > 0, on words
-// W with a division divide(x) = floor(n / x), from a start no smaller than sqrt(n): itself no
-// smaller than floor(sqrt(n)) (see isqrt_floor).
-template <class W, class Divide>
-W isqrt_first_iterate(u128 n, int len, Divide divide) {
+// W (iterates) and N (n: std::uint64_t for isqrt_floor_64, u128 for the wider iterations) with
+// a division divide(x) = floor(n / x), from a start no smaller than sqrt(n): itself no smaller
+// than floor(sqrt(n)) (see isqrt_floor). Every iteration starts here, so each radicand has one
+// start whatever the word it is computed in.
+template <class W, class N, class Divide>
+[[gnu::always_inline]] inline W isqrt_first_iterate(N n, int len, Divide divide) {
     if (len < 24) {
         // Short radicands: a power of two no smaller than sqrt(n); its first division a shift.
         const int shift = (len + 1) / 2;
@@ -171,15 +173,7 @@ std::uint64_t isqrt_narrow_from(u128 n, std::uint64_t y, const DivideNarrow& div
 // floor(sqrt(n)) for 0 < n < 2^64, len = bit_length(n): isqrt_floor's iteration (the same
 // start, the same iterates) with 64-bit quotients. Inline in isqrt_floor and isqrt_round.
 [[gnu::always_inline]] inline std::uint64_t isqrt_floor_64(std::uint64_t n, int len) {
-    std::uint64_t y;
-    if (len < 24) {
-        const int shift = (len + 1) / 2;
-        y = ((std::uint64_t{1} << shift) + (n >> shift)) >> 1;
-    } else {
-        const int e = (len - 8) & ~1;
-        const std::uint64_t x = static_cast<std::uint64_t>(kSqrtStart[n >> e]) << (e / 2 - 8);
-        y = (x + n / x) >> 1;
-    }
+    std::uint64_t y = isqrt_first_iterate<std::uint64_t>(n, len, [n](std::uint64_t x) { return n / x; });
     // The start is at most 2^32 (kSqrtStart[255] 2^20 for a 64-bit n), so every iterate after
     // it is at most (2^32 + sqrt(n)) / 2 < 2^32: its square fits a 64-bit word.
     while (y * y > n) y = (y + n / y) >> 1;
@@ -188,7 +182,39 @@ std::uint64_t isqrt_narrow_from(u128 n, std::uint64_t y, const DivideNarrow& div
 
 // isqrt_floor for n >= 2^64 (out of line: its registers would cost the 64-bit path a save and
 // restore).
-[[gnu::noinline]] std::uint64_t isqrt_floor_wide(u128 n);
+[[gnu::noinline]] std::uint64_t isqrt_floor_wide(u128 n) {
+    const int len = bit_length(n);
+    if (len <= 124) {
+        const DivideNarrow divide{static_cast<std::uint64_t>(n >> 64), static_cast<std::uint64_t>(n)};
+        return isqrt_narrow_from(n, isqrt_first_iterate<std::uint64_t>(n, len, divide), divide);
+    }
+    // Wider: an iterate may be 2^64, whose square does not fit in 128 bits; stop instead where
+    // the next iterate is no smaller.
+    const auto divide = [&n](const u128& x) {
+        u128 q, r;
+        divmod_unsigned(n, x, q, r);
+        return q;
+    };
+    u128 x = isqrt_first_iterate<u128>(n, len, divide);
+    u128 y = (x + divide(x)) >> 1;
+    while (y < x) {
+        x = y;
+        y = (x + divide(x)) >> 1;
+    }
+    return static_cast<std::uint64_t>(x);
+}
+
+// sqrt(n) rounded to nearest from r = floor(sqrt(n)).
+std::uint64_t round_root(u128 n, std::uint64_t r) {
+    // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
+    const u128 r2 = mul_wide_unsigned(r, r);
+    // r == 2^64 - 1 can only round up to 2^64, which does not fit: saturate instead of wrapping.
+    return (n - r2 > r && r != UINT64_MAX) ? r + 1 : r;
+}
+
+// isqrt_round for n = 0 or n >= 2^64, out of line (a tail call: the 64-bit path saves no
+// registers for it).
+[[gnu::noinline]] std::uint64_t isqrt_round_wide(u128 n) { return round_root(n, isqrt_floor(n)); }
 }  // namespace
 
 std::uint64_t isqrt_floor(u128 n) {
@@ -222,46 +248,6 @@ std::uint64_t isqrt_floor(u128 n) {
     return isqrt_floor_wide(n);
 }
 
-namespace {
-std::uint64_t isqrt_floor_wide(u128 n) {
-    const int len = bit_length(n);
-    if (len <= 124) {
-        const DivideNarrow divide{static_cast<std::uint64_t>(n >> 64), static_cast<std::uint64_t>(n)};
-        return isqrt_narrow_from(n, isqrt_first_iterate<std::uint64_t>(n, len, divide), divide);
-    }
-    // Wider: an iterate may be 2^64, whose square does not fit in 128 bits; stop instead where
-    // the next iterate is no smaller.
-    const auto divide = [&n](const u128& x) {
-        u128 q, r;
-        divmod_unsigned(n, x, q, r);
-        return q;
-    };
-    u128 x = isqrt_first_iterate<u128>(n, len, divide);
-    u128 y = (x + divide(x)) >> 1;
-    while (y < x) {
-        x = y;
-        y = (x + divide(x)) >> 1;
-    }
-    return static_cast<std::uint64_t>(x);
-}
-}  // namespace
-
-namespace {
-// sqrt(n) rounded to nearest from r = floor(sqrt(n)).
-std::uint64_t round_root(u128 n, std::uint64_t r) {
-    // sqrt(n) > r + 1/2  <=>  n > r^2 + r  (n is an integer, so no tie can occur).
-    const u128 r2 = mul_wide_unsigned(r, r);
-    // r == 2^64 - 1 can only round up to 2^64, which does not fit: saturate instead of wrapping.
-    return (n - r2 > r && r != UINT64_MAX) ? r + 1 : r;
-}
-}  // namespace
-
-namespace {
-// isqrt_round for n = 0 or n >= 2^64, out of line (a tail call: the 64-bit path saves no
-// registers for it).
-[[gnu::noinline]] std::uint64_t isqrt_round_wide(u128 n) { return round_root(n, isqrt_floor(n)); }
-}  // namespace
-
 std::uint64_t isqrt_round(u128 n) {
     const auto lo = static_cast<std::uint64_t>(n);
     if ((n >> 64) == 0 && lo != 0) {
@@ -275,7 +261,7 @@ std::uint64_t isqrt_round(u128 n) {
 Fixed sqrt(Fixed a) {
     if (a.raw < 0) { note_overflow(); return Fixed::zero(); }
     // sqrt(raw / 2^32) * 2^32 = sqrt(raw * 2^32); at most 2^47.5, always fits.
-    return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(static_cast<u128>(a.raw) << 32)));
+    return sqrt_wide(static_cast<u128>(a.raw) << 32);
 }
 
 Fixed reciprocal(Fixed a) { return Fixed::one() / a; }

@@ -513,6 +513,13 @@ std::uint64_t isqrt_floor(u128 n);
 // result, 2^64 for n > (2^64 - 1)^2 + 2^64 - 1, saturates to 2^64 - 1 (not counted: callers
 // pass at most 3 * 2^126).
 std::uint64_t isqrt_round(u128 n);
+// sqrt(w) for w a Q64.64 value (an exact square or sum of squares of Fixed values, e.g.
+// length_sq_wide), correctly rounded, as Fixed: isqrt_round(w)'s raw bits. In range for
+// w <= 2^126 - 2^63 (roots up to Fixed::max(), just below 2^31). Above it the root's raw value
+// wraps modulo 2^64 to a negative Fixed, neither saturated nor counted (unlike length() in
+// sim/vec3.h): callers either keep w in range or, like rigid_detail::clamp_to_cone_general,
+// need only that the result of a non-zero w is non-zero, which holds for every w.
+inline Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }
 
 // Square root, correctly rounded. Negative input gives 0 and counts as an overflow.
 Fixed sqrt(Fixed a);

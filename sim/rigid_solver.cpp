@@ -9,8 +9,6 @@
 namespace lockroll::sim {
 
 namespace {
-Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }
-
 Vec3 unit(const Vec3& v) {
     const u128 sq = length_sq_wide(v);
     if (sq == (u128{1} << 64)) return v;  // already unit (an axis-aligned normal): v / 1 is v
@@ -224,7 +222,8 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
     lin_damp_.assign(n, Fixed::one());
     ang_damp_.assign(n, Fixed::one());
     rot_.resize(n);
-    rot_memo_.assign(n, RotationMemo{});
+    rot_memo_.clear();
+    rot_memo_at_.assign(n, kNoSlot);
     slot_.assign(n, kNoSlot);
     slot_ids_.clear();
     bodies_.clear();
@@ -290,6 +289,12 @@ void RigidSolver::configure(const SceneDesc& scene, const StepKernel<Fixed>& k) 
         inertia_[i] = inertia(b.shape, b.radius, b.half_extents, b.half_height, b.mass);
         inv_inertia_[i] = inverse_inertia(b);
         isotropic_[i] = inv_inertia_[i].x == inv_inertia_[i].y && inv_inertia_[i].y == inv_inertia_[i].z;
+        // A kept rotation for each body update_inertia() builds a rotation of (a box or a
+        // capsule) or integrate() keeps one of (a non-isotropic body, which is one of those).
+        if (b.shape == Shape::Box || core_half_[i].raw != 0 || !isotropic_[i]) {
+            rot_memo_at_[i] = static_cast<std::uint32_t>(rot_memo_.size());
+            rot_memo_.emplace_back();
+        }
         const Fixed lc = b.linear_damping ? *b.linear_damping : rg.linear_damping;
         const Fixed ac = b.angular_damping ? *b.angular_damping : rg.angular_damping;
         if (lc.raw > 0) lin_damp_[i] = damping_factor(lc, dt_);
@@ -457,15 +462,6 @@ void RigidSolver::apply(const Point& p, Fixed l0, Fixed l1, Fixed l2, Bodies& bo
     }
 }
 
-namespace {
-// v * s, v + d and v - d with the same operations as Vec3's operators (sim/vec3.h), inline in
-// the solver's loop: gcc's per-file inlining budget leaves those as calls from solve_run(),
-// and a 24-byte Vec3 returned through memory (issue 19, solve21).
-[[gnu::always_inline]] inline Vec3 times(const Vec3& v, Fixed s) { return {v.x * s, v.y * s, v.z * s}; }
-[[gnu::always_inline]] inline void add_to(Vec3& v, const Vec3& d) { v = {v.x + d.x, v.y + d.y, v.z + d.z}; }
-[[gnu::always_inline]] inline void sub_from(Vec3& v, const Vec3& d) { v = {v.x - d.x, v.y - d.y, v.z - d.z}; }
-}  // namespace
-
 // The two common cases of apply(), with the same bits: a normal impulse alone (each component
 // one product, as combine3 gives for one weight), and friction alone (two weights: each
 // component a x + b y rounded once, which is also what combine3 gives when one of them is zero).
@@ -478,26 +474,26 @@ namespace {
         // Equal masses (every dynamic pair of the piles): both bodies' velocity changes are the
         // same products of the same numbers, taken once (shared_change() repeats any overflow
         // events they noted, so the count is what two computations give).
-        const Vec3 dv = shared_change([&] { return times(p.n, l * a.inv_mass); });
-        sub_from(a.v, dv);
-        add_to(b.v, dv);
-        if ((p.nonzero & kInertiaA) != 0) sub_from(a.w, times(p.row[0].ia, l));
-        if ((p.nonzero & kInertiaB) != 0) add_to(b.w, times(p.row[0].ib, l));
+        const Vec3 dv = shared_change([&] { return p.n * (l * a.inv_mass); });
+        a.v -= dv;
+        b.v += dv;
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
         return;
     }
     if (move_a) {
         if (p.axis_n != 0)
             subtract_along(a.v, p.axis_n, l * a.inv_mass);
         else
-            sub_from(a.v, times(p.n, l * a.inv_mass));
-        if ((p.nonzero & kInertiaA) != 0) sub_from(a.w, times(p.row[0].ia, l));
+            a.v -= p.n * (l * a.inv_mass);
+        if ((p.nonzero & kInertiaA) != 0) a.w -= p.row[0].ia * l;
     }
     if (move_b) {
         if (p.axis_n != 0)
             add_along(b.v, p.axis_n, l * b.inv_mass);
         else
-            add_to(b.v, times(p.n, l * b.inv_mass));
-        if ((p.nonzero & kInertiaB) != 0) add_to(b.w, times(p.row[0].ib, l));
+            b.v += p.n * (l * b.inv_mass);
+        if ((p.nonzero & kInertiaB) != 0) b.w += p.row[0].ib * l;
     }
 }
 
@@ -528,13 +524,13 @@ namespace {
         if ((p.nonzero & kAxisArmsA) != 0)
             turn_axes(a.w, p, p.row[1].ia, l1, p.row[2].ia, l2, -1);
         else
-            sub_from(a.w, sum(p.row[1].ia, l1, p.row[2].ia, l2));
+            a.w -= sum(p.row[1].ia, l1, p.row[2].ia, l2);
     };
     const auto turn_b = [&] {
         if ((p.nonzero & kAxisArmsB) != 0)
             turn_axes(b.w, p, p.row[1].ib, l1, p.row[2].ib, l2, 1);
         else
-            add_to(b.w, sum(p.row[1].ib, l1, p.row[2].ib, l2));
+            b.w += sum(p.row[1].ib, l1, p.row[2].ib, l2);
     };
     // Both tangents axes (then different ones, being orthogonal): x on one, y on the other.
     const bool axes = p.axis_t1 != 0 && p.axis_t2 != 0;
@@ -542,8 +538,8 @@ namespace {
         // Equal masses: one velocity change for both (as in apply_normal()).
         const Fixed m = a.inv_mass;
         const Vec3 dv = shared_change([&] { return sum(p.t1, l1 * m, p.t2, l2 * m); });
-        sub_from(a.v, dv);
-        add_to(b.v, dv);
+        a.v -= dv;
+        b.v += dv;
         turn_a();
         turn_b();
         return;
@@ -554,7 +550,7 @@ namespace {
             subtract_along(a.v, p.axis_t1, l1 * m);
             subtract_along(a.v, p.axis_t2, l2 * m);
         } else {
-            sub_from(a.v, sum(p.t1, l1 * m, p.t2, l2 * m));
+            a.v -= sum(p.t1, l1 * m, p.t2, l2 * m);
         }
         turn_a();
     }
@@ -564,7 +560,7 @@ namespace {
             add_along(b.v, p.axis_t1, l1 * m);
             add_along(b.v, p.axis_t2, l2 * m);
         } else {
-            add_to(b.v, sum(p.t1, l1 * m, p.t2, l2 * m));
+            b.v += sum(p.t1, l1 * m, p.t2, l2 * m);
         }
         turn_b();
     }
@@ -716,28 +712,14 @@ void RigidSolver::build_contacts(const std::vector<Vec3>& pos, const std::vector
 }
 
 void RigidSolver::find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos,
-                                 std::vector<Found>& list) const {
-    // Each manifold is made in place, in the list's next element, which is kept only when it
-    // has points: a Manifold is 520 bytes, and building it aside and copying it in cost
-    // bodies_1k_rigid ~32 M instructions over 360 steps. The list is not cleared first (its
-    // elements are overwritten, and it is cut to the kept ones at the end), so after the first
-    // step it grows, with value-initialised elements, only past its last step's length.
-    // [[unlikely]]: without it gcc compiled build_contacts() (this file) ~0.1 % worse on
-    // paper_rigid (docs/performance.md, "Contact generation and pair walk, same bits").
-    std::size_t kept = 0;
-    for (std::size_t i = begin; i < end; ++i) {
-        if (kept == list.size()) [[unlikely]] list.emplace_back();
-        Found& f = list[kept];
+                                 rigid_detail::FoundList& list) const {
+    list.fill(begin, end, [&](std::size_t i, Manifold& m) {
         BodyId a, b;
-        manifold_of(pairs_[i], pos, a, b, f.m);
-        if (f.m.count == 0) continue;
-        f.pair = static_cast<std::uint32_t>(i);
-        ++kept;
-    }
-    list.resize(kept);
+        manifold_of(pairs_[i], pos, a, b, m);
+    });
 }
 
-void RigidSolver::build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
+void RigidSolver::build_found(const rigid_detail::FoundList& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
                               const std::vector<Vec3>& pos) {
     rigid_detail::ReciprocalMemo memo;
     for (const Found& f : list) {

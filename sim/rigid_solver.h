@@ -82,7 +82,48 @@ inline constexpr std::size_t kImpulsesPerBody = 8;
 
 namespace rigid_detail {
 class ReciprocalMemo;
-}
+
+// A pair's manifold (pairs_' index), found in the parallel step's phase 1.
+struct Found {
+    std::uint32_t pair;
+    Manifold m;
+};
+
+// One range's found manifolds (RigidSolver::find_manifolds()). fill() makes each manifold in
+// place, in the storage's next element: a Manifold is 520 bytes, and building it aside and
+// copying it in cost bodies_1k_rigid ~32 M instructions over 360 steps. Contract: begin() to
+// end() are exactly the manifolds with points of the last fill(), in the order made. The
+// storage past them (the last manifold made without points, earlier fills' manifolds) is
+// scratch the next fill() makes manifolds in, never read. It only grows (value-initialised
+// past its longest fill), so a steady step allocates nothing.
+class FoundList {
+public:
+    // make(i, m) makes pair i's manifold in m (whatever m held before), for i in [begin, end).
+    // The count of kept manifolds is a local, not kept_: make()'s stores could alias it.
+    // [[unlikely]]: without it gcc compiled build_contacts() (sim/rigid_solver.cpp) ~0.1 % worse
+    // on paper_rigid (docs/performance.md, "Contact generation and pair walk, same bits").
+    template <class Make>
+    void fill(std::size_t begin, std::size_t end, Make&& make) {
+        std::size_t kept = 0;
+        for (std::size_t i = begin; i < end; ++i) {
+            if (kept == slots_.size()) [[unlikely]] slots_.emplace_back();
+            Found& f = slots_[kept];
+            make(i, f.m);
+            if (f.m.count == 0) continue;
+            f.pair = static_cast<std::uint32_t>(i);
+            ++kept;
+        }
+        kept_ = kept;
+    }
+    const Found* begin() const { return slots_.data(); }
+    const Found* end() const { return slots_.data() + kept_; }
+    std::size_t size() const { return kept_; }
+
+private:
+    std::vector<Found> slots_;
+    std::size_t kept_ = 0;
+};
+}  // namespace rigid_detail
 
 class RigidSolver {
 public:
@@ -288,10 +329,10 @@ private:
                                  const std::vector<Vec3>& angvel, const ParallelTasks& tasks);
     // Phase 1 for pairs_[begin, end): their manifolds into list. Phase 3 for found_[k]: its
     // points into their places, from manifold index first on.
-    struct Found;
-    void find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos, std::vector<Found>& list) const;
+    using Found = rigid_detail::Found;
+    void find_manifolds(std::size_t begin, std::size_t end, const std::vector<Vec3>& pos, rigid_detail::FoundList& list) const;
     // place: by manifold (pair order), its first point's index in points_.
-    void build_found(const std::vector<Found>& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
+    void build_found(const rigid_detail::FoundList& list, std::uint32_t first, const std::vector<std::uint32_t>& place,
                      const std::vector<Vec3>& pos);
     // rigid.graph_colouring, after phase 2 (manifold_start_ and links_ in pair order): colours
     // the manifolds and renumbers them colour by colour (each colour's manifolds ascending in
@@ -501,11 +542,7 @@ private:
     std::vector<std::uint32_t> manifold_start_;
     // Parallel step only: each contact range's manifolds (pair index, manifold), the solver's
     // islands over the manifolds, and their links (solver slots, Islands::kStatic for static).
-    struct Found {
-        std::uint32_t pair;
-        Manifold m;
-    };
-    std::vector<std::vector<Found>> found_;
+    std::vector<rigid_detail::FoundList> found_;
     std::vector<std::uint32_t> found_first_;  // by range: its first manifold's index
     // With rigid.graph_colouring, colouring_ over links_ (lay_out_colours()).
     Islands islands_;
@@ -518,9 +555,12 @@ private:
     // Shock propagation scratch.
     std::vector<std::uint32_t> level_, order_, adj_start_, adj_, cursor_;
     std::vector<BodyId> queue_;
-    // rotation() of one quaternion per body, by id: integrate() builds the rotation of a turning
-    // box's new orientation (for its w) and keeps it here; the next update_inertia() takes it
-    // when orient[id] is that quaternion, bit for bit, instead of building it again. Contract:
+    // rotation() of one quaternion per dynamic box or capsule (the bodies whose rotation
+    // update_inertia() builds), at rot_memo_at_[id] (kNoSlot for every other body; both made by
+    // configure(), so 104 bytes only for the bodies that use them): integrate() builds the
+    // rotation of a turning box's new orientation (for its w) and keeps it here; the next
+    // update_inertia() takes it when orient[id] is that quaternion, bit for bit, instead of
+    // building it again. Not state (no snapshot holds it): keyed by the quaternion. Contract:
     // m == rotation(q) for every entry at all times (a new entry holds the identity's), so a hit has
     // rotation()'s bits whatever wrote the orientations in between (the split impulses' pseudo
     // motion, a snapshot load, flip_bit): those only make the comparison miss. Mutable as
@@ -530,6 +570,7 @@ private:
         Mat3 m = rotation(Quat{});
     };
     mutable std::vector<RotationMemo> rot_memo_;
+    std::vector<std::uint32_t> rot_memo_at_;
 };
 
 // Pieces of the contact setup, exposed for the test that compares them with the general
@@ -599,7 +640,7 @@ template <class F>
     const Fixed limit_s = mu_s * pn;
     const u128 mag_sq = static_cast<u128>(mul_wide(t1.raw, t1.raw)) + static_cast<u128>(mul_wide(t2.raw, t2.raw));
     if (mag_sq > static_cast<u128>(mul_wide(limit_s.raw, limit_s.raw))) {
-        const Fixed mag = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(mag_sq)));
+        const Fixed mag = sqrt_wide(mag_sq);
         const Fixed scale = mu_k * pn / mag;
         t1 = t1 * scale;
         t2 = t2 * scale;

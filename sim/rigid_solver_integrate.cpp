@@ -32,7 +32,7 @@ void RigidSolver::update_inertia(const std::vector<Quat>& orient, std::size_t be
         // A box integrate() turned has its new rotation in rot_memo_ (unless something turned
         // it since: then the quaternions differ).
         if (shape_[id] == Shape::Box || core_half_[id].raw != 0) {
-            const RotationMemo& memo = rot_memo_[id];
+            const RotationMemo& memo = rot_memo_[rot_memo_at_[id]];
             rot_[id] = memo.q == orient[id] ? memo.m : rotation(orient[id]);
         }
         if (isotropic_[id]) {
@@ -67,7 +67,7 @@ void RigidSolver::integrate(std::vector<Vec3>& pos, const std::vector<Vec3>& vel
         const Quat half = integrated(orient[id], w, half_dt);
         const Vec3 w_half = omega_from(id, half, l);
         orient[id] = integrated(orient[id], w_half, dt_);
-        RotationMemo& memo = rot_memo_[id];
+        RotationMemo& memo = rot_memo_[rot_memo_at_[id]];
         memo.q = orient[id];
         memo.m = rotation(memo.q);
         angvel[id] = rotate_scaled(memo.q, memo.m, inv_inertia_[id], l);

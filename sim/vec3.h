@@ -39,10 +39,16 @@ inline Fixed component(const Vec3& v, int k) { return k == 0 ? v.x : k == 1 ? v.
 inline Vec3 operator+(const Vec3& a, const Vec3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 inline Vec3 operator-(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 inline Vec3 operator-(const Vec3& a) { return {-a.x, -a.y, -a.z}; }
-inline Vec3 operator*(const Vec3& a, Fixed s) { return {a.x * s, a.y * s, a.z * s}; }
+// v * s, v += d and v -= d always inline: gcc's per-file inlining budget (inline-unit-growth)
+// otherwise runs out in sim/rigid_solver.cpp and calls them from the solver's loop, a 24-byte
+// Vec3 returned through memory (issue 19). Only these three: forcing +, - and s * v inline too
+// cost the particle scenes' step (docs/performance.md, "Review fixes, same bits"). The compound
+// ones are written componentwise so that they need no other operator inlined.
+// [[gnu::always_inline]] as elsewhere in sim/ (gcc and clang; other compilers ignore it).
+[[gnu::always_inline]] inline Vec3 operator*(const Vec3& a, Fixed s) { return {a.x * s, a.y * s, a.z * s}; }
 inline Vec3 operator*(Fixed s, const Vec3& a) { return a * s; }
-inline Vec3& operator+=(Vec3& a, const Vec3& b) { return a = a + b; }
-inline Vec3& operator-=(Vec3& a, const Vec3& b) { return a = a - b; }
+[[gnu::always_inline]] inline Vec3& operator+=(Vec3& a, const Vec3& b) { return a = {a.x + b.x, a.y + b.y, a.z + b.z}; }
+[[gnu::always_inline]] inline Vec3& operator-=(Vec3& a, const Vec3& b) { return a = {a.x - b.x, a.y - b.y, a.z - b.z}; }
 
 // Sum of exact products in Q64.64. Returns false, with *out saturated to +-(2^127 - 1), when a
 // partial sum leaves the i128 range. The total is then at least 2^126 in magnitude (a third

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "sim/snapshot.h"
@@ -749,6 +750,27 @@ TEST(RigidSolver, KeptRotationNeverOutlivesAWrittenOrientation) {
         fresh.step({});
         ASSERT_EQ(checksum(a), checksum(fresh)) << "frame " << f;
     }
+}
+
+// The parallel step's phase 1 makes each manifold in place in a FoundList (find_manifolds()),
+// whose storage keeps earlier steps' manifolds and the last one made without points. Only the
+// manifolds with points of the last fill() are read: never one without points (the last one made
+// included), never one past them from an earlier, longer fill.
+TEST(RigidSolver, FoundListHoldsOnlyTheKeptManifolds) {
+    rigid_detail::FoundList list;
+    const auto fill = [&list](std::initializer_list<int> counts) {
+        const std::vector<int> made(counts);
+        list.fill(0, made.size(), [&made](std::size_t i, Manifold& m) { m.count = made[i]; });
+        std::vector<std::pair<std::uint32_t, int>> seen;
+        for (const rigid_detail::Found& f : list) seen.emplace_back(f.pair, f.m.count);
+        EXPECT_EQ(list.size(), seen.size());
+        return seen;
+    };
+    using Seen = std::vector<std::pair<std::uint32_t, int>>;
+    EXPECT_EQ(fill({2, 0, 1, 3, 4, 0}), (Seen{{0, 2}, {2, 1}, {3, 3}, {4, 4}}));
+    EXPECT_EQ(fill({0, 1, 0, 2, 0}), (Seen{{1, 1}, {3, 2}}));
+    EXPECT_EQ(fill({0, 0}), Seen{});
+    EXPECT_EQ(fill({4, 4, 4, 4, 4, 4, 4}), (Seen{{0, 4}, {1, 4}, {2, 4}, {3, 4}, {4, 4}, {5, 4}, {6, 4}}));
 }
 
 }  // namespace
