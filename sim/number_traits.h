@@ -42,7 +42,7 @@ struct NumberTraits<Fixed> {
     static u128 square(Fixed x) { return static_cast<u128>(mul_wide(x.raw, x.raw)); }
     // Same cast as everywhere in sim/: a root above INT64_MAX cannot come from a squared Fixed
     // distance that mattered (it would be beyond any reach compared against it).
-    static Fixed sqrt_wide(u128 w) { return Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(w))); }
+    static Fixed sqrt_wide(u128 w) { return lockroll::sim::sqrt_wide(w); }
     static Fixed reciprocal(Fixed x) { return sim::reciprocal(x); }
     static Fixed sqrt(Fixed x) { return sim::sqrt(x); }
     static Fixed abs(Fixed x) { return sim::abs(x); }

@@ -271,7 +271,7 @@ Quat integrated(const Quat& q, const Vec3& w, Fixed dt) {
 Quat normalised(const Quat& q) {
     const u128 sq = length_sq_wide({q.w, q.x, q.y}) + static_cast<u128>(mul_wide(q.z.raw, q.z.raw));
     if (sq == 0) return Quat{};
-    const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(sq)));
+    const Fixed len = sqrt_wide(sq);
     return renormalised({q.w / len, q.x / len, q.y / len, q.z / len});
 }
 

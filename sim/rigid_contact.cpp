@@ -40,7 +40,7 @@ void spheres(const Vec3& ca, Fixed ra, const Vec3& cb, Fixed rb, Fixed margin, M
     const Fixed reach = ra + rb + margin;
     const u128 dist_sq = length_sq_wide(d);
     if (dist_sq >= static_cast<u128>(mul_wide(reach.raw, reach.raw))) return;
-    const Fixed dist = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dist_sq)));
+    const Fixed dist = sqrt_wide(dist_sq);
     Vec3 n{Fixed::zero(), Fixed::one(), Fixed::zero()};
     if (dist.raw != 0) n = {d.x / dist, d.y / dist, d.z / dist};
     const Fixed depth = ra + rb - dist;
@@ -122,7 +122,7 @@ void sphere_box(const Vec3& c, Fixed r, const OrientedCollider& box, Fixed margi
 
 // axis = x / |x| (len_sq = |x|^2 > 0), turned to point along v; returns v . axis (>= 0).
 Fixed unit_toward(const Vec3& x, u128 len_sq, const Vec3& v, Vec3& axis) {
-    const Fixed len = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(len_sq)));
+    const Fixed len = sqrt_wide(len_sq);
     axis = {x.x / len, x.y / len, x.z / len};
     Fixed along = dot(v, axis);
     if (along.raw < 0) {
@@ -400,7 +400,7 @@ void round_box(const OrientedCollider& a, const OrientedCollider& box, Fixed mar
         capsule_face(c, box, face_k, sign[face_k] < 0, m);
         return;
     }
-    const Fixed dist = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dist_sq)));
+    const Fixed dist = sqrt_wide(dist_sq);
     const Vec3 nl{diff.x / dist, diff.y / dist, diff.z / dist};
     add(m, to_world(c, *box.rot, nl), box.center + to_world(c, *box.rot, q + diff), a.radius - dist, box_feature(sign));
     // Over an edge: the far end of the segment's part over the face the normal leans to most is
@@ -852,7 +852,7 @@ bool point_box(const Vec3& p, const OrientedCollider& box, Fixed reach, Vec3& no
             axis = k;
             axis_neg = c.raw < 0;
         } else {
-            distance = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(dsq)));
+            distance = sqrt_wide(dsq);
             if (distance.raw == 0) return false;
             nl = {d.x / distance, d.y / distance, d.z / distance};
         }

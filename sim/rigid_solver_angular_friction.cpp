@@ -97,7 +97,7 @@ void RigidSolver::solve_angular(const Point& p, AngularRows& r, Bodies& bodies, 
         // The disc, as the Coulomb cone is clamped (solve_point): exact squares in 128 bits.
         const u128 mag_sq = static_cast<u128>(mul_wide(l1.raw, l1.raw)) + static_cast<u128>(mul_wide(l2.raw, l2.raw));
         if (mag_sq > static_cast<u128>(mul_wide(limit.raw, limit.raw))) {
-            const Fixed mag = Fixed::from_raw(static_cast<std::int64_t>(isqrt_round(mag_sq)));
+            const Fixed mag = sqrt_wide(mag_sq);
             const Fixed scale = limit / mag;  // mag > limit >= 0
             l1 = l1 * scale;
             l2 = l2 * scale;
