@@ -73,16 +73,29 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
     for (BodyId id : static_) grow(make_box(pos[id], extent[id], 0));
     // Coarsen until the grid has at most ~64 cells per body (memory), and the padded linear
     // cell index fits the 32 bits it has in a sort key.
+    // In 128 bits: bounds spanning most of the int64 range at a cell edge of 1 or 2 raw units
+    // have 2^63 or more cells along an axis (more than int64 holds), and three such counts
+    // multiplied in 64 bits can wrap to a small number. Past 2^32 cells an axis is too many
+    // anyway; below that the products fit (2^96).
     const std::uint64_t max_cells = std::max<std::uint64_t>(4096, 64 * gridded_.size());
     for (;;) {
-        std::uint64_t cells = 1, padded = 1;
-        for (int k = 0; k < 3; ++k) {
-            origin_[k] = bounds.lo[k] >> cell_shift_;
-            dims_[k] = (bounds.hi[k] >> cell_shift_) - origin_[k] + 1;
-            cells *= static_cast<std::uint64_t>(dims_[k]);
-            padded *= static_cast<std::uint64_t>(dims_[k] + 2);
+        i128 cells = 1, padded = 1, dims[3];
+        for (int k = 0; k < 3; ++k)
+            dims[k] = static_cast<i128>(bounds.hi[k] >> cell_shift_) - (bounds.lo[k] >> cell_shift_) + 1;
+        const bool countable = std::max({dims[0], dims[1], dims[2]}) <= UINT32_MAX;
+        if (countable)
+            for (int k = 0; k < 3; ++k) {
+                cells *= dims[k];
+                padded *= dims[k] + 2;
+            }
+        if ((countable && cells <= max_cells && padded <= UINT32_MAX) || cell_shift_ >= 62) {
+            for (int k = 0; k < 3; ++k) {  // at cell_shift_ 62 every axis has at most 4 cells
+                origin_[k] = bounds.lo[k] >> cell_shift_;
+                dims_[k] = static_cast<std::int64_t>(dims[k]);
+                last_[k] = bounds.hi[k] >> cell_shift_;
+            }
+            break;
         }
-        if ((cells <= max_cells && padded <= UINT32_MAX) || cell_shift_ >= 62) break;
         ++cell_shift_;
     }
     const std::int64_t px = dims_[0] + 2, py = dims_[1] + 2, pz = dims_[2] + 2;  // with the border
@@ -94,6 +107,7 @@ void Broadphase::configure(BroadphaseKind kind, std::vector<BodyId> dynamic_ids,
         const Box b = make_box(Vec3{}, extent[id], margin.raw);
         for (int k = 0; k < 3; ++k) widest_ = std::max(widest_, static_cast<i128>(b.hi[k]) - b.lo[k]);
     }
+    down_reach_ = widest_ - 1;
     cell_.assign(static_cast<std::size_t>(px * py * pz), kEmptyCell);
     key_bits_ = 0;
     while ((std::uint64_t{1} << key_bits_) < cell_.size()) ++key_bits_;
@@ -305,13 +319,19 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
         // gridded box. A neighbour out of reach holds no pair, so skipping it changes nothing.
         // Only y and z need it: the runs below span x - 1 .. x + 1 whole. The cell's coordinates
         // are any of its bodies' (the first one's), with no division.
-        // Saturating the edges to int64 can only add reach (extra tests), never lose a pair.
+        // Saturating up_edge to int64 can only add reach (extra tests), never lose a pair;
+        // down_edge is the inclusive bound so that saturating it is exact.
         std::int64_t up_edge[3] = {}, down_edge[3] = {};
         for (int k = 1; k < 3; ++k) {
             const std::int64_t interior = coord(sorted_box_[here.start], k) - 1;
             const i128 lower = static_cast<i128>(origin_[k] + interior) << cell_shift_;
             up_edge[k] = sat(lower + (i128{1} << cell_shift_));
-            down_edge[k] = sat(lower + widest_);
+            // A box below has its max corner at most lower - 1 + widest_: a's min corner must be
+            // at most that. Saturated as `lo < sat(lower + widest_)` this lost the pair of a box
+            // whose min corner is INT64_MAX in the top cell (lower + widest_ past the limit);
+            // `lo <= sat(lower + down_reach_)` is the same test below the limit and exact at it
+            // (for an int64 lo, lo <= sat(v) iff lo <= v, but for v = INT64_MIN - 1: one extra).
+            down_edge[k] = sat(lower + down_reach_);
         }
         // The 13 forward neighbours are the next cell along x plus four rows of three cells
         // (x - 1, x, x + 1). Cells are sorted by linear index, so each row's bodies are one
@@ -364,7 +384,7 @@ std::uint32_t Broadphase::walk(std::size_t first, std::size_t last, std::uint32_
             unsigned reach = 0;
             for (int k = 1; k < 3; ++k) {
                 reach |= static_cast<unsigned>(ba.hi[k] >= up_edge[k]) << k;
-                reach |= static_cast<unsigned>(ba.lo[k] < down_edge[k]) << (3 + k);
+                reach |= static_cast<unsigned>(ba.lo[k] <= down_edge[k]) << (3 + k);
             }
             // A row out of reach scans nothing ([start, start)); no branch on the reach, which
             // is data-dependent when the cell edge has slack over the boxes.

@@ -4,6 +4,12 @@
 // of history, pointer values or hash-table layout beyond what positions determine. That is what
 // lets a world that loaded a snapshot produce the same pairs as one that never saved.
 // Static-static pairs are never produced.
+//
+// At the Q32.32 limits: positions anywhere in the int64 range, extents and margin >= 0. A box
+// is saturated to int64, which changes no overlap verdict (a min corner below INT64_MIN meets
+// every max corner, a max corner above INT64_MAX every min corner), and both modes then find
+// exactly the pairs of overlapping boxes, also for boxes on the limits themselves and for a
+// grid whose bounds span the whole range (tests/sim/broadphase_test.cpp, "The Q32.32 limits").
 #pragma once
 
 #include <algorithm>
@@ -60,8 +66,10 @@ private:
     // Interior cell coordinate 1..dims along axis k of a box's min corner (0 and dims + 1 are
     // the empty border).
     // Inline (it was a lambda in grid(); out of line it cost bodies_10k's step ~4 %).
+    // Clamped before the origin is subtracted: at a cell edge of 1 raw unit, a min corner at
+    // one int64 limit minus an origin of the other sign overflows.
     std::int64_t coord(const Box& box, int k) const {
-        return std::clamp((box.lo[k] >> cell_shift_) - origin_[k], std::int64_t{0}, dims_[k] - 1) + 1;
+        return std::clamp(box.lo[k] >> cell_shift_, origin_[k], last_[k]) - origin_[k] + 1;
     }
     void oversize_and_statics(std::vector<BodyPair>& out, const ParallelTasks& tasks);
     // The radix sort key of a gridded body: its box's linear cell index << 32 | id.
@@ -109,8 +117,10 @@ private:
     int cell_shift_ = 0;
     std::int64_t origin_[3] = {0, 0, 0};
     std::int64_t dims_[3] = {1, 1, 1};    // interior cells per axis (the border comes on top)
+    std::int64_t last_[3] = {0, 0, 0};    // origin_ + dims_ - 1 (the last interior cell's lo >> shift)
     std::int64_t stride_y_ = 0, stride_z_ = 0;
     i128 widest_ = 0;  // widest fattened box (hi - lo) of a gridded body, any axis
+    i128 down_reach_ = 0;  // widest_ - 1: the walk's reach into the row below (once, not per cell)
     int key_bits_ = 0;  // bits of the largest linear cell index (< 2^32: radix sort passes)
 
     // Spatially ordered layout, rebuilt each step: gridded bodies radix-sorted by linear cell

@@ -288,5 +288,163 @@ TEST(Broadphase, GridKeysInTheBoxLoopSkipOversizeBodies) {
         ASSERT_EQ(parallel[i].b, sequential[i].b) << "pair " << i;
     }
 }
+
+// ---- The Q32.32 limits. ----
+// Boxes there saturate to int64 (make_box), and so do the grid's cell edges; the reference is
+// exact (128-bit) arithmetic on the unsaturated boxes, which saturation never changes the
+// verdict of: a min corner below INT64_MIN only ever meets a max corner >= INT64_MIN, and a
+// max corner above INT64_MAX only ever meets a min corner <= INT64_MAX.
+using Pairs = std::vector<std::pair<BodyId, BodyId>>;
+
+Pairs exact_pairs(const Scene& s, Fixed margin) {
+    auto overlap = [&](BodyId a, BodyId b, bool b_static) {
+        for (int k = 0; k < 3; ++k) {
+            auto get = [&](const Vec3& v) { return static_cast<i128>(k == 0 ? v.x.raw : k == 1 ? v.y.raw : v.z.raw); };
+            const i128 reach = get(s.extent[a]) + margin.raw + get(s.extent[b]) + (b_static ? 0 : margin.raw);
+            const i128 d = get(s.pos[a]) - get(s.pos[b]);
+            if ((d < 0 ? -d : d) > reach) return false;
+        }
+        return true;
+    };
+    Pairs out;
+    for (std::size_t i = 0; i < s.dynamic.size(); ++i) {
+        for (std::size_t j = i + 1; j < s.dynamic.size(); ++j)
+            if (overlap(s.dynamic[i], s.dynamic[j], false)) out.emplace_back(s.dynamic[i], s.dynamic[j]);
+        for (BodyId st : s.statics)
+            if (overlap(s.dynamic[i], st, true))
+                out.emplace_back(std::min(s.dynamic[i], st), std::max(s.dynamic[i], st));
+    }
+    std::sort(out.begin(), out.end());
+    return out;
+}
+
+Pairs pairs_of(BroadphaseKind kind, const Scene& s, Fixed margin) {
+    Broadphase bp;
+    bp.configure(kind, s.dynamic, s.statics, s.pos, s.extent, margin);
+    std::vector<BodyPair> pairs;
+    bp.find_pairs(s.pos, s.extent, pairs);
+    return sorted_pairs(pairs);
+}
+
+void set(Vec3& v, int k, std::int64_t raw) { (k == 0 ? v.x : k == 1 ? v.y : v.z) = Fixed::from_raw(raw); }
+
+// Bodies around the corner of the grid at a limit: along each axis in `at_limit` the
+// positions limit, limit -+ 1, E - 1, E, E + 1, 2E (inwards), along the others the cell
+// corners around 0 (-E, -1, 0, 1, E, 2E); boxes of half size E (the cell edge is 2E, every
+// box exactly as wide as a cell: the widest edge), each also flat (half size 0) along one axis,
+// so its min corner can sit on the limit itself. margin 0 keeps it there; margin > 0 is the
+// same boxes grown by the margin, the half sizes shrunk to match.
+Scene limit_corner(bool high, unsigned at_limit, std::int64_t margin) {
+    constexpr std::int64_t E = std::int64_t{1} << 31;  // half a metre
+    const std::int64_t limit = high ? INT64_MAX : INT64_MIN, in = high ? -1 : 1;
+    const std::int64_t along_limit[] = {0, 1, E - 1, E, E + 1, 2 * E};
+    const std::int64_t along_rest[] = {-E, -1, 0, 1, E, 2 * E};
+    Scene s;
+    for (int shape = 0; shape < 4; ++shape)
+        for (int i = 0; i < 6; ++i)
+            for (int j = 0; j < 6; ++j)
+                for (int l = 0; l < 6; ++l) {
+                    const int idx[3] = {i, j, l};
+                    Vec3 p{}, e{};
+                    for (int k = 0; k < 3; ++k) {
+                        set(p, k, at_limit >> k & 1 ? limit + in * along_limit[idx[k]] : along_rest[idx[k]]);
+                        set(e, k, shape == k + 1 ? 0 : E - margin);
+                    }
+                    s.dynamic.push_back(static_cast<BodyId>(s.pos.size()));
+                    s.pos.push_back(p);
+                    s.extent.push_back(e);
+                }
+    // Static boxes on the limit corner (the walk's static masks): a point, a cell's size, three.
+    for (const std::int64_t half : {std::int64_t{0}, E, 3 * E}) {
+        Vec3 p{}, e{};
+        for (int k = 0; k < 3; ++k) {
+            set(p, k, at_limit >> k & 1 ? limit : 0);
+            set(e, k, half);
+        }
+        s.statics.push_back(static_cast<BodyId>(s.pos.size()));
+        s.pos.push_back(p);
+        s.extent.push_back(e);
+    }
+    return s;
+}
+
+// The grid's reach into the row below along y (dy = -1, dz = +1) needs a's min corner under
+// that row's cell edge plus the widest box. That edge saturated at INT64_MAX in the top cell,
+// so a box whose min corner is INT64_MAX itself (on the limit, flat along y) skipped the row,
+// and missed a box below it whose max corner saturates to INT64_MAX too. Every combination of
+// limit, axis (and all three at once) and margin, grid and sweep and prune alike. The other
+// edges pass on main and are pinned here: at INT64_MIN a cell's lower edge plus the widest box
+// never saturates, a saturated up edge only adds reach, x has no reach test (the rows span
+// x - 1 .. x + 1), the static masks' lowest reach saturates only where no min corner lies
+// below it, and sweep and prune compares the saturated corners directly.
+TEST(Broadphase, ExactAtThePositionLimits) {
+    for (const bool high : {true, false})
+        for (const unsigned at_limit : {1u, 2u, 4u, 7u})
+            for (const std::int64_t margin : {std::int64_t{0}, std::int64_t{1} << 20}) {
+                const Scene s = limit_corner(high, at_limit, margin);
+                const Fixed m = Fixed::from_raw(margin);
+                const Pairs expected = exact_pairs(s, m);
+                ASSERT_GT(expected.size(), 1000u);
+                EXPECT_EQ(pairs_of(BroadphaseKind::Grid, s, m), expected)
+                    << (high ? "max" : "min") << " axes " << at_limit << " margin " << margin;
+                EXPECT_EQ(pairs_of(BroadphaseKind::SweepAndPrune, s, m), expected)
+                    << (high ? "max" : "min") << " axes " << at_limit << " margin " << margin;
+            }
+}
+
+// The smallest case of the above: a (min corner INT64_MAX along y) and b, one cell down y and
+// one up z, touching at y = INT64_MAX.
+TEST(Broadphase, GridReachesTheRowBelowFromTheTopCell) {
+    constexpr std::int64_t E = std::int64_t{1} << 31;
+    Scene s;
+    s.dynamic = {0, 1};
+    const Fixed e = Fixed::from_raw(E);
+    s.pos = {{Fixed::zero(), Fixed::max(), Fixed::zero()}, {Fixed::zero(), Fixed::from_raw(INT64_MAX - E), e}};
+    s.extent = {{e, Fixed::zero(), e}, {e, e, e}};
+    EXPECT_EQ(exact_pairs(s, Fixed::zero()), (Pairs{{0, 1}}));
+    EXPECT_EQ(pairs_of(BroadphaseKind::Grid, s, Fixed::zero()), (Pairs{{0, 1}}));
+}
+
+// Bounds spanning the whole int64 range with the finest cells (half sizes of 0 or 1 raw unit,
+// margin 0): the cell count per axis (up to 2^64) must not overflow int64 or wrap in the
+// product that picks the cell size. It did at a cell edge of 2 raw units: x spanning
+// INT64_MIN..INT64_MAX gave 2^63 cells (INT64_MIN as int64), and 2^63 x 2 x 2 cells wrapped to
+// 0, so that grid was accepted and its keys indexed past the cell array. With a cell edge of
+// 1 raw unit a body's cell coordinate (min corner minus the grid's origin) overflowed too.
+TEST(Broadphase, GridSpanningTheWholeRange) {
+    for (const std::int64_t half : {std::int64_t{0}, std::int64_t{1}})
+        for (int k = 0; k < 3; ++k) {
+            Scene s;
+            const std::int64_t spots[][3] = {{INT64_MIN, 0, 0}, {INT64_MAX, 2, 0},     {INT64_MAX, 2, 2},
+                                             {INT64_MIN + 1, 1, 1}, {INT64_MAX - 1, 3, 2}, {0, 0, 0},
+                                             {1, 1, 1},           {INT64_MAX, 2, 2}};
+            for (const auto& spot : spots) {
+                Vec3 p{}, e{};
+                for (int j = 0; j < 3; ++j) {
+                    set(p, (k + j) % 3, spot[j]);
+                    set(e, j, half);
+                }
+                s.dynamic.push_back(static_cast<BodyId>(s.pos.size()));
+                s.pos.push_back(p);
+                s.extent.push_back(e);
+            }
+            const Pairs expected = exact_pairs(s, Fixed::zero());
+            ASSERT_FALSE(expected.empty());
+            EXPECT_EQ(pairs_of(BroadphaseKind::Grid, s, Fixed::zero()), expected) << "half " << half << " axis " << k;
+            // Configured near the origin (grid origin below 0, so a min corner at INT64_MAX minus
+            // it overflowed), then moved to the limits (clamped into the outermost cells).
+            Scene moved = s;
+            for (std::size_t i = 0; i < moved.pos.size(); ++i) {
+                const Fixed c = Fixed::from_raw(i % 2 == 0 ? -1 : 1);
+                moved.pos[i] = {c, c, c};
+            }
+            Broadphase bp;
+            bp.configure(BroadphaseKind::Grid, moved.dynamic, moved.statics, moved.pos, moved.extent, Fixed::zero());
+            std::vector<BodyPair> pairs;
+            bp.find_pairs(s.pos, s.extent, pairs);
+            EXPECT_EQ(sorted_pairs(pairs), expected) << "moved, half " << half << " axis " << k;
+        }
+}
+
 }  // namespace
 }  // namespace lockroll::sim
