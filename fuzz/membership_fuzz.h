@@ -8,7 +8,8 @@
 //              slot s a guest of the nearest self-hosted slot below it (the local slot always
 //              hosts itself, as the session's config requires); bit 0 set passes a table one
 //              entry too long, which Membership must treat as "one process per slot"
-//   op      [op] [a] [b] [c], kind = op % kOpCount, vote = (op / kOpCount) % 3 (None, Runs, Gone)
+//   op      [op] [a] [b] [c], kind = op % kOpCount, vote = (op / kOpCount) % 3: rollback::Vote's
+//           value (None, Runs, Gone)
 //     kVote       voter id(a) says `vote` about slot id(b) at the slot's epoch + c - 128 (mod 256)
 //     kVoteRaw    the same at epoch c, whatever the slot's epoch
 //     kVoteLocal  the local process says slot id(b) is gone (a odd) or runs (a even)
@@ -30,33 +31,28 @@
 #include <cstdint>
 #include <vector>
 
+#include "rollback/membership.h"
+
 namespace lockroll::fuzz {
 
 inline constexpr int kMaxFuzzPlayers = 10;
 inline constexpr int kMaxOps = 64;
 
-enum MembershipOp : std::uint8_t {
-    kVote = 0,
-    kVoteRaw = 1,
-    kVoteLocal = 2,
-    kSettle = 3,
-    kSet = 4,
-    kChorus = 5,
-    kLocalAll = 6,
-    kOpCount = 7,
-};
-
-// The vote field of an operation (Membership's Vote, in its order).
-enum FuzzVote : std::uint8_t { kNone = 0, kRuns = 1, kGone = 2 };
+// The kind of an operation, numbered from 0 in this order (the corpus's bytes depend on it: a new
+// kind goes last, before kOpCount).
+enum MembershipOp : std::uint8_t { kVote, kVoteRaw, kVoteLocal, kSettle, kSet, kChorus, kLocalAll, kOpCount };
 
 inline std::vector<std::uint8_t> membership_header(int players, int local, bool no_drop, std::uint16_t hosts = 0) {
     return {static_cast<std::uint8_t>(players - 1), static_cast<std::uint8_t>(local | (no_drop ? 0x80 : 0)),
             static_cast<std::uint8_t>(hosts), static_cast<std::uint8_t>(hosts >> 8)};
 }
 
-inline void membership_op(std::vector<std::uint8_t>& script, MembershipOp op, FuzzVote vote, std::uint8_t a,
+// The vote travels as Membership's own Vote value (the target casts it back), so the script
+// cannot name a vote Membership does not have.
+inline void membership_op(std::vector<std::uint8_t>& script, MembershipOp op, rollback::Vote vote, std::uint8_t a,
                           std::uint8_t b, std::uint8_t c) {
-    script.insert(script.end(), {static_cast<std::uint8_t>(int{op} + int{kOpCount} * int{vote}), a, b, c});
+    script.insert(script.end(),
+                  {static_cast<std::uint8_t>(int{op} + int{kOpCount} * static_cast<int>(vote)), a, b, c});
 }
 
 }  // namespace lockroll::fuzz

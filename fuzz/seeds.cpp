@@ -235,88 +235,88 @@ int main(int argc, char** argv) {
     {
         using namespace lockroll::fuzz;
         // A vote of `a` about slot `b` at the slot's epoch + delta.
-        auto vote = [](std::vector<std::uint8_t>& s, FuzzVote v, int voter, int slot, int delta) {
+        auto vote = [](std::vector<std::uint8_t>& s, Vote v, int voter, int slot, int delta) {
             membership_op(s, kVote, v, static_cast<std::uint8_t>(voter), static_cast<std::uint8_t>(slot),
                           static_cast<std::uint8_t>(128 + delta));
         };
-        auto chorus = [](std::vector<std::uint8_t>& s, FuzzVote v, unsigned voters, int slot) {
+        auto chorus = [](std::vector<std::uint8_t>& s, Vote v, unsigned voters, int slot) {
             membership_op(s, kChorus, v, static_cast<std::uint8_t>(voters), static_cast<std::uint8_t>(slot),
                           static_cast<std::uint8_t>(voters >> 8));
         };
-        auto settle = [](std::vector<std::uint8_t>& s) { membership_op(s, kSettle, kNone, 0, 0, 0); };
+        auto settle = [](std::vector<std::uint8_t>& s) { membership_op(s, kSettle, Vote::None, 0, 0, 0); };
         const fs::path dir = root / "membership";
         // 3 players, one killed: the two survivors drop it, one vote at a time.
         auto three = membership_header(3, 0, false);
-        vote(three, kGone, 0, 2, 1);
+        vote(three, Vote::Gone, 0, 2, 1);
         settle(three);
-        vote(three, kGone, 1, 2, 1);
+        vote(three, Vote::Gone, 1, 2, 1);
         settle(three);
         put(dir, "three_one_killed", three);
         // 4 players split 2/2: nobody reaches 3; then the heal withdraws the votes.
         auto four = membership_header(4, 0, false);
-        chorus(four, kGone, 0b0011, 2);
-        chorus(four, kGone, 0b0011, 3);
+        chorus(four, Vote::Gone, 0b0011, 2);
+        chorus(four, Vote::Gone, 0b0011, 3);
         settle(four);
-        membership_op(four, kLocalAll, kNone, 0, 0b1100, 0);
-        chorus(four, kRuns, 0b0010, 2);
+        membership_op(four, kLocalAll, Vote::None, 0, 0b1100, 0);
+        chorus(four, Vote::Runs, 0b0010, 2);
         settle(four);
         put(dir, "four_split_two_two", four);
         // 8 players split 5/3: the five drop the three; the three's votes about the five drop nobody.
         auto eight = membership_header(8, 0, false);
-        for (int far : {5, 6, 7}) chorus(eight, kGone, 0b00011111, far);
-        for (int near : {0, 1}) chorus(eight, kGone, 0b11100000, near);
+        for (int far : {5, 6, 7}) chorus(eight, Vote::Gone, 0b00011111, far);
+        for (int near : {0, 1}) chorus(eight, Vote::Gone, 0b11100000, near);
         settle(eight);
         put(dir, "eight_split_five_three", eight);
         // Two players under each rule: PlayOnAlone drops on one vote, NoDrop never (partitioned).
         for (bool no_drop : {false, true}) {
             auto two = membership_header(2, 0, no_drop);
-            membership_op(two, kVoteLocal, kNone, 1, 1, 0);
+            membership_op(two, kVoteLocal, Vote::None, 1, 1, 0);
             settle(two);
-            membership_op(two, kVoteLocal, kNone, 0, 1, 0);
-            vote(two, kGone, 1, 0, 1);
+            membership_op(two, kVoteLocal, Vote::None, 0, 1, 0);
+            vote(two, Vote::Gone, 1, 0, 1);
             settle(two);
             put(dir, no_drop ? "two_no_drop" : "two_play_on_alone", two);
         }
         // Slots 0 and 1 on one process (1 a guest of 0), slot 2 alone and local: two voters;
         // votes about the guest do not count, the guest leaves with its host.
         auto guests = membership_header(3, 2, false, 0b010);
-        membership_op(guests, kVoteLocal, kNone, 1, 1, 0);
-        vote(guests, kGone, 1, 2, 1);
-        membership_op(guests, kVoteLocal, kNone, 1, 0, 0);
+        membership_op(guests, kVoteLocal, Vote::None, 1, 1, 0);
+        vote(guests, Vote::Gone, 1, 2, 1);
+        membership_op(guests, kVoteLocal, Vote::None, 1, 0, 0);
         settle(guests);
         put(dir, "guests", guests);
         // One forged voice, repeated and contradicted; stale epochs; a rejoin in a newer epoch;
         // ids out of range and far out of range.
         auto forged = membership_header(3, 0, false);
-        membership_op(forged, kVoteRaw, kGone, 2, 1, 7);
-        membership_op(forged, kVoteRaw, kGone, 2, 1, 7);
-        vote(forged, kGone, 2, 0, 1);
+        membership_op(forged, kVoteRaw, Vote::Gone, 2, 1, 7);
+        membership_op(forged, kVoteRaw, Vote::Gone, 2, 1, 7);
+        vote(forged, Vote::Gone, 2, 0, 1);
         settle(forged);
-        vote(forged, kRuns, 2, 1, 0);
-        vote(forged, kGone, 3, 1, 1);
-        vote(forged, kGone, 0xF3, 1, 1);
-        vote(forged, kGone, 1, 0xFF, 1);
-        chorus(forged, kGone, 0b011, 2);
+        vote(forged, Vote::Runs, 2, 1, 0);
+        vote(forged, Vote::Gone, 3, 1, 1);
+        vote(forged, Vote::Gone, 0xF3, 1, 1);
+        vote(forged, Vote::Gone, 1, 0xFF, 1);
+        chorus(forged, Vote::Gone, 0b011, 2);
         settle(forged);
-        vote(forged, kGone, 2, 1, 1);  // a voter that left
-        membership_op(forged, kSet, kNone, 1, 2, 0);  // slot 2 handed over: running, one epoch on
-        vote(forged, kGone, 1, 2, -1);  // about its predecessor
-        vote(forged, kGone, 1, 2, 0);   // not newer than the view's
-        vote(forged, kRuns, 1, 2, -1);
-        vote(forged, kGone, 1, 2, 1);
+        vote(forged, Vote::Gone, 2, 1, 1);  // a voter that left
+        membership_op(forged, kSet, Vote::None, 1, 2, 0);  // slot 2 handed over: running, one epoch on
+        vote(forged, Vote::Gone, 1, 2, -1);  // about its predecessor
+        vote(forged, Vote::Gone, 1, 2, 0);   // not newer than the view's
+        vote(forged, Vote::Runs, 1, 2, -1);
+        vote(forged, Vote::Gone, 1, 2, 1);
         settle(forged);
         put(dir, "forged_stale_rejoin", forged);
         // Issue 21, a kill during a handoff: slot 1 absent, handed over to a joiner (no voter
         // yet), slot 2 silent: the survivor's own vote drops it (the two-player rule); the
         // joiner's handoff lapses (the survivor's vote about it decides too), or it starts.
         auto handoff = membership_header(3, 0, false);
-        membership_op(handoff, kSet, kNone, 0, 1, 0);     // slot 1 absent
-        membership_op(handoff, kSet, kNone, 0x81, 1, 0);  // handed over: joining
-        vote(handoff, kGone, 1, 2, 1);                    // the joiner cannot vote yet
-        membership_op(handoff, kVoteLocal, kNone, 1, 2, 0);
+        membership_op(handoff, kSet, Vote::None, 0, 1, 0);     // slot 1 absent
+        membership_op(handoff, kSet, Vote::None, 0x81, 1, 0);  // handed over: joining
+        vote(handoff, Vote::Gone, 1, 2, 1);                    // the joiner cannot vote yet
+        membership_op(handoff, kVoteLocal, Vote::None, 1, 2, 0);
         settle(handoff);
-        membership_op(handoff, kSet, kNone, 0x40, 1, 0);  // it plays: a voter
-        membership_op(handoff, kVoteLocal, kNone, 1, 1, 0);
+        membership_op(handoff, kSet, Vote::None, 0x40, 1, 0);  // it plays: a voter
+        membership_op(handoff, kVoteLocal, Vote::None, 1, 1, 0);
         settle(handoff);
         put(dir, "handoff_kill", handoff);
     }

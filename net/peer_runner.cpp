@@ -30,16 +30,9 @@ const char* outcome_name(RunOutcome o) {
 
 PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                        InputSource input, RunnerObserver* observer)
-    : config_(config), session_(session), transport_(transport), input_(std::move(input)), observer_(observer),
-      loop_(std::make_unique<TickLoop>(config_)) {
+    : RunnerBase(config, transport, std::move(input), observer), session_(session) {
     const auto& sc = session_.config();
-    if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
-    if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5))
-        throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
-    if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
     if (config_.catch_up_frames < 0) throw std::invalid_argument("RunnerConfig: catch_up_frames must be >= 0");
-    if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
-    if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
     if (transport_.local_id() != sc.local_player)
         throw std::invalid_argument("PeerRunner: the transport's local_id() is " + std::to_string(transport_.local_id()) +
                                     ", the session's local player is " + std::to_string(sc.local_player));
@@ -53,15 +46,11 @@ PeerRunner::PeerRunner(const RunnerConfig& config, rollback::Session& session, t
     redial_ = RedialBackoff(ids);
     // One input per local slot (several players on one machine: SessionConfig::slot_hosts).
     input_bytes_.assign(std::max<std::size_t>(session_.local_slots().size(), 1) * sc.input_size, 0);
-    period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
     // A run of target_frame frames shows frame target_frame last: while it lingers for the last
     // confirmations and acknowledgements, the session rolls back and confirms but steps no further.
     session_.set_last_frame(config_.target_frame);
 }
 
-PeerRunner::~PeerRunner() = default;
-
-std::uint64_t PeerRunner::schedule_resets() const { return loop_->schedule_resets(); }
 std::uint64_t PeerRunner::started_us() const { return loop_->started_us(); }
 
 void PeerRunner::track_connections(std::uint64_t now) {
@@ -81,7 +70,7 @@ void PeerRunner::track_connections(std::uint64_t now) {
     }
 }
 
-void PeerRunner::service(std::uint64_t now) {
+bool PeerRunner::service(std::uint64_t now) {
     transport_.poll(now);
     track_connections(now);
     // The lower id connects, one connection per pair: no crossed connects, also when a killed
@@ -96,6 +85,7 @@ void PeerRunner::service(std::uint64_t now) {
     for (const auto& p : config_.peers)
         if ((spectator || p.slot > sc.local_player) && !transport_.is_connected(p.slot))
             redial_.try_dial(p.slot, now, [&] { return transport_.connect(p.slot, p.host, p.port); });
+    return all_connected();
 }
 
 // Without a handshake the runner is the start barrier: every remote process connected.
@@ -230,52 +220,24 @@ std::uint32_t PeerRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     stretch_.record(extra);
     out_.clear();
     session_.poll(now, out_);
-    for (const auto& d : out_) {
-        if (!d.reliable) {
-            transport_.send(d.peer, d.bytes, now);
-        } else if (!transport_.send_reliable(d.peer, d.bytes, now) && d.peer < held_.size() &&
-                   rollback::peek_kind(d.bytes) != rollback::MessageKind::Hello) {
-            // Not a hello: it carries its send time for the round trip, so one held until the
-            // connection is up would count the wait as network time (seconds, for a peer that
-            // starts late); the session says hello again every hello_resend_us until welcomed.
-            auto& held = held_[d.peer];
-            if (held.size() >= kMaxHeldPerPeer) held.pop_front();
-            held.push_back(d.bytes);
-        }
-    }
-    report.length_us = period_us_ + extra;
-    if (observer_) observer_->on_tick(report);
-    ++ticks_;
-    return report.advance.rollback_depth;
+    send_polled(now, [this](const rollback::Datagram& d) {
+        // Not a hello: it carries its send time for the round trip, so one held until the
+        // connection is up would count the wait as network time (seconds, for a peer that
+        // starts late); the session says hello again every hello_resend_us until welcomed.
+        if (d.peer >= held_.size() || rollback::peek_kind(d.bytes) == rollback::MessageKind::Hello) return;
+        auto& held = held_[d.peer];
+        if (held.size() >= kMaxHeldPerPeer) held.pop_front();
+        held.push_back(d.bytes);
+    });
+    return report_tick(report, extra);
 }
 
-UpdateResult PeerRunner::update() {
-    events_.clear();
-    UpdateResult r = loop_->update(
-        [this] { return config_.clock.now_us(); }, stop_, observer_,
-        [this](std::uint64_t now) {
-            service(now);
-            return all_connected();
-        },
-        [this](std::uint64_t now, std::uint64_t due) {
-            const std::uint32_t depth = tick(now, due);
-            return TickDone{stretch_.last_us, depth};
-        },
-        [this] {
-            return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
-                              .running = session_.running(),
-                              .shown_target = session_.frame() >= config_.target_frame,
-                              .confirmed = everyone_confirmed(),
-                              .partitioned = track_partition()};
-        });
-    r.events = events_;
-    return r;
-}
-
-void PeerRunner::wait() const { wait_for_tick(config_, *loop_); }
-
-RunOutcome PeerRunner::run() {
-    return run_until_over([this] { return update(); }, [this] { wait(); });
+TickStatus PeerRunner::status() {
+    return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
+                      .running = session_.running(),
+                      .shown_target = session_.frame() >= config_.target_frame,
+                      .confirmed = everyone_confirmed(),
+                      .partitioned = track_partition()};
 }
 
 }  // namespace lockroll::net

@@ -66,59 +66,21 @@
 //    the monotonic clock, or one running fast or slow for the clock-skew fault tests.
 #pragma once
 
-#include <atomic>
-#include <deque>
 #include <cstdint>
-#include <functional>
-#include <memory>
+#include <deque>
 #include <optional>
-#include <span>
-#include <string>
 #include <vector>
 
-#include "net/clock.h"
 #include "net/redial_backoff.h"
-#include "net/update_result.h"
+#include "net/runner_base.h"
 #include "rollback/playing_alone.h"
 #include "rollback/session.h"
 #include "transport/transport.h"
 
 namespace lockroll::net {
 
-struct PeerAddress {
-    rollback::PlayerId slot = 0;
-    std::string host;
-    std::uint16_t port = 0;
-};
-
-struct RunnerConfig {
-    int tick_rate = 60;
-    std::uint32_t target_frame = 600;
-    std::vector<PeerAddress> peers;              // every remote slot this process may connect to
-    std::uint64_t connect_timeout_us = 30000000;
-    std::uint64_t finish_timeout_us = 15000000;  // after showing target_frame
-    std::uint64_t run_timeout_us = 0;            // whole run after synchronizing; 0 = no bound
-    std::uint64_t linger_us = 300000;
-    std::uint64_t service_interval_us = 1000;
-    double max_stretch = 0.10;                   // longest tick = (1 + max_stretch) periods
-    int max_catch_up = 8;
-    int catch_up_frames = 8;                     // joiner: extra frames per tick while behind
-    bool rejoin_when_dropped = true;             // kicked: rejoin by snapshot (false: end Failed)
-    Clock clock;                                 // this process's time (skewed only in fault tests)
-};
-
-// Time-sync stretches so far: how many ticks were lengthened, by how much in all, and the
-// extra length of the tick just run (what the runner's tick returns to TickLoop).
-struct StretchTally {
-    std::uint64_t ticks = 0, total_us = 0, last_us = 0;
-    void record(std::uint64_t extra_us) {
-        last_us = extra_us;
-        if (extra_us == 0) return;
-        ++ticks;
-        total_us += extra_us;
-    }
-};
-
+// PeerAddress, RunnerConfig, StretchTally, and the loop and API both runners share (update,
+// wait, run, request_stop, the stretch and schedule counters): net/runner_base.h.
 // RunOutcome, TickReport, RunnerObserver, UpdateResult, InputSource: net/update_result.h.
 
 // A rejoin after a drop (PeerRunner::rejoined()): the session was kicked at dropped_at_frame (its
@@ -130,36 +92,14 @@ struct RejoinRecord {
     std::optional<std::uint32_t> at_frame;
 };
 
-class TickLoop;  // net/tick_schedule.h
-
-class PeerRunner {
+class PeerRunner final : public RunnerBase {
 public:
     // Session, transport and observer must outlive the runner. Throws std::invalid_argument for
-    // a bad config (tick rate, stretch, a peer slot out of range or equal to the local one, a
-    // transport whose local_id() is not the session's local player).
+    // a bad config (RunnerBase's checks, then catch_up_frames < 0, a peer slot out of range or
+    // equal to the local one, a transport whose local_id() is not the session's local player).
     PeerRunner(const RunnerConfig& config, rollback::Session& session, transport::Transport& transport,
                InputSource input, RunnerObserver* observer = nullptr);
-    ~PeerRunner();
-    PeerRunner(const PeerRunner&) = delete;
-    PeerRunner& operator=(const PeerRunner&) = delete;
 
-    // One frame of the game's loop, never blocking: reads config.clock, services the transport
-    // (connections, arrivals), runs every tick that is due (at most max_catch_up + 1), and says
-    // what happened (UpdateResult). The first call starts the run (the connect timeout counts
-    // from it). Call it often: arrivals are stamped, and pings answered, only when it runs.
-    UpdateResult update();
-    // Sleeps until the next tick is due, at most service_interval_us (for a loop with nothing else
-    // to do between updates: run()).
-    void wait() const;
-    // update() and wait() until the run is over.
-    RunOutcome run();
-    void request_stop() { stop_.store(true, std::memory_order_relaxed); }
-
-    // Ticks that were lengthened for time sync, and the total extra time (µs).
-    std::uint64_t stretched_ticks() const { return stretch_.ticks; }
-    std::uint64_t stretch_total_us() const { return stretch_.total_us; }
-    // Times the schedule restarted because the process fell too far behind.
-    std::uint64_t schedule_resets() const;
     std::uint64_t started_us() const;
     // The confirmed frame at which the session reported Partitioned, while that episode has not
     // healed (healed: the session hears a majority again and confirms frames beyond it, or,
@@ -175,31 +115,22 @@ public:
     const std::optional<RejoinRecord>& rejoined() const { return rejoined_; }
 
 private:
+    // RunnerBase's: ticking may start once all_connected().
+    bool service(std::uint64_t now) override;
+    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled) override;
+    TickStatus status() override;
+
     bool all_connected() const;
     void drain_session_events();
     bool track_partition();
-    void service(std::uint64_t now);
     void track_connections(std::uint64_t now);
-    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled);
     bool everyone_confirmed() const;
+    void rejoin();
 
-    RunnerConfig config_;
     rollback::Session& session_;
-    transport::Transport& transport_;
-    InputSource input_;
-    RunnerObserver* observer_;
-    std::atomic<bool> stop_{false};
-    std::unique_ptr<TickLoop> loop_;
     std::vector<bool> connected_;      // by peer id (slots, then spectators)
     std::vector<std::deque<std::vector<std::uint8_t>>> held_;  // reliable sends before connecting
-    std::vector<std::uint8_t> input_bytes_;
-    std::vector<rollback::Datagram> out_;
-    std::vector<rollback::SessionEvent> events_;  // drained by the current update()
-    transport::Datagram in_;
-    std::uint64_t period_us_ = 0;
-    std::uint64_t ticks_ = 0;
     std::uint64_t debt_us_ = 0;        // time-sync delay still to be paid by stretching
-    StretchTally stretch_;
     RedialBackoff redial_;             // when to dial each peer id not connected (again)
     std::optional<std::uint32_t> partitioned_since_;
     rollback::AloneSince alone_;       // since when a drop left this process alone in its view
@@ -207,7 +138,6 @@ private:
     bool ran_ = false;                 // the session has run frames (this one or a predecessor)
     bool rejoining_ = false;           // a kick drained this tick: restart as a joiner after the drain
     std::optional<RejoinRecord> rejoined_;
-    void rejoin();
 };
 
 }  // namespace lockroll::net

@@ -1,7 +1,6 @@
 #include "net/relay_runner.h"
 
 #include <algorithm>
-#include <stdexcept>
 
 #include "net/clock.h"
 #include "net/tick_schedule.h"
@@ -16,24 +15,14 @@ constexpr std::size_t kMaxHeld = 256;
 RelayRunner::RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
                          rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                          RunnerObserver* observer)
-    : config_(config), host_(std::move(server_host)), port_(server_port), session_(session), transport_(transport),
-      input_(std::move(input)), observer_(observer), loop_(std::make_unique<TickLoop>(config_)) {
-    if (config_.tick_rate < 1 || config_.tick_rate > 1000) throw std::invalid_argument("RunnerConfig: tick_rate must be 1..1000");
-    if (!(config_.max_stretch >= 0 && config_.max_stretch <= 0.5)) throw std::invalid_argument("RunnerConfig: max_stretch must be 0..0.5");
-    if (config_.max_catch_up < 1) throw std::invalid_argument("RunnerConfig: max_catch_up must be >= 1");
-    if (config_.service_interval_us < 100) throw std::invalid_argument("RunnerConfig: service_interval_us must be >= 100");
-    if (!input_) throw std::invalid_argument("RunnerConfig: no input source");
+    : RunnerBase(config, transport, std::move(input), observer), host_(std::move(server_host)), port_(server_port),
+      session_(session) {
     // input_size bytes per local slot, in slot order (RelaySession::local_slots()).
     input_bytes_.assign(session_.local_input_size(), 0);
-    period_us_ = 1000000u / static_cast<unsigned>(config_.tick_rate);
     session_.set_last_frame(config_.target_frame);  // a run of target_frame frames ends on it
 }
 
-RelayRunner::~RelayRunner() = default;
-
-std::uint64_t RelayRunner::schedule_resets() const { return loop_->schedule_resets(); }
-
-void RelayRunner::service(std::uint64_t now) {
+bool RelayRunner::service(std::uint64_t now) {
     transport_.poll(now);
     for (transport::TransportEvent e; transport_.next_event(e);) {
         if (e.type == transport::TransportEvent::Type::Connected && e.peer == rollback::kRelayServerPeer) {
@@ -47,6 +36,7 @@ void RelayRunner::service(std::uint64_t now) {
         last_connect_us_ = now;
         if (!transport_.is_connected(rollback::kRelayServerPeer)) transport_.connect(rollback::kRelayServerPeer, host_, port_);
     }
+    return true;  // the session's hello to the server is the start barrier
 }
 
 std::uint32_t RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
@@ -67,19 +57,12 @@ std::uint32_t RelayRunner::tick(std::uint64_t now, std::uint64_t scheduled) {
     stretch_.record(extra);
     out_.clear();
     session_.poll(now, out_);
-    for (const auto& d : out_) {
-        if (!d.reliable) {
-            transport_.send(d.peer, d.bytes, now);
-        } else if (!transport_.send_reliable(d.peer, d.bytes, now)) {
-            if (held_.size() >= kMaxHeld) held_.erase(held_.begin());
-            held_.push_back(d.bytes);
-        }
-    }
+    send_polled(now, [this](const rollback::Datagram& d) {
+        if (held_.size() >= kMaxHeld) held_.erase(held_.begin());
+        held_.push_back(d.bytes);
+    });
     drain_events();  // poll's too: the server's silence is found there, and ends the run at once
-    report.length_us = period_us_ + extra;
-    if (observer_) observer_->on_tick(report);
-    ++ticks_;
-    return report.advance.rollback_depth;
+    return report_tick(report, extra);
 }
 
 void RelayRunner::drain_events() {
@@ -89,38 +72,17 @@ void RelayRunner::drain_events() {
     }
 }
 
-UpdateResult RelayRunner::update() {
-    events_.clear();
+TickStatus RelayRunner::status() {
+    // Everyone's confirmation is the server's business; ours, and the server holding our inputs
+    // up to the target, is what this process waits for.
     const bool spectator = session_.config().role == rollback::RelayRole::Spectator;
     const std::uint32_t target = config_.target_frame;
-    UpdateResult r = loop_->update(
-        [this] { return config_.clock.now_us(); }, stop_, observer_,
-        [this](std::uint64_t now) {
-            service(now);
-            return true;  // the session's hello to the server is the start barrier
-        },
-        [this](std::uint64_t now, std::uint64_t due) {
-            const std::uint32_t depth = tick(now, due);
-            return TickDone{stretch_.last_us, depth};
-        },
-        [&] {
-            // Everyone's confirmation is the server's business; ours, and the server holding
-            // our inputs up to the target, is what this process waits for.
-            return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
-                              .running = session_.running(),
-                              .shown_target = session_.frame() >= target,
-                              .confirmed = session_.confirmed_frame() >= target &&
-                                           (spectator || session_.server_input_ack() >= target),
-                              .server_lost = session_.server_lost()};
-        });
-    r.events = events_;
-    return r;
-}
-
-void RelayRunner::wait() const { wait_for_tick(config_, *loop_); }
-
-RunOutcome RelayRunner::run() {
-    return run_until_over([this] { return update(); }, [this] { wait(); });
+    return TickStatus{.failed = session_.phase() == rollback::SessionPhase::Failed,
+                      .running = session_.running(),
+                      .shown_target = session_.frame() >= target,
+                      .confirmed = session_.confirmed_frame() >= target &&
+                                   (spectator || session_.server_input_ack() >= target),
+                      .server_lost = session_.server_lost()};
 }
 
 }  // namespace lockroll::net

@@ -1,7 +1,8 @@
 // RelayRunner: one RelaySession bound to a transport (ENet through the builder, or the game's
 // own: transport/transport.h) and the clock, talking to the relay server (peer id
 // rollback::kRelayServerPeer, reached by connect(kRelayServerPeer, server_host, server_port)). The
-// relay twin of PeerRunner (peer_runner.h, whose RunnerConfig, observer and outcomes it shares):
+// relay twin of PeerRunner (peer_runner.h; the config, the loop and its API both share are
+// RunnerBase's, net/runner_base.h):
 //  - Connection: one, to the server, retried every half second while not connected, for the
 //    whole run. A connection ENet dropped is made again and the session says hello again: the
 //    server resumes it by its incarnation.
@@ -19,65 +20,43 @@
 //    confirmation. Bounded by finish_timeout_us and run_timeout_us.
 #pragma once
 
-#include <atomic>
 #include <cstdint>
-#include <memory>
 #include <string>
 #include <vector>
 
 #include "net/peer_runner.h"
+#include "net/runner_base.h"
 #include "rollback/relay_session.h"
 #include "transport/transport.h"
 
 namespace lockroll::net {
 
-class RelayRunner {
+// update(), wait(), run(), request_stop() and the stretch and schedule counters: RunnerBase's.
+class RelayRunner final : public RunnerBase {
 public:
     // config.peers is unused; the server is at server_host:server_port. Throws
-    // std::invalid_argument for a bad config.
+    // std::invalid_argument for a bad config (RunnerBase's checks).
     RelayRunner(const RunnerConfig& config, std::string server_host, std::uint16_t server_port,
                 rollback::RelaySession& session, transport::Transport& transport, InputSource input,
                 RunnerObserver* observer = nullptr);
 
-    ~RelayRunner();
-    RelayRunner(const RelayRunner&) = delete;
-    RelayRunner& operator=(const RelayRunner&) = delete;
-
-    // As PeerRunner's: one non-blocking step of the game's loop; sleep until the next tick; both
-    // until the run is over.
-    UpdateResult update();
-    void wait() const;
-    RunOutcome run();
-    void request_stop() { stop_.store(true, std::memory_order_relaxed); }
-    std::uint64_t stretched_ticks() const { return stretch_.ticks; }
-    std::uint64_t stretch_total_us() const { return stretch_.total_us; }
-    std::uint64_t schedule_resets() const;
     std::uint64_t catch_up_frames() const { return caught_up_; }
 
 private:
-    void service(std::uint64_t now);
-    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled);
+    // RunnerBase's: the session's hello to the server is the start barrier, so ticking starts at
+    // once; done once our confirmation and the server's hold of our inputs reach the target.
+    bool service(std::uint64_t now) override;
+    std::uint32_t tick(std::uint64_t now, std::uint64_t scheduled) override;
+    TickStatus status() override;
     void drain_events();  // the session's events to events_ and the observer
 
-    RunnerConfig config_;
     std::string host_;
     std::uint16_t port_;
     rollback::RelaySession& session_;
-    transport::Transport& transport_;
-    InputSource input_;
-    RunnerObserver* observer_;
-    std::atomic<bool> stop_{false};
-    std::unique_ptr<TickLoop> loop_;
-    std::vector<std::uint8_t> input_bytes_;
-    std::vector<rollback::SessionEvent> events_;  // drained by the current update()
-    std::vector<rollback::Datagram> out_;
-    transport::Datagram in_;
     std::vector<std::vector<std::uint8_t>> held_;  // reliable sends before the connection is up
-    std::uint64_t period_us_ = 0;
     std::uint64_t last_connect_us_ = 0;
     int connections_ = 0;  // to the server so far (a later one is a reconnect)
-    StretchTally stretch_;
-    std::uint64_t caught_up_ = 0, ticks_ = 0;
+    std::uint64_t caught_up_ = 0;
 };
 
 }  // namespace lockroll::net

@@ -39,6 +39,14 @@ void expect_converged(Cluster& cluster, const sim::SceneDesc& scene, std::uint32
     EXPECT_FALSE(mismatch.has_value()) << "offline run differs at frame " << mismatch->frame;
 }
 
+// The common run: every client plays `frames` frames, then the cluster runs on until all of them
+// confirmed frame `frames`, and they must have converged on the offline reference.
+void play_and_converge(Cluster& cluster, const sim::SceneDesc& scene, std::uint32_t frames) {
+    cluster.run_frames(frames);
+    cluster.settle(frames);
+    expect_converged(cluster, scene, frames);
+}
+
 SessionConfig base_config(int players, int window, int delay) {
     SessionConfig c;
     c.players = players;
@@ -49,14 +57,8 @@ SessionConfig base_config(int players, int window, int delay) {
 
 TEST(Session, RollbackMatchesOfflineReference) {
     const auto scene = make_scene(2, 30);
-    NetParams net;
-    net.latency_us = 60000;
-    net.jitter_us = 20000;
-    net.loss_ppm = 50000;
-    Cluster cluster(scene, base_config(2, 8, 1), net, 1);
-    cluster.run_frames(400);
-    cluster.settle(400);
-    expect_converged(cluster, scene, 400);
+    Cluster cluster(scene, base_config(2, 8, 1), NetParams{.latency_us = 60000, .jitter_us = 20000, .loss_ppm = 50000}, 1);
+    play_and_converge(cluster, scene, 400);
     // The run must actually have exercised rollback for this to mean anything.
     for (const auto& c : cluster.clients) {
         EXPECT_GT(c->session->stats().rollbacks, 0u);
@@ -111,13 +113,10 @@ TEST(Session, WindowFullStallsInsteadOfAdvancing) {
 
 TEST(Session, LockstepNeverPredictsNorRollsBack) {
     const auto scene = make_scene(2, 30);
-    NetParams net;
-    net.latency_us = 40000;  // 2.4 frames one way
-    // Delay 4 covers the latency: pipelined lockstep at the full tick rate after start-up.
-    Cluster cluster(scene, base_config(2, 0, 4), net, 2);
-    cluster.run_frames(300);
-    cluster.settle(300);
-    expect_converged(cluster, scene, 300);
+    // 40 ms is 2.4 frames one way: delay 4 covers it, pipelined lockstep at the full tick rate
+    // after start-up.
+    Cluster cluster(scene, base_config(2, 0, 4), NetParams{.latency_us = 40000}, 2);
+    play_and_converge(cluster, scene, 300);
     for (const auto& c : cluster.clients) {
         EXPECT_EQ(c->predicted_frames, 0u);
         EXPECT_EQ(c->resimulated, 0u);
@@ -132,13 +131,8 @@ TEST(Session, LockstepNeverPredictsNorRollsBack) {
 
 TEST(Session, LockstepWithShortDelayStallsButStaysExact) {
     const auto scene = make_scene(2, 10);
-    NetParams net;
-    net.latency_us = 50000;
-    net.loss_ppm = 100000;
-    Cluster cluster(scene, base_config(2, 0, 1), net, 3);
-    cluster.run_frames(120);
-    cluster.settle(120);
-    expect_converged(cluster, scene, 120);
+    Cluster cluster(scene, base_config(2, 0, 1), NetParams{.latency_us = 50000, .loss_ppm = 100000}, 3);
+    play_and_converge(cluster, scene, 120);
     for (const auto& c : cluster.clients) {
         EXPECT_GT(c->session->stats().stall_ticks, 0u);
         EXPECT_EQ(c->predicted_frames, 0u);
@@ -149,9 +143,7 @@ TEST(Session, LockstepWithShortDelayStallsButStaysExact) {
 // One client switches to lockstep mid-game (its own choice: the other stays rollback) and back.
 TEST(Session, PredictionWindowSwitchesToLockstepAndBackMidGame) {
     const auto scene = make_scene(2, 20);
-    NetParams net;
-    net.latency_us = 40000;
-    Cluster cluster(scene, base_config(2, 8, 2), net, 5);
+    Cluster cluster(scene, base_config(2, 8, 2), NetParams{.latency_us = 40000}, 5);
     cluster.run_frames(120);
     testing::Client& c = *cluster.clients[0];
     EXPECT_GT(c.predicted_frames, 0u);  // rollback: guesses
@@ -173,19 +165,14 @@ TEST(Session, PredictionWindowSwitchesToLockstepAndBackMidGame) {
 
 TEST(Session, InputDelayChangesMidGame) {
     const auto scene = make_scene(2, 20);
-    NetParams net;
-    net.latency_us = 30000;
-    net.jitter_us = 10000;
-    Cluster cluster(scene, base_config(2, 8, 2), net, 4);
+    Cluster cluster(scene, base_config(2, 8, 2), NetParams{.latency_us = 30000, .jitter_us = 10000}, 4);
     cluster.before_tick = [](PlayerId id, testing::Client& c) {
         if (id != 0) return;
         const auto f = c.session->frame();
         if (f == 100) c.session->set_input_delay(6);
         if (f == 200) c.session->set_input_delay(1);
     };
-    cluster.run_frames(320);
-    cluster.settle(320);
-    expect_converged(cluster, scene, 320);
+    play_and_converge(cluster, scene, 320);
     const auto& c0 = *cluster.clients[0];
     EXPECT_EQ(c0.session->input_delay(), 1);
     // 6 -> 1 drops five local inputs while the delay catches up; 2 -> 6 drops none.
@@ -202,16 +189,10 @@ TEST(Session, InputDelayChangesMidGame) {
 
 TEST(Session, FourPlayersLossyConverge) {
     const auto scene = make_scene(4, 20);
-    NetParams net;
-    net.latency_us = 50000;
-    net.jitter_us = 30000;
-    net.loss_ppm = 100000;
-    net.duplicate_ppm = 50000;
-    net.reorder_ppm = 100000;
+    const NetParams net{
+        .latency_us = 50000, .jitter_us = 30000, .loss_ppm = 100000, .duplicate_ppm = 50000, .reorder_ppm = 100000};
     Cluster cluster(scene, base_config(4, 8, 2), net, 5);
-    cluster.run_frames(300);
-    cluster.settle(300);
-    expect_converged(cluster, scene, 300);
+    play_and_converge(cluster, scene, 300);
     for (const auto& c : cluster.clients) EXPECT_GT(c->session->stats().rollbacks, 0u);
 }
 
@@ -300,9 +281,7 @@ INSTANTIATE_TEST_SUITE_P(ArrivalOrder, LateInputs, ::testing::Bool());
 
 TEST(Session, TimeSyncKeepsClientsWithinAFewFrames) {
     const auto scene = make_scene(2, 10);
-    NetParams net;
-    net.latency_us = 40000;
-    Cluster cluster(scene, base_config(2, 8, 2), net, 6);
+    Cluster cluster(scene, base_config(2, 8, 2), NetParams{.latency_us = 40000}, 6);
     // Client 1 starts 12 frames late: client 0 races ahead, fills its window and is told to wait.
     cluster.clients[1]->start_offset_us = 200000;
     cluster.run_frames(400);
@@ -319,9 +298,7 @@ TEST(Session, TimeSyncKeepsClientsWithinAFewFrames) {
 
 TEST(Session, TelemetryCountsBytesAndRtt) {
     const auto scene = make_scene(2, 10);
-    NetParams net;
-    net.latency_us = 50000;
-    Cluster cluster(scene, base_config(2, 8, 2), net, 7);
+    Cluster cluster(scene, base_config(2, 8, 2), NetParams{.latency_us = 50000}, 7);
     cluster.run_frames(240);
     for (const auto& c : cluster.clients) {
         const auto& st = c->session->stats();

@@ -13,23 +13,17 @@ set -u
 lockroll=$1
 bad_client=$2
 source "$(dirname "$0")/../process_test_support.sh"
+source "$(dirname "$0")/relay_match_support.sh"
 
 # ---- 1. three players: the liar is kicked, the honest two complete on one final ----
 dir=$tmp/three
-start_relay_server "$dir" "$lockroll" server
-cpids=()
-for s in 0 1; do
-    timeout 90 "$lockroll" client --slot "$s" --players 3 --connect "127.0.0.1:$server_port" --room liar3 --frames 900 \
-        --seed "$((s + 3))" --out "$dir/c$s" >"$dir/c$s.out" 2>&1 &
-    cpids+=($!)
-    pids+=($!)
-done
+start_relay_match 90 "$dir" 3 liar3 900 3 0 1
 timeout 90 "$bad_client" --connect "127.0.0.1:$server_port" --room liar3 --slot 2 --players 3 --behavior liar \
     --seconds 60 >"$dir/liar.out" 2>&1 &
 liar_pid=$!
 pids+=($liar_pid)
 for s in 0 1; do
-    wait "${cpids[$s]}"
+    wait "${client_pids[$s]}"
     status=$?
     [ "$status" = 0 ] || { fail "three: honest client $s exit status $status"; tail -5 "$dir/c$s.out"; }
 done
@@ -51,11 +45,8 @@ PY
 
 # ---- 2. two players: no majority, the configured rule ends the match ----
 dir=$tmp/two
-start_relay_server "$dir" "$lockroll" server
-timeout 90 "$lockroll" client --slot 0 --players 2 --connect "127.0.0.1:$server_port" --room liar2 --frames 3600 \
-    --seed 5 --out "$dir/c0" >"$dir/c0.out" 2>&1 &
-honest_pid=$!
-pids+=($honest_pid)
+start_relay_match 90 "$dir" 2 liar2 3600 5 0
+honest_pid=${client_pids[0]}
 timeout 90 "$bad_client" --connect "127.0.0.1:$server_port" --room liar2 --slot 1 --players 2 --behavior liar \
     --seconds 60 >"$dir/liar.out" 2>&1 &
 pids+=($!)

@@ -8,17 +8,11 @@
 set -u
 lockroll=$1
 source "$(dirname "$0")/../process_test_support.sh"
+source "$(dirname "$0")/relay_match_support.sh"
 
 dir=$tmp/lost
-start_relay_server "$dir" "$lockroll" server
-client_pids=()
-for s in 0 1; do
-    # 3,600 frames (a minute): the match cannot finish before the kill.
-    timeout 60 "$lockroll" client --slot "$s" --players 2 --connect "127.0.0.1:$server_port" --room lost --frames 3600 \
-        --seed "$((s + 5))" --out "$dir/c$s" >"$dir/c$s.out" 2>&1 &
-    client_pids+=($!)
-    pids+=($!)
-done
+# 3,600 frames (a minute): the match cannot finish before the kill.
+start_relay_match 60 "$dir" 2 lost 3600 5 0 1
 # Both clients running: each has written its synchronized event (events.jsonl is flushed per event).
 running=0
 for _ in $(seq 200); do
