@@ -130,7 +130,7 @@ namespace lockroll::net {
 // the runners nor the clock: net/peer_runner.h, net/relay_runner.h, net/clock.h are in-tree.
 class PeerRunner;
 class RelayRunner;
-struct RunnerConfig;  // net/peer_runner.h: configure()'s second argument, complete in-tree only
+struct RunnerConfig;  // net/runner_base.h (net/peer_runner.h includes it): configure()'s second argument, complete in-tree only
 
 // A running session over ENet (built by SessionBuilder::start). Not copyable or movable.
 class NetSession final : private RunnerObserver {
@@ -270,7 +270,7 @@ public:
     // The configs start() would use (validated the same way); for tests and tools.
     rollback::SessionConfig session_config() const;   // peer to peer
     rollback::RelaySessionConfig relay_config() const;  // through server()
-    RunnerConfig runner_config() const;                 // in-tree only (net/peer_runner.h)
+    RunnerConfig runner_config() const;                 // in-tree only (net/runner_base.h)
 
 private:
     void check_engine_settings() const;
