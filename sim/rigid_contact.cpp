@@ -664,7 +664,8 @@ constexpr std::int64_t kCosineBound = Fixed::kOne + Fixed::kOne / 2;
            (std::uint64_t{1} << 31);
 }
 [[gnu::always_inline]] inline bool small_cosine(Fixed c) {
-    return static_cast<std::uint64_t>(c.raw + kCosineBound) < static_cast<std::uint64_t>(2 * kCosineBound);
+    // In unsigned words: c + bound wraps (is not undefined) for c near the top of the range.
+    return static_cast<std::uint64_t>(c.raw) + static_cast<std::uint64_t>(kCosineBound) < static_cast<std::uint64_t>(2 * kCosineBound);
 }
 [[gnu::always_inline]] inline Fixed face_radius(const Vec3& h, Fixed c0, Fixed c1, Fixed c2, bool small) {
     if (!small) return h.x * abs(c0) + h.y * abs(c1) + h.z * abs(c2);

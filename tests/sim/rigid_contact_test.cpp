@@ -808,7 +808,7 @@ TEST(RigidContact, FaceRadiusShortcutGivesTheFixedProducts) {
     }
     for (const std::int64_t hk : {std::int64_t{0}, std::int64_t{1}, h_top - 1, h_top, -one})
         for (const std::int64_t ck : {std::int64_t{0}, std::int64_t{1}, one, c_top - 1, c_top, 2 * one, -(c_top - 1), INT64_MIN, INT64_MAX})
-            check({f(hk), f(hk), f(hk)}, f(ck), f(-ck / 2), f(ck));
+            check({f(hk), f(hk), f(hk)}, f(ck), f(-(ck / 2)), f(ck));
     EXPECT_EQ(differ, 0);
     EXPECT_GT(small, 90000) << ties;  // the small case is what is compared, ties and bounds included
 }
